@@ -1,0 +1,105 @@
+use std::path::Path;
+
+use exr::prelude::{self as exrp, ReadChannels, ReadLayers, WritableImage};
+
+use crate::io::format_err;
+use crate::{Image, ImageError};
+
+/// Reads the first valid layer of an OpenEXR file (half, float or uint channels).
+///
+/// Channel choice: `R,G,B` (any layer prefix) → 3 channels; else `X,Y,Z` → 3; else a single
+/// non-alpha channel (`Y`, `Z`, `depth`, …) → 1. Alpha is ignored.
+pub(crate) fn read(path: &Path) -> Result<Image, ImageError> {
+    if !path.exists() {
+        return Err(ImageError::Io {
+            path: path.to_path_buf(),
+            source: std::io::Error::new(std::io::ErrorKind::NotFound, "file not found"),
+        });
+    }
+    let image = exrp::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_file(path)
+        .map_err(|e| format_err(path, format!("cannot read OpenEXR: {e}")))?;
+    let size = image.layer_data.size;
+    let (w, h) = (size.width(), size.height());
+    let channels = &image.layer_data.channel_data.list;
+    let short_name = |c: &exrp::AnyChannel<exrp::FlatSamples>| {
+        let name = c.name.to_string();
+        name.rsplit('.').next().unwrap_or("").to_string()
+    };
+    let find = |want: &str| channels.iter().find(|c| short_name(c).eq_ignore_ascii_case(want));
+    let picked: Vec<_> = if let (Some(r), Some(g), Some(b)) = (find("R"), find("G"), find("B")) {
+        vec![r, g, b]
+    } else if let (Some(x), Some(y), Some(z)) = (find("X"), find("Y"), find("Z")) {
+        vec![x, y, z]
+    } else {
+        let non_alpha: Vec<_> = channels
+            .iter()
+            .filter(|c| !short_name(c).eq_ignore_ascii_case("A"))
+            .collect();
+        if non_alpha.len() == 1 {
+            non_alpha
+        } else {
+            let names: Vec<String> = channels.iter().map(|c| c.name.to_string()).collect();
+            return Err(format_err(
+                path,
+                format!(
+                    "cannot tell which channels hold the image (found {names:?}); expected R,G,B, \
+                     X,Y,Z or a single channel"
+                ),
+            ));
+        }
+    };
+    let n = picked.len();
+    let mut data = vec![0.0f32; w * h * n];
+    for (c, ch) in picked.iter().enumerate() {
+        for (i, v) in ch.sample_data.values_as_f32().enumerate().take(w * h) {
+            data[i * n + c] = v;
+        }
+    }
+    Ok(Image::from_vec(w, h, n, data))
+}
+
+/// Writes float32 channels: `Y` for one channel, `R,G,B` for three, `R,G,B,A` for four.
+pub(crate) fn write(path: &Path, image: &Image) -> Result<(), ImageError> {
+    let names: &[&str] = match image.channels {
+        1 => &["Y"],
+        3 => &["R", "G", "B"],
+        4 => &["R", "G", "B", "A"],
+        n => {
+            return Err(format_err(
+                path,
+                format!("cannot write a {n}-channel image as EXR (1, 3 or 4 channels)"),
+            ))
+        }
+    };
+    let n = image.channels;
+    let list: exrp::SmallVec<[exrp::AnyChannel<exrp::FlatSamples>; 4]> = names
+        .iter()
+        .enumerate()
+        .map(|(c, name)| {
+            let plane: Vec<f32> = image.data.iter().skip(c).step_by(n).copied().collect();
+            exrp::AnyChannel::new(*name, exrp::FlatSamples::F32(plane))
+        })
+        .collect();
+    let layer = exrp::Layer::new(
+        (image.width, image.height),
+        exrp::LayerAttributes::default(),
+        exrp::Encoding::FAST_LOSSLESS,
+        exrp::AnyChannels::sort(list),
+    );
+    exrp::Image::from_layer(layer)
+        .write()
+        .to_file(path)
+        .map_err(|e| match e {
+            exrp::Error::Io(source) => ImageError::Io {
+                path: path.to_path_buf(),
+                source,
+            },
+            other => format_err(path, format!("cannot write OpenEXR: {other}")),
+        })
+}

@@ -1,0 +1,115 @@
+use std::path::Path;
+
+use crate::{exr_io, pfm, png_io, Image, ImageError};
+
+/// The file formats lumo reads and writes, chosen by extension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ImageFormat {
+    /// OpenEXR, float32 on write; half or float on read.
+    Exr,
+    /// Portable float map (Debevec), float32, bottom-to-top rows.
+    Pfm,
+    /// 8-bit sRGB PNG (values clamped to [0,1] and gamma-encoded on write).
+    Png,
+}
+
+impl ImageFormat {
+    /// The format named by `path`'s extension.
+    pub fn from_path(path: &Path) -> Result<Self, ImageError> {
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(|e| e.to_ascii_lowercase());
+        match ext.as_deref() {
+            Some("exr") => Ok(Self::Exr),
+            Some("pfm") => Ok(Self::Pfm),
+            Some("png") => Ok(Self::Png),
+            _ => Err(ImageError::UnsupportedExtension {
+                path: path.to_path_buf(),
+            }),
+        }
+    }
+}
+
+/// Reads an EXR, PFM or PNG file (by extension) into a linear float image.
+pub fn read_image(path: &Path) -> Result<Image, ImageError> {
+    match ImageFormat::from_path(path)? {
+        ImageFormat::Exr => exr_io::read(path),
+        ImageFormat::Pfm => pfm::read(path),
+        ImageFormat::Png => png_io::read(path),
+    }
+}
+
+/// Writes `image` as EXR, PFM or PNG (by extension). One-channel images stay one channel in
+/// EXR and PFM; PNG is always RGB.
+pub fn write_image(path: &Path, image: &Image) -> Result<(), ImageError> {
+    match ImageFormat::from_path(path)? {
+        ImageFormat::Exr => exr_io::write(path, image),
+        ImageFormat::Pfm => pfm::write(path, image),
+        ImageFormat::Png => png_io::write(path, image),
+    }
+}
+
+pub(crate) fn io_err(path: &Path, source: std::io::Error) -> ImageError {
+    ImageError::Io {
+        path: path.to_path_buf(),
+        source,
+    }
+}
+
+pub(crate) fn format_err(path: &Path, reason: impl Into<String>) -> ImageError {
+    ImageError::Format {
+        path: path.to_path_buf(),
+        reason: reason.into(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn gradient(channels: usize) -> Image {
+        let (w, h) = (7, 5);
+        let data = (0..w * h * channels)
+            .map(|i| i as f32 / (w * h * channels) as f32)
+            .collect();
+        Image::from_vec(w, h, channels, data)
+    }
+
+    #[test]
+    fn float_formats_round_trip_exactly() {
+        let dir = std::env::temp_dir().join(format!("lumo-image-rt-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        for ext in ["exr", "pfm"] {
+            for channels in [1, 3] {
+                let img = gradient(channels);
+                let p = dir.join(format!("t{channels}.{ext}"));
+                write_image(&p, &img).unwrap();
+                let back = read_image(&p).unwrap();
+                assert_eq!(back, img, "{ext} with {channels} channels");
+            }
+        }
+        let img = gradient(3);
+        let p = dir.join("t.png");
+        write_image(&p, &img).unwrap();
+        let back = read_image(&p).unwrap();
+        for (a, b) in img.data.iter().zip(&back.data) {
+            assert!((a - b).abs() < 0.01, "{a} vs {b}");
+        }
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn errors_name_the_file() {
+        let e = read_image(Path::new("/nonexistent/x.exr")).unwrap_err();
+        assert!(e.to_string().contains("/nonexistent/x.exr"));
+        let e = read_image(Path::new("x.tiff")).unwrap_err();
+        assert!(e.to_string().contains("unsupported"));
+        let dir = std::env::temp_dir();
+        let p = dir.join(format!("lumo-bad-{}.pfm", std::process::id()));
+        std::fs::write(&p, b"PF\n3 3\n-1\nshort").unwrap();
+        let e = read_image(&p).unwrap_err();
+        assert!(e.to_string().contains("truncated"), "{e}");
+        std::fs::remove_file(&p).ok();
+    }
+}

@@ -1,0 +1,15 @@
+//! Image planes for lumo: a float image type, OpenEXR / PFM / PNG reading and writing, and the
+//! colour helpers (sRGB transfer, luminance) that renderer, filters and tools share.
+
+mod color;
+mod error;
+mod exr_io;
+mod image;
+mod io;
+mod pfm;
+mod png_io;
+
+pub use color::{linear_to_srgb, luminance, srgb_to_linear};
+pub use error::ImageError;
+pub use image::Image;
+pub use io::{read_image, write_image, ImageFormat};
