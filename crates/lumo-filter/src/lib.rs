@@ -1,0 +1,1 @@
+//! Screen-space denoising filters (see the crate description).
