@@ -31,7 +31,11 @@ pub(crate) fn read(path: &Path) -> Result<Image, ImageError> {
         let name = c.name.to_string();
         name.rsplit('.').next().unwrap_or("").to_string()
     };
-    let find = |want: &str| channels.iter().find(|c| short_name(c).eq_ignore_ascii_case(want));
+    let find = |want: &str| {
+        channels
+            .iter()
+            .find(|c| short_name(c).eq_ignore_ascii_case(want))
+    };
     let picked: Vec<_> = if let (Some(r), Some(g), Some(b)) = (find("R"), find("G"), find("B")) {
         vec![r, g, b]
     } else if let (Some(x), Some(y), Some(z)) = (find("X"), find("Y"), find("Z")) {

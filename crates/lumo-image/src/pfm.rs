@@ -27,7 +27,12 @@ pub(crate) fn read(path: &Path) -> Result<Image, ImageError> {
     let channels = match tokens[0].as_str() {
         "PF" => 3,
         "Pf" => 1,
-        other => return Err(format_err(path, format!("not a PFM file (magic {other:?})"))),
+        other => {
+            return Err(format_err(
+                path,
+                format!("not a PFM file (magic {other:?})"),
+            ))
+        }
     };
     let parse = |t: &str, what: &str| {
         t.parse::<usize>()

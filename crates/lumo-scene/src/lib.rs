@@ -1,1 +1,24 @@
-//! Scene model.
+//! The scene model of lumo: triangle meshes placed by instances, materials, lights and a
+//! pinhole camera. Loaders (built-in scenes here; files in later crates) fill it; the renderer
+//! reads it. Plain data: no acceleration structures, no threads.
+
+mod builtin;
+mod camera;
+mod error;
+mod light;
+mod material;
+mod mesh;
+mod scene;
+pub mod shapes;
+mod texture;
+
+pub use builtin::{builtin_scene, BuiltinScene, BUILTIN_SCENES};
+pub use camera::{Camera, FovAxis};
+pub use error::SceneError;
+pub use light::{EnvMap, Light};
+pub use material::{Bsdf, Material};
+pub use mesh::{Instance, Mesh};
+pub use scene::{RenderDefaults, Scene};
+pub use texture::Texture;
+
+pub use glam::{Mat4, Vec2, Vec3};

@@ -1,0 +1,87 @@
+use glam::{Mat4, Vec2, Vec3};
+
+/// A triangle mesh in its own object space with one material.
+#[derive(Clone, Debug, Default)]
+pub struct Mesh {
+    /// Name, used in messages.
+    pub name: String,
+    /// Vertex positions.
+    pub positions: Vec<Vec3>,
+    /// Per-vertex shading normals; empty for flat shading.
+    pub normals: Vec<Vec3>,
+    /// Per-vertex texture coordinates; empty when the mesh has none.
+    pub uvs: Vec<Vec2>,
+    /// Triangles as vertex indices (counter-clockwise seen from the front).
+    pub indices: Vec<[u32; 3]>,
+    /// Index into [`crate::Scene::materials`].
+    pub material: usize,
+}
+
+impl Mesh {
+    /// Number of triangles.
+    pub fn triangle_count(&self) -> usize {
+        self.indices.len()
+    }
+
+    /// The three corner positions of triangle `t`.
+    #[inline]
+    pub fn triangle(&self, t: usize) -> [Vec3; 3] {
+        let [a, b, c] = self.indices[t];
+        [
+            self.positions[a as usize],
+            self.positions[b as usize],
+            self.positions[c as usize],
+        ]
+    }
+
+    /// Appends `other` (same material assumed), offsetting its indices.
+    pub fn append(&mut self, other: &Mesh) {
+        let base = self.positions.len() as u32;
+        let with_normals = !self.normals.is_empty() || self.positions.is_empty();
+        let with_uvs = !self.uvs.is_empty() || self.positions.is_empty();
+        self.positions.extend_from_slice(&other.positions);
+        if with_normals && !other.normals.is_empty() {
+            self.normals.extend_from_slice(&other.normals);
+        } else {
+            self.normals.clear();
+        }
+        if with_uvs && !other.uvs.is_empty() {
+            self.uvs.extend_from_slice(&other.uvs);
+        } else {
+            self.uvs.clear();
+        }
+        self.indices.extend(
+            other
+                .indices
+                .iter()
+                .map(|t| [t[0] + base, t[1] + base, t[2] + base]),
+        );
+    }
+
+    /// This mesh with `m` applied to positions and (inverse-transpose) to normals.
+    pub fn transformed(mut self, m: &Mat4) -> Mesh {
+        let normal_matrix = m.inverse().transpose();
+        for p in &mut self.positions {
+            *p = m.transform_point3(*p);
+        }
+        for n in &mut self.normals {
+            *n = normal_matrix.transform_vector3(*n).normalize_or_zero();
+        }
+        // A mirroring transform flips the winding; keep geometric normals facing outwards.
+        if m.determinant() < 0.0 {
+            for t in &mut self.indices {
+                t.swap(1, 2);
+            }
+        }
+        self
+    }
+}
+
+/// A mesh placed in the world by a transform (object → world).
+#[derive(Clone, Debug)]
+pub struct Instance {
+    /// Index into [`crate::Scene::meshes`].
+    pub mesh: usize,
+    /// Object-to-world transform.
+    pub transform: Mat4,
+}

@@ -1,0 +1,150 @@
+use glam::{Vec3, Vec4Swizzles};
+
+use crate::{Camera, Instance, Light, Material, Mesh, SceneError};
+
+/// Resolution and sampling a scene asks for; command-line options override them.
+#[derive(Clone, Debug)]
+pub struct RenderDefaults {
+    /// Image width.
+    pub width: usize,
+    /// Image height.
+    pub height: usize,
+    /// Samples per pixel.
+    pub spp: u32,
+    /// Maximum path depth (Mitsuba's convention: 1 = emitters only, 2 = direct light).
+    pub max_depth: u32,
+}
+
+/// Everything the renderer needs.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// Name, used for default output files.
+    pub name: String,
+    /// Meshes in object space.
+    pub meshes: Vec<Mesh>,
+    /// Placements of meshes in the world.
+    pub instances: Vec<Instance>,
+    /// Materials, referenced by meshes.
+    pub materials: Vec<Material>,
+    /// Non-area lights.
+    pub lights: Vec<Light>,
+    /// The camera.
+    pub camera: Camera,
+    /// Resolution and sampling defaults.
+    pub defaults: RenderDefaults,
+}
+
+impl Scene {
+    /// Adds a mesh placed once with the identity transform; returns the mesh index.
+    pub fn add_mesh(&mut self, mesh: Mesh) -> usize {
+        self.meshes.push(mesh);
+        let index = self.meshes.len() - 1;
+        self.instances.push(Instance {
+            mesh: index,
+            transform: glam::Mat4::IDENTITY,
+        });
+        index
+    }
+
+    /// Adds a material; returns its index.
+    pub fn add_material(&mut self, material: Material) -> usize {
+        self.materials.push(material);
+        self.materials.len() - 1
+    }
+
+    /// Total number of triangles over all instances.
+    pub fn triangle_count(&self) -> usize {
+        self.instances
+            .iter()
+            .map(|i| self.meshes.get(i.mesh).map_or(0, |m| m.triangle_count()))
+            .sum()
+    }
+
+    /// World-space bounding box (min, max) of all instanced geometry.
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        let mut lo = Vec3::splat(f32::INFINITY);
+        let mut hi = Vec3::splat(f32::NEG_INFINITY);
+        for inst in &self.instances {
+            if let Some(mesh) = self.meshes.get(inst.mesh) {
+                for p in &mesh.positions {
+                    let w = (inst.transform * p.extend(1.0)).xyz();
+                    lo = lo.min(w);
+                    hi = hi.max(w);
+                }
+            }
+        }
+        if lo.x > hi.x {
+            (Vec3::ZERO, Vec3::ZERO)
+        } else {
+            (lo, hi)
+        }
+    }
+
+    /// Checks references, index ranges and finiteness so the renderer can trust the data.
+    pub fn validate(&self) -> Result<(), SceneError> {
+        for (mi, mesh) in self.meshes.iter().enumerate() {
+            let n = mesh.positions.len();
+            if mesh.material >= self.materials.len() {
+                return Err(SceneError::BadReference {
+                    what: format!("mesh {mi} ({:?})", mesh.name),
+                    kind: "material",
+                    index: mesh.material,
+                    count: self.materials.len(),
+                });
+            }
+            for (attribute, len) in [("normals", mesh.normals.len()), ("uvs", mesh.uvs.len())] {
+                if len != 0 && len != n {
+                    return Err(SceneError::AttributeLength {
+                        mesh: mesh.name.clone(),
+                        attribute,
+                        got: len,
+                        expected: n,
+                    });
+                }
+            }
+            for (t, tri) in mesh.indices.iter().enumerate() {
+                for &index in tri {
+                    if index as usize >= n {
+                        return Err(SceneError::IndexOutOfRange {
+                            mesh: mesh.name.clone(),
+                            triangle: t,
+                            index,
+                            count: n,
+                        });
+                    }
+                }
+            }
+            let bad = |attribute, index, value: String| SceneError::NonFinite {
+                mesh: mesh.name.clone(),
+                attribute,
+                index,
+                value,
+            };
+            if let Some(i) = mesh.positions.iter().position(|p| !p.is_finite()) {
+                return Err(bad("position", i, format!("{:?}", mesh.positions[i])));
+            }
+            if let Some(i) = mesh.normals.iter().position(|p| !p.is_finite()) {
+                return Err(bad("normal", i, format!("{:?}", mesh.normals[i])));
+            }
+            if let Some(i) = mesh.uvs.iter().position(|p| !p.is_finite()) {
+                return Err(bad("uv", i, format!("{:?}", mesh.uvs[i])));
+            }
+        }
+        for (ii, inst) in self.instances.iter().enumerate() {
+            if inst.mesh >= self.meshes.len() {
+                return Err(SceneError::BadReference {
+                    what: format!("instance {ii}"),
+                    kind: "mesh",
+                    index: inst.mesh,
+                    count: self.meshes.len(),
+                });
+            }
+            if !inst.transform.is_finite() || inst.transform.determinant() == 0.0 {
+                return Err(SceneError::Invalid(format!(
+                    "instance {ii}: transform is singular or not finite"
+                )));
+            }
+        }
+        Ok(())
+    }
+}
