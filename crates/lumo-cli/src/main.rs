@@ -1,6 +1,7 @@
 //! The `lumo` command.
 
 mod denoise;
+mod render_cmd;
 
 use clap::{Parser, Subcommand};
 
@@ -14,6 +15,8 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// Path-trace a scene and write the image (EXR, PFM or PNG) and optionally its AOVs.
+    Render(render_cmd::RenderArgs),
     /// Denoise an image from any renderer with a screen-space filter.
     Denoise(denoise::DenoiseArgs),
 }
@@ -21,6 +24,7 @@ enum Command {
 fn main() {
     let cli = Cli::parse();
     let result = match cli.command {
+        Command::Render(args) => render_cmd::run(args),
         Command::Denoise(args) => denoise::run(args),
     };
     if let Err(e) = result {

@@ -1,1 +1,20 @@
-//! Path tracer.
+//! lumo's path tracer: a two-level BVH over obvhs, stateless Owen-scrambled Sobol sampling,
+//! physically based BSDFs and lights, a unidirectional path tracer with next-event estimation
+//! and MIS, and a film that keeps direct and indirect light and a G-buffer apart.
+
+pub mod accel;
+pub mod bsdf;
+pub mod camera;
+pub mod distribution;
+mod frame;
+pub mod geometry;
+pub mod integrator;
+pub mod lights;
+mod render;
+mod render_scene;
+pub mod sampler;
+
+pub use frame::{Frame, AOV_NAMES};
+pub use integrator::{trace_path, FirstHit, PathRadiance, PathSettings};
+pub use render::{render, render_pixel, PixelEstimate, RenderSettings, RenderStats};
+pub use render_scene::{RenderScene, Surface};

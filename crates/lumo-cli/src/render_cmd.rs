@@ -1,0 +1,215 @@
+//! `lumo render`: path-trace a built-in scene and write the image (and optionally its AOVs).
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{bail, Context, Result};
+use indicatif::{ProgressBar, ProgressStyle};
+use lumo_image::{write_image, ImageFormat};
+use lumo_render::{render, PathSettings, RenderScene, RenderSettings};
+use lumo_scene::{builtin_scene, Scene, BUILTIN_SCENES};
+
+/// Arguments of `lumo render`.
+#[derive(clap::Args, Debug)]
+pub struct RenderArgs {
+    /// Built-in scene name (see --list).
+    #[arg(default_value = "cornell")]
+    pub scene: String,
+    /// List the built-in scenes and exit.
+    #[arg(long)]
+    pub list: bool,
+    /// Samples per pixel [default: the scene's, 16 for the built-ins].
+    #[arg(long)]
+    pub spp: Option<u32>,
+    /// Longest path depth, Mitsuba's convention: 1 = emitters only, 2 = direct light,
+    /// 3 = one indirect bounce, … [default: the scene's, 8 for the built-ins].
+    #[arg(long)]
+    pub max_depth: Option<u32>,
+    /// Depth from which Russian roulette may end paths.
+    #[arg(long, default_value_t = 5)]
+    pub rr_depth: u32,
+    /// Image size as WIDTHxHEIGHT [default: the scene's, 512x512 for the built-ins].
+    #[arg(long, value_parser = parse_size)]
+    pub size: Option<(usize, usize)>,
+    /// Random seed; the same seed gives the same image on any number of threads.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u32,
+    /// Worker threads [default: all cores].
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Output file (.exr float32 RGB, .pfm, .png 8-bit sRGB) [default: SCENE.exr and SCENE.png].
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+    /// Also write the AOV planes (color, albedo, normal, position, depth, direct, indirect,
+    /// variance) as EXR files into this directory.
+    #[arg(long)]
+    pub aovs: Option<PathBuf>,
+}
+
+/// Parses `WxH`.
+pub fn parse_size(s: &str) -> Result<(usize, usize), String> {
+    let err = || {
+        format!("invalid size {s:?}: expected WIDTHxHEIGHT with both in 1..=16384, e.g. 512x512")
+    };
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(err)?;
+    let w: usize = w.trim().parse().map_err(|_| err())?;
+    let h: usize = h.trim().parse().map_err(|_| err())?;
+    if !(1..=16384).contains(&w) || !(1..=16384).contains(&h) {
+        return Err(err());
+    }
+    Ok((w, h))
+}
+
+/// Loads a scene by built-in name (scene files are read by the loaders' `load_scene`).
+pub fn load_scene(name: &str) -> Result<Scene> {
+    let path = Path::new(name);
+    if path.extension().is_some() || name.contains('/') {
+        if !path.exists() {
+            bail!(
+                "scene file {name:?} does not exist; built-in scenes: {}",
+                builtin_names()
+            );
+        }
+        bail!(
+            "{name}: reading scene files is not supported in this version; render a built-in \
+             scene instead ({})",
+            builtin_names()
+        );
+    }
+    Ok(builtin_scene(name)?)
+}
+
+fn builtin_names() -> String {
+    BUILTIN_SCENES
+        .iter()
+        .map(|s| s.name)
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// Fails early (before rendering) if `path` cannot be written.
+pub fn check_writable(path: &Path) -> Result<()> {
+    ImageFormat::from_path(path)?;
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    if !dir.is_dir() {
+        bail!(
+            "cannot write {}: directory {} does not exist",
+            path.display(),
+            dir.display()
+        );
+    }
+    let probe = dir.join(format!(".lumo-write-test-{}", std::process::id()));
+    std::fs::write(&probe, b"").with_context(|| {
+        format!(
+            "cannot write {}: directory {} is not writable",
+            path.display(),
+            dir.display()
+        )
+    })?;
+    std::fs::remove_file(&probe).ok();
+    Ok(())
+}
+
+/// Formats a rate with k/M/G prefixes.
+pub fn si(v: f64) -> String {
+    if v >= 1e9 {
+        format!("{:.2} G", v / 1e9)
+    } else if v >= 1e6 {
+        format!("{:.2} M", v / 1e6)
+    } else if v >= 1e3 {
+        format!("{:.2} k", v / 1e3)
+    } else {
+        format!("{v:.1} ")
+    }
+}
+
+/// Runs `lumo render`.
+pub fn run(args: RenderArgs) -> Result<()> {
+    if args.list {
+        for s in BUILTIN_SCENES {
+            println!("{:<16} {}", s.name, s.description);
+        }
+        return Ok(());
+    }
+    let scene = load_scene(&args.scene)?;
+    let outputs: Vec<PathBuf> = match &args.output {
+        Some(p) => vec![p.clone()],
+        None => vec![
+            PathBuf::from(format!("{}.exr", scene.name)),
+            PathBuf::from(format!("{}.png", scene.name)),
+        ],
+    };
+    for o in &outputs {
+        check_writable(o)?;
+    }
+    if let Some(dir) = &args.aovs {
+        if dir.exists() && !dir.is_dir() {
+            bail!("--aovs {}: exists and is not a directory", dir.display());
+        }
+    }
+    if args.spp == Some(0) {
+        bail!("--spp must be at least 1");
+    }
+    if args.max_depth == Some(0) {
+        bail!("--max-depth must be at least 1 (1 = emitters seen directly)");
+    }
+    let (width, height) = args
+        .size
+        .unwrap_or((scene.defaults.width, scene.defaults.height));
+    let settings = RenderSettings {
+        width,
+        height,
+        spp: args.spp.unwrap_or(scene.defaults.spp),
+        seed: args.seed,
+        path: PathSettings {
+            max_depth: args.max_depth.unwrap_or(scene.defaults.max_depth),
+            rr_depth: args.rr_depth,
+            ..Default::default()
+        },
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(args.threads.unwrap_or(0))
+        .build()
+        .context("cannot start worker threads")?;
+    let threads = pool.current_num_threads();
+    let tris = scene.triangle_count();
+    let name = scene.name.clone();
+    let build_start = Instant::now();
+    let rs = pool.install(|| RenderScene::new(scene))?;
+    eprintln!(
+        "{name}: {tris} triangles (BVH {:.0} ms), {width}x{height}, {} spp, max depth {}, {threads} threads",
+        build_start.elapsed().as_secs_f64() * 1e3,
+        settings.spp,
+        settings.path.max_depth
+    );
+    let bar = ProgressBar::new(height as u64).with_style(
+        ProgressStyle::with_template("{bar:40} {pos}/{len} rows  {elapsed} (eta {eta})")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let start = Instant::now();
+    let (frame, stats) =
+        pool.install(|| render(&rs, &settings, &|rows| bar.set_position(rows as u64)));
+    let secs = start.elapsed().as_secs_f64();
+    bar.finish_and_clear();
+    for o in &outputs {
+        write_image(o, &frame.color)?;
+    }
+    if let Some(dir) = &args.aovs {
+        frame.write_aovs(dir)?;
+    }
+    let written: Vec<String> = outputs.iter().map(|p| p.display().to_string()).collect();
+    println!(
+        "done in {secs:.2} s · {}samples/s · {}rays/s → {}{}",
+        si(stats.samples as f64 / secs),
+        si(stats.rays as f64 / secs),
+        written.join(", "),
+        args.aovs
+            .as_ref()
+            .map(|d| format!(" (AOVs in {})", d.display()))
+            .unwrap_or_default()
+    );
+    Ok(())
+}

@@ -1,0 +1,72 @@
+//! The AOV planes a render produces, and writing them as the file set `lumo denoise` reads.
+
+use std::path::Path;
+
+use lumo_image::{write_image, Image, ImageError};
+
+/// File names of the AOV planes, in the order [`Frame::planes`] returns them.
+pub const AOV_NAMES: [&str; 8] = [
+    "color", "albedo", "normal", "position", "depth", "direct", "indirect", "variance",
+];
+
+/// A rendered image with its auxiliary planes.
+#[derive(Clone, Debug)]
+pub struct Frame {
+    /// Samples per pixel.
+    pub spp: u32,
+    /// Mean radiance (= direct + indirect), RGB.
+    pub color: Image,
+    /// Emission seen directly plus direct illumination, RGB.
+    pub direct: Image,
+    /// Indirect illumination, RGB.
+    pub indirect: Image,
+    /// First-hit reflectance of the pixel-centre ray, RGB (0 where nothing was hit).
+    pub albedo: Image,
+    /// First-hit shading normal facing the camera, world space in [-1,1] (0 on a miss).
+    pub normal: Image,
+    /// First-hit world position (0 on a miss).
+    pub position: Image,
+    /// First-hit distance from the camera, one channel (+Inf on a miss).
+    pub depth: Image,
+    /// Variance of the pixel mean's luminance, one channel. With one sample per pixel it is
+    /// estimated from the 3×3 neighbourhood instead (a sample's variance cannot be known alone).
+    pub variance: Image,
+}
+
+impl Frame {
+    /// Width in pixels.
+    pub fn width(&self) -> usize {
+        self.color.width
+    }
+
+    /// Height in pixels.
+    pub fn height(&self) -> usize {
+        self.color.height
+    }
+
+    /// All planes with their file names.
+    pub fn planes(&self) -> [(&'static str, &Image); 8] {
+        [
+            ("color", &self.color),
+            ("albedo", &self.albedo),
+            ("normal", &self.normal),
+            ("position", &self.position),
+            ("depth", &self.depth),
+            ("direct", &self.direct),
+            ("indirect", &self.indirect),
+            ("variance", &self.variance),
+        ]
+    }
+
+    /// Writes every plane as `DIR/<name>.exr` (float32), creating DIR if needed.
+    pub fn write_aovs(&self, dir: &Path) -> Result<(), ImageError> {
+        std::fs::create_dir_all(dir).map_err(|source| ImageError::Io {
+            path: dir.to_path_buf(),
+            source,
+        })?;
+        for (name, image) in self.planes() {
+            write_image(&dir.join(format!("{name}.exr")), image)?;
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,151 @@
+//! Small geometric helpers: local shading frames and the standard sample warps.
+
+use glam::{Vec2, Vec3};
+use std::f32::consts::{FRAC_1_PI, PI, TAU};
+
+/// An orthonormal basis whose z axis is a given normal; BSDFs work in this frame.
+#[derive(Clone, Copy, Debug)]
+pub struct Frame {
+    /// Tangent.
+    pub s: Vec3,
+    /// Bitangent.
+    pub t: Vec3,
+    /// Normal.
+    pub n: Vec3,
+}
+
+impl Frame {
+    /// A frame around unit vector `n` (Duff et al. 2017, branchless).
+    #[inline]
+    pub fn new(n: Vec3) -> Self {
+        let sign = 1.0f32.copysign(n.z);
+        let a = -1.0 / (sign + n.z);
+        let b = n.x * n.y * a;
+        Frame {
+            s: Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
+            t: Vec3::new(b, sign + n.y * n.y * a, -n.y),
+            n,
+        }
+    }
+
+    /// World → local.
+    #[inline]
+    pub fn to_local(&self, v: Vec3) -> Vec3 {
+        Vec3::new(v.dot(self.s), v.dot(self.t), v.dot(self.n))
+    }
+
+    /// Local → world.
+    #[inline]
+    pub fn to_world(&self, v: Vec3) -> Vec3 {
+        self.s * v.x + self.t * v.y + self.n * v.z
+    }
+}
+
+/// Uniform point on the unit disk (concentric mapping, low distortion for Sobol points).
+#[inline]
+pub fn square_to_disk(u: Vec2) -> Vec2 {
+    let o = 2.0 * u - Vec2::ONE;
+    if o.x == 0.0 && o.y == 0.0 {
+        return Vec2::ZERO;
+    }
+    let (r, theta) = if o.x.abs() > o.y.abs() {
+        (o.x, std::f32::consts::FRAC_PI_4 * (o.y / o.x))
+    } else {
+        (
+            o.y,
+            std::f32::consts::FRAC_PI_2 - std::f32::consts::FRAC_PI_4 * (o.x / o.y),
+        )
+    };
+    Vec2::new(r * theta.cos(), r * theta.sin())
+}
+
+/// Cosine-weighted direction on the +z hemisphere; pdf = cosθ/π.
+#[inline]
+pub fn square_to_cosine_hemisphere(u: Vec2) -> Vec3 {
+    let d = square_to_disk(u);
+    let z = (1.0 - d.length_squared()).max(0.0).sqrt();
+    Vec3::new(d.x, d.y, z)
+}
+
+/// Density of [`square_to_cosine_hemisphere`].
+#[inline]
+pub fn cosine_hemisphere_pdf(v: Vec3) -> f32 {
+    v.z.max(0.0) * FRAC_1_PI
+}
+
+/// Uniform direction on the unit sphere; pdf = 1/(4π).
+#[inline]
+pub fn square_to_uniform_sphere(u: Vec2) -> Vec3 {
+    let z = 1.0 - 2.0 * u.y;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = TAU * u.x;
+    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+/// Density of [`square_to_uniform_sphere`].
+pub const UNIFORM_SPHERE_PDF: f32 = 1.0 / (4.0 * PI);
+
+/// Uniform barycentrics (b1, b2) on a triangle (Heitz's low-distortion square-to-triangle map).
+#[inline]
+pub fn square_to_triangle(u: Vec2) -> Vec2 {
+    let (mut b0, mut b1) = (u.x / 2.0, u.y / 2.0);
+    let offset = b1 - b0;
+    if offset > 0.0 {
+        b1 += offset;
+    } else {
+        b0 -= offset;
+    }
+    Vec2::new(b1, 1.0 - b0 - b1)
+}
+
+/// Mirror reflection of `v` about `n` (both pointing away from the surface).
+#[inline]
+pub fn reflect(v: Vec3, n: Vec3) -> Vec3 {
+    2.0 * v.dot(n) * n - v
+}
+
+/// Power heuristic (β = 2) weight of strategy f against g.
+#[inline]
+pub fn power_heuristic(f: f32, g: f32) -> f32 {
+    let (f2, g2) = (f * f, g * g);
+    if f2 + g2 == 0.0 || !f2.is_finite() {
+        if f2.is_infinite() {
+            1.0
+        } else {
+            0.0
+        }
+    } else {
+        f2 / (f2 + g2)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frame_is_orthonormal() {
+        for n in [
+            Vec3::Z,
+            -Vec3::Z,
+            Vec3::X,
+            Vec3::new(0.3, -0.5, 0.8).normalize(),
+        ] {
+            let f = Frame::new(n);
+            assert!(f.s.dot(f.t).abs() < 1e-5 && f.s.dot(f.n).abs() < 1e-5);
+            assert!((f.s.length() - 1.0).abs() < 1e-5 && (f.t.length() - 1.0).abs() < 1e-5);
+            let v = Vec3::new(0.1, 0.7, -0.2);
+            assert!((f.to_world(f.to_local(v)) - v).length() < 1e-5);
+        }
+    }
+
+    #[test]
+    fn triangle_warp_stays_inside() {
+        for i in 0..100 {
+            for j in 0..100 {
+                let b = square_to_triangle(Vec2::new(i as f32 / 100.0, j as f32 / 100.0));
+                assert!(b.x >= 0.0 && b.y >= 0.0 && b.x + b.y <= 1.0 + 1e-6);
+            }
+        }
+    }
+}

@@ -1,0 +1,430 @@
+//! Light sampling for next-event estimation: emissive triangles, point, spot, directional,
+//! constant and image-based environment lights, chosen in proportion to an estimate of power.
+
+use std::f32::consts::PI;
+
+use glam::{Vec2, Vec3};
+use lumo_image::luminance;
+use lumo_scene::{EnvMap, Light, Scene};
+
+use crate::distribution::Distribution1d;
+use crate::geometry::{square_to_triangle, square_to_uniform_sphere, UNIFORM_SPHERE_PDF};
+
+/// An emissive triangle in world space.
+#[derive(Clone, Copy, Debug)]
+pub struct EmissiveTriangle {
+    p0: Vec3,
+    e1: Vec3,
+    e2: Vec3,
+    /// Unit geometric normal; the triangle emits on this side only.
+    normal: Vec3,
+    area: f32,
+    radiance: Vec3,
+}
+
+/// An importance-sampled latitude-longitude environment.
+struct EnvSampler {
+    map: EnvMap,
+    rows: Distribution1d,
+    columns: Vec<Distribution1d>,
+}
+
+enum LightKind {
+    Triangle(EmissiveTriangle),
+    Point {
+        position: Vec3,
+        intensity: Vec3,
+    },
+    Spot {
+        position: Vec3,
+        axis: Vec3,
+        intensity: Vec3,
+        cos_inner: f32,
+        cos_outer: f32,
+    },
+    Directional {
+        direction: Vec3,
+        irradiance: Vec3,
+    },
+    Environment,
+}
+
+/// A light direction chosen for a shading point.
+#[derive(Clone, Copy, Debug)]
+pub struct LightSample {
+    /// Unit direction from the shading point towards the light.
+    pub wi: Vec3,
+    /// Distance to the light point (infinite for distant lights).
+    pub distance: f32,
+    /// Emitted radiance (or intensity term) divided by the full sampling density.
+    pub weight: Vec3,
+    /// Solid-angle density including the light choice (0 for delta lights).
+    pub pdf: f32,
+}
+
+/// All lights of a scene with a power-proportional choice among them.
+pub struct Lights {
+    lights: Vec<LightKind>,
+    choice: Distribution1d,
+    /// For each instance, the index of its first emissive triangle in `lights`, if emissive.
+    instance_offset: Vec<Option<u32>>,
+    env: Option<EnvSampler>,
+    constant: Vec3,
+    scene_radius: f32,
+    scene_center: Vec3,
+}
+
+fn lat_long_direction(map: &EnvMap, uv: Vec2) -> Vec3 {
+    // Mitsuba's envmap convention: u = atan2(x, -z)/2π, v = acos(y)/π in the map's own frame.
+    let (phi, theta) = (uv.x * 2.0 * PI, uv.y * PI);
+    let local = Vec3::new(
+        theta.sin() * phi.sin(),
+        theta.cos(),
+        -theta.sin() * phi.cos(),
+    );
+    map.to_world.transform_vector3(local).normalize()
+}
+
+fn lat_long_uv(map: &EnvMap, dir: Vec3) -> Vec2 {
+    let local = map.to_world.inverse().transform_vector3(dir).normalize();
+    let mut u = local.x.atan2(-local.z) / (2.0 * PI);
+    if u < 0.0 {
+        u += 1.0;
+    }
+    Vec2::new(u, local.y.clamp(-1.0, 1.0).acos() / PI)
+}
+
+impl EnvSampler {
+    fn new(map: &EnvMap) -> Self {
+        let img = &map.image;
+        let (w, h) = (img.width, img.height);
+        let mut row_weights = Vec::with_capacity(h);
+        let mut columns = Vec::with_capacity(h);
+        for y in 0..h {
+            let sin_theta = ((y as f32 + 0.5) / h as f32 * PI).sin();
+            let weights: Vec<f32> = (0..w)
+                .map(|x| luminance(img.rgb(x, y)).max(0.0) * sin_theta)
+                .collect();
+            let d = Distribution1d::new(&weights);
+            row_weights.push(weights.iter().sum::<f32>());
+            columns.push(d);
+        }
+        EnvSampler {
+            map: map.clone(),
+            rows: Distribution1d::new(&row_weights),
+            columns,
+        }
+    }
+
+    fn radiance(&self, dir: Vec3) -> Vec3 {
+        let uv = lat_long_uv(&self.map, dir);
+        let img = &self.map.image;
+        let x = ((uv.x * img.width as f32) as usize).min(img.width - 1);
+        let y = ((uv.y * img.height as f32) as usize).min(img.height - 1);
+        Vec3::from(img.rgb(x, y)) * self.map.scale
+    }
+
+    fn pdf(&self, dir: Vec3) -> f32 {
+        let uv = lat_long_uv(&self.map, dir);
+        let (w, h) = (self.map.image.width, self.map.image.height);
+        let x = ((uv.x * w as f32) as usize).min(w - 1);
+        let y = ((uv.y * h as f32) as usize).min(h - 1);
+        let sin_theta = (uv.y * PI).sin();
+        if sin_theta <= 0.0 {
+            return 0.0;
+        }
+        let p = self.rows.pmf(y) * self.columns[y].pmf(x);
+        p * (w * h) as f32 / (2.0 * PI * PI * sin_theta)
+    }
+
+    fn sample(&self, u: Vec2) -> (Vec3, f32) {
+        let (y, uy) = self.rows.sample(u.y);
+        let (x, ux) = self.columns[y].sample(u.x);
+        let (w, h) = (self.map.image.width, self.map.image.height);
+        let uv = Vec2::new((x as f32 + ux) / w as f32, (y as f32 + uy) / h as f32);
+        let dir = lat_long_direction(&self.map, uv);
+        (dir, self.pdf(dir))
+    }
+}
+
+impl Lights {
+    /// Collects the scene's lights. Emissive triangles come from materials with emission.
+    pub fn new(scene: &Scene) -> Self {
+        let (lo, hi) = scene.bounds();
+        let scene_center = (lo + hi) * 0.5;
+        let scene_radius = ((hi - lo).length() * 0.5).max(1e-3);
+        let mut lights = Vec::new();
+        let mut power = Vec::new();
+        let mut instance_offset = vec![None; scene.instances.len()];
+        for (ii, inst) in scene.instances.iter().enumerate() {
+            let mesh = &scene.meshes[inst.mesh];
+            let material = &scene.materials[mesh.material];
+            if !material.is_emissive() {
+                continue;
+            }
+            instance_offset[ii] = Some(lights.len() as u32);
+            for t in 0..mesh.triangle_count() {
+                let [a, b, c] = mesh.triangle(t).map(|p| inst.transform.transform_point3(p));
+                let cross = (b - a).cross(c - a);
+                let area = 0.5 * cross.length();
+                let tri = EmissiveTriangle {
+                    p0: a,
+                    e1: b - a,
+                    e2: c - a,
+                    normal: cross.normalize_or_zero(),
+                    area,
+                    radiance: material.emission,
+                };
+                // Degenerate triangles keep their slot (indices must line up) but get no power.
+                power.push(if area > 0.0 {
+                    area * PI * luminance(material.emission.into())
+                } else {
+                    0.0
+                });
+                lights.push(LightKind::Triangle(tri));
+            }
+        }
+        let disk = PI * scene_radius * scene_radius;
+        let mut env = None;
+        let mut constant = Vec3::ZERO;
+        for light in &scene.lights {
+            match light {
+                Light::Point {
+                    position,
+                    intensity,
+                } => {
+                    power.push(4.0 * PI * luminance((*intensity).into()));
+                    lights.push(LightKind::Point {
+                        position: *position,
+                        intensity: *intensity,
+                    });
+                }
+                Light::Spot {
+                    position,
+                    direction,
+                    intensity,
+                    beam_width,
+                    cutoff,
+                } => {
+                    let cos_outer = cutoff.to_radians().cos();
+                    let cos_inner = beam_width.min(*cutoff).to_radians().cos();
+                    power.push(
+                        2.0 * PI
+                            * (1.0 - 0.5 * (cos_inner + cos_outer))
+                            * luminance((*intensity).into()),
+                    );
+                    lights.push(LightKind::Spot {
+                        position: *position,
+                        axis: direction.normalize(),
+                        intensity: *intensity,
+                        cos_inner,
+                        cos_outer,
+                    });
+                }
+                Light::Directional {
+                    direction,
+                    irradiance,
+                } => {
+                    power.push(disk * luminance((*irradiance).into()));
+                    lights.push(LightKind::Directional {
+                        direction: direction.normalize(),
+                        irradiance: *irradiance,
+                    });
+                }
+                Light::Constant { radiance } => constant += *radiance,
+                Light::Environment(map) => env = Some(EnvSampler::new(map)),
+            }
+        }
+        // One entry samples the whole environment (constant and/or image).
+        if env.is_some() || constant.max_element() > 0.0 {
+            let mean = env
+                .as_ref()
+                .map(|e| {
+                    let m = e.map.image.to_channels(3).channel_means();
+                    Vec3::new(m[0] as f32, m[1] as f32, m[2] as f32) * e.map.scale
+                })
+                .unwrap_or(Vec3::ZERO)
+                + constant;
+            power.push(disk * PI * luminance(mean.into()));
+            lights.push(LightKind::Environment);
+        }
+        Lights {
+            choice: Distribution1d::new(&power),
+            lights,
+            instance_offset,
+            env,
+            constant,
+            scene_radius,
+            scene_center,
+        }
+    }
+
+    /// True when there is nothing to sample.
+    pub fn is_empty(&self) -> bool {
+        self.lights.is_empty()
+    }
+
+    /// Radiance arriving from direction `dir` when a ray escapes the scene.
+    pub fn environment(&self, dir: Vec3) -> Vec3 {
+        self.constant + self.env.as_ref().map_or(Vec3::ZERO, |e| e.radiance(dir))
+    }
+
+    fn env_index(&self) -> Option<usize> {
+        matches!(self.lights.last(), Some(LightKind::Environment)).then(|| self.lights.len() - 1)
+    }
+
+    /// Density with which [`Lights::sample`] would pick escaping direction `dir`.
+    pub fn environment_pdf(&self, dir: Vec3) -> f32 {
+        let Some(i) = self.env_index() else {
+            return 0.0;
+        };
+        self.choice.pmf(i) * self.env_direction_pdf(dir)
+    }
+
+    fn env_direction_pdf(&self, dir: Vec3) -> f32 {
+        match &self.env {
+            // Constant part sampled uniformly, image part by importance: a one-sample mixture.
+            Some(e) if self.constant.max_element() > 0.0 => 0.5 * (e.pdf(dir) + UNIFORM_SPHERE_PDF),
+            Some(e) => e.pdf(dir),
+            None => UNIFORM_SPHERE_PDF,
+        }
+    }
+
+    /// Density (solid angle at `from`) of sampling the point `p` on emissive triangle
+    /// `triangle` of instance `instance`.
+    pub fn triangle_pdf(&self, instance: u32, triangle: u32, from: Vec3, p: Vec3) -> f32 {
+        let Some(Some(offset)) = self.instance_offset.get(instance as usize) else {
+            return 0.0;
+        };
+        let index = (*offset + triangle) as usize;
+        let Some(LightKind::Triangle(tri)) = self.lights.get(index) else {
+            return 0.0;
+        };
+        let d = p - from;
+        let dist2 = d.length_squared();
+        let cos = tri.normal.dot(-d / dist2.sqrt()).abs();
+        if cos <= 0.0 || tri.area <= 0.0 {
+            return 0.0;
+        }
+        self.choice.pmf(index) * dist2 / (tri.area * cos)
+    }
+
+    /// Picks a light and a point on it as seen from `p`.
+    pub fn sample(&self, p: Vec3, u_choice: f32, u: Vec2) -> Option<LightSample> {
+        if self.lights.is_empty() {
+            return None;
+        }
+        let (index, _) = self.choice.sample(u_choice);
+        let pick = self.choice.pmf(index);
+        if pick <= 0.0 {
+            return None;
+        }
+        let sample = match &self.lights[index] {
+            LightKind::Triangle(tri) => {
+                let b = square_to_triangle(u);
+                let q = tri.p0 + tri.e1 * b.x + tri.e2 * b.y;
+                let d = q - p;
+                let dist2 = d.length_squared();
+                let distance = dist2.sqrt();
+                let wi = d / distance;
+                let cos = tri.normal.dot(-wi);
+                if cos <= 0.0 || tri.area <= 0.0 {
+                    return None;
+                }
+                let pdf = pick * dist2 / (tri.area * cos);
+                LightSample {
+                    wi,
+                    distance,
+                    weight: tri.radiance / pdf,
+                    pdf,
+                }
+            }
+            LightKind::Point {
+                position,
+                intensity,
+            } => {
+                let d = *position - p;
+                let dist2 = d.length_squared();
+                let distance = dist2.sqrt();
+                LightSample {
+                    wi: d / distance,
+                    distance,
+                    weight: *intensity / (dist2 * pick),
+                    pdf: 0.0,
+                }
+            }
+            LightKind::Spot {
+                position,
+                axis,
+                intensity,
+                cos_inner,
+                cos_outer,
+            } => {
+                let d = *position - p;
+                let dist2 = d.length_squared();
+                let distance = dist2.sqrt();
+                let wi = d / distance;
+                let cos = axis.dot(-wi);
+                // Smooth falloff between the cones (smoothstep on the cosine, as pbrt does).
+                let t = ((cos - cos_outer) / (cos_inner - cos_outer).max(1e-6)).clamp(0.0, 1.0);
+                let falloff = t * t * (3.0 - 2.0 * t);
+                if falloff <= 0.0 {
+                    return None;
+                }
+                LightSample {
+                    wi,
+                    distance,
+                    weight: *intensity * falloff / (dist2 * pick),
+                    pdf: 0.0,
+                }
+            }
+            LightKind::Directional {
+                direction,
+                irradiance,
+            } => LightSample {
+                wi: -*direction,
+                distance: f32::INFINITY,
+                weight: *irradiance / pick,
+                pdf: 0.0,
+            },
+            LightKind::Environment => {
+                let (wi, _) = match (&self.env, self.constant.max_element() > 0.0) {
+                    (Some(e), true) => {
+                        // Split the 2-D point: first coordinate decides the mixture component.
+                        if u.x < 0.5 {
+                            e.sample(Vec2::new(u.x * 2.0, u.y))
+                        } else {
+                            (
+                                square_to_uniform_sphere(Vec2::new(u.x * 2.0 - 1.0, u.y)),
+                                0.0,
+                            )
+                        }
+                    }
+                    (Some(e), false) => e.sample(u),
+                    (None, _) => (square_to_uniform_sphere(u), 0.0),
+                };
+                let pdf = pick * self.env_direction_pdf(wi);
+                if pdf <= 0.0 {
+                    return None;
+                }
+                LightSample {
+                    wi,
+                    distance: f32::INFINITY,
+                    weight: self.environment(wi) / pdf,
+                    pdf,
+                }
+            }
+        };
+        sample.weight.is_finite().then_some(sample)
+    }
+
+    /// Radius of the scene's bounding sphere (for ray epsilons and distant-light power).
+    pub fn scene_radius(&self) -> f32 {
+        self.scene_radius
+    }
+
+    /// Centre of the scene's bounding sphere.
+    pub fn scene_center(&self) -> Vec3 {
+        self.scene_center
+    }
+}

@@ -1,0 +1,161 @@
+//! A scene prepared for rendering: acceleration structure, light sampler and per-material
+//! constants, plus the surface-interaction reconstruction every integrator needs.
+
+use glam::{Vec2, Vec3};
+use lumo_scene::{Bsdf as SceneBsdf, Scene, SceneError};
+
+use crate::accel::{Accel, Hit};
+use crate::bsdf::{fresnel_diffuse_reflectance, Bsdf};
+use crate::geometry::Frame;
+use crate::lights::Lights;
+
+/// Everything known about a ray's hit point.
+#[derive(Clone, Copy, Debug)]
+pub struct Surface {
+    /// World position.
+    pub p: Vec3,
+    /// Unit geometric normal (from the winding).
+    pub ng: Vec3,
+    /// Shading frame (interpolated normal, on the same side as `ng`).
+    pub frame: Frame,
+    /// Texture coordinates.
+    pub uv: Vec2,
+    /// Material index.
+    pub material: usize,
+    /// Instance and triangle hit, for light-pdf lookups.
+    pub instance: u32,
+    /// Triangle index within the mesh.
+    pub triangle: u32,
+}
+
+/// A scene with its acceleration structure and light sampler.
+pub struct RenderScene {
+    /// The scene description.
+    pub scene: Scene,
+    /// Ray queries.
+    pub accel: Accel,
+    /// Light sampling.
+    pub lights: Lights,
+    /// Internal diffuse Fresnel reflectance per material (plastics only; 0 otherwise).
+    fdr_int: Vec<f32>,
+    /// Offset applied to ray origins to escape the surface they leave.
+    pub ray_epsilon: f32,
+}
+
+impl RenderScene {
+    /// Validates the scene and builds the acceleration structure and light sampler.
+    pub fn new(scene: Scene) -> Result<Self, SceneError> {
+        scene.validate()?;
+        let accel = Accel::build(&scene);
+        let lights = Lights::new(&scene);
+        let fdr_int = scene
+            .materials
+            .iter()
+            .map(|m| match m.bsdf {
+                SceneBsdf::Plastic { ior, .. } => fresnel_diffuse_reflectance(1.0 / ior),
+                _ => 0.0,
+            })
+            .collect();
+        Ok(Self {
+            // Relative to the coordinate magnitude (see `offset`): float error in the hit
+            // point grows with it.
+            ray_epsilon: 1e-4,
+            scene,
+            accel,
+            lights,
+            fdr_int,
+        })
+    }
+
+    /// Reconstructs the surface at `hit` of the ray with direction `dir`.
+    pub fn surface(&self, hit: &Hit, origin: Vec3, dir: Vec3) -> Surface {
+        let inst = &self.scene.instances[hit.instance as usize];
+        let mesh = &self.scene.meshes[inst.mesh];
+        let [i0, i1, i2] = mesh.indices[hit.triangle as usize].map(|i| i as usize);
+        let (u, v) = (hit.u, hit.v);
+        let w = 1.0 - u - v;
+        let m = &inst.transform;
+        let [a, b, c] = [i0, i1, i2].map(|i| m.transform_point3(mesh.positions[i]));
+        let ng = (b - a).cross(c - a).normalize_or_zero();
+        let p = origin + dir * hit.t;
+        let mut ns = if mesh.normals.is_empty() {
+            ng
+        } else {
+            let n = mesh.normals[i0] * w + mesh.normals[i1] * u + mesh.normals[i2] * v;
+            let n = if *m == glam::Mat4::IDENTITY {
+                n
+            } else {
+                m.inverse().transpose().transform_vector3(n)
+            };
+            n.normalize_or_zero()
+        };
+        if ns == Vec3::ZERO || !ns.is_finite() {
+            ns = ng;
+        }
+        if ns.dot(ng) < 0.0 {
+            ns = -ns;
+        }
+        let uv = if mesh.uvs.is_empty() {
+            Vec2::new(u, v)
+        } else {
+            mesh.uvs[i0] * w + mesh.uvs[i1] * u + mesh.uvs[i2] * v
+        };
+        Surface {
+            p,
+            ng,
+            frame: Frame::new(ns),
+            uv,
+            material: mesh.material,
+            instance: hit.instance,
+            triangle: hit.triangle,
+        }
+    }
+
+    /// The BSDF of `surface` with textures evaluated.
+    pub fn bsdf(&self, surface: &Surface) -> Bsdf {
+        match &self.scene.materials[surface.material].bsdf {
+            SceneBsdf::Diffuse { reflectance } => Bsdf::Diffuse {
+                albedo: reflectance.eval(surface.uv),
+            },
+            SceneBsdf::Mirror { reflectance } => Bsdf::Mirror {
+                reflectance: *reflectance,
+            },
+            SceneBsdf::Conductor { eta, k, roughness } => Bsdf::Conductor {
+                eta: *eta,
+                k: *k,
+                alpha: *roughness,
+            },
+            SceneBsdf::Plastic {
+                diffuse,
+                ior,
+                roughness,
+            } => Bsdf::Plastic {
+                diffuse: diffuse.eval(surface.uv),
+                eta: *ior,
+                alpha: *roughness,
+                fdr_int: self.fdr_int[surface.material],
+            },
+            SceneBsdf::Dielectric { ior, roughness } => Bsdf::Dielectric {
+                eta: *ior,
+                alpha: *roughness,
+            },
+        }
+    }
+
+    /// Radiance emitted by `surface` towards `-dir` (front side only).
+    pub fn emission(&self, surface: &Surface, dir: Vec3) -> Vec3 {
+        let e = self.scene.materials[surface.material].emission;
+        if surface.ng.dot(dir) < 0.0 {
+            e
+        } else {
+            Vec3::ZERO
+        }
+    }
+
+    /// A ray origin just off the surface on the side of direction `d`.
+    #[inline]
+    pub fn offset(&self, s: &Surface, d: Vec3) -> Vec3 {
+        let side = if s.ng.dot(d) >= 0.0 { 1.0 } else { -1.0 };
+        s.p + s.ng * (side * self.ray_epsilon * (1.0 + s.p.abs().max_element()))
+    }
+}
