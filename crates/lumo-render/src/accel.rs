@@ -116,45 +116,106 @@ impl MeshBvh {
     }
 }
 
-/// One placed mesh.
+/// What a TLAS leaf points at.
+#[derive(Clone, Copy)]
+enum Target {
+    /// The merged BVH of all instances with the identity transform.
+    Static,
+    /// Instance `instance` of mesh `mesh`, through its transform.
+    Instance { instance: u32, mesh: u32 },
+}
+
+/// One TLAS leaf.
 #[derive(Clone, Copy)]
 struct Placement {
-    mesh: u32,
+    target: Target,
     to_local: Mat4,
     identity: bool,
 }
 
 /// The scene's acceleration structure.
+///
+/// Instances with the identity transform (most of a static scene) are merged into one BVH,
+/// which saves a TLAS level and per-instance ray transforms for them; each other instance
+/// points at its mesh's BVH (shared between instances of one mesh).
 pub struct Accel {
+    /// Per mesh: its BVH if some non-identity instance uses it.
     meshes: Vec<Option<MeshBvh>>,
+    /// Merged BVH of the identity instances, with the source of each triangle.
+    static_bvh: Option<(MeshBvh, Vec<(u32, u32)>)>,
     placements: Vec<Placement>,
     tlas: Bvh2,
+}
+
+/// Gathers the triangles of identity instances into one mesh; returns it and each triangle's
+/// (instance, triangle) origin.
+fn gather_static(scene: &Scene) -> (Vec<Vec3>, Vec<[u32; 3]>, Vec<(u32, u32)>) {
+    let (mut positions, mut indices, mut origin) = (vec![], vec![], vec![]);
+    for (ii, inst) in scene.instances.iter().enumerate() {
+        if inst.transform != Mat4::IDENTITY {
+            continue;
+        }
+        let mesh = &scene.meshes[inst.mesh];
+        let base = positions.len() as u32;
+        positions.extend_from_slice(&mesh.positions);
+        for (t, tri) in mesh.indices.iter().enumerate() {
+            indices.push(tri.map(|i| i + base));
+            origin.push((ii as u32, t as u32));
+        }
+    }
+    (positions, indices, origin)
 }
 
 impl Accel {
     /// Builds BVHs for every mesh and the instance tree. The scene must be validated.
     pub fn build(scene: &Scene) -> Self {
         use rayon::prelude::*;
+        let moving: Vec<bool> = (0..scene.meshes.len())
+            .map(|m| {
+                scene
+                    .instances
+                    .iter()
+                    .any(|i| i.mesh == m && i.transform != Mat4::IDENTITY)
+            })
+            .collect();
         let meshes: Vec<Option<MeshBvh>> = scene
             .meshes
             .par_iter()
-            .map(|m| (!m.indices.is_empty()).then(|| MeshBvh::build(&m.positions, &m.indices)))
-            .collect();
-        let placements = scene
-            .instances
-            .iter()
-            .map(|inst| Placement {
-                mesh: inst.mesh as u32,
-                to_local: inst.transform.inverse(),
-                identity: inst.transform == Mat4::IDENTITY,
+            .zip(moving.par_iter())
+            .map(|(m, &moving)| {
+                (moving && !m.indices.is_empty()).then(|| MeshBvh::build(&m.positions, &m.indices))
             })
             .collect();
+        let (positions, indices, origin) = gather_static(scene);
+        let static_bvh =
+            (!indices.is_empty()).then(|| (MeshBvh::build(&positions, &indices), origin));
+        let mut placements = vec![];
+        if static_bvh.is_some() {
+            placements.push(Placement {
+                target: Target::Static,
+                to_local: Mat4::IDENTITY,
+                identity: true,
+            });
+        }
+        for (ii, inst) in scene.instances.iter().enumerate() {
+            if inst.transform != Mat4::IDENTITY && !scene.meshes[inst.mesh].indices.is_empty() {
+                placements.push(Placement {
+                    target: Target::Instance {
+                        instance: ii as u32,
+                        mesh: inst.mesh as u32,
+                    },
+                    to_local: inst.transform.inverse(),
+                    identity: false,
+                });
+            }
+        }
         let mut accel = Accel {
             meshes,
+            static_bvh,
             placements,
             tlas: Bvh2::default(),
         };
-        let boxes = accel.instance_boxes(scene);
+        let boxes = accel.placement_boxes(scene);
         accel.tlas = PlocBuilder::with_capacity(boxes.len()).build(
             PlocSearchDistance::Medium,
             &boxes,
@@ -165,48 +226,95 @@ impl Accel {
         accel
     }
 
-    fn instance_boxes(&self, scene: &Scene) -> Vec<Aabb> {
-        scene
-            .instances
+    fn blas(&self, target: Target) -> Option<&MeshBvh> {
+        match target {
+            Target::Static => self.static_bvh.as_ref().map(|(b, _)| b),
+            Target::Instance { mesh, .. } => self.meshes.get(mesh as usize)?.as_ref(),
+        }
+    }
+
+    fn placement_boxes(&self, scene: &Scene) -> Vec<Aabb> {
+        self.placements
             .iter()
-            .map(|inst| {
-                let mut b = Aabb::empty();
-                if let Some(Some(mesh)) = self.meshes.get(inst.mesh) {
-                    let lb = mesh.bvh2.nodes[0].aabb();
-                    for i in 0..8 {
-                        let corner = Vec3::new(
-                            if i & 1 == 0 { lb.min.x } else { lb.max.x },
-                            if i & 2 == 0 { lb.min.y } else { lb.max.y },
-                            if i & 4 == 0 { lb.min.z } else { lb.max.z },
-                        );
-                        b.extend(Vec3A::from(inst.transform.transform_point3(corner)));
+            .map(|p| {
+                let Some(blas) = self.blas(p.target) else {
+                    return Aabb::new(Vec3A::splat(f32::MAX), Vec3A::splat(f32::MAX));
+                };
+                let lb = blas.bvh2.nodes[0].aabb();
+                let transform = match p.target {
+                    Target::Static => Mat4::IDENTITY,
+                    Target::Instance { instance, .. } => {
+                        scene.instances[instance as usize].transform
                     }
-                } else {
-                    // An empty mesh: a degenerate box far away that no ray reaches.
-                    b = Aabb::new(Vec3A::splat(f32::MAX), Vec3A::splat(f32::MAX));
+                };
+                let mut b = Aabb::empty();
+                for i in 0..8 {
+                    let corner = Vec3::new(
+                        if i & 1 == 0 { lb.min.x } else { lb.max.x },
+                        if i & 2 == 0 { lb.min.y } else { lb.max.y },
+                        if i & 4 == 0 { lb.min.z } else { lb.max.z },
+                    );
+                    b.extend(Vec3A::from(transform.transform_point3(corner)));
                 }
                 b
             })
             .collect()
     }
 
-    /// Updates the tree after `scene.meshes[mesh]` moved its vertices (same triangles) and/or
-    /// instance transforms changed; call [`Accel::refit_instances`] afterwards if the mesh is
-    /// instanced elsewhere too (it is done here for all instances).
+    /// Updates the trees after `scene.meshes[mesh]` moved its vertices (same triangles): the
+    /// mesh's BVH and, if it is placed with the identity transform, the merged static BVH are
+    /// refitted, then the instance tree.
     pub fn refit_mesh(&mut self, scene: &Scene, mesh: usize) {
         if let Some(Some(m)) = self.meshes.get_mut(mesh) {
             m.refit(&scene.meshes[mesh].positions, &scene.meshes[mesh].indices);
         }
+        let in_static = scene
+            .instances
+            .iter()
+            .any(|i| i.mesh == mesh && i.transform == Mat4::IDENTITY);
+        if in_static {
+            let (positions, indices, _) = gather_static(scene);
+            if let Some((bvh, _)) = &mut self.static_bvh {
+                bvh.refit(&positions, &indices);
+            }
+        }
         self.refit_instances(scene);
     }
 
-    /// Updates the instance tree after instance transforms changed (no rebuild).
+    /// Updates the instance tree after instance transforms changed (no rebuild). An instance
+    /// that leaves or joins the identity transform changes the merged static BVH, which
+    /// needs a rebuild: that case rebuilds everything.
     pub fn refit_instances(&mut self, scene: &Scene) {
-        for (p, inst) in self.placements.iter_mut().zip(&scene.instances) {
-            p.to_local = inst.transform.inverse();
-            p.identity = inst.transform == Mat4::IDENTITY;
+        let static_count = scene
+            .instances
+            .iter()
+            .filter(|i| i.transform == Mat4::IDENTITY && !scene.meshes[i.mesh].indices.is_empty())
+            .count();
+        let was_static = self
+            .static_bvh
+            .as_ref()
+            .map(|(_, o)| {
+                let mut seen: Vec<u32> = o.iter().map(|(i, _)| *i).collect();
+                seen.dedup();
+                seen.len()
+            })
+            .unwrap_or(0);
+        let moved_static = self.static_bvh.as_ref().is_some_and(|(_, o)| {
+            o.iter()
+                .any(|(i, _)| scene.instances[*i as usize].transform != Mat4::IDENTITY)
+        });
+        if moved_static || static_count != was_static {
+            *self = Accel::build(scene);
+            return;
         }
-        let boxes = self.instance_boxes(scene);
+        for p in &mut self.placements {
+            if let Target::Instance { instance, .. } = p.target {
+                let t = scene.instances[instance as usize].transform;
+                p.to_local = t.inverse();
+                p.identity = false;
+            }
+        }
+        let boxes = self.placement_boxes(scene);
         self.tlas.init_primitives_to_nodes_if_uninit();
         for (prim, b) in boxes.iter().enumerate() {
             let node = self.tlas.primitives_to_nodes[prim] as usize;
@@ -238,30 +346,44 @@ impl Accel {
         let ray = Ray::new(origin.into(), dir.into(), tmin, tmax);
         let mut best: Option<(u32, u32, Ray)> = None;
         let mut hit = RayHit::none();
-        self.tlas.ray_traverse(ray, &mut hit, |r, id| {
-            let inst = self.tlas.primitive_indices[id];
-            let p = &self.placements[inst as usize];
-            let Some(Some(mesh)) = self.meshes.get(p.mesh as usize) else {
-                return f32::INFINITY;
-            };
-            let local = self.local_ray(p, origin, dir, r.tmin, r.tmax);
-            match mesh.intersect(&local) {
-                Some((t, slot)) => {
-                    best = Some((inst, slot, local));
-                    t
+        if self.placements.len() == 1 {
+            // A single placement (typically the merged static scene): skip the instance tree.
+            let p = &self.placements[0];
+            let blas = self.blas(p.target)?;
+            let local = self.local_ray(p, origin, dir, tmin, tmax);
+            let (t, slot) = blas.intersect(&local)?;
+            hit.t = t;
+            best = Some((0, slot, local));
+        } else {
+            self.tlas.ray_traverse(ray, &mut hit, |r, id| {
+                let pi = self.tlas.primitive_indices[id];
+                let p = &self.placements[pi as usize];
+                let Some(blas) = self.blas(p.target) else {
+                    return f32::INFINITY;
+                };
+                let local = self.local_ray(p, origin, dir, r.tmin, r.tmax);
+                match blas.intersect(&local) {
+                    Some((t, slot)) => {
+                        best = Some((pi, slot, local));
+                        t
+                    }
+                    None => f32::INFINITY,
                 }
-                None => f32::INFINITY,
-            }
-        });
-        let (instance, slot, local) = best?;
-        let p = &self.placements[instance as usize];
-        let mesh = self.meshes[p.mesh as usize].as_ref()?;
-        let tri = &mesh.tris[slot as usize];
-        let bary = tri.compute_barycentric(&local);
+            });
+        }
+        let (pi, slot, local) = best?;
+        let p = &self.placements[pi as usize];
+        let blas = self.blas(p.target)?;
+        let bary = blas.tris[slot as usize].compute_barycentric(&local);
+        let local_id = blas.ids[slot as usize];
+        let (instance, triangle) = match p.target {
+            Target::Static => self.static_bvh.as_ref()?.1[local_id as usize],
+            Target::Instance { instance, .. } => (instance, local_id),
+        };
         Some(Hit {
             t: hit.t,
             instance,
-            triangle: mesh.ids[slot as usize],
+            triangle,
             u: bary.x,
             v: bary.y,
         })
@@ -272,15 +394,18 @@ impl Accel {
         if self.tlas.nodes.is_empty() {
             return false;
         }
+        if self.placements.len() == 1 {
+            let p = &self.placements[0];
+            return self
+                .blas(p.target)
+                .is_some_and(|b| b.occluded(&self.local_ray(p, origin, dir, tmin, tmax)));
+        }
         let ray = Ray::new(origin.into(), dir.into(), tmin, tmax);
         !self.tlas.ray_traverse_miss(ray, |r, id| {
-            let inst = self.tlas.primitive_indices[id];
-            let p = &self.placements[inst as usize];
-            match self.meshes.get(p.mesh as usize) {
-                Some(Some(mesh))
-                    if mesh.occluded(&self.local_ray(p, origin, dir, r.tmin, r.tmax)) =>
-                {
-                    0.0f32.max(r.tmin)
+            let p = &self.placements[self.tlas.primitive_indices[id] as usize];
+            match self.blas(p.target) {
+                Some(blas) if blas.occluded(&self.local_ray(p, origin, dir, r.tmin, r.tmax)) => {
+                    r.tmin
                 }
                 _ => f32::INFINITY,
             }

@@ -75,14 +75,21 @@ impl RenderScene {
         let (u, v) = (hit.u, hit.v);
         let w = 1.0 - u - v;
         let m = &inst.transform;
-        let [a, b, c] = [i0, i1, i2].map(|i| m.transform_point3(mesh.positions[i]));
+        let identity = *m == glam::Mat4::IDENTITY;
+        let [a, b, c] = [i0, i1, i2].map(|i| {
+            if identity {
+                mesh.positions[i]
+            } else {
+                m.transform_point3(mesh.positions[i])
+            }
+        });
         let ng = (b - a).cross(c - a).normalize_or_zero();
         let p = origin + dir * hit.t;
         let mut ns = if mesh.normals.is_empty() {
             ng
         } else {
             let n = mesh.normals[i0] * w + mesh.normals[i1] * u + mesh.normals[i2] * v;
-            let n = if *m == glam::Mat4::IDENTITY {
+            let n = if identity {
                 n
             } else {
                 m.inverse().transpose().transform_vector3(n)

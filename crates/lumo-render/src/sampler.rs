@@ -4,11 +4,18 @@
 use glam::Vec2;
 
 /// Owen-scrambled Sobol points for one sample of one pixel.
+///
+/// Numbers are drawn four dimensions at a time with `sobol_burley::sample_4d` (SIMD), which
+/// measured about 3× cheaper per number than one-dimension calls in the path tracer's profile.
 #[derive(Clone, Copy, Debug)]
 pub struct PixelSampler {
     seed: u32,
     index: u32,
-    dimension: u32,
+    /// Next 4-D dimension set to fetch.
+    set: u32,
+    cache: [f32; 4],
+    /// Position in `cache` of the next number (4 = empty).
+    used: u8,
 }
 
 /// A 32-bit integer hash (lowbias32, Wellons) used to decorrelate pixels.
@@ -26,27 +33,38 @@ impl PixelSampler {
     /// The sampler of sample `index` of pixel (x, y) under the global `seed`.
     #[inline]
     pub fn new(x: u32, y: u32, index: u32, seed: u32) -> Self {
-        let pixel_seed = hash_u32(x ^ hash_u32(y ^ hash_u32(seed)));
+        // sobol_burley supports 2^16 samples per sequence; beyond that, continue with an
+        // independently scrambled sequence.
+        let block = index >> 16;
+        let pixel_seed = hash_u32(x ^ hash_u32(y ^ hash_u32(seed ^ hash_u32(block))));
         Self {
             seed: pixel_seed,
-            index,
-            dimension: 0,
+            index: index & 0xffff,
+            set: 0,
+            cache: [0.0; 4],
+            used: 4,
         }
     }
 
     /// The next number in [0, 1).
     #[inline]
     pub fn next_1d(&mut self) -> f32 {
-        let dim = self.dimension;
-        self.dimension += 1;
-        // sobol_burley has 256 dimensions; deeper paths continue with a re-seeded set.
-        let set = dim / sobol_burley::NUM_DIMENSIONS;
-        let seed = if set == 0 {
-            self.seed
-        } else {
-            hash_u32(self.seed ^ set)
-        };
-        sobol_burley::sample(self.index, dim % sobol_burley::NUM_DIMENSIONS, seed)
+        if self.used == 4 {
+            let sets = sobol_burley::NUM_DIMENSION_SETS_4D;
+            // Deep paths run past the table's dimensions: continue with a re-seeded set.
+            let round = self.set / sets;
+            let seed = if round == 0 {
+                self.seed
+            } else {
+                hash_u32(self.seed ^ round)
+            };
+            self.cache = sobol_burley::sample_4d(self.index, self.set % sets, seed);
+            self.set += 1;
+            self.used = 0;
+        }
+        let v = self.cache[self.used as usize];
+        self.used += 1;
+        v
     }
 
     /// The next 2-D point in [0, 1)².

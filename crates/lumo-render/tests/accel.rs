@@ -114,6 +114,10 @@ fn refit_after_instance_motion_matches_rebuild() {
     scene.instances[2].transform = Mat4::from_translation(Vec3::new(1.0, 1.0, -1.0));
     accel.refit_instances(&scene);
     check_against_brute_force(&scene, &accel);
+    // The sphere was static (identity transform, merged BVH); moving it must still work.
+    scene.instances[0].transform = Mat4::from_translation(Vec3::new(0.0, -0.5, 0.5));
+    accel.refit_instances(&scene);
+    check_against_brute_force(&scene, &accel);
 }
 
 #[test]

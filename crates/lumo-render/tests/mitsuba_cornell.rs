@@ -25,13 +25,21 @@ fn cornell_mean_rgb_matches_mitsuba_within_one_percent() {
             height: 128,
             spp: 64,
             seed: 0,
-            path: PathSettings { max_depth, ..Default::default() },
+            path: PathSettings {
+                max_depth,
+                ..Default::default()
+            },
         };
         let (frame, _) = render(&rs, &settings, &|_| {});
         let got = frame.color.channel_means();
         for c in 0..3 {
             let rel = (got[c] - reference[c]) / reference[c];
-            eprintln!("max_depth {max_depth} channel {c}: lumo {:.5} Mitsuba {:.5} ({:+.2}%)", got[c], reference[c], rel * 100.0);
+            eprintln!(
+                "max_depth {max_depth} channel {c}: lumo {:.5} Mitsuba {:.5} ({:+.2}%)",
+                got[c],
+                reference[c],
+                rel * 100.0
+            );
             assert!(
                 rel.abs() < 0.01,
                 "max_depth {max_depth}, channel {c}: lumo {:.5} vs Mitsuba {:.5} ({:+.2}%)",
