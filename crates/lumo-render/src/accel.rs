@@ -149,7 +149,11 @@ pub struct Accel {
 
 /// Gathers the triangles of identity instances into one mesh; returns it and each triangle's
 /// (instance, triangle) origin.
-fn gather_static(scene: &Scene) -> (Vec<Vec3>, Vec<[u32; 3]>, Vec<(u32, u32)>) {
+/// Merged geometry of the identity-transform instances: positions, triangles, and for each
+/// triangle its (instance, triangle) origin.
+type StaticGeometry = (Vec<Vec3>, Vec<[u32; 3]>, Vec<(u32, u32)>);
+
+fn gather_static(scene: &Scene) -> StaticGeometry {
     let (mut positions, mut indices, mut origin) = (vec![], vec![], vec![]);
     for (ii, inst) in scene.instances.iter().enumerate() {
         if inst.transform != Mat4::IDENTITY {

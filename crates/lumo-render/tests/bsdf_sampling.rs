@@ -174,6 +174,7 @@ fn chi2_test(bsdf: &Bsdf, wo: Vec3, seed: u64) -> f64 {
         stat += (pooled_o - pooled_e).powi(2) / pooled_e.max(1e-9);
         dof += 1;
     }
+    assert!(dof > 1, "χ² test saw no non-delta samples and no density");
     chi2_p_value(stat, (dof - 1) as f64)
 }
 

@@ -320,8 +320,10 @@ impl Bsdf {
                     });
                 }
                 let g = Ggx { alpha };
+                // Sample in the frame where wo is above; the microfacet normal stays in the
+                // upper hemisphere so the signed cosine tells Fresnel which side wo is on.
                 let side = wo.z.signum();
-                let m = g.sample_visible(wo * side, u) * side;
+                let m = g.sample_visible(wo * side, u);
                 let cos_om = wo.dot(m);
                 let (f, cos_t, _, eta_ti) = fresnel_dielectric(cos_om, eta);
                 let (wi, crossed) = if u_lobe < f {
@@ -387,7 +389,7 @@ fn rough_dielectric(wo: Vec3, wi: Vec3, eta: f32, alpha: f32) -> (f32, f32) {
     let d = g.d(m);
     let gg = g.g1(wo, m) * g.g1(wi, m);
     let side = wo.z.signum();
-    let pdf_m = g.pdf_visible(wo * side, m * side);
+    let pdf_m = g.pdf_visible(wo * side, m);
     if reflect {
         let value = f * d * gg / (4.0 * wo.z.abs());
         let pdf = f * pdf_m / (4.0 * cos_om.abs());
