@@ -1,10 +1,397 @@
-//! `lumo denoise` (to be written).
+//! `lumo denoise`: filter an image from any renderer with one of lumo-filter's screen-space
+//! filters, steered by whichever G-buffer planes are given.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{bail, Context};
+use lumo_filter::{
+    atrous, bilateral, build_guide, guided, missing_pixels, with_demodulation, AtrousParams,
+    BilateralParams, DepthNorm, Features, Filtered, GuideKind, GuidedParams,
+};
+use lumo_image::{read_image, write_image, Image};
+
+/// Which filter to run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum FilterKind {
+    /// Edge-avoiding À-Trous wavelet filter (fast; normal + position + colour weights).
+    Atrous,
+    /// Guided image filter with a normal (+ depth) guide (cost independent of radius).
+    Guided,
+    /// Brute-force cross bilateral filter (slow quality reference).
+    Bilateral,
+}
 
 /// Arguments of `lumo denoise`.
-#[derive(clap::Args)]
-pub struct DenoiseArgs {}
+#[derive(clap::Args, Debug)]
+pub struct DenoiseArgs {
+    /// Noisy colour image (EXR, PFM or PNG).
+    #[arg(long)]
+    pub color: Option<PathBuf>,
+    /// Albedo plane; enables demodulation unless --no-demodulate.
+    #[arg(long)]
+    pub albedo: Option<PathBuf>,
+    /// World-space normals in [-1, 1].
+    #[arg(long)]
+    pub normal: Option<PathBuf>,
+    /// World-space positions.
+    #[arg(long)]
+    pub position: Option<PathBuf>,
+    /// Camera distance (1 channel or 3 equal ones); 0 or Inf = background.
+    #[arg(long)]
+    pub depth: Option<PathBuf>,
+    /// Per-pixel luminance variance; makes À-Trous variance-guided (SVGF).
+    #[arg(long)]
+    pub variance: Option<PathBuf>,
+    /// Read color/albedo/normal/position/depth/variance.exr (or .pfm) from this directory,
+    /// whichever exist; explicit flags override.
+    #[arg(long)]
+    pub input_dir: Option<PathBuf>,
+    /// The filter.
+    #[arg(long, value_enum, default_value = "atrous")]
+    pub filter: FilterKind,
+    /// Output image: .exr / .pfm (float32) or .png (sRGB, clamped).
+    #[arg(short = 'o', long)]
+    pub output: PathBuf,
+    /// À-Trous levels [default: 5].
+    #[arg(long)]
+    pub iterations: Option<usize>,
+    /// Colour σ (À-Trous: × mean luminance, or × local std-dev with --variance; bilateral:
+    /// × mean luminance); 0 = off [default: À-Trous 0 (off), 64 with --variance; bilateral off].
+    #[arg(long)]
+    pub sigma_color: Option<f32>,
+    /// Normal σ; 0 = off [default: À-Trous 0.3, bilateral 0.3].
+    #[arg(long)]
+    pub sigma_normal: Option<f32>,
+    /// Position σ as a fraction of the scene extent; 0 = off [default: À-Trous 0.1; bilateral off].
+    #[arg(long)]
+    pub sigma_position: Option<f32>,
+    /// Bilateral relative depth σ; 0 = off [default: 0.2].
+    #[arg(long)]
+    pub sigma_depth: Option<f32>,
+    /// Bilateral spatial σ in pixels [default: radius / 2].
+    #[arg(long)]
+    pub sigma_spatial: Option<f32>,
+    /// Window radius for guided / bilateral [default: guided 24, bilateral 16].
+    #[arg(long)]
+    pub radius: Option<usize>,
+    /// Guided filter ε on normal dimensions [default: 0.003].
+    #[arg(long)]
+    pub eps_normal: Option<f32>,
+    /// Guided filter ε on the depth dimension [default: 0.003].
+    #[arg(long)]
+    pub eps_depth: Option<f32>,
+    /// Guide dimensions for the guided filter: 1 (grey normal), 3 (normal), 4 (normal + depth)
+    /// [default: 4 with --depth, else 3].
+    #[arg(long)]
+    pub guide_dims: Option<usize>,
+    /// Fast guided filter: compute coefficients on a grid sub-sampled by s [default: 1 = exact].
+    #[arg(long, default_value_t = 1)]
+    pub fast_subsample: usize,
+    /// Depth normalisation for the guide: divide by this constant [default: the finite depth
+    /// range of the image].
+    #[arg(long)]
+    pub depth_scale: Option<f32>,
+    /// Demodulate by albedo (default when --albedo is given).
+    #[arg(long, conflicts_with = "no_demodulate")]
+    pub demodulate: bool,
+    /// Do not demodulate even when an albedo plane is given.
+    #[arg(long)]
+    pub no_demodulate: bool,
+    /// Ignore the variance plane.
+    #[arg(long)]
+    pub no_variance: bool,
+    /// Sparse input for À-Trous: only every n-th pixel (n = 2 or 4) in x and y is valid.
+    #[arg(long, default_value_t = 1)]
+    pub subsample: usize,
+    /// Print the time of each stage (read, filter, write) in ms.
+    #[arg(long)]
+    pub timings: bool,
+}
+
+/// The input planes, as read.
+struct Inputs {
+    color: (PathBuf, Image),
+    albedo: Option<(PathBuf, Image)>,
+    normal: Option<(PathBuf, Image)>,
+    position: Option<(PathBuf, Image)>,
+    depth: Option<(PathBuf, Image)>,
+    variance: Option<(PathBuf, Image)>,
+}
+
+/// The explicit path, else `<dir>/<name>.exr` or `.pfm` if it exists.
+fn pick(explicit: &Option<PathBuf>, dir: &Option<PathBuf>, name: &str) -> Option<PathBuf> {
+    if let Some(p) = explicit {
+        return Some(p.clone());
+    }
+    let dir = dir.as_ref()?;
+    ["exr", "pfm"]
+        .iter()
+        .map(|ext| dir.join(format!("{name}.{ext}")))
+        .find(|p| p.is_file())
+}
+
+fn read(path: &Path) -> anyhow::Result<(PathBuf, Image)> {
+    let img = read_image(path).with_context(|| format!("cannot read {}", path.display()))?;
+    Ok((path.to_path_buf(), img))
+}
+
+fn read_inputs(a: &DenoiseArgs) -> anyhow::Result<Inputs> {
+    if let Some(d) = &a.input_dir {
+        if !d.is_dir() {
+            bail!("--input-dir {}: not a directory", d.display());
+        }
+    }
+    let color_path = pick(&a.color, &a.input_dir, "color").ok_or_else(|| match &a.input_dir {
+        Some(d) => anyhow::anyhow!(
+            "no color.exr or color.pfm in {} (or give --color)",
+            d.display()
+        ),
+        None => anyhow::anyhow!("give --color FILE or --input-dir DIR"),
+    })?;
+    let opt =
+        |explicit: &Option<PathBuf>, name: &str| -> anyhow::Result<Option<(PathBuf, Image)>> {
+            pick(explicit, &a.input_dir, name)
+                .map(|p| read(&p))
+                .transpose()
+        };
+    let mut color = read(&color_path)?;
+    color.1 = match color.1.channels {
+        1 | 3 => color.1.to_channels(3),
+        4 => color.1.to_channels(3),
+        n => bail!("{}: {n} channels; expected 1, 3 or 4", color_path.display()),
+    };
+    let inputs = Inputs {
+        color,
+        albedo: opt(&a.albedo, "albedo")?,
+        normal: opt(&a.normal, "normal")?,
+        position: opt(&a.position, "position")?,
+        depth: opt(&a.depth, "depth")?,
+        variance: opt(&a.variance, "variance")?,
+    };
+    let (cp, c) = &inputs.color;
+    for (what, plane, min_ch) in [
+        ("albedo", &inputs.albedo, 1),
+        ("normal", &inputs.normal, 3),
+        ("position", &inputs.position, 3),
+        ("depth", &inputs.depth, 1),
+        ("variance", &inputs.variance, 1),
+    ] {
+        if let Some((p, img)) = plane {
+            c.check_same_size(&cp.display().to_string(), img, &p.display().to_string())?;
+            if img.channels < min_ch {
+                bail!(
+                    "{}: the {what} plane has {} channel(s); expected {min_ch} or more",
+                    p.display(),
+                    img.channels
+                );
+            }
+        }
+    }
+    Ok(inputs)
+}
+
+/// `Some(σ)` from an option: 0 switches the weight off, absent takes the default.
+fn sigma(v: Option<f32>, default: Option<f32>) -> anyhow::Result<Option<f32>> {
+    match v {
+        Some(0.0) => Ok(None),
+        Some(s) if s > 0.0 => Ok(Some(s)),
+        Some(s) => bail!("sigma {s} must be ≥ 0 (0 = off)"),
+        None => Ok(default),
+    }
+}
+
+/// Default parameters (see docs/filters.md for the sweep that chose them).
+mod defaults {
+    pub const ATROUS_SIGMA_COLOR: Option<f32> = None;
+    pub const ATROUS_SIGMA_COLOR_VARIANCE: f32 = 64.0;
+    pub const ATROUS_SIGMA_NORMAL: f32 = 0.3;
+    pub const ATROUS_SIGMA_POSITION: f32 = 0.1;
+    pub const BILATERAL_SIGMA_NORMAL: f32 = 0.3;
+    pub const BILATERAL_SIGMA_DEPTH: f32 = 0.2;
+    pub const GUIDED_RADIUS: usize = lumo_filter::DEFAULT_RADIUS;
+    pub const BILATERAL_RADIUS: usize = 16;
+    pub const EPS: f32 = lumo_filter::DEFAULT_EPS_NORMAL;
+}
+
+fn plane(p: &Option<(PathBuf, Image)>) -> Option<&Image> {
+    p.as_ref().map(|(_, i)| i)
+}
+
+fn run_filter(a: &DenoiseArgs, inp: &Inputs) -> anyhow::Result<Filtered> {
+    let variance = if a.no_variance {
+        None
+    } else {
+        plane(&inp.variance)
+    };
+    let features = Features {
+        normal: plane(&inp.normal),
+        position: plane(&inp.position),
+        depth: plane(&inp.depth),
+        albedo: plane(&inp.albedo),
+        variance,
+    };
+    if a.demodulate && inp.albedo.is_none() {
+        bail!("--demodulate needs an albedo plane: --albedo FILE (or albedo.exr in --input-dir)");
+    }
+    let demod = inp.albedo.is_some() && !a.no_demodulate;
+    let color = &inp.color.1;
+    let filtered = match a.filter {
+        FilterKind::Atrous => {
+            let needs = |flag: &str, has: bool, feat: &str| -> anyhow::Result<()> {
+                if !has {
+                    bail!(
+                        "the À-Trous {flag} weight needs a {feat} plane: --{feat} FILE (or {feat}.exr \
+                         in --input-dir), or switch it off with --{flag} 0"
+                    );
+                }
+                Ok(())
+            };
+            let sn = sigma(a.sigma_normal, None)?;
+            let sx = sigma(a.sigma_position, None)?;
+            if let Some(_s) = sn {
+                needs("sigma-normal", features.normal.is_some(), "normal")?;
+            }
+            if let Some(_s) = sx {
+                needs("sigma-position", features.position.is_some(), "position")?;
+            }
+            if features.normal.is_none() && features.position.is_none() {
+                eprintln!(
+                    "warning: no --normal or --position: À-Trous is steered by colour only and will \
+                     blur geometry edges"
+                );
+            }
+            // --sigma-color sets σ_l when a variance plane steers the colour weight, else the
+            // fixed colour σ.
+            let var_mode = variance.is_some();
+            let (sc, sl) = if var_mode {
+                (
+                    None,
+                    sigma(a.sigma_color, Some(defaults::ATROUS_SIGMA_COLOR_VARIANCE))?,
+                )
+            } else {
+                (sigma(a.sigma_color, defaults::ATROUS_SIGMA_COLOR)?, None)
+            };
+            let p = AtrousParams {
+                iterations: a.iterations.unwrap_or(5),
+                sigma_color: sc,
+                sigma_luminance: sl,
+                sigma_normal: features
+                    .normal
+                    .and(sn.or(Some(defaults::ATROUS_SIGMA_NORMAL))),
+                sigma_position: features
+                    .position
+                    .and(sx.or(Some(defaults::ATROUS_SIGMA_POSITION))),
+                sparse: a.subsample,
+                demodulate: demod,
+                use_variance: !a.no_variance,
+            };
+            atrous(color, &features, &p)?
+        }
+        FilterKind::Guided => {
+            if a.subsample != 1 {
+                bail!("--subsample (sparse input) is only supported by --filter atrous");
+            }
+            let dims = a
+                .guide_dims
+                .unwrap_or(if features.depth.is_some() { 4 } else { 3 });
+            let kind = match dims {
+                1 => GuideKind::Grey,
+                3 => GuideKind::Normal,
+                4 => GuideKind::NormalDepth,
+                d => {
+                    bail!("--guide-dims {d}: use 1 (grey normal), 3 (normal) or 4 (normal + depth)")
+                }
+            };
+            let mut missing = Vec::new();
+            if features.normal.is_none() {
+                missing.push("--normal FILE (normal.exr)");
+            }
+            if kind == GuideKind::NormalDepth && features.depth.is_none() {
+                missing.push("--depth FILE (depth.exr)");
+            }
+            if !missing.is_empty() {
+                bail!(
+                    "the guided filter with a {dims}-dimensional guide needs {}",
+                    missing.join(" and ")
+                );
+            }
+            let norm = match a.depth_scale {
+                Some(s) if s > 0.0 && s.is_finite() => DepthNorm::Scale(s),
+                Some(s) => bail!("--depth-scale {s} must be > 0"),
+                None => DepthNorm::Range,
+            };
+            let guide = build_guide(
+                kind,
+                &features,
+                norm,
+                a.eps_normal.unwrap_or(defaults::EPS),
+                a.eps_depth.unwrap_or(defaults::EPS),
+            )?;
+            let p = GuidedParams {
+                radius: a.radius.unwrap_or(defaults::GUIDED_RADIUS),
+                fast_subsample: a.fast_subsample,
+            };
+            match (demod, features.albedo) {
+                (true, Some(alb)) => with_demodulation(color, alb, |c| guided(c, &guide, &p))?,
+                _ => guided(color, &guide, &p)?,
+            }
+        }
+        FilterKind::Bilateral => {
+            if a.subsample != 1 {
+                bail!("--subsample (sparse input) is only supported by --filter atrous");
+            }
+            if features.normal.is_none() && features.depth.is_none() && features.position.is_none()
+            {
+                bail!(
+                    "the cross bilateral filter needs at least one of --normal, --depth, --position \
+                     (normal.exr, depth.exr, position.exr)"
+                );
+            }
+            let radius = a.radius.unwrap_or(defaults::BILATERAL_RADIUS);
+            let p = BilateralParams {
+                radius,
+                sigma_spatial: a.sigma_spatial.unwrap_or((radius as f32 / 2.0).max(0.5)),
+                sigma_normal: sigma(a.sigma_normal, Some(defaults::BILATERAL_SIGMA_NORMAL))?,
+                sigma_depth: sigma(a.sigma_depth, Some(defaults::BILATERAL_SIGMA_DEPTH))?,
+                sigma_position: sigma(a.sigma_position, None)?,
+                sigma_color: sigma(a.sigma_color, None)?,
+            };
+            match (demod, features.albedo) {
+                (true, Some(alb)) => {
+                    with_demodulation(color, alb, |c| bilateral(c, &features, &p))?
+                }
+                _ => bilateral(color, &features, &p)?,
+            }
+        }
+    };
+    Ok(filtered)
+}
 
 /// Runs `lumo denoise`.
-pub fn run(_args: DenoiseArgs) -> anyhow::Result<()> {
-    anyhow::bail!("lumo denoise is not available yet")
+pub fn run(args: DenoiseArgs) -> anyhow::Result<()> {
+    let t0 = Instant::now();
+    let inputs = read_inputs(&args)?;
+    let t_read = t0.elapsed();
+    let missing = missing_pixels(&inputs.color.1);
+    if missing > 0 {
+        eprintln!(
+            "warning: {missing} pixel(s) of {} are NaN or infinite; treated as missing",
+            inputs.color.0.display()
+        );
+    }
+    let t1 = Instant::now();
+    let filtered = run_filter(&args, &inputs)?;
+    let t_filter = t1.elapsed();
+    let t2 = Instant::now();
+    write_image(&args.output, &filtered.image)
+        .with_context(|| format!("cannot write {}", args.output.display()))?;
+    let t_write = t2.elapsed();
+    if args.timings {
+        let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
+        println!("read {:.3} ms", ms(t_read));
+        println!("filter {:.3} ms", ms(t_filter));
+        println!("write {:.3} ms", ms(t_write));
+    }
+    Ok(())
 }

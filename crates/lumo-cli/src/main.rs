@@ -1,5 +1,6 @@
 //! The `lumo` command.
 
+mod bench_cmd;
 mod denoise;
 mod render_cmd;
 
@@ -19,6 +20,8 @@ enum Command {
     Render(render_cmd::RenderArgs),
     /// Denoise an image from any renderer with a screen-space filter.
     Denoise(denoise::DenoiseArgs),
+    /// Benchmarks with stated inputs and machine.
+    Bench(bench_cmd::BenchArgs),
 }
 
 fn main() {
@@ -26,6 +29,7 @@ fn main() {
     let result = match cli.command {
         Command::Render(args) => render_cmd::run(args),
         Command::Denoise(args) => denoise::run(args),
+        Command::Bench(args) => bench_cmd::run(args),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");

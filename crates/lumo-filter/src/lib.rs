@@ -1,1 +1,52 @@
-//! Screen-space denoising filters (see the crate description).
+//! Screen-space denoising filters for lumo: pure functions from image planes to image planes,
+//! with no dependency on the renderer.
+//!
+//! - [`atrous()`]: edge-avoiding À-Trous wavelet filter (Dammertz et al. 2010), optionally
+//!   variance-guided (SVGF), with albedo demodulation and sparse-input in-painting.
+//! - [`guided()`]: guided image filter (He et al.) with a 1–8 dimensional guide built from
+//!   normals and depth (Bauszat et al. 2011), and the fast sub-sampled variant (He & Sun 2015).
+//! - [`bilateral()`]: brute-force cross (joint) bilateral filter, the quality reference.
+//! - [`jbu()`]: joint bilateral upsampling of a low-resolution buffer (Kopf et al. 2007), with
+//!   [`remove_outliers`] and an optional bilateral pre-filter.
+//! - [`most_similar`]: the geometry-aware lookup of Bauszat et al. (eqs 3–5).
+//!
+//! Colour images have 3 channels. Non-finite colour pixels are treated as missing (weight 0);
+//! results are always finite and report how many pixels were missing.
+//! See docs/filters.md for parameters, defaults and how they were chosen.
+
+// Index loops over several parallel planes read more clearly than zips of six iterators.
+#![allow(clippy::needless_range_loop)]
+// `!(x > 0.0)` is deliberate: it rejects NaN as well as non-positive values.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+mod albedo;
+mod atrous;
+mod bilateral;
+mod boxsum;
+mod cholesky;
+mod error;
+mod fastmath;
+mod gbuffer;
+mod guided;
+mod jbu;
+mod lookup;
+mod outliers;
+pub mod synthetic;
+pub use synthetic::{synthetic_frame, SyntheticFrame};
+
+pub use albedo::{demodulate, with_demodulation, Demodulated, ALBEDO_EPS};
+pub use atrous::{
+    atrous, AtrousParams, B3, DEFAULT_SIGMA_LUMINANCE, DEFAULT_SIGMA_NORMAL, DEFAULT_SIGMA_POSITION,
+};
+pub use bilateral::{bilateral, BilateralParams};
+pub use boxsum::box_mean;
+pub use error::FilterError;
+pub use fastmath::exp_neg;
+pub use gbuffer::{missing_pixels, Features, Filtered};
+pub use guided::{
+    build_guide, guided, DepthNorm, Guide, GuideKind, GuidedParams, DEFAULT_EPS_DEPTH,
+    DEFAULT_EPS_NORMAL, DEFAULT_RADIUS, MAX_GUIDE_DIMS,
+};
+pub use jbu::{jbu, JbuParams};
+pub use lookup::{most_similar, most_similar_in_grid};
+pub use outliers::remove_outliers;

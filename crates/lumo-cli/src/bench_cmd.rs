@@ -1,0 +1,137 @@
+//! `lumo bench render`: samples/s and rays/s of the path tracer on every built-in scene.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::{Context, Result};
+use lumo_render::{render, PathSettings, RenderScene, RenderSettings};
+use lumo_scene::BUILTIN_SCENES;
+
+use crate::render_cmd::{parse_size, si};
+
+/// Arguments of `lumo bench`.
+#[derive(clap::Args, Debug)]
+pub struct BenchArgs {
+    #[command(subcommand)]
+    what: BenchWhat,
+}
+
+#[derive(clap::Subcommand, Debug)]
+enum BenchWhat {
+    /// Path-tracer throughput (samples/s, rays/s) on the built-in scenes.
+    Render(RenderBenchArgs),
+}
+
+/// Arguments of `lumo bench render`.
+#[derive(clap::Args, Debug)]
+pub struct RenderBenchArgs {
+    /// Scenes to measure [default: all built-in scenes].
+    scenes: Vec<String>,
+    /// Image size.
+    #[arg(long, value_parser = parse_size, default_value = "512x512")]
+    size: (usize, usize),
+    /// Samples per pixel per run.
+    #[arg(long, default_value_t = 4)]
+    spp: u32,
+    /// Maximum path depth.
+    #[arg(long, default_value_t = 5)]
+    max_depth: u32,
+    /// Timed runs per scene (the median is reported).
+    #[arg(long, default_value_t = 3)]
+    repeats: usize,
+    /// Worker threads [default: all cores].
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Also write the Markdown table to this file.
+    #[arg(long)]
+    markdown: Option<PathBuf>,
+}
+
+/// "CPU model, N threads" of this machine, for benchmark tables.
+pub fn machine_description(threads: usize) -> String {
+    let cpu = std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split(':').nth(1))
+                .map(|m| m.trim().to_string())
+        })
+        .unwrap_or_else(|| "unknown CPU".into());
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    format!("{cpu}, {cores} cores, {threads} threads")
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(|a, b| a.total_cmp(b));
+    v[v.len() / 2]
+}
+
+/// Runs `lumo bench`.
+pub fn run(args: BenchArgs) -> Result<()> {
+    match args.what {
+        BenchWhat::Render(a) => run_render(a),
+    }
+}
+
+fn run_render(args: RenderBenchArgs) -> Result<()> {
+    let names: Vec<String> = if args.scenes.is_empty() {
+        BUILTIN_SCENES.iter().map(|s| s.name.to_string()).collect()
+    } else {
+        args.scenes.clone()
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(args.threads.unwrap_or(0))
+        .build()
+        .context("cannot start worker threads")?;
+    let threads = pool.current_num_threads();
+    let (w, h) = args.size;
+    let mut table = format!(
+        "Machine: {}. {w}x{h}, {} spp, max depth {}, median of {} runs.\n\n\
+         | scene | triangles | BVH build ms | samples/s | rays/s | rays/sample |\n\
+         |---|---:|---:|---:|---:|---:|\n",
+        machine_description(threads),
+        args.spp,
+        args.max_depth,
+        args.repeats.max(1)
+    );
+    for name in &names {
+        let scene = crate::render_cmd::load_scene(name)?;
+        let tris = scene.triangle_count();
+        let t0 = Instant::now();
+        let rs = pool.install(|| RenderScene::new(scene))?;
+        let build_ms = t0.elapsed().as_secs_f64() * 1e3;
+        let settings = RenderSettings {
+            width: w,
+            height: h,
+            spp: args.spp,
+            seed: 0,
+            path: PathSettings {
+                max_depth: args.max_depth,
+                ..Default::default()
+            },
+        };
+        let (mut sps, mut rps) = (vec![], vec![]);
+        let mut rays_per_sample = 0.0;
+        for _ in 0..args.repeats.max(1) {
+            let t = Instant::now();
+            let (_, stats) = pool.install(|| render(&rs, &settings, &|_| {}));
+            let s = t.elapsed().as_secs_f64();
+            sps.push(stats.samples as f64 / s);
+            rps.push(stats.rays as f64 / s);
+            rays_per_sample = stats.rays as f64 / stats.samples as f64;
+        }
+        let line = format!(
+            "| {name} | {tris} | {build_ms:.1} | {}samples/s | {}rays/s | {rays_per_sample:.2} |\n",
+            si(median(sps)),
+            si(median(rps))
+        );
+        eprint!("{line}");
+        table.push_str(&line);
+    }
+    println!("\n{table}");
+    if let Some(path) = &args.markdown {
+        std::fs::write(path, &table).with_context(|| format!("cannot write {}", path.display()))?;
+    }
+    Ok(())
+}

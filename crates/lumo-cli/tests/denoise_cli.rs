@@ -1,0 +1,251 @@
+//! End-to-end tests of `lumo denoise` on small EXR inputs.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use lumo_image::{read_image, write_image, Image};
+
+fn temp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("lumo-denoise-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn lumo(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_lumo"))
+        .arg("denoise")
+        .args(args)
+        .output()
+        .expect("run lumo")
+}
+
+fn text(o: &Output) -> (String, String) {
+    (
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+/// Writes a noisy 32×24 G-buffer (left/right halves on different planes) into `dir`.
+fn write_scene(dir: &Path, w: usize, h: usize) {
+    let mut color = Image::new(w, h, 3, 0.0);
+    let mut normal = Image::new(w, h, 3, 0.0);
+    let mut position = Image::new(w, h, 3, 0.0);
+    let mut depth = Image::new(w, h, 1, 0.0);
+    let albedo = Image::new(w, h, 3, 0.5);
+    let variance = Image::new(w, h, 1, 0.01);
+    let mut s = 12345u64;
+    for y in 0..h {
+        for x in 0..w {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            let r = (s >> 40) as f32 / (1u64 << 24) as f32;
+            let left = x < w / 2;
+            let base = if left { 0.2 } else { 0.8 };
+            color.pixel_mut(x, y).fill(base * (0.5 + r));
+            normal.pixel_mut(x, y).copy_from_slice(if left {
+                &[0.0, 0.0, 1.0]
+            } else {
+                &[1.0, 0.0, 0.0]
+            });
+            let d = if left { 2.0 } else { 4.0 };
+            depth.pixel_mut(x, y)[0] = d;
+            position
+                .pixel_mut(x, y)
+                .copy_from_slice(&[x as f32 * 0.05, y as f32 * 0.05, -d]);
+        }
+    }
+    for (name, img) in [
+        ("color", &color),
+        ("normal", &normal),
+        ("position", &position),
+        ("depth", &depth),
+        ("albedo", &albedo),
+        ("variance", &variance),
+    ] {
+        write_image(&dir.join(format!("{name}.exr")), img).unwrap();
+    }
+}
+
+#[test]
+fn every_filter_runs_from_an_input_dir_and_prints_timings() {
+    let dir = temp_dir("ok");
+    write_scene(&dir, 32, 24);
+    for filter in ["atrous", "guided", "bilateral"] {
+        let out = dir.join(format!("out-{filter}.exr"));
+        let o = lumo(&[
+            "--input-dir",
+            dir.to_str().unwrap(),
+            "--filter",
+            filter,
+            "--radius",
+            "4",
+            "--timings",
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        let (stdout, stderr) = text(&o);
+        assert!(o.status.success(), "{filter}: {stderr}");
+        for stage in ["read ", "filter ", "write "] {
+            assert!(
+                stdout
+                    .lines()
+                    .any(|l| l.starts_with(stage) && l.ends_with(" ms")),
+                "{filter}: no '{stage}… ms' line in {stdout:?}"
+            );
+        }
+        let img = read_image(&out).unwrap();
+        assert_eq!((img.width, img.height, img.channels), (32, 24, 3));
+        assert_eq!(img.non_finite_count(), 0);
+    }
+    // PNG output and explicit flags.
+    let png = dir.join("out.png");
+    let o = lumo(&[
+        "--color",
+        dir.join("color.exr").to_str().unwrap(),
+        "--normal",
+        dir.join("normal.exr").to_str().unwrap(),
+        "--filter",
+        "guided",
+        "--guide-dims",
+        "3",
+        "--fast-subsample",
+        "2",
+        "-o",
+        png.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o).1);
+    assert!(png.is_file());
+}
+
+#[test]
+fn size_mismatch_names_both_files() {
+    let dir = temp_dir("size");
+    write_scene(&dir, 32, 24);
+    let small = dir.join("small-normal.exr");
+    write_image(&small, &Image::new(16, 24, 3, 0.0)).unwrap();
+    let o = lumo(&[
+        "--input-dir",
+        dir.to_str().unwrap(),
+        "--normal",
+        small.to_str().unwrap(),
+        "-o",
+        dir.join("out.exr").to_str().unwrap(),
+    ]);
+    let (_, stderr) = text(&o);
+    assert_eq!(o.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("color.exr") && stderr.contains("small-normal.exr"),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("32x24") && stderr.contains("16x24"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("panicked"), "{stderr}");
+}
+
+#[test]
+fn missing_feature_lists_what_the_filter_needs() {
+    let dir = temp_dir("feature");
+    write_scene(&dir, 16, 16);
+    let o = lumo(&[
+        "--color",
+        dir.join("color.exr").to_str().unwrap(),
+        "--filter",
+        "guided",
+        "--guide-dims",
+        "4",
+        "-o",
+        dir.join("out.exr").to_str().unwrap(),
+    ]);
+    let (_, stderr) = text(&o);
+    assert_eq!(o.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("--normal") && stderr.contains("--depth"),
+        "{stderr}"
+    );
+    let o = lumo(&[
+        "--color",
+        dir.join("color.exr").to_str().unwrap(),
+        "--filter",
+        "bilateral",
+        "-o",
+        dir.join("out.exr").to_str().unwrap(),
+    ]);
+    let (_, stderr) = text(&o);
+    assert_eq!(o.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("--normal") && stderr.contains("--depth") && stderr.contains("--position"),
+        "{stderr}"
+    );
+    let o = lumo(&[
+        "--color",
+        dir.join("color.exr").to_str().unwrap(),
+        "--demodulate",
+        "-o",
+        dir.join("out.exr").to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(text(&o).1.contains("--albedo"), "{}", text(&o).1);
+}
+
+#[test]
+fn nan_pixels_warn_with_their_count_and_output_is_finite() {
+    let dir = temp_dir("nan");
+    write_scene(&dir, 24, 16);
+    let mut c = read_image(&dir.join("color.exr")).unwrap();
+    c.pixel_mut(3, 3)[0] = f32::NAN;
+    c.pixel_mut(10, 5)[2] = f32::INFINITY;
+    c.pixel_mut(11, 5).fill(f32::NAN);
+    write_image(&dir.join("color.exr"), &c).unwrap();
+    for filter in ["atrous", "guided", "bilateral"] {
+        let out = dir.join(format!("out-{filter}.pfm"));
+        let o = lumo(&[
+            "--input-dir",
+            dir.to_str().unwrap(),
+            "--filter",
+            filter,
+            "--radius",
+            "3",
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        let (_, stderr) = text(&o);
+        assert!(o.status.success(), "{stderr}");
+        assert!(stderr.contains("warning: 3 pixel(s)"), "{stderr}");
+        assert_eq!(read_image(&out).unwrap().non_finite_count(), 0, "{filter}");
+    }
+}
+
+#[test]
+fn unreadable_input_names_the_file_and_reason() {
+    let dir = temp_dir("unreadable");
+    let bad = dir.join("color.exr");
+    std::fs::write(&bad, b"not an exr").unwrap();
+    let o = lumo(&[
+        "--color",
+        bad.to_str().unwrap(),
+        "-o",
+        dir.join("o.exr").to_str().unwrap(),
+    ]);
+    let (_, stderr) = text(&o);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr.contains("color.exr") && stderr.starts_with("error:"),
+        "{stderr}"
+    );
+    let o = lumo(&[
+        "--color",
+        dir.join("nope.exr").to_str().unwrap(),
+        "-o",
+        dir.join("o.exr").to_str().unwrap(),
+    ]);
+    let (_, stderr) = text(&o);
+    assert!(
+        stderr.contains("nope.exr") && stderr.contains("not found"),
+        "{stderr}"
+    );
+}

@@ -1,0 +1,120 @@
+//! Albedo demodulation: filter illumination (colour / albedo) instead of colour, so texture
+//! detail, which the albedo plane holds noise-free, is not blurred; multiply back afterwards.
+
+use lumo_image::{luminance, Image};
+
+use crate::gbuffer::{check_color, check_size, missing_pixels, Filtered};
+use crate::FilterError;
+
+/// Albedo below this (in every channel) cannot be divided by safely: such pixels (black
+/// surfaces, emitters, background with no albedo) are passed through unfiltered.
+pub const ALBEDO_EPS: f32 = 1e-3;
+
+/// Colour split into illumination and the albedo it was divided by.
+#[derive(Clone, Debug)]
+pub struct Demodulated {
+    /// Colour / albedo; NaN at pass-through pixels so that filters treat them as missing
+    /// (they neither receive nor give weight).
+    pub illumination: Image,
+    /// The albedo actually divided by (each channel clamped to ≥ [`ALBEDO_EPS`]), 3 channels.
+    pub albedo: Image,
+    /// True where the pixel is passed through (albedo ≈ 0 or not finite).
+    pub passthrough: Vec<bool>,
+}
+
+/// Splits `color` (3 channels) by `albedo` (1 or 3 channels, same size).
+pub fn demodulate(color: &Image, albedo: &Image) -> Result<Demodulated, FilterError> {
+    check_color("color", color)?;
+    check_size("albedo", albedo, "color", color.width, color.height)?;
+    if !(albedo.channels == 1 || albedo.channels >= 3) {
+        return Err(FilterError::Channels {
+            name: "albedo",
+            got: albedo.channels,
+            expected: "1 or 3",
+        });
+    }
+    let a3 = albedo.to_channels(3);
+    let n = color.pixel_count();
+    let mut illum = Image::new(color.width, color.height, 3, 0.0);
+    let mut used = Image::new(color.width, color.height, 3, 1.0);
+    let mut passthrough = vec![false; n];
+    for i in 0..n {
+        let a = &a3.data[i * 3..i * 3 + 3];
+        let finite = a.iter().all(|v| v.is_finite());
+        let maxa = a.iter().fold(0.0f32, |m, &v| m.max(v));
+        if !finite || maxa < ALBEDO_EPS {
+            passthrough[i] = true;
+            illum.data[i * 3..i * 3 + 3].fill(f32::NAN);
+            continue;
+        }
+        for c in 0..3 {
+            let ac = a[c].max(ALBEDO_EPS);
+            used.data[i * 3 + c] = ac;
+            illum.data[i * 3 + c] = color.data[i * 3 + c] / ac;
+        }
+    }
+    Ok(Demodulated {
+        illumination: illum,
+        albedo: used,
+        passthrough,
+    })
+}
+
+impl Demodulated {
+    /// Multiplies filtered illumination by the albedo; pass-through pixels get the original
+    /// colour (0 where that is not finite).
+    pub fn remodulate(&self, filtered: &Image, color: &Image) -> Image {
+        let mut out = filtered.clone();
+        for (i, &pt) in self.passthrough.iter().enumerate() {
+            for c in 0..3 {
+                let k = i * 3 + c;
+                out.data[k] = if pt {
+                    let v = color.data[k];
+                    if v.is_finite() {
+                        v
+                    } else {
+                        0.0
+                    }
+                } else {
+                    filtered.data[k] * self.albedo.data[k]
+                };
+            }
+        }
+        out
+    }
+
+    /// Variance of the illumination: variance / luminance(albedo)², 0 at pass-through pixels.
+    pub fn demodulate_variance(&self, variance: &[f32]) -> Vec<f32> {
+        variance
+            .iter()
+            .enumerate()
+            .map(|(i, &v)| {
+                if self.passthrough[i] {
+                    0.0
+                } else {
+                    let a = &self.albedo.data[i * 3..i * 3 + 3];
+                    let l = luminance([a[0], a[1], a[2]]).max(ALBEDO_EPS);
+                    v / (l * l)
+                }
+            })
+            .collect()
+    }
+}
+
+/// Runs `filter` on the illumination `color / albedo` and multiplies the result back.
+/// The reported missing count is that of the original colour.
+pub fn with_demodulation<F>(
+    color: &Image,
+    albedo: &Image,
+    filter: F,
+) -> Result<Filtered, FilterError>
+where
+    F: FnOnce(&Image) -> Result<Filtered, FilterError>,
+{
+    let d = demodulate(color, albedo)?;
+    let filtered = filter(&d.illumination)?;
+    Ok(Filtered {
+        image: d.remodulate(&filtered.image, color),
+        missing: missing_pixels(color),
+    })
+}

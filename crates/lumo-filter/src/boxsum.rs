@@ -1,0 +1,138 @@
+//! Box means whose cost does not depend on the radius: running sums, first along rows, then
+//! down columns.
+//!
+//! Sums are carried in f64: a running f32 sum keeps the rounding error of every value it ever
+//! added and removed, so one firefly of 1e3 would leave an error of ~1e-4 on the rest of the
+//! row, which the guided filter's covariance (a difference of two means) then amplifies.
+
+use rayon::prelude::*;
+
+/// Window sizes for every position along an axis of length `n`: the window [i−r, i+r] clipped
+/// to the axis (the normalisation of He et al.'s `boxfilter(ones)`).
+fn counts(n: usize, r: usize) -> Vec<f64> {
+    (0..n)
+        .map(|i| (i.saturating_sub(r)..=(i + r).min(n - 1)).count() as f64)
+        .collect()
+}
+
+/// Mean over the (2r+1)×(2r+1) window clipped to the image, for every pixel and each of the
+/// `k` interleaved channels of `data` (`w*h*k` values, pixel-major).
+///
+/// Panics if `data.len() != w*h*k` (a programming error inside the crate).
+pub fn box_mean(data: &[f32], w: usize, h: usize, k: usize, r: usize) -> Vec<f32> {
+    assert_eq!(data.len(), w * h * k, "box_mean: data length");
+    if w == 0 || h == 0 || k == 0 {
+        return Vec::new();
+    }
+    let cx = counts(w, r);
+    let cy = counts(h, r);
+    let stride = w * k;
+
+    // Horizontal pass, one row per task.
+    let mut tmp = vec![0.0f32; data.len()];
+    tmp.par_chunks_mut(stride)
+        .zip(data.par_chunks(stride))
+        .for_each_init(
+            || vec![0.0f64; k],
+            |acc, (out, row)| {
+                acc.fill(0.0);
+                for x in 0..=r.min(w - 1) {
+                    for c in 0..k {
+                        acc[c] += row[x * k + c] as f64;
+                    }
+                }
+                for x in 0..w {
+                    let inv = 1.0 / cx[x];
+                    for c in 0..k {
+                        out[x * k + c] = (acc[c] * inv) as f32;
+                    }
+                    if x + r + 1 < w {
+                        let a = &row[(x + r + 1) * k..(x + r + 2) * k];
+                        for c in 0..k {
+                            acc[c] += a[c] as f64;
+                        }
+                    }
+                    if x >= r {
+                        let s = &row[(x - r) * k..(x - r + 1) * k];
+                        for c in 0..k {
+                            acc[c] -= s[c] as f64;
+                        }
+                    }
+                }
+            },
+        );
+
+    // Vertical pass in bands of rows: each band primes its running sums with the rows above
+    // it (O(r) extra rows per band) and then slides down; a band owns its output rows.
+    let threads = rayon::current_num_threads().max(1);
+    let band = h.div_ceil(4 * threads).max(16);
+    let mut out = vec![0.0f32; data.len()];
+    out.par_chunks_mut(band * stride)
+        .enumerate()
+        .for_each(|(b, out_band)| {
+            let y0 = b * band;
+            let rows = out_band.len() / stride;
+            let mut acc = vec![0.0f64; stride];
+            let first = y0.saturating_sub(r);
+            let last = (y0 + r).min(h - 1);
+            for yy in first..=last {
+                add_row(&mut acc, &tmp[yy * stride..(yy + 1) * stride], 1.0);
+            }
+            for dy in 0..rows {
+                let y = y0 + dy;
+                let inv = 1.0 / cy[y];
+                let o = &mut out_band[dy * stride..(dy + 1) * stride];
+                for (ov, a) in o.iter_mut().zip(&acc) {
+                    *ov = (*a * inv) as f32;
+                }
+                if y + r + 1 < h {
+                    add_row(
+                        &mut acc,
+                        &tmp[(y + r + 1) * stride..(y + r + 2) * stride],
+                        1.0,
+                    );
+                }
+                if y >= r {
+                    add_row(&mut acc, &tmp[(y - r) * stride..(y - r + 1) * stride], -1.0);
+                }
+            }
+        });
+    out
+}
+
+#[inline]
+fn add_row(acc: &mut [f64], row: &[f32], sign: f64) {
+    for (a, v) in acc.iter_mut().zip(row) {
+        *a += sign * *v as f64;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn matches_brute_force() {
+        let (w, h, k, r) = (13usize, 9usize, 2usize, 3usize);
+        let data: Vec<f32> = (0..w * h * k)
+            .map(|i| ((i * 7919) % 101) as f32 / 10.0)
+            .collect();
+        let got = box_mean(&data, w, h, k, r);
+        for y in 0..h {
+            for x in 0..w {
+                for c in 0..k {
+                    let (mut s, mut n) = (0.0f64, 0.0f64);
+                    for yy in y.saturating_sub(r)..=(y + r).min(h - 1) {
+                        for xx in x.saturating_sub(r)..=(x + r).min(w - 1) {
+                            s += data[(yy * w + xx) * k + c] as f64;
+                            n += 1.0;
+                        }
+                    }
+                    let want = (s / n) as f32;
+                    let g = got[(y * w + x) * k + c];
+                    assert!((g - want).abs() < 1e-5, "({x},{y},{c}): {g} vs {want}");
+                }
+            }
+        }
+    }
+}

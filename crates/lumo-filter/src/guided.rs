@@ -1,0 +1,478 @@
+//! Guided image filter (He et al. 2010) with a geometry guide (Bauszat et al. 2011; papers/README
+//! §2), and the fast guided filter (He & Sun 2015) as an option.
+
+use lumo_image::Image;
+use rayon::prelude::*;
+
+use crate::boxsum::box_mean;
+use crate::cholesky::solve_spd3;
+use crate::error::param;
+use crate::gbuffer::{
+    background_mask, check_color, check_features, check_size, plane0, planes3, Features, Filtered,
+    Prepared,
+};
+use crate::FilterError;
+
+/// Largest supported guide dimension.
+pub const MAX_GUIDE_DIMS: usize = 8;
+
+/// Which guide to build from the G-buffer (the paper's 1 / 3 / 4 dimensions).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GuideKind {
+    /// 1 dim: grey value of the normal image (mean of the normalised x, y, z).
+    Grey,
+    /// 3 dims: normal, n·0.5 + 0.5.
+    Normal,
+    /// 4 dims: normal and normalised depth.
+    NormalDepth,
+}
+
+impl GuideKind {
+    /// The guide's dimension.
+    pub fn dims(self) -> usize {
+        match self {
+            GuideKind::Grey => 1,
+            GuideKind::Normal => 3,
+            GuideKind::NormalDepth => 4,
+        }
+    }
+}
+
+/// How depth is mapped to [0, 1] for the guide.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum DepthNorm {
+    /// (d − min) / (max − min) over the finite, non-background depths of this image.
+    Range,
+    /// d / scale, clamped to [0, 1]: a constant from the scene's extent that stays fixed while
+    /// rendering (the paper's choice; avoids flicker when the visible range changes).
+    Scale(f32),
+}
+
+/// A guide image: `dims` interleaved channels per pixel, values in about [0, 1], with one ε per
+/// dimension (added to the diagonal of the window covariance).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Guide {
+    /// Width in pixels.
+    pub width: usize,
+    /// Height in pixels.
+    pub height: usize,
+    /// Channels per pixel, 1..=8.
+    pub dims: usize,
+    /// `width*height*dims` values, pixel-major.
+    pub data: Vec<f32>,
+    /// Regularisation per dimension (> 0).
+    pub eps: Vec<f32>,
+}
+
+impl Guide {
+    /// A guide from any image with 1..=8 channels (already scaled to about [0, 1]) and one ε
+    /// per channel. Non-finite guide values are replaced by 0.
+    pub fn from_image(img: &Image, eps: Vec<f32>) -> Result<Guide, FilterError> {
+        if img.channels == 0 || img.channels > MAX_GUIDE_DIMS {
+            return Err(FilterError::Channels {
+                name: "guide",
+                got: img.channels,
+                expected: "1..=8",
+            });
+        }
+        if eps.len() != img.channels {
+            return Err(param(
+                "eps",
+                format!("{} values for a {}-channel guide", eps.len(), img.channels),
+            ));
+        }
+        if let Some(e) = eps.iter().find(|e| !(**e > 0.0 && e.is_finite())) {
+            return Err(param("eps", format!("{e} (must be > 0)")));
+        }
+        Ok(Guide {
+            width: img.width,
+            height: img.height,
+            dims: img.channels,
+            data: img
+                .data
+                .iter()
+                .map(|v| if v.is_finite() { *v } else { 0.0 })
+                .collect(),
+            eps,
+        })
+    }
+}
+
+/// Builds a 1-, 3- or 4-dimensional guide from `features.normal` (and `features.depth`), with
+/// ε = `eps_normal` on normal dimensions and `eps_depth` on depth. Background pixels get depth 1
+/// (the far end), so windows across a silhouette see a large guide variance.
+pub fn build_guide(
+    kind: GuideKind,
+    features: &Features,
+    depth_norm: DepthNorm,
+    eps_normal: f32,
+    eps_depth: f32,
+) -> Result<Guide, FilterError> {
+    let normal = features.normal.ok_or_else(|| FilterError::MissingFeature {
+        filter: "the guided filter",
+        needs: format!("a normal plane for a {}-dimensional guide", kind.dims()),
+    })?;
+    let (w, h) = (normal.width, normal.height);
+    check_features(features, w, h)?;
+    let n = planes3(normal);
+    let npix = w * h;
+    let dims = kind.dims();
+    let mut data = vec![0.0f32; npix * dims];
+    let mut eps = vec![eps_normal; dims];
+    match kind {
+        GuideKind::Grey => {
+            for i in 0..npix {
+                data[i] = ((n[0][i] + n[1][i] + n[2][i]) / 3.0) * 0.5 + 0.5;
+            }
+        }
+        GuideKind::Normal | GuideKind::NormalDepth => {
+            for i in 0..npix {
+                for c in 0..3 {
+                    data[i * dims + c] = n[c][i] * 0.5 + 0.5;
+                }
+            }
+        }
+    }
+    if kind == GuideKind::NormalDepth {
+        let depth = features.depth.ok_or_else(|| FilterError::MissingFeature {
+            filter: "the guided filter",
+            needs: "a depth plane for a 4-dimensional guide (normal + depth)".into(),
+        })?;
+        check_size("depth", depth, "normal", w, h)?;
+        let d = plane0(depth);
+        let bg = background_mask(features, npix);
+        let (lo, hi) = match depth_norm {
+            DepthNorm::Scale(s) => {
+                if !(s > 0.0 && s.is_finite()) {
+                    return Err(param("depth scale", format!("{s} (must be > 0)")));
+                }
+                (0.0, s)
+            }
+            DepthNorm::Range => {
+                let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+                for (v, b) in d.iter().zip(&bg) {
+                    if *b == 0.0 {
+                        lo = lo.min(*v);
+                        hi = hi.max(*v);
+                    }
+                }
+                if lo.is_finite() && hi > lo {
+                    (lo, hi)
+                } else {
+                    (0.0, 1.0)
+                }
+            }
+        };
+        let inv = 1.0 / (hi - lo);
+        for i in 0..npix {
+            data[i * 4 + 3] = if bg[i] > 0.0 {
+                1.0
+            } else {
+                ((d[i] - lo) * inv).clamp(0.0, 1.0)
+            };
+        }
+        eps[3] = eps_depth;
+    }
+    let img = Image::from_vec(w, h, dims, data);
+    Guide::from_image(&img, eps)
+}
+
+/// Parameters of [`guided`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct GuidedParams {
+    /// Window radius r (window (2r+1)²); the paper uses 24–32.
+    pub radius: usize,
+    /// Fast guided filter sub-sampling s: coefficients computed on a grid s times coarser
+    /// (radius r/s) and bilinearly upsampled. 1 = the exact guided filter.
+    pub fast_subsample: usize,
+}
+
+/// Default window radius, see docs/filters.md.
+pub const DEFAULT_RADIUS: usize = 24;
+/// Default ε for normal dimensions, see docs/filters.md.
+pub const DEFAULT_EPS_NORMAL: f32 = 0.003;
+/// Default ε for the depth dimension, see docs/filters.md.
+pub const DEFAULT_EPS_DEPTH: f32 = 0.003;
+
+impl Default for GuidedParams {
+    /// Defaults chosen by the sweep in docs/filters.md.
+    fn default() -> Self {
+        Self {
+            radius: DEFAULT_RADIUS,
+            fast_subsample: 1,
+        }
+    }
+}
+
+/// Filters each channel of `color` (3 channels) against the same `guide`: per window a linear
+/// model `q = aᵀI + b`, with `a = (Σ + diag ε)⁻¹ cov(I, p)`; coefficients averaged over all
+/// windows covering a pixel. Missing colour pixels are first filled with the mean of the valid
+/// pixels in their window. Cost is independent of the radius.
+pub fn guided(
+    color: &Image,
+    guide: &Guide,
+    params: &GuidedParams,
+) -> Result<Filtered, FilterError> {
+    check_color("color", color)?;
+    let (w, h) = (color.width, color.height);
+    if guide.width != w || guide.height != h {
+        return Err(FilterError::SizeMismatch {
+            name: "guide",
+            width: guide.width,
+            height: guide.height,
+            reference: "color",
+            ref_width: w,
+            ref_height: h,
+        });
+    }
+    if guide.dims == 0 || guide.dims > MAX_GUIDE_DIMS || guide.data.len() != w * h * guide.dims {
+        return Err(FilterError::Channels {
+            name: "guide",
+            got: guide.dims,
+            expected: "1..=8 with width*height*dims values",
+        });
+    }
+    if guide.eps.len() != guide.dims || guide.eps.iter().any(|e| !(*e > 0.0)) {
+        return Err(param("eps", "one value > 0 per guide dimension"));
+    }
+    if params.radius == 0 {
+        return Err(param("radius", "0 (must be ≥ 1)"));
+    }
+    let s = params.fast_subsample;
+    if s == 0 || s > 64 {
+        return Err(param("fast_subsample", format!("{s} (use 1..=64)")));
+    }
+    let prep = Prepared::new(color, &Features::default())?;
+    let mut p = interleaved_color(&prep);
+    if prep.missing > 0 {
+        fill_missing(&mut p, &prep.valid, w, h, params.radius);
+    }
+    let d = guide.dims;
+    let image = if s == 1 {
+        let ab = coefficients(&guide.data, &p, &guide.eps, w, h, d, params.radius);
+        apply(&guide.data, w, h, d, |x, y, out| {
+            out.copy_from_slice(&ab[(y * w + x) * (3 * d + 3)..][..3 * d + 3]);
+        })
+    } else {
+        let (lw, lh) = (w.div_ceil(s), h.div_ceil(s));
+        let gl = downsample(&guide.data, w, h, d, s);
+        let pl = downsample(&p, w, h, 3, s);
+        let r = ((params.radius as f32 / s as f32).round() as usize).max(1);
+        let ab = coefficients(&gl, &pl, &guide.eps, lw, lh, d, r);
+        let k2 = 3 * d + 3;
+        apply(&guide.data, w, h, d, |x, y, out| {
+            bilinear(&ab, lw, lh, k2, s, x, y, out);
+        })
+    };
+    Ok(Filtered {
+        image,
+        missing: prep.missing,
+    })
+}
+
+fn interleaved_color(prep: &Prepared) -> Vec<f32> {
+    prep.color_image().data
+}
+
+/// Replaces missing pixels by the mean of the valid pixels in their window (0 if none).
+fn fill_missing(p: &mut [f32], valid: &[f32], w: usize, h: usize, r: usize) {
+    let mut mp = vec![0.0f32; w * h * 4];
+    for i in 0..w * h {
+        for c in 0..3 {
+            mp[i * 4 + c] = p[i * 3 + c] * valid[i];
+        }
+        mp[i * 4 + 3] = valid[i];
+    }
+    let m = box_mean(&mp, w, h, 4, r);
+    for i in 0..w * h {
+        if valid[i] == 0.0 {
+            let k = m[i * 4 + 3];
+            for c in 0..3 {
+                p[i * 3 + c] = if k > 0.0 { m[i * 4 + c] / k } else { 0.0 };
+            }
+        }
+    }
+}
+
+/// Block means over s×s blocks (partial blocks at the right and bottom edges).
+fn downsample(data: &[f32], w: usize, h: usize, k: usize, s: usize) -> Vec<f32> {
+    let (lw, lh) = (w.div_ceil(s), h.div_ceil(s));
+    let mut out = vec![0.0f32; lw * lh * k];
+    out.par_chunks_mut(lw * k)
+        .enumerate()
+        .for_each(|(ly, row)| {
+            let y1 = ((ly + 1) * s).min(h);
+            for lx in 0..lw {
+                let x1 = ((lx + 1) * s).min(w);
+                let o = &mut row[lx * k..(lx + 1) * k];
+                for y in ly * s..y1 {
+                    for x in lx * s..x1 {
+                        for c in 0..k {
+                            o[c] += data[(y * w + x) * k + c];
+                        }
+                    }
+                }
+                let inv = 1.0 / ((y1 - ly * s) * (x1 - lx * s)) as f32;
+                o.iter_mut().for_each(|v| *v *= inv);
+            }
+        });
+    out
+}
+
+/// Bilinear sample of the k-channel low-res grid at full-res pixel (x, y): low-res pixel j has
+/// its centre at full-res coordinate (j + 0.5)·s − 0.5 (so s = 1 is the identity).
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn bilinear(
+    g: &[f32],
+    lw: usize,
+    lh: usize,
+    k: usize,
+    s: usize,
+    x: usize,
+    y: usize,
+    out: &mut [f32],
+) {
+    let fx = ((x as f32 + 0.5) / s as f32 - 0.5).clamp(0.0, (lw - 1) as f32);
+    let fy = ((y as f32 + 0.5) / s as f32 - 0.5).clamp(0.0, (lh - 1) as f32);
+    let (x0, y0) = (fx as usize, fy as usize);
+    let (x1, y1) = ((x0 + 1).min(lw - 1), (y0 + 1).min(lh - 1));
+    let (tx, ty) = (fx - x0 as f32, fy - y0 as f32);
+    let at = |xx: usize, yy: usize| &g[(yy * lw + xx) * k..(yy * lw + xx + 1) * k];
+    let (a, b, c, d) = (at(x0, y0), at(x1, y0), at(x0, y1), at(x1, y1));
+    for i in 0..k {
+        let top = a[i] + (b[i] - a[i]) * tx;
+        let bot = c[i] + (d[i] - c[i]) * tx;
+        out[i] = top + (bot - top) * ty;
+    }
+}
+
+/// q_c = Σ_i a_ci I_i + b_c, with the averaged coefficients supplied per pixel by `coef`.
+fn apply<F>(guide: &[f32], w: usize, h: usize, d: usize, coef: F) -> Image
+where
+    F: Fn(usize, usize, &mut [f32]) + Sync,
+{
+    let mut out = Image::new(w, h, 3, 0.0);
+    let k2 = 3 * d + 3;
+    out.data.par_chunks_mut(3 * w).enumerate().for_each_init(
+        || vec![0.0f32; k2],
+        |ab, (y, row)| {
+            for x in 0..w {
+                coef(x, y, ab);
+                let gi = &guide[(y * w + x) * d..(y * w + x + 1) * d];
+                for c in 0..3 {
+                    let mut q = ab[3 * d + c];
+                    for i in 0..d {
+                        q += ab[c * d + i] * gi[i];
+                    }
+                    row[x * 3 + c] = q;
+                }
+            }
+        },
+    );
+    out
+}
+
+/// Window-averaged coefficients [a_0 (d), a_1 (d), a_2 (d), b (3)] per pixel.
+fn coefficients(
+    guide: &[f32],
+    p: &[f32],
+    eps: &[f32],
+    w: usize,
+    h: usize,
+    d: usize,
+    r: usize,
+) -> Vec<f32> {
+    match d {
+        1 => coefficients_d::<1>(guide, p, eps, w, h, r),
+        2 => coefficients_d::<2>(guide, p, eps, w, h, r),
+        3 => coefficients_d::<3>(guide, p, eps, w, h, r),
+        4 => coefficients_d::<4>(guide, p, eps, w, h, r),
+        5 => coefficients_d::<5>(guide, p, eps, w, h, r),
+        6 => coefficients_d::<6>(guide, p, eps, w, h, r),
+        7 => coefficients_d::<7>(guide, p, eps, w, h, r),
+        _ => coefficients_d::<8>(guide, p, eps, w, h, r),
+    }
+}
+
+/// Monomorphised per guide dimension so the d×d solve is unrolled.
+fn coefficients_d<const D: usize>(
+    guide: &[f32],
+    p: &[f32],
+    eps: &[f32],
+    w: usize,
+    h: usize,
+    r: usize,
+) -> Vec<f32> {
+    // Stage 1 channels: I (D), I_i·I_j for i ≤ j (D(D+1)/2), p (3), I_i·p_c (3D).
+    let nsym = D * (D + 1) / 2;
+    let k1 = D + nsym + 3 + 3 * D;
+    let mut prod = vec![0.0f32; w * h * k1];
+    prod.par_chunks_mut(w * k1)
+        .enumerate()
+        .for_each(|(y, row)| {
+            for x in 0..w {
+                let i = y * w + x;
+                let g = &guide[i * D..(i + 1) * D];
+                let pc = &p[i * 3..i * 3 + 3];
+                let o = &mut row[x * k1..(x + 1) * k1];
+                o[..D].copy_from_slice(g);
+                let mut t = D;
+                for a in 0..D {
+                    for b in a..D {
+                        o[t] = g[a] * g[b];
+                        t += 1;
+                    }
+                }
+                o[t..t + 3].copy_from_slice(pc);
+                t += 3;
+                for c in 0..3 {
+                    for a in 0..D {
+                        o[t + c * D + a] = g[a] * pc[c];
+                    }
+                }
+            }
+        });
+    let m = box_mean(&prod, w, h, k1, r);
+    drop(prod);
+    let k2 = 3 * D + 3;
+    let mut ab = vec![0.0f32; w * h * k2];
+    ab.par_chunks_mut(w * k2).enumerate().for_each(|(y, row)| {
+        for x in 0..w {
+            let mm = &m[(y * w + x) * k1..(y * w + x + 1) * k1];
+            let mut mi = [0.0f32; D];
+            mi.copy_from_slice(&mm[..D]);
+            let mut sigma = [[0.0f32; D]; D];
+            let mut t = D;
+            for a in 0..D {
+                for b in a..D {
+                    let v = mm[t] - mi[a] * mi[b];
+                    sigma[a][b] = v;
+                    sigma[b][a] = v;
+                    t += 1;
+                }
+                sigma[a][a] += eps[a];
+            }
+            let mp = [mm[t], mm[t + 1], mm[t + 2]];
+            t += 3;
+            let mut cov = [[0.0f32; D]; 3];
+            for c in 0..3 {
+                for a in 0..D {
+                    cov[c][a] = mm[t + c * D + a] - mi[a] * mp[c];
+                }
+            }
+            let coef = solve_spd3::<D>(&sigma, &cov);
+            let o = &mut row[x * k2..(x + 1) * k2];
+            for c in 0..3 {
+                let mut b = mp[c];
+                for a in 0..D {
+                    o[c * D + a] = coef[c][a];
+                    b -= coef[c][a] * mi[a];
+                }
+                o[3 * D + c] = b;
+            }
+        }
+    });
+    drop(m);
+    box_mean(&ab, w, h, k2, r)
+}
