@@ -129,17 +129,30 @@ def cornell_dict(mi, width: int, height: int, spp: int, max_depth: int, rfilter:
     return d
 
 
-def render_once(mi, scene, seed: int = 0, spp: int | None = None):
-    """Render and force evaluation; returns (numpy HxWx3 float32, seconds)."""
+def _cpu_seconds() -> float:
+    """User+system CPU time of this process (all threads)."""
+    import resource
+
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+
+def render_once(mi, scene, seed: int = 0, spp: int | None = None, cpu: list | None = None):
+    """Render and force evaluation; returns (numpy HxWx3 float32, wall seconds).
+
+    If `cpu` is a list, the render's process CPU seconds are appended to it."""
     import drjit as dr
     import numpy as np
 
+    c0 = _cpu_seconds()
     t0 = time.perf_counter()
     img = mi.render(scene, seed=seed, spp=spp or 0)
     dr.eval(img)
     dr.sync_thread()
     arr = np.array(img, dtype=np.float32)
     dt = time.perf_counter() - t0
+    if cpu is not None:
+        cpu.append(_cpu_seconds() - c0)
     return arr[..., :3], dt
 
 
@@ -175,13 +188,17 @@ def machine_info() -> dict:
 def bench_mitsuba(mi, width, height, spp, max_depth, runs):
     scene = mi.load_dict(cornell_dict(mi, width, height, spp, max_depth))
     img, warm = render_once(mi, scene, seed=0)
-    times = []
+    times, cpu = [], []
     for i in range(runs):
-        img, dt = render_once(mi, scene, seed=i + 1)
+        img, dt = render_once(mi, scene, seed=i + 1, cpu=cpu)
         times.append(dt)
     med = statistics.median(times)
     n = width * height * spp
     return {
+        "cpu_s": cpu,
+        # samples per CPU-second x cores: what an idle machine would give if Mitsuba
+        # scaled perfectly; a sanity check when other processes share the cores.
+        "samples_per_cpu_s": n / statistics.median(cpu),
         "warmup_s": warm,
         "times_s": times,
         "median_s": med,
@@ -278,6 +295,7 @@ def write_reference(mi, args) -> None:
         scene = mi.load_dict(cornell_dict(mi, width, height, chunk, depth))
         _, warm = render_once(mi, scene, seed=10_000)  # JIT warm-up, not part of the result
         acc = np.zeros((height, width, 3), dtype=np.float64)
+        load_before = os.getloadavg()
         t0 = time.perf_counter()
         for i in range(passes):
             img, _ = render_once(mi, scene, seed=i)  # independent sampler, distinct seeds
@@ -317,6 +335,8 @@ def write_reference(mi, args) -> None:
             "render_passes": f"{passes} x {chunk} spp (seeds 0..{passes - 1}), averaged",
             "warmup_seconds": warm,
             "samples_per_s": n / secs,
+            "loadavg_1_5_15_before": [round(x, 2) for x in load_before],
+            "loadavg_1_5_15_after": [round(x, 2) for x in os.getloadavg()],
             "machine": machine_info(),
         }
         print(json.dumps({k: v for k, v in e.items() if k != "machine"}, indent=1), flush=True)
@@ -376,7 +396,11 @@ def main() -> None:
     mb = bench_mitsuba(mi, width, height, args.spp, args.max_depth, args.runs)
     print(f"warm-up render (incl. JIT/kernel-cache): {mb['warmup_s']:.3f} s = {mb['warmup_samples_per_s'] / 1e6:.3f} M samples/s")
     print("timed renders: " + ", ".join(f"{t:.3f} s" for t in mb["times_s"]))
-    print(f"median: {mb['median_s']:.3f} s = {mb['samples_per_s'] / 1e6:.3f} M samples/s")
+    print(f"median: {mb['median_s']:.3f} s = {mb['samples_per_s'] / 1e6:.3f} M samples/s"
+          f"   (load average now: {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores)")
+    print(f"CPU time per render: " + ", ".join(f"{t:.3f} s" for t in mb["cpu_s"])
+          + f" -> {mb['samples_per_cpu_s'] / 1e6:.3f} M samples per CPU-second"
+          + f" (x {os.cpu_count()} cores = {mb['samples_per_cpu_s'] * os.cpu_count() / 1e6:.3f} M/s if the machine were idle)")
     m_img = mb["image"]
     if args.mitsuba_out:
         mi.Bitmap(m_img, mi.Bitmap.PixelFormat.RGB).write(args.mitsuba_out)
