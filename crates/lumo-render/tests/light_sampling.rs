@@ -1,0 +1,217 @@
+//! χ² goodness-of-fit of light sampling: directions drawn by `Lights::sample` from a point must
+//! follow the density that `environment_pdf` and `triangle_pdf` report (the densities MIS uses).
+
+mod common;
+
+use std::f32::consts::PI;
+use std::sync::Arc;
+
+use lumo_image::Image;
+use lumo_render::lights::Lights;
+use lumo_scene::shapes::rectangle;
+use lumo_scene::{EnvMap, Light, Mat4, Material, Vec2, Vec3};
+
+/// An environment map with a bright patch, a dim gradient and a black band, so importance
+/// sampling has structure to get wrong.
+fn test_envmap() -> EnvMap {
+    let (w, h) = (64, 32);
+    let mut data = Vec::with_capacity(w * h * 3);
+    for y in 0..h {
+        for x in 0..w {
+            let mut v = 0.2 + 0.8 * x as f32 / w as f32;
+            if (20..26).contains(&x) && (8..12).contains(&y) {
+                v = 60.0;
+            }
+            if (24..28).contains(&y) {
+                v = 0.0;
+            }
+            data.extend_from_slice(&[v, 0.5 * v, 0.25 * v]);
+        }
+    }
+    EnvMap {
+        image: Arc::new(Image::from_vec(w, h, 3, data)),
+        scale: 1.0,
+        to_world: Mat4::from_rotation_y(0.7),
+    }
+}
+
+fn dir(cos_theta: f32, phi: f32) -> Vec3 {
+    let s = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
+    Vec3::new(s * phi.cos(), s * phi.sin(), cos_theta)
+}
+
+/// Möller–Trumbore; the hit distance of a ray with a triangle.
+fn hit_triangle(o: Vec3, d: Vec3, a: Vec3, b: Vec3, c: Vec3) -> Option<f32> {
+    let (e1, e2) = (b - a, c - a);
+    let p = d.cross(e2);
+    let det = e1.dot(p);
+    if det.abs() < 1e-12 {
+        return None;
+    }
+    let s = o - a;
+    let u = s.dot(p) / det;
+    let q = s.cross(e1);
+    let v = d.dot(q) / det;
+    let t = e2.dot(q) / det;
+    (u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t > 0.0).then_some(t)
+}
+
+/// Total density of `lights.sample` producing direction `d` from `p`, summed over every light
+/// that can produce it (a one-sample mixture).
+fn total_pdf(scene: &lumo_scene::Scene, lights: &Lights, p: Vec3, d: Vec3) -> f32 {
+    let mut pdf = lights.environment_pdf(d);
+    for (ii, inst) in scene.instances.iter().enumerate() {
+        let mesh = &scene.meshes[inst.mesh];
+        for (ti, t) in mesh.indices.iter().enumerate() {
+            let v = |i: u32| inst.transform.transform_point3(mesh.positions[i as usize]);
+            let (a, b, c) = (v(t[0]), v(t[1]), v(t[2]));
+            // Emitters are one-sided: sampling rejects points whose front faces away from p.
+            let facing = (b - a).cross(c - a).dot(p - a) > 0.0;
+            if let (true, Some(dist)) = (facing, hit_triangle(p, d, a, b, c)) {
+                pdf += lights.triangle_pdf(ii as u32, ti as u32, p, p + d * dist);
+            }
+        }
+    }
+    pdf
+}
+
+fn p_value(stat: f64, dof: f64) -> f64 {
+    // Wilson–Hilferty: (χ²/k)^(1/3) is close to normal.
+    let z = ((stat / dof).powf(1.0 / 3.0) - (1.0 - 2.0 / (9.0 * dof))) / (2.0 / (9.0 * dof)).sqrt();
+    0.5 * libm_erfc(z / std::f64::consts::SQRT_2)
+}
+
+fn libm_erfc(x: f64) -> f64 {
+    // Abramowitz–Stegun 7.1.26 on |x|, accurate to 1.5e-7: enough for a p-value threshold.
+    let z = x.abs();
+    let t = 1.0 / (1.0 + 0.327_591_1 * z);
+    let y = t
+        * (0.254_829_592
+            + t * (-0.284_496_736
+                + t * (1.421_413_741 + t * (-1.453_152_027 + t * 1.061_405_429))))
+        * (-z * z).exp();
+    if x >= 0.0 {
+        y
+    } else {
+        2.0 - y
+    }
+}
+
+/// Bins `n` light samples from `p` over the sphere and compares with the integrated density.
+fn chi2(scene: &lumo_scene::Scene, p: Vec3, n: usize) -> f64 {
+    let lights = Lights::new(scene);
+    let (nt, np) = (24usize, 48usize);
+    let mut observed = vec![0f64; nt * np];
+    let mut state = 0x9e37_79b9_7f4a_7c15u64;
+    let mut next = || {
+        state = state
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        ((state >> 40) as f32) / (1u64 << 24) as f32
+    };
+    for _ in 0..n {
+        let (a, b, c) = (next(), next(), next());
+        if let Some(s) = lights.sample(p, a, Vec2::new(b, c)) {
+            assert!(s.pdf > 0.0, "area and environment samples carry a density");
+            let cos = s.wi.z.clamp(-1.0, 1.0);
+            let mut phi = s.wi.y.atan2(s.wi.x);
+            if phi < 0.0 {
+                phi += 2.0 * PI;
+            }
+            let i = (((cos + 1.0) * 0.5 * nt as f32) as usize).min(nt - 1);
+            let j = ((phi / (2.0 * PI) * np as f32) as usize).min(np - 1);
+            observed[i * np + j] += 1.0;
+        }
+    }
+    let sub = 24;
+    let mut expected = vec![0f64; nt * np];
+    for i in 0..nt {
+        for j in 0..np {
+            let mut acc = 0.0f64;
+            for a in 0..sub {
+                for b in 0..sub {
+                    let c = -1.0 + 2.0 * (i as f32 + (a as f32 + 0.5) / sub as f32) / nt as f32;
+                    let phi = 2.0 * PI * (j as f32 + (b as f32 + 0.5) / sub as f32) / np as f32;
+                    acc += total_pdf(scene, &lights, p, dir(c, phi)) as f64;
+                }
+            }
+            let cell = (2.0 / nt as f64) * (2.0 * std::f64::consts::PI / np as f64);
+            expected[i * np + j] = acc / (sub * sub) as f64 * cell * n as f64;
+        }
+    }
+    let total_expected: f64 = expected.iter().sum();
+    let total_observed: f64 = observed.iter().sum();
+    assert!(
+        (total_expected / total_observed - 1.0).abs() < 0.02,
+        "density integrates to {total_expected} samples, sampling produced {total_observed}"
+    );
+    let (mut stat, mut dof, mut pool_o, mut pool_e) = (0.0f64, 0usize, 0.0f64, 0.0f64);
+    for k in 0..nt * np {
+        if expected[k] < 5.0 {
+            pool_o += observed[k];
+            pool_e += expected[k];
+            if pool_e >= 5.0 {
+                stat += (pool_o - pool_e).powi(2) / pool_e;
+                dof += 1;
+                (pool_o, pool_e) = (0.0, 0.0);
+            }
+        } else {
+            stat += (observed[k] - expected[k]).powi(2) / expected[k];
+            dof += 1;
+        }
+    }
+    assert!(dof > 10, "too few populated cells ({dof})");
+    p_value(stat, (dof - 1) as f64)
+}
+
+fn scene_with_lights(env: bool, constant: bool, area: bool) -> lumo_scene::Scene {
+    let mut scene = common::empty_scene(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO);
+    if env {
+        scene.lights.push(Light::Environment(test_envmap()));
+    }
+    if constant {
+        scene.lights.push(Light::Constant {
+            radiance: Vec3::splat(0.3),
+        });
+    }
+    if area {
+        let bright =
+            scene.add_material(Material::diffuse("l1", Vec3::ZERO).with_emission(Vec3::splat(8.0)));
+        let dim = scene.add_material(
+            Material::diffuse("l2", Vec3::ZERO).with_emission(Vec3::new(1.0, 2.0, 0.5)),
+        );
+        scene.add_mesh(rectangle(
+            &(Mat4::from_translation(Vec3::new(0.3, 0.2, 1.5))
+                * Mat4::from_rotation_x(0.4)
+                * Mat4::from_scale(Vec3::splat(0.6))),
+            bright,
+        ));
+        scene.add_mesh(rectangle(
+            &(Mat4::from_translation(Vec3::new(-1.0, -0.5, -0.8))
+                * Mat4::from_rotation_y(2.0)
+                * Mat4::from_scale(Vec3::new(1.2, 0.4, 1.0))),
+            dim,
+        ));
+    }
+    scene
+}
+
+#[test]
+fn light_sampling_follows_its_pdf() {
+    let cases = [
+        ("envmap", scene_with_lights(true, false, false)),
+        ("envmap+constant", scene_with_lights(true, true, false)),
+        ("constant", scene_with_lights(false, true, false)),
+        ("area lights", scene_with_lights(false, false, true)),
+        ("envmap+area lights", scene_with_lights(true, false, true)),
+    ];
+    let p = Vec3::new(0.05, -0.1, 0.2);
+    let mut failures = vec![];
+    for (name, scene) in &cases {
+        let pv = chi2(scene, p, 300_000);
+        if pv < 0.01 / cases.len() as f64 {
+            failures.push(format!("{name}: p = {pv:.2e}"));
+        }
+    }
+    assert!(failures.is_empty(), "χ² rejects: {failures:?}");
+}
