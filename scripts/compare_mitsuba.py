@@ -10,7 +10,7 @@ What it does
     kernel, or loads it from its on-disk cache); then --runs timed renders,
     whose median gives Mitsuba's samples/s. Both timings are printed.
 (b) Runs lumo:
-        cargo run --release -p lumo-cli -- render cornell --spp N \
+        cargo run --release -p lumo-cli -- render cornell --pipeline none --spp N \
             --max-depth D --size WxH -o /tmp/lumo_cornell.exr
     (or a prebuilt binary via --lumo-bin) and parses its final line, e.g.
         done in 1.23 s · 3.4 M samples/s · 12.3 M rays/s
@@ -226,6 +226,7 @@ def parse_samples_per_s(text: str) -> float | None:
 def run_lumo(args, width, height, out_path: Path):
     common = [
         "render", "cornell",
+        "--pipeline", "none",
         "--spp", str(args.spp),
         "--max-depth", str(args.max_depth),
         "--size", f"{width}x{height}",

@@ -1,8 +1,11 @@
 //! The `lumo` command.
 
 mod bench_cmd;
+mod compare_cmd;
 mod denoise;
+mod pipeline_args;
 mod render_cmd;
+mod serve_cmd;
 
 use clap::{Parser, Subcommand};
 
@@ -22,6 +25,10 @@ enum Command {
     Denoise(denoise::DenoiseArgs),
     /// Benchmarks with stated inputs and machine.
     Bench(bench_cmd::BenchArgs),
+    /// Error metrics (MSE, relMSE, SMAPE, PSNR, SSIM, FLIP) of images against a reference.
+    Compare(compare_cmd::CompareArgs),
+    /// Start a progressive render server and its web viewer (prints the URL to open).
+    Serve(serve_cmd::ServeArgs),
 }
 
 fn main() {
@@ -30,6 +37,8 @@ fn main() {
         Command::Render(args) => render_cmd::run(args),
         Command::Denoise(args) => denoise::run(args),
         Command::Bench(args) => bench_cmd::run(args),
+        Command::Compare(args) => compare_cmd::run(args),
+        Command::Serve(args) => serve_cmd::run(args),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");

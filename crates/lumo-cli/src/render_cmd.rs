@@ -6,34 +6,50 @@ use std::time::Instant;
 use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use lumo_image::{write_image, ImageFormat};
-use lumo_render::{render, PathSettings, RenderScene, RenderSettings};
+use lumo_render::{run_pipeline, PathSettings, Pipeline, RenderScene, RenderSettings};
+use lumo_scene::load::{FileSettings, LoadOptions};
 use lumo_scene::{builtin_scene, Scene, BUILTIN_SCENES};
 
 /// Arguments of `lumo render`.
 #[derive(clap::Args, Debug)]
 pub struct RenderArgs {
-    /// Built-in scene name (see --list).
+    /// Built-in scene name (see --list) or scene file: Mitsuba 3 .xml, glTF .gltf/.glb, .obj,
+    /// .ply (see docs/scenes.md).
     #[arg(default_value = "cornell")]
     pub scene: String,
+    /// Set a Mitsuba `$name` parameter (overrides the file's `<default>`); repeatable.
+    #[arg(short = 'D', long = "define", value_name = "NAME=VALUE", value_parser = parse_define)]
+    pub defines: Vec<(String, String)>,
+    /// Treat scene-file warnings (unsupported or approximated features) as errors.
+    #[arg(long)]
+    pub strict: bool,
+    /// glTF: render from camera N (numbered from 0) [default: the first].
+    #[arg(long)]
+    pub camera: Option<usize>,
+    /// glTF: pose the animated nodes at time T seconds [default: the rest pose].
+    #[arg(long, value_name = "T")]
+    pub time: Option<f32>,
     /// List the built-in scenes and exit.
     #[arg(long)]
     pub list: bool,
-    /// Samples per pixel [default: the scene's, 16 for the built-ins].
+    /// Samples per pixel [default: the scene file's; else 4 with a filtering pipeline, and with
+    /// --pipeline none the scene's, 16 for the built-ins].
     #[arg(long)]
     pub spp: Option<u32>,
     /// Longest path depth, Mitsuba's convention: 1 = emitters only, 2 = direct light,
     /// 3 = one indirect bounce, … [default: the scene's, 8 for the built-ins].
     #[arg(long)]
     pub max_depth: Option<u32>,
-    /// Depth from which Russian roulette may end paths.
-    #[arg(long, default_value_t = 5)]
-    pub rr_depth: u32,
+    /// Depth from which Russian roulette may end paths [default: the scene's, 5].
+    #[arg(long)]
+    pub rr_depth: Option<u32>,
     /// Image size as WIDTHxHEIGHT [default: the scene's, 512x512 for the built-ins].
     #[arg(long, value_parser = parse_size)]
     pub size: Option<(usize, usize)>,
-    /// Random seed; the same seed gives the same image on any number of threads.
-    #[arg(long, default_value_t = 0)]
-    pub seed: u32,
+    /// Random seed; the same seed gives the same image on any number of threads
+    /// [default: the scene's, 0].
+    #[arg(long)]
+    pub seed: Option<u32>,
     /// Worker threads [default: all cores].
     #[arg(long)]
     pub threads: Option<usize>,
@@ -44,6 +60,9 @@ pub struct RenderArgs {
     /// variance) as EXR files into this directory.
     #[arg(long)]
     pub aovs: Option<PathBuf>,
+    /// The filtered-GI pipeline and its options.
+    #[command(flatten)]
+    pub pipeline: crate::pipeline_args::PipelineArgs,
 }
 
 /// Parses `WxH`.
@@ -60,8 +79,26 @@ pub fn parse_size(s: &str) -> Result<(usize, usize), String> {
     Ok((w, h))
 }
 
-/// Loads a scene by built-in name (scene files are read by the loaders' `load_scene`).
+/// Parses `NAME=VALUE` for `-D`.
+pub fn parse_define(s: &str) -> Result<(String, String), String> {
+    match s.split_once('=') {
+        Some((name, value)) if !name.trim().is_empty() => {
+            Ok((name.trim().to_string(), value.to_string()))
+        }
+        _ => Err(format!(
+            "invalid definition {s:?}: expected NAME=VALUE, e.g. spp=64"
+        )),
+    }
+}
+
+/// Loads a built-in scene by name, or a scene file with default options.
 pub fn load_scene(name: &str) -> Result<Scene> {
+    Ok(load_scene_with(name, &LoadOptions::default())?.0)
+}
+
+/// Loads a built-in scene by name or a scene file (.xml, .gltf, .glb, .obj, .ply), printing
+/// the loader's warnings to stderr; returns the scene and the render settings the file asks for.
+pub fn load_scene_with(name: &str, options: &LoadOptions) -> Result<(Scene, FileSettings)> {
     let path = Path::new(name);
     if path.extension().is_some() || name.contains('/') {
         if !path.exists() {
@@ -70,13 +107,13 @@ pub fn load_scene(name: &str) -> Result<Scene> {
                 builtin_names()
             );
         }
-        bail!(
-            "{name}: reading scene files is not supported in this version; render a built-in \
-             scene instead ({})",
-            builtin_names()
-        );
+        let loaded = lumo_scene::load::load_scene(path, options)?;
+        for w in &loaded.warnings {
+            eprintln!("{w}");
+        }
+        return Ok((loaded.scene, loaded.settings));
     }
-    Ok(builtin_scene(name)?)
+    Ok((builtin_scene(name)?, FileSettings::default()))
 }
 
 fn builtin_names() -> String {
@@ -134,7 +171,13 @@ pub fn run(args: RenderArgs) -> Result<()> {
         }
         return Ok(());
     }
-    let scene = load_scene(&args.scene)?;
+    let options = LoadOptions {
+        defines: args.defines.clone(),
+        strict: args.strict,
+        camera: args.camera,
+        time: args.time,
+    };
+    let (scene, file) = load_scene_with(&args.scene, &options)?;
     let outputs: Vec<PathBuf> = match &args.output {
         Some(p) => vec![p.clone()],
         None => vec![
@@ -156,17 +199,28 @@ pub fn run(args: RenderArgs) -> Result<()> {
     if args.max_depth == Some(0) {
         bail!("--max-depth must be at least 1 (1 = emitters seen directly)");
     }
+    // Command-line options win over the scene file's settings, which win over the defaults.
     let (width, height) = args
         .size
+        .or(file.size)
         .unwrap_or((scene.defaults.width, scene.defaults.height));
     let settings = RenderSettings {
         width,
         height,
-        spp: args.spp.unwrap_or(scene.defaults.spp),
-        seed: args.seed,
+        spp: args.spp.or(file.spp).unwrap_or(
+            if args.pipeline.pipeline == Pipeline::None {
+                scene.defaults.spp
+            } else {
+                crate::pipeline_args::FILTERED_DEFAULT_SPP
+            },
+        ),
+        seed: args.seed.or(file.seed).unwrap_or(0),
         path: PathSettings {
-            max_depth: args.max_depth.unwrap_or(scene.defaults.max_depth),
-            rr_depth: args.rr_depth,
+            max_depth: args
+                .max_depth
+                .or(file.max_depth)
+                .unwrap_or(scene.defaults.max_depth),
+            rr_depth: args.rr_depth.or(file.rr_depth).unwrap_or(5),
             ..Default::default()
         },
     };
@@ -179,26 +233,41 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let name = scene.name.clone();
     let build_start = Instant::now();
     let rs = pool.install(|| RenderScene::new(scene))?;
+    let pipeline = args.pipeline.pipeline;
     eprintln!(
-        "{name}: {tris} triangles (BVH {:.0} ms), {width}x{height}, {} spp, max depth {}, {threads} threads",
+        "{name}: {tris} triangles (BVH {:.0} ms), {width}x{height}, {} spp, max depth {}, pipeline {pipeline}, {threads} threads",
         build_start.elapsed().as_secs_f64() * 1e3,
         settings.spp,
         settings.path.max_depth
     );
-    let bar = ProgressBar::new(height as u64).with_style(
-        ProgressStyle::with_template("{bar:40} {pos}/{len} rows  {elapsed} (eta {eta})")
+    let bar = ProgressBar::new(1000).with_style(
+        ProgressStyle::with_template("{bar:40} {percent:>3}%  {elapsed} (eta {eta})")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let start = Instant::now();
-    let (frame, stats) =
-        pool.install(|| render(&rs, &settings, &|rows| bar.set_position(rows as u64)));
+    let out = pool.install(|| {
+        run_pipeline(
+            &rs,
+            pipeline,
+            &settings,
+            &args.pipeline.options(),
+            &|f| bar.set_position((f * 1000.0) as u64),
+        )
+    })?;
     let secs = start.elapsed().as_secs_f64();
     bar.finish_and_clear();
+    let stats = out.stats;
     for o in &outputs {
-        write_image(o, &frame.color)?;
+        write_image(o, &out.image)?;
     }
     if let Some(dir) = &args.aovs {
-        frame.write_aovs(dir)?;
+        out.frame.write_aovs(dir)?;
+        for (name, plane) in &out.planes {
+            write_image(&dir.join(format!("{name}.exr")), plane)?;
+        }
+    }
+    if pipeline != Pipeline::None {
+        eprintln!("pipeline {pipeline}: {}", out.timings);
     }
     let written: Vec<String> = outputs.iter().map(|p| p.display().to_string()).collect();
     println!(

@@ -7,11 +7,20 @@ fn is_background(d: f32) -> bool {
     !(d.is_finite() && d > 0.0)
 }
 
+/// Floor δ of each similarity term (see [`most_similar`]).
+pub const LOOKUP_FLOOR: f32 = 0.01;
+
 /// Index (0..4) of the candidate most similar to the sample (`normal`, `depth`):
 /// `s_i = sn_i · sd_i`, `sn_i = 1 − ‖Na − Ni‖ / max_j ‖Na − Nj‖`,
 /// `sd_i = 1 − |Da − Di| / max_j |Da − Dj|`. A term whose max is 0 (all candidates equal in it)
 /// is 1 for everyone. Background (depth 0 or not finite) only matches background; when no
-/// candidate matches the sample's class, candidate 0 is returned. Ties go to the lowest index.
+/// candidate matches the sample's class, candidate 0 is returned; ties go to the lowest index.
+///
+/// One deviation from the paper: each term is floored at `LOOKUP_FLOOR` before the product
+/// (`s_i = (δ + (1−δ)·sn_i)·(δ + (1−δ)·sd_i)`). With the paper's plain product the worst
+/// candidate in each term scores exactly 0, so at a box corner the right candidate (same
+/// normal, largest depth difference) and a wrong one (other normal) both score ≈ 0 and
+/// rounding picks; the floor lets the other term decide.
 pub fn most_similar(
     normal: [f32; 3],
     depth: f32,
@@ -44,6 +53,7 @@ pub fn most_similar(
             max_d = max_d.max(dd[i]);
         }
     }
+    let floor = |t: f32| LOOKUP_FLOOR + (1.0 - LOOKUP_FLOOR) * t;
     let mut best = 0;
     let mut best_s = f32::NEG_INFINITY;
     for i in 0..4 {
@@ -57,7 +67,7 @@ pub fn most_similar(
         } else {
             1.0
         };
-        let s = if same[i] { sn * sd } else { -1.0 };
+        let s = if same[i] { floor(sn) * floor(sd) } else { -1.0 };
         if s > best_s {
             best_s = s;
             best = i;

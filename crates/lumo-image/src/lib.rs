@@ -6,6 +6,7 @@ mod error;
 mod exr_io;
 mod image;
 mod io;
+pub mod metrics;
 mod pfm;
 mod png_io;
 

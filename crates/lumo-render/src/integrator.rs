@@ -45,6 +45,9 @@ pub struct FirstHit {
     pub depth: f32,
     /// Reflectance used for demodulation (zero on a miss).
     pub albedo: Vec3,
+    /// Radiance emitted towards the camera at the hit (the environment's on a miss): pipelines
+    /// keep emitters out of the filters, which would otherwise smear them over their neighbours.
+    pub emitted: Vec3,
 }
 
 /// Radiance carried by one camera path, split by depth.
@@ -109,6 +112,7 @@ pub fn trace_path(
             if let Some(fh) = first_hit.take() {
                 *fh = FirstHit {
                     depth: f32::INFINITY,
+                    emitted: rs.lights.environment(dir),
                     ..Default::default()
                 };
             }
@@ -116,6 +120,7 @@ pub fn trace_path(
         };
         let s = rs.surface(&hit, origin, dir);
         let bsdf = rs.bsdf(&s);
+        let le = rs.emission(&s, dir);
         if let Some(fh) = first_hit.take() {
             let n = s.frame.n;
             *fh = FirstHit {
@@ -123,9 +128,9 @@ pub fn trace_path(
                 position: s.p,
                 depth: hit.t,
                 albedo: bsdf.albedo(),
+                emitted: le,
             };
         }
-        let le = rs.emission(&s, dir);
         if le != Vec3::ZERO && (depth == 1 || settings.bsdf_emission || prev_pdf.is_none()) {
             let w = match prev_pdf {
                 Some(pdf) if settings.nee => power_heuristic(

@@ -9,12 +9,18 @@ pub mod distribution;
 mod frame;
 pub mod geometry;
 pub mod integrator;
+pub mod light_tracer;
 pub mod lights;
+pub mod pipeline;
 mod render;
 mod render_scene;
 pub mod sampler;
 
 pub use frame::{Frame, AOV_NAMES};
 pub use integrator::{trace_path, FirstHit, PathRadiance, PathSettings};
-pub use render::{render, render_pixel, PixelEstimate, RenderSettings, RenderStats};
+pub use pipeline::{run_pipeline, Pipeline, PipelineOptions, PipelineOutput, Timings};
+pub use render::{
+    frame_from_estimates, map_pixels, render, render_pixel, trace_sample, PixelEstimate,
+    RenderSettings, RenderStats,
+};
 pub use render_scene::{RenderScene, Surface};

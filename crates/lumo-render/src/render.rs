@@ -9,7 +9,7 @@ use rayon::prelude::*;
 
 use crate::camera::CameraRays;
 use crate::frame::Frame;
-use crate::integrator::{trace_path, FirstHit, PathSettings};
+use crate::integrator::{trace_path, FirstHit, PathRadiance, PathSettings};
 use crate::render_scene::RenderScene;
 use crate::sampler::PixelSampler;
 
@@ -52,6 +52,32 @@ pub struct PixelEstimate {
     pub rays: u64,
 }
 
+/// Traces camera sample `index` of pixel (x, y): sample 0 goes through the pixel centre (the
+/// guided-filter paper's guide ray, §3.2), the others through a jittered point. Returns the
+/// path's radiance and the sample's offset inside the pixel. `first` receives the first hit.
+pub fn trace_sample(
+    rs: &RenderScene,
+    camera: &CameraRays,
+    settings: &RenderSettings,
+    (x, y): (usize, usize),
+    index: u32,
+    first: Option<&mut FirstHit>,
+) -> (PathRadiance, Vec2) {
+    let mut sampler = PixelSampler::new(x as u32, y as u32, index, settings.seed);
+    let jitter = sampler.next_2d();
+    let offset = if index == 0 { Vec2::splat(0.5) } else { jitter };
+    let dir = camera.direction(Vec2::new(x as f32, y as f32) + offset);
+    let r = trace_path(
+        rs,
+        camera.origin(),
+        dir,
+        &mut sampler,
+        &settings.path,
+        first,
+    );
+    (r, offset)
+}
+
 /// Renders samples `0..spp` of pixel (x, y): a pure function of its arguments.
 pub fn render_pixel(
     rs: &RenderScene,
@@ -64,24 +90,12 @@ pub fn render_pixel(
     let (mut sum_d, mut sum_i) = (glam::DVec3::ZERO, glam::DVec3::ZERO);
     let (mut mean, mut m2) = (0.0f64, 0.0f64);
     for i in 0..settings.spp {
-        let mut sampler = PixelSampler::new(x as u32, y as u32, i, settings.seed);
-        let jitter = sampler.next_2d();
-        // Sample 0 is the guide ray through the pixel centre (guided-filter paper §3.2).
-        let offset = if i == 0 { Vec2::splat(0.5) } else { jitter };
-        let dir = camera.direction(Vec2::new(x as f32, y as f32) + offset);
         let first = if i == 0 {
             Some(&mut est.first_hit)
         } else {
             None
         };
-        let r = trace_path(
-            rs,
-            camera.origin(),
-            dir,
-            &mut sampler,
-            &settings.path,
-            first,
-        );
+        let (r, _) = trace_sample(rs, camera, settings, (x, y), i, first);
         est.rays += r.rays as u64;
         sum_d += r.direct.as_dvec3();
         sum_i += r.indirect.as_dvec3();
@@ -101,6 +115,32 @@ pub fn render_pixel(
     est
 }
 
+/// Evaluates `f(x, y)` for every pixel of a `width`×`height` image, rows in parallel, and
+/// returns the results in row-major order. `progress` gets the number of rows finished. This
+/// is the crate's one place that spreads work over threads; results do not depend on how.
+pub fn map_pixels<T, F>(
+    width: usize,
+    height: usize,
+    progress: &(dyn Fn(usize) + Sync),
+    f: F,
+) -> Vec<T>
+where
+    T: Send,
+    F: Fn(usize, usize) -> T + Sync,
+{
+    let done = AtomicU64::new(0);
+    let rows: Vec<Vec<T>> = (0..height)
+        .into_par_iter()
+        .map(|y| {
+            let row = (0..width).map(|x| f(x, y)).collect();
+            let finished = done.fetch_add(1, Ordering::Relaxed) + 1;
+            progress(finished as usize);
+            row
+        })
+        .collect();
+    rows.into_iter().flatten().collect()
+}
+
 /// Renders the full frame. `progress` is called with the number of rows finished so far.
 pub fn render(
     rs: &RenderScene,
@@ -109,24 +149,21 @@ pub fn render(
 ) -> (Frame, RenderStats) {
     let (w, h) = (settings.width, settings.height);
     let camera = CameraRays::new(&rs.scene.camera, w, h);
-    let done = AtomicU64::new(0);
-    let rows: Vec<Vec<PixelEstimate>> = (0..h)
-        .into_par_iter()
-        .map(|y| {
-            let row = (0..w)
-                .map(|x| render_pixel(rs, &camera, settings, x, y))
-                .collect();
-            let finished = done.fetch_add(1, Ordering::Relaxed) + 1;
-            progress(finished as usize);
-            row
-        })
-        .collect();
-    let mut stats = RenderStats {
+    let estimates = map_pixels(w, h, progress, |x, y| {
+        render_pixel(rs, &camera, settings, x, y)
+    });
+    let frame = frame_from_estimates(w, h, settings.spp, &estimates);
+    let stats = RenderStats {
         samples: (w * h) as u64 * settings.spp as u64,
-        rays: 0,
+        rays: estimates.iter().map(|e| e.rays).sum(),
     };
+    (frame, stats)
+}
+
+/// Assembles a frame from row-major per-pixel estimates of `spp` samples each.
+pub fn frame_from_estimates(w: usize, h: usize, spp: u32, estimates: &[PixelEstimate]) -> Frame {
     let mut frame = Frame {
-        spp: settings.spp,
+        spp,
         color: Image::new(w, h, 3, 0.0),
         direct: Image::new(w, h, 3, 0.0),
         indirect: Image::new(w, h, 3, 0.0),
@@ -136,47 +173,59 @@ pub fn render(
         depth: Image::new(w, h, 1, 0.0),
         variance: Image::new(w, h, 1, 0.0),
     };
-    for (y, row) in rows.iter().enumerate() {
-        for (x, e) in row.iter().enumerate() {
-            stats.rays += e.rays;
-            let put = |img: &mut Image, v: Vec3| img.pixel_mut(x, y).copy_from_slice(&v.to_array());
-            put(&mut frame.direct, e.direct);
-            put(&mut frame.indirect, e.indirect);
-            put(&mut frame.color, e.direct + e.indirect);
-            put(&mut frame.albedo, e.first_hit.albedo);
-            put(&mut frame.normal, e.first_hit.normal);
-            put(&mut frame.position, e.first_hit.position);
-            frame.depth.pixel_mut(x, y)[0] = e.first_hit.depth;
-            frame.variance.pixel_mut(x, y)[0] = e.luminance_variance / settings.spp.max(1) as f32;
-        }
+    for (i, e) in estimates.iter().enumerate() {
+        let (x, y) = (i % w, i / w);
+        let put = |img: &mut Image, v: Vec3| img.pixel_mut(x, y).copy_from_slice(&v.to_array());
+        put(&mut frame.direct, e.direct);
+        put(&mut frame.indirect, e.indirect);
+        put(&mut frame.color, e.direct + e.indirect);
+        put(&mut frame.albedo, e.first_hit.albedo);
+        put(&mut frame.normal, e.first_hit.normal);
+        put(&mut frame.position, e.first_hit.position);
+        frame.depth.pixel_mut(x, y)[0] = e.first_hit.depth;
+        frame.variance.pixel_mut(x, y)[0] = e.luminance_variance / spp.max(1) as f32;
     }
-    if settings.spp == 1 {
+    if spp == 1 {
         frame.variance = neighbourhood_variance(&frame.color);
     }
-    (frame, stats)
+    frame
 }
 
-/// Luminance variance over each pixel's 3×3 neighbourhood: a one-sample stand-in for the
-/// per-pixel variance (as SVGF does before it has temporal history).
-fn neighbourhood_variance(color: &Image) -> Image {
+/// A one-sample stand-in for the per-pixel variance (SVGF estimates it spatially before it has
+/// temporal history): the luminance variance of 3×3 windows, then for each pixel the smallest
+/// value among the windows that contain it. Without that erosion a noise-free edge (a hard
+/// shadow) looks like noise to its own window and a variance-guided filter blurs it; some
+/// window next to an edge pixel lies wholly on its side of the edge and reports 0.
+pub(crate) fn neighbourhood_variance(color: &Image) -> Image {
     let (w, h) = (color.width, color.height);
     let lum: Vec<f32> = (0..w * h)
         .map(|i| luminance(color.rgb(i % w, i / w)))
+        .map(|l| if l.is_finite() { l } else { 0.0 })
         .collect();
+    let window = |x: usize, y: usize| {
+        let (mut s, mut s2, mut n) = (0.0f32, 0.0f32, 0.0f32);
+        for yy in y.saturating_sub(1)..(y + 2).min(h) {
+            for xx in x.saturating_sub(1)..(x + 2).min(w) {
+                let l = lum[yy * w + xx];
+                s += l;
+                s2 += l * l;
+                n += 1.0;
+            }
+        }
+        let m = s / n;
+        (s2 / n - m * m).max(0.0)
+    };
+    let windows: Vec<f32> = (0..w * h).map(|i| window(i % w, i / w)).collect();
     let mut out = Image::new(w, h, 1, 0.0);
     for y in 0..h {
         for x in 0..w {
-            let (mut s, mut s2, mut n) = (0.0f32, 0.0f32, 0.0f32);
+            let mut v = f32::INFINITY;
             for yy in y.saturating_sub(1)..(y + 2).min(h) {
                 for xx in x.saturating_sub(1)..(x + 2).min(w) {
-                    let l = lum[yy * w + xx];
-                    s += l;
-                    s2 += l * l;
-                    n += 1.0;
+                    v = v.min(windows[yy * w + xx]);
                 }
             }
-            let m = s / n;
-            out.data[y * w + x] = (s2 / n - m * m).max(0.0);
+            out.data[y * w + x] = v;
         }
     }
     out

@@ -20,6 +20,9 @@ pub struct Surface {
     pub frame: Frame,
     /// Texture coordinates.
     pub uv: Vec2,
+    /// Interpolated vertex colour (white for meshes without colours); multiplies the diffuse
+    /// reflectance.
+    pub color: Vec3,
     /// Material index.
     pub material: usize,
     /// Instance and triangle hit, for light-pdf lookups.
@@ -107,11 +110,17 @@ impl RenderScene {
         } else {
             mesh.uvs[i0] * w + mesh.uvs[i1] * u + mesh.uvs[i2] * v
         };
+        let color = if mesh.colors.is_empty() {
+            Vec3::ONE
+        } else {
+            mesh.colors[i0] * w + mesh.colors[i1] * u + mesh.colors[i2] * v
+        };
         Surface {
             p,
             ng,
             frame: Frame::new(ns),
             uv,
+            color,
             material: mesh.material,
             instance: hit.instance,
             triangle: hit.triangle,
@@ -122,7 +131,7 @@ impl RenderScene {
     pub fn bsdf(&self, surface: &Surface) -> Bsdf {
         match &self.scene.materials[surface.material].bsdf {
             SceneBsdf::Diffuse { reflectance } => Bsdf::Diffuse {
-                albedo: reflectance.eval(surface.uv),
+                albedo: reflectance.eval(surface.uv) * surface.color,
             },
             SceneBsdf::Mirror { reflectance } => Bsdf::Mirror {
                 reflectance: *reflectance,
@@ -137,7 +146,7 @@ impl RenderScene {
                 ior,
                 roughness,
             } => Bsdf::Plastic {
-                diffuse: diffuse.eval(surface.uv),
+                diffuse: diffuse.eval(surface.uv) * surface.color,
                 eta: *ior,
                 alpha: *roughness,
                 fdr_int: self.fdr_int[surface.material],

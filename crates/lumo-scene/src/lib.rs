@@ -2,16 +2,19 @@
 //! pinhole camera. Loaders (built-in scenes here; files in later crates) fill it; the renderer
 //! reads it. Plain data: no acceleration structures, no threads.
 
+pub mod animation;
 mod builtin;
 mod camera;
 mod error;
 mod light;
+pub mod load;
 mod material;
 mod mesh;
 mod scene;
 pub mod shapes;
 mod texture;
 
+pub use animation::{AnimatedScene, Animation};
 pub use builtin::{builtin_scene, BuiltinScene, BUILTIN_SCENES};
 pub use camera::{Camera, FovAxis};
 pub use error::SceneError;

@@ -11,6 +11,9 @@ pub struct Mesh {
     pub normals: Vec<Vec3>,
     /// Per-vertex texture coordinates; empty when the mesh has none.
     pub uvs: Vec<Vec2>,
+    /// Per-vertex linear RGB colours that multiply the material's diffuse reflectance (glTF
+    /// `COLOR_0`, PLY `red`/`green`/`blue`); empty when the mesh has none.
+    pub colors: Vec<Vec3>,
     /// Triangles as vertex indices (counter-clockwise seen from the front).
     pub indices: Vec<[u32; 3]>,
     /// Index into [`crate::Scene::materials`].
@@ -39,6 +42,7 @@ impl Mesh {
         let base = self.positions.len() as u32;
         let with_normals = !self.normals.is_empty() || self.positions.is_empty();
         let with_uvs = !self.uvs.is_empty() || self.positions.is_empty();
+        let with_colors = !self.colors.is_empty() || self.positions.is_empty();
         self.positions.extend_from_slice(&other.positions);
         if with_normals && !other.normals.is_empty() {
             self.normals.extend_from_slice(&other.normals);
@@ -49,6 +53,11 @@ impl Mesh {
             self.uvs.extend_from_slice(&other.uvs);
         } else {
             self.uvs.clear();
+        }
+        if with_colors && !other.colors.is_empty() {
+            self.colors.extend_from_slice(&other.colors);
+        } else {
+            self.colors.clear();
         }
         self.indices.extend(
             other

@@ -92,7 +92,11 @@ impl Scene {
                     count: self.materials.len(),
                 });
             }
-            for (attribute, len) in [("normals", mesh.normals.len()), ("uvs", mesh.uvs.len())] {
+            for (attribute, len) in [
+                ("normals", mesh.normals.len()),
+                ("uvs", mesh.uvs.len()),
+                ("colors", mesh.colors.len()),
+            ] {
                 if len != 0 && len != n {
                     return Err(SceneError::AttributeLength {
                         mesh: mesh.name.clone(),
@@ -128,6 +132,9 @@ impl Scene {
             }
             if let Some(i) = mesh.uvs.iter().position(|p| !p.is_finite()) {
                 return Err(bad("uv", i, format!("{:?}", mesh.uvs[i])));
+            }
+            if let Some(i) = mesh.colors.iter().position(|p| !p.is_finite()) {
+                return Err(bad("color", i, format!("{:?}", mesh.colors[i])));
             }
         }
         for (ii, inst) in self.instances.iter().enumerate() {

@@ -23,6 +23,7 @@ pub fn rectangle(to_world: &Mat4, material: usize) -> Mesh {
         ],
         indices: vec![[0, 1, 2], [2, 3, 0]],
         material,
+        colors: Vec::new(),
     }
     .transformed(to_world)
 }
@@ -89,6 +90,7 @@ pub fn sphere(to_world: &Mat4, material: usize, rings: u32, segments: u32) -> Me
         uvs,
         indices,
         material,
+        colors: Vec::new(),
     }
     .transformed(to_world)
 }
@@ -121,6 +123,7 @@ pub fn cylinder(to_world: &Mat4, material: usize, segments: u32) -> Mesh {
         uvs,
         indices,
         material,
+        colors: Vec::new(),
     }
     .transformed(to_world)
 }
@@ -144,6 +147,7 @@ pub fn disk(to_world: &Mat4, material: usize, segments: u32) -> Mesh {
         uvs,
         indices,
         material,
+        colors: Vec::new(),
     }
     .transformed(to_world)
 }

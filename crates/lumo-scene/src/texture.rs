@@ -1,6 +1,6 @@
 use std::sync::Arc;
 
-use glam::{Vec2, Vec3};
+use glam::{Affine2, Vec2, Vec3};
 use lumo_image::Image;
 
 /// A spatially varying reflectance, looked up by texture coordinates.
@@ -23,6 +23,14 @@ pub enum Texture {
         image: Arc<Image>,
         /// uv multiplier (tiling).
         uv_scale: Vec2,
+    },
+    /// Another texture looked up at transformed coordinates (Mitsuba's `to_uv`, glTF's
+    /// `KHR_texture_transform`).
+    Transformed {
+        /// The texture.
+        texture: Arc<Texture>,
+        /// uv → the texture's uv.
+        uv: Affine2,
     },
 }
 
@@ -51,6 +59,7 @@ impl Texture {
                 let rgb = image.rgb(x.min(w - 1), y.min(h - 1));
                 Vec3::from(rgb)
             }
+            Texture::Transformed { texture, uv: m } => texture.eval(m.transform_point2(uv)),
         }
     }
 
@@ -63,6 +72,8 @@ impl Texture {
                 let m = image.to_channels(3).channel_means();
                 Vec3::new(m[0] as f32, m[1] as f32, m[2] as f32)
             }
+            // Exact for affine maps that tile whole periods; close otherwise.
+            Texture::Transformed { texture, .. } => texture.average(),
         }
     }
 }

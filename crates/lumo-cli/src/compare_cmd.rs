@@ -1,0 +1,344 @@
+//! `lumo compare REF IMG [IMG…]`: error metrics of images against a reference, as a table or
+//! JSON, and optionally false-colour error images.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context, Result};
+use lumo_image::metrics::{
+    compare, false_colour, CompareSettings, DiffMetric, MetricError, Metrics, FLIP_DEFAULT_PPD,
+    RELMSE_EPSILON, SMAPE_EPSILON, SSIM_K1, SSIM_K2, SSIM_SIGMA, SSIM_WINDOW, TONE_MAP_DESCRIPTION,
+};
+use lumo_image::{read_image, write_image, Image};
+use serde_json::json;
+
+/// Which per-pixel error `--diff` draws.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum DiffKind {
+    /// Per-pixel FLIP, linear from 0 (black) to 1 (pale yellow).
+    Flip,
+    /// Per-pixel relMSE, log scale from 1e-4 (black) to 1 (pale yellow).
+    Relmse,
+}
+
+impl From<DiffKind> for DiffMetric {
+    fn from(k: DiffKind) -> Self {
+        match k {
+            DiffKind::Flip => DiffMetric::Flip,
+            DiffKind::Relmse => DiffMetric::RelMse,
+        }
+    }
+}
+
+/// Arguments of `lumo compare`.
+#[derive(clap::Args, Debug)]
+pub struct CompareArgs {
+    /// Reference image (EXR, PFM or PNG).
+    pub reference: PathBuf,
+    /// Images to score against the reference.
+    #[arg(required = true)]
+    pub images: Vec<PathBuf>,
+    /// Print JSON instead of a table.
+    #[arg(long)]
+    pub json: bool,
+    /// Write a false-colour error image here; with several images, `-1`, `-2`, … (in argument
+    /// order) is added before the extension.
+    #[arg(long, value_name = "OUT.png")]
+    pub diff: Option<PathBuf>,
+    /// Per-pixel error shown by --diff.
+    #[arg(long, value_enum, default_value = "flip")]
+    pub diff_metric: DiffKind,
+    /// Exposure in stops (×2^stops) applied before tone mapping for PSNR, SSIM and FLIP.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    pub exposure: f32,
+    /// Pixels per degree of visual angle assumed by FLIP [default: 67.02, a 0.7 m wide 4K
+    /// monitor at 0.7 m].
+    #[arg(long)]
+    pub ppd: Option<f32>,
+}
+
+/// One scored image.
+struct Row {
+    path: PathBuf,
+    metrics: Metrics,
+    diff: Option<PathBuf>,
+}
+
+/// Runs `lumo compare`.
+pub fn run(args: CompareArgs) -> Result<()> {
+    if !args.exposure.is_finite() {
+        bail!("--exposure must be a finite number of stops");
+    }
+    let ppd = args.ppd.unwrap_or(FLIP_DEFAULT_PPD);
+    if !(ppd.is_finite() && ppd > 0.0) {
+        bail!("--ppd must be a positive number");
+    }
+    let settings = CompareSettings {
+        exposure: args.exposure,
+        flip_ppd: ppd,
+    };
+    let reference = read_image(&args.reference)?;
+
+    // Read and check every image before printing anything, so that a bad argument fails fast
+    // and never leaves half a table.
+    let mut tests = Vec::with_capacity(args.images.len());
+    for path in &args.images {
+        let img = read_image(path)?;
+        check_comparable(&args.reference, &reference, path, &img)?;
+        tests.push(img);
+    }
+
+    let mut rows = Vec::with_capacity(tests.len());
+    for (i, (path, img)) in args.images.iter().zip(&tests).enumerate() {
+        let metrics =
+            compare(&reference, img, &settings).map_err(|e| describe(&args.reference, path, e))?;
+        let diff = match &args.diff {
+            Some(out) => {
+                let out = diff_path(out, i, args.images.len());
+                let metric = DiffMetric::from(args.diff_metric);
+                let map = metric
+                    .map(&reference, img, &settings)
+                    .map_err(|e| describe(&args.reference, path, e))?;
+                write_image(&out, &false_colour(&map, metric))
+                    .with_context(|| format!("writing the diff image for {}", path.display()))?;
+                Some(out)
+            }
+            None => None,
+        };
+        rows.push(Row {
+            path: path.clone(),
+            metrics,
+            diff,
+        });
+    }
+
+    if args.json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&to_json(&args, &reference, &settings, &rows))?
+        );
+    } else {
+        print_table(&args, &reference, &settings, &rows);
+    }
+    Ok(())
+}
+
+/// A one-line error naming both files when `test` cannot be compared with `reference`.
+fn check_comparable(ref_path: &Path, reference: &Image, path: &Path, test: &Image) -> Result<()> {
+    if (reference.width, reference.height) != (test.width, test.height) {
+        bail!(
+            "size mismatch: {} is {}x{} but {} is {}x{}",
+            ref_path.display(),
+            reference.width,
+            reference.height,
+            path.display(),
+            test.width,
+            test.height
+        );
+    }
+    if reference.channels != test.channels {
+        bail!(
+            "channel mismatch: {} has {} channels but {} has {}",
+            ref_path.display(),
+            reference.channels,
+            path.display(),
+            test.channels
+        );
+    }
+    Ok(())
+}
+
+/// A metric error with the two file names in front.
+fn describe(ref_path: &Path, path: &Path, e: MetricError) -> anyhow::Error {
+    anyhow::anyhow!("{} vs {}: {e}", ref_path.display(), path.display())
+}
+
+/// `out` itself for a single image, else `stem-N.ext` with N counted from 1.
+fn diff_path(out: &Path, index: usize, count: usize) -> PathBuf {
+    if count == 1 {
+        return out.to_path_buf();
+    }
+    let stem = out
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let name = match out.extension() {
+        Some(ext) => format!("{stem}-{}.{}", index + 1, ext.to_string_lossy()),
+        None => format!("{stem}-{}", index + 1),
+    };
+    out.with_file_name(name)
+}
+
+/// What each column means, printed above the table so a pasted table carries its conventions.
+fn conventions(settings: &CompareSettings) -> Vec<(&'static str, String)> {
+    vec![
+        (
+            "MSE",
+            "mean (x-r)^2 over pixels and channels, linear values".into(),
+        ),
+        (
+            "relMSE",
+            format!("mean (x-r)^2/(r^2+eps), eps = {RELMSE_EPSILON}"),
+        ),
+        (
+            "SMAPE",
+            format!("mean |x-r|/(|x|+|r|+eps), eps = {SMAPE_EPSILON}"),
+        ),
+        (
+            "PSNR",
+            format!(
+                "10 log10(1/MSE) in dB of tone-mapped values: {TONE_MAP_DESCRIPTION}, exposure \
+                 {} stops",
+                settings.exposure
+            ),
+        ),
+        (
+            "SSIM",
+            format!(
+                "tone-mapped Rec.709 luminance, {SSIM_WINDOW}x{SSIM_WINDOW} Gaussian \
+                 sigma={SSIM_SIGMA}, K1={SSIM_K1}, K2={SSIM_K2}"
+            ),
+        ),
+        (
+            "FLIP",
+            format!(
+                "LDR-FLIP of the tone-mapped sRGB image (exposure {} stops), {:.2} ppd",
+                settings.exposure, settings.flip_ppd
+            ),
+        ),
+    ]
+}
+
+fn print_table(args: &CompareArgs, reference: &Image, settings: &CompareSettings, rows: &[Row]) {
+    println!(
+        "reference {} ({}x{}, {} channels)",
+        args.reference.display(),
+        reference.width,
+        reference.height,
+        reference.channels
+    );
+    for (name, text) in conventions(settings) {
+        println!("  {name:<7} {text}");
+    }
+    println!();
+    let names: Vec<String> = rows.iter().map(|r| r.path.display().to_string()).collect();
+    let width = names
+        .iter()
+        .map(|n| n.chars().count())
+        .max()
+        .unwrap_or(0)
+        .max(5);
+    println!(
+        "{:<width$}  {:>10}  {:>10}  {:>8}  {:>8}  {:>8}  {:>8}  {:>10}",
+        "image", "MSE", "relMSE", "SMAPE", "PSNR dB", "SSIM", "FLIP", "non-finite"
+    );
+    for (row, name) in rows.iter().zip(&names) {
+        let m = &row.metrics;
+        let psnr = if m.psnr.is_finite() {
+            format!("{:.2}", m.psnr)
+        } else {
+            "inf".into()
+        };
+        println!(
+            "{name:<width$}  {:>10.4e}  {:>10.4e}  {:>8.5}  {psnr:>8}  {:>8.5}  {:>8.5}  {:>10}",
+            m.mse, m.relmse, m.smape, m.ssim, m.flip, m.nonfinite_pixels
+        );
+    }
+    let excluded: Vec<_> = rows
+        .iter()
+        .filter(|r| r.metrics.nonfinite_pixels > 0)
+        .collect();
+    if !excluded.is_empty() {
+        println!();
+        println!(
+            "non-finite: pixels with a NaN or infinite channel in the reference or the image; \
+             left out of every metric"
+        );
+    }
+    for row in rows {
+        if let Some(d) = &row.diff {
+            println!(
+                "diff {} -> {} ({})",
+                row.path.display(),
+                d.display(),
+                DiffMetric::from(args.diff_metric).scale_description()
+            );
+        }
+    }
+}
+
+fn to_json(
+    args: &CompareArgs,
+    reference: &Image,
+    settings: &CompareSettings,
+    rows: &[Row],
+) -> serde_json::Value {
+    // JSON has no infinity: identical tone-mapped images give "psnr_db": null.
+    let finite = |v: f64| {
+        if v.is_finite() {
+            json!(v)
+        } else {
+            serde_json::Value::Null
+        }
+    };
+    let images: Vec<_> = rows
+        .iter()
+        .map(|r| {
+            let m = &r.metrics;
+            json!({
+                "image": r.path.display().to_string(),
+                "mse": finite(m.mse),
+                "relmse": finite(m.relmse),
+                "smape": finite(m.smape),
+                "psnr_db": finite(m.psnr),
+                "ssim": finite(m.ssim),
+                "flip": finite(m.flip),
+                "nonfinite_pixels": m.nonfinite_pixels,
+                "diff": r.diff.as_ref().map(|d| d.display().to_string()),
+            })
+        })
+        .collect();
+    json!({
+        "reference": {
+            "image": args.reference.display().to_string(),
+            "width": reference.width,
+            "height": reference.height,
+            "channels": reference.channels,
+        },
+        "settings": {
+            "exposure_stops": settings.exposure,
+            "relmse_epsilon": RELMSE_EPSILON,
+            "smape_epsilon": SMAPE_EPSILON,
+            "tone_map": TONE_MAP_DESCRIPTION,
+            "psnr_peak": 1.0,
+            "ssim": {
+                "input": "tone-mapped Rec.709 luminance",
+                "window": SSIM_WINDOW,
+                "sigma": SSIM_SIGMA,
+                "k1": SSIM_K1,
+                "k2": SSIM_K2,
+            },
+            "flip": { "mode": "LDR", "ppd": settings.flip_ppd },
+            "diff_metric": args.diff.as_ref().map(|_| match args.diff_metric {
+                DiffKind::Flip => "flip",
+                DiffKind::Relmse => "relmse",
+            }),
+            "nonfinite_policy": "pixels with a NaN or infinite channel in either image are left \
+                                 out of every metric and counted in nonfinite_pixels",
+        },
+        "images": images,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn diff_paths_get_an_index_only_for_several_images() {
+        let out = Path::new("dir/err.png");
+        assert_eq!(diff_path(out, 0, 1), Path::new("dir/err.png"));
+        assert_eq!(diff_path(out, 0, 3), Path::new("dir/err-1.png"));
+        assert_eq!(diff_path(out, 2, 3), Path::new("dir/err-3.png"));
+        assert_eq!(diff_path(Path::new("err"), 1, 2), Path::new("err-2"));
+    }
+}

@@ -1,0 +1,131 @@
+//! `lumo serve`: starts the progressive render server and its web viewer.
+
+use std::io::Write;
+use std::net::{IpAddr, SocketAddr};
+use std::time::Instant;
+
+use anyhow::{bail, Context, Result};
+use lumo_render::{PathSettings, RenderScene};
+use lumo_server::{Hub, Integrator, ServerConfig};
+
+use crate::render_cmd::{load_scene, parse_size};
+
+/// Arguments of `lumo serve`.
+#[derive(clap::Args, Debug)]
+pub struct ServeArgs {
+    /// Built-in scene name or scene file; the only way a scene is chosen (viewers cannot).
+    #[arg(default_value = "cornell")]
+    pub scene: String,
+    /// TCP port (0: any free port; the line printed at start says which).
+    #[arg(long, default_value_t = 8080)]
+    pub port: u16,
+    /// Address to listen on. The default accepts connections from this machine only.
+    #[arg(long, default_value = "127.0.0.1")]
+    pub bind: IpAddr,
+    /// Render threads [default: all cores].
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Sample streams: path (camera stream), light (light stream), both (each weighted ½).
+    #[arg(long, value_enum, default_value_t = IntegratorArg::Path)]
+    pub integrator: IntegratorArg,
+    /// Image size as WIDTHxHEIGHT [default: the scene's].
+    #[arg(long, value_parser = parse_size)]
+    pub size: Option<(usize, usize)>,
+    /// Longest path depth (Mitsuba's convention) [default: the scene's].
+    #[arg(long)]
+    pub max_depth: Option<u32>,
+    /// Random seed.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u32,
+    /// Throttle rendering to this many samples (camera samples plus light paths) per second,
+    /// to see how the viewer behaves with a slow server.
+    #[arg(long)]
+    pub max_rate: Option<f64>,
+}
+
+/// `--integrator` values.
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+pub enum IntegratorArg {
+    /// Path tracer.
+    Path,
+    /// Light tracer.
+    Light,
+    /// Both.
+    Both,
+}
+
+/// Runs `lumo serve` until interrupted.
+pub fn run(args: ServeArgs) -> Result<()> {
+    if args.max_depth == Some(0) {
+        bail!("--max-depth must be at least 1 (1 = emitters seen directly)");
+    }
+    if let Some(r) = args.max_rate {
+        if !(r.is_finite() && r > 0.0) {
+            bail!("--max-rate must be a positive number of samples per second");
+        }
+    }
+    let scene = load_scene(&args.scene)?;
+    let (width, height) = args
+        .size
+        .unwrap_or((scene.defaults.width, scene.defaults.height));
+    if width > 4096 || height > 4096 {
+        bail!("--size {width}x{height}: the viewer supports at most 4096x4096");
+    }
+    let mut config = ServerConfig::new(width, height);
+    config.threads = args.threads.unwrap_or(0);
+    config.integrator = match args.integrator {
+        IntegratorArg::Path => Integrator::Path,
+        IntegratorArg::Light => Integrator::Light,
+        IntegratorArg::Both => Integrator::Both,
+    };
+    config.path = PathSettings {
+        max_depth: args.max_depth.unwrap_or(scene.defaults.max_depth),
+        ..Default::default()
+    };
+    config.seed = args.seed;
+    config.max_rate = args.max_rate;
+    let name = scene.name.clone();
+    let tris = scene.triangle_count();
+    let start = Instant::now();
+    let rs = RenderScene::new(scene)?;
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .thread_name("lumo-net")
+        .enable_all()
+        .build()
+        .context("cannot start the network runtime")?;
+    runtime.block_on(async move {
+        let addr = SocketAddr::new(args.bind, args.port);
+        let listener = tokio::net::TcpListener::bind(addr)
+            .await
+            .with_context(|| format!("cannot listen on {addr}"))?;
+        let local = listener.local_addr()?;
+        let hub = Hub::new(rs, config)?;
+        eprintln!(
+            "{name}: {tris} triangles (ready in {:.0} ms), {width}x{height}, {} render threads",
+            start.elapsed().as_secs_f64() * 1e3,
+            hub.threads()
+        );
+        if !args.bind.is_loopback() {
+            eprintln!(
+                "warning: listening on {} — reachable from other machines",
+                args.bind
+            );
+        }
+        let host = if local.ip().is_unspecified() {
+            "127.0.0.1".to_string()
+        } else {
+            local.ip().to_string()
+        };
+        let host = if local.is_ipv6() {
+            format!("[{host}]")
+        } else {
+            host
+        };
+        println!("open http://{host}:{}", local.port());
+        std::io::stdout().flush().ok();
+        lumo_server::serve(listener, hub)
+            .await
+            .context("server stopped")
+    })
+}

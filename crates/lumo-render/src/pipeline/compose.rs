@@ -1,0 +1,98 @@
+//! Pieces the pipelines share: the full-resolution trace, indirect-light demodulation and
+//! recomposition, and the fixed depth scale of the guide.
+
+use std::time::{Duration, Instant};
+
+use lumo_filter::Demodulated;
+use lumo_image::Image;
+
+use super::{PipelineOutput, Timings};
+use crate::camera::CameraRays;
+use crate::render::{frame_from_estimates, map_pixels, render_pixel};
+use crate::{Frame, PixelEstimate, RenderScene, RenderSettings, RenderStats};
+
+/// Traces every pixel with `settings`, reporting progress as a fraction of rows.
+pub(super) fn trace_full(
+    rs: &RenderScene,
+    settings: &RenderSettings,
+    progress: &(dyn Fn(f32) + Sync),
+) -> (Vec<PixelEstimate>, Frame, RenderStats, Duration) {
+    let t = Instant::now();
+    let (w, h) = (settings.width, settings.height);
+    let camera = CameraRays::new(&rs.scene.camera, w, h);
+    let rows = |done: usize| progress(done as f32 / h.max(1) as f32);
+    let estimates = map_pixels(w, h, &rows, |x, y| {
+        render_pixel(rs, &camera, settings, x, y)
+    });
+    let frame = frame_from_estimates(w, h, settings.spp, &estimates);
+    let stats = RenderStats {
+        samples: (w * h) as u64 * settings.spp as u64,
+        rays: estimates.iter().map(|e| e.rays).sum(),
+    };
+    (estimates, frame, stats, t.elapsed())
+}
+
+/// The `none` pipeline: the traced colour as it is.
+pub(super) fn plain(
+    rs: &RenderScene,
+    settings: &RenderSettings,
+    progress: &(dyn Fn(f32) + Sync),
+) -> PipelineOutput {
+    let (_, frame, stats, trace) = trace_full(rs, settings, progress);
+    PipelineOutput {
+        image: frame.color.clone(),
+        frame,
+        planes: vec![],
+        timings: Timings {
+            trace,
+            ..Timings::default()
+        },
+        stats,
+    }
+}
+
+/// `direct + albedo × illumination`, where `illumination` is filtered demodulated indirect
+/// light; pixels the demodulation passed through (albedo ≈ 0) keep their raw indirect light.
+pub(super) fn recompose(
+    direct: &Image,
+    raw_indirect: &Image,
+    demod: &Demodulated,
+    illumination: &Image,
+) -> Image {
+    let mut out = direct.clone();
+    for (i, &pass) in demod.passthrough.iter().enumerate() {
+        for c in 0..3 {
+            let k = i * 3 + c;
+            let ind = if pass {
+                raw_indirect.data[k]
+            } else {
+                demod.albedo.data[k] * illumination.data[k]
+            };
+            if ind.is_finite() {
+                out.data[k] += ind;
+            }
+        }
+    }
+    out
+}
+
+/// The constant that maps camera distance to the guide's [0, 1] depth: the diagonal of the
+/// scene's bounds, fixed for the whole render so the guide does not change meaning between
+/// frames (the guided-filter paper's choice).
+pub(super) fn depth_scale(rs: &RenderScene) -> f32 {
+    let (lo, hi) = rs.scene.bounds();
+    let d = (hi - lo).length();
+    if d.is_finite() && d > 0.0 {
+        d
+    } else {
+        1.0
+    }
+}
+
+/// A copy of `settings` whose paths stop after direct light (Mitsuba depth 2), or earlier if
+/// the user asked for less.
+pub(super) fn direct_only(settings: &RenderSettings) -> RenderSettings {
+    let mut s = *settings;
+    s.path.max_depth = s.path.max_depth.min(2);
+    s
+}

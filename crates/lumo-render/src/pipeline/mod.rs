@@ -1,0 +1,181 @@
+//! The papers' filtered global-illumination pipelines (papers/README §1–3): each decides what to
+//! trace, what to filter and how to put the image back together. Filters only ever see image
+//! planes (lumo-filter); tracing goes through [`map_pixels`](crate::render::map_pixels), the
+//! crate's one parallel loop.
+
+mod atrous;
+mod bilateral;
+mod compose;
+mod guided;
+mod jbu;
+
+use std::fmt;
+use std::time::Duration;
+
+use lumo_filter::FilterError;
+use lumo_image::Image;
+use thiserror::Error;
+
+use crate::{Frame, RenderScene, RenderSettings, RenderStats};
+
+/// A way of turning traced paths into an image.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Pipeline {
+    /// Plain path tracing, no filter.
+    None,
+    /// Edge-avoiding À-Trous on the whole demodulated image (§1).
+    Atrous,
+    /// Indirect light at the guide rays, 4-D guided filter, geometry-aware lookup (§2).
+    Guided,
+    /// Indirect light on a sparse grid, joint bilateral upsampling (§3).
+    Jbu,
+    /// Cross-bilateral filter on the demodulated indirect light (the papers' quality reference).
+    Bilateral,
+}
+
+impl Pipeline {
+    /// Every pipeline, in the order tables list them.
+    pub const ALL: [Pipeline; 5] = [
+        Pipeline::None,
+        Pipeline::Bilateral,
+        Pipeline::Atrous,
+        Pipeline::Guided,
+        Pipeline::Jbu,
+    ];
+
+    /// The name used on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Pipeline::None => "none",
+            Pipeline::Atrous => "atrous",
+            Pipeline::Guided => "guided",
+            Pipeline::Jbu => "jbu",
+            Pipeline::Bilateral => "bilateral",
+        }
+    }
+
+    /// Parses a command-line name.
+    pub fn from_name(name: &str) -> Option<Pipeline> {
+        Pipeline::ALL.into_iter().find(|p| p.name() == name)
+    }
+}
+
+impl fmt::Display for Pipeline {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// Pipeline-specific knobs; each pipeline reads only its own.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PipelineOptions {
+    /// À-Trous: trace every n-th pixel in x and y only (1, 2 or 4) and in-paint the rest.
+    pub subsample: usize,
+    /// Guided: guide dimensions, 1 (grey normal), 3 (normal) or 4 (normal + depth).
+    pub guide_dims: usize,
+    /// Guided: window radius in pixels.
+    pub radius: usize,
+    /// JBU: one indirect sample point per `block`×`block` pixels.
+    pub block: usize,
+    /// JBU: paths traced at each sample point.
+    pub paths: u32,
+    /// JBU: bilateral pre-filter of the low-resolution buffer.
+    pub prefilter: bool,
+}
+
+impl Default for PipelineOptions {
+    fn default() -> Self {
+        Self {
+            subsample: 1,
+            guide_dims: 4,
+            radius: lumo_filter::DEFAULT_RADIUS,
+            block: 16,
+            paths: 100,
+            prefilter: false,
+        }
+    }
+}
+
+/// Wall time per stage, in the shape of the papers' Table 1.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Timings {
+    /// Path tracing (for pipelines with a separate G-buffer pass: the indirect paths only).
+    pub trace: Duration,
+    /// The separate G-buffer (and direct light) pass; zero where the trace fills the G-buffer.
+    pub gbuffer: Duration,
+    /// Filtering.
+    pub filter: Duration,
+    /// Recomposition (remodulation, lookups, adding direct light).
+    pub compose: Duration,
+}
+
+impl Timings {
+    /// Sum of the stages.
+    pub fn total(&self) -> Duration {
+        self.trace + self.gbuffer + self.filter + self.compose
+    }
+}
+
+impl fmt::Display for Timings {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let ms = |d: Duration| d.as_secs_f64() * 1e3;
+        write!(
+            f,
+            "trace {:.0} ms · G-buffer {:.0} ms · filter {:.0} ms · compose {:.0} ms · total {:.0} ms",
+            ms(self.trace),
+            ms(self.gbuffer),
+            ms(self.filter),
+            ms(self.compose),
+            ms(self.total())
+        )
+    }
+}
+
+/// What a pipeline produced.
+pub struct PipelineOutput {
+    /// The final image (3 channels, linear RGB).
+    pub image: Image,
+    /// The traced frame (unfiltered colour, direct, indirect, G-buffer, variance).
+    pub frame: Frame,
+    /// Intermediate planes worth inspecting (e.g. raw and filtered indirect light).
+    pub planes: Vec<(&'static str, Image)>,
+    /// Time per stage.
+    pub timings: Timings,
+    /// Work counters (camera samples and rays of every pass).
+    pub stats: RenderStats,
+}
+
+/// Why a pipeline could not run.
+#[derive(Debug, Error)]
+pub enum PipelineError {
+    /// A filter rejected its input or parameters.
+    #[error(transparent)]
+    Filter(#[from] FilterError),
+    /// An option out of range.
+    #[error("--{option} {value}: {fix}")]
+    Option {
+        /// The option's command-line name.
+        option: &'static str,
+        /// The value given.
+        value: String,
+        /// What to use instead.
+        fix: &'static str,
+    },
+}
+
+/// Runs `pipeline` on `rs`. `progress` receives the fraction of tracing work done (0–1).
+pub fn run_pipeline(
+    rs: &RenderScene,
+    pipeline: Pipeline,
+    settings: &RenderSettings,
+    options: &PipelineOptions,
+    progress: &(dyn Fn(f32) + Sync),
+) -> Result<PipelineOutput, PipelineError> {
+    match pipeline {
+        Pipeline::None => Ok(compose::plain(rs, settings, progress)),
+        Pipeline::Atrous => atrous::run(rs, settings, options, progress),
+        Pipeline::Guided => guided::run(rs, settings, options, progress),
+        Pipeline::Jbu => jbu::run(rs, settings, options, progress),
+        Pipeline::Bilateral => bilateral::run(rs, settings, progress),
+    }
+}

@@ -1,0 +1,218 @@
+//! The filtered-GI pipelines: filters touch indirect light only (À-Trous excepted, which must
+//! keep a hard shadow sharp), errors fall with spp and sit far below the unfiltered error, the
+//! guided pipeline's lookup stays on the sample's surface, and results do not depend on the
+//! thread count.
+
+mod common;
+
+use lumo_image::Image;
+use lumo_render::{
+    run_pipeline, PathSettings, Pipeline, PipelineOptions, PipelineOutput, RenderScene,
+    RenderSettings,
+};
+use lumo_scene::shapes::rectangle;
+use lumo_scene::{Light, Mat4, Material, Vec3};
+
+fn settings(w: usize, h: usize, spp: u32, max_depth: u32) -> RenderSettings {
+    RenderSettings {
+        width: w,
+        height: h,
+        spp,
+        seed: 7,
+        path: PathSettings {
+            max_depth,
+            ..PathSettings::default()
+        },
+    }
+}
+
+fn run(rs: &RenderScene, p: Pipeline, s: &RenderSettings, o: &PipelineOptions) -> PipelineOutput {
+    run_pipeline(rs, p, s, o, &|_| {}).expect("pipeline runs")
+}
+
+fn small_options() -> PipelineOptions {
+    // Small test images need small blocks and windows.
+    PipelineOptions {
+        block: 4,
+        paths: 64,
+        radius: 6,
+        ..PipelineOptions::default()
+    }
+}
+
+/// MSE of displayable values (clamped to [0, 1]), so the few pixels on the light's edge, whose
+/// radiance is ~20× the rest, do not decide the comparison.
+fn mse(a: &Image, b: &Image) -> f64 {
+    a.data
+        .iter()
+        .zip(&b.data)
+        .map(|(x, y)| ((x.clamp(0.0, 1.0) - y.clamp(0.0, 1.0)) as f64).powi(2))
+        .sum::<f64>()
+        / a.data.len() as f64
+}
+
+#[test]
+fn with_direct_light_only_filters_change_nothing() {
+    let rs = RenderScene::new(common::small_room()).expect("scene");
+    let s = settings(32, 32, 4, 2);
+    let o = small_options();
+    let plain = run(&rs, Pipeline::None, &s, &o).image;
+    for p in [Pipeline::Guided, Pipeline::Jbu, Pipeline::Bilateral] {
+        let img = run(&rs, p, &s, &o).image;
+        for (a, b) in img.data.iter().zip(&plain.data) {
+            assert!(
+                (a - b).abs() <= 1e-5 * b.abs().max(1.0),
+                "{p}: {a} vs unfiltered {b}"
+            );
+        }
+    }
+}
+
+/// A floor seen from straight above, lit by a point light low on the right; a wall outside the
+/// view casts a hard shadow whose edge runs through the picture: a noise-free image (1 spp
+/// through pixel centres, direct light only) with one sharp edge.
+fn hard_shadow_scene() -> lumo_scene::Scene {
+    let mut scene = common::empty_scene(Vec3::new(0.0, 4.0, 0.0), Vec3::ZERO);
+    scene.camera.up = Vec3::Z;
+    scene.camera.fov = 40.0;
+    let floor = scene.add_material(Material::diffuse("floor", Vec3::splat(0.6)));
+    let wall = scene.add_material(Material::diffuse("wall", Vec3::splat(0.2)));
+    scene.add_mesh(rectangle(
+        &(Mat4::from_rotation_x(-std::f32::consts::FRAC_PI_2) * Mat4::from_scale(Vec3::splat(5.0))),
+        floor,
+    ));
+    scene.add_mesh(rectangle(
+        &(Mat4::from_translation(Vec3::new(2.0, 0.5, 0.0))
+            * Mat4::from_rotation_y(std::f32::consts::FRAC_PI_2)
+            * Mat4::from_scale(Vec3::new(5.0, 0.5, 1.0))),
+        wall,
+    ));
+    // Through the wall's top edge (2, 1) the shadow reaches the floor at x = -0.5.
+    scene.lights.push(Light::Point {
+        position: Vec3::new(3.5, 1.6, 0.0),
+        intensity: Vec3::splat(5.0),
+    });
+    scene
+}
+
+#[test]
+fn atrous_keeps_a_hard_shadow_edge_sharp() {
+    let rs = RenderScene::new(hard_shadow_scene()).expect("scene");
+    let (w, h) = (48, 48);
+    let s = settings(w, h, 1, 2);
+    let plain = run(&rs, Pipeline::None, &s, &PipelineOptions::default()).image;
+    let filtered = run(&rs, Pipeline::Atrous, &s, &PipelineOptions::default()).image;
+    // Locate the edge in the unfiltered image along the middle row, then compare the contrast
+    // two pixels to each side of it before and after filtering.
+    let y = h / 2;
+    let lum = |img: &Image, x: usize| img.rgb(x, y).iter().sum::<f32>();
+    let edge = (1..w)
+        .max_by(|&a, &b| {
+            let da = (lum(&plain, a) - lum(&plain, a - 1)).abs();
+            let db = (lum(&plain, b) - lum(&plain, b - 1)).abs();
+            da.total_cmp(&db)
+        })
+        .expect("row has pixels");
+    assert!((8..w - 8).contains(&edge), "shadow edge at x = {edge}");
+    let (lit, dark) = if lum(&plain, edge) > lum(&plain, edge - 1) {
+        (edge + 2, edge - 3)
+    } else {
+        (edge - 3, edge + 2)
+    };
+    let contrast = |img: &Image| lum(img, lit) / lum(img, dark).max(1e-6);
+    let before = contrast(&plain);
+    let after = contrast(&filtered);
+    assert!(
+        before > 20.0,
+        "the test scene must have a hard shadow: {before}"
+    );
+    assert!(
+        after > 0.8 * before,
+        "À-Trous blurred the shadow edge: contrast {before} → {after}"
+    );
+}
+
+#[test]
+fn errors_fall_with_spp_and_sit_far_below_the_unfiltered_error() {
+    let rs = RenderScene::new(common::small_room()).expect("scene");
+    let (w, h) = (48, 48);
+    let o = small_options();
+    let reference = run(&rs, Pipeline::None, &settings(w, h, 1024, 5), &o).image;
+    let unfiltered = mse(
+        &run(&rs, Pipeline::None, &settings(w, h, 1, 5), &o).image,
+        &reference,
+    );
+    for p in [
+        Pipeline::Atrous,
+        Pipeline::Guided,
+        Pipeline::Jbu,
+        Pipeline::Bilateral,
+    ] {
+        let errors: Vec<f64> = [1, 4, 16]
+            .iter()
+            .map(|&spp| mse(&run(&rs, p, &settings(w, h, spp, 5), &o).image, &reference))
+            .collect();
+        assert!(
+            errors[0] > errors[1] && errors[1] > errors[2],
+            "{p}: MSE at 1, 4, 16 spp = {errors:?} does not fall"
+        );
+        assert!(
+            errors[0] < 0.5 * unfiltered,
+            "{p}: MSE at 1 spp {} is not far below the unfiltered {unfiltered}",
+            errors[0]
+        );
+    }
+}
+
+#[test]
+fn guided_lookup_stays_on_the_samples_surface() {
+    // The Cornell boxes in front of the back wall give depth edges; samples near them must take
+    // indirect light from a guide pixel on their own surface whenever one of the four
+    // neighbouring guide pixels lies on it.
+    let rs = RenderScene::new(common::small_room()).expect("scene");
+    let s = settings(64, 64, 8, 4);
+    let out = run(&rs, Pipeline::Guided, &s, &small_options());
+    let misses = out
+        .planes
+        .iter()
+        .find(|(n, _)| *n == "lookup_misses")
+        .map(|(_, img)| img)
+        .expect("guided pipeline reports lookup misses at spp > 1");
+    let (mut chosen, mut own) = (0.0, 0.0);
+    for p in misses.data.chunks_exact(2) {
+        chosen += p[0];
+        own += p[1];
+    }
+    assert!(
+        own > 10.0,
+        "the scene must have samples whose own pixel's guide is on another surface ({own})"
+    );
+    assert_eq!(chosen, 0.0, "lookup crossed a depth edge {chosen} times");
+}
+
+#[test]
+fn pipelines_are_bit_identical_on_one_and_two_threads() {
+    let rs = RenderScene::new(common::small_room()).expect("scene");
+    let s = settings(24, 24, 2, 5);
+    let o = small_options();
+    for p in Pipeline::ALL {
+        let images: Vec<Image> = [1, 2]
+            .iter()
+            .map(|&n| {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(n)
+                    .build()
+                    .expect("thread pool");
+                pool.install(|| run(&rs, p, &s, &o).image)
+            })
+            .collect();
+        assert!(
+            images[0]
+                .data
+                .iter()
+                .zip(&images[1].data)
+                .all(|(a, b)| a.to_bits() == b.to_bits()),
+            "{p}: 1 and 2 threads differ"
+        );
+    }
+}

@@ -1,0 +1,293 @@
+//! Keyframed node animation (from glTF): a node hierarchy with rest transforms, the scene items
+//! each node carries, and clips of translation / rotation / scale keyframes. [`AnimatedScene::pose`]
+//! places instances, lights and the camera at a time, so a dynamic renderer can play the clips.
+
+use glam::{Mat4, Quat, Vec3, Vec4};
+
+use crate::{Light, Scene};
+
+/// How values between keyframes are found (glTF's sampler interpolation).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Interpolation {
+    /// Hold the previous key.
+    Step,
+    /// Linear (spherical for rotations).
+    Linear,
+    /// Cubic Hermite with per-key in and out tangents.
+    CubicSpline,
+}
+
+/// Which part of a node's transform a channel drives.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AnimatedProperty {
+    /// Translation (xyz).
+    Translation,
+    /// Rotation quaternion (xyzw).
+    Rotation,
+    /// Scale (xyz).
+    Scale,
+}
+
+/// Keyframes of one property of one node.
+#[derive(Clone, Debug)]
+pub struct AnimationChannel {
+    /// Index into [`AnimatedScene::nodes`].
+    pub node: usize,
+    /// The driven property.
+    pub property: AnimatedProperty,
+    /// Interpolation between keys.
+    pub interpolation: Interpolation,
+    /// Key times in seconds, increasing.
+    pub times: Vec<f32>,
+    /// Key values (xyz in the first three lanes, or a quaternion); for cubic splines three per
+    /// key: in-tangent, value, out-tangent.
+    pub values: Vec<Vec4>,
+}
+
+/// A named clip.
+#[derive(Clone, Debug)]
+pub struct Animation {
+    /// Name from the file (or its index).
+    pub name: String,
+    /// Its channels.
+    pub channels: Vec<AnimationChannel>,
+}
+
+impl Animation {
+    /// Time of the last key.
+    pub fn duration(&self) -> f32 {
+        self.channels
+            .iter()
+            .filter_map(|c| c.times.last().copied())
+            .fold(0.0, f32::max)
+    }
+}
+
+/// A node of the hierarchy with its rest (unanimated) local transform.
+#[derive(Clone, Debug)]
+pub struct AnimatedNode {
+    /// Parent node.
+    pub parent: Option<usize>,
+    /// Rest translation.
+    pub translation: Vec3,
+    /// Rest rotation.
+    pub rotation: Quat,
+    /// Rest scale.
+    pub scale: Vec3,
+}
+
+/// What a node carries in the [`Scene`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NodeItem {
+    /// An instance (index into `Scene::instances`).
+    Instance(usize),
+    /// A point, spot or directional light (index into `Scene::lights`), at the node's origin
+    /// pointing along its −z.
+    Light(usize),
+    /// The camera, looking along the node's −z with +y up.
+    Camera,
+}
+
+/// A scene's node hierarchy and clips.
+#[derive(Clone, Debug, Default)]
+pub struct AnimatedScene {
+    /// Nodes, parents before children.
+    pub nodes: Vec<AnimatedNode>,
+    /// (node, item) pairs.
+    pub items: Vec<(usize, NodeItem)>,
+    /// The clips.
+    pub animations: Vec<Animation>,
+}
+
+impl AnimatedScene {
+    /// World matrix of every node with all clips applied at time `t` (rest pose for `None`).
+    pub fn world_matrices(&self, t: Option<f32>) -> Vec<Mat4> {
+        let mut local: Vec<(Vec3, Quat, Vec3)> = self
+            .nodes
+            .iter()
+            .map(|n| (n.translation, n.rotation, n.scale))
+            .collect();
+        if let Some(t) = t {
+            for c in self.animations.iter().flat_map(|a| &a.channels) {
+                let Some(l) = local.get_mut(c.node) else {
+                    continue;
+                };
+                let Some(v) = sample(c, t) else { continue };
+                match c.property {
+                    AnimatedProperty::Translation => l.0 = v.truncate(),
+                    AnimatedProperty::Rotation => l.1 = Quat::from_vec4(v).normalize(),
+                    AnimatedProperty::Scale => l.2 = v.truncate(),
+                }
+            }
+        }
+        let mut world = vec![Mat4::IDENTITY; self.nodes.len()];
+        for (i, n) in self.nodes.iter().enumerate() {
+            let (t, r, s) = local[i];
+            let m = Mat4::from_scale_rotation_translation(s, r, t);
+            world[i] = match n.parent {
+                Some(p) if p < i => world[p] * m,
+                _ => m,
+            };
+        }
+        world
+    }
+
+    /// Moves the scene's instances, lights and camera to their places at time `t`.
+    pub fn pose(&self, scene: &mut Scene, t: Option<f32>) {
+        let world = self.world_matrices(t);
+        for &(node, item) in &self.items {
+            let Some(m) = world.get(node) else { continue };
+            match item {
+                NodeItem::Instance(i) => {
+                    if let Some(inst) = scene.instances.get_mut(i) {
+                        inst.transform = *m;
+                    }
+                }
+                NodeItem::Light(l) => {
+                    let pos = m.transform_point3(Vec3::ZERO);
+                    let dir = m.transform_vector3(-Vec3::Z).normalize_or_zero();
+                    match scene.lights.get_mut(l) {
+                        Some(Light::Point { position, .. }) => *position = pos,
+                        Some(Light::Spot {
+                            position,
+                            direction,
+                            ..
+                        }) => {
+                            *position = pos;
+                            *direction = dir;
+                        }
+                        Some(Light::Directional { direction, .. }) => *direction = dir,
+                        _ => {}
+                    }
+                }
+                NodeItem::Camera => {
+                    let origin = m.transform_point3(Vec3::ZERO);
+                    let forward = m.transform_vector3(-Vec3::Z).normalize_or_zero();
+                    scene.camera.origin = origin;
+                    scene.camera.target = origin + forward;
+                    scene.camera.up = m.transform_vector3(Vec3::Y);
+                }
+            }
+        }
+    }
+}
+
+/// The channel's value at `t` (clamped to its key range); `None` for an empty channel.
+fn sample(c: &AnimationChannel, t: f32) -> Option<Vec4> {
+    let n = c.times.len();
+    let per_key = if c.interpolation == Interpolation::CubicSpline {
+        3
+    } else {
+        1
+    };
+    if n == 0 || c.values.len() < n * per_key {
+        return None;
+    }
+    let value = |k: usize| c.values[k * per_key + (per_key / 2)];
+    if t <= c.times[0] || n == 1 {
+        return Some(value(0));
+    }
+    if t >= c.times[n - 1] {
+        return Some(value(n - 1));
+    }
+    let k = c.times.partition_point(|&x| x <= t).clamp(1, n - 1) - 1;
+    let (t0, t1) = (c.times[k], c.times[k + 1]);
+    let dt = t1 - t0;
+    let s = if dt > 0.0 { (t - t0) / dt } else { 0.0 };
+    let rotation = c.property == AnimatedProperty::Rotation;
+    Some(match c.interpolation {
+        Interpolation::Step => value(k),
+        Interpolation::Linear if rotation => {
+            let (a, b) = (Quat::from_vec4(value(k)), Quat::from_vec4(value(k + 1)));
+            Vec4::from(a.normalize().slerp(b.normalize(), s))
+        }
+        Interpolation::Linear => value(k).lerp(value(k + 1), s),
+        Interpolation::CubicSpline => {
+            let out_tangent = c.values[k * 3 + 2];
+            let in_tangent = c.values[(k + 1) * 3];
+            let (s2, s3) = (s * s, s * s * s);
+            value(k) * (2.0 * s3 - 3.0 * s2 + 1.0)
+                + out_tangent * (dt * (s3 - 2.0 * s2 + s))
+                + value(k + 1) * (-2.0 * s3 + 3.0 * s2)
+                + in_tangent * (dt * (s3 - s2))
+        }
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn channel(interpolation: Interpolation, values: Vec<Vec4>) -> AnimationChannel {
+        AnimationChannel {
+            node: 0,
+            property: AnimatedProperty::Translation,
+            interpolation,
+            times: vec![0.0, 2.0],
+            values,
+        }
+    }
+
+    #[test]
+    fn linear_step_and_clamping() {
+        let c = channel(
+            Interpolation::Linear,
+            vec![Vec4::ZERO, Vec4::new(2.0, 4.0, 0.0, 0.0)],
+        );
+        assert_eq!(sample(&c, 1.0), Some(Vec4::new(1.0, 2.0, 0.0, 0.0)));
+        assert_eq!(sample(&c, -1.0), Some(Vec4::ZERO));
+        assert_eq!(sample(&c, 5.0), Some(Vec4::new(2.0, 4.0, 0.0, 0.0)));
+        let c = channel(Interpolation::Step, vec![Vec4::ZERO, Vec4::ONE]);
+        assert_eq!(sample(&c, 1.9), Some(Vec4::ZERO));
+    }
+
+    #[test]
+    fn cubic_spline_with_zero_tangents_is_smoothstep() {
+        let z = Vec4::ZERO;
+        let c = channel(Interpolation::CubicSpline, vec![z, z, z, z, Vec4::ONE, z]);
+        let v = sample(&c, 0.5).unwrap();
+        // s = 0.25: 3s² − 2s³ = 0.15625.
+        assert!((v.x - 0.15625).abs() < 1e-6, "{v}");
+    }
+
+    #[test]
+    fn parent_transforms_compose() {
+        let scene = AnimatedScene {
+            nodes: vec![
+                AnimatedNode {
+                    parent: None,
+                    translation: Vec3::X,
+                    rotation: Quat::IDENTITY,
+                    scale: Vec3::splat(2.0),
+                },
+                AnimatedNode {
+                    parent: Some(0),
+                    translation: Vec3::Y,
+                    rotation: Quat::IDENTITY,
+                    scale: Vec3::ONE,
+                },
+            ],
+            items: vec![],
+            animations: vec![Animation {
+                name: "a".into(),
+                channels: vec![AnimationChannel {
+                    node: 1,
+                    ..channel(
+                        Interpolation::Linear,
+                        vec![Vec4::ZERO, Vec4::new(0.0, 0.0, 2.0, 0.0)],
+                    )
+                }],
+            }],
+        };
+        let rest = scene.world_matrices(None);
+        assert_eq!(
+            rest[1].transform_point3(Vec3::ZERO),
+            Vec3::new(1.0, 2.0, 0.0)
+        );
+        let posed = scene.world_matrices(Some(1.0));
+        assert_eq!(
+            posed[1].transform_point3(Vec3::ZERO),
+            Vec3::new(1.0, 0.0, 2.0)
+        );
+    }
+}

@@ -1,0 +1,125 @@
+//! Checks every loader runs on its meshes: degenerate triangles are dropped with a warning,
+//! non-finite or out-of-range data is an error naming the file, and lights that cannot emit are
+//! reported.
+
+use std::path::Path;
+
+use super::{Diagnostics, LoadError, Location};
+use crate::{Mesh, Scene};
+
+/// Validates a freshly read mesh: indices in range and finite positions are errors (with the
+/// triangle or vertex number), zero-area triangles are removed with one warning per mesh.
+pub(crate) fn check_mesh(
+    mesh: &mut Mesh,
+    at: &Location,
+    diag: &mut Diagnostics,
+) -> Result<(), LoadError> {
+    let n = mesh.positions.len();
+    if let Some(i) = mesh.positions.iter().position(|p| !p.is_finite()) {
+        return Err(LoadError::invalid(
+            at.clone(),
+            format!(
+                "mesh {:?}: vertex {i} has a non-finite position {:?}; fix or remove that vertex",
+                mesh.name, mesh.positions[i]
+            ),
+        ));
+    }
+    for (t, tri) in mesh.indices.iter().enumerate() {
+        if let Some(&bad) = tri.iter().find(|&&i| i as usize >= n) {
+            return Err(LoadError::invalid(
+                at.clone(),
+                format!(
+                    "mesh {:?}: face {t} uses vertex {bad} but there are only {n} vertices",
+                    mesh.name
+                ),
+            ));
+        }
+    }
+    // Non-finite normals or uvs are recoverable: drop the attribute rather than the mesh.
+    if mesh.normals.iter().any(|v| !v.is_finite()) {
+        mesh.normals.clear();
+        diag.warn(
+            at.clone(),
+            format!(
+                "mesh {:?}: non-finite normals; using flat shading",
+                mesh.name
+            ),
+        )?;
+    }
+    if mesh.colors.iter().any(|v| !v.is_finite()) {
+        mesh.colors.clear();
+        diag.warn(
+            at.clone(),
+            format!("mesh {:?}: non-finite vertex colours; dropped", mesh.name),
+        )?;
+    }
+    if mesh.uvs.iter().any(|v| !v.is_finite()) {
+        mesh.uvs.clear();
+        diag.warn(
+            at.clone(),
+            format!(
+                "mesh {:?}: non-finite texture coordinates; dropped",
+                mesh.name
+            ),
+        )?;
+    }
+    let before = mesh.indices.len();
+    let positions = &mesh.positions;
+    mesh.indices.retain(|&[a, b, c]| {
+        let (a, b, c) = (
+            positions[a as usize],
+            positions[b as usize],
+            positions[c as usize],
+        );
+        (b - a).cross(c - a).length_squared() > 0.0
+    });
+    let dropped = before - mesh.indices.len();
+    if dropped > 0 {
+        diag.warn(
+            at.clone(),
+            format!(
+                "mesh {:?}: {dropped} of {before} triangles are degenerate (zero area) and were skipped",
+                mesh.name
+            ),
+        )?;
+    }
+    Ok(())
+}
+
+/// Scene-level checks: emissive materials whose meshes have no area.
+pub(crate) fn check_scene(
+    path: &Path,
+    scene: &Scene,
+    diag: &mut Diagnostics,
+) -> Result<(), LoadError> {
+    for (mi, material) in scene.materials.iter().enumerate() {
+        if !material.is_emissive() {
+            continue;
+        }
+        let mut used = false;
+        let mut area = 0.0f32;
+        for inst in &scene.instances {
+            let Some(mesh) = scene.meshes.get(inst.mesh) else {
+                continue;
+            };
+            if mesh.material != mi {
+                continue;
+            }
+            used = true;
+            for t in 0..mesh.triangle_count() {
+                let [a, b, c] = mesh.triangle(t).map(|p| inst.transform.transform_point3(p));
+                area += 0.5 * (b - a).cross(c - a).length();
+            }
+        }
+        if used && area <= 0.0 {
+            diag.warn(
+                Location::file(path),
+                format!(
+                    "emissive material {:?} is on surfaces of zero area and emits nothing",
+                    material.name
+                ),
+            )?;
+        }
+    }
+    Ok(())
+}

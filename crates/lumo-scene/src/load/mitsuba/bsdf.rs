@@ -1,0 +1,430 @@
+//! Mitsuba BSDFs and textures → lumo materials.
+
+use std::sync::Arc;
+
+use glam::{Affine2, Mat4, Vec2, Vec3};
+
+use super::props::Props;
+use super::xml::Element;
+use super::{presets, Builder};
+use crate::load::LoadError;
+use crate::{Bsdf, Texture};
+
+/// Mitsuba's default exterior medium (air) for `int_ior / ext_ior`.
+const AIR: f32 = 1.00028;
+
+impl<'a> Builder<'a, '_> {
+    /// Converts a `<bsdf>` (cached); returns (name, BSDF).
+    pub(super) fn bsdf(&mut self, el: &'a Element) -> Result<(String, Bsdf), LoadError> {
+        let key = el as *const Element as usize;
+        if let Some(b) = self.bsdfs.get(&key) {
+            return Ok(b.clone());
+        }
+        let props = Props::new(el);
+        let name = el
+            .attr("id")
+            .map(str::to_string)
+            .unwrap_or_else(|| props.kind().to_string());
+        let bsdf = self.convert_bsdf(&props)?;
+        props.finish(self.diag)?;
+        self.bsdfs.insert(key, (name.clone(), bsdf.clone()));
+        Ok((name, bsdf))
+    }
+
+    fn convert_bsdf(&mut self, props: &Props<'a>) -> Result<Bsdf, LoadError> {
+        let el = props.el;
+        let kind = props.kind();
+        let at = el.at();
+        Ok(match kind {
+            "diffuse" => Bsdf::Diffuse {
+                reflectance: self.texture_param(props, "reflectance", Vec3::splat(0.5))?,
+            },
+            // lumo's opaque BSDFs already reflect on both sides.
+            "twosided" | "mask" | "bumpmap" | "normalmap" | "blendbsdf" => {
+                if kind != "twosided" {
+                    self.diag.warn(
+                        at.clone(),
+                        format!("bsdf {kind:?} is approximated by its (first) nested BSDF"),
+                    )?;
+                    props.accept(&["opacity", "weight", "scale", "arg", "normalmap", "bumpmap"]);
+                }
+                let mut inner = None;
+                for (i, c) in props.nested() {
+                    let r = self.resolve(c)?;
+                    if r.tag == "bsdf" {
+                        props.mark(i);
+                        if inner.is_none() {
+                            inner = Some(self.bsdf(r)?.1);
+                        }
+                    } else if r.tag == "texture" {
+                        props.mark(i);
+                    }
+                }
+                inner.ok_or_else(|| {
+                    LoadError::invalid(at, format!("bsdf {kind:?} needs a nested <bsdf>"))
+                })?
+            }
+            "conductor" | "roughconductor" => {
+                let (eta, k) = match props.string("material")? {
+                    Some(m) => {
+                        let (eta, k) = presets::conductor(&m).ok_or_else(|| {
+                            let names: Vec<&str> =
+                                presets::CONDUCTORS.iter().map(|c| c.0).collect();
+                            LoadError::invalid(
+                                at.clone(),
+                                format!(
+                                    "unknown conductor material {m:?}; Mitsuba's presets are \
+                                     none, {}",
+                                    names.join(", ")
+                                ),
+                            )
+                        })?;
+                        (Vec3::from(eta), Vec3::from(k))
+                    }
+                    None => {
+                        let eta = self.color_param(props, "eta", Vec3::ZERO)?;
+                        let k = self.color_param(props, "k", Vec3::ONE)?;
+                        (eta, k)
+                    }
+                };
+                self.unit_scale(props, "specular_reflectance")?;
+                let roughness = if kind == "roughconductor" {
+                    self.alpha(props)?
+                } else {
+                    0.0
+                };
+                Bsdf::Conductor { eta, k, roughness }
+            }
+            "plastic" | "roughplastic" => {
+                let ior = self.ior(props)?;
+                self.unit_scale(props, "specular_reflectance")?;
+                if props.bool("nonlinear", false)? {
+                    self.diag.warn(
+                        at,
+                        "plastic nonlinear=true is not modelled; rendering the linear variant",
+                    )?;
+                }
+                let roughness = if kind == "roughplastic" {
+                    self.alpha(props)?
+                } else {
+                    0.0
+                };
+                Bsdf::Plastic {
+                    diffuse: self.texture_param(props, "diffuse_reflectance", Vec3::splat(0.5))?,
+                    ior,
+                    roughness,
+                }
+            }
+            "dielectric" | "roughdielectric" | "thindielectric" => {
+                let ior = self.ior(props)?;
+                self.unit_scale(props, "specular_reflectance")?;
+                self.unit_scale(props, "specular_transmittance")?;
+                if kind == "thindielectric" {
+                    self.diag.warn(
+                        at,
+                        "thindielectric is rendered as a solid dielectric interface (lumo has \
+                         no thin-sheet BSDF); close the sheet into a slab for correct refraction",
+                    )?;
+                }
+                let roughness = if kind == "roughdielectric" {
+                    self.alpha(props)?
+                } else {
+                    0.0
+                };
+                Bsdf::Dielectric { ior, roughness }
+            }
+            "principled" => self.principled(props)?,
+            _ => {
+                self.diag.warn(
+                    at,
+                    format!("bsdf {kind:?} is not supported; using a grey diffuse BSDF instead"),
+                )?;
+                props.accept(&[]);
+                mark_all(props);
+                Bsdf::Diffuse {
+                    reflectance: Texture::Constant(Vec3::splat(0.5)),
+                }
+            }
+        })
+    }
+
+    /// `principled` mapped to the closest lumo BSDF, naming what is lost.
+    fn principled(&mut self, props: &Props<'a>) -> Result<Bsdf, LoadError> {
+        let base = self.texture_param(props, "base_color", Vec3::splat(0.5))?;
+        let roughness = self.scalar_param(props, "roughness", 0.5)?;
+        let metallic = self.scalar_param(props, "metallic", 0.0)?;
+        let spec_trans = self.scalar_param(props, "spec_trans", 0.0)?;
+        let eta = props.float("eta", 1.5)?;
+        let alpha = roughness * roughness;
+        let mut lost: Vec<&str> = [
+            "anisotropic",
+            "sheen",
+            "sheen_tint",
+            "clearcoat",
+            "clearcoat_gloss",
+            "specular",
+            "spec_tint",
+            "flatness",
+        ]
+        .into_iter()
+        .filter(|p| props.has(p))
+        .collect();
+        props.accept(&lost);
+        let bsdf = if spec_trans >= 0.5 {
+            lost.push("base_color (glass is clear)");
+            Bsdf::Dielectric {
+                ior: eta,
+                roughness: alpha,
+            }
+        } else if metallic >= 0.5 {
+            let (eta, k) = crate::load::materials::metal_from_reflectance(base.average());
+            Bsdf::Conductor {
+                eta,
+                k,
+                roughness: alpha,
+            }
+        } else {
+            Bsdf::Plastic {
+                diffuse: base,
+                ior: eta,
+                roughness: alpha,
+            }
+        };
+        let what = match bsdf {
+            Bsdf::Dielectric { .. } => "a dielectric (spec_trans >= 0.5)",
+            Bsdf::Conductor { .. } => {
+                "a conductor with the base colour as its reflectance (metallic >= 0.5)"
+            }
+            _ => "a rough plastic with the base colour as its diffuse layer (metallic < 0.5)",
+        };
+        let mut msg = format!("principled is approximated by {what}, alpha = roughness²");
+        if metallic > 0.0 && metallic < 1.0 {
+            msg.push_str("; metallic between 0 and 1 is not blended");
+        }
+        if !lost.is_empty() {
+            msg.push_str(&format!("; ignored: {}", lost.join(", ")));
+        }
+        self.diag.warn(props.el.at(), msg)?;
+        Ok(bsdf)
+    }
+
+    /// GGX α from `alpha` (or `alpha_u`/`alpha_v`), warning about Beckmann and anisotropy.
+    fn alpha(&mut self, props: &Props<'a>) -> Result<f32, LoadError> {
+        let at = props.el.at();
+        let distribution = props.string("distribution")?;
+        if distribution.as_deref() != Some("ggx") {
+            self.diag.warn(
+                at.clone(),
+                format!(
+                    "microfacet distribution {} is rendered as GGX with the same alpha (add \
+                     <string name=\"distribution\" value=\"ggx\"/> to match exactly)",
+                    distribution
+                        .as_deref()
+                        .unwrap_or("beckmann (Mitsuba's default)")
+                ),
+            )?;
+        }
+        props.accept(&["sample_visible"]);
+        if props.has("alpha_u") || props.has("alpha_v") {
+            let u = self.scalar_param(props, "alpha_u", 0.1)?;
+            let v = self.scalar_param(props, "alpha_v", 0.1)?;
+            if u != v {
+                self.diag.warn(
+                    at,
+                    format!("anisotropic roughness ({u}, {v}) approximated by its mean"),
+                )?;
+            }
+            return Ok(0.5 * (u + v));
+        }
+        self.scalar_param(props, "alpha", 0.1)
+    }
+
+    /// `int_ior / ext_ior`, each a number or a named medium.
+    fn ior(&mut self, props: &Props<'a>) -> Result<f32, LoadError> {
+        let side = |name: &str, default: f32| -> Result<f32, LoadError> {
+            let Some(v) = props.value(name) else {
+                return Ok(default);
+            };
+            let text = v.required("value")?;
+            if v.tag == "float" {
+                return text.trim().parse::<f32>().map_err(|_| {
+                    LoadError::invalid(v.at(), format!("{name}: {text:?} is not a number"))
+                });
+            }
+            presets::dielectric(text).ok_or_else(|| {
+                let names: Vec<&str> = presets::DIELECTRICS.iter().map(|d| d.0).collect();
+                LoadError::invalid(
+                    v.at(),
+                    format!(
+                        "unknown medium {text:?}; use a number or one of {}",
+                        names.join(", ")
+                    ),
+                )
+            })
+        };
+        let int = side("int_ior", 1.5046)?;
+        let ext = side("ext_ior", AIR)?;
+        let ior = int / ext;
+        if !(ior.is_finite() && ior > 0.0) {
+            return Err(LoadError::invalid(
+                props.el.at(),
+                format!("int_ior / ext_ior = {int} / {ext} is not a positive ratio"),
+            ));
+        }
+        Ok(ior)
+    }
+
+    /// A scale factor parameter lumo does not model; warns unless it is 1.
+    fn unit_scale(&mut self, props: &Props<'a>, name: &str) -> Result<(), LoadError> {
+        if props.has(name) {
+            let v = self.color_param(props, name, Vec3::ONE)?;
+            if v != Vec3::ONE {
+                self.diag.warn(
+                    props.el.at(),
+                    format!("{name} = {v} is not supported (lumo uses 1); ignored"),
+                )?;
+            }
+        }
+        Ok(())
+    }
+
+    /// A colour parameter; a texture there is replaced by its average with a warning.
+    pub(super) fn color_param(
+        &mut self,
+        props: &Props<'a>,
+        name: &str,
+        default: Vec3,
+    ) -> Result<Vec3, LoadError> {
+        let t = self.texture_param(props, name, default)?;
+        if let Texture::Constant(c) = t {
+            return Ok(c);
+        }
+        let avg = t.average();
+        self.diag.warn(
+            props.el.at(),
+            format!("a texture for {name} is not supported; using its average {avg}"),
+        )?;
+        Ok(avg)
+    }
+
+    /// A scalar parameter; a texture there is replaced by its mean luminance-free average.
+    fn scalar_param(
+        &mut self,
+        props: &Props<'a>,
+        name: &str,
+        default: f32,
+    ) -> Result<f32, LoadError> {
+        let c = self.color_param(props, name, Vec3::splat(default))?;
+        Ok((c.x + c.y + c.z) / 3.0)
+    }
+
+    /// A reflectance slot: a value (`<rgb>`, `<spectrum>`, `<float>`) or a nested/referenced
+    /// texture.
+    pub(super) fn texture_param(
+        &mut self,
+        props: &Props<'a>,
+        name: &str,
+        default: Vec3,
+    ) -> Result<Texture, LoadError> {
+        if let Some(c) = props.color(name)? {
+            return Ok(Texture::Constant(c));
+        }
+        if let Some(el) = props.named_plugin(name) {
+            let target = self.resolve(el)?;
+            if target.tag != "texture" {
+                return Err(LoadError::invalid(
+                    el.at(),
+                    format!(
+                        "{name} must be a colour or a <texture>, not {}",
+                        target.describe()
+                    ),
+                ));
+            }
+            return self.texture(target);
+        }
+        Ok(Texture::Constant(default))
+    }
+
+    /// Converts a `<texture>` (cached).
+    pub(super) fn texture(&mut self, el: &'a Element) -> Result<Texture, LoadError> {
+        let key = el as *const Element as usize;
+        if let Some(t) = self.textures.get(&key) {
+            return Ok(t.clone());
+        }
+        let props = Props::new(el);
+        let at = el.at();
+        let texture = match props.kind() {
+            "bitmap" => {
+                let file = props.string("filename")?.ok_or_else(|| {
+                    LoadError::invalid(at.clone(), "bitmap texture needs a filename")
+                })?;
+                let raw = props.bool("raw", false)?;
+                // lumo looks textures up nearest-neighbour; bilinear filtering is not modelled.
+                props.accept(&["filter_type", "format"]);
+                if let Some(w) = props.string("wrap_mode")? {
+                    if w != "repeat" {
+                        self.diag
+                            .warn(at.clone(), format!("wrap_mode {w:?} is rendered as repeat"))?;
+                    }
+                }
+                let path = self.file_path(el, &file);
+                let image = self.images.load(&path, raw, &at)?;
+                // Mitsuba puts v = 0 at the image's top row, lumo at its bottom row.
+                Texture::Bitmap {
+                    image: Arc::new(flip_rows(&image)),
+                    uv_scale: Vec2::ONE,
+                }
+            }
+            "checkerboard" => Texture::Checkerboard {
+                color0: self.color_param(&props, "color0", Vec3::splat(0.4))?,
+                color1: self.color_param(&props, "color1", Vec3::splat(0.2))?,
+                // Mitsuba's squares are half a uv unit.
+                scale: 2.0,
+            },
+            other => {
+                self.diag.warn(
+                    at.clone(),
+                    format!("texture {other:?} is not supported; using grey 0.5"),
+                )?;
+                mark_all(&props);
+                Texture::Constant(Vec3::splat(0.5))
+            }
+        };
+        let to_uv = props.transform("to_uv")?;
+        props.finish(self.diag)?;
+        let texture = if to_uv == Mat4::IDENTITY {
+            texture
+        } else {
+            Texture::Transformed {
+                texture: Arc::new(texture),
+                uv: uv_affine(&to_uv),
+            }
+        };
+        self.textures.insert(key, texture.clone());
+        Ok(texture)
+    }
+}
+
+/// The (u, v) part of a 4×4 texture transform: uv' = M · (u, v, 0, 1).
+fn uv_affine(m: &Mat4) -> Affine2 {
+    Affine2::from_cols(
+        Vec2::new(m.x_axis.x, m.x_axis.y),
+        Vec2::new(m.y_axis.x, m.y_axis.y),
+        Vec2::new(m.w_axis.x, m.w_axis.y),
+    )
+}
+
+fn flip_rows(img: &lumo_image::Image) -> lumo_image::Image {
+    let row = img.width * img.channels;
+    let mut data = Vec::with_capacity(img.data.len());
+    for r in img.data.chunks_exact(row.max(1)).rev() {
+        data.extend_from_slice(r);
+    }
+    lumo_image::Image::from_vec(img.width, img.height, img.channels, data)
+}
+
+fn mark_all(props: &Props) {
+    for (i, _) in props.el.children.iter().enumerate() {
+        props.mark(i);
+    }
+}

@@ -1,0 +1,185 @@
+//! Mitsuba 3 XML scenes (the subset research scenes use; see docs/scenes.md).
+//!
+//! The file is read into an owned element tree ([`xml`]), then walked once: sensors give the
+//! camera and film, integrators the depth settings, shapes meshes with materials made of their
+//! BSDF and area emitter, emitters the other lights.
+
+mod bsdf;
+mod objects;
+pub(crate) mod presets;
+mod props;
+mod spectrum;
+mod xml;
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use glam::Vec3;
+
+use self::props::Props;
+use self::xml::Element;
+use super::images::ImageCache;
+use super::{defaults, Diagnostics, FileSettings, LoadError, LoadOptions, Location};
+use crate::{Bsdf, Material, Scene, Texture};
+
+/// Loads a Mitsuba XML scene.
+pub(crate) fn load(
+    path: &Path,
+    options: &LoadOptions,
+    diag: &mut Diagnostics,
+    settings: &mut FileSettings,
+) -> Result<Scene, LoadError> {
+    let root = xml::read_tree(path, &options.defines, diag)?;
+    let mut ids = HashMap::new();
+    index_ids(&root, &mut ids)?;
+    let mut b = Builder {
+        diag,
+        settings,
+        ids,
+        images: ImageCache::default(),
+        scene: defaults::empty_scene(path),
+        bsdfs: HashMap::new(),
+        materials: HashMap::new(),
+        textures: HashMap::new(),
+        has_camera: false,
+        has_environment: false,
+        root_dir: path.parent().unwrap_or(Path::new("")).to_path_buf(),
+    };
+    let props = Props::new(&root);
+    // Declared BSDFs become materials first, in file order, so material indices follow the file.
+    for (i, el) in props.nested() {
+        if el.tag == "bsdf" {
+            props.mark(i);
+            b.material(Some(el), Vec3::ZERO)?;
+        }
+    }
+    for (i, el) in props.nested() {
+        props.mark(i);
+        match el.tag.as_str() {
+            "bsdf" => {}
+            "texture" => {
+                b.texture(el)?;
+            }
+            "sensor" => b.sensor(el)?,
+            "integrator" => b.integrator(el)?,
+            "shape" => b.shape(el)?,
+            "emitter" => b.emitter(el)?,
+            _ => b.diag.warn(
+                el.at(),
+                format!("{} is not supported by lumo and was ignored", el.describe()),
+            )?,
+        }
+    }
+    props.finish(b.diag)?;
+    if !b.has_camera {
+        let (lo, hi) = b.scene.bounds();
+        b.scene.camera = defaults::framing_camera(lo, hi);
+        b.diag.warn(
+            Location::file(path),
+            "the scene has no <sensor>; using a camera that frames the whole scene",
+        )?;
+    }
+    let has_area = b.scene.materials.iter().any(Material::is_emissive);
+    if !has_area && b.scene.lights.is_empty() {
+        b.diag.warn(
+            Location::file(path),
+            "the scene has no emitters; the image will be black",
+        )?;
+    }
+    Ok(b.scene)
+}
+
+/// Every element with an `id`, for `<ref>`.
+fn index_ids<'a>(el: &'a Element, ids: &mut HashMap<String, &'a Element>) -> Result<(), LoadError> {
+    for c in &el.children {
+        if c.tag != "ref" {
+            if let Some(id) = c.attr("id") {
+                if let Some(prev) = ids.insert(id.to_string(), c) {
+                    return Err(LoadError::invalid(
+                        c.at(),
+                        format!("id {id:?} is already used at line {}", prev.line),
+                    ));
+                }
+            }
+        }
+        index_ids(c, ids)?;
+    }
+    Ok(())
+}
+
+/// State of one scene conversion.
+pub(super) struct Builder<'a, 'd> {
+    diag: &'d mut Diagnostics,
+    settings: &'d mut FileSettings,
+    ids: HashMap<String, &'a Element>,
+    images: ImageCache,
+    scene: Scene,
+    /// Converted BSDFs by element address (a BSDF referenced twice is converted once).
+    bsdfs: HashMap<usize, (String, Bsdf)>,
+    /// Material index by (BSDF element address or 0 for the default, emission bits).
+    materials: HashMap<(usize, [u32; 3]), usize>,
+    /// Converted textures by element address.
+    textures: HashMap<usize, Texture>,
+    has_camera: bool,
+    has_environment: bool,
+    /// Directory of the top-level scene file.
+    root_dir: PathBuf,
+}
+
+impl<'a> Builder<'a, '_> {
+    /// The element a `<ref>` points to (or `el` itself).
+    fn resolve(&self, el: &'a Element) -> Result<&'a Element, LoadError> {
+        if el.tag != "ref" {
+            return Ok(el);
+        }
+        let id = el.required("id")?;
+        self.ids.get(id).copied().ok_or_else(|| {
+            LoadError::invalid(
+                el.at(),
+                format!("<ref id=\"{id}\"> refers to nothing; no element has id=\"{id}\""),
+            )
+        })
+    }
+
+    /// A file named in `el`: relative to the XML file that names it, or else (as Mitsuba
+    /// resolves paths in included files) to the top-level scene's directory.
+    fn file_path(&self, el: &Element, name: &str) -> PathBuf {
+        let own = el.file.parent().unwrap_or(Path::new("")).join(name);
+        if own.exists() {
+            return own;
+        }
+        let top = self.root_dir.join(name);
+        if top.exists() {
+            top
+        } else {
+            own
+        }
+    }
+
+    /// The material made of BSDF `bsdf` (Mitsuba's default diffuse when `None`) and `emission`.
+    fn material(&mut self, bsdf: Option<&'a Element>, emission: Vec3) -> Result<usize, LoadError> {
+        let key = (
+            bsdf.map_or(0, |e| e as *const Element as usize),
+            emission.to_array().map(f32::to_bits),
+        );
+        if let Some(&m) = self.materials.get(&key) {
+            return Ok(m);
+        }
+        let (name, bsdf) = match bsdf {
+            Some(el) => self.bsdf(el)?,
+            None => (
+                "default".to_string(),
+                Bsdf::Diffuse {
+                    reflectance: Texture::Constant(Vec3::splat(0.5)),
+                },
+            ),
+        };
+        let index = self.scene.add_material(Material {
+            name,
+            bsdf,
+            emission,
+        });
+        self.materials.insert(key, index);
+        Ok(index)
+    }
+}

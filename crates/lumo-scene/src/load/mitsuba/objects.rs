@@ -1,0 +1,475 @@
+//! Mitsuba sensors, integrators, shapes and emitters.
+
+use std::sync::Arc;
+
+use glam::{Mat4, Vec3};
+
+use super::props::Props;
+use super::xml::Element;
+use super::Builder;
+use crate::load::{check::check_mesh, obj, ply, LoadError};
+use crate::{shapes, Camera, EnvMap, FovAxis, Light, Mesh};
+
+/// Tessellation of analytic shapes (Mitsuba intersects them exactly; lumo renders triangles).
+const SPHERE_RINGS: u32 = 64;
+const SPHERE_SEGMENTS: u32 = 128;
+const ROUND_SEGMENTS: u32 = 128;
+
+/// Mitsuba's `max_depth = -1` (unbounded); Russian roulette ends such paths.
+const UNBOUNDED_DEPTH: u32 = 1 << 16;
+
+impl<'a> Builder<'a, '_> {
+    /// `<sensor>`: camera, film size, sample count and seed.
+    pub(super) fn sensor(&mut self, el: &'a Element) -> Result<(), LoadError> {
+        let props = Props::new(el);
+        let at = el.at();
+        if self.has_camera {
+            self.diag
+                .warn(at.clone(), "more than one <sensor>; lumo uses the first")?;
+            return Ok(());
+        }
+        match props.kind() {
+            "perspective" => {}
+            "thinlens" => {
+                self.diag.warn(
+                    at.clone(),
+                    "thinlens sensor rendered as a pinhole (no depth of field)",
+                )?;
+                props.accept(&["aperture_radius", "focus_distance"]);
+            }
+            other => {
+                return Err(LoadError::invalid(
+                    at,
+                    format!(
+                        "sensor type {other:?} is not supported; lumo renders perspective cameras"
+                    ),
+                ))
+            }
+        }
+        let to_world = props.transform("to_world")?;
+        let (fov, fov_axis) = if props.has("fov") {
+            let axis = match props.string("fov_axis")?.as_deref().unwrap_or("x") {
+                "x" => FovAxis::X,
+                "y" => FovAxis::Y,
+                "smaller" => FovAxis::Smaller,
+                "larger" => FovAxis::Larger,
+                "diagonal" => FovAxis::Diagonal,
+                other => {
+                    return Err(LoadError::invalid(
+                        at,
+                        format!("fov_axis {other:?} is not one of x, y, smaller, larger, diagonal"),
+                    ))
+                }
+            };
+            (props.float("fov", 0.0)?, axis)
+        } else {
+            // A 35 mm-equivalent focal length gives the diagonal field of view of a 36×24 frame.
+            let f = match props.string("focal_length")? {
+                Some(s) => s
+                    .trim()
+                    .trim_end_matches("mm")
+                    .trim()
+                    .parse::<f32>()
+                    .map_err(|_| {
+                        LoadError::invalid(
+                            at.clone(),
+                            format!("focal_length {s:?} is not e.g. 50mm"),
+                        )
+                    })?,
+                None => 50.0,
+            };
+            let diagonal = (36.0f32 * 36.0 + 24.0 * 24.0).sqrt();
+            (
+                2.0 * (diagonal / (2.0 * f)).atan().to_degrees(),
+                FovAxis::Diagonal,
+            )
+        };
+        if !(fov > 0.0 && fov < 180.0) {
+            return Err(LoadError::invalid(
+                at,
+                format!("field of view {fov}° is not between 0 and 180"),
+            ));
+        }
+        // Clip planes do not change a path tracer's image of a scene in front of the camera.
+        props.accept(&["near_clip", "far_clip", "shutter_open", "shutter_close"]);
+        let origin = to_world.transform_point3(Vec3::ZERO);
+        let forward = to_world.transform_vector3(Vec3::Z);
+        let up = to_world.transform_vector3(Vec3::Y);
+        if to_world.determinant() < 0.0 {
+            self.diag.warn(
+                at.clone(),
+                "the camera transform mirrors the image; lumo renders it unmirrored",
+            )?;
+        }
+        let forward = forward
+            .try_normalize()
+            .ok_or_else(|| LoadError::invalid(at.clone(), "the camera transform is singular"))?;
+        // A lone <lookat> is taken literally: re-deriving target and up from its matrix would
+        // round them, and the image would differ in the last bits from the same camera built
+        // in code.
+        let (origin, target, up) = props.value("to_world").and_then(single_lookat).unwrap_or((
+            origin,
+            origin + forward,
+            up,
+        ));
+        self.scene.camera = Camera {
+            origin,
+            target,
+            up,
+            fov,
+            fov_axis,
+        };
+        self.has_camera = true;
+        for (i, c) in props.nested() {
+            let c = self.resolve(c)?;
+            match c.tag.as_str() {
+                "film" => {
+                    props.mark(i);
+                    self.film(c)?;
+                }
+                "sampler" => {
+                    props.mark(i);
+                    let s = Props::new(c);
+                    let spp = s.int("sample_count", 4)?;
+                    let seed = s.int("seed", 0)?;
+                    if spp < 1 || spp > u32::MAX as i64 || seed < 0 || seed > u32::MAX as i64 {
+                        return Err(LoadError::invalid(
+                            c.at(),
+                            format!("sample_count {spp} / seed {seed} out of range"),
+                        ));
+                    }
+                    self.settings.spp = Some(spp as u32);
+                    self.settings.seed = Some(seed as u32);
+                    // Every Mitsuba sampler type maps to lumo's own (Sobol-Burley).
+                    s.accept(&["jitter", "scramble_seed"]);
+                    s.finish(self.diag)?;
+                }
+                _ => {}
+            }
+        }
+        props.finish(self.diag)
+    }
+
+    fn film(&mut self, el: &'a Element) -> Result<(), LoadError> {
+        let props = Props::new(el);
+        if props.kind() != "hdrfilm" {
+            self.diag.warn(
+                el.at(),
+                format!("film {:?} is read as hdrfilm", props.kind()),
+            )?;
+        }
+        let w = props.int("width", 768)?;
+        let h = props.int("height", 576)?;
+        if !(1..=16384).contains(&w) || !(1..=16384).contains(&h) {
+            return Err(LoadError::invalid(
+                el.at(),
+                format!("film size {w}x{h} is not within 1..=16384"),
+            ));
+        }
+        self.settings.size = Some((w as usize, h as usize));
+        self.scene.defaults.width = w as usize;
+        self.scene.defaults.height = h as usize;
+        props.accept(&[
+            "pixel_format",
+            "component_format",
+            "file_format",
+            "banner",
+            "sample_border",
+        ]);
+        for (i, c) in props.nested() {
+            let c = self.resolve(c)?;
+            if c.tag == "rfilter" {
+                props.mark(i);
+                let f = Props::new(c);
+                if f.kind() != "box" {
+                    self.diag.warn(
+                        c.at(),
+                        format!(
+                            "rfilter {:?} is approximated by lumo's box filter (same mean, \
+                             slightly sharper image)",
+                            f.kind()
+                        ),
+                    )?;
+                    f.accept(&["stddev", "radius"]);
+                }
+                f.finish(self.diag)?;
+            }
+        }
+        props.finish(self.diag)
+    }
+
+    /// `<integrator>`: depth settings.
+    pub(super) fn integrator(&mut self, el: &'a Element) -> Result<(), LoadError> {
+        let props = Props::new(el);
+        let at = el.at();
+        match props.kind() {
+            "path" | "volpath" | "volpathmis" | "prb" => {}
+            "direct" => {
+                // Direct illumination is a path of at most two segments.
+                self.settings.max_depth = Some(2);
+                self.scene.defaults.max_depth = 2;
+                props.accept(&["emitter_samples", "bsdf_samples", "shading_samples"]);
+                return props.finish(self.diag);
+            }
+            "aov" | "moment" => {
+                for (i, c) in props.nested() {
+                    let c = self.resolve(c)?;
+                    if c.tag == "integrator" {
+                        props.mark(i);
+                        self.integrator(c)?;
+                    }
+                }
+                props.accept(&["aovs"]);
+                return props.finish(self.diag);
+            }
+            other => self.diag.warn(
+                at.clone(),
+                format!("integrator {other:?} is not supported; lumo renders with its path tracer"),
+            )?,
+        }
+        let max_depth = props.int("max_depth", -1)?;
+        let rr_depth = props.int("rr_depth", 5)?;
+        let max_depth = match max_depth {
+            -1 => UNBOUNDED_DEPTH,
+            d if d >= 1 && d <= UNBOUNDED_DEPTH as i64 => d as u32,
+            d => {
+                return Err(LoadError::invalid(
+                    at,
+                    format!("max_depth {d} must be -1 (unbounded) or at least 1"),
+                ))
+            }
+        };
+        if !(1..=UNBOUNDED_DEPTH as i64).contains(&rr_depth) {
+            return Err(LoadError::invalid(
+                at,
+                format!("rr_depth {rr_depth} must be at least 1"),
+            ));
+        }
+        self.settings.max_depth = Some(max_depth);
+        self.settings.rr_depth = Some(rr_depth as u32);
+        self.scene.defaults.max_depth = max_depth;
+        if props.bool("hide_emitters", false)? {
+            self.diag.warn(
+                at,
+                "hide_emitters is not supported; emitters seen directly are rendered",
+            )?;
+        }
+        props.finish(self.diag)
+    }
+
+    /// `<shape>`: one or more meshes with the shape's material.
+    pub(super) fn shape(&mut self, el: &'a Element) -> Result<(), LoadError> {
+        let props = Props::new(el);
+        let at = el.at();
+        let kind = props.kind();
+        let to_world = props.transform("to_world")?;
+        let mut bsdf = None;
+        let mut emission = Vec3::ZERO;
+        for (i, c) in props.nested() {
+            let r = self.resolve(c)?;
+            match r.tag.as_str() {
+                "bsdf" => {
+                    props.mark(i);
+                    bsdf = Some(r);
+                }
+                "emitter" => {
+                    props.mark(i);
+                    emission = self.area_emitter(r)?;
+                }
+                _ => {}
+            }
+        }
+        let material = self.material(bsdf, emission)?;
+        let mut mesh = match kind {
+            "rectangle" => shapes::rectangle(&to_world, material),
+            "cube" => shapes::cube(&to_world, material),
+            "disk" => shapes::disk(&to_world, material, ROUND_SEGMENTS),
+            "sphere" => {
+                let center = props.vec3("center")?.unwrap_or(Vec3::ZERO);
+                let radius = props.float("radius", 1.0)?;
+                let m = to_world
+                    * Mat4::from_translation(center)
+                    * Mat4::from_scale(Vec3::splat(radius));
+                shapes::sphere(&m, material, SPHERE_RINGS, SPHERE_SEGMENTS)
+            }
+            "cylinder" => {
+                let p0 = props.vec3("p0")?.unwrap_or(Vec3::ZERO);
+                let p1 = props.vec3("p1")?.unwrap_or(Vec3::Z);
+                let radius = props.float("radius", 1.0)?;
+                let axis = p1 - p0;
+                let len = axis.length();
+                if len == 0.0 || radius <= 0.0 {
+                    return Err(LoadError::invalid(
+                        at,
+                        "cylinder needs p0 != p1 and radius > 0",
+                    ));
+                }
+                let rot = glam::Quat::from_rotation_arc(Vec3::Z, axis / len);
+                let m = to_world
+                    * Mat4::from_translation(p0)
+                    * Mat4::from_quat(rot)
+                    * Mat4::from_scale(Vec3::new(radius, radius, len));
+                shapes::cylinder(&m, material, ROUND_SEGMENTS)
+            }
+            "obj" | "ply" => {
+                let file = props.string("filename")?.ok_or_else(|| {
+                    LoadError::invalid(at.clone(), format!("{kind} shape needs a filename"))
+                })?;
+                let path = self.file_path(el, &file);
+                let mut mesh = if kind == "obj" {
+                    let (meshes, _) = obj::read(&path, self.diag)?;
+                    let mut all = Mesh::default();
+                    for m in &meshes {
+                        all.append(m);
+                    }
+                    // Mitsuba flips OBJ v by default (flip_tex_coords = true).
+                    if props.bool("flip_tex_coords", true)? {
+                        for uv in &mut all.uvs {
+                            uv.y = 1.0 - uv.y;
+                        }
+                    }
+                    all
+                } else {
+                    let mut mesh = ply::read(&path, self.diag)?;
+                    // Mitsuba uses vertex colours only through a mesh_attribute texture.
+                    mesh.colors.clear();
+                    mesh
+                };
+                mesh.material = material;
+                mesh.transformed(&to_world)
+            }
+            other => {
+                return self.diag.warn(
+                    at,
+                    format!("shape type {other:?} is not supported by lumo; the shape is skipped"),
+                );
+            }
+        };
+        if props.bool("face_normals", false)? {
+            mesh.normals.clear();
+        }
+        if props.bool("flip_normals", false)? {
+            for t in &mut mesh.indices {
+                t.swap(1, 2);
+            }
+            for n in &mut mesh.normals {
+                *n = -*n;
+            }
+        }
+        mesh.name = el.attr("id").unwrap_or(kind).to_string();
+        check_mesh(&mut mesh, &at, self.diag)?;
+        props.finish(self.diag)?;
+        self.scene.add_mesh(mesh);
+        Ok(())
+    }
+
+    /// A nested `area` emitter: its radiance.
+    fn area_emitter(&mut self, el: &'a Element) -> Result<Vec3, LoadError> {
+        let props = Props::new(el);
+        if props.kind() != "area" {
+            return Err(LoadError::invalid(
+                el.at(),
+                format!(
+                    "emitter {:?} inside a shape; only area emitters attach to shapes",
+                    props.kind()
+                ),
+            ));
+        }
+        let radiance = self.color_param(&props, "radiance", Vec3::ONE)?;
+        props.finish(self.diag)?;
+        Ok(radiance)
+    }
+
+    /// A top-level `<emitter>`.
+    pub(super) fn emitter(&mut self, el: &'a Element) -> Result<(), LoadError> {
+        let props = Props::new(el);
+        let at = el.at();
+        let to_world = props.transform("to_world")?;
+        let light = match props.kind() {
+            "point" => {
+                let position = props
+                    .vec3("position")?
+                    .unwrap_or_else(|| to_world.transform_point3(Vec3::ZERO));
+                Light::Point {
+                    position,
+                    intensity: self.color_param(&props, "intensity", Vec3::ONE)?,
+                }
+            }
+            "spot" => {
+                let cutoff = props.float("cutoff_angle", 20.0)?;
+                let beam_width = props.float("beam_width", cutoff * 0.75)?;
+                Light::Spot {
+                    position: to_world.transform_point3(Vec3::ZERO),
+                    direction: to_world.transform_vector3(Vec3::Z).normalize_or_zero(),
+                    intensity: self.color_param(&props, "intensity", Vec3::ONE)?,
+                    beam_width,
+                    cutoff,
+                }
+            }
+            "directional" => {
+                let direction = props
+                    .vec3("direction")?
+                    .unwrap_or_else(|| to_world.transform_vector3(Vec3::Z));
+                let direction = direction.try_normalize().ok_or_else(|| {
+                    LoadError::invalid(at.clone(), "directional emitter needs a non-zero direction")
+                })?;
+                Light::Directional {
+                    direction,
+                    irradiance: self.color_param(&props, "irradiance", Vec3::ONE)?,
+                }
+            }
+            "constant" => Light::Constant {
+                radiance: self.color_param(&props, "radiance", Vec3::ONE)?,
+            },
+            "envmap" => {
+                let file = props
+                    .string("filename")?
+                    .ok_or_else(|| LoadError::invalid(at.clone(), "envmap needs a filename"))?;
+                let path = self.file_path(el, &file);
+                let image = self.images.load(&path, false, &at)?;
+                if self.has_environment {
+                    self.diag
+                        .warn(at.clone(), "more than one envmap; lumo keeps the last one")?;
+                }
+                self.has_environment = true;
+                props.accept(&["filter_type", "mis_compensation"]);
+                Light::Environment(EnvMap {
+                    image: Arc::clone(&image),
+                    scale: props.float("scale", 1.0)?,
+                    to_world,
+                })
+            }
+            "area" => {
+                return Err(LoadError::invalid(
+                    at,
+                    "an area emitter must be nested in the <shape> that emits",
+                ))
+            }
+            other => {
+                return self.diag.warn(
+                    at,
+                    format!("emitter type {other:?} is not supported by lumo and was ignored"),
+                )
+            }
+        };
+        props.accept(&["sampling_weight"]);
+        props.finish(self.diag)?;
+        self.scene.lights.push(light);
+        Ok(())
+    }
+}
+
+/// (origin, target, up) of a transform made of exactly one `<lookat>`.
+fn single_lookat(el: &Element) -> Option<(Vec3, Vec3, Vec3)> {
+    let [op] = el.children.as_slice() else {
+        return None;
+    };
+    if op.tag != "lookat" {
+        return None;
+    }
+    let get = |k: &str| -> Option<Vec3> {
+        let v = super::props::parse_list(op, op.attr(k)?).ok()?;
+        (v.len() == 3).then(|| Vec3::new(v[0], v[1], v[2]))
+    };
+    Some((get("origin")?, get("target")?, get("up").unwrap_or(Vec3::Y)))
+}

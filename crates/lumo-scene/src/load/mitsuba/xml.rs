@@ -1,0 +1,312 @@
+//! Mitsuba XML to an owned element tree: `<default>` and `$name` substitution, `<include>`
+//! splicing, and the renaming Mitsuba applies to scenes older than version 2.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::rc::Rc;
+
+use crate::load::{read_file, Diagnostics, LoadError, Location};
+
+/// Deepest `<include>` nesting accepted (guards against include cycles and runaway files).
+const MAX_INCLUDE_DEPTH: usize = 16;
+
+/// One XML element after substitution, with where it came from.
+#[derive(Debug)]
+pub(crate) struct Element {
+    /// Tag name (`bsdf`, `float`, ...).
+    pub tag: String,
+    /// Attributes, `$name` substituted.
+    pub attrs: Vec<(String, String)>,
+    /// Child elements (includes spliced in, defaults removed).
+    pub children: Vec<Element>,
+    /// The file it is in.
+    pub file: Rc<PathBuf>,
+    /// Its 1-based line.
+    pub line: usize,
+}
+
+impl Element {
+    /// The attribute `name`, if present.
+    pub fn attr(&self, name: &str) -> Option<&str> {
+        self.attrs
+            .iter()
+            .find(|(k, _)| k == name)
+            .map(|(_, v)| v.as_str())
+    }
+
+    /// The attribute `name`, or an error naming the element.
+    pub fn required(&self, name: &str) -> Result<&str, LoadError> {
+        self.attr(name).ok_or_else(|| {
+            LoadError::invalid(
+                self.at(),
+                format!("<{}> needs a {name:?} attribute", self.tag),
+            )
+        })
+    }
+
+    /// Where the element is.
+    pub fn at(&self) -> Location {
+        Location::line(&self.file, self.line)
+    }
+
+    /// `<tag type="...">` for messages.
+    pub fn describe(&self) -> String {
+        match self.attr("type") {
+            Some(t) => format!("<{} type=\"{t}\">", self.tag),
+            None => format!("<{}>", self.tag),
+        }
+    }
+}
+
+/// Reads `path` and everything it includes into one tree rooted at `<scene>`.
+pub(crate) fn read_tree(
+    path: &Path,
+    defines: &[(String, String)],
+    diag: &mut Diagnostics,
+) -> Result<Element, LoadError> {
+    let mut reader = Reader {
+        vars: defines.iter().cloned().collect(),
+        diag,
+        stack: Vec::new(),
+        legacy: false,
+    };
+    let mut root = reader.read_file(path, None)?;
+    // The root's own attributes (version) were read by read_file.
+    root.tag = "scene".into();
+    Ok(root)
+}
+
+struct Reader<'d> {
+    /// Parameter values: command line first, then `<default>`s in document order.
+    vars: HashMap<String, String>,
+    diag: &'d mut Diagnostics,
+    /// Files being read (for include cycles).
+    stack: Vec<PathBuf>,
+    /// The scene declares a version below 2: rename camelCase parameters as Mitsuba does.
+    legacy: bool,
+}
+
+impl Reader<'_> {
+    fn read_file(&mut self, path: &Path, from: Option<Location>) -> Result<Element, LoadError> {
+        let canonical = path.canonicalize().unwrap_or_else(|_| path.to_path_buf());
+        if self.stack.contains(&canonical) || self.stack.len() >= MAX_INCLUDE_DEPTH {
+            return Err(LoadError::invalid(
+                from.unwrap_or_else(|| Location::file(path)),
+                format!(
+                    "<include> of {} would recurse (include cycle or more than \
+                     {MAX_INCLUDE_DEPTH} levels)",
+                    path.display()
+                ),
+            ));
+        }
+        let bytes = match read_file(path) {
+            Ok(b) => b,
+            Err(e) => {
+                return Err(match from {
+                    Some(at) => LoadError::invalid(
+                        at,
+                        format!("included file {} cannot be read: {e}", path.display()),
+                    ),
+                    None => e,
+                })
+            }
+        };
+        let text = String::from_utf8(bytes).map_err(|e| {
+            LoadError::invalid(Location::file(path), format!("not UTF-8 text: {e}"))
+        })?;
+        let doc = roxmltree::Document::parse(&text).map_err(|e| {
+            let pos = e.pos();
+            LoadError::invalid(
+                Location::line(path, pos.row as usize),
+                format!("malformed XML: {e}"),
+            )
+        })?;
+        let root = doc.root_element();
+        let file = Rc::new(path.to_path_buf());
+        let line_of = |node: roxmltree::Node| doc.text_pos_at(node.range().start).row as usize;
+        if root.tag_name().name() != "scene" {
+            return Err(LoadError::invalid(
+                Location::line(path, line_of(root)),
+                format!(
+                    "the root element is <{}>; a Mitsuba scene file starts with <scene version=\"3.0.0\">",
+                    root.tag_name().name()
+                ),
+            ));
+        }
+        if from.is_none() {
+            self.check_version(
+                root.attribute("version"),
+                Location::line(path, line_of(root)),
+            )?;
+        }
+        self.stack.push(canonical);
+        let mut scene = Element {
+            tag: "scene".into(),
+            attrs: vec![],
+            children: vec![],
+            file: file.clone(),
+            line: line_of(root),
+        };
+        let base = path.parent().unwrap_or(Path::new("")).to_path_buf();
+        self.read_children(root, &mut scene, &file, &base, &line_of, true)?;
+        self.stack.pop();
+        Ok(scene)
+    }
+
+    fn check_version(&mut self, version: Option<&str>, at: Location) -> Result<(), LoadError> {
+        let Some(v) = version else {
+            return self.diag.warn(
+                at,
+                "<scene> has no version attribute; reading it as Mitsuba 3 (add version=\"3.0.0\")",
+            );
+        };
+        let major = v
+            .split('.')
+            .next()
+            .and_then(|m| m.trim().parse::<u32>().ok());
+        match major {
+            Some(m) if m >= 2 => Ok(()),
+            Some(_) => {
+                self.legacy = true;
+                self.diag.warn(
+                    at,
+                    format!(
+                        "scene version {v} predates Mitsuba 2; camelCase parameter names are \
+                         renamed as Mitsuba 3 does, other differences are not translated"
+                    ),
+                )
+            }
+            None => Err(LoadError::invalid(
+                at,
+                format!("<scene version=\"{v}\"> is not a version number such as 3.0.0"),
+            )),
+        }
+    }
+
+    fn read_children(
+        &mut self,
+        node: roxmltree::Node,
+        out: &mut Element,
+        file: &Rc<PathBuf>,
+        base: &Path,
+        line_of: &dyn Fn(roxmltree::Node) -> usize,
+        top: bool,
+    ) -> Result<(), LoadError> {
+        for child in node.children().filter(|c| c.is_element()) {
+            let line = line_of(child);
+            let at = Location::line(file, line);
+            let mut tag = child.tag_name().name().to_string();
+            if self.legacy && tag == "lookAt" {
+                tag = "lookat".into();
+            }
+            let mut attrs = Vec::new();
+            for a in child.attributes() {
+                let mut value = self.substitute(a.value(), &at)?;
+                if self.legacy && a.name() == "name" {
+                    value = camel_to_snake(&value);
+                }
+                attrs.push((a.name().to_string(), value));
+            }
+            let get = |k: &str| attrs.iter().find(|(n, _)| n == k).map(|(_, v)| v.clone());
+            match tag.as_str() {
+                "default" => {
+                    let (Some(name), Some(value)) = (get("name"), get("value")) else {
+                        return Err(LoadError::invalid(
+                            at,
+                            "<default> needs name and value attributes",
+                        ));
+                    };
+                    if !top {
+                        self.diag.warn(
+                            at,
+                            "<default> inside a plugin; Mitsuba only allows it in <scene>",
+                        )?;
+                    }
+                    // Command-line definitions and earlier defaults win.
+                    self.vars.entry(name).or_insert(value);
+                }
+                "include" => {
+                    let Some(name) = get("filename") else {
+                        return Err(LoadError::invalid(
+                            at,
+                            "<include> needs a filename attribute",
+                        ));
+                    };
+                    let included = self.read_file(&base.join(&name), Some(at))?;
+                    out.children.extend(included.children);
+                }
+                _ => {
+                    let mut el = Element {
+                        tag,
+                        attrs,
+                        children: vec![],
+                        file: file.clone(),
+                        line,
+                    };
+                    self.read_children(child, &mut el, file, base, line_of, false)?;
+                    out.children.push(el);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Replaces every `$name` with its value; an undefined name is an error.
+    fn substitute(&self, text: &str, at: &Location) -> Result<String, LoadError> {
+        if !text.contains('$') {
+            return Ok(text.to_string());
+        }
+        let mut out = String::with_capacity(text.len());
+        let mut rest = text;
+        while let Some(i) = rest.find('$') {
+            out.push_str(&rest[..i]);
+            let after = &rest[i + 1..];
+            let len = after
+                .find(|c: char| !(c.is_ascii_alphanumeric() || c == '_'))
+                .unwrap_or(after.len());
+            if len == 0 {
+                out.push('$');
+                rest = after;
+                continue;
+            }
+            let name = &after[..len];
+            let value = self.vars.get(name).ok_or_else(|| {
+                LoadError::invalid(
+                    at.clone(),
+                    format!(
+                        "${name} is not defined; declare <default name=\"{name}\" value=\"...\"/> \
+                         before its use or pass -D {name}=VALUE"
+                    ),
+                )
+            })?;
+            out.push_str(value);
+            rest = &after[len..];
+        }
+        out.push_str(rest);
+        Ok(out)
+    }
+}
+
+/// `maxDepth` → `max_depth`, as Mitsuba 3 upgrades old scenes.
+fn camel_to_snake(name: &str) -> String {
+    let mut out = String::with_capacity(name.len() + 4);
+    for (i, c) in name.chars().enumerate() {
+        if c.is_ascii_uppercase() && i > 0 {
+            out.push('_');
+        }
+        out.push(c.to_ascii_lowercase());
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::camel_to_snake;
+
+    #[test]
+    fn legacy_names() {
+        assert_eq!(camel_to_snake("maxDepth"), "max_depth");
+        assert_eq!(camel_to_snake("toWorld"), "to_world");
+        assert_eq!(camel_to_snake("radiance"), "radiance");
+    }
+}

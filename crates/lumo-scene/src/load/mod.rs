@@ -1,0 +1,138 @@
+//! Scene files: Mitsuba 3 XML, glTF 2.0 (.gltf, .glb), OBJ/MTL and PLY, read into a [`Scene`].
+//!
+//! [`load_scene`] picks the reader by extension and returns the scene, the warnings (what was
+//! ignored or approximated, with file and line) and the render settings the file asks for,
+//! which command-line options override.
+
+mod check;
+mod defaults;
+mod error;
+mod gltf;
+mod gltf_refs;
+mod images;
+mod materials;
+mod mitsuba;
+mod obj;
+mod ply;
+
+use std::path::Path;
+
+pub use error::{Diagnostics, LoadError, Location, Warning};
+
+use crate::{AnimatedScene, Scene};
+
+/// How to load a scene file.
+#[derive(Clone, Debug, Default)]
+pub struct LoadOptions {
+    /// `name=value` definitions for Mitsuba's `$name` parameters; they win over `<default>`.
+    pub defines: Vec<(String, String)>,
+    /// Turn warnings into errors.
+    pub strict: bool,
+    /// glTF: which camera (index into the file's camera list); the first one when `None`.
+    pub camera: Option<usize>,
+    /// glTF: animation time in seconds at which node transforms are evaluated (0 when `None`).
+    pub time: Option<f32>,
+}
+
+/// Render settings a scene file asks for; `None` where it says nothing.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct FileSettings {
+    /// Samples per pixel.
+    pub spp: Option<u32>,
+    /// Longest path depth (Mitsuba convention).
+    pub max_depth: Option<u32>,
+    /// Depth from which Russian roulette may end paths.
+    pub rr_depth: Option<u32>,
+    /// Image size (width, height).
+    pub size: Option<(usize, usize)>,
+    /// Random seed.
+    pub seed: Option<u32>,
+}
+
+/// A loaded scene file.
+#[derive(Clone, Debug)]
+pub struct LoadedScene {
+    /// The scene, validated.
+    pub scene: Scene,
+    /// What was ignored or approximated.
+    pub warnings: Vec<Warning>,
+    /// Render settings from the file.
+    pub settings: FileSettings,
+    /// The node hierarchy and its clips (glTF); `scene` is already posed at
+    /// [`LoadOptions::time`].
+    pub animation: Option<AnimatedScene>,
+}
+
+/// The formats [`load_scene`] reads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SceneFormat {
+    /// Mitsuba 3 XML.
+    Mitsuba,
+    /// glTF 2.0, JSON or binary.
+    Gltf,
+    /// Wavefront OBJ (with MTL).
+    Obj,
+    /// Stanford PLY.
+    Ply,
+}
+
+impl SceneFormat {
+    /// The format named by `path`'s extension, if lumo reads it.
+    pub fn from_path(path: &Path) -> Option<Self> {
+        let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+        match ext.as_str() {
+            "xml" => Some(Self::Mitsuba),
+            "gltf" | "glb" => Some(Self::Gltf),
+            "obj" => Some(Self::Obj),
+            "ply" => Some(Self::Ply),
+            _ => None,
+        }
+    }
+}
+
+/// Loads the scene file at `path` (format by extension).
+pub fn load_scene(path: &Path, options: &LoadOptions) -> Result<LoadedScene, LoadError> {
+    let format = SceneFormat::from_path(path).ok_or_else(|| LoadError::UnknownFormat {
+        path: path.to_path_buf(),
+    })?;
+    let mut diag = Diagnostics {
+        strict: options.strict,
+        warnings: Vec::new(),
+    };
+    let mut settings = FileSettings::default();
+    let mut animation = None;
+    if format != SceneFormat::Gltf && (options.camera.is_some() || options.time.is_some()) {
+        diag.warn(
+            Location::file(path),
+            "--camera and --time apply to glTF scenes only; ignored",
+        )?;
+    }
+    let scene = match format {
+        SceneFormat::Mitsuba => mitsuba::load(path, options, &mut diag, &mut settings)?,
+        SceneFormat::Gltf => gltf::load(path, options, &mut diag, &mut settings, &mut animation)?,
+        SceneFormat::Obj => defaults::lone_mesh_scene(path, obj::load(path, &mut diag)?),
+        SceneFormat::Ply => defaults::lone_mesh_scene(path, ply::load(path, &mut diag)?),
+    };
+    check::check_scene(path, &scene, &mut diag)?;
+    scene.validate().map_err(|error| LoadError::Scene {
+        path: path.to_path_buf(),
+        error,
+    })?;
+    if scene.triangle_count() == 0 && scene.lights.is_empty() {
+        diag.warn(
+            Location::file(path),
+            "the scene has no geometry and no lights; the image will be black",
+        )?;
+    }
+    Ok(LoadedScene {
+        scene,
+        warnings: diag.warnings,
+        settings,
+        animation,
+    })
+}
+
+/// Reads a whole file, naming it in the error.
+pub(crate) fn read_file(path: &Path) -> Result<Vec<u8>, LoadError> {
+    std::fs::read(path).map_err(|e| LoadError::io(path, e))
+}

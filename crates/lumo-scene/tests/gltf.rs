@@ -1,0 +1,187 @@
+//! glTF 2.0 loading: hierarchy, cameras, lights, materials, animation and bad input.
+
+mod common;
+
+use common::{load, scenes, temp_dir, write};
+use lumo_scene::load::{load_scene, LoadOptions};
+use lumo_scene::{Bsdf, FovAxis, Light, Vec3};
+
+fn instance_origins(s: &lumo_scene::Scene) -> Vec<Vec3> {
+    s.instances
+        .iter()
+        .map(|i| i.transform.transform_point3(Vec3::ZERO))
+        .collect()
+}
+
+#[test]
+fn gltf_and_glb_give_the_same_scene() {
+    let a = load(&scenes().join("hierarchy.gltf")).unwrap();
+    let b = load(&scenes().join("hierarchy.glb")).unwrap();
+    assert!(a.warnings.is_empty(), "{:?}", a.warnings);
+    assert_eq!(
+        format!("{:?}", a.scene.meshes),
+        format!("{:?}", b.scene.meshes)
+    );
+    assert_eq!(instance_origins(&a.scene), instance_origins(&b.scene));
+}
+
+#[test]
+fn hierarchy_camera_lights_and_materials() {
+    let loaded = load(&scenes().join("hierarchy.gltf")).unwrap();
+    let s = &loaded.scene;
+    assert_eq!(s.meshes.len(), 2);
+    // The box is a child of the base: base translation + its own, and the base's frame scales.
+    let origins = instance_origins(s);
+    assert_eq!(origins[0], Vec3::new(0.0, -0.5, 0.0));
+    assert_eq!(origins[1], Vec3::new(0.25, -0.5, 0.0));
+    let top = s.instances[1]
+        .transform
+        .transform_point3(Vec3::new(0.0, 1.0, 0.0));
+    assert!((top.y - 1.0).abs() < 1e-6, "scale 1.5 on y: {top}");
+    // Camera from its node, looking down −z and slightly down.
+    assert_eq!(s.camera.origin, Vec3::new(0.0, 1.5, 6.0));
+    let fwd = (s.camera.target - s.camera.origin).normalize();
+    assert!(fwd.z < -0.9 && fwd.y < 0.0, "{fwd}");
+    assert_eq!(s.camera.fov_axis, FovAxis::Y);
+    assert!((s.camera.fov - 0.7f32.to_degrees()).abs() < 1e-4);
+    assert_eq!(loaded.settings.size, Some((768, 512)));
+    // Punctual lights at their nodes.
+    match s.lights[0] {
+        Light::Point {
+            position,
+            intensity,
+        } => {
+            assert_eq!(position, Vec3::new(0.0, 3.0, 2.0));
+            assert!(
+                (intensity - Vec3::new(20.0, 18.0, 16.0))
+                    .abs()
+                    .max_element()
+                    < 1e-4
+            );
+        }
+        ref other => panic!("{other:?}"),
+    }
+    match s.lights[1] {
+        Light::Spot {
+            direction,
+            beam_width,
+            cutoff,
+            ..
+        } => {
+            assert!((direction + Vec3::Y).length() < 1e-5, "{direction}");
+            assert!((beam_width - 0.3f32.to_degrees()).abs() < 1e-4);
+            assert!((cutoff - 0.5f32.to_degrees()).abs() < 1e-4);
+        }
+        ref other => panic!("{other:?}"),
+    }
+    assert!(matches!(
+        s.materials[s.meshes[0].material].bsdf,
+        Bsdf::Plastic { .. }
+    ));
+    assert!(matches!(
+        s.materials[s.meshes[1].material].bsdf,
+        Bsdf::Conductor { roughness, .. } if (roughness - 0.16).abs() < 1e-6
+    ));
+    let rig = loaded.animation.as_ref().expect("rig");
+    assert_eq!(rig.animations.len(), 1);
+    assert_eq!(rig.animations[0].duration(), 1.0);
+}
+
+#[test]
+fn time_poses_the_animation() {
+    let at = |t: Option<f32>| {
+        let options = LoadOptions {
+            time: t,
+            ..Default::default()
+        };
+        let s = load_scene(&scenes().join("hierarchy.glb"), &options)
+            .unwrap()
+            .scene;
+        instance_origins(&s)[1]
+    };
+    // Rest pose: the node's own translation (0.25); the clip runs from 0 to 1 along x.
+    assert_eq!(at(None), Vec3::new(0.25, -0.5, 0.0));
+    assert_eq!(at(Some(0.0)), Vec3::new(0.0, -0.5, 0.0));
+    assert_eq!(at(Some(0.5)), Vec3::new(0.5, -0.5, 0.0));
+    assert_eq!(at(Some(7.0)), Vec3::new(1.0, -0.5, 0.0));
+}
+
+#[test]
+fn camera_choice_and_time_without_animation() {
+    let options = LoadOptions {
+        camera: Some(3),
+        ..Default::default()
+    };
+    let e = load_scene(&scenes().join("hierarchy.gltf"), &options)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("--camera 3") && e.contains("1 camera"), "{e}");
+    let options = LoadOptions {
+        time: Some(1.0),
+        ..Default::default()
+    };
+    let w = load_scene(&scenes().join("meshes/box.obj"), &options)
+        .unwrap()
+        .warnings;
+    assert!(w[0].message.contains("glTF scenes only"));
+}
+
+/// hierarchy.gltf with one textual replacement (which must apply).
+fn edited(from: &str, to: &str) -> String {
+    let text = std::fs::read_to_string(scenes().join("hierarchy.gltf")).unwrap();
+    assert!(text.contains(from), "{from}");
+    text.replacen(from, to, 1)
+}
+
+#[test]
+fn bad_gltf_is_a_clear_error() {
+    let dir = temp_dir("gltf");
+    let required = edited(
+        "\"extensionsUsed\": [",
+        "\"extensionsRequired\": [\"KHR_draco_mesh_compression\"],\n \"extensionsUsed\": [",
+    );
+    let e = load(&write(&dir, "req.gltf", required))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("KHR_draco_mesh_compression") && e.contains("req.gltf"),
+        "{e}"
+    );
+
+    let short_buffer = edited(
+        "\"byteLength\": 340,\n   \"uri\"",
+        "\"byteLength\": 9340,\n   \"uri\"",
+    );
+    let e = load(&write(&dir, "short.gltf", short_buffer))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("buffer 0") && e.contains("9340"), "{e}");
+
+    let far = edited("\"count\": 36", "\"count\": 3600");
+    let e = load(&write(&dir, "far.gltf", far)).unwrap_err().to_string();
+    assert!(
+        e.contains("accessor 5") && e.contains("past the end"),
+        "{e}"
+    );
+
+    let glb = std::fs::read(scenes().join("hierarchy.glb")).unwrap();
+    let e = load(&write(&dir, "cut.glb", &glb[..glb.len() / 2]))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("cut.glb"), "{e}");
+    let e = load(&write(&dir, "junk.gltf", "{ not json"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("junk.gltf") && e.contains("not a valid glTF"),
+        "{e}"
+    );
+    let external = edited(
+        "\"uri\": \"data:application/octet-stream;base64,",
+        "\"uri\": \"missing.bin\", \"x\": \"",
+    );
+    let e = load(&write(&dir, "ext.gltf", external))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("missing.bin"), "{e}");
+}

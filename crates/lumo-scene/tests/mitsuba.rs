@@ -1,0 +1,382 @@
+//! Mitsuba 3 XML loading: structure, values, transforms, materials, emitters and errors.
+
+mod common;
+
+use common::{load, load_strict, mitsuba, scenes, temp_dir, write};
+use lumo_scene::load::{load_scene, LoadError, LoadOptions};
+use lumo_scene::{Bsdf, FovAxis, Light, Mat4, Texture, Vec3};
+
+#[test]
+fn cornell_xml_is_the_builtin_cornell_exactly() {
+    let loaded = load(&scenes().join("cornell.xml")).unwrap();
+    assert!(loaded.warnings.is_empty(), "{:?}", loaded.warnings);
+    let builtin = lumo_scene::builtin_scene("cornell").unwrap();
+    let s = &loaded.scene;
+    assert_eq!(s.meshes.len(), builtin.meshes.len());
+    for (a, b) in s.meshes.iter().zip(&builtin.meshes) {
+        assert_eq!(a.positions, b.positions, "{}", b.name);
+        assert_eq!(a.normals, b.normals, "{}", b.name);
+        assert_eq!(a.uvs, b.uvs, "{}", b.name);
+        assert_eq!(a.indices, b.indices, "{}", b.name);
+        assert_eq!(a.material, b.material, "{}", b.name);
+    }
+    for (a, b) in s.materials.iter().zip(&builtin.materials) {
+        assert_eq!(a.emission, b.emission);
+        assert_eq!(format!("{:?}", a.bsdf), format!("{:?}", b.bsdf));
+    }
+    assert_eq!(s.camera.origin, builtin.camera.origin);
+    assert_eq!(s.camera.target, builtin.camera.target);
+    assert_eq!(s.camera.up, builtin.camera.up);
+    assert_eq!(s.camera.fov, builtin.camera.fov);
+    assert_eq!(s.camera.fov_axis, FovAxis::Smaller);
+    assert_eq!(loaded.settings.spp, Some(16));
+    assert_eq!(loaded.settings.max_depth, Some(8));
+    assert_eq!(loaded.settings.rr_depth, Some(5));
+    assert_eq!(loaded.settings.size, Some((512, 512)));
+}
+
+#[test]
+fn command_line_definitions_override_defaults() {
+    let options = LoadOptions {
+        defines: vec![("spp".into(), "64".into()), ("res".into(), "128".into())],
+        ..Default::default()
+    };
+    let loaded = load_scene(&scenes().join("cornell.xml"), &options).unwrap();
+    assert_eq!(loaded.settings.spp, Some(64));
+    assert_eq!(loaded.settings.size, Some((128, 128)));
+    assert_eq!(loaded.settings.max_depth, Some(8));
+}
+
+#[test]
+fn undefined_parameter_names_the_line_and_the_fix() {
+    let dir = temp_dir("undefined");
+    let p = write(
+        &dir,
+        "s.xml",
+        mitsuba("<shape type=\"sphere\">\n<float name=\"radius\" value=\"$r\"/></shape>"),
+    );
+    let e = load(&p).unwrap_err().to_string();
+    assert!(e.contains("s.xml:4"), "{e}");
+    assert!(
+        e.contains("$r is not defined") && e.contains("-D r="),
+        "{e}"
+    );
+}
+
+#[test]
+fn include_relative_paths_textures_and_spectra() {
+    let loaded = load(&scenes().join("materials.xml")).unwrap();
+    let s = &loaded.scene;
+    assert!(loaded.warnings.is_empty(), "{:?}", loaded.warnings);
+    // Mitsuba ignores PLY vertex colours (they need a mesh_attribute texture); so does lumo.
+    assert!(s.meshes.iter().all(|m| m.colors.is_empty()));
+    assert_eq!(loaded.settings.spp, Some(16));
+    assert_eq!(loaded.settings.seed, Some(7));
+    assert_eq!(loaded.settings.size, Some((320, 240)));
+    // The floor (from the included file) has the bitmap, tiled 4× by to_uv.
+    let floor = s
+        .materials
+        .iter()
+        .find(|m| m.name == "floor")
+        .expect("floor material");
+    match &floor.bsdf {
+        Bsdf::Diffuse {
+            reflectance: Texture::Transformed { texture, uv },
+        } => {
+            assert!(matches!(**texture, Texture::Bitmap { .. }));
+            assert_eq!(
+                uv.transform_point2(lumo_scene::Vec2::ONE),
+                lumo_scene::Vec2::splat(4.0)
+            );
+        }
+        other => panic!("floor: {other:?}"),
+    }
+    // The wall's spectrum became a warm colour.
+    let spectral = s
+        .materials
+        .iter()
+        .find_map(|m| match &m.bsdf {
+            Bsdf::Diffuse {
+                reflectance: Texture::Constant(c),
+            } if c.x > c.z && m.name == "diffuse" => Some(*c),
+            _ => None,
+        })
+        .expect("spectral wall");
+    assert!(spectral.x > 0.6 && spectral.z < 0.4, "{spectral}");
+    let gold = s
+        .materials
+        .iter()
+        .find(|m| matches!(m.bsdf, Bsdf::Conductor { roughness, .. } if roughness == 0.2))
+        .expect("gold");
+    if let Bsdf::Conductor { eta, k, .. } = gold.bsdf {
+        assert!(
+            (eta - Vec3::new(0.143036, 0.375307, 1.44205))
+                .abs()
+                .max_element()
+                < 1e-6
+        );
+        assert!((k - Vec3::new(3.983, 2.38556, 1.60336)).abs().max_element() < 1e-6);
+    }
+    assert!(s.lights.iter().any(|l| matches!(l, Light::Constant { .. })));
+    assert!(s
+        .materials
+        .iter()
+        .any(|m| m.emission == Vec3::new(12.0, 11.0, 10.0)));
+}
+
+fn first_mesh_positions(body: &str) -> Vec<Vec3> {
+    let dir = temp_dir(&format!("tf{}", body.len()));
+    let p = write(&dir, "t.xml", mitsuba(body));
+    let loaded = load(&p).unwrap();
+    let inst = &loaded.scene.instances[0];
+    loaded.scene.meshes[inst.mesh]
+        .positions
+        .iter()
+        .map(|p| inst.transform.transform_point3(*p))
+        .collect()
+}
+
+#[test]
+fn transform_operations_apply_in_order() {
+    // Scale x by 2, then rotate 90° about z, then translate: (1, 1, 0) → (2, 1) → (−1, 2) →
+    // (4, 2, 0).
+    let p = first_mesh_positions(
+        r#"<shape type="rectangle"><transform name="to_world">
+            <scale x="2"/><rotate z="1" angle="90"/><translate x="5"/>
+        </transform></shape>"#,
+    );
+    assert!(
+        p.iter()
+            .any(|v| (*v - Vec3::new(4.0, 2.0, 0.0)).length() < 1e-5),
+        "{p:?}"
+    );
+    // The same as one row-major matrix.
+    let m = first_mesh_positions(
+        r#"<shape type="rectangle"><transform name="to_world">
+            <matrix value="0 -1 0 5  2 0 0 0  0 0 1 0  0 0 0 1"/>
+        </transform></shape>"#,
+    );
+    for (a, b) in p.iter().zip(&m) {
+        assert!((*a - *b).length() < 1e-5, "{a} vs {b}");
+    }
+}
+
+#[test]
+fn lookat_camera_and_fov_axis() {
+    let dir = temp_dir("lookat");
+    let p = write(
+        &dir,
+        "c.xml",
+        r#"<scene version="3.0.0"><sensor type="perspective">
+            <float name="fov" value="30"/><string name="fov_axis" value="y"/>
+            <transform name="to_world"><rotate y="1" angle="90"/><translate x="1"/></transform>
+            <film type="hdrfilm"><integer name="width" value="64"/><integer name="height" value="32"/></film>
+        </sensor><shape type="cube"/><emitter type="constant"/></scene>"#,
+    );
+    let s = load(&p).unwrap();
+    let cam = &s.scene.camera;
+    assert_eq!(cam.fov_axis, FovAxis::Y);
+    assert_eq!(cam.fov, 30.0);
+    assert!((cam.origin - Vec3::X).length() < 1e-6);
+    // Local +z rotated 90° about y is +x.
+    assert!(((cam.target - cam.origin).normalize() - Vec3::X).length() < 1e-5);
+    assert_eq!(s.settings.size, Some((64, 32)));
+}
+
+#[test]
+fn material_presets_and_named_media() {
+    let dir = temp_dir("presets");
+    let p = write(
+        &dir,
+        "m.xml",
+        mitsuba(
+            r#"<shape type="cube"><bsdf type="conductor"><string name="material" value="Ag"/></bsdf></shape>
+            <shape type="sphere"><bsdf type="dielectric"><string name="int_ior" value="water"/></bsdf></shape>
+            <shape type="disk"><bsdf type="roughplastic"><string name="distribution" value="ggx"/>
+              <float name="alpha" value="0.3"/><float name="int_ior" value="1.6"/><float name="ext_ior" value="1.0"/></bsdf></shape>
+            <emitter type="constant"/>"#,
+        ),
+    );
+    let s = load(&p).unwrap().scene;
+    let bsdfs: Vec<&Bsdf> = s
+        .meshes
+        .iter()
+        .map(|m| &s.materials[m.material].bsdf)
+        .collect();
+    match bsdfs[0] {
+        Bsdf::Conductor { eta, k, roughness } => {
+            assert_eq!(*eta, Vec3::new(0.155276, 0.116728, 0.138388));
+            assert_eq!(*k, Vec3::new(4.82835, 3.12222, 2.1469));
+            assert_eq!(*roughness, 0.0);
+        }
+        other => panic!("{other:?}"),
+    }
+    match bsdfs[1] {
+        Bsdf::Dielectric { ior, .. } => assert!((ior - 1.333 / 1.00028).abs() < 1e-6),
+        other => panic!("{other:?}"),
+    }
+    match bsdfs[2] {
+        Bsdf::Plastic { ior, roughness, .. } => {
+            assert!((ior - 1.6).abs() < 1e-6);
+            assert_eq!(*roughness, 0.3);
+        }
+        other => panic!("{other:?}"),
+    }
+    let bad = write(
+        &dir,
+        "bad.xml",
+        mitsuba(
+            r#"<shape type="cube"><bsdf type="conductor"><string name="material" value="Unobtainium"/></bsdf></shape>"#,
+        ),
+    );
+    let e = load(&bad).unwrap_err().to_string();
+    assert!(e.contains("Unobtainium") && e.contains("Au"), "{e}");
+}
+
+#[test]
+fn unknown_plugins_and_parameters_warn_with_line_or_fail_in_strict_mode() {
+    let dir = temp_dir("unknown");
+    let p = write(
+        &dir,
+        "u.xml",
+        mitsuba(
+            "<shape type=\"cube\">\n  <float name=\"wobble\" value=\"1\"/>\n</shape>\n<shape type=\"hyperboloid\"/>\n<emitter type=\"constant\"/>",
+        ),
+    );
+    let loaded = load(&p).unwrap();
+    let text: Vec<String> = loaded.warnings.iter().map(|w| w.to_string()).collect();
+    assert_eq!(text.len(), 2, "{text:?}");
+    assert!(
+        text[0].contains("u.xml:4") && text[0].contains("wobble"),
+        "{text:?}"
+    );
+    assert!(
+        text[1].contains("u.xml:6") && text[1].contains("hyperboloid"),
+        "{text:?}"
+    );
+    assert_eq!(loaded.scene.meshes.len(), 1, "the unknown shape is skipped");
+    match load_strict(&p).unwrap_err() {
+        LoadError::Strict { at, message } => {
+            assert_eq!(at.line, Some(4));
+            assert!(message.contains("wobble"));
+        }
+        other => panic!("{other}"),
+    }
+}
+
+#[test]
+fn approximations_are_reported() {
+    let dir = temp_dir("approx");
+    let p = write(
+        &dir,
+        "a.xml",
+        mitsuba(
+            r#"<shape type="cube"><bsdf type="principled"><rgb name="base_color" value="0.8, 0.1, 0.1"/>
+                <float name="metallic" value="0"/><float name="roughness" value="0.5"/><float name="clearcoat" value="1"/></bsdf></shape>
+               <shape type="sphere"><bsdf type="roughconductor"/></shape>
+               <shape type="disk"><bsdf type="thindielectric"/></shape>
+               <emitter type="constant"/>"#,
+        ),
+    );
+    let loaded = load(&p).unwrap();
+    let all: String = loaded.warnings.iter().map(|w| format!("{w}\n")).collect();
+    assert!(
+        all.contains("principled") && all.contains("clearcoat"),
+        "{all}"
+    );
+    assert!(all.contains("beckmann"), "{all}");
+    assert!(all.contains("thindielectric"), "{all}");
+    let s = &loaded.scene;
+    assert!(matches!(
+        s.materials[s.meshes[0].material].bsdf,
+        Bsdf::Plastic { roughness, .. } if (roughness - 0.25).abs() < 1e-6
+    ));
+}
+
+#[test]
+fn emitters() {
+    let dir = temp_dir("emitters");
+    let env = dir.join("sky.pfm");
+    lumo_image::write_image(&env, &lumo_image::Image::new(8, 4, 3, 0.5)).unwrap();
+    let p = write(
+        &dir,
+        "e.xml",
+        mitsuba(
+            r#"<shape type="cube"/>
+            <emitter type="point"><point name="position" x="1" y="2" z="3"/><rgb name="intensity" value="5"/></emitter>
+            <emitter type="spot"><transform name="to_world"><lookat origin="0,4,0" target="0,0,0" up="0,0,1"/></transform>
+               <float name="cutoff_angle" value="30"/></emitter>
+            <emitter type="directional"><vector name="direction" x="0" y="-2" z="0"/></emitter>
+            <emitter type="envmap"><string name="filename" value="sky.pfm"/><float name="scale" value="2"/></emitter>"#,
+        ),
+    );
+    let s = load(&p).unwrap().scene;
+    assert_eq!(s.lights.len(), 4);
+    assert!(matches!(s.lights[0], Light::Point { position, intensity }
+        if position == Vec3::new(1.0, 2.0, 3.0) && intensity == Vec3::splat(5.0)));
+    match &s.lights[1] {
+        Light::Spot {
+            position,
+            direction,
+            beam_width,
+            cutoff,
+            ..
+        } => {
+            assert!((*position - Vec3::new(0.0, 4.0, 0.0)).length() < 1e-6);
+            assert!((*direction + Vec3::Y).length() < 1e-5, "{direction}");
+            assert_eq!((*beam_width, *cutoff), (22.5, 30.0));
+        }
+        other => panic!("{other:?}"),
+    }
+    assert!(matches!(s.lights[2], Light::Directional { direction, .. } if direction == -Vec3::Y));
+    assert!(
+        matches!(&s.lights[3], Light::Environment(e) if e.scale == 2.0 && e.to_world == Mat4::IDENTITY)
+    );
+}
+
+#[test]
+fn bad_input_is_a_clear_error() {
+    let dir = temp_dir("bad");
+    let cases: &[(&str, String, &[&str])] = &[
+        ("malformed.xml", "<scene version=\"3.0.0\">\n<shape type=\"cube\">\n</scene>".into(), &["malformed.xml:", "malformed XML"]),
+        ("root.xml", "<bsdf type=\"diffuse\"/>".into(), &["root element is <bsdf>"]),
+        ("ref.xml", mitsuba("<shape type=\"cube\"><ref id=\"nope\"/></shape>"), &["ref.xml:3", "nope"]),
+        ("include.xml", mitsuba("<include filename=\"missing.xml\"/>"), &["include.xml:3", "missing.xml"]),
+        ("obj.xml", mitsuba("<shape type=\"obj\"><string name=\"filename\" value=\"gone.obj\"/></shape>"), &["gone.obj"]),
+        ("nan.xml", mitsuba("<shape type=\"sphere\"><float name=\"radius\" value=\"nan\"/></shape>"), &["nan.xml:3", "not finite"]),
+        ("rgb.xml", mitsuba("<shape type=\"cube\"><bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"1, 2\"/></bsdf></shape>"), &["rgb.xml:3", "3 values"]),
+        ("dup.xml", mitsuba("<bsdf type=\"diffuse\" id=\"a\"/>\n<bsdf type=\"diffuse\" id=\"a\"/>"), &["dup.xml:4", "already used at line 3"]),
+        ("cycle.xml", mitsuba("<include filename=\"cycle.xml\"/>"), &["recurse"]),
+    ];
+    for (name, text, needles) in cases {
+        let p = write(&dir, name, text);
+        let e = load(&p).unwrap_err().to_string();
+        for n in *needles {
+            assert!(e.contains(n), "{name}: {e:?} lacks {n:?}");
+        }
+    }
+    let e = load(&dir.join("absent.xml")).unwrap_err().to_string();
+    assert!(e.contains("absent.xml") && e.contains("cannot read"), "{e}");
+    let e = load(&dir.join("scene.blend")).unwrap_err().to_string();
+    assert!(e.contains("unknown scene format"), "{e}");
+}
+
+#[test]
+fn zero_area_light_and_no_emitters_warn() {
+    let dir = temp_dir("zero");
+    let p = write(
+        &dir,
+        "z.xml",
+        mitsuba(
+            r#"<shape type="rectangle"><transform name="to_world"><scale x="0"/></transform>
+            <emitter type="area"><rgb name="radiance" value="1"/></emitter></shape>"#,
+        ),
+    );
+    let loaded = load(&p).unwrap();
+    let all: String = loaded.warnings.iter().map(|w| format!("{w}\n")).collect();
+    assert!(all.contains("degenerate"), "{all}");
+    assert!(
+        all.contains("no emitters") || all.contains("zero area"),
+        "{all}"
+    );
+}

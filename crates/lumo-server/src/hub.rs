@@ -1,0 +1,323 @@
+//! The shared state of a server: the render worker, the current job, and the viewers'
+//! outboxes. A pump task queries the worker at display rate and fans the samples out.
+
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use axum::body::Bytes;
+use lumo_render::RenderScene;
+use lumo_scene::{Camera, FovAxis};
+
+use crate::outbox::{Kind, Outbox, Outgoing};
+use crate::protocol::{self, Finish, Hello, Integrator, Mode, Stats, Stream, WireCamera};
+use crate::worker::{FinishEvent, Job, QueryBuffer, RenderWorker};
+use crate::ServerConfig;
+
+/// Samples per batch message: 32768 × 12 bytes ≈ 384 KiB, small enough to interleave with
+/// control messages and to drop without losing much.
+pub const SAMPLES_PER_MESSAGE: usize = 32768;
+/// How often the pump queries the worker: about the display rate.
+pub const PUMP_INTERVAL: Duration = Duration::from_millis(16);
+/// How often stats go out.
+pub const STATS_INTERVAL: Duration = Duration::from_millis(250);
+
+struct Viewer {
+    id: u64,
+    outbox: Arc<Outbox>,
+}
+
+/// State shared by the pump and the connections.
+pub struct Hub {
+    worker: RenderWorker,
+    config: ServerConfig,
+    name: String,
+    triangles: u32,
+    /// Current job and its epoch; also the lock that orders "new render + camera broadcast"
+    /// against the pump's fan-out, so no viewer gets new-epoch samples before the camera.
+    state: Mutex<HubState>,
+    next_id: AtomicU64,
+    /// Finish events recorded by the worker's handler, forwarded by the pump.
+    finished: Arc<Mutex<Vec<FinishEvent>>>,
+}
+
+struct HubState {
+    job: Job,
+    epoch: u64,
+    viewers: Vec<Viewer>,
+}
+
+fn to_wire(c: &Camera) -> WireCamera {
+    WireCamera {
+        origin: c.origin,
+        target: c.target,
+        up: c.up,
+        fov: c.fov,
+    }
+}
+
+fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+impl Hub {
+    /// Starts the worker and the first render.
+    pub fn new(rs: RenderScene, config: ServerConfig) -> anyhow::Result<Arc<Self>> {
+        let name = rs.scene.name.clone();
+        let triangles = rs.scene.triangle_count().min(u32::MAX as usize) as u32;
+        let mut camera = rs.scene.camera.clone();
+        // The wire camera's field of view is along the shorter side; convert once.
+        camera.fov = shorter_side_fov(&camera, config.width, config.height);
+        camera.fov_axis = FovAxis::Smaller;
+        let job = Job {
+            camera,
+            width: config.width,
+            height: config.height,
+            integrator: config.integrator,
+            mode: Mode::Progressive,
+            path: config.path,
+            seed: config.seed,
+            max_batches: None,
+            max_rate: config.max_rate,
+        };
+        // The finish handler runs on a render thread: it only records the event.
+        let finished: Arc<Mutex<Vec<FinishEvent>>> = Arc::default();
+        let f2 = finished.clone();
+        let worker = RenderWorker::new(
+            Arc::new(rs),
+            config.threads,
+            Box::new(move |e| lock(&f2).push(e)),
+        )?;
+        let epoch = worker.render(job.clone());
+        let hub = Arc::new(Self {
+            worker,
+            config,
+            name,
+            triangles,
+            state: Mutex::new(HubState {
+                job,
+                epoch,
+                viewers: Vec::new(),
+            }),
+            next_id: AtomicU64::new(1),
+            finished,
+        });
+        Ok(hub)
+    }
+
+    /// Render threads.
+    pub fn threads(&self) -> usize {
+        self.worker.threads()
+    }
+
+    /// Registers a viewer; returns its id, outbox, and the hello it must get first.
+    pub fn join(&self) -> (u64, Arc<Outbox>) {
+        let id = self.next_id.fetch_add(1, Ordering::Relaxed);
+        let outbox = Arc::new(Outbox::new(self.config.viewer_queue_bytes));
+        let mut st = lock(&self.state);
+        let hello = Hello {
+            width: self.config.width as u32,
+            height: self.config.height as u32,
+            triangles: self.triangles,
+            threads: self.worker.threads().min(u16::MAX as usize) as u16,
+            integrator: st.job.integrator,
+            mode: st.job.mode,
+            epoch: st.epoch as u32,
+            camera: to_wire(&st.job.camera),
+            name: self.name.clone(),
+        };
+        outbox.push(control(protocol::encode_hello(&hello)));
+        st.viewers.push(Viewer {
+            id,
+            outbox: outbox.clone(),
+        });
+        (id, outbox)
+    }
+
+    /// Unregisters a viewer and closes its outbox.
+    pub fn leave(&self, id: u64) {
+        let mut st = lock(&self.state);
+        st.viewers.retain(|v| {
+            if v.id == id {
+                v.outbox.close();
+            }
+            v.id != id
+        });
+    }
+
+    /// Viewers connected.
+    pub fn viewer_count(&self) -> usize {
+        lock(&self.state).viewers.len()
+    }
+
+    /// A viewer moved the camera: restart rendering and tell every viewer.
+    pub fn set_camera(&self, c: WireCamera) {
+        let mut st = lock(&self.state);
+        st.job.camera.origin = c.origin;
+        st.job.camera.target = c.target;
+        st.job.camera.up = c.up;
+        st.job.camera.fov = c.fov;
+        self.restart(&mut st);
+        let msg = control(protocol::encode_camera(st.epoch as u32, &c));
+        broadcast(&st, &msg);
+    }
+
+    /// A viewer changed integrator or mode: restart rendering and tell every viewer.
+    pub fn set_params(&self, integrator: Integrator, mode: Mode) {
+        let mut st = lock(&self.state);
+        st.job.integrator = integrator;
+        st.job.mode = mode;
+        self.restart(&mut st);
+        let cam = to_wire(&st.job.camera);
+        broadcast(&st, &control(protocol::encode_params(integrator, mode)));
+        broadcast(
+            &st,
+            &control(protocol::encode_camera(st.epoch as u32, &cam)),
+        );
+    }
+
+    fn restart(&self, st: &mut HubState) {
+        st.epoch = self.worker.render(st.job.clone());
+        for v in &st.viewers {
+            v.outbox.purge_except(st.epoch as u32);
+        }
+    }
+
+    /// Runs forever: queries the worker every [`PUMP_INTERVAL`] and fans out samples,
+    /// frames, finish events and stats.
+    pub async fn pump(self: Arc<Self>) {
+        let mut interval = tokio::time::interval(PUMP_INTERVAL);
+        interval.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+        let mut buf = QueryBuffer::default();
+        let mut last_stats = Instant::now();
+        let mut last_count = (0u64, 0u64);
+        loop {
+            interval.tick().await;
+            self.pump_once(&mut buf, &mut last_stats, &mut last_count);
+        }
+    }
+
+    fn pump_once(&self, buf: &mut QueryBuffer, last_stats: &mut Instant, last: &mut (u64, u64)) {
+        let st = lock(&self.state);
+        let stats = self.worker.query(buf);
+        if buf.epoch == st.epoch {
+            let epoch = buf.epoch as u32;
+            for chunk in buf.camera.chunks(SAMPLES_PER_MESSAGE) {
+                broadcast(&st, &data(epoch, batch(epoch, Stream::Camera, chunk, 0)));
+            }
+            // Spread the light-path count over the messages in proportion to their splats,
+            // so a dropped message takes its share of Lw with it.
+            let total = buf.light.len().max(1) as u64;
+            let mut given = 0u64;
+            let chunks: Vec<_> = buf.light.chunks(SAMPLES_PER_MESSAGE).collect();
+            for (i, chunk) in chunks.iter().enumerate() {
+                let paths = if i + 1 == chunks.len() {
+                    buf.light_paths - given
+                } else {
+                    buf.light_paths * chunk.len() as u64 / total
+                };
+                given += paths;
+                broadcast(
+                    &st,
+                    &data(epoch, batch(epoch, Stream::Light, chunk, paths as u32)),
+                );
+            }
+            if buf.light.is_empty() && buf.light_paths > 0 {
+                // Paths that hit nothing visible still count in Lw.
+                broadcast(
+                    &st,
+                    &data(
+                        epoch,
+                        batch(epoch, Stream::Light, &[], buf.light_paths as u32),
+                    ),
+                );
+            }
+            if let Some(f) = &buf.frame {
+                let msg = protocol::encode_frame(
+                    epoch,
+                    f.width as u16,
+                    f.height as u16,
+                    f.mode,
+                    f.frames,
+                    &f.xyz,
+                );
+                broadcast(&st, &data(epoch, msg));
+            }
+        }
+        for e in std::mem::take(&mut *lock(&self.finished)) {
+            let msg = protocol::encode_finish(&Finish {
+                epoch: e.epoch as u32,
+                aborted: e.aborted,
+                samples: e.samples,
+                light_paths: e.light_paths,
+                seconds: e.elapsed.as_secs_f32(),
+            });
+            broadcast(&st, &control(msg));
+        }
+        let dt = last_stats.elapsed();
+        if dt >= STATS_INTERVAL {
+            let count = (stats.samples, stats.light_paths);
+            let done = if stats.epoch == st.epoch && count >= *last {
+                (count.0 - last.0) + (count.1 - last.1)
+            } else {
+                count.0 + count.1
+            };
+            let rate = done as f64 / dt.as_secs_f64();
+            *last = count;
+            *last_stats = Instant::now();
+            for v in &st.viewers {
+                let s = Stats {
+                    epoch: st.epoch as u32,
+                    viewers: st.viewers.len() as u32,
+                    samples: stats.samples,
+                    light_paths: stats.light_paths,
+                    rate: rate as f32,
+                    dropped: v.outbox.dropped().min(u32::MAX as u64) as u32,
+                };
+                v.outbox.push(Outgoing {
+                    kind: Kind::Stats,
+                    bytes: Bytes::from(protocol::encode_stats(&s)),
+                });
+            }
+        }
+    }
+
+    /// The worker, for tests and tools.
+    pub fn worker(&self) -> &RenderWorker {
+        &self.worker
+    }
+}
+
+fn control(v: Vec<u8>) -> Outgoing {
+    Outgoing {
+        kind: Kind::Control,
+        bytes: Bytes::from(v),
+    }
+}
+
+fn data(epoch: u32, v: Vec<u8>) -> Outgoing {
+    Outgoing {
+        kind: Kind::Data(epoch),
+        bytes: Bytes::from(v),
+    }
+}
+
+fn broadcast(st: &HubState, msg: &Outgoing) {
+    for v in &st.viewers {
+        v.outbox.push(msg.clone());
+    }
+}
+
+fn batch(epoch: u32, stream: Stream, samples: &[crate::streams::Sample], paths: u32) -> Vec<u8> {
+    let mut b = protocol::begin_batch(epoch, stream, samples.len() as u32, paths);
+    for s in samples {
+        protocol::push_sample(&mut b, s.uv, s.xyzw);
+    }
+    b
+}
+
+/// The scene camera's field of view measured along the image's shorter side.
+fn shorter_side_fov(c: &Camera, width: usize, height: usize) -> f32 {
+    let (hw, hh) = c.half_extent(width, height);
+    (2.0 * hw.min(hh).atan()).to_degrees()
+}

@@ -1,0 +1,191 @@
+//! The two sample streams of the progressive client/server paper: camera samples from the
+//! path tracer and light splats from the light tracer, both as `([u,v], [X,Y,Z,W])` in CIE XYZ.
+//!
+//! Camera samples visit the screen in a low-discrepancy order that never forms tiles: sample
+//! `n` belongs to pass `n / 4^L` and, within the pass, to the pixel whose Morton index is the
+//! bit reversal of `n mod 4^L` (2^L ≥ the image's larger side). Every prefix of `4^k` samples of
+//! a pass is a regular lattice with spacing `2^(L-k)` pixels, so a few samples already cover
+//! the whole image evenly. Within a pixel, pass `p` uses sample `p` of that pixel's Owen-scrambled
+//! Sobol sequence, so a pixel's samples are stratified exactly as in `lumo render`.
+
+use glam::{Vec2, Vec3};
+use lumo_render::light_tracer::{trace_light_path, Emitters, FilmCamera};
+use lumo_render::RenderScene;
+use lumo_render::{camera::CameraRays, sampler::PixelSampler, trace_path, PathSettings};
+
+/// One sample of either stream.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sample {
+    /// Screen position in [0,1]² (u right, v down).
+    pub uv: [f32; 2],
+    /// CIE XYZ colour and weight.
+    pub xyzw: [f32; 4],
+}
+
+/// Linear sRGB (Rec. 709 primaries, D65) to CIE XYZ.
+#[inline]
+pub fn rgb_to_xyz(c: Vec3) -> [f32; 3] {
+    [
+        0.412_456_4 * c.x + 0.357_576_1 * c.y + 0.180_437_5 * c.z,
+        0.212_672_9 * c.x + 0.715_152_2 * c.y + 0.072_175 * c.z,
+        0.019_333_9 * c.x + 0.119_192 * c.y + 0.950_304_1 * c.z,
+    ]
+}
+
+/// The order in which camera samples visit pixels.
+#[derive(Clone, Copy, Debug)]
+pub struct ScreenOrder {
+    width: u32,
+    height: u32,
+    /// L: the padded square is 2^L × 2^L.
+    bits: u32,
+}
+
+/// Gathers the even bits of `v` (a Morton index) into one coordinate.
+fn compact(mut v: u64) -> u64 {
+    v &= 0x5555_5555;
+    v = (v | (v >> 1)) & 0x3333_3333;
+    v = (v | (v >> 2)) & 0x0f0f_0f0f;
+    v = (v | (v >> 4)) & 0x00ff_00ff;
+    (v | (v >> 8)) & 0xffff
+}
+
+impl ScreenOrder {
+    /// The order for a `width`×`height` image (each side at most 65536).
+    pub fn new(width: u32, height: u32) -> Self {
+        let side = width.max(height).max(1);
+        Self {
+            width,
+            height,
+            bits: side.next_power_of_two().trailing_zeros(),
+        }
+    }
+
+    /// Sample indices per pass (some fall outside a non-square image and are skipped).
+    pub fn period(&self) -> u64 {
+        1u64 << (2 * self.bits)
+    }
+
+    /// Pixel visited at position `k` of a pass (`k < period`), if inside the image.
+    pub fn pixel(&self, k: u64) -> Option<(u32, u32)> {
+        let n = 2 * self.bits;
+        let morton = if n == 0 {
+            0
+        } else {
+            k.reverse_bits() >> (64 - n)
+        };
+        // Even bits carry y so that the very first steps alternate rows and columns.
+        let (x, y) = (compact(morton >> 1) as u32, compact(morton) as u32);
+        (x < self.width && y < self.height).then_some((x, y))
+    }
+}
+
+/// Everything a stream needs to turn sample indices into samples.
+pub struct StreamContext<'a> {
+    /// Scene.
+    pub rs: &'a RenderScene,
+    /// Emitters for the light tracer.
+    pub emitters: &'a Emitters,
+    /// Camera rays for the path tracer.
+    pub rays: CameraRays,
+    /// Camera model for the light tracer.
+    pub film: FilmCamera,
+    /// Pixel order.
+    pub order: ScreenOrder,
+    /// Image size.
+    pub size: Vec2,
+    /// Integrator settings.
+    pub path: PathSettings,
+    /// Global seed.
+    pub seed: u32,
+    /// Factor on every value (½ when both streams estimate the same image).
+    pub scale: f32,
+}
+
+/// Dimension-0 "pixel" coordinate that keeps light paths apart from camera samples.
+const LIGHT_SEQUENCE: u32 = 0x4c49_4748;
+
+impl StreamContext<'_> {
+    /// Camera sample `n`, or None when its index falls outside a non-square image.
+    pub fn camera_sample(&self, n: u64) -> Option<(Sample, u32)> {
+        let period = self.order.period();
+        let (x, y) = self.order.pixel(n % period)?;
+        let pass = (n / period).min(u32::MAX as u64) as u32;
+        let mut sampler = PixelSampler::new(x, y, pass, self.seed);
+        let jitter = sampler.next_2d();
+        let film = Vec2::new(x as f32, y as f32) + jitter;
+        let dir = self.rays.direction(film);
+        let r = trace_path(
+            self.rs,
+            self.rays.origin(),
+            dir,
+            &mut sampler,
+            &self.path,
+            None,
+        );
+        let c = (r.direct + r.indirect) * self.scale;
+        let [x_, y_, z_] = rgb_to_xyz(c);
+        let uv = film / self.size;
+        Some((
+            Sample {
+                uv: [uv.x, uv.y],
+                xyzw: [x_, y_, z_, 1.0],
+            },
+            r.rays,
+        ))
+    }
+
+    /// Light path `m`: pushes its splats (W = 1: each counts once in the splat density).
+    pub fn light_path(&self, m: u64, out: &mut Vec<Sample>) -> u32 {
+        let block = (m >> 16) as u32;
+        let mut sampler = PixelSampler::new(LIGHT_SEQUENCE, block, (m & 0xffff) as u32, self.seed);
+        let stats = trace_light_path(
+            self.rs,
+            self.emitters,
+            &self.film,
+            &mut sampler,
+            &self.path,
+            &mut |s| {
+                let [x, y, z] = rgb_to_xyz(s.value * self.scale);
+                let uv = s.film / self.size;
+                out.push(Sample {
+                    uv: [uv.x, uv.y],
+                    xyzw: [x, y, z, 1.0],
+                });
+            },
+        );
+        stats.rays
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_pass_visits_every_pixel_once_and_prefixes_are_even() {
+        let order = ScreenOrder::new(24, 10);
+        let mut seen = vec![0u32; 24 * 10];
+        for k in 0..order.period() {
+            if let Some((x, y)) = order.pixel(k) {
+                seen[(y * 24 + x) as usize] += 1;
+            }
+        }
+        assert!(seen.iter().all(|&c| c == 1));
+        // The first 16 indices of a 32×32 square form a 4×4 lattice, 8 pixels apart: no tiles.
+        let sq = ScreenOrder::new(32, 32);
+        let mut pts: Vec<(u32, u32)> = (0..16).filter_map(|k| sq.pixel(k)).collect();
+        pts.sort();
+        let lattice: Vec<(u32, u32)> = (0..4)
+            .flat_map(|x| (0..4).map(move |y| (x * 8, y * 8)))
+            .collect();
+        assert_eq!(pts, lattice);
+    }
+
+    #[test]
+    fn xyz_of_white_is_d65() {
+        let w = rgb_to_xyz(Vec3::ONE);
+        assert!((w[0] - 0.9505).abs() < 1e-3 && (w[1] - 1.0).abs() < 1e-4);
+        assert!((w[2] - 1.089).abs() < 1e-3);
+    }
+}

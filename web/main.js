@@ -1,0 +1,221 @@
+// The viewer: the paper's client loop at display rate — process input, rasterise new samples,
+// repaint, (swap), fetch new samples — whatever the server's speed.
+
+import { decode, encodeCamera, encodeParams, KIND } from './protocol.js';
+import { floatFormats, loadText, program } from './gl.js';
+import { SampleStream } from './stream.js';
+import { Display } from './display.js';
+import { Navigation } from './navigation.js';
+import { controls, overlay } from './ui.js';
+
+// Samples rasterised per displayed frame at most; the rest wait for the next frame, so a
+// burst of samples never stalls the display.
+const MAX_SAMPLES_PER_FRAME = 400000;
+// Camera updates go out at most this often while dragging.
+const CAMERA_SEND_MS = 30;
+
+const canvas = document.getElementById('view');
+const overlayEl = document.getElementById('overlay');
+const statusEl = document.getElementById('status');
+
+const state = {
+  hello: null, epoch: 0, integrator: 'path', mode: 'progressive', inflight: 0,
+  rate: 0, dropped: 0, viewers: 1, serverSamples: 0, fps: 0, frames: 0, errors: [],
+  lastLocalMove: -1e9,
+};
+const queue = [];
+let gpu = null;
+
+async function initGpu(hello) {
+  canvas.width = hello.width;
+  canvas.height = hello.height;
+  const gl = canvas.getContext('webgl2', { antialias: false, preserveDrawingBuffer: true });
+  if (!gl) throw new Error('WebGL2 is not available');
+  const formats = floatFormats(gl);
+  const src = {};
+  for (const f of ['quad.vert', 'splat.vert', 'splat.frag', 'variance.frag', 'mip.frag', 'display.frag']) {
+    src[f] = await loadText(`shaders/${f}`);
+  }
+  const programs = {
+    splat: program(gl, src['splat.vert'], src['splat.frag']),
+    variance: program(gl, src['splat.vert'], src['variance.frag']),
+    mip: program(gl, src['quad.vert'], src['mip.frag']),
+  };
+  const w = hello.width;
+  const h = hello.height;
+  return {
+    gl,
+    formats,
+    quad: gl.createVertexArray(),
+    camera: new SampleStream(gl, programs, formats, w, h),
+    light: new SampleStream(gl, programs, formats, w, h),
+    display: new Display(gl, program(gl, src['quad.vert'], src['display.frag']), w, h),
+  };
+}
+
+function resetImage() {
+  queue.length = 0;
+  if (!gpu) return;
+  gpu.camera.reset();
+  gpu.light.reset();
+  gpu.display.hasFrame = false;
+}
+
+const ws = new WebSocket(`ws://${location.host}/ws`);
+ws.binaryType = 'arraybuffer';
+
+let pendingCamera = null;
+let sendTimer = null;
+function sendCamera() {
+  sendTimer = null;
+  if (!pendingCamera || ws.readyState !== WebSocket.OPEN) return;
+  ws.send(encodeCamera(pendingCamera));
+  state.inflight += 1;
+  pendingCamera = null;
+}
+
+const nav = new Navigation(canvas, (camera) => {
+  // Restart at once locally; samples of the old view are ignored until the server confirms.
+  resetImage();
+  state.lastLocalMove = performance.now();
+  pendingCamera = structuredClone(camera);
+  if (!sendTimer) sendTimer = setTimeout(sendCamera, CAMERA_SEND_MS);
+});
+
+const ui = controls(
+  () => {},
+  (integrator, mode) => {
+    if (ws.readyState === WebSocket.OPEN) ws.send(encodeParams(integrator, mode));
+  },
+  (m) => { nav.mode = m; },
+);
+
+ws.onmessage = async (ev) => {
+  let msg;
+  try {
+    msg = decode(ev.data);
+  } catch (e) {
+    state.errors.push(String(e));
+    return;
+  }
+  switch (msg.kind) {
+    case KIND.HELLO:
+      state.hello = msg;
+      state.epoch = msg.epoch;
+      state.integrator = msg.integrator;
+      state.mode = msg.mode;
+      ui.setParams(msg.integrator, msg.mode);
+      nav.set(msg.camera);
+      try {
+        gpu = await initGpu(msg);
+        requestAnimationFrame(frame);
+      } catch (e) {
+        statusEl.textContent = String(e);
+        state.errors.push(String(e));
+      }
+      break;
+    case KIND.CAMERA:
+      state.inflight = Math.max(0, state.inflight - 1);
+      if (msg.epoch !== state.epoch) {
+        state.epoch = msg.epoch;
+        resetImage();
+      }
+      // Follow the server (another viewer may have moved) unless this viewer is moving.
+      if (state.inflight === 0 && !pendingCamera && performance.now() - state.lastLocalMove > 300) {
+        nav.set(msg.camera);
+      }
+      break;
+    case KIND.PARAMS:
+      state.integrator = msg.integrator;
+      state.mode = msg.mode;
+      ui.setParams(msg.integrator, msg.mode);
+      break;
+    case KIND.SAMPLES:
+    case KIND.FRAME:
+      if (msg.epoch === state.epoch && state.inflight === 0 && !pendingCamera) queue.push(msg);
+      break;
+    case KIND.STATS:
+      state.rate = msg.rate;
+      state.dropped = msg.dropped;
+      state.viewers = msg.viewers;
+      state.serverSamples = msg.samples;
+      break;
+    case KIND.ERROR:
+      state.errors.push(`${msg.code}: ${msg.message}`);
+      statusEl.textContent = `server: ${msg.message}`;
+      break;
+    default:
+      break;
+  }
+};
+ws.onclose = () => { statusEl.textContent = 'disconnected from the server'; };
+
+let last = performance.now();
+let lastOverlay = 0;
+function frame(now) {
+  const dt = Math.min(0.1, (now - last) / 1000);
+  last = now;
+  if (dt > 0) state.fps = state.fps * 0.9 + (1 / dt) * 0.1;
+  nav.update(dt);
+  const { camera, light, display, quad } = gpu;
+  let budget = MAX_SAMPLES_PER_FRAME;
+  while (queue.length > 0 && budget > 0) {
+    const m = queue.shift();
+    if (m.kind === KIND.FRAME) {
+      display.uploadFrame(m);
+    } else {
+      (m.stream === 0 ? camera : light).splat(m);
+      budget -= m.count;
+    }
+  }
+  camera.buildMips(quad);
+  light.buildMips(quad);
+  const frameMode = state.mode !== 'progressive';
+  display.draw(quad, camera, light, ui.params, frameMode);
+  state.frames += 1;
+  if (now - lastOverlay > 100) {
+    lastOverlay = now;
+    const h = state.hello;
+    const pixels = h.width * h.height;
+    overlay(overlayEl, {
+      name: h.name, width: h.width, height: h.height,
+      integrator: state.integrator, mode: state.mode,
+      rate: state.rate,
+      spp: frameMode ? display.frames : camera.samples / pixels,
+      fps: state.fps,
+      lod: frameMode ? 0 : Math.max(0, camera.samples > 0 ? camera.baseLod() : light.baseLod()),
+      samples: camera.samples, lightPaths: light.lightPaths,
+      dropped: state.dropped, viewers: state.viewers,
+    });
+  }
+  requestAnimationFrame(frame);
+}
+
+// A small hook for tests and scripts: counters and a read-back of the displayed image.
+window.lumo = {
+  state,
+  counts() {
+    return {
+      ready: !!gpu,
+      epoch: state.epoch,
+      frames: state.frames,
+      cameraSamples: gpu ? gpu.camera.samples : 0,
+      lightSamples: gpu ? gpu.light.samples : 0,
+      lightPaths: gpu ? gpu.light.lightPaths : 0,
+      frameCount: gpu ? gpu.display.frames : 0,
+      precision: gpu ? gpu.formats.precision : null,
+      params: { ...ui.params },
+      errors: state.errors.slice(),
+      overlay: overlayEl.textContent,
+    };
+  },
+  pixels() {
+    const gl = gpu.gl;
+    const w = canvas.width;
+    const h = canvas.height;
+    const px = new Uint8Array(w * h * 4);
+    gl.bindFramebuffer(gl.FRAMEBUFFER, null);
+    gl.readPixels(0, 0, w, h, gl.RGBA, gl.UNSIGNED_BYTE, px);
+    return { width: w, height: h, data: Array.from(px) };
+  },
+};

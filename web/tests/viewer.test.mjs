@@ -1,0 +1,224 @@
+// The viewer in a real browser: Debian's chromium (never a downloaded build) driven by
+// playwright-core against a real `lumo serve` on a small scene.
+//
+// LUMO_BIN: the lumo binary (default: ../../target/release/lumo).
+// LUMO_FIG3_DIR: if set, also writes the paper's Fig. 3 series (1/30 s, 1/3 s, 3 s, 30 s) as
+// PNG screenshots of a 256×256 render into this directory.
+
+import { test, before, after } from 'node:test';
+import assert from 'node:assert/strict';
+import { spawn, execFileSync } from 'node:child_process';
+import { mkdtempSync, readFileSync, mkdirSync } from 'node:fs';
+import { tmpdir } from 'node:os';
+import { join, dirname, resolve } from 'node:path';
+import { fileURLToPath } from 'node:url';
+import { chromium } from 'playwright-core';
+
+const here = dirname(fileURLToPath(import.meta.url));
+const LUMO = process.env.LUMO_BIN || resolve(here, '../../target/release/lumo');
+const SIZE = 96;
+const CHROMIUM_FLAGS = [
+  '--headless=new', '--no-sandbox', '--use-angle=swiftshader', '--enable-unsafe-swiftshader',
+  '--disable-background-networking', '--disable-component-update', '--disable-sync',
+  '--no-first-run',
+];
+
+const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
+const servers = [];
+let browser;
+
+// Starts `lumo serve` on a free port; resolves with the URL it prints.
+function serve(args) {
+  return new Promise((resolveUrl, reject) => {
+    const p = spawn(LUMO, ['serve', 'cornell', '--port', '0', ...args], {
+      stdio: ['ignore', 'pipe', 'inherit'],
+    });
+    servers.push(p);
+    let out = '';
+    p.stdout.on('data', (d) => {
+      out += d;
+      const m = out.match(/open (http:\/\/\S+)/);
+      if (m) resolveUrl(m[1]);
+    });
+    p.on('exit', (code) => reject(new Error(`lumo serve exited with ${code}`)));
+  });
+}
+
+function readPfm(path) {
+  const buf = readFileSync(path);
+  const header = [];
+  let pos = 0;
+  while (header.length < 3) {
+    const end = buf.indexOf(10, pos);
+    header.push(buf.subarray(pos, end).toString().trim());
+    pos = end + 1;
+  }
+  const [w, h] = header[1].split(/\s+/).map(Number);
+  const little = Number(header[2]) < 0;
+  const data = new Float32Array(w * h * 3);
+  for (let i = 0; i < data.length; i++) {
+    data[i] = little ? buf.readFloatLE(pos + 4 * i) : buf.readFloatBE(pos + 4 * i);
+  }
+  return { w, h, data }; // rows bottom to top, as WebGL's readPixels returns them
+}
+
+// The viewer's display transform (display.frag) applied to linear sRGB, in 0..255.
+function displayRef(rgb, { B, C, G }) {
+  const [r, g, b] = rgb;
+  const x = 0.4124564 * r + 0.3575761 * g + 0.1804375 * b;
+  const y = 0.2126729 * r + 0.7151522 * g + 0.072175 * b;
+  const z = 0.0193339 * r + 0.119192 * g + 0.9503041 * b;
+  if (!(y > 0)) return [0, 0, 0];
+  const yt = 1 - Math.exp(-((B * y) ** C));
+  const k = yt / y;
+  const X = x * k; const Y = y * k; const Z = z * k;
+  let out = [
+    3.2404542 * X - 1.5371385 * Y - 0.4985314 * Z,
+    -0.969266 * X + 1.8760108 * Y + 0.041556 * Z,
+    0.0556434 * X - 0.2040259 * Y + 1.0572252 * Z,
+  ];
+  let s = 1;
+  for (const c of out) {
+    if (c < 0) s = Math.min(s, Y / (Y - c));
+    if (c > 1) s = Math.min(s, (1 - Y) / (c - Y));
+  }
+  out = out.map((c) => Math.min(1, Math.max(0, Y + s * (c - Y))));
+  return out.map((c) => 255 * c ** (1 / G));
+}
+
+function rmse(px, ref, params) {
+  let sum = 0;
+  for (let i = 0; i < ref.w * ref.h; i++) {
+    const want = displayRef([ref.data[3 * i], ref.data[3 * i + 1], ref.data[3 * i + 2]], params);
+    for (let c = 0; c < 3; c++) sum += (px.data[4 * i + c] - want[c]) ** 2;
+  }
+  return Math.sqrt(sum / (ref.w * ref.h * 3));
+}
+
+const mean = (px) => px.data.reduce((a, v, i) => (i % 4 === 3 ? a : a + v), 0) / (px.width * px.height * 3);
+
+async function open(url) {
+  const page = await browser.newPage();
+  const errors = [];
+  page.on('pageerror', (e) => errors.push(String(e)));
+  page.on('console', (m) => { if (m.type() === 'error') errors.push(m.text()); });
+  await page.goto(url);
+  await page.waitForFunction(() => window.lumo && window.lumo.counts().ready, null, { timeout: 30000 });
+  return { page, errors };
+}
+
+const counts = (page) => page.evaluate(() => window.lumo.counts());
+const pixels = (page) => page.evaluate(() => window.lumo.pixels());
+
+before(async () => {
+  browser = await chromium.launch({
+    executablePath: '/usr/bin/chromium',
+    headless: false, // --headless=new is among the flags
+    args: CHROMIUM_FLAGS,
+  });
+});
+
+after(async () => {
+  if (browser) await browser.close();
+  for (const p of servers) p.kill();
+});
+
+test('samples arrive, the image converges to the CPU reference, B and camera behave', async () => {
+  const dir = mkdtempSync(join(tmpdir(), 'lumo-viewer-'));
+  const refPath = join(dir, 'ref.pfm');
+  execFileSync(LUMO, ['render', 'cornell', '--size', `${SIZE}x${SIZE}`, '--spp', '256', '-o', refPath],
+    { stdio: 'inherit' });
+  const ref = readPfm(refPath);
+  const url = await serve(['--size', `${SIZE}x${SIZE}`, '--threads', '1']);
+  const { page, errors } = await open(url);
+
+  await page.waitForFunction(() => window.lumo.counts().cameraSamples > 0, null, { timeout: 20000 });
+  const early = await pixels(page);
+  const c0 = await counts(page);
+  const errEarly = rmse(early, ref, c0.params);
+  await sleep(4000);
+  const late = await pixels(page);
+  const c1 = await counts(page);
+  const errLate = rmse(late, ref, c1.params);
+  console.log(`error vs reference: ${errEarly.toFixed(2)} at ${c0.cameraSamples} samples, `
+    + `${errLate.toFixed(2)} at ${c1.cameraSamples} samples (${c1.precision} textures)`);
+  assert.ok(mean(late) > 20, `image is black (mean ${mean(late)})`);
+  assert.ok(c1.cameraSamples > c0.cameraSamples, 'no new samples');
+  assert.ok(errLate < errEarly, `error did not fall: ${errEarly} -> ${errLate}`);
+  assert.ok(errLate < 25, `far from the reference: RMSE ${errLate}`);
+  assert.match(c1.overlay, /samples\/s [\d.]+ [kM]?\s*spp [\d.]+\s+fps \d+\s+LoD/);
+
+  // Brightness changes the picture but not the sample count.
+  const before = await counts(page);
+  await page.evaluate(() => {
+    const b = document.getElementById('brightness');
+    b.value = String(Number(b.value) + 1.5);
+    b.dispatchEvent(new Event('input'));
+  });
+  await sleep(300);
+  const brighter = await pixels(page);
+  const after = await counts(page);
+  assert.ok(mean(brighter) > mean(late) + 5, 'brightness had no effect');
+  assert.equal(after.epoch, before.epoch);
+  assert.ok(after.cameraSamples >= before.cameraSamples, 'B reset the samples');
+
+  // A camera drag restarts rendering: new epoch, sample count starts over.
+  const box = await page.locator('#view').boundingBox();
+  await page.mouse.move(box.x + box.width / 2, box.y + box.height / 2);
+  await page.mouse.down();
+  await page.mouse.move(box.x + box.width / 2 + 30, box.y + box.height / 2, { steps: 3 });
+  await page.mouse.up();
+  await page.waitForFunction((e) => window.lumo.counts().epoch > e, before.epoch, { timeout: 10000 });
+  const moved = await counts(page);
+  assert.ok(moved.cameraSamples < after.cameraSamples, 'camera move did not reset the samples');
+  await page.waitForFunction(() => window.lumo.counts().cameraSamples > 0, null, { timeout: 10000 });
+  assert.deepEqual(errors, []);
+  assert.deepEqual((await counts(page)).errors, []);
+  await page.close();
+});
+
+test('the page keeps drawing while the server is throttled, light stream shows up', async () => {
+  const url = await serve(['--size', '64x64', '--threads', '1', '--max-rate', '3000', '--integrator', 'both']);
+  const { page, errors } = await open(url);
+  await page.waitForFunction(() => window.lumo.counts().cameraSamples > 0, null, { timeout: 20000 });
+  const a = await counts(page);
+  const t0 = Date.now();
+  await sleep(2000);
+  const b = await counts(page);
+  const fps = (b.frames - a.frames) / ((Date.now() - t0) / 1000);
+  const rate = (b.cameraSamples - a.cameraSamples) / 2;
+  console.log(`throttled server: ${rate.toFixed(0)} camera samples/s, viewer at ${fps.toFixed(1)} fps`);
+  assert.ok(fps > 5, `viewer drew only ${fps} frames per second`);
+  assert.ok(rate < 3000, `throttle ignored: ${rate}/s`);
+  assert.ok(b.lightPaths > 0 && b.lightSamples > 0, 'no light stream with --integrator both');
+  assert.ok(mean(await pixels(page)) > 5, 'image is black');
+  assert.deepEqual(errors, []);
+  await page.close();
+});
+
+test('filtered-frame mode shows À-Trous frames', async () => {
+  const url = await serve(['--size', '64x64', '--threads', '1']);
+  const { page, errors } = await open(url);
+  await page.selectOption('#mode', 'atrous');
+  await page.waitForFunction(() => window.lumo.counts().frameCount > 0, null, { timeout: 20000 });
+  const c = await counts(page);
+  assert.match(c.overlay, /atrous/);
+  assert.ok(mean(await pixels(page)) > 20, 'filtered frame is black');
+  assert.deepEqual(errors, []);
+  await page.close();
+});
+
+test('Fig. 3 screenshots (only with LUMO_FIG3_DIR)', { skip: !process.env.LUMO_FIG3_DIR }, async () => {
+  const out = resolve(process.env.LUMO_FIG3_DIR);
+  mkdirSync(out, { recursive: true });
+  const url = await serve(['--size', '256x256']);
+  const { page } = await open(url);
+  // Start the clock at the first sample, as the paper does.
+  await page.waitForFunction(() => window.lumo.counts().cameraSamples > 0, null, { timeout: 20000 });
+  const t0 = Date.now();
+  for (const [name, t] of [['1-30s', 1 / 30], ['1-3s', 1 / 3], ['3s', 3], ['30s', 30]]) {
+    await sleep(Math.max(0, t0 + t * 1000 - Date.now()));
+    await page.locator('#view').screenshot({ path: join(out, `viewer-${name}.png`) });
+  }
+  await page.close();
+});

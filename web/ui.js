@@ -1,0 +1,42 @@
+// Controls (B, C, G, Vm never restart rendering; integrator and mode do) and the overlay.
+
+export function controls(onDisplay, onParams, onNavigation) {
+  const params = { B: 1.5, C: 1.0, G: 2.2, Vm: 0.0 };
+  const bind = (id, key, fmt) => {
+    const el = document.getElementById(id);
+    const out = document.getElementById(`${id}-value`);
+    const update = () => {
+      params[key] = fmt(Number(el.value));
+      out.textContent = params[key].toFixed(2);
+      onDisplay(params);
+    };
+    el.addEventListener('input', update);
+    params[key] = fmt(Number(el.value));
+    out.textContent = params[key].toFixed(2);
+  };
+  // Brightness on a log scale: the slider is log2 B.
+  bind('brightness', 'B', (v) => 2 ** v);
+  bind('contrast', 'C', (v) => v);
+  bind('gamma', 'G', (v) => v);
+  bind('vm', 'Vm', (v) => v);
+  const integrator = document.getElementById('integrator');
+  const mode = document.getElementById('mode');
+  const send = () => onParams(integrator.value, mode.value);
+  integrator.addEventListener('change', send);
+  mode.addEventListener('change', send);
+  const nav = document.getElementById('navigation');
+  nav.addEventListener('change', () => onNavigation(nav.value));
+  return {
+    params,
+    setParams(i, m) { integrator.value = i; mode.value = m; },
+  };
+}
+
+export function overlay(el, s) {
+  const si = (v) => (v >= 1e6 ? `${(v / 1e6).toFixed(2)} M` : v >= 1e3 ? `${(v / 1e3).toFixed(1)} k` : `${v.toFixed(0)} `);
+  el.textContent = [
+    `${s.name}  ${s.width}×${s.height}  ${s.integrator} / ${s.mode}`,
+    `samples/s ${si(s.rate)}  spp ${s.spp.toFixed(3)}  fps ${s.fps.toFixed(0)}  LoD ${s.lod.toFixed(2)}`,
+    `samples ${si(s.samples)}  light paths ${si(s.lightPaths)}  dropped ${s.dropped}  viewers ${s.viewers}`,
+  ].join('\n');
+}
