@@ -8,9 +8,14 @@ import { Display } from './display.js';
 import { Navigation } from './navigation.js';
 import { controls, overlay } from './ui.js';
 
-// Samples rasterised per displayed frame at most; the rest wait for the next frame, so a
-// burst of samples never stalls the display.
-const MAX_SAMPLES_PER_FRAME = 400000;
+// Samples rasterised per displayed frame adapt to the frame time (the paper's client adjusts
+// its batch size to the server's speed): a slow GPU rasterises fewer per frame and the display
+// keeps its rate. Samples that pile up beyond a few frames' worth are dropped, oldest first —
+// each is an independent estimate, so dropping some only costs noise, never bias.
+const BUDGET_MIN = 1000;
+const BUDGET_MAX = 1000000;
+const TARGET_FRAME_S = 1 / 45;
+const BACKLOG_FRAMES = 4;
 // Camera updates go out at most this often while dragging.
 const CAMERA_SEND_MS = 30;
 
@@ -20,10 +25,12 @@ const statusEl = document.getElementById('status');
 
 const state = {
   hello: null, epoch: 0, integrator: 'path', mode: 'progressive', inflight: 0,
-  rate: 0, dropped: 0, viewers: 1, serverSamples: 0, fps: 0, frames: 0, errors: [],
+  rate: 0, dropped: 0, clientDropped: 0, viewers: 1, serverSamples: 0, fps: 0, frames: 0, errors: [],
   lastLocalMove: -1e9,
 };
 const queue = [];
+let queuedSamples = 0;
+let budget = 20000;
 let gpu = null;
 
 async function initGpu(hello) {
@@ -55,6 +62,7 @@ async function initGpu(hello) {
 
 function resetImage() {
   queue.length = 0;
+  queuedSamples = 0;
   if (!gpu) return;
   gpu.camera.reset();
   gpu.light.reset();
@@ -132,7 +140,10 @@ ws.onmessage = async (ev) => {
       break;
     case KIND.SAMPLES:
     case KIND.FRAME:
-      if (msg.epoch === state.epoch && state.inflight === 0 && !pendingCamera) queue.push(msg);
+      if (msg.epoch === state.epoch && state.inflight === 0 && !pendingCamera) {
+        queue.push(msg);
+        queuedSamples += msg.count || 0;
+      }
       break;
     case KIND.STATS:
       state.rate = msg.rate;
@@ -158,14 +169,27 @@ function frame(now) {
   if (dt > 0) state.fps = state.fps * 0.9 + (1 / dt) * 0.1;
   nav.update(dt);
   const { camera, light, display, quad } = gpu;
-  let budget = MAX_SAMPLES_PER_FRAME;
-  while (queue.length > 0 && budget > 0) {
+  if (dt > 0) {
+    budget = dt > TARGET_FRAME_S * 1.5 ? budget * 0.7 : dt < TARGET_FRAME_S ? budget * 1.2 : budget;
+    budget = Math.min(BUDGET_MAX, Math.max(BUDGET_MIN, budget));
+  }
+  while (queuedSamples > BACKLOG_FRAMES * budget && queue.length > 1) {
+    const m = queue.shift();
+    if (m.kind === KIND.SAMPLES) {
+      queuedSamples -= m.count;
+      state.clientDropped += m.count;
+    }
+    // A dropped light message takes its splats and its share of light paths together.
+  }
+  let left = budget;
+  while (queue.length > 0 && left > 0) {
     const m = queue.shift();
     if (m.kind === KIND.FRAME) {
       display.uploadFrame(m);
     } else {
       (m.stream === 0 ? camera : light).splat(m);
-      budget -= m.count;
+      left -= m.count;
+      queuedSamples -= m.count;
     }
   }
   camera.buildMips(quad);
@@ -203,6 +227,8 @@ window.lumo = {
       lightSamples: gpu ? gpu.light.samples : 0,
       lightPaths: gpu ? gpu.light.lightPaths : 0,
       frameCount: gpu ? gpu.display.frames : 0,
+      clientDropped: state.clientDropped,
+      budget,
       precision: gpu ? gpu.formats.precision : null,
       params: { ...ui.params },
       errors: state.errors.slice(),

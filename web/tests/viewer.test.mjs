@@ -126,7 +126,7 @@ after(async () => {
 test('samples arrive, the image converges to the CPU reference, B and camera behave', async () => {
   const dir = mkdtempSync(join(tmpdir(), 'lumo-viewer-'));
   const refPath = join(dir, 'ref.pfm');
-  execFileSync(LUMO, ['render', 'cornell', '--size', `${SIZE}x${SIZE}`, '--spp', '256', '-o', refPath],
+  execFileSync(LUMO, ['render', 'cornell', '--pipeline', 'none', '--size', `${SIZE}x${SIZE}`, '--spp', '256', '-o', refPath],
     { stdio: 'inherit' });
   const ref = readPfm(refPath);
   const url = await serve(['--size', `${SIZE}x${SIZE}`, '--threads', '1']);

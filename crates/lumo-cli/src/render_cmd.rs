@@ -207,13 +207,14 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let settings = RenderSettings {
         width,
         height,
-        spp: args.spp.or(file.spp).unwrap_or(
-            if args.pipeline.pipeline == Pipeline::None {
+        spp: args
+            .spp
+            .or(file.spp)
+            .unwrap_or(if args.pipeline.pipeline == Pipeline::None {
                 scene.defaults.spp
             } else {
                 crate::pipeline_args::FILTERED_DEFAULT_SPP
-            },
-        ),
+            }),
         seed: args.seed.or(file.seed).unwrap_or(0),
         path: PathSettings {
             max_depth: args
@@ -246,13 +247,9 @@ pub fn run(args: RenderArgs) -> Result<()> {
     );
     let start = Instant::now();
     let out = pool.install(|| {
-        run_pipeline(
-            &rs,
-            pipeline,
-            &settings,
-            &args.pipeline.options(),
-            &|f| bar.set_position((f * 1000.0) as u64),
-        )
+        run_pipeline(&rs, pipeline, &settings, &args.pipeline.options(), &|f| {
+            bar.set_position((f * 1000.0) as u64)
+        })
     })?;
     let secs = start.elapsed().as_secs_f64();
     bar.finish_and_clear();

@@ -146,7 +146,8 @@ impl Emitters {
 
     /// True when the scene has nothing the light tracer can emit from.
     pub fn is_empty(&self) -> bool {
-        self.emitters.is_empty() || !(self.choice.total() > 0.0)
+        self.emitters.is_empty()
+            || self.choice.total().partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
     }
 }
 

@@ -84,12 +84,18 @@ fn corrupted_scene_files_never_panic() {
                     failed += 1;
                     // The glTF loader's last-resort guard around the gltf crate.
                     caught += e.to_string().contains("parser failed on") as usize;
-                    assert!(e.to_string().contains(name), "{sample} #{i}: error lacks the file: {e}");
+                    assert!(
+                        e.to_string().contains(name),
+                        "{sample} #{i}: error lacks the file: {e}"
+                    );
                 }
                 Err(_) => {
                     let keep = std::env::temp_dir().join(format!("lumo-fuzz-crash-{name}"));
                     std::fs::write(&keep, &data).ok();
-                    panic!("{sample} mutation {i} panicked; input saved to {}", keep.display());
+                    panic!(
+                        "{sample} mutation {i} panicked; input saved to {}",
+                        keep.display()
+                    );
                 }
             }
         }

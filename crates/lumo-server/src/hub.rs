@@ -14,9 +14,10 @@ use crate::protocol::{self, Finish, Hello, Integrator, Mode, Stats, Stream, Wire
 use crate::worker::{FinishEvent, Job, QueryBuffer, RenderWorker};
 use crate::ServerConfig;
 
-/// Samples per batch message: 32768 × 12 bytes ≈ 384 KiB, small enough to interleave with
-/// control messages and to drop without losing much.
-pub const SAMPLES_PER_MESSAGE: usize = 32768;
+/// Samples per batch message: 8192 × 12 bytes = 96 KiB, small enough to interleave with
+/// control messages, to drop without losing much, and for a slow viewer to rasterise a few per
+/// frame.
+pub const SAMPLES_PER_MESSAGE: usize = 8192;
 /// How often the pump queries the worker: about the display rate.
 pub const PUMP_INTERVAL: Duration = Duration::from_millis(16);
 /// How often stats go out.

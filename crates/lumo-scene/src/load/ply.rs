@@ -266,13 +266,11 @@ fn parse(path: &Path, bytes: &[u8], diag: &mut Diagnostics) -> Result<Mesh, Load
             find(&["blue", "b", "diffuse_blue"]),
         ];
         let has_rgb = rgb.iter().all(Option::is_some);
-        if is_vertex {
-            if ix.is_none() || iy.is_none() || iz.is_none() {
-                return Err(LoadError::invalid(
-                    Location::item(path, "element vertex"),
-                    "vertices need x, y and z properties",
-                ));
-            }
+        if is_vertex && (ix.is_none() || iy.is_none() || iz.is_none()) {
+            return Err(LoadError::invalid(
+                Location::item(path, "element vertex"),
+                "vertices need x, y and z properties",
+            ));
         }
         let has_n = inx.is_some() && iny.is_some() && inz.is_some();
         let has_uv = iu.is_some() && iv.is_some();
