@@ -1,5 +1,5 @@
 //! The scene model of lumo: triangle meshes placed by instances, materials, lights and a
-//! pinhole camera. Loaders (built-in scenes here; files in later crates) fill it; the renderer
+//! pinhole camera. Loaders (built-in scenes, and scene files in [`load`]) fill it; the renderer
 //! reads it. Plain data: no acceleration structures, no threads.
 
 pub mod animation;

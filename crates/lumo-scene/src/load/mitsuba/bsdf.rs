@@ -139,7 +139,6 @@ impl<'a> Builder<'a, '_> {
                     at,
                     format!("bsdf {kind:?} is not supported; using a grey diffuse BSDF instead"),
                 )?;
-                props.accept(&[]);
                 mark_all(props);
                 Bsdf::Diffuse {
                     reflectance: Texture::Constant(Vec3::splat(0.5)),
