@@ -48,5 +48,5 @@ pub use guided::{
     DEFAULT_EPS_NORMAL, DEFAULT_RADIUS, MAX_GUIDE_DIMS,
 };
 pub use jbu::{jbu, JbuParams};
-pub use lookup::{most_similar, most_similar_in_grid};
+pub use lookup::{most_similar, most_similar_in_grid, neighbour_cells};
 pub use outliers::remove_outliers;

@@ -99,19 +99,7 @@ pub fn most_similar_in_grid(
     {
         return (0, 0);
     }
-    let fx = if x.is_finite() {
-        (x - 0.5).clamp(0.0, (w - 1) as f32)
-    } else {
-        0.0
-    };
-    let fy = if y.is_finite() {
-        (y - 0.5).clamp(0.0, (h - 1) as f32)
-    } else {
-        0.0
-    };
-    let (x0, y0) = (fx as usize, fy as usize);
-    let (x1, y1) = ((x0 + 1).min(w - 1), (y0 + 1).min(h - 1));
-    let cells = [(x0, y0), (x1, y0), (x0, y1), (x1, y1)];
+    let cells = neighbour_cells(x, y, w, h);
     let mut cn = [[0.0f32; 3]; 4];
     let mut cd = [0.0f32; 4];
     for (i, &(cx, cy)) in cells.iter().enumerate() {
@@ -120,4 +108,20 @@ pub fn most_similar_in_grid(
         cd[i] = grid_depth.pixel(cx, cy)[0];
     }
     cells[most_similar(normal, depth, &cn, &cd)]
+}
+
+/// The four guide pixels around continuous position (`x`, `y`) of a `w`×`h` grid (pixel j
+/// covers [j, j+1)), clamped at the border: the candidates of [`most_similar_in_grid`].
+/// `w` and `h` must be non-zero.
+pub fn neighbour_cells(x: f32, y: f32, w: usize, h: usize) -> [(usize, usize); 4] {
+    let clamp = |v: f32, n: usize| {
+        if v.is_finite() {
+            (v - 0.5).clamp(0.0, (n - 1) as f32) as usize
+        } else {
+            0
+        }
+    };
+    let (x0, y0) = (clamp(x, w), clamp(y, h));
+    let (x1, y1) = ((x0 + 1).min(w - 1), (y0 + 1).min(h - 1));
+    [(x0, y0), (x1, y0), (x0, y1), (x1, y1)]
 }

@@ -1,6 +1,9 @@
 //! χ² goodness-of-fit of every BSDF's sampling routine against its own pdf, and energy
 //! bounds (white furnace per BSDF).
 
+mod common;
+
+use common::chi2::{self, dir};
 use glam::{Vec2, Vec3};
 use lumo_render::bsdf::{fresnel_diffuse_reflectance, Bsdf};
 use std::f32::consts::PI;
@@ -78,39 +81,6 @@ fn test_bsdfs() -> Vec<(&'static str, Bsdf)> {
     ]
 }
 
-fn dir(cos_theta: f32, phi: f32) -> Vec3 {
-    let s = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
-    Vec3::new(s * phi.cos(), s * phi.sin(), cos_theta)
-}
-
-/// Upper-tail probability of a χ² statistic (Wilson–Hilferty normal approximation).
-fn chi2_p_value(stat: f64, dof: f64) -> f64 {
-    let z = ((stat / dof).powf(1.0 / 3.0) - (1.0 - 2.0 / (9.0 * dof))) / (2.0 / (9.0 * dof)).sqrt();
-    0.5 * erfc(z / std::f64::consts::SQRT_2)
-}
-
-fn erfc(x: f64) -> f64 {
-    // Numerical Recipes' erfcc (fractional error < 1.2e-7).
-    let z = x.abs();
-    let t = 1.0 / (1.0 + 0.5 * z);
-    let r = t
-        * (-z * z - 1.265_512_23
-            + t * (1.000_023_68
-                + t * (0.374_091_96
-                    + t * (0.096_784_18
-                        + t * (-0.186_288_06
-                            + t * (0.278_868_07
-                                + t * (-1.135_203_98
-                                    + t * (1.488_515_87
-                                        + t * (-0.822_152_23 + t * 0.170_872_77)))))))))
-            .exp();
-    if x >= 0.0 {
-        r
-    } else {
-        2.0 - r
-    }
-}
-
 /// Runs the χ² test of `bsdf`'s sampling for outgoing direction `wo`; returns the p-value.
 fn chi2_test(bsdf: &Bsdf, wo: Vec3, seed: u64) -> f64 {
     let (nt, np) = (20usize, 40usize);
@@ -120,62 +90,15 @@ fn chi2_test(bsdf: &Bsdf, wo: Vec3, seed: u64) -> f64 {
     for _ in 0..n {
         let u_lobe = rng.next();
         if let Some(s) = bsdf.sample(wo, u_lobe, rng.next_2d()) {
-            if s.delta {
-                continue;
+            if !s.delta {
+                observed[chi2::cell(s.wi, nt, np)] += 1.0;
             }
-            let c = s.wi.z.clamp(-1.0, 1.0);
-            let mut phi = s.wi.y.atan2(s.wi.x);
-            if phi < 0.0 {
-                phi += 2.0 * PI;
-            }
-            let i = (((c + 1.0) * 0.5 * nt as f32) as usize).min(nt - 1);
-            let j = ((phi / (2.0 * PI) * np as f32) as usize).min(np - 1);
-            observed[i * np + j] += 1.0;
         }
     }
-    // Expected counts: the pdf integrated over each (cos θ, φ) cell by a 12×12 midpoint rule.
-    let sub = 12;
-    let mut expected = vec![0f64; nt * np];
-    for i in 0..nt {
-        for j in 0..np {
-            let mut acc = 0.0f64;
-            for a in 0..sub {
-                for b in 0..sub {
-                    let c = -1.0 + 2.0 * (i as f32 + (a as f32 + 0.5) / sub as f32) / nt as f32;
-                    let phi = 2.0 * PI * (j as f32 + (b as f32 + 0.5) / sub as f32) / np as f32;
-                    acc += bsdf.pdf(wo, dir(c, phi)) as f64;
-                }
-            }
-            let cell = (2.0 / nt as f64) * (2.0 * std::f64::consts::PI / np as f64);
-            expected[i * np + j] = acc / (sub * sub) as f64 * cell * n as f64;
-        }
-    }
-    // Pool low-expectation cells (standard practice), then the statistic.
-    let mut idx: Vec<usize> = (0..nt * np).collect();
-    idx.sort_by(|&a, &b| expected[a].partial_cmp(&expected[b]).unwrap());
-    let (mut pooled_o, mut pooled_e) = (0.0, 0.0);
-    let (mut stat, mut dof) = (0.0f64, 0usize);
-    for &k in &idx {
-        if expected[k] < 5.0 {
-            pooled_o += observed[k];
-            pooled_e += expected[k];
-            if pooled_e >= 5.0 {
-                stat += (pooled_o - pooled_e) * (pooled_o - pooled_e) / pooled_e;
-                dof += 1;
-                pooled_o = 0.0;
-                pooled_e = 0.0;
-            }
-        } else {
-            stat += (observed[k] - expected[k]).powi(2) / expected[k];
-            dof += 1;
-        }
-    }
-    if pooled_e > 0.0 {
-        stat += (pooled_o - pooled_e).powi(2) / pooled_e.max(1e-9);
-        dof += 1;
-    }
-    assert!(dof > 1, "χ² test saw no non-delta samples and no density");
-    chi2_p_value(stat, (dof - 1) as f64)
+    let expected = chi2::expected_counts(nt, np, 12, n, |wi| bsdf.pdf(wo, wi));
+    let (p, terms) = chi2::p_value(&observed, &expected);
+    assert!(terms > 1, "χ² test saw no non-delta samples and no density");
+    p
 }
 
 #[test]

@@ -3,7 +3,8 @@
 
 mod common;
 
-use std::f32::consts::PI;
+use common::chi2;
+
 use std::sync::Arc;
 
 use lumo_image::Image;
@@ -33,11 +34,6 @@ fn test_envmap() -> EnvMap {
         scale: 1.0,
         to_world: Mat4::from_rotation_y(0.7),
     }
-}
-
-fn dir(cos_theta: f32, phi: f32) -> Vec3 {
-    let s = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
-    Vec3::new(s * phi.cos(), s * phi.sin(), cos_theta)
 }
 
 /// Möller–Trumbore; the hit distance of a ray with a triangle.
@@ -75,28 +71,6 @@ fn total_pdf(scene: &lumo_scene::Scene, lights: &Lights, p: Vec3, d: Vec3) -> f3
     pdf
 }
 
-fn p_value(stat: f64, dof: f64) -> f64 {
-    // Wilson–Hilferty: (χ²/k)^(1/3) is close to normal.
-    let z = ((stat / dof).powf(1.0 / 3.0) - (1.0 - 2.0 / (9.0 * dof))) / (2.0 / (9.0 * dof)).sqrt();
-    0.5 * libm_erfc(z / std::f64::consts::SQRT_2)
-}
-
-fn libm_erfc(x: f64) -> f64 {
-    // Abramowitz–Stegun 7.1.26 on |x|, accurate to 1.5e-7: enough for a p-value threshold.
-    let z = x.abs();
-    let t = 1.0 / (1.0 + 0.327_591_1 * z);
-    let y = t
-        * (0.254_829_592
-            + t * (-0.284_496_736
-                + t * (1.421_413_741 + t * (-1.453_152_027 + t * 1.061_405_429))))
-        * (-z * z).exp();
-    if x >= 0.0 {
-        y
-    } else {
-        2.0 - y
-    }
-}
-
 /// Bins `n` light samples from `p` over the sphere and compares with the integrated density.
 fn chi2(scene: &lumo_scene::Scene, p: Vec3, n: usize) -> f64 {
     let lights = Lights::new(scene);
@@ -113,55 +87,19 @@ fn chi2(scene: &lumo_scene::Scene, p: Vec3, n: usize) -> f64 {
         let (a, b, c) = (next(), next(), next());
         if let Some(s) = lights.sample(p, a, Vec2::new(b, c)) {
             assert!(s.pdf > 0.0, "area and environment samples carry a density");
-            let cos = s.wi.z.clamp(-1.0, 1.0);
-            let mut phi = s.wi.y.atan2(s.wi.x);
-            if phi < 0.0 {
-                phi += 2.0 * PI;
-            }
-            let i = (((cos + 1.0) * 0.5 * nt as f32) as usize).min(nt - 1);
-            let j = ((phi / (2.0 * PI) * np as f32) as usize).min(np - 1);
-            observed[i * np + j] += 1.0;
+            observed[chi2::cell(s.wi, nt, np)] += 1.0;
         }
     }
-    let sub = 24;
-    let mut expected = vec![0f64; nt * np];
-    for i in 0..nt {
-        for j in 0..np {
-            let mut acc = 0.0f64;
-            for a in 0..sub {
-                for b in 0..sub {
-                    let c = -1.0 + 2.0 * (i as f32 + (a as f32 + 0.5) / sub as f32) / nt as f32;
-                    let phi = 2.0 * PI * (j as f32 + (b as f32 + 0.5) / sub as f32) / np as f32;
-                    acc += total_pdf(scene, &lights, p, dir(c, phi)) as f64;
-                }
-            }
-            let cell = (2.0 / nt as f64) * (2.0 * std::f64::consts::PI / np as f64);
-            expected[i * np + j] = acc / (sub * sub) as f64 * cell * n as f64;
-        }
-    }
+    let expected = chi2::expected_counts(nt, np, 24, n, |d| total_pdf(scene, &lights, p, d));
     let total_expected: f64 = expected.iter().sum();
     let total_observed: f64 = observed.iter().sum();
     assert!(
         (total_expected / total_observed - 1.0).abs() < 0.02,
         "density integrates to {total_expected} samples, sampling produced {total_observed}"
     );
-    let (mut stat, mut dof, mut pool_o, mut pool_e) = (0.0f64, 0usize, 0.0f64, 0.0f64);
-    for k in 0..nt * np {
-        if expected[k] < 5.0 {
-            pool_o += observed[k];
-            pool_e += expected[k];
-            if pool_e >= 5.0 {
-                stat += (pool_o - pool_e).powi(2) / pool_e;
-                dof += 1;
-                (pool_o, pool_e) = (0.0, 0.0);
-            }
-        } else {
-            stat += (observed[k] - expected[k]).powi(2) / expected[k];
-            dof += 1;
-        }
-    }
-    assert!(dof > 10, "too few populated cells ({dof})");
-    p_value(stat, (dof - 1) as f64)
+    let (pv, terms) = chi2::p_value(&observed, &expected);
+    assert!(terms > 10, "too few populated cells ({terms})");
+    pv
 }
 
 fn scene_with_lights(env: bool, constant: bool, area: bool) -> lumo_scene::Scene {

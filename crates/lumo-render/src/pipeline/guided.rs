@@ -9,8 +9,8 @@ use std::time::Instant;
 
 use glam::{Vec2, Vec3};
 use lumo_filter::{
-    build_guide, demodulate, guided, most_similar_in_grid, DepthNorm, Features, GuideKind,
-    GuidedParams, DEFAULT_EPS_DEPTH, DEFAULT_EPS_NORMAL,
+    build_guide, demodulate, guided, most_similar_in_grid, neighbour_cells, DepthNorm, Features,
+    GuideKind, GuidedParams, DEFAULT_EPS_DEPTH, DEFAULT_EPS_NORMAL,
 };
 use lumo_image::Image;
 
@@ -194,12 +194,9 @@ fn surface_miss(frame: &Frame, hit: &FirstHit, g: usize, sx: f32, sy: f32) -> bo
     if same(g) {
         return false;
     }
-    let (w, h) = (frame.depth.width, frame.depth.height);
-    let fx = (sx - 0.5).clamp(0.0, (w - 1) as f32) as usize;
-    let fy = (sy - 0.5).clamp(0.0, (h - 1) as f32) as usize;
-    let xs = [fx, (fx + 1).min(w - 1)];
-    let ys = [fy, (fy + 1).min(h - 1)];
-    ys.iter().any(|&y| xs.iter().any(|&x| same(y * w + x)))
+    neighbour_cells(sx, sy, frame.depth.width, frame.depth.height)
+        .iter()
+        .any(|&(x, y)| same(y * frame.depth.width + x))
 }
 
 fn extra_rays(pixels: &[GuidedPixel]) -> u64 {

@@ -1,6 +1,8 @@
 //! Scenes shared by the integration tests.
 #![allow(dead_code)]
 
+pub mod chi2;
+
 use lumo_scene::shapes::{rectangle, sphere};
 use lumo_scene::{Camera, FovAxis, Mat4, Material, RenderDefaults, Scene, Vec3};
 
