@@ -9,6 +9,7 @@ light (KHR_lights_punctual) and a one-second translation animation of the child.
 Standard library only, so it runs anywhere Python 3 does.
 """
 import base64
+import os
 import json
 import struct
 import zlib
@@ -177,6 +178,7 @@ def write_checker_png(path, n=8):
         return (struct.pack(">I", len(data)) + kind + data
                 + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF))
 
+    os.makedirs(os.path.dirname(path), exist_ok=True)
     with open(path, "wb") as f:
         f.write(b"\x89PNG\r\n\x1a\n")
         f.write(chunk(b"IHDR", struct.pack(">IIBBBBB", n, n, 8, 2, 0, 0, 0)))
