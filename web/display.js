@@ -62,6 +62,7 @@ export class Display {
     gl.uniform1f(u.u_C, params.C);
     gl.uniform1f(u.u_G, params.G);
     gl.uniform1f(u.u_Vm, params.Vm);
+    gl.uniform1f(u.u_glare, params.glare);
     gl.uniformMatrix3fv(u.u_P, false, XYZ_TO_SRGB);
     gl.uniform2f(u.u_size, this.w, this.h);
     gl.bindVertexArray(quadVao);

@@ -1,7 +1,8 @@
-// Controls (B, C, G, Vm never restart rendering; integrator and mode do) and the overlay.
+// Controls (B, C, G, Vm and glare never restart rendering; integrator and mode do) and the
+// overlay.
 
 export function controls(onDisplay, onParams, onNavigation) {
-  const params = { B: 1.5, C: 1.0, G: 2.2, Vm: 0.0 };
+  const params = { B: 1.5, C: 1.0, G: 2.2, Vm: 0.0, glare: 0.0 };
   const bind = (id, key, fmt) => {
     const el = document.getElementById(id);
     const out = document.getElementById(`${id}-value`);
@@ -19,6 +20,7 @@ export function controls(onDisplay, onParams, onNavigation) {
   bind('contrast', 'C', (v) => v);
   bind('gamma', 'G', (v) => v);
   bind('vm', 'Vm', (v) => v);
+  bind('glare', 'glare', (v) => v);
   const integrator = document.getElementById('integrator');
   const mode = document.getElementById('mode');
   const send = () => onParams(integrator.value, mode.value);

@@ -2,7 +2,8 @@
 // Repaint (paper §4.2-4.3): per stream, LoD' = log4(P/S) + Vm·log4(Var); a windowed Gaussian
 // blur on the two nearest MIP levels, blended linearly; normalisation (camera: XYZ/W, light:
 // XYZ/Lw); tone map Y' = 1 − exp(−(B·Y)^C); XYZ → RGB by P; desaturation into the gamut
-// keeping luminance; gamma G.
+// keeping luminance; gamma G. Optional glare (step 5 of the paper's algorithm) between the
+// normalisation and the tone map.
 precision highp float;
 precision highp int;
 
@@ -22,6 +23,7 @@ uniform float u_B;
 uniform float u_C;
 uniform float u_G;
 uniform float u_Vm;
+uniform float u_glare;    // fraction of the light scattered by the glare PSF; 0 = off
 uniform mat3 u_P;         // XYZ -> display RGB
 uniform vec2 u_size;
 out vec4 o;
@@ -85,6 +87,34 @@ vec4 reconstruct(highp sampler2D at, highp sampler2D vt, float baseLod, vec2 uv)
   return mix(a, b, f);
 }
 
+// The normalised radiance of both streams at a MIP level, smoothed by a one-texel Gaussian.
+vec3 levelRadiance(int level, vec2 uv) {
+  vec3 xyz = vec3(0.0);
+  if (u_camOn) {
+    vec4 c = blur(u_camAccum, level, T, uv);
+    if (c.w > 1e-8) xyz += c.xyz / c.w;
+  }
+  if (u_litOn && u_lw > 0.0) xyz += blur(u_litAccum, level, T, uv).xyz / u_lw;
+  return xyz;
+}
+
+// Glare as a convolution with a point-spread function built from the MIP chain: level k
+// averages 2^k × 2^k pixels, so weighting it by 2^-k puts equal-ratio energy into every octave
+// of distance — the r^-3 fall-off of the wide-angle part of the eye's PSF (Spencer et al.
+// 1995, the paper's [20]) without a large convolution at display rate. The weights sum to one,
+// so glare only moves light around and the image's total energy is kept.
+vec3 glare(vec2 uv) {
+  vec3 g = vec3(0.0);
+  float ws = 0.0;
+  for (int k = 1; k <= 7; k++) {
+    if (k > u_maxLevel) break;
+    float a = exp2(-float(k));
+    g += a * levelRadiance(k, uv);
+    ws += a;
+  }
+  return ws > 0.0 ? g / ws : vec3(0.0);
+}
+
 vec3 toneMap(vec3 xyz) {
   float y = xyz.y;
   if (!(y > 0.0)) return vec3(0.0);
@@ -118,6 +148,7 @@ void main() {
     if (u_litOn && u_lw > 0.0) {
       xyz += reconstruct(u_litAccum, u_litVar, u_litLod, uv).xyz / u_lw;
     }
+    if (u_glare > 0.0) xyz = mix(xyz, glare(uv), u_glare);
   }
   vec3 t = toneMap(max(xyz, vec3(0.0)));
   vec3 rgb = gamutMap(u_P * t, t.y);

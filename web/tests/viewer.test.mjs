@@ -162,6 +162,23 @@ test('samples arrive, the image converges to the CPU reference, B and camera beh
   assert.equal(after.epoch, before.epoch);
   assert.ok(after.cameraSamples >= before.cameraSamples, 'B reset the samples');
 
+  // Glare spreads the light's radiance: the ceiling around the light gets brighter, the picture
+  // changes, and the samples are kept.
+  await page.evaluate(() => {
+    const g = document.getElementById('glare');
+    g.value = '0.3';
+    g.dispatchEvent(new Event('input'));
+  });
+  await sleep(300);
+  const glared = await pixels(page);
+  const afterGlare = await counts(page);
+  const meanAbsDiff = glared.data.reduce((a, v, i) => (i % 4 === 3 ? a : a + Math.abs(v - brighter.data[i])), 0)
+    / (glared.width * glared.height * 3);
+  assert.ok(meanAbsDiff > 1, `glare had no effect (mean |Δ| ${meanAbsDiff})`);
+  assert.equal(afterGlare.epoch, before.epoch);
+  assert.ok(afterGlare.cameraSamples >= after.cameraSamples, 'glare reset the samples');
+  assert.equal(afterGlare.params.glare, 0.3);
+
   // A camera drag restarts rendering: new epoch, sample count starts over.
   const box = await page.locator('#view').boundingBox();
   await page.mouse.move(box.x + box.width / 2, box.y + box.height / 2);
