@@ -22,6 +22,17 @@ pub enum FilterKind {
     Bilateral,
 }
 
+/// Where the À-Trous colour weight gets its noise estimate.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum VarianceSource {
+    /// The eroded 3×3 luminance variance of the colour image (`lumo_filter::spatial_variance`).
+    Spatial,
+    /// The variance plane given with --variance (or variance.exr in --input-dir).
+    Plane,
+    /// No noise estimate: a fixed colour σ (--sigma-color × mean luminance), off by default.
+    None,
+}
+
 /// Arguments of `lumo denoise`.
 #[derive(clap::Args, Debug)]
 pub struct DenoiseArgs {
@@ -40,11 +51,20 @@ pub struct DenoiseArgs {
     /// Camera distance (1 channel or 3 equal ones); 0 or Inf = background.
     #[arg(long)]
     pub depth: Option<PathBuf>,
-    /// Per-pixel luminance variance; makes À-Trous variance-guided (SVGF).
+    /// Per-pixel luminance variance of the pixel mean (used with --variance-source plane).
     #[arg(long)]
     pub variance: Option<PathBuf>,
-    /// Read color/albedo/normal/position/depth/variance.exr (or .pfm) from this directory,
-    /// whichever exist; explicit flags override.
+    /// Emitted radiance seen directly (lights, environment; Blender's Emit pass): pixels where
+    /// it is non-zero are left unfiltered and give no weight to their neighbours.
+    #[arg(long)]
+    pub emission: Option<PathBuf>,
+    /// What steers the À-Trous colour weight: a spatial noise estimate from the colour image
+    /// itself (robust; works for any renderer), the --variance plane, or nothing (colour weight
+    /// off unless --sigma-color is given).
+    #[arg(long, value_enum, default_value = "spatial")]
+    pub variance_source: VarianceSource,
+    /// Read color/albedo/normal/position/depth/variance/emission.exr (or .pfm) from this
+    /// directory, whichever exist; explicit flags override.
     #[arg(long)]
     pub input_dir: Option<PathBuf>,
     /// The filter.
@@ -98,7 +118,7 @@ pub struct DenoiseArgs {
     /// Do not demodulate even when an albedo plane is given.
     #[arg(long)]
     pub no_demodulate: bool,
-    /// Ignore the variance plane.
+    /// Same as --variance-source none.
     #[arg(long)]
     pub no_variance: bool,
     /// Sparse input for À-Trous: only every n-th pixel (n = 2 or 4) in x and y is valid.
@@ -117,6 +137,7 @@ struct Inputs {
     position: Option<(PathBuf, Image)>,
     depth: Option<(PathBuf, Image)>,
     variance: Option<(PathBuf, Image)>,
+    emission: Option<(PathBuf, Image)>,
 }
 
 /// The explicit path, else `<dir>/<name>.exr` or `.pfm` if it exists.
@@ -168,6 +189,7 @@ fn read_inputs(a: &DenoiseArgs) -> anyhow::Result<Inputs> {
         position: opt(&a.position, "position")?,
         depth: opt(&a.depth, "depth")?,
         variance: opt(&a.variance, "variance")?,
+        emission: opt(&a.emission, "emission")?,
     };
     let (cp, c) = &inputs.color;
     for (what, plane, min_ch) in [
@@ -176,6 +198,7 @@ fn read_inputs(a: &DenoiseArgs) -> anyhow::Result<Inputs> {
         ("position", &inputs.position, 3),
         ("depth", &inputs.depth, 1),
         ("variance", &inputs.variance, 1),
+        ("emission", &inputs.emission, 1),
     ] {
         if let Some((p, img)) = plane {
             c.check_same_size(&cp.display().to_string(), img, &p.display().to_string())?;
@@ -204,7 +227,8 @@ fn sigma(v: Option<f32>, default: Option<f32>) -> anyhow::Result<Option<f32>> {
 /// Default parameters (see docs/filters.md for the sweep that chose them).
 mod defaults {
     pub const ATROUS_SIGMA_COLOR: Option<f32> = None;
-    pub const ATROUS_SIGMA_COLOR_VARIANCE: f32 = 64.0;
+    pub const ATROUS_SIGMA_COLOR_SPATIAL: f32 = lumo_filter::DEFAULT_SIGMA_LUMINANCE;
+    pub const ATROUS_SIGMA_COLOR_PLANE: f32 = 4.0;
     pub const ATROUS_SIGMA_NORMAL: f32 = 0.3;
     pub const ATROUS_SIGMA_POSITION: f32 = 0.1;
     pub const BILATERAL_SIGMA_NORMAL: f32 = 0.3;
@@ -218,11 +242,35 @@ fn plane(p: &Option<(PathBuf, Image)>) -> Option<&Image> {
     p.as_ref().map(|(_, i)| i)
 }
 
-fn run_filter(a: &DenoiseArgs, inp: &Inputs) -> anyhow::Result<Filtered> {
-    let variance = if a.no_variance {
-        None
+/// Pixels whose emission plane is non-zero (any channel; NaN counts as emitting).
+fn emitting(emission: &Image) -> Vec<bool> {
+    (0..emission.pixel_count())
+        .map(|i| {
+            let px = &emission.data[i * emission.channels..(i + 1) * emission.channels];
+            px.iter().any(|&v| !(v == 0.0))
+        })
+        .collect()
+}
+
+fn run_filter(a: &DenoiseArgs, inp: &Inputs, color: &Image) -> anyhow::Result<Filtered> {
+    let source = if a.no_variance {
+        VarianceSource::None
     } else {
-        plane(&inp.variance)
+        a.variance_source
+    };
+    let spatial;
+    let variance = match source {
+        VarianceSource::None => None,
+        VarianceSource::Plane => Some(plane(&inp.variance).ok_or_else(|| {
+            anyhow::anyhow!(
+                "--variance-source plane needs a variance plane: --variance FILE (or \
+                 variance.exr in --input-dir)"
+            )
+        })?),
+        VarianceSource::Spatial => {
+            spatial = lumo_filter::spatial_variance(color);
+            Some(&spatial)
+        }
     };
     let features = Features {
         normal: plane(&inp.normal),
@@ -235,7 +283,6 @@ fn run_filter(a: &DenoiseArgs, inp: &Inputs) -> anyhow::Result<Filtered> {
         bail!("--demodulate needs an albedo plane: --albedo FILE (or albedo.exr in --input-dir)");
     }
     let demod = inp.albedo.is_some() && !a.no_demodulate;
-    let color = &inp.color.1;
     let filtered = match a.filter {
         FilterKind::Atrous => {
             let needs = |flag: &str, has: bool, feat: &str| -> anyhow::Result<()> {
@@ -263,12 +310,12 @@ fn run_filter(a: &DenoiseArgs, inp: &Inputs) -> anyhow::Result<Filtered> {
             }
             // --sigma-color sets σ_l when a variance plane steers the colour weight, else the
             // fixed colour σ.
-            let var_mode = variance.is_some();
-            let (sc, sl) = if var_mode {
-                (
-                    None,
-                    sigma(a.sigma_color, Some(defaults::ATROUS_SIGMA_COLOR_VARIANCE))?,
-                )
+            let var_default = match source {
+                VarianceSource::Plane => Some(defaults::ATROUS_SIGMA_COLOR_PLANE),
+                _ => Some(defaults::ATROUS_SIGMA_COLOR_SPATIAL),
+            };
+            let (sc, sl) = if variance.is_some() {
+                (None, sigma(a.sigma_color, var_default)?)
             } else {
                 (sigma(a.sigma_color, defaults::ATROUS_SIGMA_COLOR)?, None)
             };
@@ -284,7 +331,7 @@ fn run_filter(a: &DenoiseArgs, inp: &Inputs) -> anyhow::Result<Filtered> {
                     .and(sx.or(Some(defaults::ATROUS_SIGMA_POSITION))),
                 sparse: a.subsample,
                 demodulate: demod,
-                use_variance: !a.no_variance,
+                use_variance: variance.is_some(),
             };
             atrous(color, &features, &p)?
         }
@@ -381,7 +428,25 @@ pub fn run(args: DenoiseArgs) -> anyhow::Result<()> {
         );
     }
     let t1 = Instant::now();
-    let filtered = run_filter(&args, &inputs)?;
+    // Emitted light seen directly is noise-free and far brighter than what surrounds it: it is
+    // kept out of the filter (missing for its neighbours) and put back unchanged.
+    let emitters = inputs.emission.as_ref().map(|(_, e)| emitting(e));
+    let mut color = inputs.color.1.clone();
+    if let Some(em) = &emitters {
+        for (i, _) in em.iter().enumerate().filter(|(_, &e)| e) {
+            color.data[i * 3..i * 3 + 3].fill(f32::NAN);
+        }
+    }
+    let mut filtered = run_filter(&args, &inputs, &color)?;
+    if let Some(em) = &emitters {
+        let orig = &inputs.color.1;
+        for (i, _) in em.iter().enumerate().filter(|(_, &e)| e) {
+            for c in 0..3 {
+                let v = orig.data[i * 3 + c];
+                filtered.image.data[i * 3 + c] = if v.is_finite() { v } else { 0.0 };
+            }
+        }
+    }
     let t_filter = t1.elapsed();
     let t2 = Instant::now();
     write_image(&args.output, &filtered.image)

@@ -249,3 +249,107 @@ fn unreadable_input_names_the_file_and_reason() {
         "{stderr}"
     );
 }
+
+/// A flat, noise-free wall (colour 0.5) with a bright 4×4 emitter (50) in the same plane.
+fn write_wall_with_light(dir: &Path, with_emission: bool) {
+    let (w, h) = (24, 24);
+    let mut color = Image::new(w, h, 3, 0.5);
+    let mut emission = Image::new(w, h, 3, 0.0);
+    let normal = {
+        let mut n = Image::new(w, h, 3, 0.0);
+        for i in 0..w * h {
+            n.data[i * 3 + 2] = 1.0;
+        }
+        n
+    };
+    let mut position = Image::new(w, h, 3, 0.0);
+    for y in 0..h {
+        for x in 0..w {
+            position
+                .pixel_mut(x, y)
+                .copy_from_slice(&[x as f32 * 0.1, y as f32 * 0.1, -3.0]);
+            if (10..14).contains(&x) && (10..14).contains(&y) {
+                color.pixel_mut(x, y).fill(50.0);
+                emission.pixel_mut(x, y).fill(49.5);
+            }
+        }
+    }
+    let depth = Image::new(w, h, 1, 3.0);
+    let albedo = Image::new(w, h, 3, 0.7);
+    let mut planes = vec![
+        ("color", &color),
+        ("normal", &normal),
+        ("position", &position),
+        ("depth", &depth),
+        ("albedo", &albedo),
+    ];
+    if with_emission {
+        planes.push(("emission", &emission));
+    }
+    for (name, img) in planes {
+        write_image(&dir.join(format!("{name}.exr")), img).unwrap();
+    }
+}
+
+#[test]
+fn emitters_in_the_emission_plane_stay_sharp_and_do_not_bleed() {
+    for filter in ["atrous", "guided", "bilateral"] {
+        let worst = |with_emission: bool| {
+            let dir = temp_dir(&format!("emit-{filter}-{with_emission}"));
+            write_wall_with_light(&dir, with_emission);
+            let out = dir.join("out.exr");
+            let o = lumo(&[
+                "--input-dir",
+                dir.to_str().unwrap(),
+                "--filter",
+                filter,
+                "-o",
+                out.to_str().unwrap(),
+            ]);
+            assert!(o.status.success(), "{filter}: {:?}", text(&o));
+            let img = read_image(&out).unwrap();
+            let (mut wall, mut light) = (0.0f32, 0.0f32);
+            for y in 0..24 {
+                for x in 0..24 {
+                    let v = img.pixel(x, y)[1];
+                    if (10..14).contains(&x) && (10..14).contains(&y) {
+                        light = light.max((v - 50.0).abs());
+                    } else {
+                        wall = wall.max((v - 0.5).abs());
+                    }
+                }
+            }
+            (wall, light)
+        };
+        let (wall, light) = worst(true);
+        assert!(wall < 1e-3, "{filter}: light bled into the wall by {wall}");
+        assert!(light < 1e-3, "{filter}: the light changed by {light}");
+        // Without the plane the same input does bleed into the wall for the filters that have
+        // no colour weight (À-Trous' spatial-variance colour weight stops at this noise-free
+        // rim by itself): the test sees the difference.
+        if filter == "atrous" {
+            continue;
+        }
+        let (wall_without, _) = worst(false);
+        assert!(
+            wall_without > 0.05,
+            "{filter}: expected bleeding without an emission plane, got {wall_without}"
+        );
+    }
+}
+
+#[test]
+fn variance_source_plane_without_a_plane_is_an_error() {
+    let dir = temp_dir("nosrc");
+    write_wall_with_light(&dir, false);
+    let o = lumo(&[
+        "--input-dir",
+        dir.to_str().unwrap(),
+        "--variance-source",
+        "plane",
+        "-o",
+        dir.join("o.exr").to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{:?}", text(&o));
+    assert!(text(&o).1.contains("--variance FILE"), "{:?}", text(&o));
+}

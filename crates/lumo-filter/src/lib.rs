@@ -30,6 +30,7 @@ mod gbuffer;
 mod guided;
 mod jbu;
 mod lookup;
+mod noise;
 mod outliers;
 pub mod synthetic;
 pub use synthetic::{synthetic_frame, SyntheticFrame};
@@ -49,4 +50,5 @@ pub use guided::{
 };
 pub use jbu::{jbu, JbuParams};
 pub use lookup::{most_similar, most_similar_in_grid, neighbour_cells};
+pub use noise::spatial_variance;
 pub use outliers::remove_outliers;

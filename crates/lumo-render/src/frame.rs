@@ -5,8 +5,8 @@ use std::path::Path;
 use lumo_image::{write_image, Image, ImageError};
 
 /// File names of the AOV planes, in the order [`Frame::planes`] returns them.
-pub const AOV_NAMES: [&str; 8] = [
-    "color", "albedo", "normal", "position", "depth", "direct", "indirect", "variance",
+pub const AOV_NAMES: [&str; 9] = [
+    "color", "albedo", "normal", "position", "depth", "direct", "indirect", "variance", "emission",
 ];
 
 /// A rendered image with its auxiliary planes.
@@ -31,6 +31,10 @@ pub struct Frame {
     /// Variance of the pixel mean's luminance, one channel. With one sample per pixel it is
     /// estimated from the 3×3 neighbourhood instead (a sample's variance cannot be known alone).
     pub variance: Image,
+    /// Radiance emitted towards the camera by what the pixel-centre ray hits first (a light, or
+    /// the environment where the ray escapes), RGB: the noise-free part of the image that a
+    /// filter must leave alone (like Blender's Emit pass; `lumo denoise` reads it).
+    pub emission: Image,
 }
 
 impl Frame {
@@ -45,7 +49,7 @@ impl Frame {
     }
 
     /// All planes with their file names.
-    pub fn planes(&self) -> [(&'static str, &Image); 8] {
+    pub fn planes(&self) -> [(&'static str, &Image); 9] {
         [
             ("color", &self.color),
             ("albedo", &self.albedo),
@@ -55,6 +59,7 @@ impl Frame {
             ("direct", &self.direct),
             ("indirect", &self.indirect),
             ("variance", &self.variance),
+            ("emission", &self.emission),
         ]
     }
 

@@ -172,6 +172,7 @@ pub fn frame_from_estimates(w: usize, h: usize, spp: u32, estimates: &[PixelEsti
         position: Image::new(w, h, 3, 0.0),
         depth: Image::new(w, h, 1, 0.0),
         variance: Image::new(w, h, 1, 0.0),
+        emission: Image::new(w, h, 3, 0.0),
     };
     for (i, e) in estimates.iter().enumerate() {
         let (x, y) = (i % w, i / w);
@@ -180,53 +181,14 @@ pub fn frame_from_estimates(w: usize, h: usize, spp: u32, estimates: &[PixelEsti
         put(&mut frame.indirect, e.indirect);
         put(&mut frame.color, e.direct + e.indirect);
         put(&mut frame.albedo, e.first_hit.albedo);
+        put(&mut frame.emission, e.first_hit.emitted);
         put(&mut frame.normal, e.first_hit.normal);
         put(&mut frame.position, e.first_hit.position);
         frame.depth.pixel_mut(x, y)[0] = e.first_hit.depth;
         frame.variance.pixel_mut(x, y)[0] = e.luminance_variance / spp.max(1) as f32;
     }
     if spp == 1 {
-        frame.variance = neighbourhood_variance(&frame.color);
+        frame.variance = lumo_filter::spatial_variance(&frame.color);
     }
     frame
-}
-
-/// A one-sample stand-in for the per-pixel variance (SVGF estimates it spatially before it has
-/// temporal history): the luminance variance of 3×3 windows, then for each pixel the smallest
-/// value among the windows that contain it. Without that erosion a noise-free edge (a hard
-/// shadow) looks like noise to its own window and a variance-guided filter blurs it; some
-/// window next to an edge pixel lies wholly on its side of the edge and reports 0.
-pub(crate) fn neighbourhood_variance(color: &Image) -> Image {
-    let (w, h) = (color.width, color.height);
-    let lum: Vec<f32> = (0..w * h)
-        .map(|i| luminance(color.rgb(i % w, i / w)))
-        .map(|l| if l.is_finite() { l } else { 0.0 })
-        .collect();
-    let window = |x: usize, y: usize| {
-        let (mut s, mut s2, mut n) = (0.0f32, 0.0f32, 0.0f32);
-        for yy in y.saturating_sub(1)..(y + 2).min(h) {
-            for xx in x.saturating_sub(1)..(x + 2).min(w) {
-                let l = lum[yy * w + xx];
-                s += l;
-                s2 += l * l;
-                n += 1.0;
-            }
-        }
-        let m = s / n;
-        (s2 / n - m * m).max(0.0)
-    };
-    let windows: Vec<f32> = (0..w * h).map(|i| window(i % w, i / w)).collect();
-    let mut out = Image::new(w, h, 1, 0.0);
-    for y in 0..h {
-        for x in 0..w {
-            let mut v = f32::INFINITY;
-            for yy in y.saturating_sub(1)..(y + 2).min(h) {
-                for xx in x.saturating_sub(1)..(x + 2).min(w) {
-                    v = v.min(windows[yy * w + xx]);
-                }
-            }
-            out.data[y * w + x] = v;
-        }
-    }
-    out
 }

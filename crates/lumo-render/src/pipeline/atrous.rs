@@ -5,12 +5,12 @@
 use std::time::Instant;
 
 use glam::Vec3;
-use lumo_filter::{atrous, AtrousParams, Features};
+use lumo_filter::{atrous, spatial_variance, AtrousParams, Features};
 
 use super::compose::trace_full;
 use super::{PipelineError, PipelineOptions, PipelineOutput, Timings};
 use crate::camera::CameraRays;
-use crate::render::{frame_from_estimates, map_pixels, neighbourhood_variance, render_pixel};
+use crate::render::{frame_from_estimates, map_pixels, render_pixel};
 use crate::{RenderScene, RenderSettings, RenderStats};
 
 pub(super) fn run(
@@ -48,9 +48,9 @@ pub(super) fn run(
         }
     }
     // The colour weight is steered by a spatial estimate of the noise in the mean image (see
-    // `neighbourhood_variance`) at every spp: per-pixel variances of a few samples are zero
+    // `lumo_filter::spatial_variance`) at every spp: per-pixel variances of a few samples are zero
     // wherever those samples happen to agree, which pins such pixels against all smoothing.
-    let variance = neighbourhood_variance(&frame.color);
+    let variance = spatial_variance(&frame.color);
     let features = Features {
         normal: Some(&frame.normal),
         position: Some(&frame.position),
