@@ -228,7 +228,7 @@ fn sigma(v: Option<f32>, default: Option<f32>) -> anyhow::Result<Option<f32>> {
 /// Default parameters (see docs/filters.md for the sweep that chose them).
 mod defaults {
     pub const ATROUS_SIGMA_COLOR: Option<f32> = None;
-    pub const ATROUS_SIGMA_COLOR_SPATIAL: f32 = 16.0;
+    pub const ATROUS_SIGMA_COLOR_SPATIAL: f32 = lumo_filter::DEFAULT_SIGMA_LUMINANCE;
     pub const ATROUS_SIGMA_COLOR_PLANE: f32 = 8.0;
     pub const ATROUS_SIGMA_NORMAL: f32 = 0.3;
     pub const ATROUS_SIGMA_POSITION: f32 = 0.1;

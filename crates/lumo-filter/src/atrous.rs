@@ -57,9 +57,10 @@ impl Default for AtrousParams {
     }
 }
 
-/// Default variance-guided σ_l (multiplies the local luminance standard deviation), see
-/// docs/filters.md.
-pub const DEFAULT_SIGMA_LUMINANCE: f32 = 64.0;
+/// Default variance-guided σ_l (multiplies the local luminance standard deviation): the best
+/// value with `spatial_variance` on real 1- and 4-spp renders (docs/filters.md, "Validation on
+/// the renderer"); the synthetic sweep had picked 64.
+pub const DEFAULT_SIGMA_LUMINANCE: f32 = 16.0;
 /// Default normal σ, see docs/filters.md.
 pub const DEFAULT_SIGMA_NORMAL: f32 = 0.3;
 /// Default position σ (fraction of the scene extent), see docs/filters.md.
