@@ -2,12 +2,14 @@
 //! tracer's throughput; `quality` scores every pipeline against a converged reference
 //! (docs/results/quality.md + quality.png); `speed` times rendering and filtering in the shape
 //! of the papers' Tables 1 and 2 (docs/results/speed.md); `reference` prints (rendering if
-//! needed) the cached reference that `quality` uses, for tools such as tools/peers.
+//! needed) the cached reference that `quality` uses and `inputs` writes its noisy inputs, for
+//! tools such as tools/peers.
 
 mod atomic;
 mod cache;
 mod contact_sheet;
 mod font;
+mod inputs;
 mod quality;
 mod reference;
 mod render;
@@ -35,6 +37,8 @@ enum BenchWhat {
     Speed(speed::SpeedArgs),
     /// Print the path of the cached reference of a scene, rendering it first if needed.
     Reference(reference::ReferenceArgs),
+    /// Write the noisy frame and AOVs that `quality` scores as `none`, as PFM (for peers).
+    Inputs(inputs::InputsArgs),
 }
 
 /// Runs `lumo bench`.
@@ -44,6 +48,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
         BenchWhat::Quality(a) => quality::run(a),
         BenchWhat::Speed(a) => speed::run(a),
         BenchWhat::Reference(a) => reference::run(a),
+        BenchWhat::Inputs(a) => inputs::run(a),
     }
 }
 
