@@ -154,7 +154,7 @@ def cells(line):
 
 
 def update_quality(md, results, scenes, spps, versions, settings_text):
-    lines = [l for l in md.split("\n") if PEER_MARK not in l]
+    lines = [l for l in md.split("\n") if not (l.startswith("|") and PEER_MARK in l)]
     # Drop a previous peers section.
     if "## Peers" in lines:
         k = lines.index("## Peers")

@@ -187,10 +187,22 @@ fn depth(args: &QualityArgs, s: &BenchScene) -> u32 {
     args.max_depth.unwrap_or(s.max_depth)
 }
 
-/// The command as typed, for the report header (the binary's path dropped).
-fn command_line() -> String {
-    let rest: Vec<String> = std::env::args().skip(1).collect();
-    format!("lumo {}", rest.join(" "))
+/// The command as typed, for the report header (the binary's path dropped; a `--note`'s text
+/// is shown in the header itself, so it is elided here).
+pub fn command_line() -> String {
+    let mut parts = vec!["lumo".to_string()];
+    let mut args = std::env::args().skip(1);
+    while let Some(a) = args.next() {
+        if a == "--note" {
+            args.next();
+            parts.push("--note …".into());
+        } else if a.starts_with("--note=") {
+            parts.push("--note …".into());
+        } else {
+            parts.push(a);
+        }
+    }
+    parts.join(" ")
 }
 
 /// Per-pixel display-value error of the filtered methods (all of them if only `none` ran),
@@ -253,8 +265,8 @@ fn sheet(args: &QualityArgs, scenes: &[BenchScene], refs: &[Image], scored: &[Sc
                 image: reference,
                 lines: vec![
                     s.name.clone(),
-                    format!("{spp} SPP ROW"),
-                    format!("REF {} SPP", args.reference_spp),
+                    format!("{spp} SPP"),
+                    format!("REF {}", args.reference_spp),
                 ],
             }];
             for r in mine.iter().filter(|r| r.spp == spp) {

@@ -158,10 +158,7 @@ pub fn run(args: SpeedArgs) -> Result<()> {
     bar.finish_and_clear();
 
     let ctx = SpeedContext {
-        command: {
-            let rest: Vec<String> = std::env::args().skip(1).collect();
-            format!("lumo {}", rest.join(" "))
-        },
+        command: super::quality::command_line(),
         cpu: super::cpu_model(),
         cores: std::thread::available_parallelism().map_or(1, |n| n.get()),
         threads: pool.current_num_threads(),
