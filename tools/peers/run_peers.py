@@ -131,6 +131,11 @@ def load_planes(d):
             ["color", "albedo", "normal", "direct", "indirect"]}
 
 
+def table_name(scene):
+    """The name lumo's tables use: a built-in's name, a scene file's file name."""
+    return os.path.basename(scene) if ("/" in scene or "." in scene) else scene
+
+
 def atomic_write(path, text):
     tmp = os.path.join(os.path.dirname(path) or ".", f".{os.path.basename(path)}.tmp-{os.getpid()}")
     with open(tmp, "w") as f:
@@ -286,7 +291,7 @@ def main():
                     out = os.path.join(d, f"{s}-{spp}-{name}.pfm")
                     write_pfm(out, img)
                     j = json.loads(run([a.lumo, "compare", ref, out, "--json"]).stdout)["images"][0]
-                    j.update(peer=name, scene=s, spp=spp, ms=ms)
+                    j.update(peer=name, scene=table_name(s), spp=spp, ms=ms)
                     results.append(j)
                     print(f"{s} {spp} spp {name}: relMSE {j['relmse']:.3e} FLIP {j['flip']:.4f} "
                           f"{ms:.1f} ms", file=sys.stderr)
@@ -311,7 +316,8 @@ def main():
     qpath = os.path.join(a.results, "quality.md")
     with open(qpath) as f:
         md = f.read()
-    atomic_write(qpath, update_quality(md, results, scenes, spps, versions, settings_text))
+    names = [table_name(s) for s in scenes]
+    atomic_write(qpath, update_quality(md, results, names, spps, versions, settings_text))
     spath = os.path.join(a.results, "speed.md")
     if speed_rows and os.path.exists(spath):
         with open(spath) as f:

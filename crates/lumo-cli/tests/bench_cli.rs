@@ -318,3 +318,48 @@ fn speed_writes_both_tables_with_the_machine_in_the_header() {
     assert!(t2.iter().all(|r| r.len() == 4), "{t2:?}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn any_scene_file_works_next_to_a_builtin_of_the_same_name() {
+    let dir = temp_dir("file");
+    let out = dir.join("results");
+    let xml = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/cornell.xml");
+    let scenes = format!("{},cornell", xml.display());
+    let r = lumo(&[
+        "bench",
+        "quality",
+        "--scenes",
+        &scenes,
+        "--size",
+        "16x16",
+        "--spp",
+        "1",
+        "--pipelines",
+        "none",
+        "--reference-spp",
+        "4",
+        "--cache",
+        dir.join("cache").to_str().unwrap(),
+        "--out-dir",
+        out.to_str().unwrap(),
+    ]);
+    assert!(r.status.success(), "{}", stderr(&r));
+    let md = std::fs::read_to_string(out.join("quality.md")).unwrap();
+    let file_rows = table(&md, "### cornell.xml");
+    let builtin_rows = table(&md, "### cornell");
+    assert_eq!(file_rows.len(), 1);
+    // The Mitsuba file is the built-in scene: same image, same scores.
+    assert_eq!(file_rows[0][..8], builtin_rows[0][..8]);
+    // Two scenes given under one name are refused.
+    let r = lumo(&[
+        "bench",
+        "quality",
+        "--scenes",
+        "cornell,cornell",
+        "--out-dir",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(r.status.code(), Some(2));
+    assert!(stderr(&r).contains("already named"), "{}", stderr(&r));
+    let _ = std::fs::remove_dir_all(&dir);
+}

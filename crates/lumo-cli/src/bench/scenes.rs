@@ -1,7 +1,7 @@
 //! Scene arguments of the benchmarks: built-in names or scene files, loaded and checked up
 //! front so a bad path fails before any rendering.
 
-use anyhow::{Context, Result};
+use anyhow::{bail, Context, Result};
 use lumo_render::{PathSettings, RenderScene, RenderSettings};
 use lumo_scene::load::{FileSettings, LoadOptions};
 use lumo_scene::BUILTIN_SCENES;
@@ -42,7 +42,18 @@ pub fn load_all(args: &[String], pool: &rayon::ThreadPool) -> Result<Vec<BenchSc
         let id = scene_identity(arg, is_file(arg))?;
         let max_depth = file.max_depth.unwrap_or(scene.defaults.max_depth);
         let rr_depth = file.rr_depth.unwrap_or(5);
-        let name = if is_file(arg) { slug(arg) } else { arg.clone() };
+        // Files are named with their extension, so `cornell` and `scenes/cornell.xml` can sit
+        // side by side in one table.
+        let name = if is_file(arg) {
+            std::path::Path::new(arg)
+                .file_name()
+                .map_or_else(|| slug(arg), |n| n.to_string_lossy().into_owned())
+        } else {
+            arg.clone()
+        };
+        if out.iter().any(|s: &BenchScene| s.name == name) {
+            bail!("scene {arg}: another scene is already named {name:?}; give each scene once");
+        }
         let rs = pool
             .install(|| RenderScene::new(scene))
             .with_context(|| format!("scene {arg}: cannot build its acceleration structure"))?;
