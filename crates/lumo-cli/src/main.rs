@@ -1,6 +1,6 @@
 //! The `lumo` command.
 
-mod bench_cmd;
+mod bench;
 mod compare_cmd;
 mod denoise;
 mod pipeline_args;
@@ -24,7 +24,7 @@ enum Command {
     /// Denoise an image from any renderer with a screen-space filter.
     Denoise(denoise::DenoiseArgs),
     /// Benchmarks with stated inputs and machine.
-    Bench(bench_cmd::BenchArgs),
+    Bench(bench::BenchArgs),
     /// Error metrics (MSE, relMSE, SMAPE, PSNR, SSIM, FLIP) of images against a reference.
     Compare(compare_cmd::CompareArgs),
     /// Start a progressive render server and its web viewer (prints the URL to open).
@@ -36,7 +36,7 @@ fn main() {
     let result = match cli.command {
         Command::Render(args) => render_cmd::run(args),
         Command::Denoise(args) => denoise::run(args),
-        Command::Bench(args) => bench_cmd::run(args),
+        Command::Bench(args) => bench::run(args),
         Command::Compare(args) => compare_cmd::run(args),
         Command::Serve(args) => serve_cmd::run(args),
     };

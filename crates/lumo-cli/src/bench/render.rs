@@ -7,26 +7,14 @@ use anyhow::{Context, Result};
 use lumo_render::{render, PathSettings, RenderScene, RenderSettings};
 use lumo_scene::BUILTIN_SCENES;
 
+use super::{machine_description, median};
 use crate::render_cmd::{parse_size, si};
-
-/// Arguments of `lumo bench`.
-#[derive(clap::Args, Debug)]
-pub struct BenchArgs {
-    #[command(subcommand)]
-    what: BenchWhat,
-}
-
-#[derive(clap::Subcommand, Debug)]
-enum BenchWhat {
-    /// Path-tracer throughput (samples/s, rays/s) on the built-in scenes.
-    Render(RenderBenchArgs),
-}
 
 /// Arguments of `lumo bench render`.
 #[derive(clap::Args, Debug)]
 pub struct RenderBenchArgs {
     /// Scenes to measure [default: all built-in scenes].
-    scenes: Vec<String>,
+    pub scenes: Vec<String>,
     /// Image size.
     #[arg(long, value_parser = parse_size, default_value = "512x512")]
     size: (usize, usize),
@@ -47,31 +35,9 @@ pub struct RenderBenchArgs {
     markdown: Option<PathBuf>,
 }
 
-/// "CPU model, N threads" of this machine, for benchmark tables.
-pub fn machine_description(threads: usize) -> String {
-    let cpu = std::fs::read_to_string("/proc/cpuinfo")
-        .ok()
-        .and_then(|s| {
-            s.lines()
-                .find(|l| l.starts_with("model name"))
-                .and_then(|l| l.split(':').nth(1))
-                .map(|m| m.trim().to_string())
-        })
-        .unwrap_or_else(|| "unknown CPU".into());
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    format!("{cpu}, {cores} cores, {threads} threads")
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(|a, b| a.total_cmp(b));
-    v[v.len() / 2]
-}
-
-/// Runs `lumo bench`.
-pub fn run(args: BenchArgs) -> Result<()> {
-    match args.what {
-        BenchWhat::Render(a) => run_render(a),
-    }
+/// Runs `lumo bench render`.
+pub fn run(args: RenderBenchArgs) -> Result<()> {
+    run_render(args)
 }
 
 fn run_render(args: RenderBenchArgs) -> Result<()> {
@@ -131,7 +97,7 @@ fn run_render(args: RenderBenchArgs) -> Result<()> {
     }
     println!("\n{table}");
     if let Some(path) = &args.markdown {
-        std::fs::write(path, &table).with_context(|| format!("cannot write {}", path.display()))?;
+        super::atomic::write_bytes(path, table.as_bytes())?;
     }
     Ok(())
 }

@@ -1,0 +1,75 @@
+//! `lumo bench inputs`: the noisy frame `lumo bench quality` scores as its `none` row, with
+//! every AOV, written as PFM (readable with a few lines of NumPy) so other denoisers
+//! (tools/peers) can run on exactly the same inputs.
+
+use std::path::PathBuf;
+
+use anyhow::{bail, Context, Result};
+use lumo_render::{run_pipeline, Pipeline, PipelineOptions};
+
+use super::atomic::{check_dir_writable, write_image_atomic};
+use super::scenes::{load_all, settings};
+use crate::render_cmd::parse_size;
+
+/// Arguments of `lumo bench inputs`.
+#[derive(clap::Args, Debug)]
+pub struct InputsArgs {
+    /// Built-in scene name or scene file.
+    pub scene: String,
+    /// Image size.
+    #[arg(long, value_parser = parse_size, default_value = "256x256")]
+    pub size: (usize, usize),
+    /// Samples per pixel.
+    #[arg(long, default_value_t = 1)]
+    pub spp: u32,
+    /// Seed, as given to `lumo bench quality`.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u32,
+    /// Longest path depth [default: the scene's].
+    #[arg(long)]
+    pub max_depth: Option<u32>,
+    /// Directory for color.pfm, albedo.pfm, normal.pfm, … (created if needed).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Worker threads [default: all cores].
+    #[arg(long)]
+    pub threads: Option<usize>,
+}
+
+/// Runs `lumo bench inputs`; prints the trace time as `trace <ms> ms`.
+pub fn run(args: InputsArgs) -> Result<()> {
+    if args.spp == 0 {
+        bail!("--spp must be at least 1");
+    }
+    if args.max_depth == Some(0) {
+        bail!("--max-depth must be at least 1 (1 = emitters seen directly)");
+    }
+    check_dir_writable(&args.out)?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(args.threads.unwrap_or(0))
+        .build()
+        .context("cannot start worker threads")?;
+    let scenes = load_all(std::slice::from_ref(&args.scene), &pool)?;
+    let s = &scenes[0];
+    let rs = settings(
+        args.size,
+        args.spp,
+        args.seed,
+        args.max_depth.unwrap_or(s.max_depth),
+        s.rr_depth,
+    );
+    let out = pool.install(|| {
+        run_pipeline(
+            &s.rs,
+            Pipeline::None,
+            &rs,
+            &PipelineOptions::default(),
+            &|_| {},
+        )
+    })?;
+    for (name, plane) in out.frame.planes() {
+        write_image_atomic(&args.out.join(format!("{name}.pfm")), plane)?;
+    }
+    println!("trace {:.3} ms", out.timings.total().as_secs_f64() * 1e3);
+    Ok(())
+}

@@ -1,0 +1,302 @@
+//! `lumo bench quality`: every scene × spp × pipeline rendered, timed and scored against a
+//! converged reference; the tables go to `quality.md`, the images to the `quality.png`
+//! contact sheet. Both are written only once everything is done (temporary name + rename),
+//! so an interrupted run leaves the previous results untouched.
+
+use std::path::PathBuf;
+
+use anyhow::{bail, Context, Result};
+use indicatif::{ProgressBar, ProgressStyle};
+use lumo_image::metrics::{compare, CompareSettings, Metrics};
+use lumo_image::Image;
+use lumo_render::{run_pipeline, Pipeline, PipelineOptions, Timings};
+
+use super::atomic::{check_dir_writable, write_bytes, write_image_atomic};
+use super::contact_sheet::{contact_sheet, crop_side, hardest_window, Row, Tile};
+use super::reference::{ensure_reference, reference_key};
+use super::report::{quality_markdown, QualityContext};
+use super::scenes::{default_scenes, load_all, settings, BenchScene};
+use crate::pipeline_args::parse_pipeline;
+use crate::render_cmd::parse_size;
+
+/// Arguments of `lumo bench quality`.
+#[derive(clap::Args, Debug)]
+pub struct QualityArgs {
+    /// Scenes (built-in names or scene files), comma-separated [default: every built-in].
+    #[arg(long, value_delimiter = ',')]
+    pub scenes: Vec<String>,
+    /// Image size of every render.
+    #[arg(long, value_parser = parse_size, default_value = "256x256")]
+    pub size: (usize, usize),
+    /// Samples per pixel of the test images, comma-separated.
+    #[arg(long, value_delimiter = ',', default_value = "1,4")]
+    pub spp: Vec<u32>,
+    /// Pipelines, comma-separated, in column order.
+    #[arg(long, value_delimiter = ',', value_parser = parse_pipeline,
+          default_value = "none,bilateral,atrous,guided,jbu")]
+    pub pipelines: Vec<Pipeline>,
+    /// Samples per pixel of the converged reference (`--pipeline none`).
+    #[arg(long, default_value_t = 1024)]
+    pub reference_spp: u32,
+    /// Seed of the test images; the reference uses SEED + 1 so its noise is independent.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u32,
+    /// Longest path depth [default: the scene's, 8 for the built-ins].
+    #[arg(long)]
+    pub max_depth: Option<u32>,
+    /// Exposure in stops for the scores on display values (PSNR, SSIM, FLIP) and the sheet.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    pub exposure: f32,
+    /// Directory of cached references.
+    #[arg(long, default_value = "target/lumo-bench-cache")]
+    pub cache: PathBuf,
+    /// Where quality.md and quality.png go.
+    #[arg(long, default_value = "docs/results")]
+    pub out_dir: PathBuf,
+    /// A line added to the report's header (e.g. what else the machine was doing).
+    #[arg(long)]
+    pub note: Option<String>,
+    /// Worker threads [default: all cores].
+    #[arg(long)]
+    pub threads: Option<usize>,
+}
+
+/// One scored render.
+pub struct Scored {
+    /// Scene name.
+    pub scene: String,
+    /// Samples per pixel.
+    pub spp: u32,
+    /// The pipeline.
+    pub pipeline: Pipeline,
+    /// Scores against the reference.
+    pub metrics: Metrics,
+    /// Stage times.
+    pub timings: Timings,
+    /// The image (kept for the contact sheet).
+    pub image: Image,
+}
+
+/// Runs `lumo bench quality`.
+pub fn run(args: QualityArgs) -> Result<()> {
+    validate(&args)?;
+    check_dir_writable(&args.out_dir)?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(args.threads.unwrap_or(0))
+        .build()
+        .context("cannot start worker threads")?;
+    let names = if args.scenes.is_empty() {
+        default_scenes()
+    } else {
+        args.scenes.clone()
+    };
+    let scenes = load_all(&names, &pool)?;
+    let compare_settings = CompareSettings {
+        exposure: args.exposure,
+        ..CompareSettings::default()
+    };
+    let mut references = Vec::with_capacity(scenes.len());
+    for s in &scenes {
+        let key = reference_key(
+            s,
+            args.size,
+            args.reference_spp,
+            args.seed.wrapping_add(1),
+            depth(&args, s),
+        );
+        references.push(ensure_reference(&args.cache, &key, s, &pool)?.0);
+    }
+    let jobs = scenes.len() * args.spp.len() * args.pipelines.len();
+    let bar = ProgressBar::new(jobs as u64).with_style(
+        ProgressStyle::with_template("{bar:40} {pos}/{len} {msg}  {elapsed} (eta {eta})")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let mut scored = Vec::with_capacity(jobs);
+    for (s, reference) in scenes.iter().zip(&references) {
+        for &spp in &args.spp {
+            for &pipeline in &args.pipelines {
+                bar.set_message(format!("{} {spp} spp {pipeline}", s.name));
+                let rs = settings(args.size, spp, args.seed, depth(&args, s), s.rr_depth);
+                let out = pool.install(|| {
+                    run_pipeline(&s.rs, pipeline, &rs, &PipelineOptions::default(), &|_| {})
+                })?;
+                let metrics = compare(reference, &out.image, &compare_settings)
+                    .with_context(|| format!("scoring {} {spp} spp {pipeline}", s.name))?;
+                scored.push(Scored {
+                    scene: s.name.clone(),
+                    spp,
+                    pipeline,
+                    metrics,
+                    timings: out.timings,
+                    image: out.image,
+                });
+                bar.inc(1);
+            }
+        }
+    }
+    bar.finish_and_clear();
+
+    let threads = pool.current_num_threads();
+    let ctx = QualityContext {
+        command: command_line(),
+        machine: super::machine_description(threads),
+        note: args.note.clone(),
+        size: args.size,
+        spp: args.spp.clone(),
+        reference_spp: args.reference_spp,
+        seed: args.seed,
+        max_depths: scenes
+            .iter()
+            .map(|s| (s.name.clone(), depth(&args, s)))
+            .collect(),
+        exposure: args.exposure,
+        pipelines: args.pipelines.clone(),
+        scenes: scenes.iter().map(|s| s.name.clone()).collect(),
+    };
+    let markdown = quality_markdown(&ctx, &scored);
+    let sheet = sheet(&args, &scenes, &references, &scored);
+    // Everything is computed: only now touch the output files, each all-or-nothing.
+    let png = args.out_dir.join("quality.png");
+    let md = args.out_dir.join("quality.md");
+    write_image_atomic(&png, &sheet)?;
+    write_bytes(&md, markdown.as_bytes())?;
+    println!("wrote {} and {}", md.display(), png.display());
+    Ok(())
+}
+
+fn validate(args: &QualityArgs) -> Result<()> {
+    if args.spp.is_empty() || args.spp.contains(&0) {
+        bail!("--spp: give one or more sample counts, each at least 1 (e.g. --spp 1,4)");
+    }
+    if args.pipelines.is_empty() {
+        bail!("--pipelines: give at least one pipeline");
+    }
+    if args.reference_spp == 0 {
+        bail!("--reference-spp must be at least 1");
+    }
+    if args.max_depth == Some(0) {
+        bail!("--max-depth must be at least 1 (1 = emitters seen directly)");
+    }
+    if !args.exposure.is_finite() {
+        bail!("--exposure must be a finite number of stops");
+    }
+    Ok(())
+}
+
+fn depth(args: &QualityArgs, s: &BenchScene) -> u32 {
+    args.max_depth.unwrap_or(s.max_depth)
+}
+
+/// The command as typed, for the report header (the binary's path dropped; a `--note`'s text
+/// is shown in the header itself, so it is elided here).
+pub fn command_line() -> String {
+    let mut parts = vec!["lumo".to_string()];
+    let mut args = std::env::args().skip(1);
+    while let Some(a) = args.next() {
+        if a == "--note" {
+            args.next();
+            parts.push("--note …".into());
+        } else if a.starts_with("--note=") {
+            parts.push("--note …".into());
+        } else {
+            parts.push(a);
+        }
+    }
+    parts.join(" ")
+}
+
+/// Per-pixel display-value error of the filtered methods (all of them if only `none` ran),
+/// summed over a scene's rows: where the filters struggle is the interesting crop. Pixels
+/// that are saturated on the display in the reference (emitters, and two pixels around them)
+/// are left out: their anti-aliased edges are the largest errors at low spp in every method
+/// and would always win, telling nothing about the filters.
+fn error_map(reference: &Image, rows: &[&Scored], exposure: f32) -> Vec<f64> {
+    let filtered: Vec<&&Scored> = rows
+        .iter()
+        .filter(|r| r.pipeline != Pipeline::None)
+        .collect();
+    let used: Vec<&&Scored> = if filtered.is_empty() {
+        rows.iter().collect()
+    } else {
+        filtered
+    };
+    let tm = |x: f32| lumo_image::metrics::tone_map(x, exposure) as f64;
+    let (w, h) = (reference.width, reference.height);
+    let gain = exposure.exp2();
+    let saturated: Vec<bool> = (0..w * h)
+        .map(|i| {
+            reference.data[i * 3..i * 3 + 3]
+                .iter()
+                .any(|&v| v * gain >= 1.0)
+        })
+        .collect();
+    let near_saturated = |x: usize, y: usize| {
+        (y.saturating_sub(2)..(y + 3).min(h))
+            .any(|yy| (x.saturating_sub(2)..(x + 3).min(w)).any(|xx| saturated[yy * w + xx]))
+    };
+    let mut err = vec![0.0; w * h];
+    for r in used {
+        for (i, e) in err.iter_mut().enumerate() {
+            for c in 0..3 {
+                let k = i * 3 + c;
+                *e += (tm(r.image.data[k]) - tm(reference.data[k])).abs();
+            }
+        }
+    }
+    for (i, e) in err.iter_mut().enumerate() {
+        if near_saturated(i % w, i / w) {
+            *e = 0.0;
+        }
+    }
+    err
+}
+
+fn sheet(args: &QualityArgs, scenes: &[BenchScene], refs: &[Image], scored: &[Scored]) -> Image {
+    let (w, h) = args.size;
+    let side = crop_side(w, h);
+    let mut columns = vec!["REFERENCE".to_string()];
+    columns.extend(args.pipelines.iter().map(|p| p.name().to_uppercase()));
+    let mut rows = Vec::new();
+    for (s, reference) in scenes.iter().zip(refs) {
+        let mine: Vec<&Scored> = scored.iter().filter(|r| r.scene == s.name).collect();
+        let (cx, cy) = hardest_window(&error_map(reference, &mine, args.exposure), w, h, side);
+        for &spp in &args.spp {
+            let mut tiles = vec![Tile {
+                image: reference,
+                lines: vec![
+                    s.name.clone(),
+                    format!("{spp} SPP"),
+                    format!("REF {}", args.reference_spp),
+                ],
+            }];
+            for r in mine.iter().filter(|r| r.spp == spp) {
+                tiles.push(Tile {
+                    image: &r.image,
+                    lines: tile_lines(r),
+                });
+            }
+            rows.push(Row {
+                tiles,
+                crop: (cx, cy, side),
+            });
+        }
+    }
+    contact_sheet(&columns, &rows, args.exposure)
+}
+
+/// The numbers under a tile: relMSE, FLIP, SSIM, PSNR and the total time.
+fn tile_lines(r: &Scored) -> Vec<String> {
+    let m = &r.metrics;
+    vec![
+        "RELMSE".into(),
+        format!("{:.2e}", m.relmse),
+        format!("FLIP {:.3}", m.flip),
+        format!("SSIM {:.3}", m.ssim),
+        if m.psnr.is_finite() {
+            format!("PSNR {:.1}", m.psnr)
+        } else {
+            "PSNR INF".into()
+        },
+        format!("{:.0} MS", r.timings.total().as_secs_f64() * 1e3),
+    ]
+}
