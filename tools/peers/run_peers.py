@@ -3,9 +3,9 @@
 
 Run after `lumo bench quality` (and `lumo bench speed`) with the same settings:
 
-    python3 -m venv /work/venv-peers
-    /work/venv-peers/bin/pip install -r tools/peers/requirements.txt
-    /work/venv-peers/bin/python tools/peers/run_peers.py --lumo target/release/lumo
+    python3 -m venv .venv-peers
+    .venv-peers/bin/pip install -r tools/peers/requirements.txt
+    .venv-peers/bin/python tools/peers/run_peers.py --lumo target/release/lumo
 
 For every scene and spp it
   1. writes the noisy frame and its AOVs with `lumo bench inputs` (exactly the image
