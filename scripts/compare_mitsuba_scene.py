@@ -52,8 +52,8 @@ _DEBIAN_LLVM = [
 # Regions as fractions of the image (x0, x1, y0, y1), y downwards; each lies mostly on one
 # object of materials_compare.xml at its default camera.
 REGIONS = {
-    "conductor sphere": (0.17, 0.36, 0.44, 0.66),
-    "plastic cube": (0.45, 0.60, 0.40, 0.56),
+    "conductor sphere": (0.16, 0.33, 0.38, 0.56),
+    "plastic cube": (0.45, 0.62, 0.40, 0.54),
     "PLY pyramid": (0.70, 0.84, 0.50, 0.66),
     "textured floor": (0.30, 0.70, 0.78, 0.98),
     "back wall": (0.05, 0.95, 0.05, 0.25),

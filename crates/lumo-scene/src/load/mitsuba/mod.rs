@@ -222,7 +222,8 @@ impl<'a> Builder<'a, '_> {
         Ok(if top.exists() { top } else { own })
     }
 
-    /// The material made of BSDF `bsdf` (Mitsuba's default diffuse when `None`) and `emission`.
+    /// The material made of BSDF `bsdf` (Mitsuba's default when `None`: diffuse 0.5, or
+    /// black when `emission` is not zero) and `emission`.
     fn material(&mut self, bsdf: Option<&'a Element>, emission: Vec3) -> Result<usize, LoadError> {
         let key = (
             bsdf.map_or(0, |e| e as *const Element as usize),
@@ -233,10 +234,16 @@ impl<'a> Builder<'a, '_> {
         }
         let (name, bsdf) = match bsdf {
             Some(el) => self.bsdf(el)?,
+            // Mitsuba 3's default: grey diffuse, but black on an emitting shape (its
+            // area light reflects nothing unless the file gives it a BSDF).
             None => (
                 "default".to_string(),
                 Bsdf::Diffuse {
-                    reflectance: Texture::Constant(Vec3::splat(0.5)),
+                    reflectance: Texture::Constant(if emission == Vec3::ZERO {
+                        Vec3::splat(0.5)
+                    } else {
+                        Vec3::ZERO
+                    }),
                 },
             ),
         };
