@@ -380,3 +380,31 @@ fn zero_area_light_and_no_emitters_warn() {
         "{all}"
     );
 }
+
+#[test]
+fn default_bsdf_is_grey_but_black_on_emitters() {
+    // Mitsuba 3 gives a shape without a BSDF diffuse 0.5, and an emitting one diffuse 0:
+    // with 0.5 a light would also reflect, and the scene around it came out brighter than
+    // Mitsuba's (docs/mitsuba-materials.md).
+    let dir = temp_dir("default-bsdf");
+    let p = write(
+        &dir,
+        "d.xml",
+        mitsuba(
+            r#"<shape type="cube"/>
+            <shape type="rectangle"><emitter type="area"><rgb name="radiance" value="2"/></emitter></shape>
+            <shape type="disk"><bsdf type="diffuse"><rgb name="reflectance" value="0.3"/></bsdf>
+                <emitter type="area"><rgb name="radiance" value="2"/></emitter></shape>"#,
+        ),
+    );
+    let s = load(&p).unwrap().scene;
+    let reflectance = |mesh: usize| match &s.materials[s.meshes[mesh].material].bsdf {
+        Bsdf::Diffuse {
+            reflectance: Texture::Constant(c),
+        } => *c,
+        other => panic!("{other:?}"),
+    };
+    assert_eq!(reflectance(0), Vec3::splat(0.5));
+    assert_eq!(reflectance(1), Vec3::ZERO);
+    assert_eq!(reflectance(2), Vec3::splat(0.3));
+}

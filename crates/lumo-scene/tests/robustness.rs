@@ -5,8 +5,10 @@
 mod common;
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::path::Path;
 
 use common::{load, scenes, temp_dir, write};
+use lumo_scene::load::{load_mitsuba_str, load_ply_bytes, LoadOptions};
 
 /// xorshift64*: deterministic, so a failure reproduces.
 struct Rng(u64);
@@ -106,4 +108,134 @@ fn corrupted_scene_files_never_panic() {
         ok + failed
     );
     assert!(failed > 0 && ok > 0);
+}
+
+// Regressions: inputs that crashed the Mitsuba loader (stack overflow or allocation failure,
+// both abort the process) before the bounds in load/mitsuba were added. They were found while
+// fuzzing (docs/scenes.md, "Fuzzing"): by reading the loader for what a random mutation
+// rarely builds, a `<ref>` back to an enclosing plugin or a self-multiplying `<default>`.
+
+/// Loads Mitsuba XML from memory and returns the error text, which must name the file.
+fn mitsuba_error(xml: &str) -> String {
+    let path = Path::new("regression.xml");
+    let e = load_mitsuba_str(xml, path, &LoadOptions::default())
+        .expect_err("the scene must be refused");
+    let text = e.to_string();
+    assert!(text.starts_with("regression.xml:"), "{text}");
+    text
+}
+
+#[test]
+fn bsdf_referring_to_itself_is_an_error_not_a_stack_overflow() {
+    let e = mitsuba_error(
+        r#"<scene version="3.0.0">
+<bsdf type="twosided" id="a"><ref id="a"/></bsdf>
+<shape type="sphere"><ref id="a"/></shape>
+</scene>"#,
+    );
+    assert!(e.contains("regression.xml:2") && e.contains("cycle"), "{e}");
+}
+
+#[test]
+fn texture_referring_to_itself_is_an_error() {
+    let e = mitsuba_error(
+        r#"<scene version="3.0.0">
+<texture type="checkerboard" id="t"><ref name="color0" id="t"/></texture>
+<shape type="sphere"><bsdf type="diffuse"><ref name="reflectance" id="t"/></bsdf></shape>
+</scene>"#,
+    );
+    assert!(e.contains("regression.xml:2") && e.contains("cycle"), "{e}");
+}
+
+#[test]
+fn integrator_referring_to_itself_is_an_error() {
+    let e = mitsuba_error(
+        r#"<scene version="3.0.0">
+<integrator type="aov" id="i"><ref id="i"/></integrator>
+</scene>"#,
+    );
+    assert!(e.contains("regression.xml:2") && e.contains("cycle"), "{e}");
+}
+
+#[test]
+fn long_ref_chains_are_bounded_but_short_ones_load() {
+    // b1 .. bn, each a twosided wrapping a reference to the next, b(n+1) a diffuse. Declared
+    // BSDFs are converted in file order, so converting b1 follows the whole chain at once.
+    let chain = |n: usize, forward: bool| {
+        let mut s = String::from("<scene version=\"3.0.0\">\n");
+        let mut items: Vec<String> = (1..=n)
+            .map(|i| {
+                format!(
+                    "<bsdf type=\"twosided\" id=\"b{i}\"><ref id=\"b{}\"/></bsdf>",
+                    i + 1
+                )
+            })
+            .collect();
+        items.push(format!("<bsdf type=\"diffuse\" id=\"b{}\"/>", n + 1));
+        if forward {
+            // Each BSDF after the one it refers to: every step is already converted.
+            items.reverse();
+        }
+        s += &items.join("\n");
+        s += "\n<shape type=\"sphere\"><ref id=\"b1\"/></shape>\n\
+              <emitter type=\"constant\"/>\n</scene>";
+        s
+    };
+    let opts = LoadOptions::default();
+    for (n, forward) in [(4, false), (10_000, true)] {
+        let ok = load_mitsuba_str(&chain(n, forward), Path::new("chain.xml"), &opts);
+        assert!(ok.is_ok(), "{n}: {:?}", ok.err());
+    }
+    assert!(mitsuba_error(&chain(10_000, false)).contains("nested more than"));
+}
+
+#[test]
+fn deeply_nested_elements_are_an_error_not_a_stack_overflow() {
+    let n = 100_000;
+    let xml = format!(
+        "<scene version=\"3.0.0\">{}{}</scene>",
+        "<a>".repeat(n),
+        "</a>".repeat(n)
+    );
+    let e = mitsuba_error(&xml);
+    assert!(
+        e.contains("regression.xml:1") && e.contains("nested more than"),
+        "{e}"
+    );
+}
+
+#[test]
+fn self_multiplying_defaults_are_bounded() {
+    // Each default is four copies of the one before: 16 * 4^15 bytes (16 GiB) at the end.
+    let mut xml = String::from(
+        "<scene version=\"3.0.0\">\n<default name=\"a0\" value=\"xxxxxxxxxxxxxxxx\"/>\n",
+    );
+    for i in 1..16 {
+        let p = format!("$a{}", i - 1);
+        xml += &format!("<default name=\"a{i}\" value=\"{p}{p}{p}{p}\"/>\n");
+    }
+    xml += "<shape type=\"sphere\"><string name=\"x\" value=\"$a15\"/></shape>\n</scene>";
+    let e = mitsuba_error(&xml);
+    assert!(e.contains("substitution would produce more than"), "{e}");
+}
+
+#[test]
+fn ply_header_claiming_10_to_the_12_vertices_allocates_nothing_up_front() {
+    for format in ["ascii", "binary_little_endian"] {
+        let ply = format!(
+            "ply\nformat {format} 1.0\nelement vertex 1000000000000\nproperty float x\n\
+             property float y\nproperty float z\nelement face 1\n\
+             property list uchar int vertex_indices\nend_header\n0 0 0\n"
+        );
+        let e = load_ply_bytes(
+            ply.as_bytes(),
+            Path::new("huge.ply"),
+            &LoadOptions::default(),
+        )
+        .expect_err("refused");
+        assert!(
+            e.to_string().contains("huge.ply") && e.to_string().contains("more than the file"),
+            "{e}"
+        );
+    }
 }

@@ -113,6 +113,52 @@ pub fn load_scene(path: &Path, options: &LoadOptions) -> Result<LoadedScene, Loa
         SceneFormat::Obj => defaults::lone_mesh_scene(path, obj::load(path, &mut diag)?),
         SceneFormat::Ply => defaults::lone_mesh_scene(path, ply::load(path, &mut diag)?),
     };
+    finish(path, scene, diag, settings, animation)
+}
+
+/// Loads a Mitsuba XML scene from `text`, as if it had been read from the file `path` (which
+/// is only used in messages and need not exist).
+///
+/// Nothing else is read from disk: an `<include>`, a mesh or a texture file named in `text` is
+/// an error at its element. This keeps in-memory scenes (and fuzzed input) self-contained.
+pub fn load_mitsuba_str(
+    text: &str,
+    path: &Path,
+    options: &LoadOptions,
+) -> Result<LoadedScene, LoadError> {
+    let mut diag = Diagnostics {
+        strict: options.strict,
+        warnings: Vec::new(),
+    };
+    let mut settings = FileSettings::default();
+    let scene = mitsuba::load_str(text, path, options, &mut diag, &mut settings)?;
+    finish(path, scene, diag, settings, None)
+}
+
+/// Loads a PLY mesh from `bytes` as a lone-mesh scene, as if it had been read from the file
+/// `path` (used in messages and for the mesh name only; it need not exist).
+pub fn load_ply_bytes(
+    bytes: &[u8],
+    path: &Path,
+    options: &LoadOptions,
+) -> Result<LoadedScene, LoadError> {
+    let mut diag = Diagnostics {
+        strict: options.strict,
+        warnings: Vec::new(),
+    };
+    let mesh = ply::read_bytes(path, bytes, &mut diag)?;
+    let scene = defaults::lone_mesh_scene(path, (vec![mesh], vec![]));
+    finish(path, scene, diag, FileSettings::default(), None)
+}
+
+/// The checks every loaded scene goes through, whatever its format.
+fn finish(
+    path: &Path,
+    scene: Scene,
+    mut diag: Diagnostics,
+    settings: FileSettings,
+    animation: Option<AnimatedScene>,
+) -> Result<LoadedScene, LoadError> {
     check::check_scene(path, &scene, &mut diag)?;
     scene.validate().map_err(|error| LoadError::Scene {
         path: path.to_path_buf(),

@@ -21,7 +21,17 @@ pub(crate) fn load(
 /// Reads a PLY file into one mesh (material 0).
 pub(crate) fn read(path: &Path, diag: &mut Diagnostics) -> Result<Mesh, LoadError> {
     let bytes = read_file(path)?;
-    let mut mesh = parse(path, &bytes, diag)?;
+    read_bytes(path, &bytes, diag)
+}
+
+/// Reads PLY `bytes` (from the file `path`, named in messages and in the mesh name) into one
+/// mesh (material 0).
+pub(crate) fn read_bytes(
+    path: &Path,
+    bytes: &[u8],
+    diag: &mut Diagnostics,
+) -> Result<Mesh, LoadError> {
+    let mut mesh = parse(path, bytes, diag)?;
     mesh.name = path
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())

@@ -25,7 +25,7 @@ impl<'a> Builder<'a, '_> {
             .attr("id")
             .map(str::to_string)
             .unwrap_or_else(|| props.kind().to_string());
-        let bsdf = self.convert_bsdf(&props)?;
+        let bsdf = self.nested(el, |b| b.convert_bsdf(&props))?;
         props.finish(self.diag)?;
         self.bsdfs.insert(key, (name.clone(), bsdf.clone()));
         Ok((name, bsdf))
@@ -350,6 +350,12 @@ impl<'a> Builder<'a, '_> {
         if let Some(t) = self.textures.get(&key) {
             return Ok(t.clone());
         }
+        let texture = self.nested(el, |b| b.convert_texture(el))?;
+        self.textures.insert(key, texture.clone());
+        Ok(texture)
+    }
+
+    fn convert_texture(&mut self, el: &'a Element) -> Result<Texture, LoadError> {
         let props = Props::new(el);
         let at = el.at();
         let texture = match props.kind() {
@@ -366,7 +372,7 @@ impl<'a> Builder<'a, '_> {
                             .warn(at.clone(), format!("wrap_mode {w:?} is rendered as repeat"))?;
                     }
                 }
-                let path = self.file_path(el, &file);
+                let path = self.file_path(el, &file)?;
                 let image = self.images.load(&path, raw, &at)?;
                 // Mitsuba puts v = 0 at the image's top row, lumo at its bottom row.
                 Texture::Bitmap {
@@ -391,16 +397,14 @@ impl<'a> Builder<'a, '_> {
         };
         let to_uv = props.transform("to_uv")?;
         props.finish(self.diag)?;
-        let texture = if to_uv == Mat4::IDENTITY {
+        Ok(if to_uv == Mat4::IDENTITY {
             texture
         } else {
             Texture::Transformed {
                 texture: Arc::new(texture),
                 uv: uv_affine(&to_uv),
             }
-        };
-        self.textures.insert(key, texture.clone());
-        Ok(texture)
+        })
     }
 }
 

@@ -5,6 +5,7 @@
 //! BSDF and area emitter, emitters the other lights.
 
 mod bsdf;
+mod depth;
 mod objects;
 pub(crate) mod presets;
 mod props;
@@ -22,6 +23,11 @@ use super::images::ImageCache;
 use super::{defaults, Diagnostics, FileSettings, LoadError, LoadOptions, Location};
 use crate::{Bsdf, Material, Scene, Texture};
 
+/// Deepest nesting of BSDFs, textures and integrators inside each other (counting `<ref>`s
+/// followed). Real scenes nest a handful; the bound turns a `<ref>` cycle into an error
+/// instead of endless recursion.
+const MAX_PLUGIN_DEPTH: usize = 32;
+
 /// Loads a Mitsuba XML scene.
 pub(crate) fn load(
     path: &Path,
@@ -30,8 +36,33 @@ pub(crate) fn load(
     settings: &mut FileSettings,
 ) -> Result<Scene, LoadError> {
     let root = xml::read_tree(path, &options.defines, diag)?;
+    convert(path, &root, diag, settings, true)
+}
+
+/// Loads a Mitsuba XML scene from `text` (as if read from `path`) without reading any other
+/// file: includes, meshes and images it names are errors.
+pub(crate) fn load_str(
+    text: &str,
+    path: &Path,
+    options: &LoadOptions,
+    diag: &mut Diagnostics,
+    settings: &mut FileSettings,
+) -> Result<Scene, LoadError> {
+    let root = xml::read_tree_str(text, path, &options.defines, diag)?;
+    convert(path, &root, diag, settings, false)
+}
+
+/// Turns the element tree of `path` into a scene; `files` allows reading the meshes and
+/// images it names.
+fn convert(
+    path: &Path,
+    root: &Element,
+    diag: &mut Diagnostics,
+    settings: &mut FileSettings,
+    files: bool,
+) -> Result<Scene, LoadError> {
     let mut ids = HashMap::new();
-    index_ids(&root, &mut ids)?;
+    index_ids(root, &mut ids)?;
     let mut b = Builder {
         diag,
         settings,
@@ -44,8 +75,10 @@ pub(crate) fn load(
         has_camera: false,
         has_environment: false,
         root_dir: path.parent().unwrap_or(Path::new("")).to_path_buf(),
+        files,
+        depth: 0,
     };
-    let props = Props::new(&root);
+    let props = Props::new(root);
     // Declared BSDFs become materials first, in file order, so material indices follow the file.
     for (i, el) in props.nested() {
         if el.tag == "bsdf" {
@@ -124,9 +157,36 @@ pub(super) struct Builder<'a, 'd> {
     has_environment: bool,
     /// Directory of the top-level scene file.
     root_dir: PathBuf,
+    /// Whether files named in the scene may be read (false for in-memory scenes).
+    files: bool,
+    /// Plugins being converted inside each other right now (see [`MAX_PLUGIN_DEPTH`]).
+    depth: usize,
 }
 
 impl<'a> Builder<'a, '_> {
+    /// Runs `convert` for plugin `el` one nesting level deeper; fails past
+    /// [`MAX_PLUGIN_DEPTH`], which only a `<ref>` cycle or a runaway file reaches.
+    fn nested<T>(
+        &mut self,
+        el: &Element,
+        convert: impl FnOnce(&mut Self) -> Result<T, LoadError>,
+    ) -> Result<T, LoadError> {
+        if self.depth >= MAX_PLUGIN_DEPTH {
+            return Err(LoadError::invalid(
+                el.at(),
+                format!(
+                    "{} is nested more than {MAX_PLUGIN_DEPTH} plugins deep; a <ref> probably \
+                     refers back to a plugin that contains it (a cycle)",
+                    el.describe()
+                ),
+            ));
+        }
+        self.depth += 1;
+        let result = convert(self);
+        self.depth -= 1;
+        result
+    }
+
     /// The element a `<ref>` points to (or `el` itself).
     fn resolve(&self, el: &'a Element) -> Result<&'a Element, LoadError> {
         if el.tag != "ref" {
@@ -142,21 +202,28 @@ impl<'a> Builder<'a, '_> {
     }
 
     /// A file named in `el`: relative to the XML file that names it, or else (as Mitsuba
-    /// resolves paths in included files) to the top-level scene's directory.
-    fn file_path(&self, el: &Element, name: &str) -> PathBuf {
+    /// resolves paths in included files) to the top-level scene's directory. An error for
+    /// in-memory scenes, which read no files.
+    fn file_path(&self, el: &Element, name: &str) -> Result<PathBuf, LoadError> {
+        if !self.files {
+            return Err(LoadError::invalid(
+                el.at(),
+                format!(
+                    "{} names the file {name:?}; a scene loaded from memory reads no files",
+                    el.describe()
+                ),
+            ));
+        }
         let own = el.file.parent().unwrap_or(Path::new("")).join(name);
         if own.exists() {
-            return own;
+            return Ok(own);
         }
         let top = self.root_dir.join(name);
-        if top.exists() {
-            top
-        } else {
-            own
-        }
+        Ok(if top.exists() { top } else { own })
     }
 
-    /// The material made of BSDF `bsdf` (Mitsuba's default diffuse when `None`) and `emission`.
+    /// The material made of BSDF `bsdf` (Mitsuba's default when `None`: diffuse 0.5, or
+    /// black when `emission` is not zero) and `emission`.
     fn material(&mut self, bsdf: Option<&'a Element>, emission: Vec3) -> Result<usize, LoadError> {
         let key = (
             bsdf.map_or(0, |e| e as *const Element as usize),
@@ -167,10 +234,16 @@ impl<'a> Builder<'a, '_> {
         }
         let (name, bsdf) = match bsdf {
             Some(el) => self.bsdf(el)?,
+            // Mitsuba 3's default: grey diffuse, but black on an emitting shape (its
+            // area light reflects nothing unless the file gives it a BSDF).
             None => (
                 "default".to_string(),
                 Bsdf::Diffuse {
-                    reflectance: Texture::Constant(Vec3::splat(0.5)),
+                    reflectance: Texture::Constant(if emission == Vec3::ZERO {
+                        Vec3::splat(0.5)
+                    } else {
+                        Vec3::ZERO
+                    }),
                 },
             ),
         };

@@ -200,6 +200,11 @@ impl<'a> Builder<'a, '_> {
 
     /// `<integrator>`: depth settings.
     pub(super) fn integrator(&mut self, el: &'a Element) -> Result<(), LoadError> {
+        // Nesting-guarded: an `aov` integrator may <ref> itself.
+        self.nested(el, |b| b.convert_integrator(el))
+    }
+
+    fn convert_integrator(&mut self, el: &'a Element) -> Result<(), LoadError> {
         let props = Props::new(el);
         let at = el.at();
         match props.kind() {
@@ -315,7 +320,7 @@ impl<'a> Builder<'a, '_> {
                 let file = props.string("filename")?.ok_or_else(|| {
                     LoadError::invalid(at.clone(), format!("{kind} shape needs a filename"))
                 })?;
-                let path = self.file_path(el, &file);
+                let path = self.file_path(el, &file)?;
                 let mut mesh = if kind == "obj" {
                     let (meshes, _) = obj::read(&path, self.diag)?;
                     let mut all = Mesh::default();
@@ -425,7 +430,7 @@ impl<'a> Builder<'a, '_> {
                 let file = props
                     .string("filename")?
                     .ok_or_else(|| LoadError::invalid(at.clone(), "envmap needs a filename"))?;
-                let path = self.file_path(el, &file);
+                let path = self.file_path(el, &file)?;
                 let image = self.images.load(&path, false, &at)?;
                 if self.has_environment {
                     self.diag

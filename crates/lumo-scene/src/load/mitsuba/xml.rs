@@ -10,6 +10,14 @@ use crate::load::{read_file, Diagnostics, LoadError, Location};
 /// Deepest `<include>` nesting accepted (guards against include cycles and runaway files).
 const MAX_INCLUDE_DEPTH: usize = 16;
 
+/// Deepest element nesting accepted. Mitsuba scenes nest a handful of levels; the bound keeps
+/// the recursive readers here and in the scene conversion within the stack.
+const MAX_ELEMENT_DEPTH: usize = 64;
+
+/// Most bytes `$name` substitution may produce in one scene. Defaults can be built from other
+/// defaults, so without a bound a small file can expand exponentially ("billion laughs").
+const MAX_SUBSTITUTED_BYTES: usize = 16 << 20;
+
 /// One XML element after substitution, with where it came from.
 #[derive(Debug)]
 pub(crate) struct Element {
@@ -64,16 +72,20 @@ pub(crate) fn read_tree(
     defines: &[(String, String)],
     diag: &mut Diagnostics,
 ) -> Result<Element, LoadError> {
-    let mut reader = Reader {
-        vars: defines.iter().cloned().collect(),
-        diag,
-        stack: Vec::new(),
-        legacy: false,
-    };
-    let mut root = reader.read_file(path, None)?;
-    // The root's own attributes (version) were read by read_file.
-    root.tag = "scene".into();
-    Ok(root)
+    let mut reader = Reader::new(defines, diag, true);
+    reader.read_file(path, None)
+}
+
+/// Reads the scene `text` (as if from the file `path`) into a tree rooted at `<scene>`;
+/// an `<include>` is an error, as in-memory scenes read no files.
+pub(crate) fn read_tree_str(
+    text: &str,
+    path: &Path,
+    defines: &[(String, String)],
+    diag: &mut Diagnostics,
+) -> Result<Element, LoadError> {
+    let mut reader = Reader::new(defines, diag, false);
+    reader.read_text(path, path.to_path_buf(), text, None)
 }
 
 struct Reader<'d> {
@@ -84,9 +96,27 @@ struct Reader<'d> {
     stack: Vec<PathBuf>,
     /// The scene declares a version below 2: rename camelCase parameters as Mitsuba does.
     legacy: bool,
+    /// Whether `<include>` may read files.
+    files: bool,
+    /// Depth of the element being read (see [`MAX_ELEMENT_DEPTH`]).
+    depth: usize,
+    /// Bytes produced by substitution so far (see [`MAX_SUBSTITUTED_BYTES`]).
+    substituted: usize,
 }
 
-impl Reader<'_> {
+impl<'d> Reader<'d> {
+    fn new(defines: &[(String, String)], diag: &'d mut Diagnostics, files: bool) -> Self {
+        Self {
+            vars: defines.iter().cloned().collect(),
+            diag,
+            stack: Vec::new(),
+            legacy: false,
+            files,
+            depth: 0,
+            substituted: 0,
+        }
+    }
+
     fn read_file(&mut self, path: &Path, from: Option<Location>) -> Result<Element, LoadError> {
         let canonical = path.canonicalize().unwrap_or_else(|_| path.to_path_buf());
         if self.stack.contains(&canonical) || self.stack.len() >= MAX_INCLUDE_DEPTH {
@@ -114,7 +144,21 @@ impl Reader<'_> {
         let text = String::from_utf8(bytes).map_err(|e| {
             LoadError::invalid(Location::file(path), format!("not UTF-8 text: {e}"))
         })?;
-        let doc = roxmltree::Document::parse(&text).map_err(|e| {
+        self.read_text(path, canonical, &text, from)
+    }
+
+    /// Parses `text`, the contents of `path` (`canonical` on the include stack), included
+    /// from `from` (`None` for the top-level file).
+    fn read_text(
+        &mut self,
+        path: &Path,
+        canonical: PathBuf,
+        text: &str,
+        from: Option<Location>,
+    ) -> Result<Element, LoadError> {
+        // The parser recurses per level; refuse what would overflow the stack before it runs.
+        super::depth::check_nesting(path, text, MAX_ELEMENT_DEPTH + 1)?;
+        let doc = roxmltree::Document::parse(text).map_err(|e| {
             let pos = e.pos();
             LoadError::invalid(
                 Location::line(path, pos.row as usize),
@@ -232,10 +276,27 @@ impl Reader<'_> {
                             "<include> needs a filename attribute",
                         ));
                     };
+                    if !self.files {
+                        return Err(LoadError::invalid(
+                            at,
+                            format!(
+                                "<include filename={name:?}>: a scene loaded from memory \
+                                 reads no files"
+                            ),
+                        ));
+                    }
                     let included = self.read_file(&base.join(&name), Some(at))?;
                     out.children.extend(included.children);
                 }
                 _ => {
+                    if self.depth >= MAX_ELEMENT_DEPTH {
+                        return Err(LoadError::invalid(
+                            at,
+                            format!(
+                                "<{tag}> is nested more than {MAX_ELEMENT_DEPTH} elements deep"
+                            ),
+                        ));
+                    }
                     let mut el = Element {
                         tag,
                         attrs,
@@ -243,7 +304,9 @@ impl Reader<'_> {
                         file: file.clone(),
                         line,
                     };
+                    self.depth += 1;
                     self.read_children(child, &mut el, file, base, line_of, false)?;
+                    self.depth -= 1;
                     out.children.push(el);
                 }
             }
@@ -251,8 +314,9 @@ impl Reader<'_> {
         Ok(())
     }
 
-    /// Replaces every `$name` with its value; an undefined name is an error.
-    fn substitute(&self, text: &str, at: &Location) -> Result<String, LoadError> {
+    /// Replaces every `$name` with its value; an undefined name is an error, and so is more
+    /// than [`MAX_SUBSTITUTED_BYTES`] of output in all.
+    fn substitute(&mut self, text: &str, at: &Location) -> Result<String, LoadError> {
         if !text.contains('$') {
             return Ok(text.to_string());
         }
@@ -279,10 +343,21 @@ impl Reader<'_> {
                     ),
                 )
             })?;
+            if self.substituted + out.len() + value.len() > MAX_SUBSTITUTED_BYTES {
+                return Err(LoadError::invalid(
+                    at.clone(),
+                    format!(
+                        "${name}: parameter substitution would produce more than {} MiB \
+                         (defaults built from defaults grow without bound)",
+                        MAX_SUBSTITUTED_BYTES >> 20
+                    ),
+                ));
+            }
             out.push_str(value);
             rest = &after[len..];
         }
         out.push_str(rest);
+        self.substituted += out.len();
         Ok(out)
     }
 }
