@@ -330,17 +330,19 @@ impl Lights {
                 let d = q - p;
                 let dist2 = d.length_squared();
                 let distance = dist2.sqrt();
-                let wi = d / distance;
+                let wi = d * (1.0 / distance);
                 let cos = tri.normal.dot(-wi);
                 if cos <= 0.0 || tri.area <= 0.0 {
                     return None;
                 }
-                let pdf = pick * dist2 / (tri.area * cos);
+                // pdf and 1/pdf as two independent divisions rather than a chain of them
+                // (the chain of sqrt and divides was this function's critical path).
+                let (num, den) = (pick * dist2, tri.area * cos);
                 LightSample {
                     wi,
                     distance,
-                    weight: tri.radiance / pdf,
-                    pdf,
+                    weight: tri.radiance * (den / num),
+                    pdf: num / den,
                 }
             }
             LightKind::Point {
