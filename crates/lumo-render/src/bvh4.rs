@@ -11,7 +11,7 @@
 //! triangles one by one through a callback; for the small and mid-sized scenes lumo renders
 //! that decode cost dominated the per-ray time.
 
-use glam::{BVec4A, Vec3, Vec4};
+use glam::{BVec4A, Vec3, Vec3A, Vec4};
 use obvhs::bvh2::Bvh2;
 
 /// Child slot with nothing in it.
@@ -59,20 +59,17 @@ impl RayData {
     #[inline]
     fn new(origin: Vec3, dir: Vec3) -> Self {
         // A zero component would give 0·∞ = NaN in the slab test; a tiny one gives a huge but
-        // finite slope with the same meaning (the ray runs parallel to that slab).
-        let safe = |x: f32| {
-            if x.abs() < 1e-30 {
-                1e30f32.copysign(x)
-            } else {
-                1.0 / x
-            }
-        };
-        let inv = Vec3::new(safe(dir.x), safe(dir.y), safe(dir.z));
+        // finite slope with the same meaning (the ray runs parallel to that slab). Done on
+        // all three lanes at once: this runs for every ray.
+        let d = Vec3A::from(dir);
+        let tiny = d.abs().cmplt(Vec3A::splat(1e-30));
+        let inv = Vec3A::select(tiny, Vec3A::splat(1e30).copysign(d), Vec3A::ONE / d);
+        let neg = inv.cmplt(Vec3A::ZERO).bitmask();
         RayData {
             o: [origin.x, origin.y, origin.z].map(Vec4::splat),
             d: [dir.x, dir.y, dir.z].map(Vec4::splat),
             inv: [inv.x, inv.y, inv.z].map(Vec4::splat),
-            near: [inv.x, inv.y, inv.z].map(|i| usize::from(i < 0.0)),
+            near: [neg & 1, (neg >> 1) & 1, (neg >> 2) & 1].map(|b| b as usize),
         }
     }
 }
