@@ -1,8 +1,9 @@
-//! Ray queries over a two-level BVH: one compressed wide BVH (obvhs CWBVH) per mesh, one binary
+//! Ray queries over a two-level BVH: one 4-wide SIMD BVH ([`crate::bvh4`]) per mesh, one binary
 //! BVH over instances. Both can be refitted when vertices or instance transforms change.
 //!
-//! obvhs builds with PLOC + reinsertion rather than the binned SAH of the guided-filter paper;
-//! its trees are of comparable SAH quality and it builds in parallel.
+//! obvhs builds the per-mesh binary trees with PLOC + reinsertion rather than the binned SAH of
+//! the guided-filter paper; its trees are of comparable SAH quality and it builds in parallel.
+//! Traversal uses lumo's own 4-wide collapse of them.
 
 use glam::{Mat4, Vec3, Vec3A};
 use obvhs::aabb::Aabb;

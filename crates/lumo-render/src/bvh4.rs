@@ -499,3 +499,130 @@ impl Builder<'_> {
         (self.out.packets.len() - 1) as u32
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use obvhs::aabb::Aabb;
+    use obvhs::bvh2::node::Bvh2Node;
+    use obvhs::ploc::{PlocBuilder, PlocSearchDistance, SortPrecision};
+    use obvhs::ray::Ray;
+    use obvhs::rt_triangle::RtTriangle;
+
+    use crate::sampler::hash_u32;
+
+    /// A deterministic number in [0, 1) from `i`.
+    fn rnd(i: u32) -> f32 {
+        (hash_u32(i) >> 8) as f32 / 16_777_216.0
+    }
+
+    /// `n` small random triangles in the unit cube.
+    fn soup(n: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+        let mut positions = vec![];
+        for t in 0..n {
+            let c = Vec3::new(rnd(9 * t), rnd(9 * t + 1), rnd(9 * t + 2));
+            for k in 0..3 {
+                let j = 9 * t + 3 + 2 * k;
+                positions
+                    .push(c + 0.3 * Vec3::new(rnd(j) - 0.5, rnd(j + 1) - 0.5, rnd(j) - rnd(j + 1)));
+            }
+        }
+        let indices = (0..n).map(|t| [3 * t, 3 * t + 1, 3 * t + 2]).collect();
+        (positions, indices)
+    }
+
+    /// Nearest hit by testing every triangle with obvhs's own intersector.
+    fn brute(positions: &[Vec3], indices: &[[u32; 3]], o: Vec3, d: Vec3) -> Option<(f32, u32)> {
+        let ray = Ray::new(o.into(), d.into(), 0.0, f32::INFINITY);
+        let mut best: Option<(f32, u32)> = None;
+        for (i, t) in indices.iter().enumerate() {
+            let [a, b, c] = t.map(|v| Vec3A::from(positions[v as usize]));
+            let h = RtTriangle::new(a, b, c).intersect(&ray);
+            if h.is_finite() && best.is_none_or(|(bt, _)| h < bt) {
+                best = Some((h, i as u32));
+            }
+        }
+        best
+    }
+
+    /// Compares `bvh` with brute force on rays from outside and inside the cube.
+    fn check(bvh: &Bvh4, positions: &[Vec3], indices: &[[u32; 3]]) {
+        let mut hits = 0;
+        for r in 0..2000u32 {
+            let o = Vec3::new(rnd(7 * r), rnd(7 * r + 1), rnd(7 * r + 2)) * 3.0 - Vec3::ONE;
+            let target = Vec3::new(rnd(7 * r + 3), rnd(7 * r + 4), rnd(7 * r + 5));
+            let d = (target - o).normalize();
+            let want = brute(positions, indices, o, d);
+            let got = bvh.intersect(o, d, 0.0, f32::INFINITY);
+            match (want, got) {
+                (None, None) => {}
+                (Some((t, _)), Some(h)) => {
+                    hits += 1;
+                    assert!(
+                        (t - h.t).abs() < 1e-4,
+                        "ray {r}: t {} vs brute force {t}",
+                        h.t
+                    );
+                    // Barycentrics reproduce the hit point on the reported triangle.
+                    let [a, b, c] = indices[h.triangle as usize].map(|v| positions[v as usize]);
+                    let p = a * (1.0 - h.u - h.v) + b * h.u + c * h.v;
+                    assert!((p - (o + d * h.t)).length() < 1e-4, "ray {r}");
+                }
+                (w, g) => panic!("ray {r}: brute force {w:?}, bvh4 {g:?}"),
+            }
+            assert_eq!(bvh.occluded(o, d, 0.0, f32::INFINITY), want.is_some());
+            if let Some((t, _)) = want {
+                // Nothing lies before the nearest hit.
+                assert!(!bvh.occluded(o, d, 0.0, t * 0.999), "ray {r}");
+            }
+        }
+        assert!(
+            hits > 200,
+            "only {hits} rays hit: the test would prove little"
+        );
+    }
+
+    #[test]
+    fn collapsed_ploc_tree_matches_brute_force() {
+        let (positions, indices) = soup(300);
+        let tris: Vec<RtTriangle> = indices
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|v| Vec3A::from(positions[v as usize]));
+                RtTriangle::new(a, b, c)
+            })
+            .collect();
+        let bvh2 = PlocBuilder::with_capacity(tris.len()).build(
+            PlocSearchDistance::Medium,
+            &tris,
+            (0..tris.len() as u32).collect(),
+            SortPrecision::U64,
+            1,
+        );
+        check(
+            &Bvh4::from_bvh2(&bvh2, &positions, &indices),
+            &positions,
+            &indices,
+        );
+    }
+
+    #[test]
+    fn a_binary_leaf_with_many_triangles_keeps_them_all() {
+        // One leaf holding every triangle: the collapse must chain packets under inner nodes
+        // (two levels for 40 triangles) rather than drop triangles past the fourth.
+        let (positions, indices) = soup(40);
+        let mut bounds = Aabb::empty();
+        for p in &positions {
+            bounds.extend(Vec3A::from(*p));
+        }
+        let bvh2 = Bvh2 {
+            nodes: vec![Bvh2Node::new(bounds, 40, 0)],
+            primitive_indices: (0..40).collect(),
+            ..Default::default()
+        };
+        let bvh = Bvh4::from_bvh2(&bvh2, &positions, &indices);
+        // Four chunks of 10, each split again into packets of 3, 3, 3 and 1.
+        assert_eq!(bvh.packets.len(), 16);
+        check(&bvh, &positions, &indices);
+    }
+}
