@@ -240,9 +240,16 @@ def run_lumo(args, width, height, out_path: Path):
     print("$", " ".join(cmd), flush=True)
     if out_path.exists():
         out_path.unlink()
+    import resource
+
+    c0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     p = subprocess.run(cmd, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     wall = time.perf_counter() - t0
+    c1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    # CPU seconds of the whole lumo process (scene setup, BVH, EXR writing included; with
+    # `cargo run` also cargo's own check), an upper bound on the render's CPU time.
+    cpu = (c1.ru_utime - c0.ru_utime) + (c1.ru_stime - c0.ru_stime)
     if p.returncode != 0:
         sys.stdout.write(p.stdout[-4000:])
         raise SystemExit(f"lumo failed with exit code {p.returncode}")
@@ -252,7 +259,7 @@ def run_lumo(args, width, height, out_path: Path):
     sps = parse_samples_per_s(p.stdout)
     if sps is None:
         print("warning: could not find '<n> [k|M|G] samples/s' in lumo's output", file=sys.stderr)
-    return {"samples_per_s": sps, "wall_s": wall, "cmd": cmd}
+    return {"samples_per_s": sps, "wall_s": wall, "cpu_s": cpu, "cmd": cmd}
 
 
 def read_exr(path: Path, mi=None):
@@ -439,6 +446,12 @@ def main() -> None:
         wall_sps = n / lr["wall_s"]
         print(f"lumo samples/s not printed; from process wall time (incl. startup/build): {wall_sps / 1e6:.3f} M")
         print(f"ratio lumo/mitsuba (wall-time based): {wall_sps / mb['samples_per_s']:.3f}")
+    # On a machine shared with other work, wall time depends on what else runs; CPU time per
+    # sample does much less, so print that ratio too (lumo's includes its process start-up).
+    l_cpu_sps = n / lr["cpu_s"] if lr["cpu_s"] > 0 else float("nan")
+    print(f"samples per CPU-second: mitsuba {mb['samples_per_cpu_s'] / 1e6:.3f} M, "
+          f"lumo {l_cpu_sps / 1e6:.3f} M (whole process, {lr['cpu_s']:.2f} CPU-s)")
+    print(f"ratio lumo/mitsuba per CPU-second: {l_cpu_sps / mb['samples_per_cpu_s']:.3f}")
     print(f"mean RGB  mitsuba: {fmt_rgb(m_mean)}")
     print(f"mean RGB  lumo   : {fmt_rgb(l_mean)}")
     print(f"rel diff (lumo-mitsuba)/mitsuba: {fmt_rel(rel(l_mean, m_mean))}")

@@ -1,17 +1,19 @@
-//! Ray queries over a two-level BVH: one compressed wide BVH (obvhs CWBVH) per mesh, one binary
+//! Ray queries over a two-level BVH: one 4-wide SIMD BVH ([`crate::bvh4`]) per mesh, one binary
 //! BVH over instances. Both can be refitted when vertices or instance transforms change.
 //!
-//! obvhs builds with PLOC + reinsertion rather than the binned SAH of the guided-filter paper;
-//! its trees are of comparable SAH quality and it builds in parallel.
+//! obvhs builds the per-mesh binary trees with PLOC + reinsertion rather than the binned SAH of
+//! the guided-filter paper; its trees are of comparable SAH quality and it builds in parallel.
+//! Traversal uses lumo's own 4-wide collapse of them.
 
 use glam::{Mat4, Vec3, Vec3A};
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
 use obvhs::bvh2::Bvh2;
-use obvhs::cwbvh::{bvh2_to_cwbvh::bvh2_to_cwbvh, CwBvh};
 use obvhs::ploc::{PlocBuilder, PlocSearchDistance, SortPrecision};
 use obvhs::ray::{Ray, RayHit};
 use obvhs::rt_triangle::RtTriangle;
+
+use crate::bvh4::{Bvh4, TriHit};
 
 use lumo_scene::Scene;
 
@@ -35,11 +37,7 @@ struct MeshBvh {
     /// Binary tree kept for refitting; its leaves hold one triangle each.
     bvh2: Bvh2,
     /// Wide tree used for traversal, regenerated from `bvh2` after a refit.
-    cwbvh: CwBvh,
-    /// Triangles in CWBVH leaf order, so traversal reads them without indirection.
-    tris: Vec<RtTriangle>,
-    /// For each entry of `tris`, the mesh's triangle index.
-    ids: Vec<u32>,
+    bvh4: Bvh4,
 }
 
 impl MeshBvh {
@@ -59,21 +57,8 @@ impl MeshBvh {
             3,
         );
         ReinsertionOptimizer::default().run(&mut bvh2, 0.05, None);
-        let mut mesh = MeshBvh {
-            bvh2,
-            cwbvh: CwBvh::default(),
-            tris: vec![],
-            ids: vec![],
-        };
-        mesh.finish(&tris);
-        mesh
-    }
-
-    /// Converts the binary tree into the traversal tree and lays triangles out in its order.
-    fn finish(&mut self, tris: &[RtTriangle]) {
-        self.cwbvh = bvh2_to_cwbvh(&self.bvh2, 3, true, false);
-        self.ids = self.cwbvh.primitive_indices.clone();
-        self.tris = self.ids.iter().map(|&i| tris[i as usize]).collect();
+        let bvh4 = Bvh4::from_bvh2(&bvh2, positions, indices);
+        MeshBvh { bvh2, bvh4 }
     }
 
     /// Moves vertices without changing the tree's topology (fast; quality degrades with
@@ -92,27 +77,7 @@ impl MeshBvh {
             self.bvh2.nodes[node].set_aabb(tri.aabb());
         }
         self.bvh2.refit_all();
-        self.finish(&tris);
-    }
-
-    #[inline]
-    fn intersect(&self, ray: &Ray) -> Option<(f32, u32)> {
-        let mut hit = RayHit::none();
-        if self
-            .cwbvh
-            .ray_traverse(*ray, &mut hit, |r, id| self.tris[id].intersect(r))
-        {
-            Some((hit.t, hit.primitive_id))
-        } else {
-            None
-        }
-    }
-
-    #[inline]
-    fn occluded(&self, ray: &Ray) -> bool {
-        !self
-            .cwbvh
-            .ray_traverse_miss(*ray, |r, id| self.tris[id].intersect(r))
+        self.bvh4 = Bvh4::from_bvh2(&self.bvh2, positions, indices);
     }
 }
 
@@ -327,19 +292,34 @@ impl Accel {
         self.tlas.refit_all();
     }
 
+    /// The ray `origin + t·dir` in placement `p`'s object space.
     #[inline]
-    fn local_ray(&self, p: &Placement, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Ray {
+    fn local_ray(&self, p: &Placement, origin: Vec3, dir: Vec3) -> (Vec3, Vec3) {
         if p.identity {
-            Ray::new(origin.into(), dir.into(), tmin, tmax)
+            (origin, dir)
         } else {
             // The direction is not renormalised, so t stays the world-space ray parameter.
-            Ray::new(
-                p.to_local.transform_point3(origin).into(),
-                p.to_local.transform_vector3(dir).into(),
-                tmin,
-                tmax,
+            (
+                p.to_local.transform_point3(origin),
+                p.to_local.transform_vector3(dir),
             )
         }
+    }
+
+    /// Maps a BLAS hit in placement `pi` to the scene's instance and triangle.
+    #[inline]
+    fn scene_hit(&self, pi: usize, h: TriHit) -> Option<Hit> {
+        let (instance, triangle) = match self.placements[pi].target {
+            Target::Static => self.static_bvh.as_ref()?.1[h.triangle as usize],
+            Target::Instance { instance, .. } => (instance, h.triangle),
+        };
+        Some(Hit {
+            t: h.t,
+            instance,
+            triangle,
+            u: h.u,
+            v: h.v,
+        })
     }
 
     /// Nearest hit along `origin + t·dir` for t in (tmin, tmax).
@@ -347,50 +327,33 @@ impl Accel {
         if self.tlas.nodes.is_empty() {
             return None;
         }
-        let ray = Ray::new(origin.into(), dir.into(), tmin, tmax);
-        let mut best: Option<(u32, u32, Ray)> = None;
-        let mut hit = RayHit::none();
         if self.placements.len() == 1 {
             // A single placement (typically the merged static scene): skip the instance tree.
             let p = &self.placements[0];
-            let blas = self.blas(p.target)?;
-            let local = self.local_ray(p, origin, dir, tmin, tmax);
-            let (t, slot) = blas.intersect(&local)?;
-            hit.t = t;
-            best = Some((0, slot, local));
-        } else {
-            self.tlas.ray_traverse(ray, &mut hit, |r, id| {
-                let pi = self.tlas.primitive_indices[id];
-                let p = &self.placements[pi as usize];
-                let Some(blas) = self.blas(p.target) else {
-                    return f32::INFINITY;
-                };
-                let local = self.local_ray(p, origin, dir, r.tmin, r.tmax);
-                match blas.intersect(&local) {
-                    Some((t, slot)) => {
-                        best = Some((pi, slot, local));
-                        t
-                    }
-                    None => f32::INFINITY,
-                }
-            });
+            let (o, d) = self.local_ray(p, origin, dir);
+            let h = self.blas(p.target)?.bvh4.intersect(o, d, tmin, tmax)?;
+            return self.scene_hit(0, h);
         }
-        let (pi, slot, local) = best?;
-        let p = &self.placements[pi as usize];
-        let blas = self.blas(p.target)?;
-        let bary = blas.tris[slot as usize].compute_barycentric(&local);
-        let local_id = blas.ids[slot as usize];
-        let (instance, triangle) = match p.target {
-            Target::Static => self.static_bvh.as_ref()?.1[local_id as usize],
-            Target::Instance { instance, .. } => (instance, local_id),
-        };
-        Some(Hit {
-            t: hit.t,
-            instance,
-            triangle,
-            u: bary.x,
-            v: bary.y,
-        })
+        let ray = Ray::new(origin.into(), dir.into(), tmin, tmax);
+        let mut best: Option<(usize, TriHit)> = None;
+        let mut hit = RayHit::none();
+        self.tlas.ray_traverse(ray, &mut hit, |r, id| {
+            let pi = self.tlas.primitive_indices[id] as usize;
+            let p = &self.placements[pi];
+            let Some(blas) = self.blas(p.target) else {
+                return f32::INFINITY;
+            };
+            let (o, d) = self.local_ray(p, origin, dir);
+            match blas.bvh4.intersect(o, d, r.tmin, r.tmax) {
+                Some(h) => {
+                    best = Some((pi, h));
+                    h.t
+                }
+                None => f32::INFINITY,
+            }
+        });
+        let (pi, h) = best?;
+        self.scene_hit(pi, h)
     }
 
     /// True if anything blocks `origin + t·dir` for t in (tmin, tmax) (any-hit query).
@@ -400,17 +363,17 @@ impl Accel {
         }
         if self.placements.len() == 1 {
             let p = &self.placements[0];
+            let (o, d) = self.local_ray(p, origin, dir);
             return self
                 .blas(p.target)
-                .is_some_and(|b| b.occluded(&self.local_ray(p, origin, dir, tmin, tmax)));
+                .is_some_and(|b| b.bvh4.occluded(o, d, tmin, tmax));
         }
         let ray = Ray::new(origin.into(), dir.into(), tmin, tmax);
         !self.tlas.ray_traverse_miss(ray, |r, id| {
             let p = &self.placements[self.tlas.primitive_indices[id] as usize];
+            let (o, d) = self.local_ray(p, origin, dir);
             match self.blas(p.target) {
-                Some(blas) if blas.occluded(&self.local_ray(p, origin, dir, r.tmin, r.tmax)) => {
-                    r.tmin
-                }
+                Some(blas) if blas.bvh4.occluded(o, d, r.tmin, r.tmax) => r.tmin,
                 _ => f32::INFINITY,
             }
         })

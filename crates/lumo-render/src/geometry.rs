@@ -41,6 +41,17 @@ impl Frame {
     }
 }
 
+/// (cos φ, sin φ) for |φ| ≤ π/4 by truncated Taylor series: the first omitted terms are
+/// below 3·10⁻⁷ there, under f32's resolution near 1. The concentric disk map only needs this
+/// range, and libm's general `sincosf` with its range reduction took ~3 % of render time.
+#[inline]
+fn cos_sin_quarter(phi: f32) -> (f32, f32) {
+    let x2 = phi * phi;
+    let cos = 1.0 + x2 * (-0.5 + x2 * (1.0 / 24.0 + x2 * (-1.0 / 720.0 + x2 * (1.0 / 40320.0))));
+    let sin = phi * (1.0 + x2 * (-1.0 / 6.0 + x2 * (1.0 / 120.0 + x2 * (-1.0 / 5040.0))));
+    (cos, sin)
+}
+
 /// Uniform point on the unit disk (concentric mapping, low distortion for Sobol points).
 #[inline]
 pub fn square_to_disk(u: Vec2) -> Vec2 {
@@ -48,15 +59,15 @@ pub fn square_to_disk(u: Vec2) -> Vec2 {
     if o.x == 0.0 && o.y == 0.0 {
         return Vec2::ZERO;
     }
-    let (r, theta) = if o.x.abs() > o.y.abs() {
-        (o.x, std::f32::consts::FRAC_PI_4 * (o.y / o.x))
+    if o.x.abs() > o.y.abs() {
+        // θ = π/4 · (y/x) ∈ [−π/4, π/4].
+        let (c, s) = cos_sin_quarter(std::f32::consts::FRAC_PI_4 * (o.y / o.x));
+        Vec2::new(o.x * c, o.x * s)
     } else {
-        (
-            o.y,
-            std::f32::consts::FRAC_PI_2 - std::f32::consts::FRAC_PI_4 * (o.x / o.y),
-        )
-    };
-    Vec2::new(r * theta.cos(), r * theta.sin())
+        // θ = π/2 − φ with φ = π/4 · (x/y): cos θ = sin φ, sin θ = cos φ.
+        let (c, s) = cos_sin_quarter(std::f32::consts::FRAC_PI_4 * (o.x / o.y));
+        Vec2::new(o.y * s, o.y * c)
+    }
 }
 
 /// Cosine-weighted direction on the +z hemisphere; pdf = cosθ/π.
@@ -136,6 +147,23 @@ mod tests {
             assert!((f.s.length() - 1.0).abs() < 1e-5 && (f.t.length() - 1.0).abs() < 1e-5);
             let v = Vec3::new(0.1, 0.7, -0.2);
             assert!((f.to_world(f.to_local(v)) - v).length() < 1e-5);
+        }
+    }
+
+    #[test]
+    fn quarter_sincos_matches_libm() {
+        for i in 0..=1000 {
+            let phi = (i as f32 / 500.0 - 1.0) * std::f32::consts::FRAC_PI_4;
+            let (c, s) = cos_sin_quarter(phi);
+            assert!(
+                (c - phi.cos()).abs() < 1e-6 && (s - phi.sin()).abs() < 1e-6,
+                "{phi}"
+            );
+        }
+        // The disk map still lands on the unit disk, on the boundary for the square's edge.
+        for i in 0..=64 {
+            let d = square_to_disk(Vec2::new(1.0, i as f32 / 64.0));
+            assert!((d.length() - 1.0).abs() < 1e-6);
         }
     }
 

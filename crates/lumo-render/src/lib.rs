@@ -4,6 +4,7 @@
 
 pub mod accel;
 pub mod bsdf;
+mod bvh4;
 pub mod camera;
 pub mod distribution;
 mod frame;

@@ -7,7 +7,7 @@ use glam::{Vec2, Vec3};
 use lumo_image::luminance;
 use lumo_scene::{EnvMap, Light, Scene};
 
-use crate::distribution::Distribution1d;
+use crate::distribution::{AliasTable, Distribution1d};
 use crate::geometry::{square_to_triangle, square_to_uniform_sphere, UNIFORM_SPHERE_PDF};
 
 /// An emissive triangle in world space.
@@ -66,6 +66,8 @@ pub struct LightSample {
 pub struct Lights {
     lights: Vec<LightKind>,
     choice: Distribution1d,
+    /// The same choice, sampled in constant time.
+    alias: AliasTable,
     /// For each instance, the index of its first emissive triangle in `lights`, if emissive.
     instance_offset: Vec<Option<u32>>,
     env: Option<EnvSampler>,
@@ -248,8 +250,10 @@ impl Lights {
             power.push(disk * PI * luminance(mean.into()));
             lights.push(LightKind::Environment);
         }
+        let choice = Distribution1d::new(&power);
         Lights {
-            choice: Distribution1d::new(&power),
+            alias: AliasTable::new(&choice),
+            choice,
             lights,
             instance_offset,
             env,
@@ -314,7 +318,7 @@ impl Lights {
         if self.lights.is_empty() {
             return None;
         }
-        let (index, _) = self.choice.sample(u_choice);
+        let index = self.alias.sample(u_choice);
         let pick = self.choice.pmf(index);
         if pick <= 0.0 {
             return None;
@@ -326,17 +330,19 @@ impl Lights {
                 let d = q - p;
                 let dist2 = d.length_squared();
                 let distance = dist2.sqrt();
-                let wi = d / distance;
+                let wi = d * (1.0 / distance);
                 let cos = tri.normal.dot(-wi);
                 if cos <= 0.0 || tri.area <= 0.0 {
                     return None;
                 }
-                let pdf = pick * dist2 / (tri.area * cos);
+                // pdf and 1/pdf as two independent divisions rather than a chain of them
+                // (the chain of sqrt and divides was this function's critical path).
+                let (num, den) = (pick * dist2, tri.area * cos);
                 LightSample {
                     wi,
                     distance,
-                    weight: tri.radiance / pdf,
-                    pdf,
+                    weight: tri.radiance * (den / num),
+                    pdf: num / den,
                 }
             }
             LightKind::Point {
