@@ -93,45 +93,42 @@ fn a_budgeted_render_finishes_with_every_sample_queryable() {
 fn abort_stops_within_one_batch_and_fires_the_finish_event() {
     let rs = scene("cornell-spheres");
     let (w, rx) = worker(rs.clone(), 2);
-    // The bound is a property of the worker (it checks for an abort between batches), but a
-    // single measurement on a loaded machine can include the OS descheduling the thread: the
-    // best of three attempts must meet it.
-    let mut best: Option<(Duration, Duration)> = None;
-    for _ in 0..3 {
-        let epoch = w.render(job(&rs, 128));
-        std::thread::sleep(Duration::from_millis(400));
-        let before = w.stats();
-        assert_eq!(before.epoch, epoch);
-        assert!(before.samples > 0, "nothing rendered in 400 ms");
-        // Time one batch on one thread from the measured throughput.
-        let batches = before.samples as f64 / CAMERA_BATCH as f64;
-        let batch_time = Duration::from_secs_f64(0.4 * w.threads() as f64 / batches);
-        let t0 = Instant::now();
-        w.abort();
-        let done = next_finish(&rx);
-        let latency = done.finished_at.duration_since(t0);
-        eprintln!(
-            "abort latency {:.3} ms; one batch of {CAMERA_BATCH} samples takes {:.3} ms",
-            latency.as_secs_f64() * 1e3,
-            batch_time.as_secs_f64() * 1e3
-        );
-        assert_eq!(done.epoch, epoch);
-        assert!(done.aborted);
-        // Nothing of the aborted render is handed out afterwards.
-        let mut buf = QueryBuffer::default();
-        w.query(&mut buf);
-        assert!(buf.camera.is_empty());
-        assert_ne!(buf.epoch, epoch);
-        let ratio = |(l, b): (Duration, Duration)| l.as_secs_f64() / b.as_secs_f64();
-        if best.is_none_or(|b| ratio((latency, batch_time)) < ratio(b)) {
-            best = Some((latency, batch_time));
-        }
-    }
-    let (latency, batch_time) = best.expect("three attempts");
-    assert!(
-        latency <= batch_time,
-        "abort took {latency:?}, longer than one batch ({batch_time:?})"
+    let epoch = w.render(job(&rs, 128));
+    std::thread::sleep(Duration::from_millis(400));
+    let before = w.stats();
+    assert_eq!(before.epoch, epoch);
+    assert!(before.samples > 0, "nothing rendered in 400 ms");
+    // Time one batch on one thread from the measured throughput (reported, see below).
+    let batches = before.samples as f64 / CAMERA_BATCH as f64;
+    let batch_time = Duration::from_secs_f64(0.4 * w.threads() as f64 / batches);
+    let t0 = Instant::now();
+    w.abort();
+    let done = next_finish(&rx);
+    let latency = done.finished_at.duration_since(t0);
+    eprintln!(
+        "abort latency {:.3} ms; one batch of {CAMERA_BATCH} samples takes {:.3} ms",
+        latency.as_secs_f64() * 1e3,
+        batch_time.as_secs_f64() * 1e3
     );
+    assert_eq!(done.epoch, epoch);
+    assert!(done.aborted);
+    // The bound itself, in samples so that it holds on a loaded machine too: after the stats
+    // were read, each pool thread may hand in at most the batch it was working on (threads
+    // check for an abort before every sample and drop an unfinished batch).
+    let after_stats = done.samples - before.samples;
+    assert!(
+        after_stats <= w.threads() as u64 * CAMERA_BATCH,
+        "{after_stats} samples were handed in after the stats were read: more than one batch \
+         per thread"
+    );
+    // Wall-clock latency is reported (docs/protocol.md), and only a hang fails here: a thread
+    // descheduled by a busy CI machine can take a few ms to notice.
+    assert!(latency < Duration::from_secs(1), "abort took {latency:?}");
+    // Nothing of the aborted render is handed out afterwards.
+    let mut buf = QueryBuffer::default();
+    w.query(&mut buf);
+    assert!(buf.camera.is_empty());
+    assert_ne!(buf.epoch, epoch);
 }
 
 #[test]
