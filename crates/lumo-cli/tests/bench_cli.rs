@@ -251,12 +251,25 @@ fn an_interrupted_run_leaves_no_partial_file() {
         .spawn()
         .unwrap();
     std::thread::sleep(std::time::Duration::from_millis(500));
+    // Ctrl-C's SIGINT and SIGTERM both end lumo without running any clean-up, which is what is
+    // tested here. SIGTERM is sent because a process started in the background by a
+    // non-interactive shell (as CI scripts may run) inherits SIGINT *ignored*.
     let killed = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
+        .args(["-TERM", &child.id().to_string()])
         .status()
         .unwrap();
     assert!(killed.success());
-    let status = child.wait().unwrap();
+    let t0 = std::time::Instant::now();
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        if t0.elapsed() > std::time::Duration::from_secs(30) {
+            let _ = child.kill();
+            panic!("lumo bench quality did not stop within 30 s of SIGTERM");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    };
     assert!(!status.success());
     assert_eq!(names(&out), ["quality.md"]);
     assert_eq!(
