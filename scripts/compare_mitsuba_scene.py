@@ -18,13 +18,13 @@ standard error of each mean. The script prints and writes (--markdown):
 * optionally (--png) a side-by-side image: Mitsuba | lumo | 4x |difference|.
 
 Install (Debian/Ubuntu x86_64; see also scripts/compare_mitsuba.py):
-    python3 -m venv /work/venv-mi && /work/venv-mi/bin/pip install mitsuba numpy
+    python3 -m venv .venv-mi && .venv-mi/bin/pip install mitsuba numpy
     apt-get install -y libllvm19
     export DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM-19.so   # set here if unset
 
 Example:
     cargo build --release -p lumo-cli
-    /work/venv-mi/bin/python scripts/compare_mitsuba_scene.py --spp 1024 \\
+    .venv-mi/bin/python scripts/compare_mitsuba_scene.py --spp 1024 \\
         --markdown /tmp/cmp.md --png docs/images/mitsuba-materials.png
 """
 
