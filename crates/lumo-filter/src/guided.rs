@@ -5,12 +5,12 @@ use lumo_image::Image;
 use rayon::prelude::*;
 
 use crate::boxsum::box_mean;
-use crate::cholesky::solve_spd3;
 use crate::error::param;
 use crate::gbuffer::{
     background_mask, check_color, check_features, check_size, plane0, planes3, Features, Filtered,
     Prepared,
 };
+use crate::guided_stream::{stream, Problem};
 use crate::FilterError;
 
 /// Largest supported guide dimension.
@@ -249,17 +249,38 @@ pub fn guided(
     }
     let d = guide.dims;
     let image = if s == 1 {
-        let ab = coefficients(&guide.data, &p, &guide.eps, w, h, d, params.radius);
-        apply(&guide.data, w, h, d, |x, y, out| {
-            out.copy_from_slice(&ab[(y * w + x) * (3 * d + 3)..][..3 * d + 3]);
-        })
+        let pb = Problem {
+            guide: &guide.data,
+            p: &p,
+            eps: &guide.eps,
+            w,
+            h,
+            r: params.radius,
+        };
+        let mut out = Image::new(w, h, 3, 0.0);
+        let g = &guide.data;
+        stream_dims(d, &pb, &mut out.data, 3 * w, &|y, ab, row| {
+            apply_row(&g[y * w * d..(y + 1) * w * d], d, ab, row)
+        });
+        out
     } else {
         let (lw, lh) = (w.div_ceil(s), h.div_ceil(s));
         let gl = downsample(&guide.data, w, h, d, s);
         let pl = downsample(&p, w, h, 3, s);
         let r = ((params.radius as f32 / s as f32).round() as usize).max(1);
-        let ab = coefficients(&gl, &pl, &guide.eps, lw, lh, d, r);
         let k2 = 3 * d + 3;
+        let pb = Problem {
+            guide: &gl,
+            p: &pl,
+            eps: &guide.eps,
+            w: lw,
+            h: lh,
+            r,
+        };
+        let mut ab = vec![0.0f32; lw * lh * k2];
+        stream_dims(d, &pb, &mut ab, lw * k2, &|_, m, row| {
+            row.copy_from_slice(m)
+        });
         apply(&guide.data, w, h, d, |x, y, out| {
             bilinear(&ab, lw, lh, k2, s, x, y, out);
         })
@@ -373,106 +394,35 @@ where
     out
 }
 
-/// Window-averaged coefficients [a_0 (d), a_1 (d), a_2 (d), b (3)] per pixel.
-fn coefficients(
-    guide: &[f32],
-    p: &[f32],
-    eps: &[f32],
-    w: usize,
-    h: usize,
-    d: usize,
-    r: usize,
-) -> Vec<f32> {
+/// Consumer of one row of averaged coefficients: (row, coefficients, output row).
+type EmitRow<'a> = dyn Fn(usize, &[f32], &mut [f32]) + Sync + 'a;
+
+/// [`stream`] monomorphised per guide dimension, so the d×d solve is unrolled.
+fn stream_dims(d: usize, pb: &Problem, out: &mut [f32], row_len: usize, emit: &EmitRow<'_>) {
     match d {
-        1 => coefficients_d::<1>(guide, p, eps, w, h, r),
-        2 => coefficients_d::<2>(guide, p, eps, w, h, r),
-        3 => coefficients_d::<3>(guide, p, eps, w, h, r),
-        4 => coefficients_d::<4>(guide, p, eps, w, h, r),
-        5 => coefficients_d::<5>(guide, p, eps, w, h, r),
-        6 => coefficients_d::<6>(guide, p, eps, w, h, r),
-        7 => coefficients_d::<7>(guide, p, eps, w, h, r),
-        _ => coefficients_d::<8>(guide, p, eps, w, h, r),
+        1 => stream::<1, _>(pb, out, row_len, emit),
+        2 => stream::<2, _>(pb, out, row_len, emit),
+        3 => stream::<3, _>(pb, out, row_len, emit),
+        4 => stream::<4, _>(pb, out, row_len, emit),
+        5 => stream::<5, _>(pb, out, row_len, emit),
+        6 => stream::<6, _>(pb, out, row_len, emit),
+        7 => stream::<7, _>(pb, out, row_len, emit),
+        _ => stream::<8, _>(pb, out, row_len, emit),
     }
 }
 
-/// Monomorphised per guide dimension so the d×d solve is unrolled.
-fn coefficients_d<const D: usize>(
-    guide: &[f32],
-    p: &[f32],
-    eps: &[f32],
-    w: usize,
-    h: usize,
-    r: usize,
-) -> Vec<f32> {
-    // Stage 1 channels: I (D), I_i·I_j for i ≤ j (D(D+1)/2), p (3), I_i·p_c (3D).
-    let nsym = D * (D + 1) / 2;
-    let k1 = D + nsym + 3 + 3 * D;
-    let mut prod = vec![0.0f32; w * h * k1];
-    prod.par_chunks_mut(w * k1)
-        .enumerate()
-        .for_each(|(y, row)| {
-            for x in 0..w {
-                let i = y * w + x;
-                let g = &guide[i * D..(i + 1) * D];
-                let pc = &p[i * 3..i * 3 + 3];
-                let o = &mut row[x * k1..(x + 1) * k1];
-                o[..D].copy_from_slice(g);
-                let mut t = D;
-                for a in 0..D {
-                    for b in a..D {
-                        o[t] = g[a] * g[b];
-                        t += 1;
-                    }
-                }
-                o[t..t + 3].copy_from_slice(pc);
-                t += 3;
-                for c in 0..3 {
-                    for a in 0..D {
-                        o[t + c * D + a] = g[a] * pc[c];
-                    }
-                }
+/// One output row: q_c = Σ_i ā_ci I_i + b̄_c from the row's averaged coefficients.
+fn apply_row(guide: &[f32], d: usize, ab: &[f32], row: &mut [f32]) {
+    let k2 = 3 * d + 3;
+    for (x, o) in row.chunks_exact_mut(3).enumerate() {
+        let gi = &guide[x * d..(x + 1) * d];
+        let c = &ab[x * k2..(x + 1) * k2];
+        for ch in 0..3 {
+            let mut q = c[3 * d + ch];
+            for i in 0..d {
+                q += c[ch * d + i] * gi[i];
             }
-        });
-    let m = box_mean(&prod, w, h, k1, r);
-    drop(prod);
-    let k2 = 3 * D + 3;
-    let mut ab = vec![0.0f32; w * h * k2];
-    ab.par_chunks_mut(w * k2).enumerate().for_each(|(y, row)| {
-        for x in 0..w {
-            let mm = &m[(y * w + x) * k1..(y * w + x + 1) * k1];
-            let mut mi = [0.0f32; D];
-            mi.copy_from_slice(&mm[..D]);
-            let mut sigma = [[0.0f32; D]; D];
-            let mut t = D;
-            for a in 0..D {
-                for b in a..D {
-                    let v = mm[t] - mi[a] * mi[b];
-                    sigma[a][b] = v;
-                    sigma[b][a] = v;
-                    t += 1;
-                }
-                sigma[a][a] += eps[a];
-            }
-            let mp = [mm[t], mm[t + 1], mm[t + 2]];
-            t += 3;
-            let mut cov = [[0.0f32; D]; 3];
-            for c in 0..3 {
-                for a in 0..D {
-                    cov[c][a] = mm[t + c * D + a] - mi[a] * mp[c];
-                }
-            }
-            let coef = solve_spd3::<D>(&sigma, &cov);
-            let o = &mut row[x * k2..(x + 1) * k2];
-            for c in 0..3 {
-                let mut b = mp[c];
-                for a in 0..D {
-                    o[c * D + a] = coef[c][a];
-                    b -= coef[c][a] * mi[a];
-                }
-                o[3 * D + c] = b;
-            }
+            o[ch] = q;
         }
-    });
-    drop(m);
-    box_mean(&ab, w, h, k2, r)
+    }
 }

@@ -33,6 +33,7 @@ mod error;
 mod fastmath;
 mod gbuffer;
 mod guided;
+mod guided_stream;
 mod jbu;
 mod lookup;
 mod outliers;
