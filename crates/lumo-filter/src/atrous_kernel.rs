@@ -116,23 +116,25 @@ pub(crate) fn normalise<const VAR: bool>(
     dst: &mut [f32],
     len: usize,
 ) {
-    let wsum: Vec<f32> = acc[3 * stride + a0..][..len].to_vec();
+    let wsum = &acc[3 * stride + a0..][..len];
+    let (rgb, rest) = dst.split_at_mut(3 * QW);
+    let (valid, var) = rest.split_at_mut(QW);
     for k in 0..3 {
         let a = &acc[k * stride + a0..][..len];
-        for ((d, a), s) in dst[k * QW + M..][..len].iter_mut().zip(a).zip(&wsum) {
+        for ((d, a), s) in rgb[k * QW + M..][..len].iter_mut().zip(a).zip(wsum) {
             let has = (*s > 0.0) as u8 as f32;
             *d = a * (has / s.max(1e-30));
         }
     }
     if VAR {
         let v = &acc[4 * stride + a0..][..len];
-        for ((d, v), s) in dst[4 * QW + M..][..len].iter_mut().zip(v).zip(&wsum) {
+        for ((d, v), s) in var[M..][..len].iter_mut().zip(v).zip(wsum) {
             let has = (*s > 0.0) as u8 as f32;
             let inv = has / s.max(1e-30);
             *d = v * (inv * inv);
         }
     }
-    for (d, s) in dst[3 * QW + M..][..len].iter_mut().zip(&wsum) {
+    for (d, s) in valid[M..][..len].iter_mut().zip(wsum) {
         *d = (*s > 0.0) as u8 as f32;
     }
 }

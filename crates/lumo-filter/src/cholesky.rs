@@ -8,7 +8,7 @@ pub(crate) const L: usize = 16;
 /// step is a loop over lanes that vectorises. One Cholesky factorisation serves all three
 /// colour channels. Pivots are floored at a tiny positive value, so a matrix that rounding
 /// made slightly indefinite still gives a finite answer instead of NaN.
-#[inline]
+#[inline(always)]
 pub(crate) fn solve_lanes<const D: usize>(
     a: &[[[f32; L]; D]; D],
     b: &[[[f32; L]; D]; 3],
