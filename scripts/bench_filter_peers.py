@@ -92,6 +92,27 @@ def lumo_filter_ms(lumo, args, repeats):
     return statistics.median(times)
 
 
+def cpu_model():
+    """The CPU's model name (Linux), for the benchmark record."""
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return "unknown"
+
+
+def load():
+    """1/5/15-minute load averages (Linux): the machine may be shared during a run."""
+    try:
+        with open("/proc/loadavg") as f:
+            return " ".join(f.read().split()[:3])
+    except OSError:
+        return "n/a"
+
+
 def timed(fn, repeats):
     times = []
     for _ in range(repeats):
@@ -115,7 +136,8 @@ def main():
     except ImportError as e:  # say exactly why, keep the OpenCV comparison
         pyoidn = None
         print(f"pyoidn unavailable: {e}")
-    print(f"cv2 {cv2.__version__}, threads {cv2.getNumThreads()}; cores {os.cpu_count()}")
+    print(f"cv2 {cv2.__version__}, threads {cv2.getNumThreads()}; cores {os.cpu_count()}; "
+          f"cpu {cpu_model()}; load {load()}")
     rows = []
     with tempfile.TemporaryDirectory() as d:
         for w, h in [(512, 512), (1920, 1080)]:
@@ -145,6 +167,7 @@ def main():
                 oidn()  # device and filter creation excluded
                 t_oidn = timed(oidn, a.repeats)
             rows.append((w, h, t_lumo_g, t_cv, t_lumo_a, t_oidn))
+    print(f"load at the end: {load()}")
     print()
     print("| size | lumo guided ms | OpenCV guided ms | lumo/OpenCV (target ≤ 1) | lumo À-Trous 5it 3w ms "
           "| OIDN ms | OIDN/À-Trous (target ≥ 20) |")

@@ -281,9 +281,7 @@ pub fn guided(
         stream_dims(d, &pb, &mut ab, lw * k2, &|_, m, row| {
             row.copy_from_slice(m)
         });
-        apply(&guide.data, w, h, d, |x, y, out| {
-            bilinear(&ab, lw, lh, k2, s, x, y, out);
-        })
+        apply_upsampled(&guide.data, w, h, d, &ab, lw, lh, s)
     };
     Ok(Filtered {
         image,
@@ -340,57 +338,59 @@ fn downsample(data: &[f32], w: usize, h: usize, k: usize, s: usize) -> Vec<f32> 
     out
 }
 
-/// Bilinear sample of the k-channel low-res grid at full-res pixel (x, y): low-res pixel j has
-/// its centre at full-res coordinate (j + 0.5)·s − 0.5 (so s = 1 is the identity).
-#[allow(clippy::too_many_arguments)]
-#[inline]
-fn bilinear(
-    g: &[f32],
-    lw: usize,
-    lh: usize,
-    k: usize,
-    s: usize,
-    x: usize,
-    y: usize,
-    out: &mut [f32],
-) {
-    let fx = ((x as f32 + 0.5) / s as f32 - 0.5).clamp(0.0, (lw - 1) as f32);
-    let fy = ((y as f32 + 0.5) / s as f32 - 0.5).clamp(0.0, (lh - 1) as f32);
-    let (x0, y0) = (fx as usize, fy as usize);
-    let (x1, y1) = ((x0 + 1).min(lw - 1), (y0 + 1).min(lh - 1));
-    let (tx, ty) = (fx - x0 as f32, fy - y0 as f32);
-    let at = |xx: usize, yy: usize| &g[(yy * lw + xx) * k..(yy * lw + xx + 1) * k];
-    let (a, b, c, d) = (at(x0, y0), at(x1, y0), at(x0, y1), at(x1, y1));
-    for i in 0..k {
-        let top = a[i] + (b[i] - a[i]) * tx;
-        let bot = c[i] + (d[i] - c[i]) * tx;
-        out[i] = top + (bot - top) * ty;
-    }
+/// Low-res sample index pair and weight for full-res coordinate `i`: low-res pixel j has its
+/// centre at full-res coordinate (j + 0.5)·s − 0.5 (so s = 1 is the identity).
+#[inline(always)]
+fn lerp_at(i: usize, s: usize, n: usize) -> (usize, usize, f32) {
+    let f = ((i as f32 + 0.5) / s as f32 - 0.5).clamp(0.0, (n - 1) as f32);
+    let i0 = f as usize;
+    (i0, (i0 + 1).min(n - 1), f - i0 as f32)
 }
 
-/// q_c = Σ_i a_ci I_i + b_c, with the averaged coefficients supplied per pixel by `coef`.
-fn apply<F>(guide: &[f32], w: usize, h: usize, d: usize, coef: F) -> Image
-where
-    F: Fn(usize, usize, &mut [f32]) + Sync,
-{
-    let mut out = Image::new(w, h, 3, 0.0);
+/// The fast filter's output: per pixel, the bilinearly upsampled coefficients of the
+/// `lw`×`lh` grid `ab` applied to the full-resolution guide, q_c = Σ_i a_ci I_i + b_c.
+#[allow(clippy::too_many_arguments)]
+fn apply_upsampled(
+    guide: &[f32],
+    w: usize,
+    h: usize,
+    d: usize,
+    ab: &[f32],
+    lw: usize,
+    lh: usize,
+    s: usize,
+) -> Image {
     let k2 = 3 * d + 3;
-    out.data.par_chunks_mut(3 * w).enumerate().for_each_init(
-        || vec![0.0f32; k2],
-        |ab, (y, row)| {
-            for x in 0..w {
-                coef(x, y, ab);
-                let gi = &guide[(y * w + x) * d..(y * w + x + 1) * d];
-                for c in 0..3 {
-                    let mut q = ab[3 * d + c];
+    let mut out = Image::new(w, h, 3, 0.0);
+    out.data
+        .par_chunks_mut(3 * w)
+        .enumerate()
+        .for_each(|(y, row)| {
+            let (y0, y1, ty) = lerp_at(y, s, lh);
+            let (r0, r1) = (
+                &ab[y0 * lw * k2..][..lw * k2],
+                &ab[y1 * lw * k2..][..lw * k2],
+            );
+            let mut c = vec![0.0f32; k2];
+            for (x, o) in row.chunks_exact_mut(3).enumerate() {
+                let (x0, x1, tx) = lerp_at(x, s, lw);
+                let (a, b) = (&r0[x0 * k2..][..k2], &r0[x1 * k2..][..k2]);
+                let (e, f) = (&r1[x0 * k2..][..k2], &r1[x1 * k2..][..k2]);
+                for i in 0..k2 {
+                    let top = a[i] + (b[i] - a[i]) * tx;
+                    let bot = e[i] + (f[i] - e[i]) * tx;
+                    c[i] = top + (bot - top) * ty;
+                }
+                let gi = &guide[(y * w + x) * d..][..d];
+                for ch in 0..3 {
+                    let mut q = c[3 * d + ch];
                     for i in 0..d {
-                        q += ab[c * d + i] * gi[i];
+                        q += c[ch * d + i] * gi[i];
                     }
-                    row[x * 3 + c] = q;
+                    o[ch] = q;
                 }
             }
-        },
-    );
+        });
     out
 }
 
