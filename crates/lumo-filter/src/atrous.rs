@@ -186,18 +186,22 @@ struct LevelWeights {
 /// Fills the aux planes of every block for one level: colour factor (0 at missing centre
 /// pixels, which have no colour to compare), luminance and the scaled feature coordinates,
 /// margins included (0 beyond the image). Returns the number of feature coordinates.
+/// After the first level (`first` false) only the planes that change per level are rebuilt:
+/// the colour factor, the luminance and the normals (their σ scales with the stepwidth).
 fn build_aux(
     aux: &mut [f32],
     src: &[f32],
     prep: &Prepared,
     lay: Layout,
     lw: &LevelWeights,
+    first: bool,
 ) -> usize {
     // (plane, scale) of every feature coordinate in use; the background flag always is.
     let mut dims: Vec<(&[f32], f32)> = Vec::with_capacity(MAX_NF);
     if let (Some(s), Some(n)) = (lw.normal, &prep.normal) {
         dims.extend(n.iter().map(|p| (&p[..], s)));
     }
+    let rebuild = if first { MAX_NF } else { dims.len() };
     if let (Some(s), Some(x)) = (lw.position, &prep.position) {
         dims.extend(x.iter().map(|p| (&p[..], s)));
     }
@@ -230,7 +234,7 @@ fn build_aux(
             }
             _ => {}
         }
-        for (k, &(plane, scale)) in dims.iter().enumerate() {
+        for (k, &(plane, scale)) in dims.iter().enumerate().take(rebuild) {
             let from = &plane[y * w + x0 + ja - M..y * w + x0 + jb - M];
             for (o, v) in fa[k * QW + ja..k * QW + jb].iter_mut().zip(from) {
                 *o = v * scale;
@@ -358,7 +362,7 @@ pub(crate) fn run_with(
                 .filter(|_| has_x)
                 .map(|s| log2e.sqrt() / s),
         };
-        let nf = build_aux(&mut aux, &src, prep, lay, &lw);
+        let nf = build_aux(&mut aux, &src, prep, lay, &lw, it == 0);
         let level = Level {
             lay,
             step,
