@@ -10,8 +10,8 @@ and a release build of lumo: `cargo build --release -p lumo-cli` (or pass --lumo
 What it does, for 512x512 and 1920x1080:
   1. Generates a synthetic noisy frame (planes at different depths and orientations,
      heavy-tailed 1-spp-like noise) and writes color/albedo/normal/position/depth as PFM.
-  2. Runs `lumo denoise ... --timings` (median of --repeats runs) and parses the
-     `filter <ms> ms` line: the guided filter with a 3-dim normal guide, and À-Trous with
+  2. Runs `lumo denoise ... --timings --repeat N` (median of N = --repeats runs in one
+     process, warm like the in-process peers) and parses the `filter <ms> ms` line: the guided filter with a 3-dim normal guide, and À-Trous with
      5 iterations and 3 edge weights (colour, normal, position).
   3. Times cv2.ximgproc.guidedFilter with the same 3-channel guide (normal*0.5+0.5, float32),
      the same radius and the same eps. Mapping: lumo's eps is in units of the guide value
@@ -23,8 +23,9 @@ What it does, for 512x512 and 1920x1080:
   5. Prints ratios: lumo guided / OpenCV guided (target <= 1.0) and
      OIDN / lumo À-Trous 5 it 3 weights (target >= 20).
 
-All timings are wall-clock medians; both lumo and OpenCV use all cores (rayon / cv threads),
-OIDN uses its own CPU device with all cores.
+All timings are wall-clock medians of warm runs in one process (OpenCV's first call is
+included in its median, OIDN's first call is excluded); both lumo and OpenCV use all cores
+(rayon / cv threads), OIDN uses its own CPU device with all cores.
 """
 
 import argparse
@@ -80,16 +81,37 @@ def make_frame(w, h, seed=1):
 
 
 def lumo_filter_ms(lumo, args, repeats):
-    times = []
-    for _ in range(repeats):
-        out = subprocess.run([lumo, "denoise", *args, "--timings"], capture_output=True, text=True)
-        if out.returncode != 0:
-            sys.exit(f"lumo failed: {' '.join(args)}\n{out.stderr}")
-        m = re.search(r"^filter ([0-9.]+) ms$", out.stdout, re.M)
-        if not m:
-            sys.exit(f"no 'filter … ms' line in lumo output:\n{out.stdout}")
-        times.append(float(m.group(1)))
-    return statistics.median(times)
+    """Median filter time of `repeats` runs in one `lumo denoise` process (--repeat), i.e.
+    warm like the in-process peers; the input reading and output writing are not timed."""
+    out = subprocess.run([lumo, "denoise", *args, "--timings", "--repeat", str(repeats)],
+                         capture_output=True, text=True)
+    if out.returncode != 0:
+        sys.exit(f"lumo failed: {' '.join(args)}\n{out.stderr}")
+    m = re.search(r"^filter ([0-9.]+) ms$", out.stdout, re.M)
+    if not m:
+        sys.exit(f"no 'filter … ms' line in lumo output:\n{out.stdout}")
+    return float(m.group(1))
+
+
+def cpu_model():
+    """The CPU's model name (Linux), for the benchmark record."""
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return "unknown"
+
+
+def load():
+    """1/5/15-minute load averages (Linux): the machine may be shared during a run."""
+    try:
+        with open("/proc/loadavg") as f:
+            return " ".join(f.read().split()[:3])
+    except OSError:
+        return "n/a"
 
 
 def timed(fn, repeats):
@@ -115,7 +137,8 @@ def main():
     except ImportError as e:  # say exactly why, keep the OpenCV comparison
         pyoidn = None
         print(f"pyoidn unavailable: {e}")
-    print(f"cv2 {cv2.__version__}, threads {cv2.getNumThreads()}; cores {os.cpu_count()}")
+    print(f"cv2 {cv2.__version__}, threads {cv2.getNumThreads()}; cores {os.cpu_count()}; "
+          f"cpu {cpu_model()}; load {load()}")
     rows = []
     with tempfile.TemporaryDirectory() as d:
         for w, h in [(512, 512), (1920, 1080)]:
@@ -131,7 +154,9 @@ def main():
             t_lumo_g = lumo_filter_ms(a.lumo, guided, a.repeats)
             atrous = ["--color", paths["color"], "--albedo", paths["albedo"], "--normal",
                       paths["normal"], "--position", paths["position"], "--depth", paths["depth"],
-                      "--filter", "atrous", "--iterations", "5", "--sigma-color", "4",
+                      "--filter", "atrous", "--iterations", "5",
+                      # the paper's fixed colour σ, not the default spatial noise estimate
+                      "--variance-source", "none", "--sigma-color", "4",
                       "--sigma-normal", "0.3", "--sigma-position", "0.1", "-o", out]
             t_lumo_a = lumo_filter_ms(a.lumo, atrous, a.repeats)
             guide = np.ascontiguousarray(f["normal"] * 0.5 + 0.5, dtype=np.float32)
@@ -145,6 +170,7 @@ def main():
                 oidn()  # device and filter creation excluded
                 t_oidn = timed(oidn, a.repeats)
             rows.append((w, h, t_lumo_g, t_cv, t_lumo_a, t_oidn))
+    print(f"load at the end: {load()}")
     print()
     print("| size | lumo guided ms | OpenCV guided ms | lumo/OpenCV (target ≤ 1) | lumo À-Trous 5it 3w ms "
           "| OIDN ms | OIDN/À-Trous (target ≥ 20) |")

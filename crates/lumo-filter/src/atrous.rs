@@ -5,8 +5,9 @@ use lumo_image::{luminance, Image};
 use rayon::prelude::*;
 
 use crate::albedo::demodulate;
+use crate::atrous_kernel::{self, Isa, Level, CM_FIXED, CM_NONE, CM_VARIANCE, K, KA, MAX_NF};
+use crate::atrous_layout::{Layout, CW, M, QW};
 use crate::error::param;
-use crate::fastmath::exp_neg;
 use crate::gbuffer::{check_color, check_features, missing_pixels, Features, Filtered, Prepared};
 use crate::FilterError;
 
@@ -66,11 +67,8 @@ pub const DEFAULT_SIGMA_NORMAL: f32 = 0.3;
 /// Default position σ (fraction of the scene extent), see docs/filters.md.
 pub const DEFAULT_SIGMA_POSITION: f32 = 0.1;
 
-/// Working-buffer planes per row: r, g, b, validity, variance.
-const K: usize = 5;
-
 /// Keeps variance-guided weights finite where the variance is 0 (relative to mean luminance).
-const VARIANCE_EPS: f32 = 1e-6;
+pub(crate) const VARIANCE_EPS: f32 = 1e-6;
 
 /// Filters `color` (3 channels). Missing (NaN/Inf) pixels get weight 0 and are in-painted.
 pub fn atrous(
@@ -134,8 +132,15 @@ pub fn atrous(
             missing: missing_pixels(color),
         });
     }
+    let t0 = std::time::Instant::now();
     let prep = Prepared::new(color, features)?;
+    if std::env::var("LUMO_T").is_ok() {
+        eprintln!("prep {:?}", t0.elapsed());
+    }
     let image = run(&prep, variance_raw, params);
+    if std::env::var("LUMO_T").is_ok() {
+        eprintln!("total {:?}", t0.elapsed());
+    }
     Ok(Filtered {
         image,
         missing: prep.missing,
@@ -143,7 +148,7 @@ pub fn atrous(
 }
 
 /// Luminance of a 1- or 3-channel variance image; negative or non-finite values become 0.
-fn variance_plane(v: &Image) -> Vec<f32> {
+pub(crate) fn variance_plane(v: &Image) -> Vec<f32> {
     v.data
         .chunks_exact(v.channels)
         .map(|p| {
@@ -161,354 +166,235 @@ fn variance_plane(v: &Image) -> Vec<f32> {
         .collect()
 }
 
-/// Per-iteration constants shared by all rows.
-struct Pass<'a> {
-    w: usize,
-    /// Padded sub-row stride (see [`stride`]).
-    sw: usize,
-    h: usize,
-    step: usize,
-    src: &'a [f32],
-    /// Row-planar features: per row KF sub-rows (normal xyz, position xyz, background).
-    feat: &'a [f32],
-    /// 1/σ² terms (already including mean luminance and stepwidth scaling).
-    inv_c: f32,
-    inv_n: f32,
-    inv_x: f32,
-    /// Variance mode: per-pixel 1/(σ_l·sqrt(gaussian(var)) + eps).
-    inv_sigma: &'a [f32],
+/// Scale of the background coordinate: a background/geometry pair is 64² log2 units apart,
+/// far below the weight cutoff, so the two never mix (the paper's shader does the same with a
+/// separate test).
+const BACKGROUND_SCALE: f32 = 64.0;
+
+/// Which weights one level uses and their scales, all in log2 units of the weight.
+struct LevelWeights {
+    /// Colour mode (`CM_*`) and its factor (per unit squared RGB / absolute luminance distance).
+    cm: u8,
+    color_scale: f32,
+    /// Variance-guided σ and ε (units of the stored variance's square root).
+    sigma: f32,
+    eps: f32,
+    /// Feature scales (multiply the coordinates), `None` when the weight is off.
+    normal: Option<f32>,
+    position: Option<f32>,
 }
 
-/// Sub-row stride for a row of `w` pixels: a multiple of 16 floats that is not a multiple of
-/// 256, so the ~30 sub-rows one tap reads do not all map to the same cache sets (a 1024-wide
-/// image otherwise runs slower than a 1920-wide one).
-fn stride(w: usize) -> usize {
-    let s = w.next_multiple_of(16);
-    if s.is_multiple_of(256) {
-        s + 16
-    } else {
-        s
+/// Fills the aux planes of every block for one level: colour factor (0 at missing centre
+/// pixels, which have no colour to compare), luminance and the scaled feature coordinates,
+/// margins included (0 beyond the image). Returns the number of feature coordinates.
+/// After the first level (`first` false) only the planes that change per level are rebuilt:
+/// the colour factor, the luminance and the normals (their σ scales with the stepwidth).
+fn build_aux(
+    aux: &mut [f32],
+    src: &[f32],
+    prep: &Prepared,
+    lay: Layout,
+    lw: &LevelWeights,
+    first: bool,
+) -> usize {
+    // (plane, scale) of every feature coordinate in use; the background flag always is.
+    let mut dims: Vec<(&[f32], f32)> = Vec::with_capacity(MAX_NF);
+    if let (Some(s), Some(n)) = (lw.normal, &prep.normal) {
+        dims.extend(n.iter().map(|p| (&p[..], s)));
     }
+    let rebuild = if first { MAX_NF } else { dims.len() };
+    if let (Some(s), Some(x)) = (lw.position, &prep.position) {
+        dims.extend(x.iter().map(|p| (&p[..], s)));
+    }
+    dims.push((&prep.background[..], BACKGROUND_SCALE));
+    let w = lay.w;
+    aux.par_chunks_mut(KA * QW).enumerate().for_each(|(b, a)| {
+        let (c, y) = lay.strip_row(b);
+        let (x0, len) = lay.strip(c);
+        let s = &src[lay.block(c, y, K)..][..K * QW];
+        // Block columns j ↔ image columns x0 + j − M; those inside the image:
+        let ja = M.saturating_sub(x0);
+        let jb = (w + M - x0).min(QW);
+        let (cp, rest) = a.split_at_mut(QW);
+        let (lum, fa) = rest.split_at_mut(QW);
+        let valid = &s[3 * QW..4 * QW];
+        match lw.cm {
+            CM_FIXED => {
+                for j in M..M + len {
+                    cp[j] = lw.color_scale * valid[j];
+                }
+            }
+            CM_VARIANCE => {
+                for j in M..M + len {
+                    let isig = inverse_sigma(src, lay, c, y, j, lw.sigma, lw.eps);
+                    cp[j] = lw.color_scale * isig * valid[j];
+                }
+                for j in ja..jb {
+                    lum[j] = 0.2126 * s[j] + 0.7152 * s[QW + j] + 0.0722 * s[2 * QW + j];
+                }
+            }
+            _ => {}
+        }
+        for (k, &(plane, scale)) in dims.iter().enumerate().take(rebuild) {
+            let from = &plane[y * w + x0 + ja - M..y * w + x0 + jb - M];
+            for (o, v) in fa[k * QW + ja..k * QW + jb].iter_mut().zip(from) {
+                *o = v * scale;
+            }
+        }
+    });
+    dims.len()
 }
 
-/// Columns per chunk of a row (see `row_kernel`).
-const CHUNK: usize = 256;
-
-/// Feature sub-rows per row: normal x, y, z, position x, y, z, background flag.
-const KF: usize = 7;
-
-/// Packs the features row-planar (zeros for absent ones) so a tap reads one slice per row.
-fn pack_features(prep: &Prepared) -> Vec<f32> {
-    let w = prep.w;
-    let sw = stride(w);
-    let mut feat = vec![0.0f32; KF * sw * prep.h];
-    feat.par_chunks_mut(KF * sw)
-        .enumerate()
-        .for_each(|(y, row)| {
-            let r = y * w..(y + 1) * w;
-            if let Some(n) = &prep.normal {
-                for c in 0..3 {
-                    row[c * sw..c * sw + w].copy_from_slice(&n[c][r.clone()]);
-                }
+/// 1/(σ·sqrt(G3×3 ∗ var) + eps) at block column `j` of block (c, y): SVGF's prefiltered
+/// variance, from the variance planes (margins hold the neighbouring strips' values).
+fn inverse_sigma(
+    src: &[f32],
+    lay: Layout,
+    c: usize,
+    y: usize,
+    j: usize,
+    sigma: f32,
+    eps: f32,
+) -> f32 {
+    const G: [f32; 3] = [0.25, 0.5, 0.25];
+    let x = (c * CW + j) as isize - M as isize;
+    let (mut s, mut k) = (0.0f32, 0.0f32);
+    for (dy, gy) in G.iter().enumerate() {
+        let yy = y as isize + dy as isize - 1;
+        if yy < 0 || yy >= lay.h as isize {
+            continue;
+        }
+        let row = &src[lay.block(c, yy as usize, K) + 4 * QW..][..QW];
+        for (dx, gx) in G.iter().enumerate() {
+            let xx = x + dx as isize - 1;
+            if xx < 0 || xx >= lay.w as isize {
+                continue;
             }
-            if let Some(x) = &prep.position {
-                for c in 0..3 {
-                    row[(3 + c) * sw..(3 + c) * sw + w].copy_from_slice(&x[c][r.clone()]);
-                }
-            }
-            row[6 * sw..6 * sw + w].copy_from_slice(&prep.background[r]);
-        });
-    feat
+            s += gx * gy * row[j + dx - 1];
+            k += gx * gy;
+        }
+    }
+    1.0 / (sigma * (s / k).max(0.0).sqrt() + eps)
 }
 
 fn run(prep: &Prepared, variance: Option<Vec<f32>>, params: &AtrousParams) -> Image {
+    run_with(prep, variance, params, Isa::detect(), true)
+}
+
+/// [`run`] with a chosen instruction set and kernel path (tests compare their results).
+pub(crate) fn run_with(
+    prep: &Prepared,
+    variance: Option<Vec<f32>>,
+    params: &AtrousParams,
+    isa: Isa,
+    fused: bool,
+) -> Image {
     let (w, h) = (prep.w, prep.h);
+    let lay = Layout::new(w, h);
     let inv_ml2 = 1.0 / (prep.mean_luminance * prep.mean_luminance);
-    let sw = stride(w);
-    let mut src = vec![0.0f32; K * sw * h];
-    // Row-planar layout: row y holds K sub-rows (r, g, b, valid, var) so one parallel chunk per
-    // row owns all its outputs, and every inner loop runs over contiguous slices.
-    src.par_chunks_mut(K * sw).enumerate().for_each(|(y, row)| {
-        for x in 0..w {
+    let mut src = vec![0.0f32; lay.size(K)];
+    // `sparse` is a power of two.
+    let mask = params.sparse - 1;
+    src.par_chunks_mut(K * QW).enumerate().for_each(|(b, blk)| {
+        let (c, y) = lay.strip_row(b);
+        let (x0, _) = lay.strip(c);
+        let on_row = y & mask == 0;
+        let ja = M.saturating_sub(x0);
+        let jb = (w + M - x0).min(QW);
+        for j in ja..jb {
+            let x = x0 + j - M;
             let i = y * w + x;
-            let on_grid = (x % params.sparse == 0 && y % params.sparse == 0) as u8 as f32;
-            for c in 0..3 {
-                row[c * sw + x] = prep.color[c][i];
+            let on_grid = (on_row && x & mask == 0) as u8 as f32;
+            for ch in 0..3 {
+                blk[ch * QW + j] = prep.color[ch][i];
             }
-            row[3 * sw + x] = prep.valid[i] * on_grid;
+            blk[3 * QW + j] = prep.valid[i] * on_grid;
             // Variance in units of mean luminance², tiny values flushed to 0, so Σ w²·var
             // never reaches the (slow) denormal range.
             let v = variance.as_ref().map_or(0.0, |v| v[i]) * inv_ml2;
-            row[4 * sw + x] = if v > 1e-12 { v } else { 0.0 };
+            blk[4 * QW + j] = if v > 1e-12 { v } else { 0.0 };
         }
     });
-    let feat = pack_features(prep);
-    let mut dst = vec![0.0f32; K * sw * h];
-    let mut inv_sigma = vec![0.0f32; w * h];
+    let mut dst = vec![0.0f32; lay.size(K)];
+    let mut aux = vec![0.0f32; lay.size(KA)];
     let var_mode = variance.is_some() && params.sigma_luminance.is_some();
     // log2(sparse) iterations in-paint from geometry alone (paper §4: colour is meaningless
     // at pixels that were never traced).
     let skip_color = params.sparse.trailing_zeros() as usize;
     let ml = prep.mean_luminance;
+    let log2e = std::f32::consts::LOG2_E;
     let has_n = prep.normal.is_some() && params.sigma_normal.is_some();
     let has_x = prep.position.is_some() && params.sigma_position.is_some();
+    let sigma_l = params.sigma_luminance.unwrap_or(DEFAULT_SIGMA_LUMINANCE);
     for it in 0..params.iterations {
         let step = 1usize << it;
         let cm = if it < skip_color {
-            0u8
+            CM_NONE
         } else if var_mode {
-            2
+            CM_VARIANCE
         } else if params.sigma_color.is_some() {
-            1
+            CM_FIXED
         } else {
-            0
+            CM_NONE
         };
-        let inv_c = params.sigma_color.map_or(0.0, |s| {
-            let si = s * ml / (1u32 << it) as f32;
-            1.0 / (si * si)
-        });
-        if cm == 2 {
-            let sigma = params.sigma_luminance.unwrap_or(DEFAULT_SIGMA_LUMINANCE);
+        let color_scale = match cm {
+            CM_FIXED => params.sigma_color.map_or(0.0, |s| {
+                // σ in units of mean luminance, halved every level (paper).
+                let si = s * ml / (1u32 << it) as f32;
+                log2e / (si * si)
+            }),
+            CM_VARIANCE => log2e,
+            _ => 0.0,
+        };
+        // Squared distances are divided by σ² (normals also by stepwidth², as in the paper);
+        // scaling the coordinates by sqrt(log2 e)/σ makes them log2 exponents directly.
+        let lw = LevelWeights {
+            cm,
+            color_scale,
             // The variance is stored in units of ml², so its square root is in units of ml.
-            inv_sigma = inverse_sigma(&src, w, sw, h, sigma * ml, VARIANCE_EPS * ml);
-        }
-        let inv_n = params
-            .sigma_normal
-            .map_or(0.0, |s| 1.0 / (s * s * (step * step) as f32));
-        let inv_x = params.sigma_position.map_or(0.0, |s| 1.0 / (s * s));
-        let pass = Pass {
-            w,
-            sw,
-            h,
+            sigma: sigma_l * ml,
+            eps: VARIANCE_EPS * ml,
+            normal: params
+                .sigma_normal
+                .filter(|_| has_n)
+                .map(|s| log2e.sqrt() / (s * step as f32)),
+            position: params
+                .sigma_position
+                .filter(|_| has_x)
+                .map(|s| log2e.sqrt() / s),
+        };
+        let nf = build_aux(&mut aux, &src, prep, lay, &lw, it == 0);
+        let level = Level {
+            lay,
             step,
             src: &src,
-            feat: &feat,
-            inv_c,
-            inv_n,
-            inv_x,
-            inv_sigma: &inv_sigma,
+            aux: &aux,
+            nf,
+            cm,
+            var: var_mode,
+            isa,
+            fused,
         };
-        dst.par_chunks_mut(K * sw)
+        dst.par_chunks_mut(K * QW)
             .enumerate()
-            .for_each(|(y, row)| dispatch(&pass, has_n, has_x, cm, y, row));
+            .for_each(|(b, blk)| atrous_kernel::block(&level, b, blk));
+        lay.fill_margins(&mut dst, K);
         std::mem::swap(&mut src, &mut dst);
     }
     let mut out = Image::new(w, h, 3, 0.0);
     out.data
         .par_chunks_mut(3 * w)
-        .zip(src.par_chunks(K * sw))
-        .for_each(|(o, s)| {
-            for x in 0..w {
-                for c in 0..3 {
-                    o[3 * x + c] = s[c * sw + x];
+        .enumerate()
+        .for_each(|(y, o)| {
+            for c in 0..lay.nch {
+                let (x0, len) = lay.strip(c);
+                let blk = &src[lay.block(c, y, K)..][..K * QW];
+                for i in 0..len {
+                    for ch in 0..3 {
+                        o[3 * (x0 + i) + ch] = blk[ch * QW + M + i];
+                    }
                 }
             }
         });
     out
-}
-
-/// 1/(σ·sqrt(G3×3 ∗ var) + eps) per pixel (SVGF's prefiltered variance), from the var sub-rows.
-fn inverse_sigma(src: &[f32], w: usize, sw: usize, h: usize, sigma: f32, eps: f32) -> Vec<f32> {
-    const G: [f32; 3] = [0.25, 0.5, 0.25];
-    let mut out = vec![0.0f32; w * h];
-    out.par_chunks_mut(w).enumerate().for_each(|(y, o)| {
-        for (x, ov) in o.iter_mut().enumerate() {
-            let (mut s, mut k) = (0.0f32, 0.0f32);
-            for (dy, gy) in G.iter().enumerate() {
-                let yy = y + dy;
-                if yy < 1 || yy > h {
-                    continue;
-                }
-                let row = &src[(yy - 1) * K * sw..];
-                for (dx, gx) in G.iter().enumerate() {
-                    let xx = x + dx;
-                    if xx < 1 || xx > w {
-                        continue;
-                    }
-                    s += gx * gy * row[4 * sw + xx - 1];
-                    k += gx * gy;
-                }
-            }
-            *ov = 1.0 / (sigma * (s / k).max(0.0).sqrt() + eps);
-        }
-    });
-    out
-}
-
-/// Picks the monomorphised row kernel for the weights in use, so the inner loop carries no
-/// per-pixel branches on configuration.
-fn dispatch(p: &Pass, has_n: bool, has_x: bool, cm: u8, y: usize, row: &mut [f32]) {
-    match (has_n, has_x, cm) {
-        (false, false, 0) => row_kernel::<false, false, 0>(p, y, row),
-        (false, false, 1) => row_kernel::<false, false, 1>(p, y, row),
-        (false, false, _) => row_kernel::<false, false, 2>(p, y, row),
-        (true, false, 0) => row_kernel::<true, false, 0>(p, y, row),
-        (true, false, 1) => row_kernel::<true, false, 1>(p, y, row),
-        (true, false, _) => row_kernel::<true, false, 2>(p, y, row),
-        (false, true, 0) => row_kernel::<false, true, 0>(p, y, row),
-        (false, true, 1) => row_kernel::<false, true, 1>(p, y, row),
-        (false, true, _) => row_kernel::<false, true, 2>(p, y, row),
-        (true, true, 0) => row_kernel::<true, true, 0>(p, y, row),
-        (true, true, 1) => row_kernel::<true, true, 1>(p, y, row),
-        (true, true, _) => row_kernel::<true, true, 2>(p, y, row),
-    }
-}
-
-/// Constants of one tap.
-#[derive(Clone, Copy)]
-struct TapConst {
-    w: usize,
-    x0: usize,
-    q0: usize,
-    len: usize,
-    hk: f32,
-    inv_c: f32,
-    inv_n: f32,
-    inv_x: f32,
-}
-
-/// One output row of one à-trous level. Taps are visited one at a time over the whole row
-/// (tap-major), so each inner loop is a straight pass over equal-length slices that the
-/// compiler vectorises. Taps outside the image are skipped (the kernel renormalises).
-/// `CM`: 0 = no colour weight, 1 = fixed σ, 2 = variance-guided.
-fn row_kernel<const HN: bool, const HX: bool, const CM: u8>(p: &Pass, y: usize, dst: &mut [f32]) {
-    let w = p.w;
-    dst.fill(0.0);
-    let sw = p.sw;
-    let prow = &p.src[y * K * sw..(y + 1) * K * sw];
-    let pfeat = &p.feat[y * KF * sw..(y + 1) * KF * sw];
-    let isig: &[f32] = if CM == 2 {
-        &p.inv_sigma[y * w..(y + 1) * w]
-    } else {
-        &[]
-    };
-    let step = p.step as isize;
-    // Column chunks keep one tap's working set (≈ 30 sub-rows × CHUNK floats) in L1.
-    for cx0 in (0..w).step_by(CHUNK) {
-        let cx1 = (cx0 + CHUNK).min(w);
-        for (ky, hy) in B3.iter().enumerate() {
-            let yy = y as isize + (ky as isize - 2) * step;
-            if yy < 0 || yy >= p.h as isize {
-                continue;
-            }
-            let yy = yy as usize;
-            let qrow = &p.src[yy * K * sw..(yy + 1) * K * sw];
-            let qfeat = &p.feat[yy * KF * sw..(yy + 1) * KF * sw];
-            for (kx, hx) in B3.iter().enumerate() {
-                let off = (kx as isize - 2) * step;
-                // x range inside the chunk whose tap x + off is inside the row.
-                let x0 = ((-off).max(0) as usize).max(cx0);
-                let x1 = ((w as isize - off.max(0)).max(0) as usize).min(cx1);
-                if x0 >= x1 {
-                    continue;
-                }
-                let c = TapConst {
-                    w: sw,
-                    x0,
-                    q0: (x0 as isize + off) as usize,
-                    len: x1 - x0,
-                    hk: hy * hx,
-                    inv_c: p.inv_c,
-                    inv_n: p.inv_n,
-                    inv_x: p.inv_x,
-                };
-                tap::<HN, HX, CM>(prow, qrow, pfeat, qfeat, isig, dst, c);
-            }
-        }
-    }
-    let (acc, rest) = dst.split_at_mut(3 * sw);
-    let (acc_w, acc_v) = rest.split_at_mut(sw);
-    for x in 0..w {
-        let k = acc_w[x];
-        let has = (k > 0.0) as u8 as f32;
-        let inv = has / k.max(1e-30);
-        acc[x] *= inv;
-        acc[sw + x] *= inv;
-        acc[2 * sw + x] *= inv;
-        acc_w[x] = has;
-        // SVGF: variance of a weighted mean = Σ w² var / (Σ w)².
-        acc_v[x] *= inv * inv;
-    }
-}
-
-/// Accumulates one tap into the row's accumulators. A separate non-inlined function whose
-/// slice arguments the compiler knows do not alias, so the loop vectorises without runtime
-/// overlap checks.
-#[inline(never)]
-fn tap<const HN: bool, const HX: bool, const CM: u8>(
-    prow: &[f32],
-    qrow: &[f32],
-    pfeat: &[f32],
-    qfeat: &[f32],
-    isig: &[f32],
-    acc: &mut [f32],
-    c: TapConst,
-) {
-    let (w, len) = (c.w, c.len);
-    let ps = |row, k| sub_row(row, k * w + c.x0, len);
-    let qs = |row, k| sub_row(row, k * w + c.q0, len);
-    let (pr, pg, pb, pv) = (ps(prow, 0), ps(prow, 1), ps(prow, 2), ps(prow, 3));
-    let (qr, qg, qb, qv, qvar) = (
-        qs(qrow, 0),
-        qs(qrow, 1),
-        qs(qrow, 2),
-        qs(qrow, 3),
-        qs(qrow, 4),
-    );
-    let (pn0, pn1, pn2) = (ps(pfeat, 0), ps(pfeat, 1), ps(pfeat, 2));
-    let (qn0, qn1, qn2) = (qs(qfeat, 0), qs(qfeat, 1), qs(qfeat, 2));
-    let (px0, px1, px2) = (ps(pfeat, 3), ps(pfeat, 4), ps(pfeat, 5));
-    let (qx0, qx1, qx2) = (qs(qfeat, 3), qs(qfeat, 4), qs(qfeat, 5));
-    let (pbg, qbg) = (ps(pfeat, 6), qs(qfeat, 6));
-    let isig = if CM == 2 {
-        &isig[c.x0..c.x0 + len]
-    } else {
-        &[]
-    };
-    let (ar, rest) = acc.split_at_mut(w);
-    let (ag, rest) = rest.split_at_mut(w);
-    let (ab, rest) = rest.split_at_mut(w);
-    let (aw, av) = rest.split_at_mut(w);
-    let ar = &mut ar[c.x0..c.x0 + len];
-    let ag = &mut ag[c.x0..c.x0 + len];
-    let ab = &mut ab[c.x0..c.x0 + len];
-    let aw = &mut aw[c.x0..c.x0 + len];
-    let av = &mut av[c.x0..c.x0 + len];
-    for i in 0..len {
-        let mut e = 0.0f32;
-        if CM == 1 {
-            let (dr, dg, db) = (pr[i] - qr[i], pg[i] - qg[i], pb[i] - qb[i]);
-            // pv: a missing centre pixel has no colour to compare with.
-            e += (dr * dr + dg * dg + db * db) * c.inv_c * pv[i];
-        }
-        if CM == 2 {
-            let lp = 0.2126 * pr[i] + 0.7152 * pg[i] + 0.0722 * pb[i];
-            let lq = 0.2126 * qr[i] + 0.7152 * qg[i] + 0.0722 * qb[i];
-            e += (lp - lq).abs() * isig[i] * pv[i];
-        }
-        if HN {
-            let (a, b, d) = (pn0[i] - qn0[i], pn1[i] - qn1[i], pn2[i] - qn2[i]);
-            e += (a * a + b * b + d * d) * c.inv_n;
-        }
-        if HX {
-            let (a, b, d) = (px0[i] - qx0[i], px1[i] - qx1[i], px2[i] - qx2[i]);
-            e += (a * a + b * b + d * d) * c.inv_x;
-        }
-        // exp_neg clamps to ≤ 1, i.e. the product of the per-feature weights each clamped ≤ 1
-        // as in the paper's shader. Background never mixes with geometry.
-        let same = 1.0 - (pbg[i] - qbg[i]).abs();
-        let wgt = c.hk * exp_neg(-e) * qv[i] * same;
-        ar[i] += wgt * qr[i];
-        ag[i] += wgt * qg[i];
-        ab[i] += wgt * qb[i];
-        aw[i] += wgt;
-        // Always carried (cheap), so sparse levels without colour keep it too.
-        av[i] += wgt * wgt * qvar[i];
-    }
-}
-
-/// `len` values of `row` from `start`.
-#[inline(always)]
-fn sub_row(row: &[f32], start: usize, len: usize) -> &[f32] {
-    &row[start..start + len]
 }

@@ -1,47 +1,71 @@
 //! Small symmetric positive definite solves (the guided filter's d×d window systems).
 
+/// Systems solved together, one per lane.
+pub(crate) const L: usize = 16;
+
 /// Solves `A x_c = b_c` for the 3 right-hand sides `b` with `A` symmetric positive definite
-/// (D×D, only the lower triangle is read). One Cholesky factorisation serves all three colour
-/// channels. Pivots are floored at a tiny positive value, so a matrix that rounding made
-/// slightly indefinite still gives a finite answer instead of NaN.
-#[inline]
-pub(crate) fn solve_spd3<const D: usize>(a: &[[f32; D]; D], b: &[[f32; D]; 3]) -> [[f32; D]; 3] {
-    let mut l = [[0.0f32; D]; D];
-    let mut inv_diag = [0.0f32; D];
+/// (D×D), for L independent systems at once, stored lane-last (`a[i][j][lane]`) so that every
+/// step is a loop over lanes that vectorises. One Cholesky factorisation serves all three
+/// colour channels. Pivots are floored at a tiny positive value, so a matrix that rounding
+/// made slightly indefinite still gives a finite answer instead of NaN.
+#[inline(always)]
+pub(crate) fn solve_lanes<const D: usize>(
+    a: &[[[f32; L]; D]; D],
+    b: &[[[f32; L]; D]; 3],
+) -> [[[f32; L]; D]; 3] {
+    // Only the lower triangle of `a` is read.
+    let mut lo = [[[0.0f32; L]; D]; D];
+    let mut inv_diag = [[0.0f32; L]; D];
     for j in 0..D {
         let mut s = a[j][j];
         for k in 0..j {
-            s -= l[j][k] * l[j][k];
+            for l in 0..L {
+                s[l] -= lo[j][k][l] * lo[j][k][l];
+            }
         }
-        let d = s.max(1e-12).sqrt();
-        l[j][j] = d;
-        inv_diag[j] = 1.0 / d;
+        for l in 0..L {
+            let d = s[l].max(1e-12).sqrt();
+            lo[j][j][l] = d;
+            inv_diag[j][l] = 1.0 / d;
+        }
         for i in j + 1..D {
             let mut s = a[i][j];
             for k in 0..j {
-                s -= l[i][k] * l[j][k];
+                for l in 0..L {
+                    s[l] -= lo[i][k][l] * lo[j][k][l];
+                }
             }
-            l[i][j] = s * inv_diag[j];
+            for l in 0..L {
+                lo[i][j][l] = s[l] * inv_diag[j][l];
+            }
         }
     }
-    let mut x = [[0.0f32; D]; 3];
+    let mut x = [[[0.0f32; L]; D]; 3];
     for c in 0..3 {
         // Forward: L y = b.
-        let mut y = [0.0f32; D];
+        let mut y = [[0.0f32; L]; D];
         for i in 0..D {
             let mut s = b[c][i];
             for k in 0..i {
-                s -= l[i][k] * y[k];
+                for l in 0..L {
+                    s[l] -= lo[i][k][l] * y[k][l];
+                }
             }
-            y[i] = s * inv_diag[i];
+            for l in 0..L {
+                y[i][l] = s[l] * inv_diag[i][l];
+            }
         }
         // Backward: Lᵀ x = y.
         for i in (0..D).rev() {
             let mut s = y[i];
             for k in i + 1..D {
-                s -= l[k][i] * x[c][k];
+                for l in 0..L {
+                    s[l] -= lo[k][i][l] * x[c][k][l];
+                }
             }
-            x[c][i] = s * inv_diag[i];
+            for l in 0..L {
+                x[c][i][l] = s[l] * inv_diag[i][l];
+            }
         }
     }
     x
@@ -61,10 +85,24 @@ mod tests {
                 b[c][i] = (0..3).map(|k| a[i][k] * want[c][k]).sum();
             }
         }
-        let x = solve_spd3::<3>(&a, &b);
-        for c in 0..3 {
+        // The same system in every lane but one, which gets a scaled copy.
+        let mut al = [[[0.0f32; L]; 3]; 3];
+        let mut bl = [[[0.0f32; L]; 3]; 3];
+        for l in 0..L {
+            let s = if l == 5 { 2.0 } else { 1.0 };
             for i in 0..3 {
-                assert!((x[c][i] - want[c][i]).abs() < 1e-5);
+                for j in 0..3 {
+                    al[i][j][l] = a[i][j] * s;
+                    bl[i][j][l] = b[i][j] * s;
+                }
+            }
+        }
+        let x = solve_lanes::<3>(&al, &bl);
+        for l in 0..L {
+            for c in 0..3 {
+                for i in 0..3 {
+                    assert!((x[c][i][l] - want[c][i]).abs() < 1e-5, "lane {l}");
+                }
             }
         }
     }

@@ -36,6 +36,51 @@ pub fn exp_neg(x: f32) -> f32 {
     p * scale * keep
 }
 
+/// `2^t` for `cut <= t <= 0` with relative error below 1e-5, exactly 0 for `t < cut` or NaN.
+/// `cut` must be ≥ -126 (so the result and the clamp stay normal floats).
+///
+/// The À-Trous kernel's variant of [`exp_neg`]: its exponents are built in log2 units, which
+/// saves a multiply per weight, and the caller picks the cutoff per tap.
+///
+/// `FMA`: evaluate the polynomial with fused multiply-adds (only where the CPU has them: on
+/// other targets `mul_add` is a slow library call); results then differ in the last bits.
+#[inline(always)]
+pub(crate) fn exp2_cut<const FMA: bool>(t: f32, cut: f32) -> f32 {
+    // `t > cut` (not `max`) so that NaN also lands on the cutoff: one `maxps`, no NaN fix-up.
+    let tc = if t > cut { t } else { cut };
+    const MAGIC: f32 = 12_582_912.0;
+    let r = tc + MAGIC;
+    let f = tc - (r - MAGIC);
+    // 2^f = e^(f·ln2), |f·ln2| <= 0.347: degree-5 Taylor in f with ln2 folded in.
+    const C1: f32 = std::f32::consts::LN_2;
+    const C2: f32 = C1 * C1 / 2.0;
+    const C3: f32 = C2 * C1 / 3.0;
+    const C4: f32 = C3 * C1 / 4.0;
+    const C5: f32 = C4 * C1 / 5.0;
+    let p = mul_add::<FMA>(f, C5, C4);
+    let p = mul_add::<FMA>(f, p, C3);
+    let p = mul_add::<FMA>(f, p, C2);
+    let p = mul_add::<FMA>(f, p, C1);
+    let p = mul_add::<FMA>(f, p, 1.0);
+    let bias = 127u32.wrapping_sub(MAGIC.to_bits());
+    let scale = f32::from_bits(r.to_bits().wrapping_add(bias) << 23);
+    if t >= cut {
+        p * scale
+    } else {
+        0.0
+    }
+}
+
+/// `a·b + c`, fused (one rounding) when `FMA`, else two roundings.
+#[inline(always)]
+pub(crate) fn mul_add<const FMA: bool>(a: f32, b: f32, c: f32) -> f32 {
+    if FMA {
+        a.mul_add(b, c)
+    } else {
+        a * b + c
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -55,5 +100,23 @@ mod tests {
         assert_eq!(exp_neg(f32::NEG_INFINITY), 0.0);
         assert_eq!(exp_neg(f32::NAN), 0.0);
         assert_eq!(exp_neg(-1e30), 0.0);
+    }
+
+    #[test]
+    fn exp2_cut_matches_std_exp2() {
+        let cut = -40.0;
+        let mut worst = 0.0f64;
+        for k in 0..=400_000 {
+            let t = -(k as f32) * 40.0 / 400_000.0;
+            let want = (t as f64).exp2();
+            for got in [exp2_cut::<false>(t, cut), exp2_cut::<true>(t, cut)] {
+                worst = worst.max(((got as f64 - want) / want).abs());
+            }
+        }
+        assert!(worst < 1e-5, "worst relative error {worst}");
+        assert_eq!(exp2_cut::<false>(0.0, cut), 1.0);
+        assert_eq!(exp2_cut::<false>(-40.001, cut), 0.0);
+        assert_eq!(exp2_cut::<false>(f32::NEG_INFINITY, cut), 0.0);
+        assert_eq!(exp2_cut::<false>(f32::NAN, cut), 0.0);
     }
 }

@@ -5,12 +5,12 @@ use lumo_image::Image;
 use rayon::prelude::*;
 
 use crate::boxsum::box_mean;
-use crate::cholesky::solve_spd3;
 use crate::error::param;
 use crate::gbuffer::{
     background_mask, check_color, check_features, check_size, plane0, planes3, Features, Filtered,
     Prepared,
 };
+use crate::guided_stream::{stream, Problem};
 use crate::FilterError;
 
 /// Largest supported guide dimension.
@@ -249,20 +249,39 @@ pub fn guided(
     }
     let d = guide.dims;
     let image = if s == 1 {
-        let ab = coefficients(&guide.data, &p, &guide.eps, w, h, d, params.radius);
-        apply(&guide.data, w, h, d, |x, y, out| {
-            out.copy_from_slice(&ab[(y * w + x) * (3 * d + 3)..][..3 * d + 3]);
-        })
+        let pb = Problem {
+            guide: &guide.data,
+            p: &p,
+            eps: &guide.eps,
+            w,
+            h,
+            r: params.radius,
+        };
+        let mut out = Image::new(w, h, 3, 0.0);
+        let g = &guide.data;
+        stream_dims(d, &pb, &mut out.data, 3 * w, &|y, ab, row| {
+            apply_row(&g[y * w * d..(y + 1) * w * d], d, ab, row)
+        });
+        out
     } else {
         let (lw, lh) = (w.div_ceil(s), h.div_ceil(s));
         let gl = downsample(&guide.data, w, h, d, s);
         let pl = downsample(&p, w, h, 3, s);
         let r = ((params.radius as f32 / s as f32).round() as usize).max(1);
-        let ab = coefficients(&gl, &pl, &guide.eps, lw, lh, d, r);
         let k2 = 3 * d + 3;
-        apply(&guide.data, w, h, d, |x, y, out| {
-            bilinear(&ab, lw, lh, k2, s, x, y, out);
-        })
+        let pb = Problem {
+            guide: &gl,
+            p: &pl,
+            eps: &guide.eps,
+            w: lw,
+            h: lh,
+            r,
+        };
+        let mut ab = vec![0.0f32; lw * lh * k2];
+        stream_dims(d, &pb, &mut ab, lw * k2, &|_, m, row| {
+            row.copy_from_slice(m)
+        });
+        apply_upsampled(&guide.data, w, h, d, &ab, lw, lh, s)
     };
     Ok(Filtered {
         image,
@@ -319,160 +338,91 @@ fn downsample(data: &[f32], w: usize, h: usize, k: usize, s: usize) -> Vec<f32> 
     out
 }
 
-/// Bilinear sample of the k-channel low-res grid at full-res pixel (x, y): low-res pixel j has
-/// its centre at full-res coordinate (j + 0.5)·s − 0.5 (so s = 1 is the identity).
+/// Low-res sample index pair and weight for full-res coordinate `i`: low-res pixel j has its
+/// centre at full-res coordinate (j + 0.5)·s − 0.5 (so s = 1 is the identity).
+#[inline(always)]
+fn lerp_at(i: usize, s: usize, n: usize) -> (usize, usize, f32) {
+    let f = ((i as f32 + 0.5) / s as f32 - 0.5).clamp(0.0, (n - 1) as f32);
+    let i0 = f as usize;
+    (i0, (i0 + 1).min(n - 1), f - i0 as f32)
+}
+
+/// The fast filter's output: per pixel, the bilinearly upsampled coefficients of the
+/// `lw`×`lh` grid `ab` applied to the full-resolution guide, q_c = Σ_i a_ci I_i + b_c.
 #[allow(clippy::too_many_arguments)]
-#[inline]
-fn bilinear(
-    g: &[f32],
-    lw: usize,
-    lh: usize,
-    k: usize,
-    s: usize,
-    x: usize,
-    y: usize,
-    out: &mut [f32],
-) {
-    let fx = ((x as f32 + 0.5) / s as f32 - 0.5).clamp(0.0, (lw - 1) as f32);
-    let fy = ((y as f32 + 0.5) / s as f32 - 0.5).clamp(0.0, (lh - 1) as f32);
-    let (x0, y0) = (fx as usize, fy as usize);
-    let (x1, y1) = ((x0 + 1).min(lw - 1), (y0 + 1).min(lh - 1));
-    let (tx, ty) = (fx - x0 as f32, fy - y0 as f32);
-    let at = |xx: usize, yy: usize| &g[(yy * lw + xx) * k..(yy * lw + xx + 1) * k];
-    let (a, b, c, d) = (at(x0, y0), at(x1, y0), at(x0, y1), at(x1, y1));
-    for i in 0..k {
-        let top = a[i] + (b[i] - a[i]) * tx;
-        let bot = c[i] + (d[i] - c[i]) * tx;
-        out[i] = top + (bot - top) * ty;
-    }
-}
-
-/// q_c = Σ_i a_ci I_i + b_c, with the averaged coefficients supplied per pixel by `coef`.
-fn apply<F>(guide: &[f32], w: usize, h: usize, d: usize, coef: F) -> Image
-where
-    F: Fn(usize, usize, &mut [f32]) + Sync,
-{
-    let mut out = Image::new(w, h, 3, 0.0);
-    let k2 = 3 * d + 3;
-    out.data.par_chunks_mut(3 * w).enumerate().for_each_init(
-        || vec![0.0f32; k2],
-        |ab, (y, row)| {
-            for x in 0..w {
-                coef(x, y, ab);
-                let gi = &guide[(y * w + x) * d..(y * w + x + 1) * d];
-                for c in 0..3 {
-                    let mut q = ab[3 * d + c];
-                    for i in 0..d {
-                        q += ab[c * d + i] * gi[i];
-                    }
-                    row[x * 3 + c] = q;
-                }
-            }
-        },
-    );
-    out
-}
-
-/// Window-averaged coefficients [a_0 (d), a_1 (d), a_2 (d), b (3)] per pixel.
-fn coefficients(
+fn apply_upsampled(
     guide: &[f32],
-    p: &[f32],
-    eps: &[f32],
     w: usize,
     h: usize,
     d: usize,
-    r: usize,
-) -> Vec<f32> {
-    match d {
-        1 => coefficients_d::<1>(guide, p, eps, w, h, r),
-        2 => coefficients_d::<2>(guide, p, eps, w, h, r),
-        3 => coefficients_d::<3>(guide, p, eps, w, h, r),
-        4 => coefficients_d::<4>(guide, p, eps, w, h, r),
-        5 => coefficients_d::<5>(guide, p, eps, w, h, r),
-        6 => coefficients_d::<6>(guide, p, eps, w, h, r),
-        7 => coefficients_d::<7>(guide, p, eps, w, h, r),
-        _ => coefficients_d::<8>(guide, p, eps, w, h, r),
-    }
-}
-
-/// Monomorphised per guide dimension so the d×d solve is unrolled.
-fn coefficients_d<const D: usize>(
-    guide: &[f32],
-    p: &[f32],
-    eps: &[f32],
-    w: usize,
-    h: usize,
-    r: usize,
-) -> Vec<f32> {
-    // Stage 1 channels: I (D), I_i·I_j for i ≤ j (D(D+1)/2), p (3), I_i·p_c (3D).
-    let nsym = D * (D + 1) / 2;
-    let k1 = D + nsym + 3 + 3 * D;
-    let mut prod = vec![0.0f32; w * h * k1];
-    prod.par_chunks_mut(w * k1)
+    ab: &[f32],
+    lw: usize,
+    lh: usize,
+    s: usize,
+) -> Image {
+    let k2 = 3 * d + 3;
+    let mut out = Image::new(w, h, 3, 0.0);
+    out.data
+        .par_chunks_mut(3 * w)
         .enumerate()
         .for_each(|(y, row)| {
-            for x in 0..w {
-                let i = y * w + x;
-                let g = &guide[i * D..(i + 1) * D];
-                let pc = &p[i * 3..i * 3 + 3];
-                let o = &mut row[x * k1..(x + 1) * k1];
-                o[..D].copy_from_slice(g);
-                let mut t = D;
-                for a in 0..D {
-                    for b in a..D {
-                        o[t] = g[a] * g[b];
-                        t += 1;
-                    }
+            let (y0, y1, ty) = lerp_at(y, s, lh);
+            let (r0, r1) = (
+                &ab[y0 * lw * k2..][..lw * k2],
+                &ab[y1 * lw * k2..][..lw * k2],
+            );
+            let mut c = vec![0.0f32; k2];
+            for (x, o) in row.chunks_exact_mut(3).enumerate() {
+                let (x0, x1, tx) = lerp_at(x, s, lw);
+                let (a, b) = (&r0[x0 * k2..][..k2], &r0[x1 * k2..][..k2]);
+                let (e, f) = (&r1[x0 * k2..][..k2], &r1[x1 * k2..][..k2]);
+                for i in 0..k2 {
+                    let top = a[i] + (b[i] - a[i]) * tx;
+                    let bot = e[i] + (f[i] - e[i]) * tx;
+                    c[i] = top + (bot - top) * ty;
                 }
-                o[t..t + 3].copy_from_slice(pc);
-                t += 3;
-                for c in 0..3 {
-                    for a in 0..D {
-                        o[t + c * D + a] = g[a] * pc[c];
+                let gi = &guide[(y * w + x) * d..][..d];
+                for ch in 0..3 {
+                    let mut q = c[3 * d + ch];
+                    for i in 0..d {
+                        q += c[ch * d + i] * gi[i];
                     }
+                    o[ch] = q;
                 }
             }
         });
-    let m = box_mean(&prod, w, h, k1, r);
-    drop(prod);
-    let k2 = 3 * D + 3;
-    let mut ab = vec![0.0f32; w * h * k2];
-    ab.par_chunks_mut(w * k2).enumerate().for_each(|(y, row)| {
-        for x in 0..w {
-            let mm = &m[(y * w + x) * k1..(y * w + x + 1) * k1];
-            let mut mi = [0.0f32; D];
-            mi.copy_from_slice(&mm[..D]);
-            let mut sigma = [[0.0f32; D]; D];
-            let mut t = D;
-            for a in 0..D {
-                for b in a..D {
-                    let v = mm[t] - mi[a] * mi[b];
-                    sigma[a][b] = v;
-                    sigma[b][a] = v;
-                    t += 1;
-                }
-                sigma[a][a] += eps[a];
+    out
+}
+
+/// Consumer of one row of averaged coefficients: (row, coefficients, output row).
+type EmitRow<'a> = dyn Fn(usize, &[f32], &mut [f32]) + Sync + 'a;
+
+/// [`stream`] monomorphised per guide dimension, so the d×d solve is unrolled.
+fn stream_dims(d: usize, pb: &Problem, out: &mut [f32], row_len: usize, emit: &EmitRow<'_>) {
+    match d {
+        1 => stream::<1, _>(pb, out, row_len, emit),
+        2 => stream::<2, _>(pb, out, row_len, emit),
+        3 => stream::<3, _>(pb, out, row_len, emit),
+        4 => stream::<4, _>(pb, out, row_len, emit),
+        5 => stream::<5, _>(pb, out, row_len, emit),
+        6 => stream::<6, _>(pb, out, row_len, emit),
+        7 => stream::<7, _>(pb, out, row_len, emit),
+        _ => stream::<8, _>(pb, out, row_len, emit),
+    }
+}
+
+/// One output row: q_c = Σ_i ā_ci I_i + b̄_c from the row's averaged coefficients.
+fn apply_row(guide: &[f32], d: usize, ab: &[f32], row: &mut [f32]) {
+    let k2 = 3 * d + 3;
+    for (x, o) in row.chunks_exact_mut(3).enumerate() {
+        let gi = &guide[x * d..(x + 1) * d];
+        let c = &ab[x * k2..(x + 1) * k2];
+        for ch in 0..3 {
+            let mut q = c[3 * d + ch];
+            for i in 0..d {
+                q += c[ch * d + i] * gi[i];
             }
-            let mp = [mm[t], mm[t + 1], mm[t + 2]];
-            t += 3;
-            let mut cov = [[0.0f32; D]; 3];
-            for c in 0..3 {
-                for a in 0..D {
-                    cov[c][a] = mm[t + c * D + a] - mi[a] * mp[c];
-                }
-            }
-            let coef = solve_spd3::<D>(&sigma, &cov);
-            let o = &mut row[x * k2..(x + 1) * k2];
-            for c in 0..3 {
-                let mut b = mp[c];
-                for a in 0..D {
-                    o[c * D + a] = coef[c][a];
-                    b -= coef[c][a] * mi[a];
-                }
-                o[3 * D + c] = b;
-            }
+            o[ch] = q;
         }
-    });
-    drop(m);
-    box_mean(&ab, w, h, k2, r)
+    }
 }

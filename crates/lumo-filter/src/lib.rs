@@ -21,6 +21,11 @@
 
 mod albedo;
 mod atrous;
+mod atrous_fused;
+mod atrous_kernel;
+mod atrous_layout;
+#[cfg(test)]
+mod atrous_tests;
 mod bilateral;
 mod boxsum;
 mod cholesky;
@@ -28,6 +33,7 @@ mod error;
 mod fastmath;
 mod gbuffer;
 mod guided;
+mod guided_stream;
 mod jbu;
 mod lookup;
 mod noise;

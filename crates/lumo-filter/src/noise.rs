@@ -2,6 +2,7 @@
 //! no variance plane, or with one estimated from too few samples to steer a colour weight.
 
 use lumo_image::{luminance, Image};
+use rayon::prelude::*;
 
 /// The luminance variance of 3×3 windows, then for each pixel the smallest value among the
 /// windows that contain it (one channel).
@@ -12,36 +13,49 @@ use lumo_image::{luminance, Image};
 /// of the edge and reports 0. Non-finite pixels count as 0.
 pub fn spatial_variance(color: &Image) -> Image {
     let (w, h) = (color.width, color.height);
-    let lum: Vec<f32> = (0..w * h)
-        .map(|i| luminance(color.rgb(i % w, i / w)))
-        .map(|l| if l.is_finite() { l } else { 0.0 })
-        .collect();
-    let window = |x: usize, y: usize| {
-        let (mut s, mut s2, mut n) = (0.0f32, 0.0f32, 0.0f32);
-        for yy in y.saturating_sub(1)..(y + 2).min(h) {
-            for xx in x.saturating_sub(1)..(x + 2).min(w) {
-                let l = lum[yy * w + xx];
-                s += l;
-                s2 += l * l;
-                n += 1.0;
+    let mut lum = vec![0.0f32; w * h];
+    lum.par_chunks_mut(w.max(1))
+        .enumerate()
+        .for_each(|(y, row)| {
+            for (x, l) in row.iter_mut().enumerate() {
+                let v = luminance(color.rgb(x, y));
+                *l = if v.is_finite() { v } else { 0.0 };
             }
-        }
-        let m = s / n;
-        (s2 / n - m * m).max(0.0)
-    };
-    let windows: Vec<f32> = (0..w * h).map(|i| window(i % w, i / w)).collect();
-    let mut out = Image::new(w, h, 1, 0.0);
-    for y in 0..h {
-        for x in 0..w {
-            let mut v = f32::INFINITY;
-            for yy in y.saturating_sub(1)..(y + 2).min(h) {
-                for xx in x.saturating_sub(1)..(x + 2).min(w) {
-                    v = v.min(windows[yy * w + xx]);
+        });
+    let mut windows = vec![0.0f32; w * h];
+    windows
+        .par_chunks_mut(w.max(1))
+        .enumerate()
+        .for_each(|(y, row)| {
+            for (x, out) in row.iter_mut().enumerate() {
+                let (mut s, mut s2, mut n) = (0.0f32, 0.0f32, 0.0f32);
+                for yy in y.saturating_sub(1)..(y + 2).min(h) {
+                    for xx in x.saturating_sub(1)..(x + 2).min(w) {
+                        let l = lum[yy * w + xx];
+                        s += l;
+                        s2 += l * l;
+                        n += 1.0;
+                    }
                 }
+                let m = s / n;
+                *out = (s2 / n - m * m).max(0.0);
             }
-            out.data[y * w + x] = v;
-        }
-    }
+        });
+    let mut out = Image::new(w, h, 1, 0.0);
+    out.data
+        .par_chunks_mut(w.max(1))
+        .enumerate()
+        .for_each(|(y, row)| {
+            for (x, o) in row.iter_mut().enumerate() {
+                let mut v = f32::INFINITY;
+                for yy in y.saturating_sub(1)..(y + 2).min(h) {
+                    for xx in x.saturating_sub(1)..(x + 2).min(w) {
+                        v = v.min(windows[yy * w + xx]);
+                    }
+                }
+                *o = v;
+            }
+        });
     out
 }
 

@@ -346,6 +346,34 @@ fn guided_filter_matches_direct_implementation() {
 }
 
 #[test]
+fn guided_filter_matches_direct_implementation_across_row_bands() {
+    // Tall enough for several row bands (the filter streams bands of max(128, 4r) rows), with
+    // a firefly whose running-sum residue must not leak along rows or columns.
+    let (w, h) = (29, 300);
+    let mut p = noise_image(w, h, 3, 21);
+    p.pixel_mut(14, 140).copy_from_slice(&[1e3, 2e3, 5e2]);
+    for d in [1usize, 3] {
+        let gimg = noise_image(w, h, d, 31 + d as u64);
+        let g = Guide::from_image(&gimg, vec![0.01; d]).unwrap();
+        for r in [4usize, 40] {
+            let params = GuidedParams {
+                radius: r,
+                fast_subsample: 1,
+            };
+            let got = guided(&p, &g, &params).unwrap().image;
+            let want = guided_direct(&p, &g, r);
+            let worst = got
+                .data
+                .iter()
+                .zip(&want.data)
+                .map(|(a, b)| (a - b).abs() / (1.0 + b.abs()))
+                .fold(0.0f32, f32::max);
+            assert!(worst < 1e-4, "d={d} r={r}: {worst}");
+        }
+    }
+}
+
+#[test]
 fn fast_guided_filter_is_close_to_exact_on_smooth_input() {
     let (w, h) = (64, 48);
     let s = split(w, h);

@@ -1,0 +1,181 @@
+//! The À-Trous kernel's fast path for levels with taps at most [`MAX_STEP`] pixels apart (the
+//! first five levels): all five taps of a kernel row are evaluated in one pass over the block,
+//! with the accumulators in registers, every plane at a constant displacement and no column
+//! clipping (the block margins cover the taps; see atrous_layout.rs).
+//!
+//! The per-pixel operations and their order are exactly those of the per-tap path (a tap
+//! outside the image adds an exact zero instead of being skipped), so both paths give
+//! bit-identical results.
+
+use crate::atrous_kernel::{normalise, tap_consts, Isa, Level, CM_FIXED, CM_VARIANCE, K, KA};
+use crate::atrous_layout::{CW, M, QW};
+use crate::fastmath::{exp2_cut, mul_add};
+
+/// Largest tap spacing of the fused path: five taps span ±2·MAX_STEP = ±M columns.
+pub(crate) const MAX_STEP: usize = M / 2;
+
+/// Planes of a block of the source buffer.
+const R: usize = 0;
+const V: usize = 3;
+const VAR_P: usize = 4;
+/// Planes of a block of the aux buffer.
+const C: usize = 0;
+const L: usize = 1;
+const F: usize = 2;
+/// Accumulators: r, g, b, weight, variance.
+const AN: usize = 5;
+
+type SrcBlock = [f32; K * QW];
+type AuxBlock = [f32; KA * QW];
+
+/// Block `b` of a level with `step <= MAX_STEP` into `dst` (K planes).
+pub(crate) fn block_fused<const NF: usize, const CM: u8, const VAR: bool>(
+    l: &Level,
+    b: usize,
+    dst: &mut [f32],
+) {
+    let lay = l.lay;
+    let (c, y) = lay.strip_row(b);
+    let (_, len) = lay.strip(c);
+    let src_block = |yy: usize| -> &SrcBlock {
+        l.src[lay.block(c, yy, K)..][..K * QW]
+            .try_into()
+            .expect("block size")
+    };
+    let aux_block = |yy: usize| -> &AuxBlock {
+        l.aux[lay.block(c, yy, KA)..][..KA * QW]
+            .try_into()
+            .expect("block size")
+    };
+    let (p, pa) = (src_block(y), aux_block(y));
+    let mut acc = [0.0f32; AN * CW];
+    for ky in 0..5 {
+        let yy = y as isize + (ky as isize - 2) * l.step as isize;
+        if yy < 0 || yy >= lay.h as isize {
+            continue;
+        }
+        let (q, qa) = (src_block(yy as usize), aux_block(yy as usize));
+        let mut c0 = [0.0f32; 5];
+        let mut cut = [0.0f32; 5];
+        for kx in 0..5 {
+            (c0[kx], cut[kx]) = tap_consts(kx, ky);
+        }
+        match l.isa {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `Isa::Avx2` is only chosen after run-time detection of AVX2 and FMA.
+            Isa::Avx2 => unsafe {
+                fused_avx2::<NF, CM, VAR>(p, pa, q, qa, &mut acc, len, l.step, c0, cut)
+            },
+            _ => fused_base::<NF, CM, VAR>(p, pa, q, qa, &mut acc, len, l.step, c0, cut),
+        }
+    }
+    dst.fill(0.0);
+    normalise::<VAR>(&acc, CW, 0, dst, len);
+}
+
+#[allow(clippy::too_many_arguments)]
+#[inline(never)]
+fn fused_base<const NF: usize, const CM: u8, const VAR: bool>(
+    p: &SrcBlock,
+    pa: &AuxBlock,
+    q: &SrcBlock,
+    qa: &AuxBlock,
+    acc: &mut [f32; AN * CW],
+    len: usize,
+    step: usize,
+    c0: [f32; 5],
+    cut: [f32; 5],
+) {
+    fused_impl::<NF, CM, VAR, false>(p, pa, q, qa, acc, len, step, c0, cut)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[allow(clippy::too_many_arguments)]
+#[inline(never)]
+unsafe fn fused_avx2<const NF: usize, const CM: u8, const VAR: bool>(
+    p: &SrcBlock,
+    pa: &AuxBlock,
+    q: &SrcBlock,
+    qa: &AuxBlock,
+    acc: &mut [f32; AN * CW],
+    len: usize,
+    step: usize,
+    c0: [f32; 5],
+    cut: [f32; 5],
+) {
+    fused_impl::<NF, CM, VAR, true>(p, pa, q, qa, acc, len, step, c0, cut)
+}
+
+/// Five taps `step` apart of one kernel row, accumulated for `len` centre pixels.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn fused_impl<const NF: usize, const CM: u8, const VAR: bool, const FMA: bool>(
+    p: &SrcBlock,
+    pa: &AuxBlock,
+    q: &SrcBlock,
+    qa: &AuxBlock,
+    acc: &mut [f32; AN * CW],
+    len: usize,
+    step: usize,
+    c0: [f32; 5],
+    cut: [f32; 5],
+) {
+    // Clamps that tell the compiler every index below is in bounds.
+    let len = len.min(CW);
+    let step = step.min(MAX_STEP);
+    let offs = [M - 2 * step, M - step, M, M + step, M + 2 * step];
+    for i in 0..len {
+        let mut ar = acc[i];
+        let mut ag = acc[CW + i];
+        let mut ab = acc[2 * CW + i];
+        let mut aw = acc[3 * CW + i];
+        let mut av = if VAR { acc[4 * CW + i] } else { 0.0 };
+        // A macro, not a closure: closures are not reliably inlined into the AVX2 copy, and an
+        // out-of-line one would call `fmaf` from the library.
+        macro_rules! tap {
+            ($k:expr) => {{
+                let k = $k;
+                let j = i + offs[k];
+                let qr = q[R * QW + j];
+                let qg = q[(R + 1) * QW + j];
+                let qb = q[(R + 2) * QW + j];
+                let mut e = 0.0f32;
+                if CM == CM_FIXED {
+                    let dr = p[R * QW + M + i] - qr;
+                    let dg = p[(R + 1) * QW + M + i] - qg;
+                    let db = p[(R + 2) * QW + M + i] - qb;
+                    let d2 = mul_add::<FMA>(db, db, mul_add::<FMA>(dg, dg, dr * dr));
+                    e = d2 * pa[C * QW + M + i];
+                }
+                if CM == CM_VARIANCE {
+                    e = (pa[L * QW + M + i] - qa[L * QW + j]).abs() * pa[C * QW + M + i];
+                }
+                for f in 0..NF {
+                    let d = pa[(F + f) * QW + M + i] - qa[(F + f) * QW + j];
+                    e = mul_add::<FMA>(d, d, e);
+                }
+                let wgt = exp2_cut::<FMA>(c0[k] - e, cut[k]) * q[V * QW + j];
+                ar = mul_add::<FMA>(wgt, qr, ar);
+                ag = mul_add::<FMA>(wgt, qg, ag);
+                ab = mul_add::<FMA>(wgt, qb, ab);
+                aw += wgt;
+                if VAR {
+                    av = mul_add::<FMA>(wgt * wgt, q[VAR_P * QW + j], av);
+                }
+            }};
+        }
+        tap!(0);
+        tap!(1);
+        tap!(2);
+        tap!(3);
+        tap!(4);
+        acc[i] = ar;
+        acc[CW + i] = ag;
+        acc[2 * CW + i] = ab;
+        acc[3 * CW + i] = aw;
+        if VAR {
+            acc[4 * CW + i] = av;
+        }
+    }
+}
