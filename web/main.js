@@ -9,18 +9,23 @@ import { Navigation } from './navigation.js';
 import { controls, overlay } from './ui.js';
 
 // Samples rasterised per displayed frame adapt to what splatting costs (the paper's client
-// adjusts its batch size to the server's speed). Every PROBE_EVERY-th frame splats nothing, which
-// measures the repaint alone; splatting may then take what is left of the target frame time,
+// adjusts its batch size to the server's speed). Every PROBE_EVERY frames, two frames splat
+// nothing: the first lets GPU work still queued from earlier frames drain (WebGL is pipelined),
+// the second measures the repaint alone. Splatting may then take what is left of the target frame time,
 // or as long as the repaint itself where the repaint alone already misses the target (a slow
 // GPU or a software rasteriser): the display rate never drops below half of what the GPU can
 // repaint, and samples are not thrown away because the *repaint* is slow. Samples that pile up
 // beyond a few frames' worth are dropped, oldest first — each is an independent estimate, so
 // dropping some only costs noise, never bias.
 const BUDGET_MIN = 1000;
-const BUDGET_MAX = 2000000;
+const BUDGET_MAX = 500000;
 const TARGET_FRAME_S = 1 / 45;
 const BACKLOG_FRAMES = 4;
 const PROBE_EVERY = 16;
+// Splatting never gets more than this per frame, however slow the repaint; a frame slower than
+// SLOW_FRAME_S halves the budget at once.
+const MAX_SPLAT_S = 0.1;
+const SLOW_FRAME_S = 0.25;
 // Camera updates go out at most this often while dragging.
 const CAMERA_SEND_MS = 30;
 
@@ -38,7 +43,8 @@ let queuedSamples = 0;
 let budget = 20000;
 let gpu = null;
 // Frame-time estimates (s): repaint only (probe frames) and a normal frame.
-const timing = { repaint: null, full: TARGET_FRAME_S, probe: false, index: 0 };
+// phase of the frame just drawn: 'normal', 'drain' (first no-splat frame), 'probe' (second).
+const timing = { repaint: null, full: TARGET_FRAME_S, phase: 'normal', index: 0 };
 
 async function initGpu(hello) {
   canvas.width = hello.width;
@@ -178,20 +184,23 @@ function frame(now) {
   const { camera, light, display, quad } = gpu;
   // dt is the interval that ended with this callback: it measures the previous frame's work.
   if (dt > 0) {
-    if (timing.probe) {
+    if (timing.phase === 'probe') {
       timing.repaint = timing.repaint === null ? dt : timing.repaint * 0.7 + dt * 0.3;
-    } else if (timing.repaint !== null) {
+    } else if (timing.phase === 'normal' && timing.repaint !== null) {
       timing.full = timing.full * 0.8 + dt * 0.2;
-      const allowance = Math.max(TARGET_FRAME_S - timing.repaint, timing.repaint);
+      const allowance = Math.min(MAX_SPLAT_S, Math.max(TARGET_FRAME_S - timing.repaint, timing.repaint));
       const splat = Math.max(0, timing.full - timing.repaint);
-      if (splat > allowance * 1.2) budget *= 0.8;
-      else if (splat < allowance * 0.8 && queuedSamples > budget) budget *= 1.25;
+      if (dt > SLOW_FRAME_S) budget *= 0.5;
+      else if (splat > allowance * 1.2) budget *= 0.8;
+      else if (splat < allowance * 0.8 && queuedSamples > budget) budget *= 1.15;
       budget = Math.min(BUDGET_MAX, Math.max(BUDGET_MIN, budget));
     }
   }
   timing.index += 1;
   // The first probe comes at once: until the repaint cost is known the budget stays put.
-  timing.probe = timing.index === 2 || timing.index % PROBE_EVERY === 0;
+  const k = timing.index % PROBE_EVERY;
+  timing.phase = timing.index === 2 || k === 0 ? 'drain'
+    : timing.index === 3 || k === 1 ? 'probe' : 'normal';
   while (queuedSamples > BACKLOG_FRAMES * budget && queue.length > 1) {
     const m = queue.shift();
     if (m.kind === KIND.SAMPLES) {
@@ -200,7 +209,7 @@ function frame(now) {
     }
     // A dropped light message takes its splats and its share of light paths together.
   }
-  let left = timing.probe ? 0 : budget;
+  let left = timing.phase === 'normal' ? budget : 0;
   while (queue.length > 0 && left > 0) {
     const m = queue.shift();
     if (m.kind === KIND.FRAME) {

@@ -5,7 +5,7 @@
 // LUMO_FIG3_DIR: if set, also writes the paper's Fig. 3 series (1/30 s, 1/3 s, 3 s, 30 s) as
 // PNG screenshots of a 256×256 render into this directory.
 
-import { test, before, after } from 'node:test';
+import { test, before, after, afterEach } from 'node:test';
 import assert from 'node:assert/strict';
 import { spawn, execFileSync } from 'node:child_process';
 import { mkdtempSync, readFileSync, mkdirSync } from 'node:fs';
@@ -25,6 +25,7 @@ const CHROMIUM_FLAGS = [
 
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 const servers = [];
+const pages = [];
 let browser;
 
 // Starts `lumo serve` on a free port; resolves with the URL it prints.
@@ -99,6 +100,7 @@ const mean = (px) => px.data.reduce((a, v, i) => (i % 4 === 3 ? a : a + v), 0) /
 
 async function open(url) {
   const page = await browser.newPage();
+  pages.push(page);
   const errors = [];
   page.on('pageerror', (e) => errors.push(String(e)));
   page.on('console', (m) => { if (m.type() === 'error') errors.push(m.text()); });
@@ -116,6 +118,13 @@ before(async () => {
     headless: false, // --headless=new is among the flags
     args: CHROMIUM_FLAGS,
   });
+});
+
+// A failed test must not leave its page drawing and its server rendering: both would starve
+// the next test of CPU on a 2-core machine.
+afterEach(async () => {
+  for (const p of pages.splice(0)) await p.close().catch(() => {});
+  for (const p of servers.splice(0)) p.kill();
 });
 
 after(async () => {
@@ -155,7 +164,8 @@ test('samples arrive, the image converges to the CPU reference, B and camera beh
     b.value = String(Number(b.value) + 1.5);
     b.dispatchEvent(new Event('input'));
   });
-  await sleep(300);
+  // A few repaints later (not a fixed sleep: a software rasteriser may draw slowly).
+  await page.waitForFunction((f) => window.lumo.counts().frames > f + 3, before.frames, { timeout: 10000 });
   const brighter = await pixels(page);
   const after = await counts(page);
   assert.ok(mean(brighter) > mean(late) + 5, 'brightness had no effect');
@@ -169,7 +179,8 @@ test('samples arrive, the image converges to the CPU reference, B and camera beh
     g.value = '0.3';
     g.dispatchEvent(new Event('input'));
   });
-  await sleep(300);
+  const framesBeforeGlare = (await counts(page)).frames;
+  await page.waitForFunction((f) => window.lumo.counts().frames > f + 3, framesBeforeGlare, { timeout: 10000 });
   const glared = await pixels(page);
   const afterGlare = await counts(page);
   const meanAbsDiff = glared.data.reduce((a, v, i) => (i % 4 === 3 ? a : a + Math.abs(v - brighter.data[i])), 0)
