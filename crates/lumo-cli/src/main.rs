@@ -1,6 +1,7 @@
 //! The `lumo` command.
 
 mod bench;
+mod cli_common;
 mod compare_cmd;
 mod denoise;
 mod pipeline_args;

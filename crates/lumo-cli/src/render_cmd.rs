@@ -196,9 +196,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     if args.spp == Some(0) {
         bail!("--spp must be at least 1");
     }
-    if args.max_depth == Some(0) {
-        bail!("--max-depth must be at least 1 (1 = emitters seen directly)");
-    }
+    crate::cli_common::check_max_depth(args.max_depth)?;
     // Command-line options win over the scene file's settings, which win over the defaults.
     let (width, height) = args
         .size
@@ -225,10 +223,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
             ..Default::default()
         },
     };
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(args.threads.unwrap_or(0))
-        .build()
-        .context("cannot start worker threads")?;
+    let pool = crate::cli_common::worker_pool(args.threads)?;
     let threads = pool.current_num_threads();
     let tris = scene.triangle_count();
     let name = scene.name.clone();

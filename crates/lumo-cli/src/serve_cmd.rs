@@ -56,9 +56,7 @@ pub enum IntegratorArg {
 
 /// Runs `lumo serve` until interrupted.
 pub fn run(args: ServeArgs) -> Result<()> {
-    if args.max_depth == Some(0) {
-        bail!("--max-depth must be at least 1 (1 = emitters seen directly)");
-    }
+    crate::cli_common::check_max_depth(args.max_depth)?;
     if let Some(r) = args.max_rate {
         if !(r.is_finite() && r > 0.0) {
             bail!("--max-rate must be a positive number of samples per second");

@@ -4,7 +4,7 @@
 
 use std::path::PathBuf;
 
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use lumo_render::{run_pipeline, Pipeline, PipelineOptions};
 
 use super::atomic::{check_dir_writable, write_image_atomic};
@@ -41,14 +41,9 @@ pub fn run(args: InputsArgs) -> Result<()> {
     if args.spp == 0 {
         bail!("--spp must be at least 1");
     }
-    if args.max_depth == Some(0) {
-        bail!("--max-depth must be at least 1 (1 = emitters seen directly)");
-    }
+    crate::cli_common::check_max_depth(args.max_depth)?;
     check_dir_writable(&args.out)?;
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(args.threads.unwrap_or(0))
-        .build()
-        .context("cannot start worker threads")?;
+    let pool = crate::cli_common::worker_pool(args.threads)?;
     let scenes = load_all(std::slice::from_ref(&args.scene), &pool)?;
     let s = &scenes[0];
     let rs = settings(

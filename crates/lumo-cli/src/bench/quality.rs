@@ -15,7 +15,7 @@ use super::atomic::{check_dir_writable, write_bytes, write_image_atomic};
 use super::contact_sheet::{contact_sheet, crop_side, hardest_window, Row, Tile};
 use super::reference::{ensure_reference, reference_key};
 use super::report::{quality_markdown, QualityContext};
-use super::scenes::{default_scenes, load_all, settings, BenchScene};
+use super::scenes::{load_all, scene_names, settings, BenchScene};
 use crate::pipeline_args::parse_pipeline;
 use crate::render_cmd::parse_size;
 
@@ -81,16 +81,8 @@ pub struct Scored {
 pub fn run(args: QualityArgs) -> Result<()> {
     validate(&args)?;
     check_dir_writable(&args.out_dir)?;
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(args.threads.unwrap_or(0))
-        .build()
-        .context("cannot start worker threads")?;
-    let names = if args.scenes.is_empty() {
-        default_scenes()
-    } else {
-        args.scenes.clone()
-    };
-    let scenes = load_all(&names, &pool)?;
+    let pool = crate::cli_common::worker_pool(args.threads)?;
+    let scenes = load_all(&scene_names(&args.scenes), &pool)?;
     let compare_settings = CompareSettings {
         exposure: args.exposure,
         ..CompareSettings::default()
@@ -174,9 +166,7 @@ fn validate(args: &QualityArgs) -> Result<()> {
     if args.reference_spp == 0 {
         bail!("--reference-spp must be at least 1");
     }
-    if args.max_depth == Some(0) {
-        bail!("--max-depth must be at least 1 (1 = emitters seen directly)");
-    }
+    crate::cli_common::check_max_depth(args.max_depth)?;
     if !args.exposure.is_finite() {
         bail!("--exposure must be a finite number of stops");
     }

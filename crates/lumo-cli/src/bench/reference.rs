@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use lumo_image::Image;
 use lumo_render::{run_pipeline, Pipeline, PipelineOptions};
@@ -44,13 +44,8 @@ pub fn run(args: ReferenceArgs) -> Result<()> {
     if args.reference_spp == 0 {
         bail!("--reference-spp must be at least 1");
     }
-    if args.max_depth == Some(0) {
-        bail!("--max-depth must be at least 1 (1 = emitters seen directly)");
-    }
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(args.threads.unwrap_or(0))
-        .build()
-        .context("cannot start worker threads")?;
+    crate::cli_common::check_max_depth(args.max_depth)?;
+    let pool = crate::cli_common::worker_pool(args.threads)?;
     let scenes = load_all(std::slice::from_ref(&args.scene), &pool)?;
     let s = &scenes[0];
     let key = reference_key(

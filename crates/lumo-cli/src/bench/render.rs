@@ -3,9 +3,8 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use lumo_render::{render, PathSettings, RenderScene, RenderSettings};
-use lumo_scene::BUILTIN_SCENES;
 
 use super::{machine_description, median};
 use crate::render_cmd::{parse_size, si};
@@ -41,15 +40,8 @@ pub fn run(args: RenderBenchArgs) -> Result<()> {
 }
 
 fn run_render(args: RenderBenchArgs) -> Result<()> {
-    let names: Vec<String> = if args.scenes.is_empty() {
-        BUILTIN_SCENES.iter().map(|s| s.name.to_string()).collect()
-    } else {
-        args.scenes.clone()
-    };
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(args.threads.unwrap_or(0))
-        .build()
-        .context("cannot start worker threads")?;
+    let names = super::scenes::scene_names(&args.scenes);
+    let pool = crate::cli_common::worker_pool(args.threads)?;
     let threads = pool.current_num_threads();
     let (w, h) = args.size;
     let mut table = format!(

@@ -22,9 +22,13 @@ pub struct BenchScene {
     pub rr_depth: u32,
 }
 
-/// The default scene list: every built-in scene.
-pub fn default_scenes() -> Vec<String> {
-    BUILTIN_SCENES.iter().map(|s| s.name.to_string()).collect()
+/// The scenes a `--scenes` list names, or every built-in scene when it is empty.
+pub fn scene_names(given: &[String]) -> Vec<String> {
+    if given.is_empty() {
+        BUILTIN_SCENES.iter().map(|s| s.name.to_string()).collect()
+    } else {
+        given.to_vec()
+    }
 }
 
 /// Whether `lumo render` treats `arg` as a file (the same rule as `render_cmd`).

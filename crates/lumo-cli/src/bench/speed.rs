@@ -5,7 +5,7 @@
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use lumo_filter::{
     atrous, bilateral, build_guide, guided, synthetic_frame, AtrousParams, BilateralParams,
@@ -14,7 +14,7 @@ use lumo_filter::{
 use lumo_render::{run_pipeline, Pipeline, PipelineOptions, Timings};
 
 use super::atomic::{check_dir_writable, write_bytes};
-use super::scenes::{default_scenes, load_all, settings};
+use super::scenes::{load_all, scene_names, settings};
 use super::speed_report::{speed_markdown, FilterRow, RenderRow, SpeedContext};
 use crate::pipeline_args::parse_pipeline;
 use crate::render_cmd::parse_size;
@@ -78,15 +78,8 @@ pub fn run(args: SpeedArgs) -> Result<()> {
         bail!("--bounces: use at most 62 indirect bounces");
     }
     check_dir_writable(&args.out_dir)?;
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(args.threads.unwrap_or(0))
-        .build()
-        .context("cannot start worker threads")?;
-    let names = if args.scenes.is_empty() {
-        default_scenes()
-    } else {
-        args.scenes.clone()
-    };
+    let pool = crate::cli_common::worker_pool(args.threads)?;
+    let names = scene_names(&args.scenes);
     let scenes = if args.no_render {
         vec![]
     } else {
