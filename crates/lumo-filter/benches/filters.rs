@@ -5,7 +5,8 @@
 
 use std::time::Instant;
 
-use lumo_filter::*;
+use lumo_filter::table2::{self, Table2Kind};
+use lumo_filter::{synthetic_frame, SyntheticFrame};
 
 const RESOLUTIONS: [(usize, usize); 3] = [(512, 512), (1024, 1024), (1920, 1080)];
 
@@ -15,13 +16,7 @@ fn time<F: FnMut()>(mut f: F) -> (f64, usize) {
     let t = Instant::now();
     f();
     let first = t.elapsed().as_secs_f64() * 1e3;
-    let runs = if first > 20_000.0 {
-        1
-    } else if first > 4_000.0 {
-        3
-    } else {
-        5
-    };
+    let runs = table2::timed_runs_cap(first).min(5);
     let mut times = vec![first];
     for _ in 1..runs {
         let t = Instant::now();
@@ -58,100 +53,46 @@ fn main() {
         let cells: Vec<String> = frames.iter().map(|fr| cell(time(|| f(fr)))).collect();
         println!("| {name} | {cfg} | {} |", cells.join(" | "));
     };
-    if wants("atrous") {
-        for it in [1usize, 5, 10] {
-            for weights in 0..=3 {
-                let p = AtrousParams {
-                    iterations: it,
-                    sigma_color: (weights >= 1).then_some(4.0),
-                    sigma_luminance: None,
-                    sigma_normal: (weights >= 2).then_some(0.3),
-                    sigma_position: (weights >= 3).then_some(0.1),
-                    ..AtrousParams::default()
-                };
-                let names = ["none", "colour", "colour+normal", "colour+normal+position"];
-                row(
-                    "À-Trous",
-                    &format!("{it} it, {weights} weights ({})", names[weights]),
-                    &|fr| {
-                        let f = Features {
-                            normal: Some(&fr.normal),
-                            position: Some(&fr.position),
-                            depth: Some(&fr.depth),
-                            ..Features::default()
-                        };
-                        std::hint::black_box(atrous(&fr.noisy, &f, &p).unwrap());
-                    },
-                );
-            }
-        }
-        let p = AtrousParams::default();
-        row(
-            "À-Trous",
-            "5 it, variance-guided + normal + position",
-            &|fr| {
-                let f = Features {
-                    normal: Some(&fr.normal),
-                    position: Some(&fr.position),
-                    depth: Some(&fr.depth),
-                    variance: Some(&fr.variance),
-                    ..Features::default()
-                };
-                std::hint::black_box(atrous(&fr.noisy, &f, &p).unwrap());
-            },
-        );
-    }
-    if wants("guided") {
-        for (kind, d) in [
-            (GuideKind::Grey, 1),
-            (GuideKind::Normal, 3),
-            (GuideKind::NormalDepth, 4),
-        ] {
-            for s in [1usize, 4] {
-                let label = if s == 1 {
+    for c in table2::table2_configs() {
+        let (group, name, cfg) = match c.kind {
+            Table2Kind::Atrous {
+                iterations,
+                weights,
+            } => (
+                "atrous",
+                "À-Trous",
+                format!(
+                    "{iterations} it, {weights} weights ({})",
+                    table2::ATROUS_WEIGHT_NAMES[weights]
+                ),
+            ),
+            Table2Kind::AtrousDefault => (
+                "atrous",
+                "À-Trous",
+                "5 it, variance-guided + normal + position".to_string(),
+            ),
+            Table2Kind::Guided { dims, fast } => {
+                let mode = if fast == 1 {
                     "exact".to_string()
                 } else {
-                    format!("fast s={s}")
+                    format!("fast s={fast}")
                 };
-                row(
+                (
                     "guided",
-                    &format!("{d} dims, r=24, {label} (incl. guide build)"),
-                    &|fr| {
-                        let f = Features {
-                            normal: Some(&fr.normal),
-                            depth: Some(&fr.depth),
-                            ..Features::default()
-                        };
-                        let g = build_guide(kind, &f, DepthNorm::Range, 0.003, 0.003).unwrap();
-                        let p = GuidedParams {
-                            radius: 24,
-                            fast_subsample: s,
-                        };
-                        std::hint::black_box(guided(&fr.noisy, &g, &p).unwrap());
-                    },
-                );
+                    "guided",
+                    format!("{dims} dims, r=24, {mode} (incl. guide build)"),
+                )
             }
-        }
-    }
-    if wants("bilateral") {
-        for r in [16usize, 24, 32] {
-            let p = BilateralParams {
-                radius: r,
-                sigma_spatial: r as f32 / 2.0,
-                ..BilateralParams::default()
-            };
-            row(
+            Table2Kind::Bilateral { radius } => (
+                "bilateral",
                 "cross bilateral",
-                &format!("r={r}, normal + depth"),
-                &|fr| {
-                    let f = Features {
-                        normal: Some(&fr.normal),
-                        depth: Some(&fr.depth),
-                        ..Features::default()
-                    };
-                    std::hint::black_box(bilateral(&fr.noisy, &f, &p).unwrap());
-                },
-            );
+                format!("r={radius}, normal + depth"),
+            ),
+        };
+        if wants(group) {
+            row(name, &cfg, &|fr| {
+                (c.run)(fr).expect("filter on a synthetic frame")
+            });
         }
     }
 }

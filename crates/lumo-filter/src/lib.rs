@@ -40,6 +40,7 @@ mod noise;
 mod outliers;
 pub mod synthetic;
 pub use synthetic::{synthetic_frame, SyntheticFrame};
+pub mod table2;
 
 pub use albedo::{demodulate, with_demodulation, Demodulated, ALBEDO_EPS};
 pub use atrous::{

@@ -7,10 +7,8 @@ use std::time::{Duration, Instant};
 
 use anyhow::{bail, Result};
 use indicatif::{ProgressBar, ProgressStyle};
-use lumo_filter::{
-    atrous, bilateral, build_guide, guided, synthetic_frame, AtrousParams, BilateralParams,
-    DepthNorm, Features, GuideKind, GuidedParams, SyntheticFrame,
-};
+use lumo_filter::synthetic_frame;
+use lumo_filter::table2::{self, Table2Kind};
 use lumo_render::{run_pipeline, Pipeline, PipelineOptions, Timings};
 
 use super::atomic::{check_dir_writable, write_bytes};
@@ -197,125 +195,54 @@ fn measure(args: &SpeedArgs, mut f: impl FnMut() -> Result<Timings>) -> Result<(
     Ok((runs[n / 2], n))
 }
 
-/// The most timed runs a cell whose single run takes `d` gets.
+/// The most timed runs a cell whose single run takes `d` gets (the rule of `cargo bench`).
 fn cap(d: Duration) -> usize {
-    if d > Duration::from_secs(20) {
-        1
-    } else if d > Duration::from_secs(4) {
-        3
-    } else {
-        usize::MAX
-    }
+    table2::timed_runs_cap(d.as_secs_f64() * 1e3)
 }
 
-/// Filters one synthetic frame.
-type FilterRun = Box<dyn Fn(&SyntheticFrame) -> Result<()> + Sync>;
-
-/// One Table 2 configuration.
+/// One Table 2 row of `speed.md`.
 struct FilterConfig {
     filter: &'static str,
     label: String,
-    run: FilterRun,
+    run: table2::Table2Run,
 }
 
-/// The configurations of crates/lumo-filter/benches/filters.rs (the papers' Table 2 shape):
-/// À-Trous at 1, 5 and 10 iterations with 1–3 edge-stopping weights and the variance-guided
-/// default; the guided filter with 1, 3 and 4 guide dimensions, exact and fast; the
-/// cross-bilateral filter at r = 16, 24, 32. Times include input conversion and guide building.
+/// The configurations of `lumo_filter::table2` (shared with `cargo bench -p lumo-filter`),
+/// without the unweighted À-Trous rows, labelled for speed.md.
 fn filter_configs() -> Vec<FilterConfig> {
-    let mut v = Vec::new();
-    let weights = ["colour", "colour+normal", "colour+normal+position"];
-    for it in [1usize, 5, 10] {
-        for (k, name) in weights.iter().enumerate() {
-            let p = AtrousParams {
-                iterations: it,
-                sigma_color: Some(4.0),
-                sigma_luminance: None,
-                sigma_normal: (k >= 1).then_some(0.3),
-                sigma_position: (k >= 2).then_some(0.1),
-                ..AtrousParams::default()
-            };
-            v.push(FilterConfig {
-                filter: "À-Trous",
-                label: format!("{it} it, {name}"),
-                run: Box::new(move |fr| {
-                    let f = Features {
-                        normal: Some(&fr.normal),
-                        position: Some(&fr.position),
-                        depth: Some(&fr.depth),
-                        ..Features::default()
+    table2::table2_configs()
+        .into_iter()
+        .filter_map(|c| {
+            let (filter, label) = match c.kind {
+                Table2Kind::Atrous { weights: 0, .. } => return None,
+                Table2Kind::Atrous {
+                    iterations,
+                    weights,
+                } => (
+                    "À-Trous",
+                    format!("{iterations} it, {}", table2::ATROUS_WEIGHT_NAMES[weights]),
+                ),
+                Table2Kind::AtrousDefault => (
+                    "À-Trous",
+                    "5 it, variance-guided + normal + position (lumo's default)".to_string(),
+                ),
+                Table2Kind::Guided { dims, fast } => {
+                    let mode = if fast == 1 {
+                        "exact".to_string()
+                    } else {
+                        format!("fast s={fast}")
                     };
-                    std::hint::black_box(atrous(&fr.noisy, &f, &p)?);
-                    Ok(())
-                }),
-            });
-        }
-    }
-    v.push(FilterConfig {
-        filter: "À-Trous",
-        label: "5 it, variance-guided + normal + position (lumo's default)".into(),
-        run: Box::new(|fr| {
-            let f = Features {
-                normal: Some(&fr.normal),
-                position: Some(&fr.position),
-                depth: Some(&fr.depth),
-                variance: Some(&fr.variance),
-                ..Features::default()
+                    ("guided", format!("{dims} dims, r=24, {mode}"))
+                }
+                Table2Kind::Bilateral { radius } => {
+                    ("cross bilateral", format!("r={radius}, normal + depth"))
+                }
             };
-            std::hint::black_box(atrous(&fr.noisy, &f, &AtrousParams::default())?);
-            Ok(())
-        }),
-    });
-    for (kind, d) in [
-        (GuideKind::Grey, 1),
-        (GuideKind::Normal, 3),
-        (GuideKind::NormalDepth, 4),
-    ] {
-        for s in [1usize, 4] {
-            let mode = if s == 1 {
-                "exact".to_string()
-            } else {
-                format!("fast s={s}")
-            };
-            v.push(FilterConfig {
-                filter: "guided",
-                label: format!("{d} dims, r=24, {mode}"),
-                run: Box::new(move |fr| {
-                    let f = Features {
-                        normal: Some(&fr.normal),
-                        depth: Some(&fr.depth),
-                        ..Features::default()
-                    };
-                    let g = build_guide(kind, &f, DepthNorm::Range, 0.003, 0.003)?;
-                    let p = GuidedParams {
-                        radius: 24,
-                        fast_subsample: s,
-                    };
-                    std::hint::black_box(guided(&fr.noisy, &g, &p)?);
-                    Ok(())
-                }),
-            });
-        }
-    }
-    for r in [16usize, 24, 32] {
-        let p = BilateralParams {
-            radius: r,
-            sigma_spatial: r as f32 / 2.0,
-            ..BilateralParams::default()
-        };
-        v.push(FilterConfig {
-            filter: "cross bilateral",
-            label: format!("r={r}, normal + depth"),
-            run: Box::new(move |fr| {
-                let f = Features {
-                    normal: Some(&fr.normal),
-                    depth: Some(&fr.depth),
-                    ..Features::default()
-                };
-                std::hint::black_box(bilateral(&fr.noisy, &f, &p)?);
-                Ok(())
-            }),
-        });
-    }
-    v
+            Some(FilterConfig {
+                filter,
+                label,
+                run: c.run,
+            })
+        })
+        .collect()
 }
