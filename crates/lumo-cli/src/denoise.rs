@@ -6,8 +6,8 @@ use std::time::Instant;
 
 use anyhow::{bail, Context};
 use lumo_filter::{
-    atrous, bilateral, build_guide, guided, missing_pixels, with_demodulation, AtrousParams,
-    BilateralParams, DepthNorm, Features, Filtered, GuideKind, GuidedParams,
+    atrous, bilateral, build_guide, guided, missing_pixels, with_demodulation, with_passthrough,
+    AtrousParams, BilateralParams, DepthNorm, Features, Filtered, GuideKind, GuidedParams,
 };
 use lumo_image::{read_image, write_image, Image};
 
@@ -441,23 +441,11 @@ pub fn run(args: DenoiseArgs) -> anyhow::Result<()> {
     let mut filtered = None;
     for _ in 0..args.repeat {
         let t1 = Instant::now();
-        let mut color = inputs.color.1.clone();
-        if let Some(em) = &emitters {
-            for (i, _) in em.iter().enumerate().filter(|(_, &e)| e) {
-                color.data[i * 3..i * 3 + 3].fill(f32::NAN);
-            }
-        }
-        let mut f = run_filter(&args, &inputs, &color)?;
-        if let Some(em) = &emitters {
-            let orig = &inputs.color.1;
-            for (i, _) in em.iter().enumerate().filter(|(_, &e)| e) {
-                for c in 0..3 {
-                    let v = orig.data[i * 3 + c];
-                    f.image.data[i * 3 + c] = if v.is_finite() { v } else { 0.0 };
-                }
-            }
-        }
-        filtered = Some(f);
+        let color = &inputs.color.1;
+        filtered = Some(match &emitters {
+            Some(em) => with_passthrough(color, em, |c| run_filter(&args, &inputs, c))?,
+            None => run_filter(&args, &inputs, color)?,
+        });
         times.push(t1.elapsed());
     }
     times.sort();

@@ -4,6 +4,7 @@
 use lumo_image::{luminance, Image};
 
 use crate::gbuffer::{check_color, check_size, missing_pixels, Filtered};
+use crate::passthrough::passed;
 use crate::FilterError;
 
 /// Albedo below this (in every channel) cannot be divided by safely: such pixels (black
@@ -69,12 +70,7 @@ impl Demodulated {
             for c in 0..3 {
                 let k = i * 3 + c;
                 out.data[k] = if pt {
-                    let v = color.data[k];
-                    if v.is_finite() {
-                        v
-                    } else {
-                        0.0
-                    }
+                    passed(color.data[k])
                 } else {
                     filtered.data[k] * self.albedo.data[k]
                 };

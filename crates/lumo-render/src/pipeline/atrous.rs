@@ -5,7 +5,7 @@
 use std::time::Instant;
 
 use glam::Vec3;
-use lumo_filter::{atrous, spatial_variance, AtrousParams, Features};
+use lumo_filter::{atrous, spatial_variance, with_passthrough, AtrousParams, Features};
 
 use super::compose::trace_full;
 use super::{PipelineError, PipelineOptions, PipelineOutput, Timings};
@@ -41,12 +41,6 @@ pub(super) fn run(
         .iter()
         .map(|e| e.first_hit.emitted != Vec3::ZERO && e.first_hit.albedo != Vec3::ZERO)
         .collect();
-    let mut input = frame.color.clone();
-    for (i, &e) in emitter.iter().enumerate() {
-        if e || !traced(i) {
-            input.data[i * 3..i * 3 + 3].fill(f32::NAN);
-        }
-    }
     // The colour weight is steered by a spatial estimate of the noise in the mean image (see
     // `lumo_filter::spatial_variance`) at every spp: per-pixel variances of a few samples are zero
     // wherever those samples happen to agree, which pins such pixels against all smoothing.
@@ -63,15 +57,20 @@ pub(super) fn run(
         demodulate: true,
         ..AtrousParams::default()
     };
-    let filtered = atrous(&input, &features, &params)?;
+    let filtered = with_passthrough(&frame.color, &emitter, |c| {
+        if n == 1 {
+            return atrous(c, &features, &params);
+        }
+        // Only the traced pixels carry colour; the filter in-paints the others.
+        let mut sparse = c.clone();
+        for i in (0..w * h).filter(|&i| !traced(i)) {
+            sparse.data[i * 3..i * 3 + 3].fill(f32::NAN);
+        }
+        atrous(&sparse, &features, &params)
+    })?;
     let filter = t.elapsed();
     let t = Instant::now();
-    let mut image = filtered.image;
-    for (i, &e) in emitter.iter().enumerate() {
-        if e {
-            image.data[i * 3..i * 3 + 3].copy_from_slice(&frame.color.data[i * 3..i * 3 + 3]);
-        }
-    }
+    let image = filtered.image;
     if n > 1 {
         // The traced frame's colour is meaningful only at the traced pixels.
         for i in (0..w * h).filter(|&i| !traced(i)) {

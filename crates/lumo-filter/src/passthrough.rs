@@ -1,0 +1,64 @@
+//! Pixels a filter must leave exactly as they are: lights and sky seen directly (noise-free and
+//! far brighter than their surroundings) and, in demodulation, pixels without an albedo.
+
+use lumo_image::Image;
+
+use crate::gbuffer::{missing_pixels, Filtered};
+
+/// The colour of a pass-through channel value: itself, or 0 where it is not finite.
+pub(crate) fn passed(v: f32) -> f32 {
+    if v.is_finite() {
+        v
+    } else {
+        0.0
+    }
+}
+
+/// Runs `filter` with the pixels where `pass` is true left out — missing, so they neither
+/// receive nor give weight — then puts their colour from `color` back. The reported missing
+/// count is that of `color`. Errors are the filter's own (any type).
+pub fn with_passthrough<F, E>(color: &Image, pass: &[bool], filter: F) -> Result<Filtered, E>
+where
+    F: FnOnce(&Image) -> Result<Filtered, E>,
+{
+    let mut input = color.clone();
+    for (i, _) in pass.iter().enumerate().filter(|(_, &p)| p) {
+        input.data[i * 3..i * 3 + 3].fill(f32::NAN);
+    }
+    let mut out = filter(&input)?;
+    for (i, _) in pass.iter().enumerate().filter(|(_, &p)| p) {
+        for k in i * 3..i * 3 + 3 {
+            out.image.data[k] = passed(color.data[k]);
+        }
+    }
+    out.missing = missing_pixels(color);
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn passed_pixels_are_hidden_from_the_filter_and_put_back() {
+        let mut color = Image::new(4, 1, 3, 0.5);
+        color.data[3..6].fill(50.0); // pixel 1 is a light
+        color.data[9] = f32::NAN; // pixel 3 is broken and passed through too
+        let pass = [false, true, false, true];
+        let out = with_passthrough::<_, FilterError>(&color, &pass, |c| {
+            // The filter sees NaN where pixels are passed through; it averages the rest.
+            assert!(c.data[3].is_nan() && c.data[9].is_nan());
+            let valid: Vec<f32> = c.data.iter().copied().filter(|v| v.is_finite()).collect();
+            let mean = valid.iter().sum::<f32>() / valid.len() as f32;
+            Ok(Filtered {
+                image: Image::new(4, 1, 3, mean),
+                missing: 0,
+            })
+        })
+        .unwrap();
+        assert_eq!(&out.image.data[0..3], &[0.5; 3]);
+        assert_eq!(&out.image.data[3..6], &[50.0; 3]);
+        assert_eq!(out.image.data[9], 0.0);
+        assert_eq!(out.missing, 1);
+    }
+}
