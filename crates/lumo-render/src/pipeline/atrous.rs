@@ -44,13 +44,20 @@ pub(super) fn run(
     // The colour weight is steered by a spatial estimate of the noise in the mean image (see
     // `lumo_filter::spatial_variance`) at every spp: per-pixel variances of a few samples are zero
     // wherever those samples happen to agree, which pins such pixels against all smoothing.
-    let variance = spatial_variance(&frame.color);
+    // At 1 spp the frame already holds exactly that estimate.
+    let computed;
+    let variance = if frame.spp == 1 {
+        &frame.variance
+    } else {
+        computed = spatial_variance(&frame.color);
+        &computed
+    };
     let features = Features {
         normal: Some(&frame.normal),
         position: Some(&frame.position),
         depth: Some(&frame.depth),
         albedo: Some(&frame.albedo),
-        variance: Some(&variance),
+        variance: Some(variance),
     };
     let params = AtrousParams {
         sparse: n,
