@@ -39,15 +39,12 @@ import tempfile
 import time
 from pathlib import Path
 
+# The libLLVM search of the Cornell comparison (same folder, standard library only).
+from compare_mitsuba import ensure_llvm_path
+
 REPO = Path(__file__).resolve().parent.parent
 DEFAULT_SCENE = REPO / "scenes" / "compare" / "materials_compare.xml"
 EPS = 1e-2
-
-_DEBIAN_LLVM = [
-    "/usr/lib/x86_64-linux-gnu/libLLVM-19.so",
-    "/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1",
-    "/usr/lib/llvm-19/lib/libLLVM-19.so",
-]
 
 # Regions as fractions of the image (x0, x1, y0, y1), y downwards; each lies mostly on one
 # object of materials_compare.xml at its default camera.
@@ -61,11 +58,7 @@ REGIONS = {
 
 
 def import_mitsuba(variant: str):
-    if not os.environ.get("DRJIT_LIBLLVM_PATH"):
-        for p in _DEBIAN_LLVM:
-            if os.path.exists(p):
-                os.environ["DRJIT_LIBLLVM_PATH"] = p
-                break
+    ensure_llvm_path()
     import mitsuba as mi  # noqa: E402  (DRJIT_LIBLLVM_PATH must be set first)
 
     try:
