@@ -38,6 +38,7 @@ where
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::FilterError;
 
     #[test]
     fn passed_pixels_are_hidden_from_the_filter_and_put_back() {
