@@ -5,8 +5,9 @@ use lumo_image::{luminance, Image};
 use rayon::prelude::*;
 
 use crate::albedo::demodulate;
-use crate::atrous_kernel::{self, Isa, Level, CM_FIXED, CM_NONE, CM_VARIANCE, K, KA, MAX_NF};
+use crate::atrous_kernel::{self, Isa, Level, Path, CM_FIXED, CM_NONE, CM_VARIANCE, K, KA, MAX_NF};
 use crate::atrous_layout::{Layout, CW, M, QW};
+use crate::atrous_pairs;
 use crate::error::param;
 use crate::gbuffer::{check_color, check_features, missing_pixels, Features, Filtered, Prepared};
 use crate::FilterError;
@@ -166,10 +167,15 @@ pub(crate) fn variance_plane(v: &Image) -> Vec<f32> {
         .collect()
 }
 
-/// Scale of the background coordinate: a background/geometry pair is 64² log2 units apart,
-/// far below the weight cutoff, so the two never mix (the paper's shader does the same with a
-/// separate test).
+/// Scale of the background coordinate (used when there is no position plane to fold it
+/// into): a background/geometry pair is 64² log2 units apart, far below the weight cutoff, so
+/// the two never mix (the paper's shader does the same with a separate test).
 const BACKGROUND_SCALE: f32 = 64.0;
+
+/// How far (in scaled units, per coordinate) background pixels are put beyond the farthest
+/// geometry when the background flag is folded into the position: 3·8² log2 units, below the
+/// weight cutoff (28.9), so background and geometry never mix, as with a separate flag.
+const BACKGROUND_GAP: f32 = 8.0;
 
 /// Which weights one level uses and their scales, all in log2 units of the weight.
 struct LevelWeights {
@@ -182,6 +188,24 @@ struct LevelWeights {
     /// Feature scales (multiply the coordinates), `None` when the weight is off.
     normal: Option<f32>,
     position: Option<f32>,
+}
+
+/// Per coordinate, the position value background pixels get (scaled units): the background
+/// flag folded into the position, which saves the kernels one coordinate.
+fn background_positions(x: &[Vec<f32>; 3], background: &[f32], scale: f32) -> [f32; 3] {
+    std::array::from_fn(|k| {
+        let hi = x[k]
+            .par_iter()
+            .zip(background)
+            .filter(|(_, &b)| b == 0.0)
+            .map(|(&v, _)| v)
+            .reduce(|| f32::NEG_INFINITY, f32::max);
+        if hi.is_finite() {
+            hi * scale + BACKGROUND_GAP
+        } else {
+            0.0
+        }
+    })
 }
 
 /// Fills the aux planes of every block for one level: colour factor (0 at missing centre
@@ -197,16 +221,24 @@ fn build_aux(
     lw: &LevelWeights,
     first: bool,
 ) -> usize {
-    // (plane, scale) of every feature coordinate in use; the background flag always is.
-    let mut dims: Vec<(&[f32], f32)> = Vec::with_capacity(MAX_NF);
+    // (plane, scale, value on background) of every feature coordinate in use; the
+    // background flag is one unless it is folded into the position.
+    let mut dims: Vec<(&[f32], f32, f32)> = Vec::with_capacity(MAX_NF);
     if let (Some(s), Some(n)) = (lw.normal, &prep.normal) {
-        dims.extend(n.iter().map(|p| (&p[..], s)));
+        dims.extend(n.iter().map(|p| (&p[..], s, 0.0)));
     }
     let rebuild = if first { MAX_NF } else { dims.len() };
-    if let (Some(s), Some(x)) = (lw.position, &prep.position) {
-        dims.extend(x.iter().map(|p| (&p[..], s)));
+    match (lw.position, &prep.position) {
+        (Some(s), Some(x)) => {
+            let bg = if first {
+                background_positions(x, &prep.background, s)
+            } else {
+                [0.0; 3]
+            };
+            dims.extend(x.iter().zip(bg).map(|(p, b)| (&p[..], s, b)));
+        }
+        _ => dims.push((&prep.background[..], BACKGROUND_SCALE, 0.0)),
     }
-    dims.push((&prep.background[..], BACKGROUND_SCALE));
     let w = lay.w;
     aux.par_chunks_mut(KA * QW).enumerate().for_each(|(b, a)| {
         let (c, y) = lay.strip_row(b);
@@ -235,10 +267,12 @@ fn build_aux(
             }
             _ => {}
         }
-        for (k, &(plane, scale)) in dims.iter().enumerate().take(rebuild) {
-            let from = &plane[y * w + x0 + ja - M..y * w + x0 + jb - M];
-            for (o, v) in fa[k * QW + ja..k * QW + jb].iter_mut().zip(from) {
-                *o = v * scale;
+        let rows = y * w + x0 + ja - M..y * w + x0 + jb - M;
+        let bg = &prep.background[rows.clone()];
+        for (k, &(plane, scale, on_bg)) in dims.iter().enumerate().take(rebuild) {
+            let from = &plane[rows.clone()];
+            for ((o, v), b) in fa[k * QW + ja..k * QW + jb].iter_mut().zip(from).zip(bg) {
+                *o = v * scale + b * on_bg;
             }
         }
     });
@@ -278,7 +312,7 @@ fn inverse_sigma(
 }
 
 fn run(prep: &Prepared, variance: Option<Vec<f32>>, params: &AtrousParams) -> Image {
-    run_with(prep, variance, params, Isa::detect(), true)
+    run_with(prep, variance, params, Isa::detect(), Path::Auto)
 }
 
 /// [`run`] with a chosen instruction set and kernel path (tests compare their results).
@@ -287,7 +321,7 @@ pub(crate) fn run_with(
     variance: Option<Vec<f32>>,
     params: &AtrousParams,
     isa: Isa,
-    fused: bool,
+    path: Path,
 ) -> Image {
     let (w, h) = (prep.w, prep.h);
     let lay = Layout::new(w, h);
@@ -373,11 +407,15 @@ pub(crate) fn run_with(
             cm,
             var: var_mode,
             isa,
-            fused,
+            path,
         };
-        dst.par_chunks_mut(K * QW)
-            .enumerate()
-            .for_each(|(b, blk)| atrous_kernel::block(&level, b, blk));
+        if path == Path::Auto && atrous_pairs::supports(&level) {
+            atrous_pairs::level(&level, &mut dst);
+        } else {
+            dst.par_chunks_mut(K * QW)
+                .enumerate()
+                .for_each(|(b, blk)| atrous_kernel::block(&level, b, blk));
+        }
         lay.fill_margins(&mut dst, K);
         std::mem::swap(&mut src, &mut dst);
     }

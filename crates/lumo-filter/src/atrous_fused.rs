@@ -66,6 +66,11 @@ pub(crate) fn block_fused<const NF: usize, const CM: u8, const VAR: bool>(
             Isa::Avx2 => unsafe {
                 fused_avx2::<NF, CM, VAR>(p, pa, q, qa, &mut acc, len, l.step, c0, cut)
             },
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `Isa::Avx512` is only chosen after run-time detection of AVX-512F and FMA.
+            Isa::Avx512 => unsafe {
+                fused_avx512::<NF, CM, VAR>(p, pa, q, qa, &mut acc, len, l.step, c0, cut)
+            },
             _ => fused_base::<NF, CM, VAR>(p, pa, q, qa, &mut acc, len, l.step, c0, cut),
         }
     }
@@ -94,6 +99,24 @@ fn fused_base<const NF: usize, const CM: u8, const VAR: bool>(
 #[allow(clippy::too_many_arguments)]
 #[inline(never)]
 unsafe fn fused_avx2<const NF: usize, const CM: u8, const VAR: bool>(
+    p: &SrcBlock,
+    pa: &AuxBlock,
+    q: &SrcBlock,
+    qa: &AuxBlock,
+    acc: &mut [f32; AN * CW],
+    len: usize,
+    step: usize,
+    c0: [f32; 5],
+    cut: [f32; 5],
+) {
+    fused_impl::<NF, CM, VAR, true>(p, pa, q, qa, acc, len, step, c0, cut)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
+#[allow(clippy::too_many_arguments)]
+#[inline(never)]
+unsafe fn fused_avx512<const NF: usize, const CM: u8, const VAR: bool>(
     p: &SrcBlock,
     pa: &AuxBlock,
     q: &SrcBlock,

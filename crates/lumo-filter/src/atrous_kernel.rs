@@ -18,8 +18,9 @@ use crate::fastmath::{exp2_cut, mul_add, EXP_CUTOFF};
 
 /// Source planes per block: r, g, b, validity, variance.
 pub(crate) const K: usize = 5;
-/// Largest number of feature coordinates: normal xyz, position xyz, background.
-pub(crate) const MAX_NF: usize = 7;
+/// Largest number of feature coordinates: normal xyz, position xyz (the background flag is
+/// folded into the position when there is one, see atrous.rs).
+pub(crate) const MAX_NF: usize = 6;
 /// Aux planes per block: colour factor, luminance, then up to [`MAX_NF`] features.
 pub(crate) const KA: usize = 2 + MAX_NF;
 
@@ -37,6 +38,21 @@ pub(crate) enum Isa {
     Baseline,
     /// AVX2 + FMA (x86-64 only, detected at run time).
     Avx2,
+    /// AVX-512F/VL + FMA (x86-64 only, detected at run time): the pair and fused paths use
+    /// 16-float vectors, the per-tap path its AVX2 copy.
+    Avx512,
+}
+
+/// Which kernel path a level takes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Path {
+    /// The fastest one the level allows: pairs, else fused, else per tap.
+    Auto,
+    /// Fused where the step allows, else per tap (never pairs).
+    #[cfg_attr(not(test), allow(dead_code))] // tests compare the paths
+    Fused,
+    /// Per tap only.
+    Taps,
 }
 
 impl Isa {
@@ -44,6 +60,12 @@ impl Isa {
     pub fn detect() -> Isa {
         #[cfg(target_arch = "x86_64")]
         {
+            if std::is_x86_feature_detected!("avx512f")
+                && std::is_x86_feature_detected!("avx512vl")
+                && std::is_x86_feature_detected!("fma")
+            {
+                return Isa::Avx512;
+            }
             if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
                 return Isa::Avx2;
             }
@@ -60,14 +82,14 @@ pub(crate) struct Level<'a> {
     pub src: &'a [f32],
     /// KA planes per block (colour factor, luminance, scaled features).
     pub aux: &'a [f32],
-    /// Feature coordinates in use (1, 4 or 7).
+    /// Feature coordinates in use (1, 3, 4 or 6).
     pub nf: usize,
     pub cm: u8,
     /// Carry the variance (only when a later level reads it).
     pub var: bool,
     pub isa: Isa,
-    /// Use the fused path where the step allows (off: per-tap path, for tests).
-    pub fused: bool,
+    /// Kernel path (tests compare them).
+    pub path: Path,
 }
 
 /// Log2 of the B3 weight of tap (kx, ky) and the exponent below which its weight is 0 (the
@@ -79,7 +101,7 @@ pub(crate) fn tap_consts(kx: usize, ky: usize) -> (f32, f32) {
 
 /// Block `b` of one level into `dst` (K planes, the block's margins are left 0).
 pub(crate) fn block(l: &Level, b: usize, dst: &mut [f32]) {
-    let fused = l.fused && l.step <= MAX_STEP;
+    let fused = l.path != Path::Taps && l.step <= MAX_STEP;
     macro_rules! go {
         ($nf:literal, $cm:expr, $var:literal) => {
             if fused {
@@ -94,14 +116,18 @@ pub(crate) fn block(l: &Level, b: usize, dst: &mut [f32]) {
         (1, CM_FIXED, false) => go!(1, CM_FIXED, false),
         (1, CM_NONE, true) => go!(1, CM_NONE, true),
         (1, _, true) => go!(1, CM_VARIANCE, true),
+        (3, CM_NONE, false) => go!(3, CM_NONE, false),
+        (3, CM_FIXED, false) => go!(3, CM_FIXED, false),
+        (3, CM_NONE, true) => go!(3, CM_NONE, true),
+        (3, _, true) => go!(3, CM_VARIANCE, true),
         (4, CM_NONE, false) => go!(4, CM_NONE, false),
         (4, CM_FIXED, false) => go!(4, CM_FIXED, false),
         (4, CM_NONE, true) => go!(4, CM_NONE, true),
         (4, _, true) => go!(4, CM_VARIANCE, true),
-        (_, CM_NONE, false) => go!(7, CM_NONE, false),
-        (_, CM_FIXED, false) => go!(7, CM_FIXED, false),
-        (_, CM_NONE, true) => go!(7, CM_NONE, true),
-        (_, _, _) => go!(7, CM_VARIANCE, true),
+        (_, CM_NONE, false) => go!(6, CM_NONE, false),
+        (_, CM_FIXED, false) => go!(6, CM_FIXED, false),
+        (_, CM_NONE, true) => go!(6, CM_NONE, true),
+        (_, _, _) => go!(6, CM_VARIANCE, true),
     }
 }
 
@@ -198,7 +224,7 @@ fn block_taps<const NF: usize, const CM: u8, const VAR: bool>(
                     #[cfg(target_arch = "x86_64")]
                     // SAFETY: `Isa::Avx2` is only chosen after run-time detection of AVX2 and
                     // FMA.
-                    Isa::Avx2 => unsafe {
+                    Isa::Avx2 | Isa::Avx512 => unsafe {
                         tap_avx2::<NF, CM, VAR>(prow, qrow, paux, qaux, &mut acc, t)
                     },
                     _ => tap_base::<NF, CM, VAR>(prow, qrow, paux, qaux, &mut acc, t),

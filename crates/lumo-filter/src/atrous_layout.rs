@@ -9,9 +9,10 @@
 //! without clipping: outside the image the validity plane is 0, so such a tap adds nothing.
 
 /// Columns per strip.
-pub(crate) const CW: usize = 256;
-/// Margin columns on each side of a strip (taps up to 2·16 columns away).
-pub(crate) const M: usize = 32;
+pub(crate) const CW: usize = 512;
+/// Margin columns on each side of a strip: the fused path reads taps up to 2·32 columns
+/// away, the pair path sweeps 2·16 columns into a neighbour and reads 2·16 beyond.
+pub(crate) const M: usize = 64;
 /// Floats per sub-row: margin, strip, margin.
 pub(crate) const QW: usize = CW + 2 * M;
 

@@ -4,7 +4,7 @@
 use lumo_image::{luminance, Image};
 
 use crate::atrous::{run_with, variance_plane, AtrousParams, B3, VARIANCE_EPS};
-use crate::atrous_kernel::Isa;
+use crate::atrous_kernel::{Isa, Path};
 use crate::gbuffer::{Features, Prepared};
 use crate::synthetic::synthetic_frame;
 
@@ -145,22 +145,26 @@ fn rel_diff(a: &Image, b: &Image) -> f32 {
 /// Every instruction set this machine can run.
 fn isas() -> Vec<Isa> {
     let mut v = vec![Isa::Baseline];
-    if Isa::detect() == Isa::Avx2 {
-        v.push(Isa::Avx2);
+    match Isa::detect() {
+        Isa::Avx512 => v.extend([Isa::Avx2, Isa::Avx512]),
+        Isa::Avx2 => v.push(Isa::Avx2),
+        Isa::Baseline => {}
     }
     v
 }
 
-/// 300 columns (two strips, so taps cross strip margins), a few missing pixels.
+/// 600 columns (two strips, so taps cross strip margins) and 140 rows (the pair path's bands
+/// split at rows 64 and 128), a few missing pixels.
 fn case() -> (crate::SyntheticFrame, Image) {
-    let f = synthetic_frame(300, 37, 2, 3);
+    let f = synthetic_frame(600, 140, 2, 3);
     let mut c = f.noisy.clone();
     for (x, y) in [
         (0, 0),
-        (255, 10),
-        (256, 10),
-        (257, 11),
-        (299, 36),
+        (511, 10),
+        (512, 10),
+        (513, 63),
+        (599, 139),
+        (300, 64),
         (100, 20),
     ] {
         c.pixel_mut(x, y)[1] = f32::NAN;
@@ -179,15 +183,22 @@ fn check(params: &AtrousParams, with_variance: bool) {
     let prep = Prepared::new(&c, &feats).unwrap();
     let var = with_variance.then(|| variance_plane(&f.variance));
     let want = direct(&prep, var.as_deref(), params);
-    let base = run_with(&prep, var.clone(), params, Isa::Baseline, true);
+    let base = run_with(&prep, var.clone(), params, Isa::Baseline, Path::Fused);
     for isa in isas() {
-        let fused = run_with(&prep, var.clone(), params, isa, true);
-        let taps = run_with(&prep, var.clone(), params, isa, false);
+        let fused = run_with(&prep, var.clone(), params, isa, Path::Fused);
+        let taps = run_with(&prep, var.clone(), params, isa, Path::Taps);
+        // The AVX-512 build of the fused path rounds like the AVX2 build of the per-tap one.
         assert_eq!(fused, taps, "{isa:?}: fused and per-tap paths differ");
         let d = rel_diff(&fused, &want);
         assert!(d < 2e-4, "{isa:?} vs direct: {d}");
         let d = rel_diff(&fused, &base);
         assert!(d < 2e-5, "{isa:?} vs baseline: {d}");
+        // The pair path sums in another order: equal up to rounding.
+        let auto = run_with(&prep, var.clone(), params, isa, Path::Auto);
+        let d = rel_diff(&auto, &want);
+        assert!(d < 2e-4, "{isa:?} pairs vs direct: {d}");
+        let d = rel_diff(&auto, &fused);
+        assert!(d < 2e-5, "{isa:?} pairs vs fused: {d}");
     }
 }
 

@@ -24,6 +24,7 @@ mod atrous;
 mod atrous_fused;
 mod atrous_kernel;
 mod atrous_layout;
+mod atrous_pairs;
 #[cfg(test)]
 mod atrous_tests;
 mod bilateral;
