@@ -405,6 +405,7 @@ pub(crate) fn run_with(
             aux: &aux,
             nf,
             cm,
+            color_scale: lw.color_scale,
             var: var_mode,
             isa,
             path,

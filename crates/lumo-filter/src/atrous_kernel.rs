@@ -85,6 +85,8 @@ pub(crate) struct Level<'a> {
     /// Feature coordinates in use (1, 3, 4 or 6).
     pub nf: usize,
     pub cm: u8,
+    /// The colour factor of a valid pixel (what the aux colour plane holds inside the strip).
+    pub color_scale: f32,
     /// Carry the variance (only when a later level reads it).
     pub var: bool,
     pub isa: Isa,

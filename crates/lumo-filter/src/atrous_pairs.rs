@@ -42,8 +42,7 @@ type AuxBlock = [f32; KA * QW];
 
 /// Source planes: colour from 0, validity.
 const V: usize = 3;
-/// Aux planes: colour factor, features from F.
-const C: usize = 0;
+/// Aux planes: features from F (the colour factor and luminance planes are not read).
 const F: usize = 2;
 
 /// (dx, dy) in steps of the 12 taps after the centre in row-major order; dy picks the row.
@@ -105,6 +104,7 @@ struct RowJob {
     j_lo: usize,
     j_hi: usize,
     step: usize,
+    color_scale: f32,
 }
 
 /// Rows [a, b) of strip `c` into `out` (their blocks).
@@ -147,6 +147,7 @@ fn band(l: &Level, c: usize, a: usize, b: usize, out: &mut [f32], ring: &mut Vec
             j_lo,
             j_hi,
             step: s,
+            color_scale: l.color_scale,
         };
         for dy in 0..3 {
             let yq = y + dy * s;
@@ -279,11 +280,9 @@ fn row_impl<const NF: usize, const CM: u8, const L: usize, const FMA: bool>(
         let pg: [f32; L] = ld(r.p, QW + j0);
         let pb: [f32; L] = ld(r.p, 2 * QW + j0);
         let pv: [f32; L] = ld(r.p, V * QW + j0);
-        let pc: [f32; L] = if CM == CM_FIXED {
-            ld(r.pa, C * QW + j0)
-        } else {
-            [0.0; L]
-        };
+        // The colour factor from the validity, not the aux plane: swept columns in a
+        // neighbouring strip have none there.
+        let pc: [f32; L] = std::array::from_fn(|l| job.color_scale * pv[l]);
         let pf: [[f32; L]; NF] = std::array::from_fn(|f| ld(r.pa, (F + f) * QW + j0));
         let mut ar = [0.0f32; L];
         let mut ag = [0.0f32; L];

@@ -153,20 +153,42 @@ fn isas() -> Vec<Isa> {
     v
 }
 
-/// 600 columns (two strips, so taps cross strip margins) and 140 rows (the pair path's bands
-/// split at rows 64 and 128), a few missing pixels.
+/// Each row turned right by `by` columns (the frame's geometry sits in its middle third; the
+/// tests need it across the strip boundary at column 512).
+fn roll(img: &Image, by: usize) -> Image {
+    let (w, c) = (img.width, img.channels);
+    let mut out = img.clone();
+    for (o, i) in out
+        .data
+        .chunks_exact_mut(w * c)
+        .zip(img.data.chunks_exact(w * c))
+    {
+        for x in 0..w {
+            let to = (x + by) % w;
+            o[to * c..to * c + c].copy_from_slice(&i[x * c..x * c + c]);
+        }
+    }
+    out
+}
+
+/// 600 columns (two strips, with geometry across their boundary at column 512, so taps and
+/// the pair path's sweeps cross strip margins) and 140 rows (the pair path's bands split at
+/// rows 64 and 128), a few missing pixels.
 fn case() -> (crate::SyntheticFrame, Image) {
-    let f = synthetic_frame(600, 140, 2, 3);
-    let mut c = f.noisy.clone();
-    for (x, y) in [
-        (0, 0),
-        (511, 10),
-        (512, 10),
-        (513, 63),
-        (599, 139),
-        (300, 64),
-        (100, 20),
+    let mut f = synthetic_frame(600, 140, 2, 3);
+    for img in [
+        &mut f.noisy,
+        &mut f.reference,
+        &mut f.albedo,
+        &mut f.normal,
+        &mut f.position,
+        &mut f.depth,
+        &mut f.variance,
     ] {
+        *img = roll(img, 200);
+    }
+    let mut c = f.noisy.clone();
+    for (x, y) in [(511, 10), (512, 10), (513, 63), (599, 139), (300, 64)] {
         c.pixel_mut(x, y)[1] = f32::NAN;
     }
     (f, c)
@@ -242,6 +264,21 @@ fn unweighted_levels_match_direct_evaluation() {
             sigma_luminance: None,
             sigma_normal: None,
             sigma_position: None,
+            ..AtrousParams::default()
+        },
+        false,
+    );
+}
+
+#[test]
+fn strong_fixed_colour_weight_matches_direct_evaluation() {
+    // A colour σ small enough that the colour term decides most weights, also at the strip
+    // boundary, where the pair path sweeps the neighbouring strip's pixels.
+    check(
+        &AtrousParams {
+            iterations: 5,
+            sigma_color: Some(0.5),
+            sigma_luminance: None,
             ..AtrousParams::default()
         },
         false,
