@@ -6,8 +6,9 @@ use std::time::Instant;
 
 use anyhow::{bail, Context};
 use lumo_filter::{
-    atrous, bilateral, build_guide, guided, missing_pixels, with_demodulation, with_passthrough,
-    AtrousParams, BilateralParams, DepthNorm, Features, Filtered, GuideKind, GuidedParams,
+    bilateral, build_guide, guided, missing_pixels, with_demodulation, with_passthrough,
+    AtrousFilter, AtrousParams, BilateralParams, DepthNorm, Features, Filtered, GuideKind,
+    GuidedParams,
 };
 use lumo_image::{read_image, write_image, Image};
 
@@ -259,7 +260,14 @@ fn emitting(emission: &Image) -> Vec<bool> {
         .collect()
 }
 
-fn run_filter(a: &DenoiseArgs, inp: &Inputs, color: &Image) -> anyhow::Result<Filtered> {
+/// Filters `color` once. `atrous_filter` keeps the À-Trous filter's working memory between
+/// `--repeat` runs (as a renderer filtering frame after frame would).
+fn run_filter(
+    a: &DenoiseArgs,
+    inp: &Inputs,
+    color: &Image,
+    atrous_filter: &mut AtrousFilter,
+) -> anyhow::Result<Filtered> {
     let source = if a.no_variance {
         VarianceSource::None
     } else {
@@ -340,7 +348,7 @@ fn run_filter(a: &DenoiseArgs, inp: &Inputs, color: &Image) -> anyhow::Result<Fi
                 demodulate: demod,
                 use_variance: variance.is_some(),
             };
-            atrous(color, &features, &p)?
+            atrous_filter.filter(color, &features, &p)?
         }
         FilterKind::Guided => {
             if a.subsample != 1 {
@@ -439,12 +447,15 @@ pub fn run(args: DenoiseArgs) -> anyhow::Result<()> {
     let emitters = inputs.emission.as_ref().map(|(_, e)| emitting(e));
     let mut times = Vec::new();
     let mut filtered = None;
+    let mut atrous_filter = AtrousFilter::new();
     for _ in 0..args.repeat {
         let t1 = Instant::now();
         let color = &inputs.color.1;
         filtered = Some(match &emitters {
-            Some(em) => with_passthrough(color, em, |c| run_filter(&args, &inputs, c))?,
-            None => run_filter(&args, &inputs, color)?,
+            Some(em) => with_passthrough(color, em, |c| {
+                run_filter(&args, &inputs, c, &mut atrous_filter)
+            })?,
+            None => run_filter(&args, &inputs, color, &mut atrous_filter)?,
         });
         times.push(t1.elapsed());
     }

@@ -1,15 +1,15 @@
 //! Edge-avoiding À-Trous wavelet filter (Dammertz et al. 2010; papers/README §1), with the
 //! variance-guided colour weight of SVGF as an option.
 
-use lumo_image::{luminance, Image};
+use lumo_image::Image;
 use rayon::prelude::*;
 
-use crate::albedo::demodulate;
-use crate::atrous_kernel::{self, Isa, Level, Path, CM_FIXED, CM_NONE, CM_VARIANCE, K, KA, MAX_NF};
+use crate::atrous_input::{fill_color, fill_features, output, FillScales, Input};
+use crate::atrous_kernel::{self, Isa, Level, Path, CM_FIXED, CM_NONE, CM_VARIANCE, K, KA};
 use crate::atrous_layout::{Layout, CW, M, QW};
 use crate::atrous_pairs;
 use crate::error::param;
-use crate::gbuffer::{check_color, check_features, missing_pixels, Features, Filtered, Prepared};
+use crate::gbuffer::{check_color, check_features, Features, Filtered};
 use crate::FilterError;
 
 /// The B3 spline taps (1/16, 1/4, 3/8, 1/4, 1/16); the 5×5 kernel is their outer product.
@@ -72,11 +72,66 @@ pub const DEFAULT_SIGMA_POSITION: f32 = 0.1;
 pub(crate) const VARIANCE_EPS: f32 = 1e-6;
 
 /// Filters `color` (3 channels). Missing (NaN/Inf) pixels get weight 0 and are in-painted.
+/// To filter many frames, keep an [`AtrousFilter`]: it reuses its working memory.
 pub fn atrous(
     color: &Image,
     features: &Features,
     params: &AtrousParams,
 ) -> Result<Filtered, FilterError> {
+    AtrousFilter::new().filter(color, features, params)
+}
+
+/// The À-Trous filter with its working memory (about 18 floats per pixel), kept between
+/// calls: filtering frame after frame with one `AtrousFilter` skips allocating and
+/// page-faulting it every time, as an interactive renderer's denoiser (or OIDN's filter
+/// object) does. Results do not depend on what was filtered before.
+#[derive(Debug, Default)]
+pub struct AtrousFilter {
+    src: Vec<f32>,
+    dst: Vec<f32>,
+    aux: Vec<f32>,
+}
+
+impl AtrousFilter {
+    /// A filter with no working memory yet (it grows on the first call).
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Filters `color` (3 channels), as [`atrous`].
+    pub fn filter(
+        &mut self,
+        color: &Image,
+        features: &Features,
+        params: &AtrousParams,
+    ) -> Result<Filtered, FilterError> {
+        self.run(color, features, params, Isa::detect(), Path::Auto)
+    }
+
+    /// [`Self::filter`] with a chosen instruction set and kernel path (tests compare them).
+    pub(crate) fn run(
+        &mut self,
+        color: &Image,
+        features: &Features,
+        params: &AtrousParams,
+        isa: Isa,
+        path: Path,
+    ) -> Result<Filtered, FilterError> {
+        validate(color, features, params)?;
+        let inp = Input {
+            color,
+            features,
+            demodulate: params.demodulate,
+            use_variance: params.use_variance && features.variance.is_some(),
+        };
+        let lay = Layout::new(color.width, color.height);
+        let (image, missing) = self.levels(&inp, lay, params, isa, path);
+        Ok(Filtered { image, missing })
+    }
+}
+
+/// Checks the images and parameters of one call.
+fn validate(color: &Image, features: &Features, params: &AtrousParams) -> Result<(), FilterError> {
     check_color("color", color)?;
     check_features(features, color.width, color.height)?;
     if params.iterations == 0 || params.iterations > 16 {
@@ -115,56 +170,13 @@ pub fn atrous(
             needs: "a position plane".into(),
         });
     }
-    let variance_raw = match (params.use_variance, features.variance) {
-        (true, Some(v)) => Some(variance_plane(v)),
-        _ => None,
-    };
-    if params.demodulate {
-        let albedo = features.albedo.ok_or_else(|| FilterError::MissingFeature {
+    if params.demodulate && features.albedo.is_none() {
+        return Err(FilterError::MissingFeature {
             filter: "albedo demodulation",
             needs: "an albedo plane".into(),
-        })?;
-        let d = demodulate(color, albedo)?;
-        let var = variance_raw.map(|v| d.demodulate_variance(&v));
-        let prep = Prepared::new(&d.illumination, features)?;
-        let filtered = run(&prep, var, params);
-        return Ok(Filtered {
-            image: d.remodulate(&filtered, color),
-            missing: missing_pixels(color),
         });
     }
-    let t0 = std::time::Instant::now();
-    let prep = Prepared::new(color, features)?;
-    if std::env::var("LUMO_T").is_ok() {
-        eprintln!("prep {:?}", t0.elapsed());
-    }
-    let image = run(&prep, variance_raw, params);
-    if std::env::var("LUMO_T").is_ok() {
-        eprintln!("total {:?}", t0.elapsed());
-    }
-    Ok(Filtered {
-        image,
-        missing: prep.missing,
-    })
-}
-
-/// Luminance of a 1- or 3-channel variance image; negative or non-finite values become 0.
-pub(crate) fn variance_plane(v: &Image) -> Vec<f32> {
-    v.data
-        .chunks_exact(v.channels)
-        .map(|p| {
-            let x = if p.len() >= 3 {
-                luminance([p[0], p[1], p[2]])
-            } else {
-                p[0]
-            };
-            if x.is_finite() && x > 0.0 {
-                x
-            } else {
-                0.0
-            }
-        })
-        .collect()
+    Ok(())
 }
 
 /// Scale of the background coordinate (used when there is no position plane to fold it
@@ -185,73 +197,34 @@ struct LevelWeights {
     /// Variance-guided σ and ε (units of the stored variance's square root).
     sigma: f32,
     eps: f32,
-    /// Feature scales (multiply the coordinates), `None` when the weight is off.
-    normal: Option<f32>,
-    position: Option<f32>,
 }
 
-/// Per coordinate, the position value background pixels get (scaled units): the background
-/// flag folded into the position, which saves the kernels one coordinate.
-fn background_positions(x: &[Vec<f32>; 3], background: &[f32], scale: f32) -> [f32; 3] {
-    std::array::from_fn(|k| {
-        let hi = x[k]
-            .par_iter()
-            .zip(background)
-            .filter(|(_, &b)| b == 0.0)
-            .map(|(&v, _)| v)
-            .reduce(|| f32::NEG_INFINITY, f32::max);
-        if hi.is_finite() {
-            hi * scale + BACKGROUND_GAP
-        } else {
-            0.0
-        }
-    })
-}
-
-/// Fills the aux planes of every block for one level: colour factor (0 at missing centre
-/// pixels, which have no colour to compare), luminance and the scaled feature coordinates,
-/// margins included (0 beyond the image). Returns the number of feature coordinates.
-/// After the first level (`first` false) only the planes that change per level are rebuilt:
-/// the colour factor, the luminance and the normals (their σ scales with the stepwidth).
-fn build_aux(
+/// Sets the per-level planes of every block's aux buffer: the colour factor (0 at missing
+/// centre pixels, which have no colour to compare; only when `color_plane`, the pair path
+/// derives it from the validity) and the luminance; multiplies the normal coordinates by
+/// `rescale` (their σ scales with the stepwidth).
+fn level_aux(
     aux: &mut [f32],
     src: &[f32],
-    prep: &Prepared,
     lay: Layout,
     lw: &LevelWeights,
-    first: bool,
-) -> usize {
-    // (plane, scale, value on background) of every feature coordinate in use; the
-    // background flag is one unless it is folded into the position.
-    let mut dims: Vec<(&[f32], f32, f32)> = Vec::with_capacity(MAX_NF);
-    if let (Some(s), Some(n)) = (lw.normal, &prep.normal) {
-        dims.extend(n.iter().map(|p| (&p[..], s, 0.0)));
+    color_plane: bool,
+    rescale: Option<f32>,
+) {
+    if !color_plane && lw.cm != CM_VARIANCE && rescale.is_none() {
+        return;
     }
-    let rebuild = if first { MAX_NF } else { dims.len() };
-    match (lw.position, &prep.position) {
-        (Some(s), Some(x)) => {
-            let bg = if first {
-                background_positions(x, &prep.background, s)
-            } else {
-                [0.0; 3]
-            };
-            dims.extend(x.iter().zip(bg).map(|(p, b)| (&p[..], s, b)));
-        }
-        _ => dims.push((&prep.background[..], BACKGROUND_SCALE, 0.0)),
-    }
-    let w = lay.w;
     aux.par_chunks_mut(KA * QW).enumerate().for_each(|(b, a)| {
         let (c, y) = lay.strip_row(b);
         let (x0, len) = lay.strip(c);
         let s = &src[lay.block(c, y, K)..][..K * QW];
-        // Block columns j ↔ image columns x0 + j − M; those inside the image:
         let ja = M.saturating_sub(x0);
-        let jb = (w + M - x0).min(QW);
+        let jb = (lay.w + M - x0).min(QW);
         let (cp, rest) = a.split_at_mut(QW);
         let (lum, fa) = rest.split_at_mut(QW);
         let valid = &s[3 * QW..4 * QW];
         match lw.cm {
-            CM_FIXED => {
+            CM_FIXED if color_plane => {
                 for j in M..M + len {
                     cp[j] = lw.color_scale * valid[j];
                 }
@@ -267,16 +240,139 @@ fn build_aux(
             }
             _ => {}
         }
-        let rows = y * w + x0 + ja - M..y * w + x0 + jb - M;
-        let bg = &prep.background[rows.clone()];
-        for (k, &(plane, scale, on_bg)) in dims.iter().enumerate().take(rebuild) {
-            let from = &plane[rows.clone()];
-            for ((o, v), b) in fa[k * QW + ja..k * QW + jb].iter_mut().zip(from).zip(bg) {
-                *o = v * scale + b * on_bg;
+        if let Some(r) = rescale {
+            for v in &mut fa[..3 * QW] {
+                *v *= r;
             }
         }
     });
-    dims.len()
+}
+
+impl AtrousFilter {
+    /// Every level, ping-ponging between the two colour buffers; returns the output image
+    /// and the number of non-finite input pixels.
+    fn levels(
+        &mut self,
+        inp: &Input,
+        lay: Layout,
+        params: &AtrousParams,
+        isa: Isa,
+        path: Path,
+    ) -> (Image, usize) {
+        // Contents are overwritten (blocks by `fill` and the kernels); only growth allocates
+        // (zeroed by the OS: no pass over the memory until it is used).
+        for (buf, planes) in [(&mut self.src, K), (&mut self.dst, K), (&mut self.aux, KA)] {
+            if buf.len() < lay.size(planes) {
+                *buf = vec![0.0; lay.size(planes)];
+            }
+        }
+        let src = &mut self.src[..lay.size(K)];
+        let dst = &mut self.dst[..lay.size(K)];
+        let aux = &mut self.aux[..lay.size(KA)];
+        let (mut src, mut dst) = (src, dst);
+        let stats = fill_color(inp, lay, params.sparse, src, aux);
+        let ml = stats.mean_luminance;
+        let log2e = std::f32::consts::LOG2_E;
+        let var_mode = inp.use_variance && params.sigma_luminance.is_some();
+        let has_n = inp.features.normal.is_some() && params.sigma_normal.is_some();
+        let has_x = inp.features.position.is_some() && params.sigma_position.is_some();
+        // Squared distances are divided by σ² (normals also by stepwidth², as in the paper);
+        // scaling the coordinates by sqrt(log2 e)/σ makes them log2 exponents directly.
+        let sx = params
+            .sigma_position
+            .filter(|_| has_x)
+            .map(|s| log2e.sqrt() / s);
+        let inv_extent = 1.0 / stats.extent;
+        let scales = FillScales {
+            inv_ml2: 1.0 / (ml * ml),
+            normal: params
+                .sigma_normal
+                .filter(|_| has_n)
+                .map(|s| log2e.sqrt() / s),
+            position: sx,
+            inv_extent,
+            position_background: stats.position_max.map(|hi| {
+                let v = hi * inv_extent * sx.unwrap_or(0.0) + BACKGROUND_GAP;
+                if v.is_finite() {
+                    v
+                } else {
+                    0.0
+                }
+            }),
+            background_scale: BACKGROUND_SCALE,
+        };
+        let nf = fill_features(inp, lay, &scales, src, aux);
+        // log2(sparse) iterations in-paint from geometry alone (paper §4: colour is meaningless
+        // at pixels that were never traced).
+        let skip_color = params.sparse.trailing_zeros() as usize;
+        let sigma_l = params.sigma_luminance.unwrap_or(DEFAULT_SIGMA_LUMINANCE);
+        let mut normal_held = 1.0f32;
+        for it in 0..params.iterations {
+            let step = 1usize << it;
+            let cm = if it < skip_color {
+                CM_NONE
+            } else if var_mode {
+                CM_VARIANCE
+            } else if params.sigma_color.is_some() {
+                CM_FIXED
+            } else {
+                CM_NONE
+            };
+            let color_scale = match cm {
+                CM_FIXED => params.sigma_color.map_or(0.0, |s| {
+                    // σ in units of mean luminance, halved every level (paper).
+                    let si = s * ml / (1u32 << it) as f32;
+                    log2e / (si * si)
+                }),
+                CM_VARIANCE => log2e,
+                _ => 0.0,
+            };
+            let lw = LevelWeights {
+                cm,
+                color_scale,
+                // The variance is stored in units of ml², so its square root is in units of ml.
+                sigma: sigma_l * ml,
+                eps: VARIANCE_EPS * ml,
+            };
+            let pairs = path == Path::Auto && atrous_pairs::supports(step, var_mode, cm, nf);
+            // The normal coordinates' scale relative to level 0 should be 1/step. The pair
+            // path applies the factor to the squared distance instead of rescaling the
+            // planes; before another path, the planes are rescaled (by powers of 2: exact).
+            let want = 1.0 / step as f32;
+            let rescale = if has_n && !pairs && normal_held != want {
+                let r = want / normal_held;
+                normal_held = want;
+                Some(r)
+            } else {
+                None
+            };
+            let normal_factor = (want / normal_held) * (want / normal_held);
+            level_aux(aux, src, lay, &lw, !pairs, rescale);
+            let level = Level {
+                lay,
+                step,
+                src,
+                aux,
+                nf,
+                normal_factor,
+                cm,
+                color_scale,
+                var: var_mode,
+                isa,
+                path,
+            };
+            if pairs {
+                atrous_pairs::level(&level, dst);
+            } else {
+                dst.par_chunks_mut(K * QW)
+                    .enumerate()
+                    .for_each(|(b, blk)| atrous_kernel::block(&level, b, blk));
+            }
+            lay.fill_margins(dst, K);
+            std::mem::swap(&mut src, &mut dst);
+        }
+        (output(inp, lay, src), stats.missing)
+    }
 }
 
 /// 1/(σ·sqrt(G3×3 ∗ var) + eps) at block column `j` of block (c, y): SVGF's prefiltered
@@ -309,131 +405,4 @@ fn inverse_sigma(
         }
     }
     1.0 / (sigma * (s / k).max(0.0).sqrt() + eps)
-}
-
-fn run(prep: &Prepared, variance: Option<Vec<f32>>, params: &AtrousParams) -> Image {
-    run_with(prep, variance, params, Isa::detect(), Path::Auto)
-}
-
-/// [`run`] with a chosen instruction set and kernel path (tests compare their results).
-pub(crate) fn run_with(
-    prep: &Prepared,
-    variance: Option<Vec<f32>>,
-    params: &AtrousParams,
-    isa: Isa,
-    path: Path,
-) -> Image {
-    let (w, h) = (prep.w, prep.h);
-    let lay = Layout::new(w, h);
-    let inv_ml2 = 1.0 / (prep.mean_luminance * prep.mean_luminance);
-    let mut src = vec![0.0f32; lay.size(K)];
-    // `sparse` is a power of two.
-    let mask = params.sparse - 1;
-    src.par_chunks_mut(K * QW).enumerate().for_each(|(b, blk)| {
-        let (c, y) = lay.strip_row(b);
-        let (x0, _) = lay.strip(c);
-        let on_row = y & mask == 0;
-        let ja = M.saturating_sub(x0);
-        let jb = (w + M - x0).min(QW);
-        for j in ja..jb {
-            let x = x0 + j - M;
-            let i = y * w + x;
-            let on_grid = (on_row && x & mask == 0) as u8 as f32;
-            for ch in 0..3 {
-                blk[ch * QW + j] = prep.color[ch][i];
-            }
-            blk[3 * QW + j] = prep.valid[i] * on_grid;
-            // Variance in units of mean luminance², tiny values flushed to 0, so Σ w²·var
-            // never reaches the (slow) denormal range.
-            let v = variance.as_ref().map_or(0.0, |v| v[i]) * inv_ml2;
-            blk[4 * QW + j] = if v > 1e-12 { v } else { 0.0 };
-        }
-    });
-    let mut dst = vec![0.0f32; lay.size(K)];
-    let mut aux = vec![0.0f32; lay.size(KA)];
-    let var_mode = variance.is_some() && params.sigma_luminance.is_some();
-    // log2(sparse) iterations in-paint from geometry alone (paper §4: colour is meaningless
-    // at pixels that were never traced).
-    let skip_color = params.sparse.trailing_zeros() as usize;
-    let ml = prep.mean_luminance;
-    let log2e = std::f32::consts::LOG2_E;
-    let has_n = prep.normal.is_some() && params.sigma_normal.is_some();
-    let has_x = prep.position.is_some() && params.sigma_position.is_some();
-    let sigma_l = params.sigma_luminance.unwrap_or(DEFAULT_SIGMA_LUMINANCE);
-    for it in 0..params.iterations {
-        let step = 1usize << it;
-        let cm = if it < skip_color {
-            CM_NONE
-        } else if var_mode {
-            CM_VARIANCE
-        } else if params.sigma_color.is_some() {
-            CM_FIXED
-        } else {
-            CM_NONE
-        };
-        let color_scale = match cm {
-            CM_FIXED => params.sigma_color.map_or(0.0, |s| {
-                // σ in units of mean luminance, halved every level (paper).
-                let si = s * ml / (1u32 << it) as f32;
-                log2e / (si * si)
-            }),
-            CM_VARIANCE => log2e,
-            _ => 0.0,
-        };
-        // Squared distances are divided by σ² (normals also by stepwidth², as in the paper);
-        // scaling the coordinates by sqrt(log2 e)/σ makes them log2 exponents directly.
-        let lw = LevelWeights {
-            cm,
-            color_scale,
-            // The variance is stored in units of ml², so its square root is in units of ml.
-            sigma: sigma_l * ml,
-            eps: VARIANCE_EPS * ml,
-            normal: params
-                .sigma_normal
-                .filter(|_| has_n)
-                .map(|s| log2e.sqrt() / (s * step as f32)),
-            position: params
-                .sigma_position
-                .filter(|_| has_x)
-                .map(|s| log2e.sqrt() / s),
-        };
-        let nf = build_aux(&mut aux, &src, prep, lay, &lw, it == 0);
-        let level = Level {
-            lay,
-            step,
-            src: &src,
-            aux: &aux,
-            nf,
-            cm,
-            color_scale: lw.color_scale,
-            var: var_mode,
-            isa,
-            path,
-        };
-        if path == Path::Auto && atrous_pairs::supports(&level) {
-            atrous_pairs::level(&level, &mut dst);
-        } else {
-            dst.par_chunks_mut(K * QW)
-                .enumerate()
-                .for_each(|(b, blk)| atrous_kernel::block(&level, b, blk));
-        }
-        lay.fill_margins(&mut dst, K);
-        std::mem::swap(&mut src, &mut dst);
-    }
-    let mut out = Image::new(w, h, 3, 0.0);
-    out.data
-        .par_chunks_mut(3 * w)
-        .enumerate()
-        .for_each(|(y, o)| {
-            for c in 0..lay.nch {
-                let (x0, len) = lay.strip(c);
-                let blk = &src[lay.block(c, y, K)..][..K * QW];
-                for i in 0..len {
-                    for ch in 0..3 {
-                        o[3 * (x0 + i) + ch] = blk[ch * QW + M + i];
-                    }
-                }
-            }
-        });
-    out
 }

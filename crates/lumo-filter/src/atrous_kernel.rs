@@ -82,8 +82,11 @@ pub(crate) struct Level<'a> {
     pub src: &'a [f32],
     /// KA planes per block (colour factor, luminance, scaled features).
     pub aux: &'a [f32],
-    /// Feature coordinates in use (1, 3, 4 or 6).
+    /// Feature coordinates in use (1, 3, 4 or 6; with 4 or 6 the first three are normals).
     pub nf: usize,
+    /// Factor on the squared normal distance (the pair path's per-level normal scale; the
+    /// other paths need the planes scaled, i.e. 1).
+    pub normal_factor: f32,
     pub cm: u8,
     /// The colour factor of a valid pixel (what the aux colour plane holds inside the strip).
     pub color_scale: f32,
@@ -147,23 +150,32 @@ pub(crate) fn normalise<const VAR: bool>(
     let wsum = &acc[3 * stride + a0..][..len];
     let (rgb, rest) = dst.split_at_mut(3 * QW);
     let (valid, var) = rest.split_at_mut(QW);
-    for k in 0..3 {
-        let a = &acc[k * stride + a0..][..len];
-        for ((d, a), s) in rgb[k * QW + M..][..len].iter_mut().zip(a).zip(wsum) {
-            let has = (*s > 0.0) as u8 as f32;
-            *d = a * (has / s.max(1e-30));
+    let (r, rest) = rgb.split_at_mut(QW);
+    let (g, b) = rest.split_at_mut(QW);
+    let (ar, ag, ab) = (
+        &acc[a0..][..len],
+        &acc[stride + a0..][..len],
+        &acc[2 * stride + a0..][..len],
+    );
+    let av = if VAR {
+        &acc[4 * stride + a0..][..len]
+    } else {
+        &[][..]
+    };
+    let (r, g, b) = (&mut r[M..][..len], &mut g[M..][..len], &mut b[M..][..len]);
+    let (valid, var) = (&mut valid[M..][..len], &mut var[M..][..len]);
+    for i in 0..len {
+        let s = wsum[i];
+        let has = (s > 0.0) as u8 as f32;
+        // One division per pixel; 0 where nothing contributed.
+        let inv = has / s.max(1e-30);
+        r[i] = ar[i] * inv;
+        g[i] = ag[i] * inv;
+        b[i] = ab[i] * inv;
+        valid[i] = has;
+        if VAR {
+            var[i] = av[i] * (inv * inv);
         }
-    }
-    if VAR {
-        let v = &acc[4 * stride + a0..][..len];
-        for ((d, v), s) in var[M..][..len].iter_mut().zip(v).zip(wsum) {
-            let has = (*s > 0.0) as u8 as f32;
-            let inv = has / s.max(1e-30);
-            *d = v * (inv * inv);
-        }
-    }
-    for (d, s) in valid[M..][..len].iter_mut().zip(wsum) {
-        *d = (*s > 0.0) as u8 as f32;
     }
 }
 

@@ -8,6 +8,8 @@
 //! per plane, and there are not enough), and the margins let a tap up to M columns away be read
 //! without clipping: outside the image the validity plane is 0, so such a tap adds nothing.
 
+use rayon::prelude::*;
+
 /// Columns per strip.
 pub(crate) const CW: usize = 512;
 /// Margin columns on each side of a strip: the fused path reads taps up to 2·32 columns
@@ -56,23 +58,53 @@ impl Layout {
         (x0, (self.w - x0).min(CW))
     }
 
-    /// Copies every block's margins from its neighbours' strip columns. Margins beyond the
-    /// image are never written and stay 0, as do a last strip's columns beyond the image.
+    /// Copies every block's margins from its neighbours' strip columns, rows in parallel.
+    /// Margins beyond the image are never written, nor are a last strip's columns beyond the
+    /// image (the kernels write 0 there).
     pub fn fill_margins(&self, buf: &mut [f32], planes: usize) {
-        for c in 0..self.nch {
-            for y in 0..self.h {
+        if self.nch < 2 {
+            return;
+        }
+        assert!(
+            buf.len() >= self.size(planes),
+            "buffer too small for the layout"
+        );
+        let base = SharedBuf(buf.as_mut_ptr());
+        let lay = *self;
+        (0..self.h).into_par_iter().for_each(|y| {
+            let base = &base;
+            for c in 0..lay.nch {
                 for k in 0..planes {
-                    let at = |cc: usize| self.block(cc, y, planes) + k * QW;
-                    if c > 0 {
-                        // Left margin: the last M columns of the previous strip.
-                        buf.copy_within(at(c - 1) + CW..at(c - 1) + CW + M, at(c));
-                    }
-                    if c + 1 < self.nch {
-                        // Right margin: the first M columns of the next strip.
-                        buf.copy_within(at(c + 1) + M..at(c + 1) + 2 * M, at(c) + M + CW);
+                    let at = |cc: usize| lay.block(cc, y, planes) + k * QW;
+                    // SAFETY: all offsets are inside `buf` (checked size above). Row y's task
+                    // writes only the margin columns [0, M) and [M + CW, QW) of row y's blocks
+                    // and reads only their strip columns [M, M + CW), so no two tasks touch
+                    // the same float and no float is both read and written.
+                    unsafe {
+                        if c > 0 {
+                            // Left margin: the last M columns of the previous strip.
+                            std::ptr::copy_nonoverlapping(
+                                base.0.add(at(c - 1) + CW),
+                                base.0.add(at(c)),
+                                M,
+                            );
+                        }
+                        if c + 1 < lay.nch {
+                            // Right margin: the first M columns of the next strip.
+                            std::ptr::copy_nonoverlapping(
+                                base.0.add(at(c + 1) + M),
+                                base.0.add(at(c) + M + CW),
+                                M,
+                            );
+                        }
                     }
                 }
             }
-        }
+        });
     }
 }
+
+/// The buffer `fill_margins` shares between its row tasks.
+struct SharedBuf(*mut f32);
+// SAFETY: the row tasks access disjoint floats (see `fill_margins`).
+unsafe impl Sync for SharedBuf {}

@@ -34,6 +34,9 @@ use crate::fastmath::{exp2_cut, mul_add, EXP_CUTOFF};
 /// neighbours (for their scatter) and reads taps 2·step beyond those, 4·step ≤ M.
 pub(crate) const MAX_PAIR_STEP: usize = M / 4;
 
+/// Column alignment of the swept range: the widest vector (16 floats).
+const CHUNK: usize = 16;
+
 /// Accumulator planes per row: r, g, b, weight.
 const AN: usize = 4;
 type Acc = [f32; AN * QW];
@@ -64,9 +67,10 @@ const PAIRS: [(isize, usize); 12] = [
 /// The centre tap's B3 weight (its edge weight is exactly 1).
 const CENTRE: f32 = B3[2] * B3[2];
 
-/// Whether level `l` can take the pair path.
-pub(crate) fn supports(l: &Level) -> bool {
-    l.step <= MAX_PAIR_STEP && !l.var && l.cm != CM_VARIANCE && matches!(l.nf, 1 | 3 | 4 | 6)
+/// Whether a level (its step, variance carrying, colour mode and feature count) can take
+/// the pair path.
+pub(crate) fn supports(step: usize, var: bool, cm: u8, nf: usize) -> bool {
+    step <= MAX_PAIR_STEP && !var && cm != CM_VARIANCE && matches!(nf, 1 | 3 | 4 | 6)
 }
 
 thread_local! {
@@ -79,8 +83,9 @@ thread_local! {
 pub(crate) fn level(l: &Level, dst: &mut [f32]) {
     let lay = l.lay;
     let block = K * QW;
-    // Bands tall enough that the 2·step rows swept twice stay a small part of the work.
-    let band_rows = (8 * l.step).max(64);
+    // Bands tall enough that the 2·step rows swept twice stay a small part of the work
+    // (≤ 8 %), and enough of them to share between threads.
+    let band_rows = (16 * l.step).max(128);
     dst.par_chunks_mut(block * lay.h)
         .enumerate()
         .for_each(|(c, strip)| {
@@ -105,6 +110,7 @@ struct RowJob {
     j_hi: usize,
     step: usize,
     color_scale: f32,
+    normal_factor: f32,
 }
 
 /// Rows [a, b) of strip `c` into `out` (their blocks).
@@ -120,12 +126,12 @@ fn band(l: &Level, c: usize, a: usize, b: usize, out: &mut [f32], ring: &mut Vec
     }
     let (_, len) = lay.strip(c);
     // Swept columns: the strip, plus 2·step into a neighbouring strip (whose pixels scatter
-    // into this one), rounded out to whole vectors of 16.
-    let j_lo = if c > 0 { (M - 2 * s) & !15 } else { M };
+    // into this one), rounded out to whole chunks of [`CHUNK`] columns.
+    let j_lo = if c > 0 { (M - 2 * s) & !(CHUNK - 1) } else { M };
     let j_hi = if c + 1 < lay.nch {
-        (M + len + 2 * s).next_multiple_of(16)
+        (M + len + 2 * s).next_multiple_of(CHUNK)
     } else {
-        (M + len).next_multiple_of(16)
+        (M + len).next_multiple_of(CHUNK)
     };
     debug_assert!(j_hi + 2 * s <= QW && len <= CW);
     let src = |y: usize| -> &SrcBlock {
@@ -148,6 +154,7 @@ fn band(l: &Level, c: usize, a: usize, b: usize, out: &mut [f32], ring: &mut Vec
             j_hi,
             step: s,
             color_scale: l.color_scale,
+            normal_factor: l.normal_factor,
         };
         for dy in 0..3 {
             let yq = y + dy * s;
@@ -170,7 +177,13 @@ fn band(l: &Level, c: usize, a: usize, b: usize, out: &mut [f32], ring: &mut Vec
         row(l, &rows, a0, a1, a2, job);
         if own {
             let d = &mut out[(y - a) * K * QW..][..K * QW];
-            d.fill(0.0);
+            // Margins (refilled from the neighbours, or 0 beyond the image) and the colour,
+            // validity and variance planes' columns beyond the strip: 0.
+            for k in 0..K {
+                d[k * QW..k * QW + M].fill(0.0);
+                d[k * QW + M + len..(k + 1) * QW].fill(0.0);
+            }
+            d[4 * QW..5 * QW].fill(0.0);
             normalise::<false>(&a0[..], QW, M, d, len);
             a0.fill(0.0);
         }
@@ -319,19 +332,32 @@ fn row_impl<const NF: usize, const CM: u8, const L: usize, const FMA: bool>(
                     let d2 = mul_add::<FMA>(db, db, mul_add::<FMA>(dg, dg, dr * dr));
                     e = d2 * (pc[l] * qv[l]);
                 }
-                for (pf, qf) in pf.iter().zip(&qf) {
+                // With 4 or 6 coordinates the first three are normals, whose squared
+                // distance takes the level's factor.
+                let normals = if NF >= 4 { 3 } else { 0 };
+                let mut en = 0.0f32;
+                for (f, (pf, qf)) in pf.iter().zip(&qf).enumerate() {
                     let d = pf[l] - qf[l];
-                    e = mul_add::<FMA>(d, d, e);
+                    if f < normals {
+                        en = mul_add::<FMA>(d, d, en);
+                    } else {
+                        e = mul_add::<FMA>(d, d, e);
+                    }
+                }
+                if NF >= 4 {
+                    e = mul_add::<FMA>(en, job.normal_factor, e);
                 }
                 wgt[l] = exp2_cut::<FMA>(c0[k] - e, c0[k] - e_max);
             }
+            // Colour is 0 where the validity is (see `fill`), so w·colour needs no validity
+            // factor: the same sums as w·valid·colour, bit for bit, one multiply less.
             if own {
                 for l in 0..L {
-                    let w = wgt[l] * qv[l];
+                    let w = wgt[l];
                     ar[l] = mul_add::<FMA>(w, qr[l], ar[l]);
                     ag[l] = mul_add::<FMA>(w, qg[l], ag[l]);
                     ab[l] = mul_add::<FMA>(w, qb[l], ab[l]);
-                    aw[l] += w;
+                    aw[l] = mul_add::<FMA>(w, qv[l], aw[l]);
                 }
             }
             if scatter {
@@ -343,11 +369,11 @@ fn row_impl<const NF: usize, const CM: u8, const L: usize, const FMA: bool>(
                 let sb = &mut sb[qj..qj + L];
                 let sw = &mut sw[qj..qj + L];
                 for l in 0..L {
-                    let w = wgt[l] * pv[l];
+                    let w = wgt[l];
                     sr[l] = mul_add::<FMA>(w, pr[l], sr[l]);
                     sg[l] = mul_add::<FMA>(w, pg[l], sg[l]);
                     sb[l] = mul_add::<FMA>(w, pb[l], sb[l]);
-                    sw[l] += w;
+                    sw[l] = mul_add::<FMA>(w, pv[l], sw[l]);
                 }
             }
         }

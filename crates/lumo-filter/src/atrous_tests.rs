@@ -3,7 +3,7 @@
 
 use lumo_image::{luminance, Image};
 
-use crate::atrous::{run_with, variance_plane, AtrousParams, B3, VARIANCE_EPS};
+use crate::atrous::{AtrousFilter, AtrousParams, B3, VARIANCE_EPS};
 use crate::atrous_kernel::{Isa, Path};
 use crate::gbuffer::{Features, Prepared};
 use crate::synthetic::synthetic_frame;
@@ -133,6 +133,25 @@ fn direct(prep: &Prepared, var: Option<&[f32]>, p: &AtrousParams) -> Image {
     Image::from_vec(w, h, 3, data)
 }
 
+/// Luminance of a 1- or 3-channel variance image; negative or non-finite values become 0.
+fn variance_plane(v: &Image) -> Vec<f32> {
+    v.data
+        .chunks_exact(v.channels)
+        .map(|p| {
+            let x = if p.len() >= 3 {
+                luminance([p[0], p[1], p[2]])
+            } else {
+                p[0]
+            };
+            if x.is_finite() && x > 0.0 {
+                x
+            } else {
+                0.0
+            }
+        })
+        .collect()
+}
+
 /// Largest |a − b| / (1 + |b|).
 fn rel_diff(a: &Image, b: &Image) -> f32 {
     a.data
@@ -205,10 +224,17 @@ fn check(params: &AtrousParams, with_variance: bool) {
     let prep = Prepared::new(&c, &feats).unwrap();
     let var = with_variance.then(|| variance_plane(&f.variance));
     let want = direct(&prep, var.as_deref(), params);
-    let base = run_with(&prep, var.clone(), params, Isa::Baseline, Path::Fused);
+    let feats = Features {
+        variance: with_variance.then_some(&f.variance),
+        ..feats
+    };
+    // One filter object for every run: results must not depend on earlier calls.
+    let mut filter = AtrousFilter::new();
+    let mut run = |isa, path| filter.run(&c, &feats, params, isa, path).unwrap().image;
+    let base = run(Isa::Baseline, Path::Fused);
     for isa in isas() {
-        let fused = run_with(&prep, var.clone(), params, isa, Path::Fused);
-        let taps = run_with(&prep, var.clone(), params, isa, Path::Taps);
+        let fused = run(isa, Path::Fused);
+        let taps = run(isa, Path::Taps);
         // The AVX-512 build of the fused path rounds like the AVX2 build of the per-tap one.
         assert_eq!(fused, taps, "{isa:?}: fused and per-tap paths differ");
         let d = rel_diff(&fused, &want);
@@ -216,12 +242,18 @@ fn check(params: &AtrousParams, with_variance: bool) {
         let d = rel_diff(&fused, &base);
         assert!(d < 2e-5, "{isa:?} vs baseline: {d}");
         // The pair path sums in another order: equal up to rounding.
-        let auto = run_with(&prep, var.clone(), params, isa, Path::Auto);
+        let auto = run(isa, Path::Auto);
         let d = rel_diff(&auto, &want);
         assert!(d < 2e-4, "{isa:?} pairs vs direct: {d}");
         let d = rel_diff(&auto, &fused);
         assert!(d < 2e-5, "{isa:?} pairs vs fused: {d}");
     }
+    // A fresh filter gives the same image as the reused one.
+    let again = AtrousFilter::new()
+        .filter(&c, &feats, params)
+        .unwrap()
+        .image;
+    assert_eq!(again, run(Isa::detect(), Path::Auto));
 }
 
 #[test]

@@ -22,6 +22,7 @@
 mod albedo;
 mod atrous;
 mod atrous_fused;
+mod atrous_input;
 mod atrous_kernel;
 mod atrous_layout;
 mod atrous_pairs;
@@ -46,7 +47,8 @@ pub mod table2;
 
 pub use albedo::{demodulate, with_demodulation, Demodulated, ALBEDO_EPS};
 pub use atrous::{
-    atrous, AtrousParams, B3, DEFAULT_SIGMA_LUMINANCE, DEFAULT_SIGMA_NORMAL, DEFAULT_SIGMA_POSITION,
+    atrous, AtrousFilter, AtrousParams, B3, DEFAULT_SIGMA_LUMINANCE, DEFAULT_SIGMA_NORMAL,
+    DEFAULT_SIGMA_POSITION,
 };
 pub use bilateral::{bilateral, BilateralParams};
 pub use boxsum::box_mean;

@@ -746,6 +746,42 @@ fn demodulation_passes_zero_albedo_pixels_through() {
 }
 
 #[test]
+fn atrous_demodulation_equals_filtering_the_illumination() {
+    // À-Trous reads colour / albedo straight into its working layout; that must be the same
+    // as demodulating first (with_demodulation) and filtering the illumination, including
+    // pass-through pixels (no albedo), a broken albedo and a missing colour pixel.
+    let frame = synthetic_frame(96, 64, 2, 11);
+    let mut albedo = frame.albedo.clone();
+    albedo.pixel_mut(10, 10).fill(0.0);
+    albedo.pixel_mut(40, 30)[1] = f32::NAN;
+    let mut color = frame.noisy.clone();
+    color.pixel_mut(50, 20)[0] = f32::INFINITY;
+    let f = Features {
+        albedo: Some(&albedo),
+        normal: Some(&frame.normal),
+        position: Some(&frame.position),
+        depth: Some(&frame.depth),
+        ..Features::default()
+    };
+    let p = AtrousParams {
+        sigma_color: Some(4.0),
+        demodulate: true,
+        ..AtrousParams::default()
+    };
+    let fused = atrous(&color, &f, &p).unwrap();
+    let plain = AtrousParams {
+        demodulate: false,
+        ..p.clone()
+    };
+    let two_step = with_demodulation(&color, &albedo, |c| atrous(c, &f, &plain)).unwrap();
+    assert_eq!(fused.missing, 1);
+    assert_eq!(two_step.missing, 1);
+    let d = max_abs_diff(&fused.image, &two_step.image);
+    assert!(d < 1e-5, "max difference {d}");
+    assert_eq!(fused.image.pixel(10, 10), color.pixel(10, 10));
+}
+
+#[test]
 fn variance_guided_atrous_leaves_converged_regions_alone() {
     let (w, h) = (32, 32);
     let c = noise_image(w, h, 3, 4);

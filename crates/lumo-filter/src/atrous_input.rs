@@ -1,0 +1,363 @@
+//! Reading the À-Trous inputs straight into the working layout, and writing the result back
+//! (with albedo demodulation and pass-through pixels folded into both).
+//!
+//! Why not `Prepared` + `demodulate` as the other filters do: at 512² the kernel itself takes
+//! a few milliseconds, and building a dozen intermediate full-image planes (serially, in fresh
+//! page-faulted memory) took longer than that. Here two parallel passes read each input
+//! pixel where it lies: one for the image-wide statistics (mean luminance, scene extent), one
+//! that fills every block. The per-pixel rules are those of `Prepared::new` and
+//! `demodulate`, which the tests use as the reference.
+
+use lumo_image::{luminance, Image};
+use rayon::prelude::*;
+
+use crate::albedo::ALBEDO_EPS;
+use crate::atrous_kernel::{K, KA};
+use crate::atrous_layout::{Layout, M, QW};
+use crate::gbuffer::Features;
+use crate::passthrough::passed;
+
+/// The input images of one call, and whether colour is demodulated by the albedo.
+pub(crate) struct Input<'a> {
+    pub color: &'a Image,
+    pub features: &'a Features<'a>,
+    /// Divide colour by the albedo (`features.albedo` is then present).
+    pub demodulate: bool,
+    /// Use `features.variance` (SVGF's variance-guided colour weight).
+    pub use_variance: bool,
+}
+
+/// One input pixel as the filter sees it.
+struct Pixel {
+    /// Colour (or illumination), denormals flushed; 0 where not `valid`.
+    rgb: [f32; 3],
+    /// Colour usable (finite, and with a usable albedo when demodulating).
+    valid: bool,
+    /// Luminance of the albedo divided by (1 without demodulation).
+    albedo_lum: f32,
+    /// Passed through unfiltered (demodulation without a usable albedo).
+    pass: bool,
+}
+
+/// Image-wide values the scales depend on.
+pub(crate) struct Stats {
+    /// Mean |luminance| of the valid pixels (1 if there are none).
+    pub mean_luminance: f32,
+    /// Non-finite pixels of the input colour.
+    pub missing: usize,
+    /// Diagonal of the non-background positions' bounding box (1 if degenerate).
+    pub extent: f32,
+    /// Per coordinate, the largest non-background position (−inf if none).
+    pub position_max: [f32; 3],
+}
+
+/// Albedo demodulation of one pixel: the albedo divided by (each channel ≥ ALBEDO_EPS), or
+/// `None` where the pixel is passed through (albedo not finite or ≈ 0 everywhere).
+fn albedo_at(a: &Image, i: usize) -> Option<[f32; 3]> {
+    let p = &a.data[i * a.channels..][..a.channels];
+    let v = if a.channels == 1 {
+        [p[0]; 3]
+    } else {
+        [p[0], p[1], p[2]]
+    };
+    let usable =
+        v.iter().all(|x| x.is_finite()) && v.iter().fold(0.0f32, |m, &x| m.max(x)) >= ALBEDO_EPS;
+    usable.then(|| v.map(|x| x.max(ALBEDO_EPS)))
+}
+
+impl Input<'_> {
+    fn pixel(&self, i: usize) -> Pixel {
+        let c = &self.color.data[i * 3..i * 3 + 3];
+        let mut rgb = [c[0], c[1], c[2]];
+        let mut albedo_lum = 1.0;
+        let mut valid = true;
+        let mut pass = false;
+        if self.demodulate {
+            match self.features.albedo.and_then(|a| albedo_at(a, i)) {
+                Some(a) => {
+                    for k in 0..3 {
+                        rgb[k] /= a[k];
+                    }
+                    albedo_lum = luminance(a).max(ALBEDO_EPS);
+                }
+                None => {
+                    valid = false;
+                    pass = true;
+                }
+            }
+        }
+        valid &= rgb.iter().all(|v| v.is_finite());
+        // Denormal inputs flushed to 0: they would slow every product they enter.
+        let rgb = if valid {
+            rgb.map(|v| if v.abs() < 1e-30 { 0.0 } else { v })
+        } else {
+            [0.0; 3]
+        };
+        Pixel {
+            rgb,
+            valid,
+            albedo_lum,
+            pass,
+        }
+    }
+
+    /// 1 where nothing was hit (depth 0 or not finite, or position not finite).
+    fn background(&self, i: usize) -> bool {
+        let f = self.features;
+        let d = f.depth.is_some_and(|d| {
+            let v = d.data[i * d.channels];
+            !(v.is_finite() && v > 0.0)
+        });
+        let p = f.position.is_some_and(|p| {
+            let v = &p.data[i * p.channels..][..3];
+            !v.iter().all(|x| x.is_finite())
+        });
+        d || p
+    }
+
+    /// Luminance variance of the (demodulated) pixel, 0 where unknown or negative.
+    fn variance(&self, i: usize) -> f32 {
+        let Some(v) = self.features.variance.filter(|_| self.use_variance) else {
+            return 0.0;
+        };
+        let p = &v.data[i * v.channels..][..v.channels];
+        let x = if p.len() >= 3 {
+            luminance([p[0], p[1], p[2]])
+        } else {
+            p[0]
+        };
+        let x = if x.is_finite() && x > 0.0 { x } else { 0.0 };
+        if !self.demodulate {
+            return x;
+        }
+        let px = self.pixel(i);
+        if px.pass {
+            0.0
+        } else {
+            x / (px.albedo_lum * px.albedo_lum)
+        }
+    }
+}
+
+/// How the first level's feature and variance planes are filled.
+pub(crate) struct FillScales {
+    /// Variance divided by mean luminance².
+    pub inv_ml2: f32,
+    /// Normal coordinate scale, `None` when the normal weight is off.
+    pub normal: Option<f32>,
+    /// Position coordinate scale (after division by the extent), `None` when off.
+    pub position: Option<f32>,
+    pub inv_extent: f32,
+    /// Per coordinate, the (scaled) position background pixels get.
+    pub position_background: [f32; 3],
+    /// Scale of the background flag, used as a coordinate when there is no position.
+    pub background_scale: f32,
+}
+
+/// Partial statistics of one block's own columns.
+struct BlockStats {
+    lum: f64,
+    valid: usize,
+    missing: usize,
+    lo: [f32; 3],
+    hi: [f32; 3],
+}
+
+/// Aux plane that holds the background flag between the two fill passes (the luminance
+/// plane, which `level_aux` writes before any kernel reads it).
+const BG_PLANE: usize = 1;
+
+/// First pass: fills the colour and validity planes of every `src` block (colour 0 where
+/// the validity is) and the background flag into aux plane [`BG_PLANE`], margins included (0
+/// beyond the image), and returns the image-wide statistics, summed block by block in block
+/// order (the same on any number of threads).
+pub(crate) fn fill_color(
+    inp: &Input,
+    lay: Layout,
+    sparse: usize,
+    src: &mut [f32],
+    aux: &mut [f32],
+) -> Stats {
+    let mask = sparse - 1;
+    let w = lay.w;
+    let parts: Vec<BlockStats> = src
+        .par_chunks_mut(K * QW)
+        .zip(aux.par_chunks_mut(KA * QW))
+        .enumerate()
+        .map(|(b, (blk, ab))| {
+            let (c, y) = lay.strip_row(b);
+            let (x0, len) = lay.strip(c);
+            let on_row = y & mask == 0;
+            let ja = M.saturating_sub(x0);
+            let jb = (w + M - x0).min(QW);
+            // Columns beyond the image hold 0 (validity 0: taps there add nothing); the rest
+            // of every plane in use is written here, by `fill_features` or per level.
+            for (planes, buf) in [(K, &mut *blk), (KA, &mut *ab)] {
+                for k in 0..planes {
+                    buf[k * QW..k * QW + ja].fill(0.0);
+                    buf[k * QW + jb..(k + 1) * QW].fill(0.0);
+                }
+            }
+            let mut st = BlockStats {
+                lum: 0.0,
+                valid: 0,
+                missing: 0,
+                lo: [f32::INFINITY; 3],
+                hi: [f32::NEG_INFINITY; 3],
+            };
+            for j in ja..jb {
+                let x = x0 + j - M;
+                let i = y * w + x;
+                let px = inp.pixel(i);
+                let bg = inp.background(i);
+                let v = (px.valid && on_row && x & mask == 0) as u8 as f32;
+                for k in 0..3 {
+                    blk[k * QW + j] = px.rgb[k] * v;
+                }
+                blk[3 * QW + j] = v;
+                ab[BG_PLANE * QW + j] = bg as u8 as f32;
+                if j < M || j >= M + len {
+                    continue; // a neighbour's column: counted there
+                }
+                let col = &inp.color.data[i * 3..i * 3 + 3];
+                st.missing += !col.iter().all(|v| v.is_finite()) as usize;
+                if px.valid {
+                    st.valid += 1;
+                    st.lum += luminance(px.rgb).abs() as f64;
+                }
+                if let (Some(p), false) = (inp.features.position, bg) {
+                    let v = &p.data[i * p.channels..][..3];
+                    for k in 0..3 {
+                        st.lo[k] = st.lo[k].min(v[k]);
+                        st.hi[k] = st.hi[k].max(v[k]);
+                    }
+                }
+            }
+            st
+        })
+        .collect();
+    let (mut lum, mut valid, mut missing) = (0.0f64, 0usize, 0usize);
+    let mut lo = [f32::INFINITY; 3];
+    let mut hi = [f32::NEG_INFINITY; 3];
+    for st in &parts {
+        lum += st.lum;
+        valid += st.valid;
+        missing += st.missing;
+        for k in 0..3 {
+            lo[k] = lo[k].min(st.lo[k]);
+            hi[k] = hi[k].max(st.hi[k]);
+        }
+    }
+    let mean = if valid > 0 {
+        (lum / valid as f64) as f32
+    } else {
+        0.0
+    };
+    let d = (0..3).map(|k| (hi[k] - lo[k]).powi(2)).sum::<f32>().sqrt();
+    Stats {
+        mean_luminance: if mean.is_finite() && mean > 1e-12 {
+            mean
+        } else {
+            1.0
+        },
+        missing,
+        extent: if d.is_finite() && d > 1e-12 { d } else { 1.0 },
+        position_max: hi,
+    }
+}
+
+/// Second pass: the variance plane of every `src` block and the feature planes of `aux`
+/// (from plane 2), scaled for the first level. Returns the number of feature coordinates.
+pub(crate) fn fill_features(
+    inp: &Input,
+    lay: Layout,
+    s: &FillScales,
+    src: &mut [f32],
+    aux: &mut [f32],
+) -> usize {
+    let f = inp.features;
+    let normal = f.normal.zip(s.normal);
+    let position = f.position.zip(s.position);
+    let nf = normal.map_or(0, |_| 3) + position.map_or(1, |_| 3);
+    let w = lay.w;
+    src.par_chunks_mut(K * QW)
+        .zip(aux.par_chunks_mut(KA * QW))
+        .enumerate()
+        .for_each(|(b, (blk, ab))| {
+            let (c, y) = lay.strip_row(b);
+            let (x0, _) = lay.strip(c);
+            let ja = M.saturating_sub(x0);
+            let jb = (w + M - x0).min(QW);
+            let (head, feat) = ab.split_at_mut(2 * QW);
+            let bgs = &head[BG_PLANE * QW..];
+            for j in ja..jb {
+                let i = y * w + x0 + j - M;
+                if inp.use_variance {
+                    // Variance in units of mean luminance², tiny values flushed to 0, so
+                    // Σ w²·var never reaches the (slow) denormal range.
+                    let v = inp.variance(i) * s.inv_ml2;
+                    blk[4 * QW + j] = if v > 1e-12 { v } else { 0.0 };
+                } else {
+                    blk[4 * QW + j] = 0.0;
+                }
+                let bg = bgs[j] > 0.0;
+                let mut k = 0;
+                if let Some((n, sn)) = normal {
+                    let p = &n.data[i * n.channels..][..3];
+                    for &v in p {
+                        feat[k * QW + j] = if v.is_finite() { v * sn } else { 0.0 };
+                        k += 1;
+                    }
+                }
+                match position {
+                    Some((p, sx)) => {
+                        let p = &p.data[i * p.channels..][..3];
+                        for (d, &v) in p.iter().enumerate() {
+                            feat[k * QW + j] = if bg {
+                                s.position_background[d]
+                            } else {
+                                v * s.inv_extent * sx
+                            };
+                            k += 1;
+                        }
+                    }
+                    None => feat[k * QW + j] = bg as u8 as f32 * s.background_scale,
+                }
+            }
+        });
+    nf
+}
+
+/// Copies the filtered colour out of `src` into an image; with demodulation, multiplies the
+/// albedo back and puts the pass-through pixels' own colour back (0 where not finite).
+pub(crate) fn output(inp: &Input, lay: Layout, src: &[f32]) -> Image {
+    let (w, h) = (lay.w, lay.h);
+    let mut out = Image::new(w, h, 3, 0.0);
+    out.data
+        .par_chunks_mut(3 * w)
+        .enumerate()
+        .for_each(|(y, o)| {
+            for c in 0..lay.nch {
+                let (x0, len) = lay.strip(c);
+                let blk = &src[lay.block(c, y, K)..][..K * QW];
+                for x in x0..x0 + len {
+                    let j = M + x - x0;
+                    let i = y * w + x;
+                    let f = [blk[j], blk[QW + j], blk[2 * QW + j]];
+                    let v = if !inp.demodulate {
+                        f
+                    } else {
+                        match inp.features.albedo.and_then(|a| albedo_at(a, i)) {
+                            Some(a) => [f[0] * a[0], f[1] * a[1], f[2] * a[2]],
+                            None => {
+                                let col = &inp.color.data[i * 3..i * 3 + 3];
+                                [passed(col[0]), passed(col[1]), passed(col[2])]
+                            }
+                        }
+                    };
+                    o[3 * x..3 * x + 3].copy_from_slice(&v);
+                }
+            }
+        });
+    out
+}
