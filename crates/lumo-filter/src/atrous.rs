@@ -368,7 +368,8 @@ impl AtrousFilter {
                     .enumerate()
                     .for_each(|(b, blk)| atrous_kernel::block(&level, b, blk));
             }
-            lay.fill_margins(dst, K);
+            // The variance plane only matters where it is carried.
+            lay.fill_margins(dst, K, if var_mode { K } else { K - 1 });
             std::mem::swap(&mut src, &mut dst);
         }
         (output(inp, lay, src), stats.missing)

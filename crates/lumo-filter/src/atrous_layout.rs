@@ -61,7 +61,8 @@ impl Layout {
     /// Copies every block's margins from its neighbours' strip columns, rows in parallel.
     /// Margins beyond the image are never written, nor are a last strip's columns beyond the
     /// image (the kernels write 0 there).
-    pub fn fill_margins(&self, buf: &mut [f32], planes: usize) {
+    /// `planes`: planes per block; the first `copy` of them are copied.
+    pub fn fill_margins(&self, buf: &mut [f32], planes: usize, copy: usize) {
         if self.nch < 2 {
             return;
         }
@@ -74,7 +75,7 @@ impl Layout {
         (0..self.h).into_par_iter().for_each(|y| {
             let base = &base;
             for c in 0..lay.nch {
-                for k in 0..planes {
+                for k in 0..copy.min(planes) {
                     let at = |cc: usize| lay.block(cc, y, planes) + k * QW;
                     // SAFETY: all offsets are inside `buf` (checked size above). Row y's task
                     // writes only the margin columns [0, M) and [M + CW, QW) of row y's blocks

@@ -118,12 +118,12 @@ fn band(l: &Level, c: usize, a: usize, b: usize, out: &mut [f32], ring: &mut Vec
     let lay = l.lay;
     let s = l.step;
     let rn = 2 * s + 1;
+    // Rows are cleared as they are finished, and a band finishes every row it adds to, so
+    // the ring is all zeros between bands (new rows are zeroed by `resize`).
     if ring.len() < rn {
         ring.resize(rn, [0.0; AN * QW]);
     }
-    for r in ring.iter_mut().take(rn) {
-        r.fill(0.0);
-    }
+    debug_assert!(ring.iter().all(|r| r.iter().all(|&v| v == 0.0)));
     let (_, len) = lay.strip(c);
     // Swept columns: the strip, plus 2·step into a neighbouring strip (whose pixels scatter
     // into this one), rounded out to whole chunks of [`CHUNK`] columns.
