@@ -236,7 +236,7 @@ fn row_base<const NF: usize, const CM: u8>(
     a2: &mut Acc,
     job: RowJob,
 ) {
-    row_impl::<NF, CM, 4, false>(r, a0, a1, a2, job)
+    row_impl::<NF, CM, 4, false, false>(r, a0, a1, a2, job)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -249,7 +249,7 @@ unsafe fn row_avx2<const NF: usize, const CM: u8>(
     a2: &mut Acc,
     job: RowJob,
 ) {
-    row_impl::<NF, CM, 8, true>(r, a0, a1, a2, job)
+    row_impl::<NF, CM, 8, true, false>(r, a0, a1, a2, job)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -262,7 +262,38 @@ unsafe fn row_avx512<const NF: usize, const CM: u8>(
     a2: &mut Acc,
     job: RowJob,
 ) {
-    row_impl::<NF, CM, 16, true>(r, a0, a1, a2, job)
+    row_impl::<NF, CM, 16, true, true>(r, a0, a1, a2, job)
+}
+
+/// [`exp2_cut`] of 16 exponents with AVX-512's round-to-integer and scale instructions: the
+/// same polynomial on the same reduced argument, 6 instructions fewer than the portable
+/// bit manipulation (which the other builds use). Exactly 0 below `cut` and for NaN.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline]
+unsafe fn exp2_cut_x16(t: &[f32], cut: f32) -> [f32; 16] {
+    use std::arch::x86_64::*;
+    const C1: f32 = std::f32::consts::LN_2;
+    const C2: f32 = C1 * C1 / 2.0;
+    const C3: f32 = C2 * C1 / 3.0;
+    const C4: f32 = C3 * C1 / 4.0;
+    const C5: f32 = C4 * C1 / 5.0;
+    let mut out = [0.0f32; 16];
+    assert!(t.len() >= 16);
+    // SAFETY: 16 floats are read from `t` and written to `out` (checked above).
+    unsafe {
+        let t = _mm512_loadu_ps(t.as_ptr());
+        let keep = _mm512_cmp_ps_mask::<_CMP_GE_OQ>(t, _mm512_set1_ps(cut));
+        let i = _mm512_roundscale_ps::<{ _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC }>(t);
+        let f = _mm512_sub_ps(t, i);
+        let mut p = _mm512_fmadd_ps(f, _mm512_set1_ps(C5), _mm512_set1_ps(C4));
+        p = _mm512_fmadd_ps(f, p, _mm512_set1_ps(C3));
+        p = _mm512_fmadd_ps(f, p, _mm512_set1_ps(C2));
+        p = _mm512_fmadd_ps(f, p, _mm512_set1_ps(C1));
+        p = _mm512_fmadd_ps(f, p, _mm512_set1_ps(1.0));
+        _mm512_storeu_ps(out.as_mut_ptr(), _mm512_maskz_scalef_ps(keep, p, i));
+    }
+    out
 }
 
 /// `L` floats of `s` from `at`.
@@ -273,7 +304,7 @@ fn ld<const L: usize>(s: &[f32], at: usize) -> [f32; L] {
 
 /// One row's pairs, `L` columns at a time (the arrays are the vector registers).
 #[inline(always)]
-fn row_impl<const NF: usize, const CM: u8, const L: usize, const FMA: bool>(
+fn row_impl<const NF: usize, const CM: u8, const L: usize, const FMA: bool, const X512: bool>(
     r: &Rows,
     a0: &mut Acc,
     a1: &mut Acc,
@@ -347,7 +378,20 @@ fn row_impl<const NF: usize, const CM: u8, const L: usize, const FMA: bool>(
                 if NF >= 4 {
                     e = mul_add::<FMA>(en, job.normal_factor, e);
                 }
-                wgt[l] = exp2_cut::<FMA>(c0[k] - e, c0[k] - e_max);
+                wgt[l] = c0[k] - e;
+            }
+            let cut = c0[k] - e_max;
+            #[cfg(target_arch = "x86_64")]
+            if X512 && L == 16 {
+                // SAFETY: `X512` is only set in the AVX-512 build (row_avx512).
+                let w16 = unsafe { exp2_cut_x16(&wgt[..16], cut) };
+                wgt[..16].copy_from_slice(&w16);
+            } else {
+                wgt = wgt.map(|t| exp2_cut::<FMA>(t, cut));
+            }
+            #[cfg(not(target_arch = "x86_64"))]
+            {
+                wgt = wgt.map(|t| exp2_cut::<FMA>(t, cut));
             }
             // Colour is 0 where the validity is (see `fill`), so w·colour needs no validity
             // factor: the same sums as w·valid·colour, bit for bit, one multiply less.
