@@ -167,6 +167,53 @@ struct BlockStats {
 /// plane, which `level_aux` writes before any kernel reads it).
 const BG_PLANE: usize = 1;
 
+/// The colour and validity planes of one block's columns being filled.
+struct ColorPlanes<'a> {
+    r: &'a mut [f32],
+    g: &'a mut [f32],
+    b: &'a mut [f32],
+    v: &'a mut [f32],
+}
+
+/// `n` albedo pixels from pixel `i0` (all channels).
+fn albedo_row(a: Option<&Image>, i0: usize, n: usize) -> &[f32] {
+    a.map_or(&[][..], |a| &a.data[i0 * a.channels..(i0 + n) * a.channels])
+}
+
+/// Colour (divided by the albedo when `AC` > 0, the albedo's channel count) and validity of
+/// a run of pixels, with the rules of `Input::pixel`, written branch-free so that it
+/// vectorises; colour is 0 where the validity is.
+#[inline(always)]
+fn color_row<const AC: usize>(color: &[f32], albedo: &[f32], out: ColorPlanes) {
+    let n = out.r.len();
+    for t in 0..n {
+        let c = &color[3 * t..3 * t + 3];
+        let mut rgb = [c[0], c[1], c[2]];
+        let mut ok = true;
+        if AC > 0 {
+            let a = &albedo[AC * t..AC * t + AC];
+            let a = if AC == 1 {
+                [a[0]; 3]
+            } else {
+                [a[0], a[1], a[2]]
+            };
+            let finite = a[0].is_finite() & a[1].is_finite() & a[2].is_finite();
+            ok = finite & (a[0].max(a[1]).max(a[2]) >= ALBEDO_EPS);
+            for k in 0..3 {
+                rgb[k] /= a[k].max(ALBEDO_EPS);
+            }
+        }
+        ok &= rgb[0].is_finite() & rgb[1].is_finite() & rgb[2].is_finite();
+        let v = ok as u8 as f32;
+        // Denormals flushed to 0 (they would slow every product they enter); 0 where invalid.
+        let f = |x: f32| if ok && x.abs() >= 1e-30 { x } else { 0.0 };
+        out.r[t] = f(rgb[0]);
+        out.g[t] = f(rgb[1]);
+        out.b[t] = f(rgb[2]);
+        out.v[t] = v;
+    }
+}
+
 /// First pass: fills the colour and validity planes of every `src` block (colour 0 where
 /// the validity is) and the background flag into aux plane [`BG_PLANE`], margins included (0
 /// beyond the image), and returns the image-wide statistics, summed block by block in block
@@ -205,31 +252,97 @@ pub(crate) fn fill_color(
                 lo: [f32::INFINITY; 3],
                 hi: [f32::NEG_INFINITY; 3],
             };
+            if ja < jb {
+                let (xa, n) = (x0 + ja - M, jb - ja);
+                let i0 = y * w + xa;
+                let (rgb, vrest) = blk.split_at_mut(3 * QW);
+                let (r, gb) = rgb.split_at_mut(QW);
+                let (g, b) = gb.split_at_mut(QW);
+                let planes = ColorPlanes {
+                    r: &mut r[ja..jb],
+                    g: &mut g[ja..jb],
+                    b: &mut b[ja..jb],
+                    v: &mut vrest[..QW][ja..jb],
+                };
+                let color = &inp.color.data[3 * i0..3 * (i0 + n)];
+                let albedo = inp.features.albedo.filter(|_| inp.demodulate);
+                match albedo.map(|a| a.channels) {
+                    None => color_row::<0>(color, &[], planes),
+                    Some(1) => color_row::<1>(color, &albedo_row(albedo, i0, n), planes),
+                    Some(3) => color_row::<3>(color, &albedo_row(albedo, i0, n), planes),
+                    Some(4) => color_row::<4>(color, &albedo_row(albedo, i0, n), planes),
+                    Some(_) => {
+                        for j in ja..jb {
+                            let x = x0 + j - M;
+                            let px = inp.pixel(y * w + x);
+                            let v = px.valid as u8 as f32;
+                            for k in 0..3 {
+                                blk[k * QW + j] = px.rgb[k] * v;
+                            }
+                            blk[3 * QW + j] = v;
+                        }
+                    }
+                }
+            }
             for j in ja..jb {
-                let x = x0 + j - M;
-                let i = y * w + x;
-                let px = inp.pixel(i);
-                let bg = inp.background(i);
-                let v = (px.valid && on_row && x & mask == 0) as u8 as f32;
-                for k in 0..3 {
-                    blk[k * QW + j] = px.rgb[k] * v;
+                let i = y * w + x0 + j - M;
+                ab[BG_PLANE * QW + j] = inp.background(i) as u8 as f32;
+            }
+            // Statistics of the strip's own columns (the margins are counted by their owner).
+            let own = M..M + len;
+            let i0 = y * w + x0;
+            let col = &inp.color.data[3 * i0..3 * (i0 + len)];
+            st.missing = col
+                .chunks_exact(3)
+                .filter(|p| !(p[0].is_finite() && p[1].is_finite() && p[2].is_finite()))
+                .count();
+            // Mean luminance over every usable pixel (before the sparse grid, as `Prepared`).
+            let mut lum = [0.0f32; 8];
+            let mut valid = [0.0f32; 8];
+            {
+                let (r, g, b) = (
+                    &blk[own.clone()],
+                    &blk[QW..][own.clone()],
+                    &blk[2 * QW..][own.clone()],
+                );
+                let v = &blk[3 * QW..][own.clone()];
+                // Eight partial sums (in a fixed order: deterministic) so the loop vectorises.
+                let mut t = 0;
+                while t + 8 <= len {
+                    for l in 0..8 {
+                        let k = t + l;
+                        lum[l] += (0.2126 * r[k] + 0.7152 * g[k] + 0.0722 * b[k]).abs();
+                        valid[l] += v[k];
+                    }
+                    t += 8;
                 }
-                blk[3 * QW + j] = v;
-                ab[BG_PLANE * QW + j] = bg as u8 as f32;
-                if j < M || j >= M + len {
-                    continue; // a neighbour's column: counted there
+                for k in t..len {
+                    lum[0] += (0.2126 * r[k] + 0.7152 * g[k] + 0.0722 * b[k]).abs();
+                    valid[0] += v[k];
                 }
-                let col = &inp.color.data[i * 3..i * 3 + 3];
-                st.missing += !col.iter().all(|v| v.is_finite()) as usize;
-                if px.valid {
-                    st.valid += 1;
-                    st.lum += luminance(px.rgb).abs() as f64;
+            }
+            let valid: f32 = valid.iter().sum();
+            st.lum = lum.iter().map(|&l| l as f64).sum();
+            st.valid = valid as usize;
+            if mask != 0 {
+                for j in ja..jb {
+                    let x = x0 + j - M;
+                    if !(on_row && x & mask == 0) {
+                        for k in 0..4 {
+                            blk[k * QW + j] = 0.0;
+                        }
+                    }
                 }
-                if let (Some(p), false) = (inp.features.position, bg) {
-                    let v = &p.data[i * p.channels..][..3];
-                    for k in 0..3 {
-                        st.lo[k] = st.lo[k].min(v[k]);
-                        st.hi[k] = st.hi[k].max(v[k]);
+            }
+            if let Some(p) = inp.features.position {
+                let bgs = &ab[BG_PLANE * QW..][own];
+                for (t, &bg) in bgs.iter().enumerate() {
+                    if bg == 0.0 {
+                        let v = &p.data[(i0 + t) * p.channels..][..3];
+                        for k in 0..3 {
+                            st.lo[k] = st.lo[k].min(v[k]);
+                            st.hi[k] = st.hi[k].max(v[k]);
+                        }
                     }
                 }
             }
