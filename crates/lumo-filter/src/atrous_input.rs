@@ -268,9 +268,9 @@ pub(crate) fn fill_color(
                 let albedo = inp.features.albedo.filter(|_| inp.demodulate);
                 match albedo.map(|a| a.channels) {
                     None => color_row::<0>(color, &[], planes),
-                    Some(1) => color_row::<1>(color, &albedo_row(albedo, i0, n), planes),
-                    Some(3) => color_row::<3>(color, &albedo_row(albedo, i0, n), planes),
-                    Some(4) => color_row::<4>(color, &albedo_row(albedo, i0, n), planes),
+                    Some(1) => color_row::<1>(color, albedo_row(albedo, i0, n), planes),
+                    Some(3) => color_row::<3>(color, albedo_row(albedo, i0, n), planes),
+                    Some(4) => color_row::<4>(color, albedo_row(albedo, i0, n), planes),
                     Some(_) => {
                         for j in ja..jb {
                             let x = x0 + j - M;
