@@ -5,7 +5,7 @@
 
 use glam::Vec3;
 use lumo_filter::{
-    atrous, build_guide, guided, AtrousParams, DepthNorm, Features, GuideKind, GuidedParams,
+    build_guide, guided, AtrousFilter, AtrousParams, DepthNorm, Features, GuideKind, GuidedParams,
     DEFAULT_EPS_DEPTH, DEFAULT_EPS_NORMAL,
 };
 use lumo_image::{luminance, Image};
@@ -32,6 +32,8 @@ pub struct FrameAccumulator {
     normal: Image,
     position: Image,
     depth: Image,
+    /// À-Trous working memory, kept from frame to frame.
+    atrous: AtrousFilter,
 }
 
 impl FrameAccumulator {
@@ -57,6 +59,7 @@ impl FrameAccumulator {
             normal: Image::new(w, h, 3, 0.0),
             position: Image::new(w, h, 3, 0.0),
             depth: Image::new(w, h, 1, 0.0),
+            atrous: AtrousFilter::new(),
         }
     }
 
@@ -127,7 +130,7 @@ impl FrameAccumulator {
     }
 
     /// The mean of the frames so far, filtered as `mode` says, converted to XYZ.
-    pub fn filtered(&self, mode: Mode) -> Option<FilteredFrame> {
+    pub fn filtered(&mut self, mode: Mode) -> Option<FilteredFrame> {
         if self.frames == 0 {
             return None;
         }
@@ -150,7 +153,8 @@ impl FrameAccumulator {
         let image = match mode {
             Mode::Progressive => color,
             Mode::Atrous => {
-                atrous(&color, &features, &AtrousParams::default())
+                self.atrous
+                    .filter(&color, &features, &AtrousParams::default())
                     .ok()?
                     .image
             }
