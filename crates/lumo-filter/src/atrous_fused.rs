@@ -7,7 +7,9 @@
 //! outside the image adds an exact zero instead of being skipped), so both paths give
 //! bit-identical results.
 
-use crate::atrous_kernel::{normalise, tap_consts, Isa, Level, CM_FIXED, CM_VARIANCE, K, KA};
+use crate::atrous_kernel::{
+    normalise, tap_consts, AuxBlock, Isa, Level, SrcBlock, CM_FIXED, CM_VARIANCE,
+};
 use crate::atrous_layout::{CW, M, QW};
 use crate::fastmath::{exp2_cut, mul_add};
 
@@ -25,9 +27,6 @@ const F: usize = 2;
 /// Accumulators: r, g, b, weight, variance.
 const AN: usize = 5;
 
-type SrcBlock = [f32; K * QW];
-type AuxBlock = [f32; KA * QW];
-
 /// Block `b` of a level with `step <= MAX_STEP` into `dst` (K planes).
 pub(crate) fn block_fused<const NF: usize, const CM: u8, const VAR: bool>(
     l: &Level,
@@ -37,16 +36,8 @@ pub(crate) fn block_fused<const NF: usize, const CM: u8, const VAR: bool>(
     let lay = l.lay;
     let (c, y) = lay.strip_row(b);
     let (_, len) = lay.strip(c);
-    let src_block = |yy: usize| -> &SrcBlock {
-        l.src[lay.block(c, yy, K)..][..K * QW]
-            .try_into()
-            .expect("block size")
-    };
-    let aux_block = |yy: usize| -> &AuxBlock {
-        l.aux[lay.block(c, yy, KA)..][..KA * QW]
-            .try_into()
-            .expect("block size")
-    };
+    let src_block = |yy: usize| l.src_block(c, yy);
+    let aux_block = |yy: usize| l.aux_block(c, yy);
     let (p, pa) = (src_block(y), aux_block(y));
     let mut acc = [0.0f32; AN * CW];
     for ky in 0..5 {

@@ -97,6 +97,27 @@ pub(crate) struct Level<'a> {
     pub path: Path,
 }
 
+/// A block of the source buffer: K planes of QW floats.
+pub(crate) type SrcBlock = [f32; K * QW];
+/// A block of the aux buffer: KA planes of QW floats.
+pub(crate) type AuxBlock = [f32; KA * QW];
+
+impl Level<'_> {
+    /// The source block of strip `c`, row `y`.
+    pub fn src_block(&self, c: usize, y: usize) -> &SrcBlock {
+        self.src[self.lay.block(c, y, K)..][..K * QW]
+            .try_into()
+            .expect("block size")
+    }
+
+    /// The aux block of strip `c`, row `y`.
+    pub fn aux_block(&self, c: usize, y: usize) -> &AuxBlock {
+        self.aux[self.lay.block(c, y, KA)..][..KA * QW]
+            .try_into()
+            .expect("block size")
+    }
+}
+
 /// Log2 of the B3 weight of tap (kx, ky) and the exponent below which its weight is 0 (the
 /// paper's weights below e^-20 — their denormal products would slow everything down).
 pub(crate) fn tap_consts(kx: usize, ky: usize) -> (f32, f32) {

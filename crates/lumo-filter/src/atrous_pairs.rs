@@ -26,7 +26,9 @@ use std::cell::RefCell;
 use rayon::prelude::*;
 
 use crate::atrous::B3;
-use crate::atrous_kernel::{normalise, Isa, Level, CM_FIXED, CM_NONE, CM_VARIANCE, K, KA};
+use crate::atrous_kernel::{
+    normalise, AuxBlock, Isa, Level, SrcBlock, CM_FIXED, CM_NONE, CM_VARIANCE, K,
+};
 use crate::atrous_layout::{CW, M, QW};
 use crate::fastmath::{exp2_cut, mul_add, EXP_CUTOFF};
 
@@ -40,8 +42,6 @@ const CHUNK: usize = 16;
 /// Accumulator planes per row: r, g, b, weight.
 const AN: usize = 4;
 type Acc = [f32; AN * QW];
-type SrcBlock = [f32; K * QW];
-type AuxBlock = [f32; KA * QW];
 
 /// Source planes: colour from 0, validity.
 const V: usize = 3;
@@ -134,16 +134,8 @@ fn band(l: &Level, c: usize, a: usize, b: usize, out: &mut [f32], ring: &mut Vec
         (M + len).next_multiple_of(CHUNK)
     };
     debug_assert!(j_hi + 2 * s <= QW && len <= CW);
-    let src = |y: usize| -> &SrcBlock {
-        l.src[lay.block(c, y, K)..][..K * QW]
-            .try_into()
-            .expect("block size")
-    };
-    let aux = |y: usize| -> &AuxBlock {
-        l.aux[lay.block(c, y, KA)..][..KA * QW]
-            .try_into()
-            .expect("block size")
-    };
+    let src = |y: usize| l.src_block(c, y);
+    let aux = |y: usize| l.aux_block(c, y);
     let in_band = |y: usize| y >= a && y < b;
     for y in a.saturating_sub(2 * s)..b {
         let own = in_band(y);
