@@ -11,6 +11,28 @@ use crate::FilterError;
 /// surfaces, emitters, background with no albedo) are passed through unfiltered.
 pub const ALBEDO_EPS: f32 = 1e-3;
 
+/// The albedo pixel `i` of `a` (1 channel broadcast, or the first 3) is divided by, each
+/// channel clamped to ≥ [`ALBEDO_EPS`]; `None` where the pixel is passed through (albedo not
+/// finite, or below ALBEDO_EPS in every channel).
+pub(crate) fn albedo_divisor(a: &Image, i: usize) -> Option<[f32; 3]> {
+    let p = &a.data[i * a.channels..][..a.channels];
+    let v = if a.channels == 1 {
+        [p[0]; 3]
+    } else {
+        [p[0], p[1], p[2]]
+    };
+    let usable =
+        v.iter().all(|x| x.is_finite()) && v.iter().fold(0.0f32, |m, &x| m.max(x)) >= ALBEDO_EPS;
+    usable.then(|| v.map(|x| x.max(ALBEDO_EPS)))
+}
+
+/// Variance of the illumination of a pixel whose variance is `v` and which was divided by
+/// `albedo`: v / luminance(albedo)².
+pub(crate) fn illumination_variance(v: f32, albedo: [f32; 3]) -> f32 {
+    let l = luminance(albedo).max(ALBEDO_EPS);
+    v / (l * l)
+}
+
 /// Colour split into illumination and the albedo it was divided by.
 #[derive(Clone, Debug)]
 pub struct Demodulated {
@@ -34,24 +56,19 @@ pub fn demodulate(color: &Image, albedo: &Image) -> Result<Demodulated, FilterEr
             expected: "1 or 3",
         });
     }
-    let a3 = albedo.to_channels(3);
     let n = color.pixel_count();
     let mut illum = Image::new(color.width, color.height, 3, 0.0);
     let mut used = Image::new(color.width, color.height, 3, 1.0);
     let mut passthrough = vec![false; n];
     for i in 0..n {
-        let a = &a3.data[i * 3..i * 3 + 3];
-        let finite = a.iter().all(|v| v.is_finite());
-        let maxa = a.iter().fold(0.0f32, |m, &v| m.max(v));
-        if !finite || maxa < ALBEDO_EPS {
+        let Some(a) = albedo_divisor(albedo, i) else {
             passthrough[i] = true;
             illum.data[i * 3..i * 3 + 3].fill(f32::NAN);
             continue;
-        }
+        };
         for c in 0..3 {
-            let ac = a[c].max(ALBEDO_EPS);
-            used.data[i * 3 + c] = ac;
-            illum.data[i * 3 + c] = color.data[i * 3 + c] / ac;
+            used.data[i * 3 + c] = a[c];
+            illum.data[i * 3 + c] = color.data[i * 3 + c] / a[c];
         }
     }
     Ok(Demodulated {
@@ -89,8 +106,7 @@ impl Demodulated {
                     0.0
                 } else {
                     let a = &self.albedo.data[i * 3..i * 3 + 3];
-                    let l = luminance([a[0], a[1], a[2]]).max(ALBEDO_EPS);
-                    v / (l * l)
+                    illumination_variance(v, [a[0], a[1], a[2]])
                 }
             })
             .collect()

@@ -182,7 +182,7 @@ fn validate(color: &Image, features: &Features, params: &AtrousParams) -> Result
 /// Scale of the background coordinate (used when there is no position plane to fold it
 /// into): a background/geometry pair is 64² log2 units apart, far below the weight cutoff, so
 /// the two never mix (the paper's shader does the same with a separate test).
-const BACKGROUND_SCALE: f32 = 64.0;
+pub(crate) const BACKGROUND_SCALE: f32 = 64.0;
 
 /// How far (in scaled units, per coordinate) background pixels are put beyond the farthest
 /// geometry when the background flag is folded into the position: 3·8² log2 units, below the
@@ -259,17 +259,16 @@ impl AtrousFilter {
         isa: Isa,
         path: Path,
     ) -> (Image, usize) {
-        // Contents are overwritten (blocks by `fill` and the kernels); only growth allocates
+        // Contents are overwritten (by `fill_color`, `fill_features` and the kernels); only growth allocates
         // (zeroed by the OS: no pass over the memory until it is used).
         for (buf, planes) in [(&mut self.src, K), (&mut self.dst, K), (&mut self.aux, KA)] {
             if buf.len() < lay.size(planes) {
                 *buf = vec![0.0; lay.size(planes)];
             }
         }
-        let src = &mut self.src[..lay.size(K)];
-        let dst = &mut self.dst[..lay.size(K)];
+        let mut src = &mut self.src[..lay.size(K)];
+        let mut dst = &mut self.dst[..lay.size(K)];
         let aux = &mut self.aux[..lay.size(KA)];
-        let (mut src, mut dst) = (src, dst);
         let stats = fill_color(inp, lay, params.sparse, src, aux);
         let ml = stats.mean_luminance;
         let log2e = std::f32::consts::LOG2_E;
@@ -299,7 +298,6 @@ impl AtrousFilter {
                     0.0
                 }
             }),
-            background_scale: BACKGROUND_SCALE,
         };
         let nf = fill_features(inp, lay, &scales, src, aux);
         // log2(sparse) iterations in-paint from geometry alone (paper §4: colour is meaningless

@@ -11,10 +11,11 @@
 use lumo_image::{luminance, Image};
 use rayon::prelude::*;
 
-use crate::albedo::ALBEDO_EPS;
+use crate::albedo::{albedo_divisor, illumination_variance, ALBEDO_EPS};
+use crate::atrous::BACKGROUND_SCALE;
 use crate::atrous_kernel::{K, KA};
 use crate::atrous_layout::{Layout, M, QW};
-use crate::gbuffer::Features;
+use crate::gbuffer::{is_background, Features};
 use crate::passthrough::passed;
 
 /// The input images of one call, and whether colour is demodulated by the albedo.
@@ -33,10 +34,6 @@ struct Pixel {
     rgb: [f32; 3],
     /// Colour usable (finite, and with a usable albedo when demodulating).
     valid: bool,
-    /// Luminance of the albedo divided by (1 without demodulation).
-    albedo_lum: f32,
-    /// Passed through unfiltered (demodulation without a usable albedo).
-    pass: bool,
 }
 
 /// Image-wide values the scales depend on.
@@ -51,39 +48,20 @@ pub(crate) struct Stats {
     pub position_max: [f32; 3],
 }
 
-/// Albedo demodulation of one pixel: the albedo divided by (each channel ≥ ALBEDO_EPS), or
-/// `None` where the pixel is passed through (albedo not finite or ≈ 0 everywhere).
-fn albedo_at(a: &Image, i: usize) -> Option<[f32; 3]> {
-    let p = &a.data[i * a.channels..][..a.channels];
-    let v = if a.channels == 1 {
-        [p[0]; 3]
-    } else {
-        [p[0], p[1], p[2]]
-    };
-    let usable =
-        v.iter().all(|x| x.is_finite()) && v.iter().fold(0.0f32, |m, &x| m.max(x)) >= ALBEDO_EPS;
-    usable.then(|| v.map(|x| x.max(ALBEDO_EPS)))
-}
-
 impl Input<'_> {
     fn pixel(&self, i: usize) -> Pixel {
         let c = &self.color.data[i * 3..i * 3 + 3];
         let mut rgb = [c[0], c[1], c[2]];
-        let mut albedo_lum = 1.0;
         let mut valid = true;
-        let mut pass = false;
         if self.demodulate {
-            match self.features.albedo.and_then(|a| albedo_at(a, i)) {
+            match self.features.albedo.and_then(|a| albedo_divisor(a, i)) {
                 Some(a) => {
                     for k in 0..3 {
                         rgb[k] /= a[k];
                     }
-                    albedo_lum = luminance(a).max(ALBEDO_EPS);
                 }
-                None => {
-                    valid = false;
-                    pass = true;
-                }
+                // Passed through unfiltered: no usable albedo.
+                None => valid = false,
             }
         }
         valid &= rgb.iter().all(|v| v.is_finite());
@@ -93,26 +71,7 @@ impl Input<'_> {
         } else {
             [0.0; 3]
         };
-        Pixel {
-            rgb,
-            valid,
-            albedo_lum,
-            pass,
-        }
-    }
-
-    /// 1 where nothing was hit (depth 0 or not finite, or position not finite).
-    fn background(&self, i: usize) -> bool {
-        let f = self.features;
-        let d = f.depth.is_some_and(|d| {
-            let v = d.data[i * d.channels];
-            !(v.is_finite() && v > 0.0)
-        });
-        let p = f.position.is_some_and(|p| {
-            let v = &p.data[i * p.channels..][..3];
-            !v.iter().all(|x| x.is_finite())
-        });
-        d || p
+        Pixel { rgb, valid }
     }
 
     /// Luminance variance of the (demodulated) pixel, 0 where unknown or negative.
@@ -130,11 +89,10 @@ impl Input<'_> {
         if !self.demodulate {
             return x;
         }
-        let px = self.pixel(i);
-        if px.pass {
-            0.0
-        } else {
-            x / (px.albedo_lum * px.albedo_lum)
+        // Pass-through pixels (no usable albedo) have no illumination variance.
+        match self.features.albedo.and_then(|a| albedo_divisor(a, i)) {
+            Some(a) => illumination_variance(x, a),
+            None => 0.0,
         }
     }
 }
@@ -150,8 +108,6 @@ pub(crate) struct FillScales {
     pub inv_extent: f32,
     /// Per coordinate, the (scaled) position background pixels get.
     pub position_background: [f32; 3],
-    /// Scale of the background flag, used as a coordinate when there is no position.
-    pub background_scale: f32,
 }
 
 /// Partial statistics of one block's own columns.
@@ -286,7 +242,7 @@ pub(crate) fn fill_color(
             }
             for j in ja..jb {
                 let i = y * w + x0 + j - M;
-                ab[BG_PLANE * QW + j] = inp.background(i) as u8 as f32;
+                ab[BG_PLANE * QW + j] = is_background(inp.features, i) as u8 as f32;
             }
             // Statistics of the strip's own columns (the margins are counted by their owner).
             let own = M..M + len;
@@ -434,7 +390,7 @@ pub(crate) fn fill_features(
                             k += 1;
                         }
                     }
-                    None => feat[k * QW + j] = bg as u8 as f32 * s.background_scale,
+                    None => feat[k * QW + j] = bg as u8 as f32 * BACKGROUND_SCALE,
                 }
             }
         });
@@ -460,7 +416,7 @@ pub(crate) fn output(inp: &Input, lay: Layout, src: &[f32]) -> Image {
                     let v = if !inp.demodulate {
                         f
                     } else {
-                        match inp.features.albedo.and_then(|a| albedo_at(a, i)) {
+                        match inp.features.albedo.and_then(|a| albedo_divisor(a, i)) {
                             Some(a) => [f[0] * a[0], f[1] * a[1], f[2] * a[2]],
                             None => {
                                 let col = &inp.color.data[i * 3..i * 3 + 3];

@@ -184,24 +184,22 @@ pub(crate) fn check_features(f: &Features, w: usize, h: usize) -> Result<(), Fil
     Ok(())
 }
 
+/// Whether pixel `i` is background: depth 0 or not finite, or position not finite.
+pub(crate) fn is_background(f: &Features, i: usize) -> bool {
+    let d = f.depth.is_some_and(|d| {
+        let v = d.data[i * d.channels];
+        !(v.is_finite() && v > 0.0)
+    });
+    let p = f.position.is_some_and(|p| {
+        let v = &p.data[i * p.channels..][..3];
+        !v.iter().all(|x| x.is_finite())
+    });
+    d || p
+}
+
 /// Background mask from depth and position (1 = nothing hit).
 pub(crate) fn background_mask(f: &Features, n: usize) -> Vec<f32> {
-    let mut bg = vec![0.0f32; n];
-    if let Some(d) = f.depth {
-        for (b, p) in bg.iter_mut().zip(d.data.chunks_exact(d.channels)) {
-            if !(p[0].is_finite() && p[0] > 0.0) {
-                *b = 1.0;
-            }
-        }
-    }
-    if let Some(pos) = f.position {
-        for (b, p) in bg.iter_mut().zip(pos.data.chunks_exact(pos.channels)) {
-            if !(p[0].is_finite() && p[1].is_finite() && p[2].is_finite()) {
-                *b = 1.0;
-            }
-        }
-    }
-    bg
+    (0..n).map(|i| is_background(f, i) as u8 as f32).collect()
 }
 
 /// Number of colour pixels with any non-finite channel.

@@ -149,6 +149,14 @@ pub struct Diagnostics {
 }
 
 impl Diagnostics {
+    /// No warnings yet; `strict` raises them as errors.
+    pub fn new(strict: bool) -> Self {
+        Self {
+            strict,
+            warnings: Vec::new(),
+        }
+    }
+
     /// Records a warning, or fails in strict mode.
     pub fn warn(&mut self, at: Location, message: impl Into<String>) -> Result<(), LoadError> {
         let message = message.into();

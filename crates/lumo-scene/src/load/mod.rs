@@ -95,10 +95,7 @@ pub fn load_scene(path: &Path, options: &LoadOptions) -> Result<LoadedScene, Loa
     let format = SceneFormat::from_path(path).ok_or_else(|| LoadError::UnknownFormat {
         path: path.to_path_buf(),
     })?;
-    let mut diag = Diagnostics {
-        strict: options.strict,
-        warnings: Vec::new(),
-    };
+    let mut diag = Diagnostics::new(options.strict);
     let mut settings = FileSettings::default();
     let mut animation = None;
     if format != SceneFormat::Gltf && (options.camera.is_some() || options.time.is_some()) {
@@ -126,10 +123,7 @@ pub fn load_mitsuba_str(
     path: &Path,
     options: &LoadOptions,
 ) -> Result<LoadedScene, LoadError> {
-    let mut diag = Diagnostics {
-        strict: options.strict,
-        warnings: Vec::new(),
-    };
+    let mut diag = Diagnostics::new(options.strict);
     let mut settings = FileSettings::default();
     let scene = mitsuba::load_str(text, path, options, &mut diag, &mut settings)?;
     finish(path, scene, diag, settings, None)
@@ -142,10 +136,7 @@ pub fn load_ply_bytes(
     path: &Path,
     options: &LoadOptions,
 ) -> Result<LoadedScene, LoadError> {
-    let mut diag = Diagnostics {
-        strict: options.strict,
-        warnings: Vec::new(),
-    };
+    let mut diag = Diagnostics::new(options.strict);
     let mesh = ply::read_bytes(path, bytes, &mut diag)?;
     let scene = defaults::lone_mesh_scene(path, (vec![mesh], vec![]));
     finish(path, scene, diag, FileSettings::default(), None)
