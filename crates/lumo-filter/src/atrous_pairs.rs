@@ -171,7 +171,7 @@ fn band(l: &Level, c: usize, a: usize, b: usize, out: &mut [f32], ring: &mut Vec
             let d = &mut out[(y - a) * K * QW..][..K * QW];
             // Margins (refilled from the neighbours, or 0 beyond the image) and the colour,
             // validity and variance planes' columns beyond the strip: 0.
-            for k in 0..K {
+            for k in 0..4 {
                 d[k * QW..k * QW + M].fill(0.0);
                 d[k * QW + M + len..(k + 1) * QW].fill(0.0);
             }
