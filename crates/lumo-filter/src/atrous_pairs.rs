@@ -9,12 +9,17 @@
 //! which are most of the kernel's arithmetic.
 //!
 //! How: bands of rows are swept top to bottom by one thread each. Row y adds its pairs'
-//! contributions to its own sum (kept in registers) and scatters the mirrored ones into the
-//! accumulator rows of y + step and y + 2·step, held in a ring of 2·step + 1 rows; row y is
-//! complete once it has been swept, and is normalised then. A band first sweeps the 2·step
-//! rows above it for their scatter alone, so bands are independent. Every pixel's sum is
-//! formed in the same order whatever the band boundaries or the thread count (row y − 2s,
-//! then y − s, then y itself), so results are deterministic.
+//! contributions to its own sum (kept in registers) and stores the pairs' weights in a row
+//! buffer; a second pass over the row then adds the mirrored contributions into the
+//! accumulator rows of y (dx > 0), y + step and y + 2·step, held in a ring of 2·step + 1
+//! rows, each output vector read and written once (see [`scatter`] for why not during the
+//! sweep). Row y is complete once it has been swept, and is normalised then. A band first
+//! sweeps the 2·step rows above it for their scatter alone, so bands are independent. Every
+//! pixel's sum is formed in the same order whatever the band boundaries or the thread count
+//! (row y − 2s, then y − s, then y itself), so results are deterministic.
+//!
+//! The row kernel exists three times: portable (baseline x86-64, other targets) in this file,
+//! and with explicit AVX2 and AVX-512 intrinsics in atrous_pairs_simd.rs.
 //!
 //! The colour coefficient of a pair is the centre's σ factor times the neighbour's validity:
 //! from a valid pixel's side it equals the per-tap path's (an invalid neighbour gets weight 0
@@ -27,10 +32,13 @@ use rayon::prelude::*;
 
 use crate::atrous::B3;
 use crate::atrous_kernel::{
-    normalise, AuxBlock, Isa, Level, SrcBlock, CM_FIXED, CM_NONE, CM_VARIANCE, K,
+    normalise, AuxBlock, Isa, Level, SrcBlock, CM_FIXED, CM_NONE, CM_VARIANCE, K, KA,
 };
 use crate::atrous_layout::{CW, M, QW};
 use crate::fastmath::{exp2_cut, mul_add, EXP_CUTOFF};
+
+#[path = "atrous_pairs_simd.rs"]
+mod simd;
 
 /// Largest tap spacing of the pair path: a strip sweeps pixels up to 2·step into its
 /// neighbours (for their scatter) and reads taps 2·step beyond those, 4·step ≤ M.
@@ -76,7 +84,17 @@ pub(crate) fn supports(step: usize, var: bool, cm: u8, nf: usize) -> bool {
 thread_local! {
     /// Each worker's accumulator ring, kept between bands and levels (allocating and
     /// page-faulting up to 33 rows per band would cost more than the rows' arithmetic).
-    static RING: RefCell<Vec<Acc>> = const { RefCell::new(Vec::new()) };
+    static RING: RefCell<Scratch> = const {
+        RefCell::new(Scratch { ring: Vec::new(), weights: Vec::new() })
+    };
+}
+
+/// A worker's buffers: the accumulator ring and one row of pair weights.
+struct Scratch {
+    ring: Vec<Acc>,
+    /// The 12 pair weights of the row being swept, [`QW`] columns each: the scatter half of
+    /// the pairs is added from here in a second pass over the row (see [`scatter`]).
+    weights: Vec<f32>,
 }
 
 /// One level over the whole image into `dst` (K planes per block; margins left 0).
@@ -100,21 +118,28 @@ pub(crate) fn level(l: &Level, dst: &mut [f32]) {
         });
 }
 
-/// Which of a row's pair groups (dy = 0, 1, 2 steps) add to the row itself (`own`) and
-/// which scatter into the row below (`scatter[dy]`).
+/// Which of a row's pair groups (dy = 0, 1, 2 steps) scatter into the rows below
+/// (`scatter[dy]`), and the row's constants.
 #[derive(Clone, Copy)]
 struct RowJob {
-    own: [bool; 3],
     scatter: [bool; 3],
     j_lo: usize,
     j_hi: usize,
+    /// The strip's columns (those whose sums are kept).
+    len: usize,
     step: usize,
     color_scale: f32,
     normal_factor: f32,
 }
 
 /// Rows [a, b) of strip `c` into `out` (their blocks).
-fn band(l: &Level, c: usize, a: usize, b: usize, out: &mut [f32], ring: &mut Vec<Acc>) {
+fn band(l: &Level, c: usize, a: usize, b: usize, out: &mut [f32], scratch: &mut Scratch) {
+    let Scratch { ring, weights } = scratch;
+    // Zeroed once; only ever overwritten with weights in [0, 1], so a stale one times the
+    // zero colour of a column outside the swept range adds exactly 0 (see [`scatter`]).
+    if weights.len() < PAIRS.len() * QW {
+        weights.resize(PAIRS.len() * QW, 0.0);
+    }
     let lay = l.lay;
     let s = l.step;
     let rn = 2 * s + 1;
@@ -140,33 +165,53 @@ fn band(l: &Level, c: usize, a: usize, b: usize, out: &mut [f32], ring: &mut Vec
     for y in a.saturating_sub(2 * s)..b {
         let own = in_band(y);
         let mut job = RowJob {
-            own: [false; 3],
             scatter: [false; 3],
             j_lo,
             j_hi,
+            len,
             step: s,
             color_scale: l.color_scale,
             normal_factor: l.normal_factor,
         };
         for dy in 0..3 {
             let yq = y + dy * s;
-            job.own[dy] = own && yq < lay.h;
             job.scatter[dy] = in_band(yq);
         }
-        let yq = |dy: usize| (y + dy * s).min(lay.h - 1);
-        let (q1, q2) = (yq(1), yq(2));
+        // Rows below the image: a zero block (validity 0, so its pairs add nothing).
+        let q_src = |dy: usize| {
+            let yq = y + dy * s;
+            if yq < lay.h {
+                src(yq)
+            } else {
+                &ZERO_SRC
+            }
+        };
+        let q_aux = |dy: usize| {
+            let yq = y + dy * s;
+            if yq < lay.h {
+                aux(yq)
+            } else {
+                &ZERO_AUX
+            }
+        };
         let [a0, a1, a2] = ring
             .get_disjoint_mut([y % rn, (y + s) % rn, (y + 2 * s) % rn])
             .expect("ring rows are distinct");
         let rows = Rows {
             p: src(y),
             pa: aux(y),
-            q1: src(q1),
-            qa1: aux(q1),
-            q2: src(q2),
-            qa2: aux(q2),
+            q1: q_src(1),
+            qa1: q_aux(1),
+            q2: q_src(2),
+            qa2: q_aux(2),
         };
-        row(l, &rows, a0, a1, a2, job);
+        let mut acc = Accs {
+            a0,
+            a1,
+            a2,
+            w: weights,
+        };
+        row(l, &rows, &mut acc, job);
         if own {
             let d = &mut out[(y - a) * K * QW..][..K * QW];
             // Margins (refilled from the neighbours, or 0 beyond the image) and the colour,
@@ -176,11 +221,18 @@ fn band(l: &Level, c: usize, a: usize, b: usize, out: &mut [f32], ring: &mut Vec
                 d[k * QW + M + len..(k + 1) * QW].fill(0.0);
             }
             d[4 * QW..5 * QW].fill(0.0);
-            normalise::<false>(&a0[..], QW, M, d, len);
-            a0.fill(0.0);
+            normalise::<false>(&acc.a0[..], QW, M, d, len);
         }
+        // An own row is finished; the sums of a row swept for its scatter alone are not
+        // wanted. Either way the ring row is free again.
+        acc.a0.fill(0.0);
     }
 }
+
+/// The block read for rows below the image.
+static ZERO_SRC: SrcBlock = [0.0; K * QW];
+/// The aux block read for rows below the image.
+static ZERO_AUX: AuxBlock = [0.0; KA * QW];
 
 /// The source and aux blocks of a row and of the rows one and two steps below it.
 struct Rows<'a> {
@@ -192,19 +244,28 @@ struct Rows<'a> {
     qa2: &'a AuxBlock,
 }
 
+/// The accumulator rows of a row and of the rows one and two steps below it, and the
+/// row's pair weights.
+struct Accs<'a> {
+    a0: &'a mut Acc,
+    a1: &'a mut Acc,
+    a2: &'a mut Acc,
+    w: &'a mut [f32],
+}
+
 /// Dispatch of one row on the level's feature count, colour mode and instruction set.
-fn row(l: &Level, r: &Rows, a0: &mut Acc, a1: &mut Acc, a2: &mut Acc, job: RowJob) {
+fn row(l: &Level, r: &Rows, acc: &mut Accs, job: RowJob) {
     macro_rules! go {
         ($nf:literal, $cm:expr) => {
             match l.isa {
                 #[cfg(target_arch = "x86_64")]
                 // SAFETY: `Isa::Avx512` is only chosen after run-time detection of AVX-512F/VL
                 // and FMA.
-                Isa::Avx512 => unsafe { row_avx512::<$nf, $cm>(r, a0, a1, a2, job) },
+                Isa::Avx512 => unsafe { simd::row_avx512::<$nf, $cm>(r, acc, job) },
                 #[cfg(target_arch = "x86_64")]
                 // SAFETY: `Isa::Avx2` is only chosen after run-time detection of AVX2 and FMA.
-                Isa::Avx2 => unsafe { row_avx2::<$nf, $cm>(r, a0, a1, a2, job) },
-                _ => row_base::<$nf, $cm>(r, a0, a1, a2, job),
+                Isa::Avx2 => unsafe { simd::row_avx2::<$nf, $cm>(r, acc, job) },
+                _ => row_base::<$nf, $cm>(r, acc, job),
             }
         };
     }
@@ -221,71 +282,8 @@ fn row(l: &Level, r: &Rows, a0: &mut Acc, a1: &mut Acc, a2: &mut Acc, job: RowJo
 }
 
 #[inline(never)]
-fn row_base<const NF: usize, const CM: u8>(
-    r: &Rows,
-    a0: &mut Acc,
-    a1: &mut Acc,
-    a2: &mut Acc,
-    job: RowJob,
-) {
-    row_impl::<NF, CM, 4, false, false>(r, a0, a1, a2, job)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-#[inline(never)]
-unsafe fn row_avx2<const NF: usize, const CM: u8>(
-    r: &Rows,
-    a0: &mut Acc,
-    a1: &mut Acc,
-    a2: &mut Acc,
-    job: RowJob,
-) {
-    row_impl::<NF, CM, 8, true, false>(r, a0, a1, a2, job)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
-#[inline(never)]
-unsafe fn row_avx512<const NF: usize, const CM: u8>(
-    r: &Rows,
-    a0: &mut Acc,
-    a1: &mut Acc,
-    a2: &mut Acc,
-    job: RowJob,
-) {
-    row_impl::<NF, CM, 16, true, true>(r, a0, a1, a2, job)
-}
-
-/// [`exp2_cut`] of 16 exponents with AVX-512's round-to-integer and scale instructions: the
-/// same polynomial on the same reduced argument, 6 instructions fewer than the portable
-/// bit manipulation (which the other builds use). Exactly 0 below `cut` and for NaN.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-#[inline]
-unsafe fn exp2_cut_x16(t: &[f32], cut: f32) -> [f32; 16] {
-    use std::arch::x86_64::*;
-    const C1: f32 = std::f32::consts::LN_2;
-    const C2: f32 = C1 * C1 / 2.0;
-    const C3: f32 = C2 * C1 / 3.0;
-    const C4: f32 = C3 * C1 / 4.0;
-    const C5: f32 = C4 * C1 / 5.0;
-    let mut out = [0.0f32; 16];
-    assert!(t.len() >= 16);
-    // SAFETY: 16 floats are read from `t` and written to `out` (checked above).
-    unsafe {
-        let t = _mm512_loadu_ps(t.as_ptr());
-        let keep = _mm512_cmp_ps_mask::<_CMP_GE_OQ>(t, _mm512_set1_ps(cut));
-        let i = _mm512_roundscale_ps::<{ _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC }>(t);
-        let f = _mm512_sub_ps(t, i);
-        let mut p = _mm512_fmadd_ps(f, _mm512_set1_ps(C5), _mm512_set1_ps(C4));
-        p = _mm512_fmadd_ps(f, p, _mm512_set1_ps(C3));
-        p = _mm512_fmadd_ps(f, p, _mm512_set1_ps(C2));
-        p = _mm512_fmadd_ps(f, p, _mm512_set1_ps(C1));
-        p = _mm512_fmadd_ps(f, p, _mm512_set1_ps(1.0));
-        _mm512_storeu_ps(out.as_mut_ptr(), _mm512_maskz_scalef_ps(keep, p, i));
-    }
-    out
+fn row_base<const NF: usize, const CM: u8>(r: &Rows, acc: &mut Accs, job: RowJob) {
+    row_impl::<NF, CM, 4, false>(r, acc, job)
 }
 
 /// `L` floats of `s` from `at`.
@@ -294,136 +292,263 @@ fn ld<const L: usize>(s: &[f32], at: usize) -> [f32; L] {
     s[at..at + L].try_into().expect("L floats")
 }
 
-/// One row's pairs, `L` columns at a time (the arrays are the vector registers).
+/// `L` floats from `p + at`, unchecked.
+///
+/// # Safety
+/// `p + at .. p + at + L` must lie inside one allocation.
 #[inline(always)]
-fn row_impl<const NF: usize, const CM: u8, const L: usize, const FMA: bool, const X512: bool>(
+unsafe fn ldp<const L: usize>(p: *const f32, at: usize) -> [f32; L] {
+    // SAFETY: guaranteed by the caller.
+    unsafe { p.add(at).cast::<[f32; L]>().read_unaligned() }
+}
+
+/// What every pair of a row's `L` columns starting at `j0` shares: the centre pixel p's
+/// colour, validity and features, its own sums, and where the neighbour rows lie.
+struct Centre<const NF: usize, const L: usize> {
+    pr: [f32; L],
+    pg: [f32; L],
+    pb: [f32; L],
+    pv: [f32; L],
+    /// The colour coefficient of p: σ factor × validity.
+    pc: [f32; L],
+    pf: [[f32; L]; NF],
+    ar: [f32; L],
+    ag: [f32; L],
+    ab: [f32; L],
+    aw: [f32; L],
+}
+
+/// The source and aux rows at dy = 0, 1, 2 steps, as raw pointers (bounds checked once
+/// per row in [`row_impl`]), the weights buffer, and the per-row constants.
+struct RowPtrs {
+    q: [*const f32; 3],
+    qa: [*const f32; 3],
+    w: *mut f32,
+    step: usize,
+    normal_factor: f32,
+    /// log2 of each pair's B3 weight, and the exponent below which its weight is 0.
+    c0: [f32; 12],
+    cut: [f32; 12],
+}
+
+/// Pair `KP` of [`PAIRS`] for `L` columns from `j0`: its weight is added to p's sums with
+/// q's colour, and stored for [`scatter`].
+///
+/// # Safety
+/// The row pointers must be valid for every column read (checked in [`row_impl`]), and the
+/// CPU must support what `FMA`/`X512`/`L` select (see [`row_impl`]).
+#[inline(always)]
+unsafe fn pair<const KP: usize, const NF: usize, const CM: u8, const L: usize, const FMA: bool>(
+    c: &mut Centre<NF, L>,
+    rp: &RowPtrs,
+    j0: usize,
+) {
+    let (dx, dy) = PAIRS[KP];
+    let qj = (j0 as isize + dx * rp.step as isize) as usize;
+    let (q, qa) = (rp.q[dy], rp.qa[dy]);
+    // SAFETY: in bounds by the caller's contract.
+    let (qr, qg, qb, qv): ([f32; L], [f32; L], [f32; L], [f32; L]) = unsafe {
+        (
+            ldp(q, qj),
+            ldp(q, QW + qj),
+            ldp(q, 2 * QW + qj),
+            ldp(q, V * QW + qj),
+        )
+    };
+    // SAFETY: in bounds by the caller's contract.
+    let qf: [[f32; L]; NF] = std::array::from_fn(|f| unsafe { ldp(qa, (F + f) * QW + qj) });
+    let mut wgt = [0.0f32; L];
+    for l in 0..L {
+        let mut e = 0.0f32;
+        if CM == CM_FIXED {
+            let (dr, dg, db) = (c.pr[l] - qr[l], c.pg[l] - qg[l], c.pb[l] - qb[l]);
+            let d2 = mul_add::<FMA>(db, db, mul_add::<FMA>(dg, dg, dr * dr));
+            e = d2 * (c.pc[l] * qv[l]);
+        }
+        // With 4 or 6 coordinates the first three are normals, whose squared distance
+        // takes the level's factor.
+        let normals = if NF >= 4 { 3 } else { 0 };
+        let mut en = 0.0f32;
+        for f in 0..NF {
+            let d = c.pf[f][l] - qf[f][l];
+            if f < normals {
+                en = mul_add::<FMA>(d, d, en);
+            } else {
+                e = mul_add::<FMA>(d, d, e);
+            }
+        }
+        if NF >= 4 {
+            e = mul_add::<FMA>(en, rp.normal_factor, e);
+        }
+        wgt[l] = rp.c0[KP] - e;
+    }
+    let cut = rp.cut[KP];
+    wgt = wgt.map(|t| exp2_cut::<FMA>(t, cut));
+    // Colour is 0 where the validity is (see `fill`), so w·colour needs no validity
+    // factor: the same sums as w·valid·colour, bit for bit, one multiply less.
+    for l in 0..L {
+        let w = wgt[l];
+        c.ar[l] = mul_add::<FMA>(w, qr[l], c.ar[l]);
+        c.ag[l] = mul_add::<FMA>(w, qg[l], c.ag[l]);
+        c.ab[l] = mul_add::<FMA>(w, qb[l], c.ab[l]);
+        c.aw[l] = mul_add::<FMA>(w, qv[l], c.aw[l]);
+    }
+    // SAFETY: the weights buffer holds 12 rows of QW floats and j0 + L <= QW.
+    unsafe {
+        rp.w.add(KP * QW + j0)
+            .cast::<[f32; L]>()
+            .write_unaligned(wgt)
+    };
+}
+
+/// One row's pairs, `L` columns at a time (the arrays are the vector registers): every
+/// pair's weight is added to the row's own sums and stored, then [`scatter`] adds the
+/// mirrored halves to the rows below.
+///
+/// Branch-free over the pairs: own sums are formed for every swept row (`band` discards
+/// those of rows it does not own) and rows below the image read a zero block (validity 0,
+/// so they add nothing).
+#[inline(always)]
+fn row_impl<const NF: usize, const CM: u8, const L: usize, const FMA: bool>(
     r: &Rows,
-    a0: &mut Acc,
-    a1: &mut Acc,
-    a2: &mut Acc,
+    acc: &mut Accs,
     job: RowJob,
 ) {
-    let step = job.step.min(MAX_PAIR_STEP) as isize;
-    let mut c0 = [0.0f32; 12];
-    for (k, &(dx, dy)) in PAIRS.iter().enumerate() {
-        c0[k] = (B3[(dx + 2) as usize] * B3[dy + 2]).log2();
-    }
+    let step = job.step.min(MAX_PAIR_STEP);
     // The exponent e above which a weight is 0 (the per-tap path's cutoff, e^-20).
     let e_max = -EXP_CUTOFF * std::f32::consts::LOG2_E;
+    let mut rp = RowPtrs {
+        q: [r.p.as_ptr(), r.q1.as_ptr(), r.q2.as_ptr()],
+        qa: [r.pa.as_ptr(), r.qa1.as_ptr(), r.qa2.as_ptr()],
+        w: acc.w.as_mut_ptr(),
+        step,
+        normal_factor: job.normal_factor,
+        c0: [0.0; 12],
+        cut: [0.0; 12],
+    };
+    for (k, &(dx, dy)) in PAIRS.iter().enumerate() {
+        rp.c0[k] = (B3[(dx + 2) as usize] * B3[dy + 2]).log2();
+        rp.cut[k] = rp.c0[k] - e_max;
+    }
+    // Every column read: p's at [j_lo, j_hi), q's up to 2·step either side; the weights
+    // buffer's at [j_lo, j_hi). One check here instead of one per load.
+    assert!(job.j_lo >= 2 * step && job.j_hi + 2 * step <= QW && job.j_lo.is_multiple_of(L));
+    assert!(acc.w.len() >= PAIRS.len() * QW && job.j_hi.is_multiple_of(L));
     let mut j0 = job.j_lo;
     while j0 < job.j_hi {
-        let pr: [f32; L] = ld(r.p, j0);
-        let pg: [f32; L] = ld(r.p, QW + j0);
-        let pb: [f32; L] = ld(r.p, 2 * QW + j0);
-        let pv: [f32; L] = ld(r.p, V * QW + j0);
-        // The colour factor from the validity, not the aux plane: swept columns in a
-        // neighbouring strip have none there.
-        let pc: [f32; L] = std::array::from_fn(|l| job.color_scale * pv[l]);
-        let pf: [[f32; L]; NF] = std::array::from_fn(|f| ld(r.pa, (F + f) * QW + j0));
-        let mut ar = [0.0f32; L];
-        let mut ag = [0.0f32; L];
-        let mut ab = [0.0f32; L];
-        let mut aw = [0.0f32; L];
+        let p = r.p.as_ptr();
+        let pa = r.pa.as_ptr();
+        // SAFETY: j0 + L <= j_hi <= QW (checked above); the planes are inside the blocks.
+        let mut c = unsafe {
+            let pv: [f32; L] = ldp(p, V * QW + j0);
+            Centre::<NF, L> {
+                pr: ldp(p, j0),
+                pg: ldp(p, QW + j0),
+                pb: ldp(p, 2 * QW + j0),
+                pv,
+                // The colour factor from the validity, not the aux plane: swept columns
+                // in a neighbouring strip have none there.
+                pc: pv.map(|v| job.color_scale * v),
+                pf: std::array::from_fn(|f| ldp(pa, (F + f) * QW + j0)),
+                ar: [0.0; L],
+                ag: [0.0; L],
+                ab: [0.0; L],
+                aw: [0.0; L],
+            }
+        };
         for l in 0..L {
-            let w = CENTRE * pv[l];
-            ar[l] = w * pr[l];
-            ag[l] = w * pg[l];
-            ab[l] = w * pb[l];
-            aw[l] = w;
+            let w = CENTRE * c.pv[l];
+            c.ar[l] = w * c.pr[l];
+            c.ag[l] = w * c.pg[l];
+            c.ab[l] = w * c.pb[l];
+            c.aw[l] = w;
         }
-        for (k, &(dx, dy)) in PAIRS.iter().enumerate() {
-            let (own, scatter) = (job.own[dy], job.scatter[dy]);
-            if !own && !scatter {
-                continue;
-            }
-            let (q, qa, acc): (&SrcBlock, &AuxBlock, &mut Acc) = match dy {
-                0 => (r.p, r.pa, &mut *a0),
-                1 => (r.q1, r.qa1, &mut *a1),
-                _ => (r.q2, r.qa2, &mut *a2),
+        macro_rules! pairs {
+            ($($k:literal)*) => {
+                // SAFETY: q columns j0 + dx·step are within [j_lo − 2·step, j_hi + 2·step)
+                // ⊂ [0, QW) (checked above); the CPU features match the caller's copy.
+                $(unsafe { pair::<$k, NF, CM, L, FMA>(&mut c, &rp, j0) };)*
             };
-            let qj = (j0 as isize + dx * step) as usize;
-            let qr: [f32; L] = ld(q, qj);
-            let qg: [f32; L] = ld(q, QW + qj);
-            let qb: [f32; L] = ld(q, 2 * QW + qj);
-            let qv: [f32; L] = ld(q, V * QW + qj);
-            let qf: [[f32; L]; NF] = std::array::from_fn(|f| ld(qa, (F + f) * QW + qj));
-            let mut wgt = [0.0f32; L];
-            for l in 0..L {
-                let mut e = 0.0f32;
-                if CM == CM_FIXED {
-                    let (dr, dg, db) = (pr[l] - qr[l], pg[l] - qg[l], pb[l] - qb[l]);
-                    let d2 = mul_add::<FMA>(db, db, mul_add::<FMA>(dg, dg, dr * dr));
-                    e = d2 * (pc[l] * qv[l]);
-                }
-                // With 4 or 6 coordinates the first three are normals, whose squared
-                // distance takes the level's factor.
-                let normals = if NF >= 4 { 3 } else { 0 };
-                let mut en = 0.0f32;
-                for (f, (pf, qf)) in pf.iter().zip(&qf).enumerate() {
-                    let d = pf[l] - qf[l];
-                    if f < normals {
-                        en = mul_add::<FMA>(d, d, en);
-                    } else {
-                        e = mul_add::<FMA>(d, d, e);
-                    }
-                }
-                if NF >= 4 {
-                    e = mul_add::<FMA>(en, job.normal_factor, e);
-                }
-                wgt[l] = c0[k] - e;
-            }
-            let cut = c0[k] - e_max;
-            #[cfg(target_arch = "x86_64")]
-            if X512 && L == 16 {
-                // SAFETY: `X512` is only set in the AVX-512 build (row_avx512).
-                let w16 = unsafe { exp2_cut_x16(&wgt[..16], cut) };
-                wgt[..16].copy_from_slice(&w16);
-            } else {
-                wgt = wgt.map(|t| exp2_cut::<FMA>(t, cut));
-            }
-            #[cfg(not(target_arch = "x86_64"))]
-            {
-                wgt = wgt.map(|t| exp2_cut::<FMA>(t, cut));
-            }
-            // Colour is 0 where the validity is (see `fill`), so w·colour needs no validity
-            // factor: the same sums as w·valid·colour, bit for bit, one multiply less.
-            if own {
-                for l in 0..L {
-                    let w = wgt[l];
-                    ar[l] = mul_add::<FMA>(w, qr[l], ar[l]);
-                    ag[l] = mul_add::<FMA>(w, qg[l], ag[l]);
-                    ab[l] = mul_add::<FMA>(w, qb[l], ab[l]);
-                    aw[l] = mul_add::<FMA>(w, qv[l], aw[l]);
-                }
-            }
-            if scatter {
-                let (sr, rest) = acc.split_at_mut(QW);
-                let (sg, rest) = rest.split_at_mut(QW);
-                let (sb, sw) = rest.split_at_mut(QW);
-                let sr = &mut sr[qj..qj + L];
-                let sg = &mut sg[qj..qj + L];
-                let sb = &mut sb[qj..qj + L];
-                let sw = &mut sw[qj..qj + L];
-                for l in 0..L {
-                    let w = wgt[l];
-                    sr[l] = mul_add::<FMA>(w, pr[l], sr[l]);
-                    sg[l] = mul_add::<FMA>(w, pg[l], sg[l]);
-                    sb[l] = mul_add::<FMA>(w, pb[l], sb[l]);
-                    sw[l] = mul_add::<FMA>(w, pv[l], sw[l]);
-                }
-            }
         }
-        if job.own[0] {
-            let (sr, rest) = a0.split_at_mut(QW);
-            let (sg, rest) = rest.split_at_mut(QW);
-            let (sb, sw) = rest.split_at_mut(QW);
-            for l in 0..L {
-                sr[j0 + l] += ar[l];
-                sg[j0 + l] += ag[l];
-                sb[j0 + l] += ab[l];
-                sw[j0 + l] += aw[l];
-            }
+        pairs!(0 1 2 3 4 5 6 7 8 9 10 11);
+        let (sr, rest) = acc.a0.split_at_mut(QW);
+        let (sg, rest) = rest.split_at_mut(QW);
+        let (sb, sw) = rest.split_at_mut(QW);
+        for l in 0..L {
+            sr[j0 + l] += c.ar[l];
+            sg[j0 + l] += c.ag[l];
+            sb[j0 + l] += c.ab[l];
+            sw[j0 + l] += c.aw[l];
         }
         j0 += L;
+    }
+    for dy in 0..3 {
+        if job.scatter[dy] {
+            let a = match dy {
+                0 => &mut *acc.a0,
+                1 => &mut *acc.a1,
+                _ => &mut *acc.a2,
+            };
+            scatter::<L, FMA>(r.p, acc.w, a, dy, step, job.len);
+        }
+    }
+}
+
+/// The mirrored half of row p's pairs with dy = `dy`: each pixel q of the row `dy` steps
+/// below gets w(p, q)·p from the pixels p = q − (dx, dy)·step of the row just swept.
+///
+/// Why a second pass: adding into the lower rows during the sweep made every vector a
+/// read-modify-write at an offset of dx·step, overlapping the one before it; on CPUs whose
+/// store-to-load forwarding cannot merge two stores (AMD Zen 3 measured) each such load
+/// stalls. Here each vector of the lower row is read and written once, aligned, and the
+/// pairs' weights are read back from the row buffer the sweep stored them in.
+///
+/// Only the strip's own columns [M, M + len) are summed: their sources lie within 2·step of
+/// them, inside the swept range or in margins whose colour and validity are 0 (so a stale
+/// weight there adds exactly 0).
+#[inline(always)]
+fn scatter<const L: usize, const FMA: bool>(
+    p: &SrcBlock,
+    w: &[f32],
+    a: &mut Acc,
+    dy: usize,
+    step: usize,
+    len: usize,
+) {
+    let ks = match dy {
+        0 => 0..2,
+        1 => 2..7,
+        _ => 7..12,
+    };
+    let mut jq = M;
+    while jq < M + len {
+        let mut sr = [0.0f32; L];
+        let mut sg = [0.0f32; L];
+        let mut sb = [0.0f32; L];
+        let mut sw = [0.0f32; L];
+        for k in ks.clone() {
+            let i = (jq as isize - PAIRS[k].0 * step as isize) as usize;
+            let wk: [f32; L] = ld(w, k * QW + i);
+            let pr: [f32; L] = ld(p, i);
+            let pg: [f32; L] = ld(p, QW + i);
+            let pb: [f32; L] = ld(p, 2 * QW + i);
+            let pv: [f32; L] = ld(p, V * QW + i);
+            for l in 0..L {
+                sr[l] = mul_add::<FMA>(wk[l], pr[l], sr[l]);
+                sg[l] = mul_add::<FMA>(wk[l], pg[l], sg[l]);
+                sb[l] = mul_add::<FMA>(wk[l], pb[l], sb[l]);
+                sw[l] = mul_add::<FMA>(wk[l], pv[l], sw[l]);
+            }
+        }
+        let (ar, rest) = a.split_at_mut(QW);
+        let (ag, rest) = rest.split_at_mut(QW);
+        let (ab, aw) = rest.split_at_mut(QW);
+        for l in 0..L {
+            ar[jq + l] += sr[l];
+            ag[jq + l] += sg[l];
+            ab[jq + l] += sb[l];
+            aw[jq + l] += sw[l];
+        }
+        jq += L;
     }
 }

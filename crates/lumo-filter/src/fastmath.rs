@@ -71,6 +71,68 @@ pub(crate) fn exp2_cut<const FMA: bool>(t: f32, cut: f32) -> f32 {
     }
 }
 
+#[cfg(target_arch = "x86_64")]
+use std::arch::x86_64::*;
+
+/// The polynomial constants of [`crate::fastmath::exp2_cut`]: 2^f = e^(f·ln 2), degree 5.
+#[cfg(target_arch = "x86_64")]
+const C1: f32 = std::f32::consts::LN_2;
+#[cfg(target_arch = "x86_64")]
+const C2: f32 = C1 * C1 / 2.0;
+#[cfg(target_arch = "x86_64")]
+const C3: f32 = C2 * C1 / 3.0;
+#[cfg(target_arch = "x86_64")]
+const C4: f32 = C3 * C1 / 4.0;
+#[cfg(target_arch = "x86_64")]
+const C5: f32 = C4 * C1 / 5.0;
+
+/// [`exp2_cut`]`::<true>` of four 8-lane vectors with AVX2 + FMA intrinsics, bit for bit the
+/// same. Why intrinsics: the compiler scalarised the portable version mapped over an 8-float
+/// array (measured 83 % of the À-Trous time on an AVX2-only CPU). Why four: each step is
+/// done for all four before the next, so four independent dependency chains interleave
+/// (the polynomial alone is five dependent fused multiply-adds).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline]
+pub(crate) fn exp2_cut_avx2_x4(t: [__m256; 4], cut: [__m256; 4]) -> [__m256; 4] {
+    const MAGIC: f32 = 12_582_912.0;
+    let magic = _mm256_set1_ps(MAGIC);
+    let tc: [__m256; 4] = std::array::from_fn(|i| _mm256_max_ps(t[i], cut[i]));
+    let r = tc.map(|x| _mm256_add_ps(x, magic));
+    let f: [__m256; 4] = std::array::from_fn(|i| _mm256_sub_ps(tc[i], _mm256_sub_ps(r[i], magic)));
+    let mut p = f.map(|f| _mm256_fmadd_ps(f, _mm256_set1_ps(C5), _mm256_set1_ps(C4)));
+    for c in [C3, C2, C1, 1.0] {
+        let c = _mm256_set1_ps(c);
+        p = std::array::from_fn(|i| _mm256_fmadd_ps(f[i], p[i], c));
+    }
+    let bias = _mm256_set1_epi32(127u32.wrapping_sub(MAGIC.to_bits()) as i32);
+    std::array::from_fn(|i| {
+        let e = _mm256_slli_epi32::<23>(_mm256_add_epi32(_mm256_castps_si256(r[i]), bias));
+        let w = _mm256_mul_ps(p[i], _mm256_castsi256_ps(e));
+        _mm256_and_ps(w, _mm256_cmp_ps::<_CMP_GE_OQ>(t[i], cut[i]))
+    })
+}
+
+/// [`exp2_cut`] of four 16-lane vectors with AVX-512's round-to-integer and scale
+/// instructions: the same polynomial on the same reduced argument, 6 instructions fewer than
+/// the portable bit manipulation; exactly 0 below `cut` and for NaN, equal to the scalar one
+/// within 1e-6. Interleaved as [`exp2_cut_avx2_x4`].
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline]
+pub(crate) fn exp2_cut_avx512_x4(t: [__m512; 4], cut: [__m512; 4]) -> [__m512; 4] {
+    let keep: [__mmask16; 4] =
+        std::array::from_fn(|i| _mm512_cmp_ps_mask::<_CMP_GE_OQ>(t[i], cut[i]));
+    let r = t.map(|x| _mm512_roundscale_ps::<{ _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC }>(x));
+    let f: [__m512; 4] = std::array::from_fn(|i| _mm512_sub_ps(t[i], r[i]));
+    let mut p = f.map(|f| _mm512_fmadd_ps(f, _mm512_set1_ps(C5), _mm512_set1_ps(C4)));
+    for c in [C3, C2, C1, 1.0] {
+        let c = _mm512_set1_ps(c);
+        p = std::array::from_fn(|i| _mm512_fmadd_ps(f[i], p[i], c));
+    }
+    std::array::from_fn(|i| _mm512_maskz_scalef_ps(keep[i], p[i], r[i]))
+}
+
 /// `a·b + c`, fused (one rounding) when `FMA`, else two roundings.
 #[inline(always)]
 pub(crate) fn mul_add<const FMA: bool>(a: f32, b: f32, c: f32) -> f32 {
@@ -118,5 +180,54 @@ mod tests {
         assert_eq!(exp2_cut::<false>(-40.001, cut), 0.0);
         assert_eq!(exp2_cut::<false>(f32::NEG_INFINITY, cut), 0.0);
         assert_eq!(exp2_cut::<false>(f32::NAN, cut), 0.0);
+    }
+
+    /// The SIMD copies give what the scalar one gives (the AVX2 one bit for bit), including
+    /// at the cutoff and for NaN and infinities.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn simd_exp2_cut_matches_scalar() {
+        let cut = -37.5;
+        let mut ts: Vec<f32> = (0..=80_000)
+            .map(|k| -(k as f32) * 40.0 / 80_000.0)
+            .collect();
+        ts.extend([cut, cut - 1e-5, f32::NAN, f32::NEG_INFINITY, 0.0, -0.0]);
+        ts.resize(ts.len().next_multiple_of(64), 0.0);
+        let avx2 = is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma");
+        let avx512 = avx2 && is_x86_feature_detected!("avx512f");
+        for c in ts.chunks(64) {
+            let want: Vec<f32> = c.iter().map(|&t| exp2_cut::<true>(t, cut)).collect();
+            let mut got = [0.0f32; 64];
+            if avx2 {
+                // SAFETY: AVX2 and FMA were detected above; 4·8 floats read and written
+                // per half of the 64-float chunk.
+                unsafe {
+                    for h in 0..2 {
+                        let t =
+                            std::array::from_fn(|i| _mm256_loadu_ps(c[32 * h + 8 * i..].as_ptr()));
+                        let v = exp2_cut_avx2_x4(t, [_mm256_set1_ps(cut); 4]);
+                        for (i, v) in v.into_iter().enumerate() {
+                            _mm256_storeu_ps(got[32 * h + 8 * i..].as_mut_ptr(), v);
+                        }
+                    }
+                }
+                for (g, w) in got.iter().zip(&want) {
+                    assert_eq!(g.to_bits(), w.to_bits());
+                }
+            }
+            if avx512 {
+                // SAFETY: AVX-512F was detected above; 4·16 floats read and written.
+                unsafe {
+                    let t = std::array::from_fn(|i| _mm512_loadu_ps(c[16 * i..].as_ptr()));
+                    let v = exp2_cut_avx512_x4(t, [_mm512_set1_ps(cut); 4]);
+                    for (i, v) in v.into_iter().enumerate() {
+                        _mm512_storeu_ps(got[16 * i..].as_mut_ptr(), v);
+                    }
+                }
+                for (g, w) in got.iter().zip(&want) {
+                    assert!((g - w).abs() <= 1e-6 * w, "{g} vs {w}");
+                }
+            }
+        }
     }
 }
