@@ -102,8 +102,11 @@ pub(crate) fn level(l: &Level, dst: &mut [f32]) {
     let lay = l.lay;
     let block = K * QW;
     // Bands tall enough that the 2·step rows swept twice stay a small part of the work
-    // (≤ 8 %), and enough of them to share between threads.
-    let band_rows = (16 * l.step).max(128);
+    // (≤ 8 %), and no more of them than the threads need: with 128-row bands a 512² image's
+    // five levels swept ~10 % of their rows twice, with one band per thread ~5 %.
+    let band_rows = (16 * l.step)
+        .max(128)
+        .max(lay.h.div_ceil(rayon::current_num_threads().max(1)));
     dst.par_chunks_mut(block * lay.h)
         .enumerate()
         .for_each(|(c, strip)| {

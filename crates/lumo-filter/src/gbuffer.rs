@@ -186,15 +186,25 @@ pub(crate) fn check_features(f: &Features, w: usize, h: usize) -> Result<(), Fil
 
 /// Whether pixel `i` is background: depth 0 or not finite, or position not finite.
 pub(crate) fn is_background(f: &Features, i: usize) -> bool {
-    let d = f.depth.is_some_and(|d| {
-        let v = d.data[i * d.channels];
-        !(v.is_finite() && v > 0.0)
-    });
-    let p = f.position.is_some_and(|p| {
-        let v = &p.data[i * p.channels..][..3];
-        !v.iter().all(|x| x.is_finite())
-    });
+    let d = f
+        .depth
+        .is_some_and(|d| depth_is_background(d.data[i * d.channels]));
+    let p = f
+        .position
+        .is_some_and(|p| position_is_background(&p.data[i * p.channels..][..3]));
     d || p
+}
+
+/// The depth half of [`is_background`]: 0, negative or not finite.
+#[inline(always)]
+pub(crate) fn depth_is_background(d: f32) -> bool {
+    !(d.is_finite() && d > 0.0)
+}
+
+/// The position half of [`is_background`]: a coordinate not finite (`p` holds ≥ 3).
+#[inline(always)]
+pub(crate) fn position_is_background(p: &[f32]) -> bool {
+    !(p[0].is_finite() & p[1].is_finite() & p[2].is_finite())
 }
 
 /// Background mask from depth and position (1 = nothing hit).
