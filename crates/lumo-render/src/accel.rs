@@ -1,9 +1,9 @@
-//! Ray queries over a two-level BVH: one 4-wide SIMD BVH ([`crate::bvh4`]) per mesh, one binary
-//! BVH over instances. Both can be refitted when vertices or instance transforms change.
+//! Ray queries over a two-level BVH: one wide SIMD BVH per mesh (8-wide with AVX2, else
+//! 4-wide: [`crate::blas`]), one binary BVH over instances. Both can be refitted when vertices or instance transforms change.
 //!
 //! obvhs builds the per-mesh binary trees with PLOC + reinsertion rather than the binned SAH of
 //! the guided-filter paper; its trees are of comparable SAH quality and it builds in parallel.
-//! Traversal uses lumo's own 4-wide collapse of them.
+//! Traversal uses lumo's own 8- or 4-wide collapse of them.
 
 use glam::{Mat4, Vec3, Vec3A};
 use obvhs::aabb::Aabb;
@@ -13,7 +13,8 @@ use obvhs::ploc::{PlocBuilder, PlocSearchDistance, SortPrecision};
 use obvhs::ray::{Ray, RayHit};
 use obvhs::rt_triangle::RtTriangle;
 
-use crate::bvh4::{Bvh4, TriHit};
+use crate::blas::WideBlas;
+use crate::bvh_wide::TriHit;
 
 use lumo_scene::Scene;
 
@@ -37,7 +38,7 @@ struct MeshBvh {
     /// Binary tree kept for refitting; its leaves hold one triangle each.
     bvh2: Bvh2,
     /// Wide tree used for traversal, regenerated from `bvh2` after a refit.
-    bvh4: Bvh4,
+    wide: WideBlas,
 }
 
 impl MeshBvh {
@@ -57,8 +58,8 @@ impl MeshBvh {
             3,
         );
         ReinsertionOptimizer::default().run(&mut bvh2, 0.05, None);
-        let bvh4 = Bvh4::from_bvh2(&bvh2, positions, indices);
-        MeshBvh { bvh2, bvh4 }
+        let wide = WideBlas::build(&bvh2, positions, indices);
+        MeshBvh { bvh2, wide }
     }
 
     /// Moves vertices without changing the tree's topology (fast; quality degrades with
@@ -77,7 +78,7 @@ impl MeshBvh {
             self.bvh2.nodes[node].set_aabb(tri.aabb());
         }
         self.bvh2.refit_all();
-        self.bvh4 = Bvh4::from_bvh2(&self.bvh2, positions, indices);
+        self.wide = WideBlas::build(&self.bvh2, positions, indices);
     }
 }
 
@@ -331,7 +332,7 @@ impl Accel {
             // A single placement (typically the merged static scene): skip the instance tree.
             let p = &self.placements[0];
             let (o, d) = self.local_ray(p, origin, dir);
-            let h = self.blas(p.target)?.bvh4.intersect(o, d, tmin, tmax)?;
+            let h = self.blas(p.target)?.wide.intersect(o, d, tmin, tmax)?;
             return self.scene_hit(0, h);
         }
         let ray = Ray::new(origin.into(), dir.into(), tmin, tmax);
@@ -344,7 +345,7 @@ impl Accel {
                 return f32::INFINITY;
             };
             let (o, d) = self.local_ray(p, origin, dir);
-            match blas.bvh4.intersect(o, d, r.tmin, r.tmax) {
+            match blas.wide.intersect(o, d, r.tmin, r.tmax) {
                 Some(h) => {
                     best = Some((pi, h));
                     h.t
@@ -366,14 +367,14 @@ impl Accel {
             let (o, d) = self.local_ray(p, origin, dir);
             return self
                 .blas(p.target)
-                .is_some_and(|b| b.bvh4.occluded(o, d, tmin, tmax));
+                .is_some_and(|b| b.wide.occluded(o, d, tmin, tmax));
         }
         let ray = Ray::new(origin.into(), dir.into(), tmin, tmax);
         !self.tlas.ray_traverse_miss(ray, |r, id| {
             let p = &self.placements[self.tlas.primitive_indices[id] as usize];
             let (o, d) = self.local_ray(p, origin, dir);
             match self.blas(p.target) {
-                Some(blas) if blas.bvh4.occluded(o, d, r.tmin, r.tmax) => r.tmin,
+                Some(blas) if blas.wide.occluded(o, d, r.tmin, r.tmax) => r.tmin,
                 _ => f32::INFINITY,
             }
         })

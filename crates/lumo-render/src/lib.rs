@@ -3,8 +3,13 @@
 //! and MIS, and a film that keeps direct and indirect light and a G-buffer apart.
 
 pub mod accel;
+mod blas;
 pub mod bsdf;
 mod bvh4;
+mod bvh8;
+#[cfg(test)]
+mod bvh_tests;
+mod bvh_wide;
 pub mod camera;
 pub mod distribution;
 mod frame;
