@@ -1,7 +1,10 @@
 //! Stateless low-discrepancy sampling: every number is a function of (pixel, sample index,
 //! dimension, seed) only, so images do not depend on thread count or scheduling.
 
+use std::sync::OnceLock;
+
 use glam::Vec2;
+use sobol_burley::parts;
 
 /// Number of leading 4-D dimension sets drawn from the Owen-scrambled Sobol sequence; later
 /// numbers come from a per-sample PCG32 stream.
@@ -74,24 +77,33 @@ impl PixelSampler {
     }
 
     /// The next number in [0, 1).
-    #[inline]
+    #[inline(always)]
     pub fn next_1d(&mut self) -> f32 {
+        // The two common cases (a cached Sobol number, a PCG step) inline into the caller;
+        // fetching the next Sobol set does not (inlined, its registers made every call pay a
+        // long prologue).
         if self.used < 4 {
             let v = self.cache[self.used as usize];
             self.used += 1;
             return v;
         }
         if self.set < SOBOL_SETS {
-            self.cache = sobol_burley::sample_4d(self.index, self.set, self.seed);
-            self.set += 1;
-            self.used = 1;
-            return self.cache[0];
+            return self.next_sobol_set();
         }
         self.next_random()
     }
 
+    /// Fetches the next Sobol dimension set and returns its first number.
+    #[inline(never)]
+    fn next_sobol_set(&mut self) -> f32 {
+        self.cache = sobol_4d(self.index, self.set, self.seed);
+        self.set += 1;
+        self.used = 1;
+        self.cache[0]
+    }
+
     /// One PCG32 step (XSH-RR output) as a float in [0, 1).
-    #[inline]
+    #[inline(always)]
     fn next_random(&mut self) -> f32 {
         let old = self.pcg;
         self.pcg = old.wrapping_mul(PCG_MULT).wrapping_add(PCG_INC);
@@ -102,15 +114,131 @@ impl PixelSampler {
     }
 
     /// The next 2-D point in [0, 1)².
-    #[inline]
+    #[inline(always)]
     pub fn next_2d(&mut self) -> Vec2 {
         Vec2::new(self.next_1d(), self.next_1d())
     }
 }
 
+/// Per Sobol dimension set, the XOR of the direction numbers selected by each value of the
+/// high and of the low byte of a 16-bit (bit-reversed) sample index.
+struct SobolTables {
+    high: [[u32; 4]; 256],
+    low: [[u32; 4]; 256],
+}
+
+/// The tables of the first [`SOBOL_SETS`] dimension sets, built on first use from
+/// `sobol_burley`'s own direction numbers (its `sobol_int4_rev` of single-bit indices).
+fn sobol_tables() -> &'static [SobolTables] {
+    static TABLES: OnceLock<Vec<SobolTables>> = OnceLock::new();
+    TABLES.get_or_init(|| {
+        (0..SOBOL_SETS)
+            .map(|set| {
+                // vecs[k]: the direction numbers of index bit k, counted from the top.
+                let vecs: Vec<[u32; 4]> = (0..16)
+                    .map(|k| parts::sobol_int4_rev(1u32 << (31 - k), set).into())
+                    .collect();
+                let xor_of = |byte: usize, first: usize| {
+                    let mut v = [0u32; 4];
+                    for bit in 0..8 {
+                        if byte & (0x80 >> bit) != 0 {
+                            for (d, x) in v.iter_mut().enumerate() {
+                                *x ^= vecs[first + bit][d];
+                            }
+                        }
+                    }
+                    v
+                };
+                SobolTables {
+                    high: std::array::from_fn(|b| xor_of(b, 0)),
+                    low: std::array::from_fn(|b| xor_of(b, 8)),
+                }
+            })
+            .collect()
+    })
+}
+
+/// `sobol_burley::sample_4d(index, set, seed)` bit for bit (tested), for `set < SOBOL_SETS`.
+///
+/// Why not the crate's function: its direction-number loop runs once per set bit of the
+/// shuffled index, and on baseline x86-64 (no SSE4.1) its 4-lane multiplies are emulated with
+/// shuffles; together ~10 % of the path tracer's time. Here the loop is two table lookups and,
+/// where the CPU has AVX2, the scrambling is compiled with it (native 32-bit lane multiplies).
+#[inline]
+fn sobol_4d(index: u32, set: u32, seed: u32) -> [f32; 4] {
+    // The crate's own steps: shuffle the index (Owen-scramble its reversed bits) ...
+    let shuffled = parts::owen_scramble_rev(index.reverse_bits(), parts::hash(seed ^ 0x79c68e4a));
+    // ... Sobol points of the top 16 bits (what `sobol_int4_rev` reads) ...
+    let t = &sobol_tables()[set as usize];
+    let (hi, lo) = (
+        t.high[(shuffled >> 24) as usize],
+        t.low[((shuffled >> 16) & 0xff) as usize],
+    );
+    let sobol = [hi[0] ^ lo[0], hi[1] ^ lo[1], hi[2] ^ lo[2], hi[3] ^ lo[3]];
+    // ... then Owen-scramble each dimension with its own hash.
+    #[cfg(target_arch = "x86_64")]
+    if std::is_x86_feature_detected!("avx2") {
+        // SAFETY: AVX2 was detected just above.
+        return unsafe { scramble_avx2(sobol, set, seed) };
+    }
+    scramble(sobol, set, seed)
+}
+
+/// The per-dimension Owen scramble of `sobol_burley::sample_4d` on four Sobol integers, and
+/// their conversion to floats in [0, 1).
+#[inline(always)]
+fn scramble(sobol: [u32; 4], set: u32, seed: u32) -> [f32; 4] {
+    const DIM: [u32; 4] = [0x912f69ba, 0x174f18ab, 0x691e72ca, 0xb40cc1b8];
+    let s = seed.wrapping_mul(0x9c8f2d3b) ^ set;
+    let mut out = [0.0f32; 4];
+    for d in 0..4 {
+        let scrambled = parts::owen_scramble_rev(sobol[d], parts::hash(s ^ DIM[d]));
+        out[d] = parts::u32_to_f32_norm(scrambled.reverse_bits());
+    }
+    out
+}
+
+/// [`scramble`] compiled with AVX2: the four lanes' multiplies vectorise.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn scramble_avx2(sobol: [u32; 4], set: u32, seed: u32) -> [f32; 4] {
+    scramble(sobol, set, seed)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn sobol_4d_equals_sobol_burley() {
+        for set in 0..SOBOL_SETS {
+            for seed in [0u32, 1, 0xdead_beef, 123_456_789] {
+                for index in (0..65_536u32).step_by(7).chain([0xffff]) {
+                    let want = sobol_burley::sample_4d(index, set, seed);
+                    let got = sobol_4d(index, set, seed);
+                    assert_eq!(
+                        want.map(f32::to_bits),
+                        got.map(f32::to_bits),
+                        "{index} {set} {seed}"
+                    );
+                    assert_eq!(want.map(f32::to_bits), scramble_portable(index, set, seed));
+                }
+            }
+        }
+    }
+
+    /// The portable scramble path, whatever this CPU has.
+    fn scramble_portable(index: u32, set: u32, seed: u32) -> [u32; 4] {
+        let shuffled =
+            parts::owen_scramble_rev(index.reverse_bits(), parts::hash(seed ^ 0x79c68e4a));
+        let t = &sobol_tables()[set as usize];
+        let (hi, lo) = (
+            t.high[(shuffled >> 24) as usize],
+            t.low[((shuffled >> 16) & 0xff) as usize],
+        );
+        let sobol = [hi[0] ^ lo[0], hi[1] ^ lo[1], hi[2] ^ lo[2], hi[3] ^ lo[3]];
+        scramble(sobol, set, seed).map(f32::to_bits)
+    }
 
     #[test]
     fn deterministic_and_well_distributed() {
