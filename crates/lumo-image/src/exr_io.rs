@@ -93,7 +93,12 @@ pub(crate) fn write(path: &Path, image: &Image) -> Result<(), ImageError> {
     let layer = exrp::Layer::new(
         (image.width, image.height),
         exrp::LayerAttributes::default(),
-        exrp::Encoding::FAST_LOSSLESS,
+        // Blocks in increasing order: the default ("unspecified") writes them in the order the
+        // parallel compressors finish, so the same image gave different bytes on every run.
+        exrp::Encoding {
+            line_order: exrp::LineOrder::Increasing,
+            ..exrp::Encoding::FAST_LOSSLESS
+        },
         exrp::AnyChannels::sort(list),
     );
     exrp::Image::from_layer(layer)

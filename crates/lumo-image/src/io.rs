@@ -100,6 +100,27 @@ mod tests {
     }
 
     #[test]
+    fn exr_files_are_byte_identical_for_the_same_image() {
+        // Big enough for many 64×64 tiles, so parallel compression finishes them out of order.
+        let (w, h) = (300, 260);
+        let data = (0..w * h * 3)
+            .map(|i| ((i * 7919) % 1000) as f32 / 999.0)
+            .collect();
+        let img = Image::from_vec(w, h, 3, data);
+        let dir = std::env::temp_dir().join(format!("lumo-image-det-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let first = dir.join("a.exr");
+        write_image(&first, &img).unwrap();
+        let want = std::fs::read(&first).unwrap();
+        for k in 0..8 {
+            let p = dir.join(format!("b{k}.exr"));
+            write_image(&p, &img).unwrap();
+            assert!(std::fs::read(&p).unwrap() == want, "write {k} differs");
+        }
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
     fn errors_name_the_file() {
         let e = read_image(Path::new("/nonexistent/x.exr")).unwrap_err();
         assert!(e.to_string().contains("/nonexistent/x.exr"));
