@@ -9,11 +9,10 @@
 
 use glam::{BVec4A, Vec3, Vec4};
 
+use crate::bvh_stack::{
+    descend_any, descend_nearest, keep_nearest, pop_closer, with_stack, TraversalStack,
+};
 use crate::bvh_wide::{ray_slopes, TriHit, WideBvh, LEAF};
-
-/// Traversal stack entries kept on the machine stack (enough for 10 levels, ~10⁶ triangles);
-/// deeper trees use a heap stack. Kept small because the array is zeroed for every ray.
-const INLINE_STACK: usize = 32;
 
 /// The 4-wide BVH of one mesh.
 pub type Bvh4 = WideBvh<4>;
@@ -101,13 +100,7 @@ impl Bvh4 {
             return None;
         }
         let r = RayData::new(origin, dir);
-        if self.stack_need <= INLINE_STACK {
-            let mut stack = [(0u32, 0f32); INLINE_STACK];
-            self.closest(&r, tmin, tmax, &mut stack)
-        } else {
-            let mut stack = vec![(0u32, 0f32); self.stack_need];
-            self.closest(&r, tmin, tmax, &mut stack)
-        }
+        with_stack(self.stack_need, |stack| self.closest(&r, tmin, tmax, stack))
     }
 
     /// True if anything hits `origin + t·dir` with t in [tmin, tmax].
@@ -117,13 +110,7 @@ impl Bvh4 {
             return false;
         }
         let r = RayData::new(origin, dir);
-        if self.stack_need <= INLINE_STACK {
-            let mut stack = [0u32; INLINE_STACK];
-            self.any(&r, tmin, tmax, &mut stack)
-        } else {
-            let mut stack = vec![0u32; self.stack_need];
-            self.any(&r, tmin, tmax, &mut stack)
-        }
+        with_stack(self.stack_need, |stack| self.any(&r, tmin, tmax, stack))
     }
 
     /// Closest-hit traversal: nearest child first, the others pushed with their entry
@@ -133,89 +120,41 @@ impl Bvh4 {
         r: &RayData,
         tmin: f32,
         mut tmax: f32,
-        stack: &mut [(u32, f32)],
+        mut stack: TraversalStack<(u32, f32)>,
     ) -> Option<TriHit> {
         let mut best: Option<TriHit> = None;
-        let mut sp = 0usize;
         let mut current = 0u32;
         loop {
             if current & LEAF != 0 {
                 let packet = &self.packets[(current & !LEAF) as usize];
                 let (mask, t, u, v) = hit_packet(packet, r, tmin, tmax);
-                let mut bits = mask.bitmask();
+                let bits = mask.bitmask();
                 if bits != 0 {
                     let (t, u, v) = (t.to_array(), u.to_array(), v.to_array());
-                    while bits != 0 {
-                        let lane = bits.trailing_zeros() as usize;
-                        bits &= bits - 1;
-                        if t[lane] <= tmax {
-                            tmax = t[lane];
-                            best = Some(TriHit {
-                                t: t[lane],
-                                triangle: packet.id[lane],
-                                u: u[lane],
-                                v: v[lane],
-                            });
-                        }
-                    }
+                    keep_nearest(bits, [&t, &u, &v], &packet.id, &mut tmax, &mut best);
                 }
             } else {
                 let node = &self.nodes[current as usize];
-                let (mut bits, tnear) = hit_boxes(node, r, tmin, tmax);
+                let (bits, tnear) = hit_boxes(node, r, tmin, tmax);
                 if bits != 0 {
-                    let first = bits.trailing_zeros() as usize;
-                    bits &= bits - 1;
-                    if bits == 0 {
+                    current = if bits.is_power_of_two() {
                         // One child hit (the common case near the leaves): no ordering.
-                        current = node.child[first];
-                        continue;
-                    }
-                    let tn = tnear.to_array();
-                    // Gather the hit children, then order them far to near on the stack
-                    // and descend into the nearest directly.
-                    let mut hits = [(node.child[first], tn[first]), (0, 0.0), (0, 0.0), (0, 0.0)];
-                    let mut n = 1;
-                    while bits != 0 {
-                        let lane = bits.trailing_zeros() as usize;
-                        bits &= bits - 1;
-                        hits[n] = (node.child[lane], tn[lane]);
-                        n += 1;
-                    }
-                    let hits = &mut hits[..n];
-                    // Insertion sort, descending by distance (n ≤ 4).
-                    for i in 1..n {
-                        let mut j = i;
-                        while j > 0 && hits[j - 1].1 < hits[j].1 {
-                            hits.swap(j - 1, j);
-                            j -= 1;
-                        }
-                    }
-                    for &h in &hits[..n - 1] {
-                        stack[sp] = h;
-                        sp += 1;
-                    }
-                    current = hits[n - 1].0;
+                        node.child[bits.trailing_zeros() as usize]
+                    } else {
+                        descend_nearest(&node.child, &tnear.to_array(), bits, &mut stack)
+                    };
                     continue;
                 }
             }
-            // Pop the next subtree that can still hold a closer hit.
-            loop {
-                if sp == 0 {
-                    return best;
-                }
-                sp -= 1;
-                let (child, t) = stack[sp];
-                if t <= tmax {
-                    current = child;
-                    break;
-                }
+            match pop_closer(&mut stack, tmax) {
+                Some(child) => current = child,
+                None => return best,
             }
         }
     }
 
     /// Any-hit traversal: stops at the first triangle hit, in no particular order.
-    fn any(&self, r: &RayData, tmin: f32, tmax: f32, stack: &mut [u32]) -> bool {
-        let mut sp = 0usize;
+    fn any(&self, r: &RayData, tmin: f32, tmax: f32, mut stack: TraversalStack<u32>) -> bool {
         let mut current = 0u32;
         loop {
             if current & LEAF != 0 {
@@ -225,24 +164,16 @@ impl Bvh4 {
                 }
             } else {
                 let node = &self.nodes[current as usize];
-                let (mut bits, _) = hit_boxes(node, r, tmin, tmax);
+                let (bits, _) = hit_boxes(node, r, tmin, tmax);
                 if bits != 0 {
-                    let lane = bits.trailing_zeros() as usize;
-                    bits &= bits - 1;
-                    while bits != 0 {
-                        stack[sp] = node.child[bits.trailing_zeros() as usize];
-                        sp += 1;
-                        bits &= bits - 1;
-                    }
-                    current = node.child[lane];
+                    current = descend_any(&node.child, bits, &mut stack);
                     continue;
                 }
             }
-            if sp == 0 {
-                return false;
+            match stack.pop() {
+                Some(child) => current = child,
+                None => return false,
             }
-            sp -= 1;
-            current = stack[sp];
         }
     }
 }

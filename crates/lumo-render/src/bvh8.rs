@@ -10,10 +10,10 @@
 //! The triangle test is [`crate::bvh4`]'s, with the cross and dot products as fused
 //! multiply-adds: hits agree with the 4-wide traversal to rounding, not bit for bit.
 
-use std::mem::MaybeUninit;
-
 use glam::Vec3;
 
+#[cfg(target_arch = "x86_64")]
+use crate::bvh_stack::with_stack;
 use crate::bvh_wide::{TriHit, WideBvh};
 
 /// The 8-wide BVH of one mesh. Exists only where AVX2 and FMA were detected, which is what
@@ -55,19 +55,10 @@ impl Bvh8 {
         }
         #[cfg(target_arch = "x86_64")]
         {
-            // Not zeroed: zeroing 512 bytes per ray cost ~8 % of the traversal's instructions,
-            // and traversal reads only entries it wrote.
-            let mut inline = [MaybeUninit::<(u32, f32)>::uninit(); avx2::INLINE_STACK];
-            let mut heap;
-            let stack: &mut [MaybeUninit<(u32, f32)>] =
-                if self.tree.stack_need <= avx2::INLINE_STACK {
-                    &mut inline
-                } else {
-                    heap = vec![MaybeUninit::uninit(); self.tree.stack_need];
-                    &mut heap
-                };
-            // SAFETY: a `Bvh8` exists only where AVX2 and FMA were detected (`new`).
-            unsafe { avx2::closest(&self.tree, origin, dir, tmin, tmax, stack) }
+            with_stack(self.tree.stack_need, |stack| {
+                // SAFETY: a `Bvh8` exists only where AVX2 and FMA were detected (`new`).
+                unsafe { avx2::closest(&self.tree, origin, dir, tmin, tmax, stack) }
+            })
         }
         #[cfg(not(target_arch = "x86_64"))]
         {
@@ -84,16 +75,10 @@ impl Bvh8 {
         }
         #[cfg(target_arch = "x86_64")]
         {
-            let mut inline = [MaybeUninit::<u32>::uninit(); avx2::INLINE_STACK];
-            let mut heap;
-            let stack: &mut [MaybeUninit<u32>] = if self.tree.stack_need <= avx2::INLINE_STACK {
-                &mut inline
-            } else {
-                heap = vec![MaybeUninit::uninit(); self.tree.stack_need];
-                &mut heap
-            };
-            // SAFETY: a `Bvh8` exists only where AVX2 and FMA were detected (`new`).
-            unsafe { avx2::any(&self.tree, origin, dir, tmin, tmax, stack) }
+            with_stack(self.tree.stack_need, |stack| {
+                // SAFETY: a `Bvh8` exists only where AVX2 and FMA were detected (`new`).
+                unsafe { avx2::any(&self.tree, origin, dir, tmin, tmax, stack) }
+            })
         }
         #[cfg(not(target_arch = "x86_64"))]
         {
@@ -106,15 +91,13 @@ impl Bvh8 {
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
     use std::arch::x86_64::*;
-    use std::mem::MaybeUninit;
 
     use glam::Vec3;
 
+    use crate::bvh_stack::{
+        descend_any, descend_nearest, keep_nearest, pop_closer, TraversalStack,
+    };
     use crate::bvh_wide::{ray_slopes, Node, Packet, TriHit, WideBvh, LEAF};
-
-    /// Traversal stack entries kept on the machine stack: 7 per level, enough for 9 levels
-    /// (~10⁸ triangles); deeper trees use a heap stack.
-    pub(super) const INLINE_STACK: usize = 64;
 
     /// A ray splatted over eight lanes, and its near-plane choice per axis.
     struct Ray8 {
@@ -267,7 +250,8 @@ mod avx2 {
     /// distance so they are skipped once a closer hit is known.
     ///
     /// # Safety
-    /// The CPU must support AVX2 and FMA; `stack` must hold `tree.stack_need` entries.
+    /// The CPU must support AVX2 and FMA. (`stack` must hold `tree.stack_need` entries, or a
+    /// push panics.)
     #[target_feature(enable = "avx2,fma")]
     pub(super) unsafe fn closest(
         tree: &WideBvh<8>,
@@ -275,89 +259,40 @@ mod avx2 {
         dir: Vec3,
         tmin: f32,
         mut tmax: f32,
-        stack: &mut [MaybeUninit<(u32, f32)>],
+        mut stack: TraversalStack<(u32, f32)>,
     ) -> Option<TriHit> {
         // SAFETY: AVX2 and FMA are enabled in this function.
         let r = unsafe { Ray8::new(origin, dir, tmin) };
         let mut best: Option<TriHit> = None;
-        let mut sp = 0usize;
         let mut current = 0u32;
         loop {
             if current & LEAF != 0 {
                 let pk = &tree.packets[(current & !LEAF) as usize];
                 // SAFETY: as above.
-                let (mut bits, t, u, v) = unsafe { hit_packet(pk, &r, _mm256_set1_ps(tmax)) };
+                let (bits, t, u, v) = unsafe { hit_packet(pk, &r, _mm256_set1_ps(tmax)) };
                 if bits != 0 {
                     // SAFETY: as above.
                     let (t, u, v) = unsafe { (lanes(t), lanes(u), lanes(v)) };
-                    while bits != 0 {
-                        let lane = bits.trailing_zeros() as usize;
-                        bits &= bits - 1;
-                        if t[lane] <= tmax {
-                            tmax = t[lane];
-                            best = Some(TriHit {
-                                t: t[lane],
-                                triangle: pk.id[lane],
-                                u: u[lane],
-                                v: v[lane],
-                            });
-                        }
-                    }
+                    keep_nearest(bits, [&t, &u, &v], &pk.id, &mut tmax, &mut best);
                 }
             } else {
                 let node = &tree.nodes[current as usize];
                 // SAFETY: as above.
-                let (mut bits, tnear) = unsafe { hit_boxes(node, &r, _mm256_set1_ps(tmax)) };
+                let (bits, tnear) = unsafe { hit_boxes(node, &r, _mm256_set1_ps(tmax)) };
                 if bits != 0 {
-                    let first = bits.trailing_zeros() as usize;
-                    bits &= bits - 1;
-                    if bits == 0 {
+                    current = if bits.is_power_of_two() {
                         // One child hit (the common case near the leaves): no ordering.
-                        current = node.child[first];
-                        continue;
-                    }
-                    // SAFETY: as above.
-                    let tn = unsafe { lanes(tnear) };
-                    // Gather the hit children, then order them far to near on the stack and
-                    // descend into the nearest directly.
-                    let mut hits = [(0u32, 0f32); 8];
-                    hits[0] = (node.child[first], tn[first]);
-                    let mut n = 1;
-                    while bits != 0 {
-                        let lane = bits.trailing_zeros() as usize;
-                        bits &= bits - 1;
-                        hits[n] = (node.child[lane], tn[lane]);
-                        n += 1;
-                    }
-                    let hits = &mut hits[..n];
-                    // Insertion sort, descending by distance (n ≤ 8).
-                    for i in 1..n {
-                        let mut j = i;
-                        while j > 0 && hits[j - 1].1 < hits[j].1 {
-                            hits.swap(j - 1, j);
-                            j -= 1;
-                        }
-                    }
-                    for &h in &hits[..n - 1] {
-                        stack[sp] = MaybeUninit::new(h);
-                        sp += 1;
-                    }
-                    current = hits[n - 1].0;
+                        node.child[bits.trailing_zeros() as usize]
+                    } else {
+                        // SAFETY: as above.
+                        descend_nearest(&node.child, &unsafe { lanes(tnear) }, bits, &mut stack)
+                    };
                     continue;
                 }
             }
-            // Pop the next subtree that can still hold a closer hit.
-            loop {
-                if sp == 0 {
-                    return best;
-                }
-                sp -= 1;
-                // SAFETY: entries below `sp` were written by the pushes above.
-                let (child, t) = unsafe { stack[sp].assume_init() };
-                if t <= tmax {
-                    current = child;
-                    break;
-                }
+            match pop_closer(&mut stack, tmax) {
+                Some(child) => current = child,
+                None => return best,
             }
         }
     }
@@ -365,7 +300,8 @@ mod avx2 {
     /// Any-hit traversal: stops at the first triangle hit, in no particular order.
     ///
     /// # Safety
-    /// The CPU must support AVX2 and FMA; `stack` must hold `tree.stack_need` entries.
+    /// The CPU must support AVX2 and FMA. (`stack` must hold `tree.stack_need` entries, or a
+    /// push panics.)
     #[target_feature(enable = "avx2,fma")]
     pub(super) unsafe fn any(
         tree: &WideBvh<8>,
@@ -373,12 +309,11 @@ mod avx2 {
         dir: Vec3,
         tmin: f32,
         tmax: f32,
-        stack: &mut [MaybeUninit<u32>],
+        mut stack: TraversalStack<u32>,
     ) -> bool {
         // SAFETY: AVX2 and FMA are enabled in this function.
         let r = unsafe { Ray8::new(origin, dir, tmin) };
         let vtmax = _mm256_set1_ps(tmax);
-        let mut sp = 0usize;
         let mut current = 0u32;
         loop {
             if current & LEAF != 0 {
@@ -390,25 +325,16 @@ mod avx2 {
             } else {
                 let node = &tree.nodes[current as usize];
                 // SAFETY: as above.
-                let (mut bits, _) = unsafe { hit_boxes(node, &r, vtmax) };
+                let (bits, _) = unsafe { hit_boxes(node, &r, vtmax) };
                 if bits != 0 {
-                    let lane = bits.trailing_zeros() as usize;
-                    bits &= bits - 1;
-                    while bits != 0 {
-                        stack[sp] = MaybeUninit::new(node.child[bits.trailing_zeros() as usize]);
-                        sp += 1;
-                        bits &= bits - 1;
-                    }
-                    current = node.child[lane];
+                    current = descend_any(&node.child, bits, &mut stack);
                     continue;
                 }
             }
-            if sp == 0 {
-                return false;
+            match stack.pop() {
+                Some(child) => current = child,
+                None => return false,
             }
-            sp -= 1;
-            // SAFETY: entries below `sp` were written by the pushes above.
-            current = unsafe { stack[sp].assume_init() };
         }
     }
 }

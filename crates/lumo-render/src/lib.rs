@@ -7,6 +7,7 @@ mod blas;
 pub mod bsdf;
 mod bvh4;
 mod bvh8;
+mod bvh_stack;
 #[cfg(test)]
 mod bvh_tests;
 mod bvh_wide;
