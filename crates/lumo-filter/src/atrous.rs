@@ -8,6 +8,7 @@ use crate::atrous_input::{fill_color, fill_features, output, FillScales, Input};
 use crate::atrous_kernel::{self, Isa, Level, Path, CM_FIXED, CM_NONE, CM_VARIANCE, K, KA};
 use crate::atrous_layout::{Layout, CW, M, QW};
 use crate::atrous_pairs;
+use crate::atrous_pipeline::{self, Stage};
 use crate::error::param;
 use crate::gbuffer::{check_color, check_features, Features, Filtered};
 use crate::FilterError;
@@ -304,9 +305,7 @@ impl AtrousFilter {
         // at pixels that were never traced).
         let skip_color = params.sparse.trailing_zeros() as usize;
         let sigma_l = params.sigma_luminance.unwrap_or(DEFAULT_SIGMA_LUMINANCE);
-        let mut normal_held = 1.0f32;
-        for it in 0..params.iterations {
-            let step = 1usize << it;
+        let level_color = |it: usize| {
             let cm = if it < skip_color {
                 CM_NONE
             } else if var_mode {
@@ -325,6 +324,50 @@ impl AtrousFilter {
                 CM_VARIANCE => log2e,
                 _ => 0.0,
             };
+            (cm, color_scale)
+        };
+        // All levels pair levels: run them as one pipeline (see atrous_pipeline.rs). The
+        // normal planes stay at level 0's scale; each level's factor is 1/step².
+        let stages: Vec<Stage> = (0..params.iterations)
+            .map(|it| {
+                let (cm, color_scale) = level_color(it);
+                let step = 1usize << it;
+                Stage {
+                    step,
+                    cm,
+                    color_scale,
+                    normal_factor: 1.0 / (step * step) as f32,
+                }
+            })
+            .collect();
+        let piped = match path {
+            Path::Auto => Some(None),
+            Path::Bands(rows) => Some(Some(rows)),
+            _ => None,
+        };
+        if let Some(band_rows) = piped {
+            if !var_mode && atrous_pipeline::supports(&stages, nf, lay) {
+                let level = Level {
+                    lay,
+                    step: 1,
+                    src,
+                    aux,
+                    nf,
+                    normal_factor: 1.0,
+                    cm: CM_NONE,
+                    color_scale: 0.0,
+                    var: false,
+                    isa,
+                    path,
+                };
+                atrous_pipeline::run(&level, &stages, dst, band_rows);
+                return (output(inp, lay, dst), stats.missing);
+            }
+        }
+        let mut normal_held = 1.0f32;
+        for it in 0..params.iterations {
+            let step = 1usize << it;
+            let (cm, color_scale) = level_color(it);
             let lw = LevelWeights {
                 cm,
                 color_scale,
@@ -332,7 +375,8 @@ impl AtrousFilter {
                 sigma: sigma_l * ml,
                 eps: VARIANCE_EPS * ml,
             };
-            let pairs = path == Path::Auto && atrous_pairs::supports(step, var_mode, cm, nf);
+            let pairs = matches!(path, Path::Auto | Path::Pairs | Path::Bands(_))
+                && atrous_pairs::supports(step, var_mode, cm, nf);
             // The normal coordinates' scale relative to level 0 should be 1/step. The pair
             // path applies the factor to the squared distance instead of rescaling the
             // planes; before another path, the planes are rescaled (by powers of 2: exact).

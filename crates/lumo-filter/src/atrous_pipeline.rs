@@ -1,0 +1,286 @@
+//! The À-Trous levels run as one pipeline per strip and band of rows, when every level takes
+//! the symmetric-pair path (atrous_pairs.rs): level k sweeps its rows 2·step_k behind level
+//! k − 1, reading level k − 1's output from a ring of 2·step_k + 1 rows instead of a
+//! full-image buffer.
+//!
+//! Why: level by level, every level streams the whole working set (≈ 14 planes of the
+//! padded image) from memory and writes a full image back, which at 1080p (≈ 200 MB) is the
+//! limit, not the arithmetic. Here a task's intermediate rows stay in the core's cache; only
+//! the first level's input and the last level's output touch full-image buffers.
+//!
+//! The price: a task cannot see its neighbours' intermediate levels, so it computes their
+//! halo itself — each level produces the rows and columns the later levels read (2·step per
+//! later level beyond the task's own), clipped to the image. Every pixel of every level is
+//! computed with the same operations in the same order as by the level-by-level pair path
+//! (`Path::Pairs`), whichever task computes it, so results are identical to it, bit for bit,
+//! for any band split or thread count (tested).
+
+use std::cell::RefCell;
+
+use rayon::prelude::*;
+
+use crate::atrous_kernel::{normalise, Level, SrcBlock, K};
+use crate::atrous_layout::{Layout, M, QW};
+use crate::atrous_pairs::{self, Acc, Accs, RowJob, Rows, CHUNK, ZERO_AUX, ZERO_SRC};
+
+/// Most levels a pipeline runs (steps 1..16: the pair path's limit).
+pub(crate) const MAX_LEVELS: usize = 5;
+
+/// What differs between the levels of a pipeline.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Stage {
+    pub step: usize,
+    pub cm: u8,
+    pub color_scale: f32,
+    pub normal_factor: f32,
+}
+
+/// Whether `stages` can run as a pipeline on layout `lay`: every level a pair level, and
+/// every strip's halo columns (rounded out to whole vectors) inside its block.
+pub(crate) fn supports(stages: &[Stage], nf: usize, lay: Layout) -> bool {
+    !stages.is_empty()
+        && stages.len() <= MAX_LEVELS
+        && stages
+            .iter()
+            .all(|s| atrous_pairs::supports(s.step, false, s.cm, nf))
+        && (0..lay.nch).all(|c| columns(lay, c, stages).is_some())
+}
+
+/// The columns (block coordinates) one level of one strip keeps and sweeps.
+#[derive(Clone, Copy, Debug, Default)]
+struct Cols {
+    /// Output columns: what later levels read (or the strip itself, for the last level),
+    /// clipped to the image.
+    o_lo: usize,
+    o_hi: usize,
+    /// Swept columns: 2·step beyond the output (their pairs reach into it), rounded out to
+    /// whole [`CHUNK`]s.
+    j_lo: usize,
+    j_hi: usize,
+}
+
+/// Each level's columns for strip `c`, or `None` if some sweep would read outside the
+/// block (more levels or wider steps than the margins hold).
+fn columns(lay: Layout, c: usize, stages: &[Stage]) -> Option<[Cols; MAX_LEVELS]> {
+    let (x0, len) = lay.strip(c);
+    // The image's columns in block coordinates (may start before the block).
+    let img_lo = M as isize - x0 as isize;
+    let img_hi = img_lo + lay.w as isize;
+    let mut cols = [Cols::default(); MAX_LEVELS];
+    let (mut lo, mut hi) = (M as isize, (M + len) as isize);
+    for k in (0..stages.len()).rev() {
+        if k + 1 < stages.len() {
+            let s = 2 * stages[k + 1].step as isize;
+            lo = (lo - s).max(img_lo);
+            hi = (hi + s).min(img_hi);
+        }
+        let s = 2 * stages[k].step as isize;
+        let ch = CHUNK as isize;
+        let j_lo = (lo - s).div_euclid(ch) * ch;
+        let j_hi = (hi + s + ch - 1).div_euclid(ch) * ch;
+        // The kernel reads 2·step either side of the sweep; the scatter writes the output
+        // columns rounded up to a whole vector and reads 2·step beyond.
+        if j_lo < s || j_hi + s > QW as isize || hi + ch + s > QW as isize {
+            return None;
+        }
+        cols[k] = Cols {
+            o_lo: lo as usize,
+            o_hi: hi as usize,
+            j_lo: j_lo as usize,
+            j_hi: j_hi as usize,
+        };
+    }
+    Some(cols)
+}
+
+thread_local! {
+    /// Each worker's rings, kept between tasks and calls (allocating and page-faulting them
+    /// per task would cost more than their rows' arithmetic).
+    static SCRATCH: RefCell<Scratch> = const {
+        RefCell::new(Scratch { acc: Vec::new(), rows: Vec::new(), weights: Vec::new() })
+    };
+}
+
+/// A worker's buffers.
+struct Scratch {
+    /// Per level, its accumulator ring (2·step + 1 rows; all zero between tasks).
+    acc: Vec<Vec<Acc>>,
+    /// Per level from the second on, the ring of the previous level's output rows it reads
+    /// (2·step + 1 rows).
+    rows: Vec<Vec<SrcBlock>>,
+    /// One row of the 12 pair weights (see atrous_pairs.rs).
+    weights: Vec<f32>,
+}
+
+/// Every level over the whole image, the last one's result into `dst` (K planes per block;
+/// only the strips' own columns of the colour and validity planes are written).
+/// `l` gives the layout, inputs and instruction set (its per-level fields are replaced by
+/// `stages`). `band_rows`: rows per task (`None`: chosen here).
+pub(crate) fn run(l: &Level, stages: &[Stage], dst: &mut [f32], band_rows: Option<usize>) {
+    let lay = l.lay;
+    let block = K * QW;
+    // One band per strip when there are strips enough to keep the threads busy (the halo
+    // then only costs columns); else as many bands per strip as threads.
+    let threads = rayon::current_num_threads().max(1);
+    let bands = threads.div_ceil(lay.nch).max(1);
+    let band_rows = band_rows.unwrap_or(lay.h.div_ceil(bands)).max(1);
+    dst.par_chunks_mut(block * lay.h)
+        .enumerate()
+        .for_each(|(c, strip)| {
+            let cols = columns(lay, c, stages).expect("checked by `supports`");
+            strip
+                .par_chunks_mut(block * band_rows)
+                .enumerate()
+                .for_each(|(bi, out)| {
+                    let a = bi * band_rows;
+                    let b = (a + band_rows).min(lay.h);
+                    SCRATCH.with(|s| {
+                        task(l, stages, &cols, c, a..b, out, &mut s.borrow_mut());
+                    });
+                });
+        });
+}
+
+/// Rows `rows` of strip `c` through every level into `out` (their blocks).
+fn task(
+    l: &Level,
+    stages: &[Stage],
+    cols: &[Cols; MAX_LEVELS],
+    c: usize,
+    rows: std::ops::Range<usize>,
+    out: &mut [f32],
+    scratch: &mut Scratch,
+) {
+    let lay = l.lay;
+    let n = stages.len();
+    let h = lay.h;
+    let step = |k: usize| stages[k].step;
+    let rn = |k: usize| 2 * step(k) + 1;
+    let Scratch {
+        acc,
+        rows: ring,
+        weights,
+    } = scratch;
+    // Zeroed once; only ever overwritten with weights in [0, 1] (see atrous_pairs.rs).
+    if weights.len() < 12 * QW {
+        weights.resize(12 * QW, 0.0);
+    }
+    acc.resize_with(acc.len().max(n), Vec::new);
+    ring.resize_with(ring.len().max(n), Vec::new);
+    for k in 0..n {
+        // New rows are zero; rows are cleared as they are finished (see `band` there).
+        if acc[k].len() < rn(k) {
+            acc[k].resize(rn(k), [0.0; 4 * QW]);
+        }
+        debug_assert!(acc[k].iter().all(|r| r.iter().all(|&v| v == 0.0)));
+        if k > 0 && ring[k].len() < rn(k) {
+            ring[k].resize(rn(k), [0.0; K * QW]);
+        }
+    }
+    // Output rows of each level: what the next level reads, clipped to the image.
+    let mut o_lo = [0usize; MAX_LEVELS];
+    let mut o_hi = [0usize; MAX_LEVELS];
+    (o_lo[n - 1], o_hi[n - 1]) = (rows.start, rows.end);
+    for k in (0..n - 1).rev() {
+        o_lo[k] = o_lo[k + 1].saturating_sub(2 * step(k + 1));
+        o_hi[k] = (o_hi[k + 1] + 2 * step(k + 1)).min(h);
+    }
+    // Next row each level sweeps: from 2·step above its output (for their scatter alone).
+    let mut next: [usize; MAX_LEVELS] = std::array::from_fn(|k| {
+        if k < n {
+            o_lo[k].saturating_sub(2 * step(k))
+        } else {
+            0
+        }
+    });
+    let levels: Vec<Level> = stages
+        .iter()
+        .map(|s| Level {
+            step: s.step,
+            cm: s.cm,
+            color_scale: s.color_scale,
+            normal_factor: s.normal_factor,
+            ..*l
+        })
+        .collect();
+    // The deepest level whose input rows are ready sweeps its next row: this keeps the rings
+    // at 2·step + 1 rows (a level is only advanced while the one after it waits).
+    let ready = |next: &[usize; MAX_LEVELS]| {
+        (0..n).rev().find(|&k| {
+            next[k] < o_hi[k]
+                && (k == 0 || next[k - 1] > (next[k] + 2 * step(k)).min(o_hi[k - 1] - 1))
+        })
+    };
+    while let Some(k) = ready(&next) {
+        let y = next[k];
+        let s = step(k);
+        let (inp, outp) = ring.split_at_mut(k + 1);
+        let src = |yq: usize| -> &SrcBlock {
+            if yq >= h {
+                &ZERO_SRC
+            } else if k == 0 {
+                l.src_block(c, yq)
+            } else {
+                &inp[k][yq % rn(k)]
+            }
+        };
+        let aux = |yq: usize| {
+            if yq >= h {
+                &ZERO_AUX
+            } else {
+                l.aux_block(c, yq)
+            }
+        };
+        let kept = |yq: usize| yq >= o_lo[k] && yq < o_hi[k];
+        let cl = cols[k];
+        let job = RowJob {
+            scatter: [kept(y), kept(y + s), kept(y + 2 * s)],
+            j_lo: cl.j_lo,
+            j_hi: cl.j_hi,
+            o_lo: cl.o_lo,
+            o_hi: cl.o_hi,
+            step: s,
+            color_scale: stages[k].color_scale,
+            normal_factor: stages[k].normal_factor,
+        };
+        let [a0, a1, a2] = acc[k]
+            .get_disjoint_mut([y % rn(k), (y + s) % rn(k), (y + 2 * s) % rn(k)])
+            .expect("ring rows are distinct");
+        let r = Rows {
+            p: src(y),
+            pa: aux(y),
+            q1: src(y + s),
+            qa1: aux(y + s),
+            q2: src(y + 2 * s),
+            qa2: aux(y + 2 * s),
+        };
+        let mut accs = Accs {
+            a0,
+            a1,
+            a2,
+            w: weights,
+        };
+        atrous_pairs::row(&levels[k], &r, &mut accs, job);
+        if kept(y) {
+            if k + 1 == n {
+                let d = &mut out[(y - rows.start) * K * QW..][..K * QW];
+                let len = cl.o_hi - cl.o_lo;
+                normalise::<false>(&accs.a0[..], QW, cl.o_lo, d, cl.o_lo, len);
+            } else {
+                // The slot's previous row must have been read for the last time.
+                let next_rn = rn(k + 1);
+                assert!(y < next[k + 1] + next_rn, "pipeline ring overrun");
+                let d = &mut outp[0][y % next_rn];
+                normalise::<false>(&accs.a0[..], QW, cl.o_lo, d, cl.o_lo, cl.o_hi - cl.o_lo);
+                // Columns beyond the output: 0, so that those beyond the image have no
+                // colour or validity (the rest are read only for sums nobody keeps).
+                for p in 0..4 {
+                    d[p * QW..p * QW + cl.o_lo].fill(0.0);
+                    d[p * QW + cl.o_hi..(p + 1) * QW].fill(0.0);
+                }
+            }
+        }
+        accs.a0.fill(0.0);
+        next[k] += 1;
+    }
+}
