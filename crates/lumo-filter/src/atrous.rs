@@ -4,7 +4,9 @@
 use lumo_image::Image;
 use rayon::prelude::*;
 
-use crate::atrous_input::{fill_color, fill_features, output, FillScales, Input};
+use crate::atrous_input::{
+    feature_count, fill_all, fill_block, input_stats, output, FillScales, Input,
+};
 use crate::atrous_kernel::{self, Isa, Level, Path, CM_FIXED, CM_NONE, CM_VARIANCE, K, KA};
 use crate::atrous_layout::{Layout, CW, M, QW};
 use crate::atrous_pairs;
@@ -260,17 +262,7 @@ impl AtrousFilter {
         isa: Isa,
         path: Path,
     ) -> (Image, usize) {
-        // Contents are overwritten (by `fill_color`, `fill_features` and the kernels); only growth allocates
-        // (zeroed by the OS: no pass over the memory until it is used).
-        for (buf, planes) in [(&mut self.src, K), (&mut self.dst, K), (&mut self.aux, KA)] {
-            if buf.len() < lay.size(planes) {
-                *buf = vec![0.0; lay.size(planes)];
-            }
-        }
-        let mut src = &mut self.src[..lay.size(K)];
-        let mut dst = &mut self.dst[..lay.size(K)];
-        let aux = &mut self.aux[..lay.size(KA)];
-        let stats = fill_color(inp, lay, params.sparse, src, aux);
+        let stats = input_stats(inp, lay);
         let ml = stats.mean_luminance;
         let log2e = std::f32::consts::LOG2_E;
         let var_mode = inp.use_variance && params.sigma_luminance.is_some();
@@ -300,7 +292,7 @@ impl AtrousFilter {
                 }
             }),
         };
-        let nf = fill_features(inp, lay, &scales, src, aux);
+        let nf = feature_count(inp, &scales);
         // log2(sparse) iterations in-paint from geometry alone (paper §4: colour is meaningless
         // at pixels that were never traced).
         let skip_color = params.sparse.trailing_zeros() as usize;
@@ -345,13 +337,24 @@ impl AtrousFilter {
             Path::Bands(rows) => Some(Some(rows)),
             _ => None,
         };
+        // Contents are overwritten (by the input passes and the kernels); only growth
+        // allocates (zeroed by the OS: no pass over the memory until it is used).
+        let grow = |buf: &mut Vec<f32>, planes: usize| {
+            if buf.len() < lay.size(planes) {
+                *buf = vec![0.0; lay.size(planes)];
+            }
+        };
         if let Some(band_rows) = piped {
             if !var_mode && atrous_pipeline::supports(&stages, nf, lay) {
+                // The pipeline reads the inputs row by row itself; only the last level's
+                // output goes to a full-image buffer.
+                grow(&mut self.dst, K);
+                let dst = &mut self.dst[..lay.size(K)];
                 let level = Level {
                     lay,
                     step: 1,
-                    src,
-                    aux,
+                    src: &[],
+                    aux: &[],
                     nf,
                     normal_factor: 1.0,
                     cm: CM_NONE,
@@ -360,10 +363,20 @@ impl AtrousFilter {
                     isa,
                     path,
                 };
-                atrous_pipeline::run(&level, &stages, dst, band_rows);
+                let fill = |c: usize, y: usize, blk: &mut [f32], ab: &mut [f32]| {
+                    fill_block(inp, lay, params.sparse, &scales, c, y, blk, ab);
+                };
+                atrous_pipeline::run(&level, &stages, dst, band_rows, &fill);
                 return (output(inp, lay, dst), stats.missing);
             }
         }
+        for (buf, planes) in [(&mut self.src, K), (&mut self.dst, K), (&mut self.aux, KA)] {
+            grow(buf, planes);
+        }
+        let mut src = &mut self.src[..lay.size(K)];
+        let mut dst = &mut self.dst[..lay.size(K)];
+        let aux = &mut self.aux[..lay.size(KA)];
+        fill_all(inp, lay, params.sparse, &scales, src, aux);
         let mut normal_held = 1.0f32;
         for it in 0..params.iterations {
             let step = 1usize << it;

@@ -14,7 +14,7 @@ use rayon::prelude::*;
 use crate::albedo::{albedo_divisor, illumination_variance, ALBEDO_EPS};
 use crate::atrous::BACKGROUND_SCALE;
 use crate::atrous_kernel::{K, KA};
-use crate::atrous_layout::{Layout, M, QW};
+use crate::atrous_layout::{Layout, CW, M, QW};
 use crate::gbuffer::{depth_is_background, position_is_background, Features};
 use crate::passthrough::passed;
 
@@ -170,37 +170,40 @@ fn color_row<const AC: usize>(color: &[f32], albedo: &[f32], out: ColorPlanes) {
     }
 }
 
-/// First pass: fills the colour and validity planes of every `src` block (colour 0 where
-/// the validity is) and the background flag into aux plane [`BG_PLANE`], margins included (0
-/// beyond the image), and returns the image-wide statistics, summed block by block in block
-/// order (the same on any number of threads).
-pub(crate) fn fill_color(
-    inp: &Input,
-    lay: Layout,
-    sparse: usize,
-    src: &mut [f32],
-    aux: &mut [f32],
-) -> Stats {
-    let mask = sparse - 1;
+/// A run of pixels from `i0` into colour and validity planes, with the rules of
+/// `Input::pixel` (colour 0 where the validity is).
+fn color_run(inp: &Input, i0: usize, out: ColorPlanes) {
+    let n = out.r.len();
+    let color = &inp.color.data[3 * i0..3 * (i0 + n)];
+    let albedo = inp.features.albedo.filter(|_| inp.demodulate);
+    match albedo.map(|a| a.channels) {
+        None => color_row::<0>(color, &[], out),
+        Some(1) => color_row::<1>(color, albedo_row(albedo, i0, n), out),
+        Some(3) => color_row::<3>(color, albedo_row(albedo, i0, n), out),
+        Some(4) => color_row::<4>(color, albedo_row(albedo, i0, n), out),
+        Some(_) => {
+            for t in 0..n {
+                let px = inp.pixel(i0 + t);
+                let v = px.valid as u8 as f32;
+                out.r[t] = px.rgb[0] * v;
+                out.g[t] = px.rgb[1] * v;
+                out.b[t] = px.rgb[2] * v;
+                out.v[t] = v;
+            }
+        }
+    }
+}
+
+/// First pass, reading only: the image-wide statistics, from each (strip, row) block's own
+/// columns, summed block by block in block order (the same on any number of threads).
+pub(crate) fn input_stats(inp: &Input, lay: Layout) -> Stats {
     let w = lay.w;
-    let parts: Vec<BlockStats> = src
-        .par_chunks_mut(K * QW)
-        .zip(aux.par_chunks_mut(KA * QW))
-        .enumerate()
-        .map(|(b, (blk, ab))| {
+    let parts: Vec<BlockStats> = (0..lay.nch * lay.h)
+        .into_par_iter()
+        .map(|b| {
             let (c, y) = lay.strip_row(b);
             let (x0, len) = lay.strip(c);
-            let on_row = y & mask == 0;
-            let ja = M.saturating_sub(x0);
-            let jb = (w + M - x0).min(QW);
-            // Columns beyond the image hold 0 (validity 0: taps there add nothing); the rest
-            // of every plane in use is written here, by `fill_features` or per level.
-            for (planes, buf) in [(K, &mut *blk), (KA, &mut *ab)] {
-                for k in 0..planes {
-                    buf[k * QW..k * QW + ja].fill(0.0);
-                    buf[k * QW + jb..(k + 1) * QW].fill(0.0);
-                }
-            }
+            let i0 = y * w + x0;
             let mut st = BlockStats {
                 lum: 0.0,
                 valid: 0,
@@ -208,90 +211,46 @@ pub(crate) fn fill_color(
                 lo: [f32::INFINITY; 3],
                 hi: [f32::NEG_INFINITY; 3],
             };
-            if ja < jb {
-                let (xa, n) = (x0 + ja - M, jb - ja);
-                let i0 = y * w + xa;
-                let (rgb, vrest) = blk.split_at_mut(3 * QW);
-                let (r, gb) = rgb.split_at_mut(QW);
-                let (g, b) = gb.split_at_mut(QW);
-                let planes = ColorPlanes {
-                    r: &mut r[ja..jb],
-                    g: &mut g[ja..jb],
-                    b: &mut b[ja..jb],
-                    v: &mut vrest[..QW][ja..jb],
-                };
-                let color = &inp.color.data[3 * i0..3 * (i0 + n)];
-                let albedo = inp.features.albedo.filter(|_| inp.demodulate);
-                match albedo.map(|a| a.channels) {
-                    None => color_row::<0>(color, &[], planes),
-                    Some(1) => color_row::<1>(color, albedo_row(albedo, i0, n), planes),
-                    Some(3) => color_row::<3>(color, albedo_row(albedo, i0, n), planes),
-                    Some(4) => color_row::<4>(color, albedo_row(albedo, i0, n), planes),
-                    Some(_) => {
-                        for j in ja..jb {
-                            let x = x0 + j - M;
-                            let px = inp.pixel(y * w + x);
-                            let v = px.valid as u8 as f32;
-                            for k in 0..3 {
-                                blk[k * QW + j] = px.rgb[k] * v;
-                            }
-                            blk[3 * QW + j] = v;
-                        }
-                    }
-                }
-            }
-            if ja < jb {
-                let i0 = y * w + x0 + ja - M;
-                background_row(inp.features, i0, &mut ab[BG_PLANE * QW..][ja..jb]);
-            }
-            // Statistics of the strip's own columns (the margins are counted by their owner).
-            let own = M..M + len;
-            let i0 = y * w + x0;
             let col = &inp.color.data[3 * i0..3 * (i0 + len)];
             st.missing = col
                 .chunks_exact(3)
                 .filter(|p| !(p[0].is_finite() && p[1].is_finite() && p[2].is_finite()))
                 .count();
             // Mean luminance over every usable pixel (before the sparse grid, as `Prepared`).
+            let mut planes = [[0.0f32; CW]; 4];
+            let [r, g, bl, v] = &mut planes;
+            color_run(
+                inp,
+                i0,
+                ColorPlanes {
+                    r: &mut r[..len],
+                    g: &mut g[..len],
+                    b: &mut bl[..len],
+                    v: &mut v[..len],
+                },
+            );
             let mut lum = [0.0f32; 8];
             let mut valid = [0.0f32; 8];
-            {
-                let (r, g, b) = (
-                    &blk[own.clone()],
-                    &blk[QW..][own.clone()],
-                    &blk[2 * QW..][own.clone()],
-                );
-                let v = &blk[3 * QW..][own.clone()];
-                // Eight partial sums (in a fixed order: deterministic) so the loop vectorises.
-                let mut t = 0;
-                while t + 8 <= len {
-                    for l in 0..8 {
-                        let k = t + l;
-                        lum[l] += (0.2126 * r[k] + 0.7152 * g[k] + 0.0722 * b[k]).abs();
-                        valid[l] += v[k];
-                    }
-                    t += 8;
+            // Eight partial sums (in a fixed order: deterministic) so the loop vectorises.
+            let mut t = 0;
+            while t + 8 <= len {
+                for l in 0..8 {
+                    let k = t + l;
+                    lum[l] += (0.2126 * r[k] + 0.7152 * g[k] + 0.0722 * bl[k]).abs();
+                    valid[l] += v[k];
                 }
-                for k in t..len {
-                    lum[0] += (0.2126 * r[k] + 0.7152 * g[k] + 0.0722 * b[k]).abs();
-                    valid[0] += v[k];
-                }
+                t += 8;
+            }
+            for k in t..len {
+                lum[0] += (0.2126 * r[k] + 0.7152 * g[k] + 0.0722 * bl[k]).abs();
+                valid[0] += v[k];
             }
             let valid: f32 = valid.iter().sum();
             st.lum = lum.iter().map(|&l| l as f64).sum();
             st.valid = valid as usize;
-            if mask != 0 {
-                for j in ja..jb {
-                    let x = x0 + j - M;
-                    if !(on_row && x & mask == 0) {
-                        for k in 0..4 {
-                            blk[k * QW + j] = 0.0;
-                        }
-                    }
-                }
-            }
             if let Some(p) = inp.features.position {
-                let bgs = &ab[BG_PLANE * QW..][own];
+                let bgs = &mut planes[0][..len];
+                background_row(inp.features, i0, bgs);
                 for (t, &bg) in bgs.iter().enumerate() {
                     if bg == 0.0 {
                         let v = &p.data[(i0 + t) * p.channels..][..3];
@@ -335,9 +294,136 @@ pub(crate) fn fill_color(
     }
 }
 
-/// Background flags (1 = nothing hit, the rule of `gbuffer::is_background`) of the run of
-/// pixels from `i0`, with constant channel counts so that the loop vectorises (the per-pixel
-/// call took ~7 % of a 512² five-level filter).
+/// The number of feature coordinates the blocks will hold (normals 3, positions 3, or the
+/// background coordinate 1).
+pub(crate) fn feature_count(inp: &Input, s: &FillScales) -> usize {
+    let f = inp.features;
+    f.normal.zip(s.normal).map_or(0, |_| 3) + f.position.zip(s.position).map_or(1, |_| 3)
+}
+
+/// Fills block (strip `c`, row `y`): `blk` (K planes: colour, validity, variance) and `ab`
+/// (KA planes: the background flag in [`BG_PLANE`], the features from plane 2, scaled for
+/// the first level), margins included (0 beyond the image).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn fill_block(
+    inp: &Input,
+    lay: Layout,
+    sparse: usize,
+    s: &FillScales,
+    c: usize,
+    y: usize,
+    blk: &mut [f32],
+    ab: &mut [f32],
+) {
+    let mask = sparse - 1;
+    let w = lay.w;
+    let (x0, _) = lay.strip(c);
+    let ja = M.saturating_sub(x0);
+    let jb = (w + M - x0).min(QW);
+    // Columns beyond the image hold 0 (validity 0: taps there add nothing); the rest of
+    // every plane in use is written here or per level.
+    for (planes, buf) in [(K, &mut *blk), (KA, &mut *ab)] {
+        for k in 0..planes {
+            buf[k * QW..k * QW + ja].fill(0.0);
+            buf[k * QW + jb..(k + 1) * QW].fill(0.0);
+        }
+    }
+    if ja >= jb {
+        return;
+    }
+    let i0 = y * w + x0 + ja - M;
+    {
+        let (rgb, vrest) = blk.split_at_mut(3 * QW);
+        let (r, gb) = rgb.split_at_mut(QW);
+        let (g, b) = gb.split_at_mut(QW);
+        let planes = ColorPlanes {
+            r: &mut r[ja..jb],
+            g: &mut g[ja..jb],
+            b: &mut b[ja..jb],
+            v: &mut vrest[..QW][ja..jb],
+        };
+        color_run(inp, i0, planes);
+    }
+    if mask != 0 {
+        let on_row = y & mask == 0;
+        for j in ja..jb {
+            let x = x0 + j - M;
+            if !(on_row && x & mask == 0) {
+                for k in 0..4 {
+                    blk[k * QW + j] = 0.0;
+                }
+            }
+        }
+    }
+    let (head, feat) = ab.split_at_mut(2 * QW);
+    let bgs = &mut head[BG_PLANE * QW..][ja..jb];
+    background_row(inp.features, i0, bgs);
+    let bgs = &*bgs;
+    if inp.use_variance {
+        for j in ja..jb {
+            // Variance in units of mean luminance², tiny values flushed to 0, so Σ w²·var
+            // never reaches the (slow) denormal range.
+            let v = inp.variance(i0 + j - ja) * s.inv_ml2;
+            blk[4 * QW + j] = if v > 1e-12 { v } else { 0.0 };
+        }
+    } else {
+        blk[4 * QW + ja..4 * QW + jb].fill(0.0);
+    }
+    let f = inp.features;
+    let mut k = 0;
+    if let Some((n, sn)) = f.normal.zip(s.normal) {
+        let (n0, rest) = feat.split_at_mut(QW);
+        let (n1, n2) = rest.split_at_mut(QW);
+        let out = [&mut n0[ja..jb], &mut n1[ja..jb], &mut n2[ja..jb]];
+        let data = &n.data[i0 * n.channels..(i0 + jb - ja) * n.channels];
+        match n.channels {
+            3 => normal_row(3, data, sn, out),
+            4 => normal_row(4, data, sn, out),
+            c => normal_row(c, data, sn, out),
+        }
+        k = 3;
+    }
+    let feat = &mut feat[k * QW..];
+    match f.position.zip(s.position) {
+        Some((p, sx)) => {
+            let (p0, rest) = feat.split_at_mut(QW);
+            let (p1, p2) = rest.split_at_mut(QW);
+            let out = [&mut p0[ja..jb], &mut p1[ja..jb], &mut p2[ja..jb]];
+            let data = &p.data[i0 * p.channels..(i0 + jb - ja) * p.channels];
+            let scale = s.inv_extent * sx;
+            let bgv = s.position_background;
+            match p.channels {
+                3 => position_row(3, data, bgs, scale, bgv, out),
+                4 => position_row(4, data, bgs, scale, bgv, out),
+                c => position_row(c, data, bgs, scale, bgv, out),
+            }
+        }
+        None => {
+            for (o, &bg) in feat[ja..jb].iter_mut().zip(bgs) {
+                *o = bg * BACKGROUND_SCALE;
+            }
+        }
+    }
+}
+
+/// Fills every block of `src` and `aux` (see [`fill_block`]), rows in parallel.
+pub(crate) fn fill_all(
+    inp: &Input,
+    lay: Layout,
+    sparse: usize,
+    s: &FillScales,
+    src: &mut [f32],
+    aux: &mut [f32],
+) {
+    src.par_chunks_mut(K * QW)
+        .zip(aux.par_chunks_mut(KA * QW))
+        .enumerate()
+        .for_each(|(b, (blk, ab))| {
+            let (c, y) = lay.strip_row(b);
+            fill_block(inp, lay, sparse, s, c, y, blk, ab);
+        });
+}
+
 fn background_row(f: &Features, i0: usize, out: &mut [f32]) {
     let n = out.len();
     out.fill(0.0);
@@ -408,82 +494,6 @@ fn position_row(
         o1[t] = f(p[1], bgv[1]);
         o2[t] = f(p[2], bgv[2]);
     }
-}
-
-/// Second pass: the variance plane of every `src` block and the feature planes of `aux`
-/// (from plane 2), scaled for the first level. Returns the number of feature coordinates.
-pub(crate) fn fill_features(
-    inp: &Input,
-    lay: Layout,
-    s: &FillScales,
-    src: &mut [f32],
-    aux: &mut [f32],
-) -> usize {
-    let f = inp.features;
-    let normal = f.normal.zip(s.normal);
-    let position = f.position.zip(s.position);
-    let nf = normal.map_or(0, |_| 3) + position.map_or(1, |_| 3);
-    let w = lay.w;
-    src.par_chunks_mut(K * QW)
-        .zip(aux.par_chunks_mut(KA * QW))
-        .enumerate()
-        .for_each(|(b, (blk, ab))| {
-            let (c, y) = lay.strip_row(b);
-            let (x0, _) = lay.strip(c);
-            let ja = M.saturating_sub(x0);
-            let jb = (w + M - x0).min(QW);
-            let (head, feat) = ab.split_at_mut(2 * QW);
-            let bgs = &head[BG_PLANE * QW..][ja..jb];
-            if ja >= jb {
-                return;
-            }
-            let i0 = y * w + x0 + ja - M;
-            if inp.use_variance {
-                for j in ja..jb {
-                    // Variance in units of mean luminance², tiny values flushed to 0, so
-                    // Σ w²·var never reaches the (slow) denormal range.
-                    let v = inp.variance(i0 + j - ja) * s.inv_ml2;
-                    blk[4 * QW + j] = if v > 1e-12 { v } else { 0.0 };
-                }
-            } else {
-                blk[4 * QW + ja..4 * QW + jb].fill(0.0);
-            }
-            let mut k = 0;
-            if let Some((n, sn)) = normal {
-                let (n0, rest) = feat.split_at_mut(QW);
-                let (n1, n2) = rest.split_at_mut(QW);
-                let out = [&mut n0[ja..jb], &mut n1[ja..jb], &mut n2[ja..jb]];
-                let data = &n.data[i0 * n.channels..(i0 + jb - ja) * n.channels];
-                match n.channels {
-                    3 => normal_row(3, data, sn, out),
-                    4 => normal_row(4, data, sn, out),
-                    c => normal_row(c, data, sn, out),
-                }
-                k = 3;
-            }
-            let feat = &mut feat[k * QW..];
-            match position {
-                Some((p, sx)) => {
-                    let (p0, rest) = feat.split_at_mut(QW);
-                    let (p1, p2) = rest.split_at_mut(QW);
-                    let out = [&mut p0[ja..jb], &mut p1[ja..jb], &mut p2[ja..jb]];
-                    let data = &p.data[i0 * p.channels..(i0 + jb - ja) * p.channels];
-                    let scale = s.inv_extent * sx;
-                    let bgv = s.position_background;
-                    match p.channels {
-                        3 => position_row(3, data, bgs, scale, bgv, out),
-                        4 => position_row(4, data, bgs, scale, bgv, out),
-                        c => position_row(c, data, bgs, scale, bgv, out),
-                    }
-                }
-                None => {
-                    for (o, &bg) in feat[ja..jb].iter_mut().zip(bgs) {
-                        *o = bg * BACKGROUND_SCALE;
-                    }
-                }
-            }
-        });
-    nf
 }
 
 /// Copies the filtered colour out of `src` into an image; with demodulation, multiplies the

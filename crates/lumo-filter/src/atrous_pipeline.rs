@@ -5,8 +5,11 @@
 //!
 //! Why: level by level, every level streams the whole working set (≈ 14 planes of the
 //! padded image) from memory and writes a full image back, which at 1080p (≈ 200 MB) is the
-//! limit, not the arithmetic. Here a task's intermediate rows stay in the core's cache; only
-//! the first level's input and the last level's output touch full-image buffers.
+//! limit, not the arithmetic. Here a task's intermediate rows stay in the core's cache, and
+//! so do its input rows: the task converts the input images row by row (`Fill`) into a ring
+//! of 3 colour rows (all level 0 reads) and one of feature rows (read by every level, so it
+//! spans the levels' lag, Σ 2·step + 2 rows). Only the last level's output goes to a
+//! full-image buffer.
 //!
 //! The price: a task cannot see its neighbours' intermediate levels, so it computes their
 //! halo itself — each level produces the rows and columns the later levels read (2·step per
@@ -19,12 +22,16 @@ use std::cell::RefCell;
 
 use rayon::prelude::*;
 
-use crate::atrous_kernel::{normalise, Level, SrcBlock, K};
+use crate::atrous_kernel::{normalise, AuxBlock, Level, SrcBlock, K, KA};
 use crate::atrous_layout::{Layout, M, QW};
 use crate::atrous_pairs::{self, Acc, Accs, RowJob, Rows, CHUNK, ZERO_AUX, ZERO_SRC};
 
 /// Most levels a pipeline runs (steps 1..16: the pair path's limit).
 pub(crate) const MAX_LEVELS: usize = 5;
+
+/// Converts the inputs of block (strip, row) into a source block (K planes) and an aux
+/// block (KA planes).
+pub(crate) type Fill<'a> = dyn Fn(usize, usize, &mut [f32], &mut [f32]) + Sync + 'a;
 
 /// What differs between the levels of a pipeline.
 #[derive(Clone, Copy, Debug)]
@@ -97,7 +104,12 @@ thread_local! {
     /// Each worker's rings, kept between tasks and calls (allocating and page-faulting them
     /// per task would cost more than their rows' arithmetic).
     static SCRATCH: RefCell<Scratch> = const {
-        RefCell::new(Scratch { acc: Vec::new(), rows: Vec::new(), weights: Vec::new() })
+        RefCell::new(Scratch {
+            acc: Vec::new(),
+            rows: Vec::new(),
+            feat: Vec::new(),
+            weights: Vec::new(),
+        })
     };
 }
 
@@ -105,18 +117,28 @@ thread_local! {
 struct Scratch {
     /// Per level, its accumulator ring (2·step + 1 rows; all zero between tasks).
     acc: Vec<Vec<Acc>>,
-    /// Per level from the second on, the ring of the previous level's output rows it reads
-    /// (2·step + 1 rows).
+    /// Per level, the ring of input rows it reads (2·step + 1 rows): for the first, the
+    /// input colour; for the others, the previous level's output.
     rows: Vec<Vec<SrcBlock>>,
+    /// The ring of feature rows (all levels read them).
+    feat: Vec<AuxBlock>,
     /// One row of the 12 pair weights (see atrous_pairs.rs).
     weights: Vec<f32>,
 }
 
 /// Every level over the whole image, the last one's result into `dst` (K planes per block;
 /// only the strips' own columns of the colour and validity planes are written).
-/// `l` gives the layout, inputs and instruction set (its per-level fields are replaced by
-/// `stages`). `band_rows`: rows per task (`None`: chosen here).
-pub(crate) fn run(l: &Level, stages: &[Stage], dst: &mut [f32], band_rows: Option<usize>) {
+/// `l` gives the layout, feature count and instruction set (its per-level fields are replaced
+/// by `stages`; its buffers are not read), `fill` converts the inputs of one block (strip,
+/// row) into a source block and an aux block. `band_rows`: rows per task (`None`: chosen
+/// here).
+pub(crate) fn run(
+    l: &Level,
+    stages: &[Stage],
+    dst: &mut [f32],
+    band_rows: Option<usize>,
+    fill: &Fill,
+) {
     let lay = l.lay;
     let block = K * QW;
     // One band per strip when there are strips enough to keep the threads busy (the halo
@@ -135,152 +157,191 @@ pub(crate) fn run(l: &Level, stages: &[Stage], dst: &mut [f32], band_rows: Optio
                     let a = bi * band_rows;
                     let b = (a + band_rows).min(lay.h);
                     SCRATCH.with(|s| {
-                        task(l, stages, &cols, c, a..b, out, &mut s.borrow_mut());
+                        Task {
+                            l,
+                            stages,
+                            cols: &cols,
+                            fill,
+                        }
+                        .run(c, a..b, out, &mut s.borrow_mut());
                     });
                 });
         });
 }
 
-/// Rows `rows` of strip `c` through every level into `out` (their blocks).
-fn task(
-    l: &Level,
-    stages: &[Stage],
-    cols: &[Cols; MAX_LEVELS],
-    c: usize,
-    rows: std::ops::Range<usize>,
-    out: &mut [f32],
-    scratch: &mut Scratch,
-) {
-    let lay = l.lay;
-    let n = stages.len();
-    let h = lay.h;
-    let step = |k: usize| stages[k].step;
-    let rn = |k: usize| 2 * step(k) + 1;
-    let Scratch {
-        acc,
-        rows: ring,
-        weights,
-    } = scratch;
-    // Zeroed once; only ever overwritten with weights in [0, 1] (see atrous_pairs.rs).
-    if weights.len() < 12 * QW {
-        weights.resize(12 * QW, 0.0);
-    }
-    acc.resize_with(acc.len().max(n), Vec::new);
-    ring.resize_with(ring.len().max(n), Vec::new);
-    for k in 0..n {
-        // New rows are zero; rows are cleared as they are finished (see `band` there).
-        if acc[k].len() < rn(k) {
-            acc[k].resize(rn(k), [0.0; 4 * QW]);
+/// What every task of one strip shares.
+struct Task<'a> {
+    l: &'a Level<'a>,
+    stages: &'a [Stage],
+    cols: &'a [Cols; MAX_LEVELS],
+    fill: &'a Fill<'a>,
+}
+
+impl Task<'_> {
+    /// Rows `rows` of strip `c` through every level into `out` (their blocks).
+    fn run(&self, c: usize, rows: std::ops::Range<usize>, out: &mut [f32], scratch: &mut Scratch) {
+        let Task {
+            l,
+            stages,
+            cols,
+            fill,
+        } = *self;
+        let lay = l.lay;
+        let n = stages.len();
+        let h = lay.h;
+        let step = |k: usize| stages[k].step;
+        let rn = |k: usize| 2 * step(k) + 1;
+        let Scratch {
+            acc,
+            rows: ring,
+            feat,
+            weights,
+        } = scratch;
+        // Feature rows live from the last level's next row to 2·step_0 below the first level's:
+        // the levels lag each other by at most 2·step (see the scheduling below).
+        let fr = stages.iter().map(|s| 2 * s.step).sum::<usize>() + 2;
+        if feat.len() < fr {
+            feat.resize(fr, [0.0; KA * QW]);
         }
-        debug_assert!(acc[k].iter().all(|r| r.iter().all(|&v| v == 0.0)));
-        if k > 0 && ring[k].len() < rn(k) {
-            ring[k].resize(rn(k), [0.0; K * QW]);
+        // Zeroed once; only ever overwritten with weights in [0, 1] (see atrous_pairs.rs).
+        if weights.len() < 12 * QW {
+            weights.resize(12 * QW, 0.0);
         }
-    }
-    // Output rows of each level: what the next level reads, clipped to the image.
-    let mut o_lo = [0usize; MAX_LEVELS];
-    let mut o_hi = [0usize; MAX_LEVELS];
-    (o_lo[n - 1], o_hi[n - 1]) = (rows.start, rows.end);
-    for k in (0..n - 1).rev() {
-        o_lo[k] = o_lo[k + 1].saturating_sub(2 * step(k + 1));
-        o_hi[k] = (o_hi[k + 1] + 2 * step(k + 1)).min(h);
-    }
-    // Next row each level sweeps: from 2·step above its output (for their scatter alone).
-    let mut next: [usize; MAX_LEVELS] = std::array::from_fn(|k| {
-        if k < n {
-            o_lo[k].saturating_sub(2 * step(k))
-        } else {
-            0
-        }
-    });
-    let levels: Vec<Level> = stages
-        .iter()
-        .map(|s| Level {
-            step: s.step,
-            cm: s.cm,
-            color_scale: s.color_scale,
-            normal_factor: s.normal_factor,
-            ..*l
-        })
-        .collect();
-    // The deepest level whose input rows are ready sweeps its next row: this keeps the rings
-    // at 2·step + 1 rows (a level is only advanced while the one after it waits).
-    let ready = |next: &[usize; MAX_LEVELS]| {
-        (0..n).rev().find(|&k| {
-            next[k] < o_hi[k]
-                && (k == 0 || next[k - 1] > (next[k] + 2 * step(k)).min(o_hi[k - 1] - 1))
-        })
-    };
-    while let Some(k) = ready(&next) {
-        let y = next[k];
-        let s = step(k);
-        let (inp, outp) = ring.split_at_mut(k + 1);
-        let src = |yq: usize| -> &SrcBlock {
-            if yq >= h {
-                &ZERO_SRC
-            } else if k == 0 {
-                l.src_block(c, yq)
-            } else {
-                &inp[k][yq % rn(k)]
+        acc.resize_with(acc.len().max(n), Vec::new);
+        ring.resize_with(ring.len().max(n), Vec::new);
+        for k in 0..n {
+            // New rows are zero; rows are cleared as they are finished (see `band` there).
+            if acc[k].len() < rn(k) {
+                acc[k].resize(rn(k), [0.0; 4 * QW]);
             }
-        };
-        let aux = |yq: usize| {
-            if yq >= h {
-                &ZERO_AUX
-            } else {
-                l.aux_block(c, yq)
+            debug_assert!(acc[k].iter().all(|r| r.iter().all(|&v| v == 0.0)));
+            if ring[k].len() < rn(k) {
+                ring[k].resize(rn(k), [0.0; K * QW]);
             }
-        };
-        let kept = |yq: usize| yq >= o_lo[k] && yq < o_hi[k];
-        let cl = cols[k];
-        let job = RowJob {
-            scatter: [kept(y), kept(y + s), kept(y + 2 * s)],
-            j_lo: cl.j_lo,
-            j_hi: cl.j_hi,
-            o_lo: cl.o_lo,
-            o_hi: cl.o_hi,
-            step: s,
-            color_scale: stages[k].color_scale,
-            normal_factor: stages[k].normal_factor,
-        };
-        let [a0, a1, a2] = acc[k]
-            .get_disjoint_mut([y % rn(k), (y + s) % rn(k), (y + 2 * s) % rn(k)])
-            .expect("ring rows are distinct");
-        let r = Rows {
-            p: src(y),
-            pa: aux(y),
-            q1: src(y + s),
-            qa1: aux(y + s),
-            q2: src(y + 2 * s),
-            qa2: aux(y + 2 * s),
-        };
-        let mut accs = Accs {
-            a0,
-            a1,
-            a2,
-            w: weights,
-        };
-        atrous_pairs::row(&levels[k], &r, &mut accs, job);
-        if kept(y) {
-            if k + 1 == n {
-                let d = &mut out[(y - rows.start) * K * QW..][..K * QW];
-                let len = cl.o_hi - cl.o_lo;
-                normalise::<false>(&accs.a0[..], QW, cl.o_lo, d, cl.o_lo, len);
+        }
+        // Output rows of each level: what the next level reads, clipped to the image.
+        let mut o_lo = [0usize; MAX_LEVELS];
+        let mut o_hi = [0usize; MAX_LEVELS];
+        (o_lo[n - 1], o_hi[n - 1]) = (rows.start, rows.end);
+        for k in (0..n - 1).rev() {
+            o_lo[k] = o_lo[k + 1].saturating_sub(2 * step(k + 1));
+            o_hi[k] = (o_hi[k + 1] + 2 * step(k + 1)).min(h);
+        }
+        // Next row each level sweeps: from 2·step above its output (for their scatter alone).
+        let mut next: [usize; MAX_LEVELS] = std::array::from_fn(|k| {
+            if k < n {
+                o_lo[k].saturating_sub(2 * step(k))
             } else {
-                // The slot's previous row must have been read for the last time.
-                let next_rn = rn(k + 1);
-                assert!(y < next[k + 1] + next_rn, "pipeline ring overrun");
-                let d = &mut outp[0][y % next_rn];
-                normalise::<false>(&accs.a0[..], QW, cl.o_lo, d, cl.o_lo, cl.o_hi - cl.o_lo);
-                // Columns beyond the output: 0, so that those beyond the image have no
-                // colour or validity (the rest are read only for sums nobody keeps).
-                for p in 0..4 {
-                    d[p * QW..p * QW + cl.o_lo].fill(0.0);
-                    d[p * QW + cl.o_hi..(p + 1) * QW].fill(0.0);
+                0
+            }
+        });
+        let levels: Vec<Level> = stages
+            .iter()
+            .map(|s| Level {
+                step: s.step,
+                cm: s.cm,
+                color_scale: s.color_scale,
+                normal_factor: s.normal_factor,
+                ..*l
+            })
+            .collect();
+        // The deepest level whose input rows are ready sweeps its next row: this keeps the rings
+        // at 2·step + 1 rows (a level is only advanced while the one after it waits).
+        let ready = |next: &[usize; MAX_LEVELS]| {
+            (0..n).rev().find(|&k| {
+                next[k] < o_hi[k]
+                    && (k == 0 || next[k - 1] > (next[k] + 2 * step(k)).min(o_hi[k - 1] - 1))
+            })
+        };
+        // Next input row to convert.
+        let mut filled = next[0];
+        while let Some(k) = ready(&next) {
+            let y = next[k];
+            let s = step(k);
+            if k == 0 {
+                // Level 0 reads input rows y .. y + 2·step_0.
+                while filled <= (y + 2 * s).min(h - 1) {
+                    // The slots' previous rows must have been read for the last time.
+                    let low = (0..n).filter(|&j| next[j] < o_hi[j]).map(|j| next[j]).min();
+                    assert!(
+                        filled < low.unwrap_or(0) + fr && filled < y + rn(0),
+                        "pipeline input ring overrun"
+                    );
+                    fill(
+                        c,
+                        filled,
+                        &mut ring[0][filled % rn(0)],
+                        &mut feat[filled % fr],
+                    );
+                    filled += 1;
                 }
             }
+            let (inp, outp) = ring.split_at_mut(k + 1);
+            let src = |yq: usize| -> &SrcBlock {
+                if yq >= h {
+                    &ZERO_SRC
+                } else {
+                    &inp[k][yq % rn(k)]
+                }
+            };
+            let aux = |yq: usize| {
+                if yq >= h {
+                    &ZERO_AUX
+                } else {
+                    &feat[yq % fr]
+                }
+            };
+            let kept = |yq: usize| yq >= o_lo[k] && yq < o_hi[k];
+            let cl = cols[k];
+            let job = RowJob {
+                scatter: [kept(y), kept(y + s), kept(y + 2 * s)],
+                j_lo: cl.j_lo,
+                j_hi: cl.j_hi,
+                o_lo: cl.o_lo,
+                o_hi: cl.o_hi,
+                step: s,
+                color_scale: stages[k].color_scale,
+                normal_factor: stages[k].normal_factor,
+            };
+            let [a0, a1, a2] = acc[k]
+                .get_disjoint_mut([y % rn(k), (y + s) % rn(k), (y + 2 * s) % rn(k)])
+                .expect("ring rows are distinct");
+            let r = Rows {
+                p: src(y),
+                pa: aux(y),
+                q1: src(y + s),
+                qa1: aux(y + s),
+                q2: src(y + 2 * s),
+                qa2: aux(y + 2 * s),
+            };
+            let mut accs = Accs {
+                a0,
+                a1,
+                a2,
+                w: weights,
+            };
+            atrous_pairs::row(&levels[k], &r, &mut accs, job);
+            if kept(y) {
+                if k + 1 == n {
+                    let d = &mut out[(y - rows.start) * K * QW..][..K * QW];
+                    let len = cl.o_hi - cl.o_lo;
+                    normalise::<false>(&accs.a0[..], QW, cl.o_lo, d, cl.o_lo, len);
+                } else {
+                    // The slot's previous row must have been read for the last time.
+                    let next_rn = rn(k + 1);
+                    assert!(y < next[k + 1] + next_rn, "pipeline ring overrun");
+                    let d = &mut outp[0][y % next_rn];
+                    normalise::<false>(&accs.a0[..], QW, cl.o_lo, d, cl.o_lo, cl.o_hi - cl.o_lo);
+                    // Columns beyond the output: 0, so that those beyond the image have no
+                    // colour or validity (the rest are read only for sums nobody keeps).
+                    for p in 0..4 {
+                        d[p * QW..p * QW + cl.o_lo].fill(0.0);
+                        d[p * QW + cl.o_hi..(p + 1) * QW].fill(0.0);
+                    }
+                }
+            }
+            accs.a0.fill(0.0);
+            next[k] += 1;
         }
-        accs.a0.fill(0.0);
-        next[k] += 1;
     }
 }
