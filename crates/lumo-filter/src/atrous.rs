@@ -5,7 +5,7 @@ use lumo_image::Image;
 use rayon::prelude::*;
 
 use crate::atrous_input::{
-    feature_count, fill_all, fill_block, input_stats, output, FillScales, Input,
+    feature_count, fill_all, fill_block, input_stats, output, output_row, FillScales, Input,
 };
 use crate::atrous_kernel::{self, Isa, Level, Path, CM_FIXED, CM_NONE, CM_VARIANCE, K, KA};
 use crate::atrous_layout::{Layout, CW, M, QW};
@@ -346,10 +346,8 @@ impl AtrousFilter {
         };
         if let Some(band_rows) = piped {
             if !var_mode && atrous_pipeline::supports(&stages, nf, lay) {
-                // The pipeline reads the inputs row by row itself; only the last level's
-                // output goes to a full-image buffer.
-                grow(&mut self.dst, K);
-                let dst = &mut self.dst[..lay.size(K)];
+                // The pipeline reads the inputs row by row and writes the output image row
+                // by row itself: no full-image working buffers.
                 let level = Level {
                     lay,
                     step: 1,
@@ -366,8 +364,20 @@ impl AtrousFilter {
                 let fill = |c: usize, y: usize, blk: &mut [f32], ab: &mut [f32]| {
                     fill_block(inp, lay, params.sparse, &scales, c, y, blk, ab);
                 };
-                atrous_pipeline::run(&level, &stages, dst, band_rows, &fill);
-                return (output(inp, lay, dst), stats.missing);
+                let mut image = Image::new(lay.w, lay.h, 3, 0.0);
+                let base = SharedImage(image.data.as_mut_ptr());
+                let emit = |c: usize, y: usize, blk: &[f32]| {
+                    let base = &base;
+                    let (x0, len) = lay.strip(c);
+                    let i0 = y * lay.w + x0;
+                    // SAFETY: pixels i0 .. i0 + len of row y lie inside the image, and the
+                    // pipeline emits each (strip, row) once, so no two calls write the same
+                    // pixel and nothing else accesses the image meanwhile.
+                    let o = unsafe { std::slice::from_raw_parts_mut(base.0.add(3 * i0), 3 * len) };
+                    output_row(inp, i0, blk, o);
+                };
+                atrous_pipeline::run(&level, &stages, band_rows, &fill, &emit);
+                return (image, stats.missing);
             }
         }
         for (buf, planes) in [(&mut self.src, K), (&mut self.dst, K), (&mut self.aux, KA)] {
@@ -430,6 +440,11 @@ impl AtrousFilter {
         (output(inp, lay, src), stats.missing)
     }
 }
+
+/// The output image the pipeline's tasks write rows of (see `levels`).
+struct SharedImage(*mut f32);
+// SAFETY: the tasks write disjoint pixels (each (strip, row) once).
+unsafe impl Sync for SharedImage {}
 
 /// 1/(σ·sqrt(G3×3 ∗ var) + eps) at block column `j` of block (c, y): SVGF's prefiltered
 /// variance, from the variance planes (margins hold the neighbouring strips' values).

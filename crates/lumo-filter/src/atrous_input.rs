@@ -508,24 +508,64 @@ pub(crate) fn output(inp: &Input, lay: Layout, src: &[f32]) -> Image {
             for c in 0..lay.nch {
                 let (x0, len) = lay.strip(c);
                 let blk = &src[lay.block(c, y, K)..][..K * QW];
-                for x in x0..x0 + len {
-                    let j = M + x - x0;
-                    let i = y * w + x;
-                    let f = [blk[j], blk[QW + j], blk[2 * QW + j]];
-                    let v = if !inp.demodulate {
-                        f
-                    } else {
-                        match inp.features.albedo.and_then(|a| albedo_divisor(a, i)) {
-                            Some(a) => [f[0] * a[0], f[1] * a[1], f[2] * a[2]],
-                            None => {
-                                let col = &inp.color.data[i * 3..i * 3 + 3];
-                                [passed(col[0]), passed(col[1]), passed(col[2])]
-                            }
-                        }
-                    };
-                    o[3 * x..3 * x + 3].copy_from_slice(&v);
-                }
+                output_row(inp, y * w + x0, blk, &mut o[3 * x0..3 * (x0 + len)]);
             }
         });
     out
+}
+
+/// One run of output pixels from pixel `i0` (`o`: 3 floats each) from the strip columns of
+/// block `blk` (from column M), with the rules of [`output`].
+pub(crate) fn output_row(inp: &Input, i0: usize, blk: &[f32], o: &mut [f32]) {
+    let n = o.len() / 3;
+    let (r, g, b) = (&blk[M..][..n], &blk[QW + M..][..n], &blk[2 * QW + M..][..n]);
+    let albedo = inp.features.albedo.filter(|_| inp.demodulate);
+    let color = &inp.color.data[3 * i0..3 * (i0 + n)];
+    match albedo.map(|a| a.channels) {
+        None => {
+            for t in 0..n {
+                o[3 * t..3 * t + 3].copy_from_slice(&[r[t], g[t], b[t]]);
+            }
+        }
+        Some(1) => remodulate::<1>(color, albedo_row(albedo, i0, n), [r, g, b], o),
+        Some(3) => remodulate::<3>(color, albedo_row(albedo, i0, n), [r, g, b], o),
+        Some(4) => remodulate::<4>(color, albedo_row(albedo, i0, n), [r, g, b], o),
+        Some(_) => {
+            for t in 0..n {
+                let f = [r[t], g[t], b[t]];
+                let v = match albedo.and_then(|a| albedo_divisor(a, i0 + t)) {
+                    Some(a) => [f[0] * a[0], f[1] * a[1], f[2] * a[2]],
+                    None => {
+                        let col = &color[3 * t..3 * t + 3];
+                        [passed(col[0]), passed(col[1]), passed(col[2])]
+                    }
+                };
+                o[3 * t..3 * t + 3].copy_from_slice(&v);
+            }
+        }
+    }
+}
+
+/// Filtered illumination times the albedo (`AC` channels), or the pass-through colour where
+/// the albedo is unusable: `albedo_divisor` and `passed` written branch-free so that the loop
+/// vectorises (the per-pixel calls took ~8 % of a 512² filter).
+#[inline(always)]
+fn remodulate<const AC: usize>(color: &[f32], albedo: &[f32], f: [&[f32]; 3], o: &mut [f32]) {
+    let n = f[0].len();
+    for t in 0..n {
+        let a = &albedo[AC * t..AC * t + AC];
+        let a = if AC == 1 {
+            [a[0]; 3]
+        } else {
+            [a[0], a[1], a[2]]
+        };
+        let finite = a[0].is_finite() & a[1].is_finite() & a[2].is_finite();
+        let ok = finite & (a[0].max(a[1]).max(a[2]) >= ALBEDO_EPS);
+        let c = &color[3 * t..3 * t + 3];
+        for k in 0..3 {
+            let v = f[k][t] * a[k].max(ALBEDO_EPS);
+            let p = if c[k].is_finite() { c[k] } else { 0.0 };
+            o[3 * t + k] = if ok { v } else { p };
+        }
+    }
 }

@@ -33,6 +33,9 @@ pub(crate) const MAX_LEVELS: usize = 5;
 /// block (KA planes).
 pub(crate) type Fill<'a> = dyn Fn(usize, usize, &mut [f32], &mut [f32]) + Sync + 'a;
 
+/// Takes the finished block (strip, row) of the last level.
+pub(crate) type Emit<'a> = dyn Fn(usize, usize, &[f32]) + Sync + 'a;
+
 /// What differs between the levels of a pipeline.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Stage {
@@ -126,47 +129,38 @@ struct Scratch {
     weights: Vec<f32>,
 }
 
-/// Every level over the whole image, the last one's result into `dst` (K planes per block;
-/// only the strips' own columns of the colour and validity planes are written).
+/// Every level over the whole image; each row of the last level's result (a source block:
+/// colour and validity of the strip's own columns) is handed to `emit` with its strip and row.
 /// `l` gives the layout, feature count and instruction set (its per-level fields are replaced
 /// by `stages`; its buffers are not read), `fill` converts the inputs of one block (strip,
 /// row) into a source block and an aux block. `band_rows`: rows per task (`None`: chosen
 /// here).
-pub(crate) fn run(
-    l: &Level,
-    stages: &[Stage],
-    dst: &mut [f32],
-    band_rows: Option<usize>,
-    fill: &Fill,
-) {
+pub(crate) fn run(l: &Level, stages: &[Stage], band_rows: Option<usize>, fill: &Fill, emit: &Emit) {
     let lay = l.lay;
-    let block = K * QW;
     // One band per strip when there are strips enough to keep the threads busy (the halo
     // then only costs columns); else as many bands per strip as threads.
     let threads = rayon::current_num_threads().max(1);
     let bands = threads.div_ceil(lay.nch).max(1);
     let band_rows = band_rows.unwrap_or(lay.h.div_ceil(bands)).max(1);
-    dst.par_chunks_mut(block * lay.h)
-        .enumerate()
-        .for_each(|(c, strip)| {
-            let cols = columns(lay, c, stages).expect("checked by `supports`");
-            strip
-                .par_chunks_mut(block * band_rows)
-                .enumerate()
-                .for_each(|(bi, out)| {
-                    let a = bi * band_rows;
-                    let b = (a + band_rows).min(lay.h);
-                    SCRATCH.with(|s| {
-                        Task {
-                            l,
-                            stages,
-                            cols: &cols,
-                            fill,
-                        }
-                        .run(c, a..b, out, &mut s.borrow_mut());
-                    });
+    (0..lay.nch).into_par_iter().for_each(|c| {
+        let cols = columns(lay, c, stages).expect("checked by `supports`");
+        (0..lay.h.div_ceil(band_rows))
+            .into_par_iter()
+            .for_each(|bi| {
+                let a = bi * band_rows;
+                let b = (a + band_rows).min(lay.h);
+                SCRATCH.with(|s| {
+                    Task {
+                        l,
+                        stages,
+                        cols: &cols,
+                        fill,
+                        emit,
+                    }
+                    .run(c, a..b, &mut s.borrow_mut());
                 });
-        });
+            });
+    });
 }
 
 /// What every task of one strip shares.
@@ -175,16 +169,18 @@ struct Task<'a> {
     stages: &'a [Stage],
     cols: &'a [Cols; MAX_LEVELS],
     fill: &'a Fill<'a>,
+    emit: &'a Emit<'a>,
 }
 
 impl Task<'_> {
-    /// Rows `rows` of strip `c` through every level into `out` (their blocks).
-    fn run(&self, c: usize, rows: std::ops::Range<usize>, out: &mut [f32], scratch: &mut Scratch) {
+    /// Rows `rows` of strip `c` through every level, each finished row to `emit`.
+    fn run(&self, c: usize, rows: std::ops::Range<usize>, scratch: &mut Scratch) {
         let Task {
             l,
             stages,
             cols,
             fill,
+            emit,
         } = *self;
         let lay = l.lay;
         let n = stages.len();
@@ -209,6 +205,13 @@ impl Task<'_> {
         }
         acc.resize_with(acc.len().max(n), Vec::new);
         ring.resize_with(ring.len().max(n), Vec::new);
+        // One more ring: the last level's output row, handed to `emit`.
+        if ring.len() <= n {
+            ring.resize_with(n + 1, Vec::new);
+        }
+        if ring[n].is_empty() {
+            ring[n].push([0.0; K * QW]);
+        }
         for k in 0..n {
             // New rows are zero; rows are cleared as they are finished (see `band` there).
             if acc[k].len() < rn(k) {
@@ -323,9 +326,10 @@ impl Task<'_> {
             atrous_pairs::row(&levels[k], &r, &mut accs, job);
             if kept(y) {
                 if k + 1 == n {
-                    let d = &mut out[(y - rows.start) * K * QW..][..K * QW];
+                    let d = &mut outp[0][0];
                     let len = cl.o_hi - cl.o_lo;
                     normalise::<false>(&accs.a0[..], QW, cl.o_lo, d, cl.o_lo, len);
+                    emit(c, y, d);
                 } else {
                     // The slot's previous row must have been read for the last time.
                     let next_rn = rn(k + 1);
