@@ -84,8 +84,9 @@ pub fn atrous(
     AtrousFilter::new().filter(color, features, params)
 }
 
-/// The À-Trous filter with its working memory (about 18 floats per pixel), kept between
-/// calls: filtering frame after frame with one `AtrousFilter` skips allocating and
+/// The À-Trous filter with its working memory (about 18 floats per pixel where the levels
+/// run one after the other; the level pipeline needs only per-thread rings of rows), kept
+/// between calls: filtering frame after frame with one `AtrousFilter` skips allocating and
 /// page-faulting it every time, as an interactive renderer's denoiser (or OIDN's filter
 /// object) does. Results do not depend on what was filtered before.
 #[derive(Debug, Default)]
