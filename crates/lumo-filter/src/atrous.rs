@@ -333,8 +333,12 @@ impl AtrousFilter {
                 }
             })
             .collect();
+        // Automatically only where one band per strip keeps every thread busy: splitting a
+        // strip into bands makes each band recompute its neighbour's boundary rows for every
+        // level (≈ 20 % more pair work at 512² on two threads), which cost more than the
+        // pipeline saved there (measured, docs/filter-benchmarks.md).
         let piped = match path {
-            Path::Auto => Some(None),
+            Path::Auto if lay.nch >= rayon::current_num_threads() => Some(None),
             Path::Bands(rows) => Some(Some(rows)),
             _ => None,
         };
