@@ -4,10 +4,13 @@
 use lumo_image::Image;
 use rayon::prelude::*;
 
-use crate::atrous_input::{fill_color, fill_features, output, FillScales, Input};
+use crate::atrous_input::{
+    feature_count, fill_all, fill_block, input_stats, output, output_row, FillScales, Input,
+};
 use crate::atrous_kernel::{self, Isa, Level, Path, CM_FIXED, CM_NONE, CM_VARIANCE, K, KA};
 use crate::atrous_layout::{Layout, CW, M, QW};
 use crate::atrous_pairs;
+use crate::atrous_pipeline::{self, Stage};
 use crate::error::param;
 use crate::gbuffer::{check_color, check_features, Features, Filtered};
 use crate::FilterError;
@@ -81,8 +84,9 @@ pub fn atrous(
     AtrousFilter::new().filter(color, features, params)
 }
 
-/// The À-Trous filter with its working memory (about 18 floats per pixel), kept between
-/// calls: filtering frame after frame with one `AtrousFilter` skips allocating and
+/// The À-Trous filter with its working memory (about 18 floats per pixel where the levels
+/// run one after the other; the level pipeline needs only per-thread rings of rows), kept
+/// between calls: filtering frame after frame with one `AtrousFilter` skips allocating and
 /// page-faulting it every time, as an interactive renderer's denoiser (or OIDN's filter
 /// object) does. Results do not depend on what was filtered before.
 #[derive(Debug, Default)]
@@ -259,17 +263,7 @@ impl AtrousFilter {
         isa: Isa,
         path: Path,
     ) -> (Image, usize) {
-        // Contents are overwritten (by `fill_color`, `fill_features` and the kernels); only growth allocates
-        // (zeroed by the OS: no pass over the memory until it is used).
-        for (buf, planes) in [(&mut self.src, K), (&mut self.dst, K), (&mut self.aux, KA)] {
-            if buf.len() < lay.size(planes) {
-                *buf = vec![0.0; lay.size(planes)];
-            }
-        }
-        let mut src = &mut self.src[..lay.size(K)];
-        let mut dst = &mut self.dst[..lay.size(K)];
-        let aux = &mut self.aux[..lay.size(KA)];
-        let stats = fill_color(inp, lay, params.sparse, src, aux);
+        let stats = input_stats(inp, lay);
         let ml = stats.mean_luminance;
         let log2e = std::f32::consts::LOG2_E;
         let var_mode = inp.use_variance && params.sigma_luminance.is_some();
@@ -299,14 +293,12 @@ impl AtrousFilter {
                 }
             }),
         };
-        let nf = fill_features(inp, lay, &scales, src, aux);
+        let nf = feature_count(inp, &scales);
         // log2(sparse) iterations in-paint from geometry alone (paper §4: colour is meaningless
         // at pixels that were never traced).
         let skip_color = params.sparse.trailing_zeros() as usize;
         let sigma_l = params.sigma_luminance.unwrap_or(DEFAULT_SIGMA_LUMINANCE);
-        let mut normal_held = 1.0f32;
-        for it in 0..params.iterations {
-            let step = 1usize << it;
+        let level_color = |it: usize| {
             let cm = if it < skip_color {
                 CM_NONE
             } else if var_mode {
@@ -325,6 +317,85 @@ impl AtrousFilter {
                 CM_VARIANCE => log2e,
                 _ => 0.0,
             };
+            (cm, color_scale)
+        };
+        // All levels pair levels: run them as one pipeline (see atrous_pipeline.rs). The
+        // normal planes stay at level 0's scale; each level's factor is 1/step².
+        let stages: Vec<Stage> = (0..params.iterations)
+            .map(|it| {
+                let (cm, color_scale) = level_color(it);
+                let step = 1usize << it;
+                Stage {
+                    step,
+                    cm,
+                    color_scale,
+                    normal_factor: 1.0 / (step * step) as f32,
+                }
+            })
+            .collect();
+        // Automatically only where one band per strip keeps every thread busy: splitting a
+        // strip into bands makes each band recompute its neighbour's boundary rows for every
+        // level (≈ 20 % more pair work at 512² on two threads), which cost more than the
+        // pipeline saved there (measured, docs/filter-benchmarks.md).
+        let piped = match path {
+            Path::Auto if lay.nch >= rayon::current_num_threads() => Some(None),
+            Path::Bands(rows) => Some(Some(rows)),
+            _ => None,
+        };
+        // Contents are overwritten (by the input passes and the kernels); only growth
+        // allocates (zeroed by the OS: no pass over the memory until it is used).
+        let grow = |buf: &mut Vec<f32>, planes: usize| {
+            if buf.len() < lay.size(planes) {
+                *buf = vec![0.0; lay.size(planes)];
+            }
+        };
+        if let Some(band_rows) = piped {
+            if !var_mode && atrous_pipeline::supports(&stages, nf, lay) {
+                // The pipeline reads the inputs row by row and writes the output image row
+                // by row itself: no full-image working buffers.
+                let level = Level {
+                    lay,
+                    step: 1,
+                    src: &[],
+                    aux: &[],
+                    nf,
+                    normal_factor: 1.0,
+                    cm: CM_NONE,
+                    color_scale: 0.0,
+                    var: false,
+                    isa,
+                    path,
+                };
+                let fill = |c: usize, y: usize, blk: &mut [f32], ab: &mut [f32]| {
+                    fill_block(inp, lay, params.sparse, &scales, c, y, blk, ab);
+                };
+                let mut image = Image::new(lay.w, lay.h, 3, 0.0);
+                let base = SharedImage(image.data.as_mut_ptr());
+                let emit = |c: usize, y: usize, blk: &[f32]| {
+                    let base = &base;
+                    let (x0, len) = lay.strip(c);
+                    let i0 = y * lay.w + x0;
+                    // SAFETY: pixels i0 .. i0 + len of row y lie inside the image, and the
+                    // pipeline emits each (strip, row) once, so no two calls write the same
+                    // pixel and nothing else accesses the image meanwhile.
+                    let o = unsafe { std::slice::from_raw_parts_mut(base.0.add(3 * i0), 3 * len) };
+                    output_row(inp, i0, blk, o);
+                };
+                atrous_pipeline::run(&level, &stages, band_rows, &fill, &emit);
+                return (image, stats.missing);
+            }
+        }
+        for (buf, planes) in [(&mut self.src, K), (&mut self.dst, K), (&mut self.aux, KA)] {
+            grow(buf, planes);
+        }
+        let mut src = &mut self.src[..lay.size(K)];
+        let mut dst = &mut self.dst[..lay.size(K)];
+        let aux = &mut self.aux[..lay.size(KA)];
+        fill_all(inp, lay, params.sparse, &scales, src, aux);
+        let mut normal_held = 1.0f32;
+        for it in 0..params.iterations {
+            let step = 1usize << it;
+            let (cm, color_scale) = level_color(it);
             let lw = LevelWeights {
                 cm,
                 color_scale,
@@ -332,7 +403,8 @@ impl AtrousFilter {
                 sigma: sigma_l * ml,
                 eps: VARIANCE_EPS * ml,
             };
-            let pairs = path == Path::Auto && atrous_pairs::supports(step, var_mode, cm, nf);
+            let pairs = matches!(path, Path::Auto | Path::Pairs | Path::Bands(_))
+                && atrous_pairs::supports(step, var_mode, cm, nf);
             // The normal coordinates' scale relative to level 0 should be 1/step. The pair
             // path applies the factor to the squared distance instead of rescaling the
             // planes; before another path, the planes are rescaled (by powers of 2: exact).
@@ -373,6 +445,11 @@ impl AtrousFilter {
         (output(inp, lay, src), stats.missing)
     }
 }
+
+/// The output image the pipeline's tasks write rows of (see `levels`).
+struct SharedImage(*mut f32);
+// SAFETY: the tasks write disjoint pixels (each (strip, row) once).
+unsafe impl Sync for SharedImage {}
 
 /// 1/(σ·sqrt(G3×3 ∗ var) + eps) at block column `j` of block (c, y): SVGF's prefiltered
 /// variance, from the variance planes (margins hold the neighbouring strips' values).

@@ -66,7 +66,7 @@ pub(crate) fn block_fused<const NF: usize, const CM: u8, const VAR: bool>(
         }
     }
     dst.fill(0.0);
-    normalise::<VAR>(&acc, CW, 0, dst, len);
+    normalise::<VAR>(&acc, CW, 0, dst, M, len);
 }
 
 #[allow(clippy::too_many_arguments)]

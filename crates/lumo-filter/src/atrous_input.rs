@@ -14,7 +14,7 @@ use rayon::prelude::*;
 use crate::albedo::{albedo_divisor, illumination_variance, ALBEDO_EPS};
 use crate::atrous::BACKGROUND_SCALE;
 use crate::atrous_kernel::{K, KA};
-use crate::atrous_layout::{Layout, M, QW};
+use crate::atrous_layout::{Layout, CW, M, QW};
 use crate::gbuffer::{depth_is_background, position_is_background, Features};
 use crate::passthrough::passed;
 
@@ -136,71 +136,115 @@ fn albedo_row(a: Option<&Image>, i0: usize, n: usize) -> &[f32] {
     a.map_or(&[][..], |a| &a.data[i0 * a.channels..(i0 + n) * a.channels])
 }
 
+/// Lanes of the input conversion loops: runs of interleaved pixels are first copied into
+/// this many lanes per channel, so that the arithmetic after it vectorises (on the
+/// interleaved data the compiler kept it scalar: ~13 % of a 512² filter).
+const LANES: usize = 16;
+
 /// Colour (divided by the albedo when `AC` > 0, the albedo's channel count) and validity of
-/// a run of pixels, with the rules of `Input::pixel`, written branch-free so that it
-/// vectorises; colour is 0 where the validity is.
+/// a run of pixels, with the rules of `Input::pixel`, written branch-free; colour is 0 where
+/// the validity is.
 #[inline(always)]
 fn color_row<const AC: usize>(color: &[f32], albedo: &[f32], out: ColorPlanes) {
     let n = out.r.len();
-    for t in 0..n {
-        let c = &color[3 * t..3 * t + 3];
-        let mut rgb = [c[0], c[1], c[2]];
-        let mut ok = true;
-        if AC > 0 {
-            let a = &albedo[AC * t..AC * t + AC];
-            let a = if AC == 1 {
-                [a[0]; 3]
-            } else {
-                [a[0], a[1], a[2]]
-            };
-            let finite = a[0].is_finite() & a[1].is_finite() & a[2].is_finite();
-            ok = finite & (a[0].max(a[1]).max(a[2]) >= ALBEDO_EPS);
+    let mut t0 = 0;
+    while t0 < n {
+        let m = LANES.min(n - t0);
+        // Lanes past the run hold colour 0 and albedo 1 (harmless, not stored).
+        let mut c = [[0.0f32; LANES]; 3];
+        let mut a = [[1.0f32; LANES]; 3];
+        for t in 0..m {
             for k in 0..3 {
-                rgb[k] /= a[k].max(ALBEDO_EPS);
+                c[k][t] = color[3 * (t0 + t) + k];
+                if AC > 0 {
+                    a[k][t] = albedo[AC * (t0 + t) + if AC == 1 { 0 } else { k }];
+                }
             }
         }
-        ok &= rgb[0].is_finite() & rgb[1].is_finite() & rgb[2].is_finite();
-        let v = ok as u8 as f32;
-        // Denormals flushed to 0 (they would slow every product they enter); 0 where invalid.
-        let f = |x: f32| if ok && x.abs() >= 1e-30 { x } else { 0.0 };
-        out.r[t] = f(rgb[0]);
-        out.g[t] = f(rgb[1]);
-        out.b[t] = f(rgb[2]);
-        out.v[t] = v;
+        let mut o = [[0.0f32; LANES]; 4];
+        for t in 0..LANES {
+            let mut rgb = [c[0][t], c[1][t], c[2][t]];
+            let mut ok = true;
+            if AC > 0 {
+                let a = [a[0][t], a[1][t], a[2][t]];
+                let finite = a[0].is_finite() & a[1].is_finite() & a[2].is_finite();
+                ok = finite & (a[0].max(a[1]).max(a[2]) >= ALBEDO_EPS);
+                for k in 0..3 {
+                    rgb[k] /= a[k].max(ALBEDO_EPS);
+                }
+            }
+            ok &= rgb[0].is_finite() & rgb[1].is_finite() & rgb[2].is_finite();
+            // Denormals flushed to 0 (they would slow every product they enter); 0 where
+            // invalid.
+            let f = |x: f32| if ok && x.abs() >= 1e-30 { x } else { 0.0 };
+            for k in 0..3 {
+                o[k][t] = f(rgb[k]);
+            }
+            o[3][t] = ok as u8 as f32;
+        }
+        out.r[t0..t0 + m].copy_from_slice(&o[0][..m]);
+        out.g[t0..t0 + m].copy_from_slice(&o[1][..m]);
+        out.b[t0..t0 + m].copy_from_slice(&o[2][..m]);
+        out.v[t0..t0 + m].copy_from_slice(&o[3][..m]);
+        t0 += LANES;
     }
 }
 
-/// First pass: fills the colour and validity planes of every `src` block (colour 0 where
-/// the validity is) and the background flag into aux plane [`BG_PLANE`], margins included (0
-/// beyond the image), and returns the image-wide statistics, summed block by block in block
-/// order (the same on any number of threads).
-pub(crate) fn fill_color(
-    inp: &Input,
-    lay: Layout,
-    sparse: usize,
-    src: &mut [f32],
-    aux: &mut [f32],
-) -> Stats {
-    let mask = sparse - 1;
+/// [`color_row`] compiled for AVX2 where the CPU has it (8-lane divisions and selects instead
+/// of SSE2's 4; no FMA, so the results are the same bit for bit).
+fn color_rows<const AC: usize>(color: &[f32], albedo: &[f32], out: ColorPlanes) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        /// The AVX2 copy.
+        ///
+        /// # Safety
+        /// The CPU must support AVX2.
+        #[target_feature(enable = "avx2")]
+        unsafe fn avx2<const AC: usize>(color: &[f32], albedo: &[f32], out: ColorPlanes) {
+            color_row::<AC>(color, albedo, out)
+        }
+        if std::is_x86_feature_detected!("avx2") {
+            // SAFETY: AVX2 was detected just above.
+            return unsafe { avx2::<AC>(color, albedo, out) };
+        }
+    }
+    color_row::<AC>(color, albedo, out)
+}
+
+/// A run of pixels from `i0` into colour and validity planes, with the rules of
+/// `Input::pixel` (colour 0 where the validity is).
+fn color_run(inp: &Input, i0: usize, out: ColorPlanes) {
+    let n = out.r.len();
+    let color = &inp.color.data[3 * i0..3 * (i0 + n)];
+    let albedo = inp.features.albedo.filter(|_| inp.demodulate);
+    match albedo.map(|a| a.channels) {
+        None => color_rows::<0>(color, &[], out),
+        Some(1) => color_rows::<1>(color, albedo_row(albedo, i0, n), out),
+        Some(3) => color_rows::<3>(color, albedo_row(albedo, i0, n), out),
+        Some(4) => color_rows::<4>(color, albedo_row(albedo, i0, n), out),
+        Some(_) => {
+            for t in 0..n {
+                let px = inp.pixel(i0 + t);
+                let v = px.valid as u8 as f32;
+                out.r[t] = px.rgb[0] * v;
+                out.g[t] = px.rgb[1] * v;
+                out.b[t] = px.rgb[2] * v;
+                out.v[t] = v;
+            }
+        }
+    }
+}
+
+/// First pass, reading only: the image-wide statistics, from each (strip, row) block's own
+/// columns, summed block by block in block order (the same on any number of threads).
+pub(crate) fn input_stats(inp: &Input, lay: Layout) -> Stats {
     let w = lay.w;
-    let parts: Vec<BlockStats> = src
-        .par_chunks_mut(K * QW)
-        .zip(aux.par_chunks_mut(KA * QW))
-        .enumerate()
-        .map(|(b, (blk, ab))| {
+    let parts: Vec<BlockStats> = (0..lay.nch * lay.h)
+        .into_par_iter()
+        .map(|b| {
             let (c, y) = lay.strip_row(b);
             let (x0, len) = lay.strip(c);
-            let on_row = y & mask == 0;
-            let ja = M.saturating_sub(x0);
-            let jb = (w + M - x0).min(QW);
-            // Columns beyond the image hold 0 (validity 0: taps there add nothing); the rest
-            // of every plane in use is written here, by `fill_features` or per level.
-            for (planes, buf) in [(K, &mut *blk), (KA, &mut *ab)] {
-                for k in 0..planes {
-                    buf[k * QW..k * QW + ja].fill(0.0);
-                    buf[k * QW + jb..(k + 1) * QW].fill(0.0);
-                }
-            }
+            let i0 = y * w + x0;
             let mut st = BlockStats {
                 lum: 0.0,
                 valid: 0,
@@ -208,90 +252,46 @@ pub(crate) fn fill_color(
                 lo: [f32::INFINITY; 3],
                 hi: [f32::NEG_INFINITY; 3],
             };
-            if ja < jb {
-                let (xa, n) = (x0 + ja - M, jb - ja);
-                let i0 = y * w + xa;
-                let (rgb, vrest) = blk.split_at_mut(3 * QW);
-                let (r, gb) = rgb.split_at_mut(QW);
-                let (g, b) = gb.split_at_mut(QW);
-                let planes = ColorPlanes {
-                    r: &mut r[ja..jb],
-                    g: &mut g[ja..jb],
-                    b: &mut b[ja..jb],
-                    v: &mut vrest[..QW][ja..jb],
-                };
-                let color = &inp.color.data[3 * i0..3 * (i0 + n)];
-                let albedo = inp.features.albedo.filter(|_| inp.demodulate);
-                match albedo.map(|a| a.channels) {
-                    None => color_row::<0>(color, &[], planes),
-                    Some(1) => color_row::<1>(color, albedo_row(albedo, i0, n), planes),
-                    Some(3) => color_row::<3>(color, albedo_row(albedo, i0, n), planes),
-                    Some(4) => color_row::<4>(color, albedo_row(albedo, i0, n), planes),
-                    Some(_) => {
-                        for j in ja..jb {
-                            let x = x0 + j - M;
-                            let px = inp.pixel(y * w + x);
-                            let v = px.valid as u8 as f32;
-                            for k in 0..3 {
-                                blk[k * QW + j] = px.rgb[k] * v;
-                            }
-                            blk[3 * QW + j] = v;
-                        }
-                    }
-                }
-            }
-            if ja < jb {
-                let i0 = y * w + x0 + ja - M;
-                background_row(inp.features, i0, &mut ab[BG_PLANE * QW..][ja..jb]);
-            }
-            // Statistics of the strip's own columns (the margins are counted by their owner).
-            let own = M..M + len;
-            let i0 = y * w + x0;
             let col = &inp.color.data[3 * i0..3 * (i0 + len)];
             st.missing = col
                 .chunks_exact(3)
                 .filter(|p| !(p[0].is_finite() && p[1].is_finite() && p[2].is_finite()))
                 .count();
             // Mean luminance over every usable pixel (before the sparse grid, as `Prepared`).
+            let mut planes = [[0.0f32; CW]; 4];
+            let [r, g, bl, v] = &mut planes;
+            color_run(
+                inp,
+                i0,
+                ColorPlanes {
+                    r: &mut r[..len],
+                    g: &mut g[..len],
+                    b: &mut bl[..len],
+                    v: &mut v[..len],
+                },
+            );
             let mut lum = [0.0f32; 8];
             let mut valid = [0.0f32; 8];
-            {
-                let (r, g, b) = (
-                    &blk[own.clone()],
-                    &blk[QW..][own.clone()],
-                    &blk[2 * QW..][own.clone()],
-                );
-                let v = &blk[3 * QW..][own.clone()];
-                // Eight partial sums (in a fixed order: deterministic) so the loop vectorises.
-                let mut t = 0;
-                while t + 8 <= len {
-                    for l in 0..8 {
-                        let k = t + l;
-                        lum[l] += (0.2126 * r[k] + 0.7152 * g[k] + 0.0722 * b[k]).abs();
-                        valid[l] += v[k];
-                    }
-                    t += 8;
+            // Eight partial sums (in a fixed order: deterministic) so the loop vectorises.
+            let mut t = 0;
+            while t + 8 <= len {
+                for l in 0..8 {
+                    let k = t + l;
+                    lum[l] += (0.2126 * r[k] + 0.7152 * g[k] + 0.0722 * bl[k]).abs();
+                    valid[l] += v[k];
                 }
-                for k in t..len {
-                    lum[0] += (0.2126 * r[k] + 0.7152 * g[k] + 0.0722 * b[k]).abs();
-                    valid[0] += v[k];
-                }
+                t += 8;
+            }
+            for k in t..len {
+                lum[0] += (0.2126 * r[k] + 0.7152 * g[k] + 0.0722 * bl[k]).abs();
+                valid[0] += v[k];
             }
             let valid: f32 = valid.iter().sum();
             st.lum = lum.iter().map(|&l| l as f64).sum();
             st.valid = valid as usize;
-            if mask != 0 {
-                for j in ja..jb {
-                    let x = x0 + j - M;
-                    if !(on_row && x & mask == 0) {
-                        for k in 0..4 {
-                            blk[k * QW + j] = 0.0;
-                        }
-                    }
-                }
-            }
             if let Some(p) = inp.features.position {
-                let bgs = &ab[BG_PLANE * QW..][own];
+                let bgs = &mut planes[0][..len];
+                background_row(inp.features, i0, bgs);
                 for (t, &bg) in bgs.iter().enumerate() {
                     if bg == 0.0 {
                         let v = &p.data[(i0 + t) * p.channels..][..3];
@@ -335,9 +335,136 @@ pub(crate) fn fill_color(
     }
 }
 
-/// Background flags (1 = nothing hit, the rule of `gbuffer::is_background`) of the run of
-/// pixels from `i0`, with constant channel counts so that the loop vectorises (the per-pixel
-/// call took ~7 % of a 512² five-level filter).
+/// The number of feature coordinates the blocks will hold (normals 3, positions 3, or the
+/// background coordinate 1).
+pub(crate) fn feature_count(inp: &Input, s: &FillScales) -> usize {
+    let f = inp.features;
+    f.normal.zip(s.normal).map_or(0, |_| 3) + f.position.zip(s.position).map_or(1, |_| 3)
+}
+
+/// Fills block (strip `c`, row `y`): `blk` (K planes: colour, validity, variance) and `ab`
+/// (KA planes: the background flag in [`BG_PLANE`], the features from plane 2, scaled for
+/// the first level), margins included (0 beyond the image).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn fill_block(
+    inp: &Input,
+    lay: Layout,
+    sparse: usize,
+    s: &FillScales,
+    c: usize,
+    y: usize,
+    blk: &mut [f32],
+    ab: &mut [f32],
+) {
+    let mask = sparse - 1;
+    let w = lay.w;
+    let (x0, _) = lay.strip(c);
+    let ja = M.saturating_sub(x0);
+    let jb = (w + M - x0).min(QW);
+    // Columns beyond the image hold 0 (validity 0: taps there add nothing); the rest of
+    // every plane in use is written here or per level.
+    for (planes, buf) in [(K, &mut *blk), (KA, &mut *ab)] {
+        for k in 0..planes {
+            buf[k * QW..k * QW + ja].fill(0.0);
+            buf[k * QW + jb..(k + 1) * QW].fill(0.0);
+        }
+    }
+    if ja >= jb {
+        return;
+    }
+    let i0 = y * w + x0 + ja - M;
+    {
+        let (rgb, vrest) = blk.split_at_mut(3 * QW);
+        let (r, gb) = rgb.split_at_mut(QW);
+        let (g, b) = gb.split_at_mut(QW);
+        let planes = ColorPlanes {
+            r: &mut r[ja..jb],
+            g: &mut g[ja..jb],
+            b: &mut b[ja..jb],
+            v: &mut vrest[..QW][ja..jb],
+        };
+        color_run(inp, i0, planes);
+    }
+    if mask != 0 {
+        let on_row = y & mask == 0;
+        for j in ja..jb {
+            let x = x0 + j - M;
+            if !(on_row && x & mask == 0) {
+                for k in 0..4 {
+                    blk[k * QW + j] = 0.0;
+                }
+            }
+        }
+    }
+    let (head, feat) = ab.split_at_mut(2 * QW);
+    let bgs = &mut head[BG_PLANE * QW..][ja..jb];
+    background_row(inp.features, i0, bgs);
+    let bgs = &*bgs;
+    if inp.use_variance {
+        for j in ja..jb {
+            // Variance in units of mean luminance², tiny values flushed to 0, so Σ w²·var
+            // never reaches the (slow) denormal range.
+            let v = inp.variance(i0 + j - ja) * s.inv_ml2;
+            blk[4 * QW + j] = if v > 1e-12 { v } else { 0.0 };
+        }
+    } else {
+        blk[4 * QW + ja..4 * QW + jb].fill(0.0);
+    }
+    let f = inp.features;
+    let mut k = 0;
+    if let Some((n, sn)) = f.normal.zip(s.normal) {
+        let (n0, rest) = feat.split_at_mut(QW);
+        let (n1, n2) = rest.split_at_mut(QW);
+        let out = [&mut n0[ja..jb], &mut n1[ja..jb], &mut n2[ja..jb]];
+        let data = &n.data[i0 * n.channels..(i0 + jb - ja) * n.channels];
+        match n.channels {
+            3 => normal_row(3, data, sn, out),
+            4 => normal_row(4, data, sn, out),
+            c => normal_row(c, data, sn, out),
+        }
+        k = 3;
+    }
+    let feat = &mut feat[k * QW..];
+    match f.position.zip(s.position) {
+        Some((p, sx)) => {
+            let (p0, rest) = feat.split_at_mut(QW);
+            let (p1, p2) = rest.split_at_mut(QW);
+            let out = [&mut p0[ja..jb], &mut p1[ja..jb], &mut p2[ja..jb]];
+            let data = &p.data[i0 * p.channels..(i0 + jb - ja) * p.channels];
+            let scale = s.inv_extent * sx;
+            let bgv = s.position_background;
+            match p.channels {
+                3 => position_row(3, data, bgs, scale, bgv, out),
+                4 => position_row(4, data, bgs, scale, bgv, out),
+                c => position_row(c, data, bgs, scale, bgv, out),
+            }
+        }
+        None => {
+            for (o, &bg) in feat[ja..jb].iter_mut().zip(bgs) {
+                *o = bg * BACKGROUND_SCALE;
+            }
+        }
+    }
+}
+
+/// Fills every block of `src` and `aux` (see [`fill_block`]), rows in parallel.
+pub(crate) fn fill_all(
+    inp: &Input,
+    lay: Layout,
+    sparse: usize,
+    s: &FillScales,
+    src: &mut [f32],
+    aux: &mut [f32],
+) {
+    src.par_chunks_mut(K * QW)
+        .zip(aux.par_chunks_mut(KA * QW))
+        .enumerate()
+        .for_each(|(b, (blk, ab))| {
+            let (c, y) = lay.strip_row(b);
+            fill_block(inp, lay, sparse, s, c, y, blk, ab);
+        });
+}
+
 fn background_row(f: &Features, i0: usize, out: &mut [f32]) {
     let n = out.len();
     out.fill(0.0);
@@ -410,82 +537,6 @@ fn position_row(
     }
 }
 
-/// Second pass: the variance plane of every `src` block and the feature planes of `aux`
-/// (from plane 2), scaled for the first level. Returns the number of feature coordinates.
-pub(crate) fn fill_features(
-    inp: &Input,
-    lay: Layout,
-    s: &FillScales,
-    src: &mut [f32],
-    aux: &mut [f32],
-) -> usize {
-    let f = inp.features;
-    let normal = f.normal.zip(s.normal);
-    let position = f.position.zip(s.position);
-    let nf = normal.map_or(0, |_| 3) + position.map_or(1, |_| 3);
-    let w = lay.w;
-    src.par_chunks_mut(K * QW)
-        .zip(aux.par_chunks_mut(KA * QW))
-        .enumerate()
-        .for_each(|(b, (blk, ab))| {
-            let (c, y) = lay.strip_row(b);
-            let (x0, _) = lay.strip(c);
-            let ja = M.saturating_sub(x0);
-            let jb = (w + M - x0).min(QW);
-            let (head, feat) = ab.split_at_mut(2 * QW);
-            let bgs = &head[BG_PLANE * QW..][ja..jb];
-            if ja >= jb {
-                return;
-            }
-            let i0 = y * w + x0 + ja - M;
-            if inp.use_variance {
-                for j in ja..jb {
-                    // Variance in units of mean luminance², tiny values flushed to 0, so
-                    // Σ w²·var never reaches the (slow) denormal range.
-                    let v = inp.variance(i0 + j - ja) * s.inv_ml2;
-                    blk[4 * QW + j] = if v > 1e-12 { v } else { 0.0 };
-                }
-            } else {
-                blk[4 * QW + ja..4 * QW + jb].fill(0.0);
-            }
-            let mut k = 0;
-            if let Some((n, sn)) = normal {
-                let (n0, rest) = feat.split_at_mut(QW);
-                let (n1, n2) = rest.split_at_mut(QW);
-                let out = [&mut n0[ja..jb], &mut n1[ja..jb], &mut n2[ja..jb]];
-                let data = &n.data[i0 * n.channels..(i0 + jb - ja) * n.channels];
-                match n.channels {
-                    3 => normal_row(3, data, sn, out),
-                    4 => normal_row(4, data, sn, out),
-                    c => normal_row(c, data, sn, out),
-                }
-                k = 3;
-            }
-            let feat = &mut feat[k * QW..];
-            match position {
-                Some((p, sx)) => {
-                    let (p0, rest) = feat.split_at_mut(QW);
-                    let (p1, p2) = rest.split_at_mut(QW);
-                    let out = [&mut p0[ja..jb], &mut p1[ja..jb], &mut p2[ja..jb]];
-                    let data = &p.data[i0 * p.channels..(i0 + jb - ja) * p.channels];
-                    let scale = s.inv_extent * sx;
-                    let bgv = s.position_background;
-                    match p.channels {
-                        3 => position_row(3, data, bgs, scale, bgv, out),
-                        4 => position_row(4, data, bgs, scale, bgv, out),
-                        c => position_row(c, data, bgs, scale, bgv, out),
-                    }
-                }
-                None => {
-                    for (o, &bg) in feat[ja..jb].iter_mut().zip(bgs) {
-                        *o = bg * BACKGROUND_SCALE;
-                    }
-                }
-            }
-        });
-    nf
-}
-
 /// Copies the filtered colour out of `src` into an image; with demodulation, multiplies the
 /// albedo back and puts the pass-through pixels' own colour back (0 where not finite).
 pub(crate) fn output(inp: &Input, lay: Layout, src: &[f32]) -> Image {
@@ -498,24 +549,65 @@ pub(crate) fn output(inp: &Input, lay: Layout, src: &[f32]) -> Image {
             for c in 0..lay.nch {
                 let (x0, len) = lay.strip(c);
                 let blk = &src[lay.block(c, y, K)..][..K * QW];
-                for x in x0..x0 + len {
-                    let j = M + x - x0;
-                    let i = y * w + x;
-                    let f = [blk[j], blk[QW + j], blk[2 * QW + j]];
-                    let v = if !inp.demodulate {
-                        f
-                    } else {
-                        match inp.features.albedo.and_then(|a| albedo_divisor(a, i)) {
-                            Some(a) => [f[0] * a[0], f[1] * a[1], f[2] * a[2]],
-                            None => {
-                                let col = &inp.color.data[i * 3..i * 3 + 3];
-                                [passed(col[0]), passed(col[1]), passed(col[2])]
-                            }
-                        }
-                    };
-                    o[3 * x..3 * x + 3].copy_from_slice(&v);
-                }
+                output_row(inp, y * w + x0, blk, &mut o[3 * x0..3 * (x0 + len)]);
             }
         });
     out
+}
+
+/// One run of output pixels from pixel `i0` (`o`: 3 floats each) from the strip columns of
+/// block `blk` (from column M), with the rules of [`output`].
+pub(crate) fn output_row(inp: &Input, i0: usize, blk: &[f32], o: &mut [f32]) {
+    let n = o.len() / 3;
+    let (r, g, b) = (&blk[M..][..n], &blk[QW + M..][..n], &blk[2 * QW + M..][..n]);
+    let albedo = inp.features.albedo.filter(|_| inp.demodulate);
+    let color = &inp.color.data[3 * i0..3 * (i0 + n)];
+    match albedo.map(|a| a.channels) {
+        None => {
+            for t in 0..n {
+                o[3 * t..3 * t + 3].copy_from_slice(&[r[t], g[t], b[t]]);
+            }
+        }
+        Some(1) => remodulate::<1>(color, albedo_row(albedo, i0, n), [r, g, b], o),
+        Some(3) => remodulate::<3>(color, albedo_row(albedo, i0, n), [r, g, b], o),
+        Some(4) => remodulate::<4>(color, albedo_row(albedo, i0, n), [r, g, b], o),
+        Some(_) => {
+            for t in 0..n {
+                let f = [r[t], g[t], b[t]];
+                let v = match albedo.and_then(|a| albedo_divisor(a, i0 + t)) {
+                    Some(a) => [f[0] * a[0], f[1] * a[1], f[2] * a[2]],
+                    None => {
+                        let col = &color[3 * t..3 * t + 3];
+                        [passed(col[0]), passed(col[1]), passed(col[2])]
+                    }
+                };
+                o[3 * t..3 * t + 3].copy_from_slice(&v);
+            }
+        }
+    }
+}
+
+/// Filtered illumination times the albedo (`AC` channels), or the pass-through colour where
+/// the albedo is unusable: `albedo_divisor` and `passed` written branch-free (the per-pixel
+/// calls took ~8 % of a 512² filter; copying into lanes first, as the input does, was slower
+/// here).
+#[inline(always)]
+fn remodulate<const AC: usize>(color: &[f32], albedo: &[f32], f: [&[f32]; 3], o: &mut [f32]) {
+    let n = f[0].len();
+    for t in 0..n {
+        let a = &albedo[AC * t..AC * t + AC];
+        let a = if AC == 1 {
+            [a[0]; 3]
+        } else {
+            [a[0], a[1], a[2]]
+        };
+        let finite = a[0].is_finite() & a[1].is_finite() & a[2].is_finite();
+        let ok = finite & (a[0].max(a[1]).max(a[2]) >= ALBEDO_EPS);
+        let c = &color[3 * t..3 * t + 3];
+        for k in 0..3 {
+            let v = f[k][t] * a[k].max(ALBEDO_EPS);
+            let p = if c[k].is_finite() { c[k] } else { 0.0 };
+            o[3 * t + k] = if ok { v } else { p };
+        }
+    }
 }

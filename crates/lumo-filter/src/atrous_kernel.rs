@@ -46,8 +46,15 @@ pub(crate) enum Isa {
 /// Which kernel path a level takes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Path {
-    /// The fastest one the level allows: pairs, else fused, else per tap.
+    /// The fastest one the levels allow: the level pipeline, else pairs, else fused, else
+    /// per tap.
     Auto,
+    /// Pairs level by level where the level allows (never the pipeline).
+    #[cfg_attr(not(test), allow(dead_code))] // tests compare the paths
+    Pairs,
+    /// The pipeline with this many rows per task (as `Auto` where it cannot run).
+    #[cfg_attr(not(test), allow(dead_code))] // tests compare band splits
+    Bands(usize),
     /// Fused where the step allows, else per tap (never pairs).
     #[cfg_attr(not(test), allow(dead_code))] // tests compare the paths
     Fused,
@@ -160,12 +167,13 @@ pub(crate) fn block(l: &Level, b: usize, dst: &mut [f32]) {
 /// Divides the accumulated colour by the weight sum and the variance by its square
 /// (SVGF: the variance of a weighted mean is Σw²·var / (Σw)²); validity becomes 0/1.
 /// `acc` holds 5 accumulator planes `stride` apart from column `a0`; the results go to
-/// columns `M..M + len` of the block `dst`.
+/// columns `d0..d0 + len` of the block `dst`.
 pub(crate) fn normalise<const VAR: bool>(
     acc: &[f32],
     stride: usize,
     a0: usize,
     dst: &mut [f32],
+    d0: usize,
     len: usize,
 ) {
     let wsum = &acc[3 * stride + a0..][..len];
@@ -183,8 +191,12 @@ pub(crate) fn normalise<const VAR: bool>(
     } else {
         &[][..]
     };
-    let (r, g, b) = (&mut r[M..][..len], &mut g[M..][..len], &mut b[M..][..len]);
-    let (valid, var) = (&mut valid[M..][..len], &mut var[M..][..len]);
+    let (r, g, b) = (
+        &mut r[d0..][..len],
+        &mut g[d0..][..len],
+        &mut b[d0..][..len],
+    );
+    let (valid, var) = (&mut valid[d0..][..len], &mut var[d0..][..len]);
     for i in 0..len {
         let s = wsum[i];
         let has = (s > 0.0) as u8 as f32;
@@ -269,7 +281,7 @@ fn block_taps<const NF: usize, const CM: u8, const VAR: bool>(
         }
     }
     dst.fill(0.0);
-    normalise::<VAR>(&acc, QW, M, dst, len);
+    normalise::<VAR>(&acc, QW, M, dst, M, len);
 }
 
 /// The tap loop compiled for the baseline target. Not inlined: its slice arguments are known

@@ -13,8 +13,10 @@ use rayon::prelude::*;
 /// Columns per strip.
 pub(crate) const CW: usize = 512;
 /// Margin columns on each side of a strip: the fused path reads taps up to 2·32 columns
-/// away, the pair path sweeps 2·16 columns into a neighbour and reads 2·16 beyond.
-pub(crate) const M: usize = 64;
+/// away, the pair path sweeps 2·16 columns into a neighbour and reads 2·16 beyond, and the
+/// level pipeline (atrous_pipeline.rs) reads up to 64 columns beyond the strip at every level,
+/// from sweeps rounded out to whole 16-column vectors (80 = 64 + 16).
+pub(crate) const M: usize = 80;
 /// Floats per sub-row: margin, strip, margin.
 pub(crate) const QW: usize = CW + 2 * M;
 

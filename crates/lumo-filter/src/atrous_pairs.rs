@@ -45,11 +45,12 @@ mod simd;
 pub(crate) const MAX_PAIR_STEP: usize = M / 4;
 
 /// Column alignment of the swept range: the widest vector (16 floats).
-const CHUNK: usize = 16;
+pub(crate) const CHUNK: usize = 16;
 
 /// Accumulator planes per row: r, g, b, weight.
 const AN: usize = 4;
-type Acc = [f32; AN * QW];
+/// One accumulator row: r, g, b and weight sums, [`QW`] columns each.
+pub(crate) type Acc = [f32; AN * QW];
 
 /// Source planes: colour from 0, validity.
 const V: usize = 3;
@@ -124,15 +125,17 @@ pub(crate) fn level(l: &Level, dst: &mut [f32]) {
 /// Which of a row's pair groups (dy = 0, 1, 2 steps) scatter into the rows below
 /// (`scatter[dy]`), and the row's constants.
 #[derive(Clone, Copy)]
-struct RowJob {
-    scatter: [bool; 3],
-    j_lo: usize,
-    j_hi: usize,
-    /// The strip's columns (those whose sums are kept).
-    len: usize,
-    step: usize,
-    color_scale: f32,
-    normal_factor: f32,
+pub(crate) struct RowJob {
+    pub scatter: [bool; 3],
+    pub j_lo: usize,
+    pub j_hi: usize,
+    /// The columns whose sums are kept (the mirrored halves are added there): the strip's
+    /// own, or wider for the level pipeline's halo.
+    pub o_lo: usize,
+    pub o_hi: usize,
+    pub step: usize,
+    pub color_scale: f32,
+    pub normal_factor: f32,
 }
 
 /// Rows [a, b) of strip `c` into `out` (their blocks).
@@ -171,7 +174,8 @@ fn band(l: &Level, c: usize, a: usize, b: usize, out: &mut [f32], scratch: &mut 
             scatter: [false; 3],
             j_lo,
             j_hi,
-            len,
+            o_lo: M,
+            o_hi: M + len,
             step: s,
             color_scale: l.color_scale,
             normal_factor: l.normal_factor,
@@ -217,14 +221,14 @@ fn band(l: &Level, c: usize, a: usize, b: usize, out: &mut [f32], scratch: &mut 
         row(l, &rows, &mut acc, job);
         if own {
             let d = &mut out[(y - a) * K * QW..][..K * QW];
-            // Margins (refilled from the neighbours, or 0 beyond the image) and the colour,
-            // validity and variance planes' columns beyond the strip: 0.
+            // Margins (refilled from the neighbours, or 0 beyond the image) and the colour
+            // and validity planes' columns beyond the strip: 0. (The variance plane is left
+            // as it is: no pair level carries or reads it.)
             for k in 0..4 {
                 d[k * QW..k * QW + M].fill(0.0);
                 d[k * QW + M + len..(k + 1) * QW].fill(0.0);
             }
-            d[4 * QW..5 * QW].fill(0.0);
-            normalise::<false>(&acc.a0[..], QW, M, d, len);
+            normalise::<false>(&acc.a0[..], QW, M, d, M, len);
         }
         // An own row is finished; the sums of a row swept for its scatter alone are not
         // wanted. Either way the ring row is free again.
@@ -233,31 +237,31 @@ fn band(l: &Level, c: usize, a: usize, b: usize, out: &mut [f32], scratch: &mut 
 }
 
 /// The block read for rows below the image.
-static ZERO_SRC: SrcBlock = [0.0; K * QW];
+pub(crate) static ZERO_SRC: SrcBlock = [0.0; K * QW];
 /// The aux block read for rows below the image.
-static ZERO_AUX: AuxBlock = [0.0; KA * QW];
+pub(crate) static ZERO_AUX: AuxBlock = [0.0; KA * QW];
 
 /// The source and aux blocks of a row and of the rows one and two steps below it.
-struct Rows<'a> {
-    p: &'a SrcBlock,
-    pa: &'a AuxBlock,
-    q1: &'a SrcBlock,
-    qa1: &'a AuxBlock,
-    q2: &'a SrcBlock,
-    qa2: &'a AuxBlock,
+pub(crate) struct Rows<'a> {
+    pub p: &'a SrcBlock,
+    pub pa: &'a AuxBlock,
+    pub q1: &'a SrcBlock,
+    pub qa1: &'a AuxBlock,
+    pub q2: &'a SrcBlock,
+    pub qa2: &'a AuxBlock,
 }
 
 /// The accumulator rows of a row and of the rows one and two steps below it, and the
 /// row's pair weights.
-struct Accs<'a> {
-    a0: &'a mut Acc,
-    a1: &'a mut Acc,
-    a2: &'a mut Acc,
-    w: &'a mut [f32],
+pub(crate) struct Accs<'a> {
+    pub a0: &'a mut Acc,
+    pub a1: &'a mut Acc,
+    pub a2: &'a mut Acc,
+    pub w: &'a mut [f32],
 }
 
 /// Dispatch of one row on the level's feature count, colour mode and instruction set.
-fn row(l: &Level, r: &Rows, acc: &mut Accs, job: RowJob) {
+pub(crate) fn row(l: &Level, r: &Rows, acc: &mut Accs, job: RowJob) {
     macro_rules! go {
         ($nf:literal, $cm:expr) => {
             match l.isa {
@@ -492,7 +496,7 @@ fn row_impl<const NF: usize, const CM: u8, const L: usize, const FMA: bool>(
                 1 => &mut *acc.a1,
                 _ => &mut *acc.a2,
             };
-            scatter::<L, FMA>(r.p, acc.w, a, dy, step, job.len);
+            scatter::<L, FMA>(r.p, acc.w, a, dy, step, job.o_lo..job.o_hi);
         }
     }
 }
@@ -506,9 +510,10 @@ fn row_impl<const NF: usize, const CM: u8, const L: usize, const FMA: bool>(
 /// stalls. Here each vector of the lower row is read and written once, aligned, and the
 /// pairs' weights are read back from the row buffer the sweep stored them in.
 ///
-/// Only the strip's own columns [M, M + len) are summed: their sources lie within 2·step of
-/// them, inside the swept range or in margins whose colour and validity are 0 (so a stale
-/// weight there adds exactly 0).
+/// Only the kept columns `out` are summed: their sources lie within 2·step of them, inside
+/// the swept range or in margins whose colour and validity are 0 (so a stale weight there
+/// adds exactly 0); the level pipeline's rounded-out halo columns may get such stale sums, but
+/// no kept pixel reads them.
 #[inline(always)]
 fn scatter<const L: usize, const FMA: bool>(
     p: &SrcBlock,
@@ -516,15 +521,15 @@ fn scatter<const L: usize, const FMA: bool>(
     a: &mut Acc,
     dy: usize,
     step: usize,
-    len: usize,
+    out: std::ops::Range<usize>,
 ) {
     let ks = match dy {
         0 => 0..2,
         1 => 2..7,
         _ => 7..12,
     };
-    let mut jq = M;
-    while jq < M + len {
+    let mut jq = out.start;
+    while jq < out.end {
         let mut sr = [0.0f32; L];
         let mut sg = [0.0f32; L];
         let mut sb = [0.0f32; L];

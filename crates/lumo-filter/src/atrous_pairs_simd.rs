@@ -22,7 +22,7 @@ use crate::atrous::B3;
 #[cfg(target_arch = "x86_64")]
 use crate::atrous_kernel::CM_FIXED;
 #[cfg(target_arch = "x86_64")]
-use crate::atrous_layout::{M, QW};
+use crate::atrous_layout::QW;
 #[cfg(target_arch = "x86_64")]
 use crate::fastmath::{exp2_cut_avx2_x4, exp2_cut_avx512_x4, EXP_CUTOFF};
 
@@ -47,11 +47,12 @@ macro_rules! row_kernel {
             let step = job.step.min(MAX_PAIR_STEP);
             // Every column read: p's at [j_lo, j_hi), q's up to 2·step either side, the
             // weights buffer's at [j_lo, j_hi); the scatter reads p and weights within
-            // 2·step of [M, M + len) and writes [M, M + len) rounded up to L. Checked here
+            // 2·step of [o_lo, o_hi) and writes [o_lo, o_hi) rounded up to L. Checked here
             // once instead of at every load.
             assert!(job.j_lo >= 2 * step && job.j_hi + 2 * step <= QW);
             assert!(job.j_lo.is_multiple_of(L) && job.j_hi.is_multiple_of(L));
-            assert!(M >= 2 * step && (M + job.len).next_multiple_of(L) + 2 * step <= QW);
+            assert!(job.o_lo >= 2 * step && job.o_lo <= job.o_hi);
+            assert!(job.o_lo + (job.o_hi - job.o_lo).next_multiple_of(L) + 2 * step <= QW);
             assert!(acc.w.len() >= PAIRS.len() * QW);
             let e_max = -EXP_CUTOFF * std::f32::consts::LOG2_E;
             let mut c0 = [0.0f32; 12];
@@ -165,8 +166,8 @@ macro_rules! row_kernel {
                         1 => 2..7,
                         _ => 7..12,
                     };
-                    let mut jq = M;
-                    while jq < M + job.len {
+                    let mut jq = job.o_lo;
+                    while jq < job.o_hi {
                         let mut s = [$zero(); 4];
                         for k in ks.clone() {
                             let i = (jq as isize - qoff[k]) as usize;

@@ -247,6 +247,20 @@ fn check(params: &AtrousParams, with_variance: bool) {
         assert!(d < 2e-4, "{isa:?} pairs vs direct: {d}");
         let d = rel_diff(&auto, &fused);
         assert!(d < 2e-5, "{isa:?} pairs vs fused: {d}");
+        // The level pipeline (where it runs) computes every pixel as the pair path does
+        // level by level, whatever the band split.
+        let pairs = run(isa, Path::Pairs);
+        assert_eq!(
+            auto, pairs,
+            "{isa:?}: pipeline and level-by-level pairs differ"
+        );
+        for rows in [7, 64, 100] {
+            let banded = run(isa, Path::Bands(rows));
+            assert_eq!(
+                banded, pairs,
+                "{isa:?}: pipeline with {rows}-row bands differs"
+            );
+        }
     }
     // A fresh filter gives the same image as the reused one.
     let again = AtrousFilter::new()

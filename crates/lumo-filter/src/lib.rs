@@ -26,6 +26,7 @@ mod atrous_input;
 mod atrous_kernel;
 mod atrous_layout;
 mod atrous_pairs;
+mod atrous_pipeline;
 #[cfg(test)]
 mod atrous_tests;
 mod bilateral;

@@ -1,0 +1,352 @@
+//! The À-Trous levels run as one pipeline per strip and band of rows, when every level takes
+//! the symmetric-pair path (atrous_pairs.rs): level k sweeps its rows 2·step_k behind level
+//! k − 1, reading level k − 1's output from a ring of 2·step_k + 1 rows instead of a
+//! full-image buffer.
+//!
+//! Why: level by level, every level streams the whole working set (≈ 14 planes of the
+//! padded image) from memory and writes a full image back, which at 1080p (≈ 200 MB) is the
+//! limit, not the arithmetic. Here a task's intermediate rows stay in the core's cache, and
+//! so do its input rows: the task converts the input images row by row (`Fill`) into a ring
+//! of 3 colour rows (all level 0 reads) and one of feature rows (read by every level, so it
+//! spans the levels' lag, Σ 2·step + 2 rows). Only the last level's output goes to a
+//! full-image buffer.
+//!
+//! The price: a task cannot see its neighbours' intermediate levels, so it computes their
+//! halo itself — each level produces the rows and columns the later levels read (2·step per
+//! later level beyond the task's own), clipped to the image. Every pixel of every level is
+//! computed with the same operations in the same order as by the level-by-level pair path
+//! (`Path::Pairs`), whichever task computes it, so results are identical to it, bit for bit,
+//! for any band split or thread count (tested).
+
+use std::cell::RefCell;
+
+use rayon::prelude::*;
+
+use crate::atrous_kernel::{normalise, AuxBlock, Level, SrcBlock, K, KA};
+use crate::atrous_layout::{Layout, M, QW};
+use crate::atrous_pairs::{self, Acc, Accs, RowJob, Rows, CHUNK, ZERO_AUX, ZERO_SRC};
+
+/// Most levels a pipeline runs (steps 1..16: the pair path's limit).
+pub(crate) const MAX_LEVELS: usize = 5;
+
+/// Converts the inputs of block (strip, row) into a source block (K planes) and an aux
+/// block (KA planes).
+pub(crate) type Fill<'a> = dyn Fn(usize, usize, &mut [f32], &mut [f32]) + Sync + 'a;
+
+/// Takes the finished block (strip, row) of the last level.
+pub(crate) type Emit<'a> = dyn Fn(usize, usize, &[f32]) + Sync + 'a;
+
+/// What differs between the levels of a pipeline.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Stage {
+    pub step: usize,
+    pub cm: u8,
+    pub color_scale: f32,
+    pub normal_factor: f32,
+}
+
+/// Whether `stages` can run as a pipeline on layout `lay`: every level a pair level, and
+/// every strip's halo columns (rounded out to whole vectors) inside its block.
+pub(crate) fn supports(stages: &[Stage], nf: usize, lay: Layout) -> bool {
+    !stages.is_empty()
+        && stages.len() <= MAX_LEVELS
+        && stages
+            .iter()
+            .all(|s| atrous_pairs::supports(s.step, false, s.cm, nf))
+        && (0..lay.nch).all(|c| columns(lay, c, stages).is_some())
+}
+
+/// The columns (block coordinates) one level of one strip keeps and sweeps.
+#[derive(Clone, Copy, Debug, Default)]
+struct Cols {
+    /// Output columns: what later levels read (or the strip itself, for the last level),
+    /// clipped to the image.
+    o_lo: usize,
+    o_hi: usize,
+    /// Swept columns: 2·step beyond the output (their pairs reach into it), rounded out to
+    /// whole [`CHUNK`]s.
+    j_lo: usize,
+    j_hi: usize,
+}
+
+/// Each level's columns for strip `c`, or `None` if some sweep would read outside the
+/// block (more levels or wider steps than the margins hold).
+fn columns(lay: Layout, c: usize, stages: &[Stage]) -> Option<[Cols; MAX_LEVELS]> {
+    let (x0, len) = lay.strip(c);
+    // The image's columns in block coordinates (may start before the block).
+    let img_lo = M as isize - x0 as isize;
+    let img_hi = img_lo + lay.w as isize;
+    let mut cols = [Cols::default(); MAX_LEVELS];
+    let (mut lo, mut hi) = (M as isize, (M + len) as isize);
+    for k in (0..stages.len()).rev() {
+        if k + 1 < stages.len() {
+            let s = 2 * stages[k + 1].step as isize;
+            lo = (lo - s).max(img_lo);
+            hi = (hi + s).min(img_hi);
+        }
+        let s = 2 * stages[k].step as isize;
+        let ch = CHUNK as isize;
+        let j_lo = (lo - s).div_euclid(ch) * ch;
+        let j_hi = (hi + s + ch - 1).div_euclid(ch) * ch;
+        // The kernel reads 2·step either side of the sweep; the scatter writes the output
+        // columns rounded up to a whole vector and reads 2·step beyond.
+        if j_lo < s || j_hi + s > QW as isize || hi + ch + s > QW as isize {
+            return None;
+        }
+        cols[k] = Cols {
+            o_lo: lo as usize,
+            o_hi: hi as usize,
+            j_lo: j_lo as usize,
+            j_hi: j_hi as usize,
+        };
+    }
+    Some(cols)
+}
+
+thread_local! {
+    /// Each worker's rings, kept between tasks and calls (allocating and page-faulting them
+    /// per task would cost more than their rows' arithmetic).
+    static SCRATCH: RefCell<Scratch> = const {
+        RefCell::new(Scratch {
+            acc: Vec::new(),
+            rows: Vec::new(),
+            feat: Vec::new(),
+            weights: Vec::new(),
+        })
+    };
+}
+
+/// A worker's buffers.
+struct Scratch {
+    /// Per level, its accumulator ring (2·step + 1 rows; all zero between tasks).
+    acc: Vec<Vec<Acc>>,
+    /// Per level, the ring of input rows it reads (2·step + 1 rows): for the first, the
+    /// input colour; for the others, the previous level's output.
+    rows: Vec<Vec<SrcBlock>>,
+    /// The ring of feature rows (all levels read them).
+    feat: Vec<AuxBlock>,
+    /// One row of the 12 pair weights (see atrous_pairs.rs).
+    weights: Vec<f32>,
+}
+
+/// Every level over the whole image; each row of the last level's result (a source block:
+/// colour and validity of the strip's own columns) is handed to `emit` with its strip and row.
+/// `l` gives the layout, feature count and instruction set (its per-level fields are replaced
+/// by `stages`; its buffers are not read), `fill` converts the inputs of one block (strip,
+/// row) into a source block and an aux block. `band_rows`: rows per task (`None`: chosen
+/// here).
+pub(crate) fn run(l: &Level, stages: &[Stage], band_rows: Option<usize>, fill: &Fill, emit: &Emit) {
+    let lay = l.lay;
+    // One band per strip when there are strips enough to keep the threads busy (the halo
+    // then only costs columns; `atrous` only picks the pipeline then); else as many bands per
+    // strip as threads.
+    let threads = rayon::current_num_threads().max(1);
+    let bands = threads.div_ceil(lay.nch).max(1);
+    let band_rows = band_rows.unwrap_or(lay.h.div_ceil(bands)).max(1);
+    (0..lay.nch).into_par_iter().for_each(|c| {
+        let cols = columns(lay, c, stages).expect("checked by `supports`");
+        (0..lay.h.div_ceil(band_rows))
+            .into_par_iter()
+            .for_each(|bi| {
+                let a = bi * band_rows;
+                let b = (a + band_rows).min(lay.h);
+                SCRATCH.with(|s| {
+                    Task {
+                        l,
+                        stages,
+                        cols: &cols,
+                        fill,
+                        emit,
+                    }
+                    .run(c, a..b, &mut s.borrow_mut());
+                });
+            });
+    });
+}
+
+/// What every task of one strip shares.
+struct Task<'a> {
+    l: &'a Level<'a>,
+    stages: &'a [Stage],
+    cols: &'a [Cols; MAX_LEVELS],
+    fill: &'a Fill<'a>,
+    emit: &'a Emit<'a>,
+}
+
+impl Task<'_> {
+    /// Rows `rows` of strip `c` through every level, each finished row to `emit`.
+    fn run(&self, c: usize, rows: std::ops::Range<usize>, scratch: &mut Scratch) {
+        let Task {
+            l,
+            stages,
+            cols,
+            fill,
+            emit,
+        } = *self;
+        let lay = l.lay;
+        let n = stages.len();
+        let h = lay.h;
+        let step = |k: usize| stages[k].step;
+        let rn = |k: usize| 2 * step(k) + 1;
+        let Scratch {
+            acc,
+            rows: ring,
+            feat,
+            weights,
+        } = scratch;
+        // Feature rows live from the last level's next row to 2·step_0 below the first level's:
+        // the levels lag each other by at most 2·step (see the scheduling below).
+        let fr = stages.iter().map(|s| 2 * s.step).sum::<usize>() + 2;
+        if feat.len() < fr {
+            feat.resize(fr, [0.0; KA * QW]);
+        }
+        // Zeroed once; only ever overwritten with weights in [0, 1] (see atrous_pairs.rs).
+        if weights.len() < 12 * QW {
+            weights.resize(12 * QW, 0.0);
+        }
+        acc.resize_with(acc.len().max(n), Vec::new);
+        ring.resize_with(ring.len().max(n), Vec::new);
+        // One more ring: the last level's output row, handed to `emit`.
+        if ring.len() <= n {
+            ring.resize_with(n + 1, Vec::new);
+        }
+        if ring[n].is_empty() {
+            ring[n].push([0.0; K * QW]);
+        }
+        for k in 0..n {
+            // New rows are zero; rows are cleared as they are finished (see `band` there).
+            if acc[k].len() < rn(k) {
+                acc[k].resize(rn(k), [0.0; 4 * QW]);
+            }
+            debug_assert!(acc[k].iter().all(|r| r.iter().all(|&v| v == 0.0)));
+            if ring[k].len() < rn(k) {
+                ring[k].resize(rn(k), [0.0; K * QW]);
+            }
+        }
+        // Output rows of each level: what the next level reads, clipped to the image.
+        let mut o_lo = [0usize; MAX_LEVELS];
+        let mut o_hi = [0usize; MAX_LEVELS];
+        (o_lo[n - 1], o_hi[n - 1]) = (rows.start, rows.end);
+        for k in (0..n - 1).rev() {
+            o_lo[k] = o_lo[k + 1].saturating_sub(2 * step(k + 1));
+            o_hi[k] = (o_hi[k + 1] + 2 * step(k + 1)).min(h);
+        }
+        // Next row each level sweeps: from 2·step above its output (for their scatter alone).
+        let mut next: [usize; MAX_LEVELS] = std::array::from_fn(|k| {
+            if k < n {
+                o_lo[k].saturating_sub(2 * step(k))
+            } else {
+                0
+            }
+        });
+        let levels: Vec<Level> = stages
+            .iter()
+            .map(|s| Level {
+                step: s.step,
+                cm: s.cm,
+                color_scale: s.color_scale,
+                normal_factor: s.normal_factor,
+                ..*l
+            })
+            .collect();
+        // The deepest level whose input rows are ready sweeps its next row: this keeps the rings
+        // at 2·step + 1 rows (a level is only advanced while the one after it waits).
+        let ready = |next: &[usize; MAX_LEVELS]| {
+            (0..n).rev().find(|&k| {
+                next[k] < o_hi[k]
+                    && (k == 0 || next[k - 1] > (next[k] + 2 * step(k)).min(o_hi[k - 1] - 1))
+            })
+        };
+        // Next input row to convert.
+        let mut filled = next[0];
+        while let Some(k) = ready(&next) {
+            let y = next[k];
+            let s = step(k);
+            if k == 0 {
+                // Level 0 reads input rows y .. y + 2·step_0.
+                while filled <= (y + 2 * s).min(h - 1) {
+                    // The slots' previous rows must have been read for the last time.
+                    let low = (0..n).filter(|&j| next[j] < o_hi[j]).map(|j| next[j]).min();
+                    assert!(
+                        filled < low.unwrap_or(0) + fr && filled < y + rn(0),
+                        "pipeline input ring overrun"
+                    );
+                    fill(
+                        c,
+                        filled,
+                        &mut ring[0][filled % rn(0)],
+                        &mut feat[filled % fr],
+                    );
+                    filled += 1;
+                }
+            }
+            let (inp, outp) = ring.split_at_mut(k + 1);
+            let src = |yq: usize| -> &SrcBlock {
+                if yq >= h {
+                    &ZERO_SRC
+                } else {
+                    &inp[k][yq % rn(k)]
+                }
+            };
+            let aux = |yq: usize| {
+                if yq >= h {
+                    &ZERO_AUX
+                } else {
+                    &feat[yq % fr]
+                }
+            };
+            let kept = |yq: usize| yq >= o_lo[k] && yq < o_hi[k];
+            let cl = cols[k];
+            let job = RowJob {
+                scatter: [kept(y), kept(y + s), kept(y + 2 * s)],
+                j_lo: cl.j_lo,
+                j_hi: cl.j_hi,
+                o_lo: cl.o_lo,
+                o_hi: cl.o_hi,
+                step: s,
+                color_scale: stages[k].color_scale,
+                normal_factor: stages[k].normal_factor,
+            };
+            let [a0, a1, a2] = acc[k]
+                .get_disjoint_mut([y % rn(k), (y + s) % rn(k), (y + 2 * s) % rn(k)])
+                .expect("ring rows are distinct");
+            let r = Rows {
+                p: src(y),
+                pa: aux(y),
+                q1: src(y + s),
+                qa1: aux(y + s),
+                q2: src(y + 2 * s),
+                qa2: aux(y + 2 * s),
+            };
+            let mut accs = Accs {
+                a0,
+                a1,
+                a2,
+                w: weights,
+            };
+            atrous_pairs::row(&levels[k], &r, &mut accs, job);
+            if kept(y) {
+                if k + 1 == n {
+                    let d = &mut outp[0][0];
+                    let len = cl.o_hi - cl.o_lo;
+                    normalise::<false>(&accs.a0[..], QW, cl.o_lo, d, cl.o_lo, len);
+                    emit(c, y, d);
+                } else {
+                    // The slot's previous row must have been read for the last time.
+                    let next_rn = rn(k + 1);
+                    assert!(y < next[k + 1] + next_rn, "pipeline ring overrun");
+                    let d = &mut outp[0][y % next_rn];
+                    normalise::<false>(&accs.a0[..], QW, cl.o_lo, d, cl.o_lo, cl.o_hi - cl.o_lo);
+                    // Columns beyond the output: 0, so that those beyond the image have no
+                    // colour or validity (the rest are read only for sums nobody keeps).
+                    for p in 0..4 {
+                        d[p * QW..p * QW + cl.o_lo].fill(0.0);
+                        d[p * QW + cl.o_hi..(p + 1) * QW].fill(0.0);
+                    }
+                }
+            }
+            accs.a0.fill(0.0);
+            next[k] += 1;
+        }
+    }
+}
