@@ -283,7 +283,7 @@ fn run_filter(
             )
         })?),
         // Only À-Trous reads a noise estimate; the guided and bilateral filters would compute
-        // it for nothing (≈ 5 % of the guided filter's time at 512²).
+        // it for nothing (a fifth of a 512² guided run's instructions).
         VarianceSource::Spatial if a.filter != FilterKind::Atrous => None,
         VarianceSource::Spatial => {
             spatial = lumo_filter::spatial_variance(color);

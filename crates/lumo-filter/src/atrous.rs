@@ -8,7 +8,7 @@ use crate::atrous_input::{
     feature_count, fill_all, fill_block, input_stats, output, output_row, FillScales, Input,
 };
 use crate::atrous_kernel::{self, Isa, Level, Path, CM_FIXED, CM_NONE, CM_VARIANCE, K, KA};
-use crate::atrous_layout::{Layout, CW, M, QW};
+use crate::atrous_layout::{Layout, SharedBuf, CW, M, QW};
 use crate::atrous_pairs;
 use crate::atrous_pipeline::{self, Stage};
 use crate::error::param;
@@ -370,7 +370,7 @@ impl AtrousFilter {
                     fill_block(inp, lay, params.sparse, &scales, c, y, blk, ab);
                 };
                 let mut image = Image::new(lay.w, lay.h, 3, 0.0);
-                let base = SharedImage(image.data.as_mut_ptr());
+                let base = SharedBuf(image.data.as_mut_ptr());
                 let emit = |c: usize, y: usize, blk: &[f32]| {
                     let base = &base;
                     let (x0, len) = lay.strip(c);
@@ -445,11 +445,6 @@ impl AtrousFilter {
         (output(inp, lay, src), stats.missing)
     }
 }
-
-/// The output image the pipeline's tasks write rows of (see `levels`).
-struct SharedImage(*mut f32);
-// SAFETY: the tasks write disjoint pixels (each (strip, row) once).
-unsafe impl Sync for SharedImage {}
 
 /// 1/(σ·sqrt(G3×3 ∗ var) + eps) at block column `j` of block (c, y): SVGF's prefiltered
 /// variance, from the variance planes (margins hold the neighbouring strips' values).

@@ -107,7 +107,9 @@ impl Layout {
     }
 }
 
-/// The buffer `fill_margins` shares between its row tasks.
-struct SharedBuf(*mut f32);
-// SAFETY: the row tasks access disjoint floats (see `fill_margins`).
+/// A float buffer shared between parallel tasks that each write their own disjoint floats
+/// (`fill_margins`' row tasks; the level pipeline's output rows).
+pub(crate) struct SharedBuf(pub(crate) *mut f32);
+// SAFETY: every user hands out disjoint floats to its tasks (see `fill_margins` and
+// `AtrousFilter::levels`).
 unsafe impl Sync for SharedBuf {}

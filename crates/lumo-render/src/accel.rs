@@ -1,5 +1,6 @@
 //! Ray queries over a two-level BVH: one wide SIMD BVH per mesh (8-wide with AVX2, else
-//! 4-wide: [`crate::blas`]), one binary BVH over instances. Both can be refitted when vertices or instance transforms change.
+//! 4-wide: [`crate::blas`]), one binary BVH over instances. Both can be refitted when
+//! vertices or instance transforms change.
 //!
 //! obvhs builds the per-mesh binary trees with PLOC + reinsertion rather than the binned SAH of
 //! the guided-filter paper; its trees are of comparable SAH quality and it builds in parallel.

@@ -166,22 +166,28 @@ fn sobol_tables() -> &'static [SobolTables] {
 /// where the CPU has AVX2, the scrambling is compiled with it (native 32-bit lane multiplies).
 #[inline]
 fn sobol_4d(index: u32, set: u32, seed: u32) -> [f32; 4] {
-    // The crate's own steps: shuffle the index (Owen-scramble its reversed bits) ...
-    let shuffled = parts::owen_scramble_rev(index.reverse_bits(), parts::hash(seed ^ 0x79c68e4a));
-    // ... Sobol points of the top 16 bits (what `sobol_int4_rev` reads) ...
-    let t = &sobol_tables()[set as usize];
-    let (hi, lo) = (
-        t.high[(shuffled >> 24) as usize],
-        t.low[((shuffled >> 16) & 0xff) as usize],
-    );
-    let sobol = [hi[0] ^ lo[0], hi[1] ^ lo[1], hi[2] ^ lo[2], hi[3] ^ lo[3]];
-    // ... then Owen-scramble each dimension with its own hash.
+    let sobol = sobol_bits(index, set, seed);
+    // Then the crate's last step: Owen-scramble each dimension with its own hash.
     #[cfg(target_arch = "x86_64")]
     if std::is_x86_feature_detected!("avx2") {
         // SAFETY: AVX2 was detected just above.
         return unsafe { scramble_avx2(sobol, set, seed) };
     }
     scramble(sobol, set, seed)
+}
+
+/// The unscrambled Sobol integers of `sobol_burley::sample_4d`: the index shuffled (its
+/// reversed bits Owen-scrambled) as the crate does, then the top 16 bits (what
+/// `sobol_int4_rev` reads) looked up in the set's two tables.
+#[inline(always)]
+fn sobol_bits(index: u32, set: u32, seed: u32) -> [u32; 4] {
+    let shuffled = parts::owen_scramble_rev(index.reverse_bits(), parts::hash(seed ^ 0x79c68e4a));
+    let t = &sobol_tables()[set as usize];
+    let (hi, lo) = (
+        t.high[(shuffled >> 24) as usize],
+        t.low[((shuffled >> 16) & 0xff) as usize],
+    );
+    [hi[0] ^ lo[0], hi[1] ^ lo[1], hi[2] ^ lo[2], hi[3] ^ lo[3]]
 }
 
 /// The per-dimension Owen scramble of `sobol_burley::sample_4d` on four Sobol integers, and
@@ -229,15 +235,7 @@ mod tests {
 
     /// The portable scramble path, whatever this CPU has.
     fn scramble_portable(index: u32, set: u32, seed: u32) -> [u32; 4] {
-        let shuffled =
-            parts::owen_scramble_rev(index.reverse_bits(), parts::hash(seed ^ 0x79c68e4a));
-        let t = &sobol_tables()[set as usize];
-        let (hi, lo) = (
-            t.high[(shuffled >> 24) as usize],
-            t.low[((shuffled >> 16) & 0xff) as usize],
-        );
-        let sobol = [hi[0] ^ lo[0], hi[1] ^ lo[1], hi[2] ^ lo[2], hi[3] ^ lo[3]];
-        scramble(sobol, set, seed).map(f32::to_bits)
+        scramble(sobol_bits(index, set, seed), set, seed).map(f32::to_bits)
     }
 
     #[test]
