@@ -292,11 +292,6 @@ impl Prepared {
             mean_luminance,
         })
     }
-
-    /// Interleaved 3-channel image from the colour planes.
-    pub fn color_image(&self) -> Image {
-        interleave3(self.w, self.h, &self.color)
-    }
 }
 
 /// Diagonal of the bounding box of the non-background positions (1 if degenerate).
@@ -318,15 +313,4 @@ pub(crate) fn scene_extent(p: &[Vec<f32>; 3], background: &[f32]) -> f32 {
     } else {
         1.0
     }
-}
-
-/// Packs three planes into an interleaved RGB image.
-pub(crate) fn interleave3(w: usize, h: usize, p: &[Vec<f32>; 3]) -> Image {
-    let mut data = Vec::with_capacity(w * h * 3);
-    for i in 0..w * h {
-        data.push(p[0][i]);
-        data.push(p[1][i]);
-        data.push(p[2][i]);
-    }
-    Image::from_vec(w, h, 3, data)
 }

@@ -7,8 +7,7 @@ use rayon::prelude::*;
 use crate::boxsum::box_mean;
 use crate::error::param;
 use crate::gbuffer::{
-    background_mask, check_color, check_features, check_size, plane0, planes3, Features, Filtered,
-    Prepared,
+    background_mask, check_color, check_features, check_size, plane0, Features, Filtered,
 };
 use crate::guided_stream::{stream, Problem};
 use crate::FilterError;
@@ -114,25 +113,27 @@ pub fn build_guide(
     })?;
     let (w, h) = (normal.width, normal.height);
     check_features(features, w, h)?;
-    let n = planes3(normal);
     let npix = w * h;
     let dims = kind.dims();
     let mut data = vec![0.0f32; npix * dims];
     let mut eps = vec![eps_normal; dims];
-    match kind {
-        GuideKind::Grey => {
-            for i in 0..npix {
-                data[i] = ((n[0][i] + n[1][i] + n[2][i]) / 3.0) * 0.5 + 0.5;
-            }
-        }
-        GuideKind::Normal | GuideKind::NormalDepth => {
-            for i in 0..npix {
-                for c in 0..3 {
-                    data[i * dims + c] = n[c][i] * 0.5 + 0.5;
+    let nc = normal.channels;
+    // Non-finite normal components count as 0; non-finite guide values (from huge ones) too.
+    let finite = |v: f32| if v.is_finite() { v } else { 0.0 };
+    data.par_chunks_mut(w * dims)
+        .zip(normal.data.par_chunks(w * nc))
+        .for_each(|(out, src)| {
+            for (o, n) in out.chunks_exact_mut(dims).zip(src.chunks_exact(nc)) {
+                let n = [finite(n[0]), finite(n[1]), finite(n[2])];
+                if kind == GuideKind::Grey {
+                    o[0] = finite(((n[0] + n[1] + n[2]) / 3.0) * 0.5 + 0.5);
+                } else {
+                    for c in 0..3 {
+                        o[c] = finite(n[c] * 0.5 + 0.5);
+                    }
                 }
             }
-        }
-    }
+        });
     if kind == GuideKind::NormalDepth {
         let depth = features.depth.ok_or_else(|| FilterError::MissingFeature {
             filter: "the guided filter",
@@ -168,13 +169,26 @@ pub fn build_guide(
             data[i * 4 + 3] = if bg[i] > 0.0 {
                 1.0
             } else {
-                ((d[i] - lo) * inv).clamp(0.0, 1.0)
+                let v = ((d[i] - lo) * inv).clamp(0.0, 1.0);
+                if v.is_finite() {
+                    v
+                } else {
+                    0.0
+                }
             };
         }
         eps[3] = eps_depth;
     }
-    let img = Image::from_vec(w, h, dims, data);
-    Guide::from_image(&img, eps)
+    if let Some(e) = eps.iter().find(|e| !(**e > 0.0 && e.is_finite())) {
+        return Err(param("eps", format!("{e} (must be > 0)")));
+    }
+    Ok(Guide {
+        width: w,
+        height: h,
+        dims,
+        data,
+        eps,
+    })
 }
 
 /// Parameters of [`guided`].
@@ -242,10 +256,9 @@ pub fn guided(
     if s == 0 || s > 64 {
         return Err(param("fast_subsample", format!("{s} (use 1..=64)")));
     }
-    let prep = Prepared::new(color, &Features::default())?;
-    let mut p = interleaved_color(&prep);
-    if prep.missing > 0 {
-        fill_missing(&mut p, &prep.valid, w, h, params.radius);
+    let (mut p, valid, missing) = guided_input(color);
+    if missing > 0 {
+        fill_missing(&mut p, &valid, w, h, params.radius);
     }
     let d = guide.dims;
     let image = if s == 1 {
@@ -283,14 +296,41 @@ pub fn guided(
         });
         apply_upsampled(&guide.data, w, h, d, &ab, lw, lh, s)
     };
-    Ok(Filtered {
-        image,
-        missing: prep.missing,
-    })
+    Ok(Filtered { image, missing })
 }
 
-fn interleaved_color(prep: &Prepared) -> Vec<f32> {
-    prep.color_image().data
+/// The colour as the filter reads it, in one pass over the rows (in parallel): pixel-major
+/// RGB with pixels that have a non-finite channel set to 0 (and 0 in the returned validity
+/// mask), denormals flushed to 0 (they would slow every product they enter), and the number
+/// of missing pixels.
+fn guided_input(color: &Image) -> (Vec<f32>, Vec<f32>, usize) {
+    let w = color.width;
+    let mut p = vec![0.0f32; color.data.len()];
+    let mut valid = vec![0.0f32; w * color.height];
+    let missing = p
+        .par_chunks_mut(3 * w)
+        .zip(valid.par_chunks_mut(w))
+        .zip(color.data.par_chunks(3 * w))
+        .map(|((out, ok), src)| {
+            let mut missing = 0;
+            for ((o, k), c) in out
+                .chunks_exact_mut(3)
+                .zip(ok.iter_mut())
+                .zip(src.chunks_exact(3))
+            {
+                if c.iter().all(|v| v.is_finite()) {
+                    for (o, v) in o.iter_mut().zip(c) {
+                        *o = if v.abs() < 1e-30 { 0.0 } else { *v };
+                    }
+                    *k = 1.0;
+                } else {
+                    missing += 1;
+                }
+            }
+            missing
+        })
+        .sum();
+    (p, valid, missing)
 }
 
 /// Replaces missing pixels by the mean of the valid pixels in their window (0 if none).

@@ -14,10 +14,37 @@ use rayon::prelude::*;
 
 use crate::cholesky::{solve_lanes, L};
 
-/// Largest number of product channels (D = 8: 8 + 36 + 3 + 24).
-const MAX_K1: usize = 71;
-/// Largest number of coefficients per pixel (D = 8: 3·8 + 3).
-const MAX_K2: usize = 27;
+/// Largest number of product channels (D = 8: 8 + 36 + 3 + 24), padded to whole chunks.
+const MAX_K1: usize = 72;
+/// Largest number of coefficients per pixel (D = 8: 3·8 + 3), padded to whole chunks.
+const MAX_K2: usize = 28;
+
+/// Channels per chunk: the horizontal running sums keep each pixel's channels in chunks of
+/// four f64, which the compiler turns into vector operations (one ymm register per chunk
+/// under AVX2). Each channel is still summed in the same order, so padding changes no result.
+const CH: usize = 4;
+/// Four running sums (one chunk of channels).
+type Chunk = [f64; CH];
+
+/// `acc[j] += src[j]` for the first `n` chunks of `src` (a pixel's channels).
+#[inline(always)]
+fn add_chunks(acc: &mut [Chunk], src: &[f64], n: usize) {
+    for (a, c) in acc[..n].iter_mut().zip(src.chunks_exact(CH)) {
+        for i in 0..CH {
+            a[i] += c[i];
+        }
+    }
+}
+
+/// `acc[j] -= src[j]` for the first `n` chunks of `src`.
+#[inline(always)]
+fn sub_chunks(acc: &mut [Chunk], src: &[f64], n: usize) {
+    for (a, c) in acc[..n].iter_mut().zip(src.chunks_exact(CH)) {
+        for i in 0..CH {
+            a[i] -= c[i];
+        }
+    }
+}
 
 /// Window sizes along an axis of length `n`: the window [i−r, i+r] clipped to the axis.
 fn counts(n: usize, r: usize) -> Vec<f64> {
@@ -86,7 +113,7 @@ struct Band<'a, const D: usize> {
     pb: &'a Problem<'a>,
     cx: &'a [f64],
     cy: &'a [f64],
-    /// Vertical sums of the product channels over rows `v_lo..v_hi` (pixel-major, K1 each).
+    /// Vertical sums of the product channels over rows `v_lo..v_hi` (pixel-major, K1P each).
     v: Vec<f64>,
     v_lo: usize,
     v_hi: usize,
@@ -142,6 +169,11 @@ impl<'a, const D: usize> Band<'a, D> {
 
     const K1: usize = D + D * (D + 1) / 2 + 3 + 3 * D;
     const K2: usize = 3 * D + 3;
+    /// K1 and K2 padded to whole chunks (the padding channels stay 0), and their chunk counts.
+    const K1P: usize = Self::K1.next_multiple_of(CH);
+    const K2P: usize = Self::K2.next_multiple_of(CH);
+    const N1: usize = Self::K1P / CH;
+    const N2: usize = Self::K2P / CH;
 
     fn new(pb: &'a Problem<'a>, cx: &'a [f64], cy: &'a [f64]) -> Self {
         let (w, r) = (pb.w, pb.r);
@@ -149,23 +181,23 @@ impl<'a, const D: usize> Band<'a, D> {
             pb,
             cx,
             cy,
-            v: vec![0.0; w * Self::K1],
+            v: vec![0.0; w * Self::K1P],
             v_lo: 0,
             v_hi: 0,
-            ring: vec![0.0; (2 * r + 1) * w * Self::K2],
+            ring: vec![0.0; (2 * r + 1) * w * Self::K2P],
             next_ab: usize::MAX,
-            va: vec![0.0; w * Self::K2],
+            va: vec![0.0; w * Self::K2P],
             a_lo: 0,
             a_hi: 0,
             started: false,
-            prod: vec![0.0; w * Self::K1],
+            prod: vec![0.0; w * Self::K1P],
         }
     }
 
     /// Product channels of row `y`, pixel-major: I, I_a·I_b (a ≤ b), p, I_a·p_c.
     #[inline(always)]
     fn products(&mut self, y: usize) {
-        let (w, k1) = (self.pb.w, Self::K1);
+        let (w, k1) = (self.pb.w, Self::K1P);
         let g = &self.pb.guide[y * w * D..(y + 1) * w * D];
         let p = &self.pb.p[y * w * 3..(y + 1) * w * 3];
         for x in 0..w {
@@ -222,15 +254,13 @@ impl<'a, const D: usize> Band<'a, D> {
         }
         (self.v_lo, self.v_hi) = (lo, hi);
         self.next_ab = y + 1;
-        let (k1, k2) = (Self::K1, Self::K2);
+        let (k1, k2, n1) = (Self::K1P, Self::K2P, Self::N1);
         let slot = (y % (2 * r + 1)) * w * k2;
         let out = &mut self.ring[slot..slot + w * k2];
         let inv_y = 1.0 / self.cy[y];
-        let mut acc = [0.0f64; MAX_K1];
+        let mut acc = [[0.0f64; CH]; MAX_K1 / CH];
         for x in 0..=r.min(w - 1) {
-            for k in 0..k1 {
-                acc[k] += self.v[x * k1 + k];
-            }
+            add_chunks(&mut acc, &self.v[x * k1..(x + 1) * k1], n1);
         }
         // Pixels go in blocks of L lanes: the means are formed pixel by pixel (the running sum
         // is sequential), the solves lane-wise, which vectorises.
@@ -240,20 +270,18 @@ impl<'a, const D: usize> Band<'a, D> {
             for l in 0..n {
                 let x = x0 + l;
                 let inv = inv_y / self.cx[x];
-                let mut m = [0.0f64; MAX_K1];
-                for k in 0..k1 {
-                    m[k] = acc[k] * inv;
-                }
-                sys.set(l, &m, self.pb.eps);
-                if x + r + 1 < w {
-                    for k in 0..k1 {
-                        acc[k] += self.v[(x + r + 1) * k1 + k];
+                let mut m = [[0.0f64; CH]; MAX_K1 / CH];
+                for (mj, aj) in m[..n1].iter_mut().zip(&acc) {
+                    for i in 0..CH {
+                        mj[i] = aj[i] * inv;
                     }
+                }
+                sys.set(l, m.as_flattened(), self.pb.eps);
+                if x + r + 1 < w {
+                    add_chunks(&mut acc, &self.v[(x + r + 1) * k1..(x + r + 2) * k1], n1);
                 }
                 if x >= r {
-                    for k in 0..k1 {
-                        acc[k] -= self.v[(x - r) * k1 + k];
-                    }
+                    sub_chunks(&mut acc, &self.v[(x - r) * k1..(x - r + 1) * k1], n1);
                 }
             }
             let a = solve_lanes::<D>(&sys.sigma, &sys.cov);
@@ -274,7 +302,7 @@ impl<'a, const D: usize> Band<'a, D> {
     /// Adds (`sign` = 1) or removes (−1) raw coefficient row `y` (in the ring) to / from `va`.
     #[inline(always)]
     fn slide_a(&mut self, y: usize, sign: f64) {
-        let (w, k2, r) = (self.pb.w, Self::K2, self.pb.r);
+        let (w, k2, r) = (self.pb.w, Self::K2P, self.pb.r);
         let slot = (y % (2 * r + 1)) * w * k2;
         for (s, v) in self.va.iter_mut().zip(&self.ring[slot..slot + w * k2]) {
             *s += sign * *v as f64;
@@ -300,28 +328,26 @@ impl<'a, const D: usize> Band<'a, D> {
             self.slide_a(yy, 1.0);
             self.a_hi += 1;
         }
-        let k2 = Self::K2;
+        let (k2, k2p, n2) = (Self::K2, Self::K2P, Self::N2);
         let inv_y = 1.0 / self.cy[y];
-        let mut acc = [0.0f64; MAX_K2];
+        let mut acc = [[0.0f64; CH]; MAX_K2 / CH];
         for x in 0..=r.min(w - 1) {
-            for k in 0..k2 {
-                acc[k] += self.va[x * k2 + k];
-            }
+            add_chunks(&mut acc, &self.va[x * k2p..(x + 1) * k2p], n2);
         }
         for x in 0..w {
             let inv = inv_y / self.cx[x];
-            for k in 0..k2 {
-                mean[x * k2 + k] = (acc[k] * inv) as f32;
-            }
-            if x + r + 1 < w {
-                for k in 0..k2 {
-                    acc[k] += self.va[(x + r + 1) * k2 + k];
+            let mut m = [0.0f32; MAX_K2];
+            for (mj, aj) in m.chunks_exact_mut(CH).zip(&acc[..n2]) {
+                for i in 0..CH {
+                    mj[i] = (aj[i] * inv) as f32;
                 }
+            }
+            mean[x * k2..(x + 1) * k2].copy_from_slice(&m[..k2]);
+            if x + r + 1 < w {
+                add_chunks(&mut acc, &self.va[(x + r + 1) * k2p..(x + r + 2) * k2p], n2);
             }
             if x >= r {
-                for k in 0..k2 {
-                    acc[k] -= self.va[(x - r) * k2 + k];
-                }
+                sub_chunks(&mut acc, &self.va[(x - r) * k2p..(x - r + 1) * k2p], n2);
             }
         }
     }
@@ -350,7 +376,7 @@ impl<const D: usize> Lanes<D> {
     /// Lane `l` from the window means `m` (layout of the product channels). Covariances are
     /// formed in f64: each is a difference of two means that may be close.
     #[inline(always)]
-    fn set(&mut self, l: usize, m: &[f64; MAX_K1], eps: &[f32]) {
+    fn set(&mut self, l: usize, m: &[f64], eps: &[f32]) {
         let mut t = D;
         for a in 0..D {
             self.mi[a][l] = m[a] as f32;
