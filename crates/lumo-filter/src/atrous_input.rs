@@ -150,43 +150,160 @@ fn color_row<const AC: usize>(color: &[f32], albedo: &[f32], out: ColorPlanes) {
     let mut t0 = 0;
     while t0 < n {
         let m = LANES.min(n - t0);
-        // Lanes past the run hold colour 0 and albedo 1 (harmless, not stored).
-        let mut c = [[0.0f32; LANES]; 3];
-        let mut a = [[1.0f32; LANES]; 3];
-        for t in 0..m {
-            for k in 0..3 {
-                c[k][t] = color[3 * (t0 + t) + k];
-                if AC > 0 {
-                    a[k][t] = albedo[AC * (t0 + t) + if AC == 1 { 0 } else { k }];
-                }
-            }
-        }
-        let mut o = [[0.0f32; LANES]; 4];
-        for t in 0..LANES {
-            let mut rgb = [c[0][t], c[1][t], c[2][t]];
-            let mut ok = true;
-            if AC > 0 {
-                let a = [a[0][t], a[1][t], a[2][t]];
-                let finite = a[0].is_finite() & a[1].is_finite() & a[2].is_finite();
-                ok = finite & (a[0].max(a[1]).max(a[2]) >= ALBEDO_EPS);
-                for k in 0..3 {
-                    rgb[k] /= a[k].max(ALBEDO_EPS);
-                }
-            }
-            ok &= rgb[0].is_finite() & rgb[1].is_finite() & rgb[2].is_finite();
-            // Denormals flushed to 0 (they would slow every product they enter); 0 where
-            // invalid.
-            let f = |x: f32| if ok && x.abs() >= 1e-30 { x } else { 0.0 };
-            for k in 0..3 {
-                o[k][t] = f(rgb[k]);
-            }
-            o[3][t] = ok as u8 as f32;
-        }
+        let (o, _) = color_lanes::<AC>(color, albedo, t0, m);
         out.r[t0..t0 + m].copy_from_slice(&o[0][..m]);
         out.g[t0..t0 + m].copy_from_slice(&o[1][..m]);
         out.b[t0..t0 + m].copy_from_slice(&o[2][..m]);
         out.v[t0..t0 + m].copy_from_slice(&o[3][..m]);
         t0 += LANES;
+    }
+}
+
+/// Pixels `t0 .. t0 + m` (m ≤ LANES) of a run as lanes: colour (divided by the albedo when
+/// `AC` > 0), validity, and whether the input colour itself was finite (1) or missing (0).
+/// Lanes past the run hold colour 0 and albedo 1 (valid and finite; callers ignore them).
+#[inline(always)]
+fn color_lanes<const AC: usize>(
+    color: &[f32],
+    albedo: &[f32],
+    t0: usize,
+    m: usize,
+) -> ([[f32; LANES]; 4], [f32; LANES]) {
+    let mut c = [[0.0f32; LANES]; 3];
+    let mut a = [[1.0f32; LANES]; 3];
+    for t in 0..m {
+        for k in 0..3 {
+            c[k][t] = color[3 * (t0 + t) + k];
+            if AC > 0 {
+                a[k][t] = albedo[AC * (t0 + t) + if AC == 1 { 0 } else { k }];
+            }
+        }
+    }
+    let mut o = [[0.0f32; LANES]; 4];
+    let mut finite = [0.0f32; LANES];
+    for t in 0..LANES {
+        finite[t] = (c[0][t].is_finite() & c[1][t].is_finite() & c[2][t].is_finite()) as u8 as f32;
+    }
+    for t in 0..LANES {
+        let mut rgb = [c[0][t], c[1][t], c[2][t]];
+        let mut ok = true;
+        if AC > 0 {
+            let a = [a[0][t], a[1][t], a[2][t]];
+            let finite = a[0].is_finite() & a[1].is_finite() & a[2].is_finite();
+            ok = finite & (a[0].max(a[1]).max(a[2]) >= ALBEDO_EPS);
+            for k in 0..3 {
+                rgb[k] /= a[k].max(ALBEDO_EPS);
+            }
+        }
+        ok &= rgb[0].is_finite() & rgb[1].is_finite() & rgb[2].is_finite();
+        // Denormals flushed to 0 (they would slow every product they enter); 0 where
+        // invalid.
+        let f = |x: f32| if ok && x.abs() >= 1e-30 { x } else { 0.0 };
+        for k in 0..3 {
+            o[k][t] = f(rgb[k]);
+        }
+        o[3][t] = ok as u8 as f32;
+    }
+    (o, finite)
+}
+
+/// Statistics of a run of `n` pixels (the rules of `Input::pixel`): the |luminance| of the
+/// valid pixels and their count, in eight partial sums (pixel k of the first n − n % 8 into
+/// sum k % 8, the rest into sum 0, in order: a fixed order on any thread count), and the
+/// number of pixels whose colour is not finite.
+#[inline(always)]
+fn color_stats_run<const AC: usize>(
+    color: &[f32],
+    albedo: &[f32],
+    n: usize,
+) -> ([f32; 8], [f32; 8], usize) {
+    let mut lum = [0.0f32; 8];
+    let mut valid = [0.0f32; 8];
+    let mut finite = 0.0f32;
+    let n8 = n - n % 8;
+    let mut t0 = 0;
+    while t0 < n {
+        let m = LANES.min(n - t0);
+        let (o, fin) = color_lanes::<AC>(color, albedo, t0, m);
+        let mut l = [0.0f32; LANES];
+        for t in 0..LANES {
+            l[t] = (0.2126 * o[0][t] + 0.7152 * o[1][t] + 0.0722 * o[2][t]).abs();
+        }
+        if t0 + LANES <= n8 {
+            for h in 0..LANES / 8 {
+                for k in 0..8 {
+                    lum[k] += l[8 * h + k];
+                    valid[k] += o[3][8 * h + k];
+                }
+            }
+            finite += fin.iter().sum::<f32>();
+        } else {
+            for t in 0..m {
+                let k = if t0 + t < n8 { t % 8 } else { 0 };
+                lum[k] += l[t];
+                valid[k] += o[3][t];
+                finite += fin[t];
+            }
+        }
+        t0 += LANES;
+    }
+    (lum, valid, n - finite as usize)
+}
+
+/// [`color_stats_run`] for the colour of `inp` (demodulated when asked), in the AVX2 copy
+/// where the CPU has it (no FMA: the same results bit for bit).
+fn color_stats(inp: &Input, i0: usize, n: usize) -> ([f32; 8], [f32; 8], usize) {
+    let color = &inp.color.data[3 * i0..3 * (i0 + n)];
+    let albedo = inp.features.albedo.filter(|_| inp.demodulate);
+    let run = |ac: Option<usize>| -> fn(&[f32], &[f32], usize) -> ([f32; 8], [f32; 8], usize) {
+        #[cfg(target_arch = "x86_64")]
+        if std::is_x86_feature_detected!("avx2") {
+            /// The AVX2 copy.
+            ///
+            /// # Safety
+            /// The CPU must support AVX2.
+            #[target_feature(enable = "avx2")]
+            unsafe fn avx2<const AC: usize>(
+                c: &[f32],
+                a: &[f32],
+                n: usize,
+            ) -> ([f32; 8], [f32; 8], usize) {
+                color_stats_run::<AC>(c, a, n)
+            }
+            // SAFETY (of each call through these pointers): AVX2 was detected just above.
+            return match ac {
+                None => |c, a, n| unsafe { avx2::<0>(c, a, n) },
+                Some(1) => |c, a, n| unsafe { avx2::<1>(c, a, n) },
+                Some(3) => |c, a, n| unsafe { avx2::<3>(c, a, n) },
+                _ => |c, a, n| unsafe { avx2::<4>(c, a, n) },
+            };
+        }
+        match ac {
+            None => color_stats_run::<0>,
+            Some(1) => color_stats_run::<1>,
+            Some(3) => color_stats_run::<3>,
+            _ => color_stats_run::<4>,
+        }
+    };
+    match albedo.map(|a| a.channels) {
+        None => run(None)(color, &[], n),
+        Some(c @ (1 | 3 | 4)) => run(Some(c))(color, albedo_row(albedo, i0, n), n),
+        Some(_) => {
+            // Unusual albedo layouts: per pixel, in the same partial-sum order.
+            let (mut lum, mut valid, mut missing) = ([0.0f32; 8], [0.0f32; 8], 0);
+            let n8 = n - n % 8;
+            for t in 0..n {
+                let c = &color[3 * t..3 * t + 3];
+                missing += !(c[0].is_finite() && c[1].is_finite() && c[2].is_finite()) as usize;
+                let px = inp.pixel(i0 + t);
+                let v = px.valid as u8 as f32;
+                let [r, g, b] = px.rgb.map(|x| x * v);
+                let k = if t < n8 { t % 8 } else { 0 };
+                lum[k] += (0.2126 * r + 0.7152 * g + 0.0722 * b).abs();
+                valid[k] += v;
+            }
+            (lum, valid, missing)
+        }
     }
 }
 
@@ -252,45 +369,15 @@ pub(crate) fn input_stats(inp: &Input, lay: Layout) -> Stats {
                 lo: [f32::INFINITY; 3],
                 hi: [f32::NEG_INFINITY; 3],
             };
-            let col = &inp.color.data[3 * i0..3 * (i0 + len)];
-            st.missing = col
-                .chunks_exact(3)
-                .filter(|p| !(p[0].is_finite() && p[1].is_finite() && p[2].is_finite()))
-                .count();
             // Mean luminance over every usable pixel (before the sparse grid, as `Prepared`).
-            let mut planes = [[0.0f32; CW]; 4];
-            let [r, g, bl, v] = &mut planes;
-            color_run(
-                inp,
-                i0,
-                ColorPlanes {
-                    r: &mut r[..len],
-                    g: &mut g[..len],
-                    b: &mut bl[..len],
-                    v: &mut v[..len],
-                },
-            );
-            let mut lum = [0.0f32; 8];
-            let mut valid = [0.0f32; 8];
-            // Eight partial sums (in a fixed order: deterministic) so the loop vectorises.
-            let mut t = 0;
-            while t + 8 <= len {
-                for l in 0..8 {
-                    let k = t + l;
-                    lum[l] += (0.2126 * r[k] + 0.7152 * g[k] + 0.0722 * bl[k]).abs();
-                    valid[l] += v[k];
-                }
-                t += 8;
-            }
-            for k in t..len {
-                lum[0] += (0.2126 * r[k] + 0.7152 * g[k] + 0.0722 * bl[k]).abs();
-                valid[0] += v[k];
-            }
+            let (lum, valid, missing) = color_stats(inp, i0, len);
+            st.missing = missing;
             let valid: f32 = valid.iter().sum();
             st.lum = lum.iter().map(|&l| l as f64).sum();
             st.valid = valid as usize;
             if let Some(p) = inp.features.position {
-                let bgs = &mut planes[0][..len];
+                let mut bg = [0.0f32; CW];
+                let bgs = &mut bg[..len];
                 background_row(inp.features, i0, bgs);
                 for (t, &bg) in bgs.iter().enumerate() {
                     if bg == 0.0 {
