@@ -26,6 +26,12 @@ What it does, for 512x512 and 1920x1080:
 All timings are wall-clock medians of warm runs in one process (OpenCV's first call is
 included in its median, OIDN's first call is excluded); both lumo and OpenCV use all cores
 (rayon / cv threads), OIDN uses its own CPU device with all cores.
+
+On a shared or noisy machine the speed of everything can drift by 2x within a minute, so
+the four measurements are taken in --rounds interleaved rounds (lumo guided, OpenCV, lumo
+À-Trous, OIDN, then again), each round's ratios are computed from that round's times, and
+the table reports the median over rounds of every time and ratio (with the range of the
+ratios): a slow phase that hits one tool then shifts one round, not the result.
 """
 
 import argparse
@@ -127,6 +133,8 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--lumo", default=os.path.join("target", "release", "lumo"))
     ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--rounds", type=int, default=3,
+                    help="interleaved rounds; the table gives medians over rounds")
     ap.add_argument("--radius", type=int, default=24)
     ap.add_argument("--eps", type=float, default=0.003)
     a = ap.parse_args()
@@ -151,34 +159,55 @@ def main():
             guided = ["--color", paths["color"], "--normal", paths["normal"], "--filter", "guided",
                       "--guide-dims", "3", "--radius", str(a.radius), "--eps-normal", str(a.eps),
                       "-o", out]
-            t_lumo_g = lumo_filter_ms(a.lumo, guided, a.repeats)
             atrous = ["--color", paths["color"], "--albedo", paths["albedo"], "--normal",
                       paths["normal"], "--position", paths["position"], "--depth", paths["depth"],
                       "--filter", "atrous", "--iterations", "5",
                       # the paper's fixed colour σ, not the default spatial noise estimate
                       "--variance-source", "none", "--sigma-color", "4",
                       "--sigma-normal", "0.3", "--sigma-position", "0.1", "-o", out]
-            t_lumo_a = lumo_filter_ms(a.lumo, atrous, a.repeats)
             guide = np.ascontiguousarray(f["normal"] * 0.5 + 0.5, dtype=np.float32)
             src = np.ascontiguousarray(f["color"], dtype=np.float32)
-            t_cv = timed(lambda: cv2.ximgproc.guidedFilter(guide, src, a.radius, a.eps, -1), a.repeats)
-            t_oidn = None
+            albedo = f["albedo"].astype(np.float32)
+            normal = f["normal"].astype(np.float32)
+
+            def oidn():
+                return pyoidn.denoise(src, albedo, normal, hdr=True)
+
             if pyoidn is not None:
-                def oidn():
-                    return pyoidn.denoise(src, f["albedo"].astype(np.float32),
-                                          f["normal"].astype(np.float32), hdr=True)
                 oidn()  # device and filter creation excluded
-                t_oidn = timed(oidn, a.repeats)
-            rows.append((w, h, t_lumo_g, t_cv, t_lumo_a, t_oidn))
+            rounds = []
+            for r in range(a.rounds):
+                t_lumo_g = lumo_filter_ms(a.lumo, guided, a.repeats)
+                t_cv = timed(lambda: cv2.ximgproc.guidedFilter(guide, src, a.radius, a.eps, -1),
+                             a.repeats)
+                t_lumo_a = lumo_filter_ms(a.lumo, atrous, a.repeats)
+                t_oidn = timed(oidn, a.repeats) if pyoidn is not None else None
+                rounds.append((t_lumo_g, t_cv, t_lumo_a, t_oidn))
+                oi = f"{t_oidn:.1f} ms, OIDN/À-Trous {t_oidn / t_lumo_a:.1f}" if t_oidn else "n/a"
+                print(f"{w}x{h} round {r + 1}: guided {t_lumo_g:.1f} vs OpenCV {t_cv:.1f} ms "
+                      f"(ratio {t_lumo_g / t_cv:.2f}); À-Trous {t_lumo_a:.1f} ms, OIDN {oi}; "
+                      f"load {load()}")
+            rows.append((w, h, rounds))
     print(f"load at the end: {load()}")
+    print()
+    print(f"Medians over {a.rounds} interleaved rounds (ratios: median of the per-round ratios, "
+          "range in brackets).")
     print()
     print("| size | lumo guided ms | OpenCV guided ms | lumo/OpenCV (target ≤ 1) | lumo À-Trous 5it 3w ms "
           "| OIDN ms | OIDN/À-Trous (target ≥ 20) |")
     print("|---|---|---|---|---|---|---|")
-    for w, h, g, cv, at, oi in rows:
-        oi_s = f"{oi:.1f}" if oi is not None else "n/a"
-        ratio = f"{oi / at:.1f}" if oi is not None else "n/a"
-        print(f"| {w}×{h} | {g:.1f} | {cv:.1f} | {g / cv:.2f} | {at:.1f} | {oi_s} | {ratio} |")
+    med = statistics.median
+    for w, h, rounds in rows:
+        g, cv, at, oi = (med([r[i] for r in rounds]) if rounds[0][i] is not None else None
+                         for i in range(4))
+        rg = [r[0] / r[1] for r in rounds]
+        g_ratio = f"{med(rg):.2f} ({min(rg):.2f}–{max(rg):.2f})"
+        if oi is not None:
+            ro = [r[3] / r[2] for r in rounds]
+            oi_s, o_ratio = f"{oi:.1f}", f"{med(ro):.1f} ({min(ro):.1f}–{max(ro):.1f})"
+        else:
+            oi_s, o_ratio = "n/a", "n/a"
+        print(f"| {w}×{h} | {g:.1f} | {cv:.1f} | {g_ratio} | {at:.1f} | {oi_s} | {o_ratio} |")
 
 
 if __name__ == "__main__":
