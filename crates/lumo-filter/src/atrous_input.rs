@@ -141,6 +141,28 @@ fn albedo_row(a: Option<&Image>, i0: usize, n: usize) -> &[f32] {
 /// interleaved data the compiler kept it scalar: ~13 % of a 512² filter).
 const LANES: usize = 16;
 
+/// Runs `$body` with `$t0` and `$n` over `0..$len` in runs of [`LANES`] pixels and one
+/// shorter run. In the whole runs `$n` is a constant, so loops over interleaved pixels in
+/// `$body` compile to vector loads and permutes. (A macro rather than a function taking a
+/// closure: a closure the compiler keeps out of line is not compiled with its caller's
+/// target features.)
+macro_rules! in_runs {
+    ($len:expr, $t0:ident, $n:ident, $body:block) => {{
+        let len = $len;
+        let full = len / LANES * LANES;
+        let mut start = 0;
+        while start < full {
+            let ($t0, $n) = (start, LANES);
+            $body
+            start += LANES;
+        }
+        if full < len {
+            let ($t0, $n) = (full, len - full);
+            $body
+        }
+    }};
+}
+
 /// Colour (divided by the albedo when `AC` > 0, the albedo's channel count) and validity of
 /// a run of pixels, with the rules of `Input::pixel`, written branch-free; colour is 0 where
 /// the validity is.
@@ -171,13 +193,32 @@ fn color_lanes<const AC: usize>(
 ) -> ([[f32; LANES]; 4], [f32; LANES]) {
     let mut c = [[0.0f32; LANES]; 3];
     let mut a = [[1.0f32; LANES]; 3];
-    for t in 0..m {
-        for k in 0..3 {
-            c[k][t] = color[3 * (t0 + t) + k];
-            if AC > 0 {
-                a[k][t] = albedo[AC * (t0 + t) + if AC == 1 { 0 } else { k }];
+    // A constant count for whole runs: that copy compiles to vector loads and permutes.
+    // (A macro, not a closure called twice: a closure the compiler keeps out of line would
+    // not be compiled with the caller's target features.)
+    macro_rules! copy {
+        ($n:expr) => {{
+            // Sliced first, so the loops carry no bounds checks.
+            let cs = &color[3 * t0..3 * (t0 + $n)];
+            for t in 0..$n {
+                for k in 0..3 {
+                    c[k][t] = cs[3 * t + k];
+                }
             }
-        }
+            if AC > 0 {
+                let al = &albedo[AC * t0..AC * (t0 + $n)];
+                for t in 0..$n {
+                    for k in 0..3 {
+                        a[k][t] = al[AC * t + if AC == 1 { 0 } else { k }];
+                    }
+                }
+            }
+        }};
+    }
+    if m == LANES {
+        copy!(LANES)
+    } else {
+        copy!(m)
     }
     let mut o = [[0.0f32; LANES]; 4];
     let mut finite = [0.0f32; LANES];
@@ -250,44 +291,16 @@ fn color_stats_run<const AC: usize>(
     (lum, valid, n - finite as usize)
 }
 
-/// [`color_stats_run`] for the colour of `inp` (demodulated when asked), in the AVX2 copy
-/// where the CPU has it (no FMA: the same results bit for bit).
+/// [`color_stats_run`] for the colour of `inp` (demodulated when asked).
+#[inline(always)]
 fn color_stats(inp: &Input, i0: usize, n: usize) -> ([f32; 8], [f32; 8], usize) {
     let color = &inp.color.data[3 * i0..3 * (i0 + n)];
     let albedo = inp.features.albedo.filter(|_| inp.demodulate);
-    let run = |ac: Option<usize>| -> fn(&[f32], &[f32], usize) -> ([f32; 8], [f32; 8], usize) {
-        #[cfg(target_arch = "x86_64")]
-        if std::is_x86_feature_detected!("avx2") {
-            /// The AVX2 copy.
-            ///
-            /// # Safety
-            /// The CPU must support AVX2.
-            #[target_feature(enable = "avx2")]
-            unsafe fn avx2<const AC: usize>(
-                c: &[f32],
-                a: &[f32],
-                n: usize,
-            ) -> ([f32; 8], [f32; 8], usize) {
-                color_stats_run::<AC>(c, a, n)
-            }
-            // SAFETY (of each call through these pointers): AVX2 was detected just above.
-            return match ac {
-                None => |c, a, n| unsafe { avx2::<0>(c, a, n) },
-                Some(1) => |c, a, n| unsafe { avx2::<1>(c, a, n) },
-                Some(3) => |c, a, n| unsafe { avx2::<3>(c, a, n) },
-                _ => |c, a, n| unsafe { avx2::<4>(c, a, n) },
-            };
-        }
-        match ac {
-            None => color_stats_run::<0>,
-            Some(1) => color_stats_run::<1>,
-            Some(3) => color_stats_run::<3>,
-            _ => color_stats_run::<4>,
-        }
-    };
     match albedo.map(|a| a.channels) {
-        None => run(None)(color, &[], n),
-        Some(c @ (1 | 3 | 4)) => run(Some(c))(color, albedo_row(albedo, i0, n), n),
+        None => color_stats_run::<0>(color, &[], n),
+        Some(1) => color_stats_run::<1>(color, albedo_row(albedo, i0, n), n),
+        Some(3) => color_stats_run::<3>(color, albedo_row(albedo, i0, n), n),
+        Some(4) => color_stats_run::<4>(color, albedo_row(albedo, i0, n), n),
         Some(_) => {
             // Unusual albedo layouts: per pixel, in the same partial-sum order.
             let (mut lum, mut valid, mut missing) = ([0.0f32; 8], [0.0f32; 8], 0);
@@ -307,38 +320,18 @@ fn color_stats(inp: &Input, i0: usize, n: usize) -> ([f32; 8], [f32; 8], usize) 
     }
 }
 
-/// [`color_row`] compiled for AVX2 where the CPU has it (8-lane divisions and selects instead
-/// of SSE2's 4; no FMA, so the results are the same bit for bit).
-fn color_rows<const AC: usize>(color: &[f32], albedo: &[f32], out: ColorPlanes) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        /// The AVX2 copy.
-        ///
-        /// # Safety
-        /// The CPU must support AVX2.
-        #[target_feature(enable = "avx2")]
-        unsafe fn avx2<const AC: usize>(color: &[f32], albedo: &[f32], out: ColorPlanes) {
-            color_row::<AC>(color, albedo, out)
-        }
-        if std::is_x86_feature_detected!("avx2") {
-            // SAFETY: AVX2 was detected just above.
-            return unsafe { avx2::<AC>(color, albedo, out) };
-        }
-    }
-    color_row::<AC>(color, albedo, out)
-}
-
 /// A run of pixels from `i0` into colour and validity planes, with the rules of
 /// `Input::pixel` (colour 0 where the validity is).
+#[inline(always)]
 fn color_run(inp: &Input, i0: usize, out: ColorPlanes) {
     let n = out.r.len();
     let color = &inp.color.data[3 * i0..3 * (i0 + n)];
     let albedo = inp.features.albedo.filter(|_| inp.demodulate);
     match albedo.map(|a| a.channels) {
-        None => color_rows::<0>(color, &[], out),
-        Some(1) => color_rows::<1>(color, albedo_row(albedo, i0, n), out),
-        Some(3) => color_rows::<3>(color, albedo_row(albedo, i0, n), out),
-        Some(4) => color_rows::<4>(color, albedo_row(albedo, i0, n), out),
+        None => color_row::<0>(color, &[], out),
+        Some(1) => color_row::<1>(color, albedo_row(albedo, i0, n), out),
+        Some(3) => color_row::<3>(color, albedo_row(albedo, i0, n), out),
+        Some(4) => color_row::<4>(color, albedo_row(albedo, i0, n), out),
         Some(_) => {
             for t in 0..n {
                 let px = inp.pixel(i0 + t);
@@ -355,42 +348,9 @@ fn color_run(inp: &Input, i0: usize, out: ColorPlanes) {
 /// First pass, reading only: the image-wide statistics, from each (strip, row) block's own
 /// columns, summed block by block in block order (the same on any number of threads).
 pub(crate) fn input_stats(inp: &Input, lay: Layout) -> Stats {
-    let w = lay.w;
     let parts: Vec<BlockStats> = (0..lay.nch * lay.h)
         .into_par_iter()
-        .map(|b| {
-            let (c, y) = lay.strip_row(b);
-            let (x0, len) = lay.strip(c);
-            let i0 = y * w + x0;
-            let mut st = BlockStats {
-                lum: 0.0,
-                valid: 0,
-                missing: 0,
-                lo: [f32::INFINITY; 3],
-                hi: [f32::NEG_INFINITY; 3],
-            };
-            // Mean luminance over every usable pixel (before the sparse grid, as `Prepared`).
-            let (lum, valid, missing) = color_stats(inp, i0, len);
-            st.missing = missing;
-            let valid: f32 = valid.iter().sum();
-            st.lum = lum.iter().map(|&l| l as f64).sum();
-            st.valid = valid as usize;
-            if let Some(p) = inp.features.position {
-                let mut bg = [0.0f32; CW];
-                let bgs = &mut bg[..len];
-                background_row(inp.features, i0, bgs);
-                for (t, &bg) in bgs.iter().enumerate() {
-                    if bg == 0.0 {
-                        let v = &p.data[(i0 + t) * p.channels..][..3];
-                        for k in 0..3 {
-                            st.lo[k] = st.lo[k].min(v[k]);
-                            st.hi[k] = st.hi[k].max(v[k]);
-                        }
-                    }
-                }
-            }
-            st
-        })
+        .map(|b| block_stats(inp, lay, b))
         .collect();
     let (mut lum, mut valid, mut missing) = (0.0f64, 0usize, 0usize);
     let mut lo = [f32::INFINITY; 3];
@@ -422,6 +382,85 @@ pub(crate) fn input_stats(inp: &Input, lay: Layout) -> Stats {
     }
 }
 
+multiversion! {
+    /// The statistics of block `b`'s own columns (see [`input_stats`]).
+    fn block_stats(inp: &Input, lay: Layout, b: usize) -> BlockStats => block_stats_impl
+}
+
+#[inline(always)]
+fn block_stats_impl(inp: &Input, lay: Layout, b: usize) -> BlockStats {
+    let (c, y) = lay.strip_row(b);
+    let (x0, len) = lay.strip(c);
+    let i0 = y * lay.w + x0;
+    let mut st = BlockStats {
+        lum: 0.0,
+        valid: 0,
+        missing: 0,
+        lo: [f32::INFINITY; 3],
+        hi: [f32::NEG_INFINITY; 3],
+    };
+    // Mean luminance over every usable pixel (before the sparse grid, as `Prepared`).
+    let (lum, valid, missing) = color_stats(inp, i0, len);
+    st.missing = missing;
+    let valid: f32 = valid.iter().sum();
+    st.lum = lum.iter().map(|&l| l as f64).sum();
+    st.valid = valid as usize;
+    if let Some(p) = inp.features.position {
+        let mut bg = [0.0f32; CW];
+        let bgs = &mut bg[..len];
+        background_row(inp.features, i0, bgs);
+        let data = &p.data[i0 * p.channels..(i0 + len) * p.channels];
+        match p.channels {
+            3 => extent_run(3, data, bgs, &mut st.lo, &mut st.hi),
+            4 => extent_run(4, data, bgs, &mut st.lo, &mut st.hi),
+            c => extent_run(c, data, bgs, &mut st.lo, &mut st.hi),
+        }
+    }
+    st
+}
+
+/// Widens `lo`/`hi` to the positions (first 3 of `c` channels) of the pixels of a run that
+/// `bgs` does not flag as background. Sixteen lanes of partial minima and maxima, so the loop
+/// vectorises; min and max are exact, so the grouping does not change the result.
+#[inline(always)]
+fn extent_run(c: usize, pos: &[f32], bgs: &[f32], lo: &mut [f32; 3], hi: &mut [f32; 3]) {
+    const N: usize = 16;
+    let mut l = [[f32::INFINITY; N]; 3];
+    let mut h = [[f32::NEG_INFINITY; N]; 3];
+    let mut add = |t: usize, p: &[f32], bg: f32| {
+        for k in 0..3 {
+            // Background pixels (whose positions may be NaN) contribute nothing.
+            let (vl, vh) = if bg == 0.0 {
+                (p[k], p[k])
+            } else {
+                (f32::INFINITY, f32::NEG_INFINITY)
+            };
+            l[k][t] = l[k][t].min(vl);
+            h[k][t] = h[k][t].max(vh);
+        }
+    };
+    let full = bgs.len() / N * N;
+    for (pc, bc) in pos[..full * c]
+        .chunks_exact(N * c)
+        .zip(bgs[..full].chunks_exact(N))
+    {
+        for t in 0..N {
+            add(t, &pc[t * c..t * c + 3], bc[t]);
+        }
+    }
+    for (t, (p, &bg)) in pos[full * c..]
+        .chunks_exact(c)
+        .zip(&bgs[full..])
+        .enumerate()
+    {
+        add(t, &p[..3], bg);
+    }
+    for k in 0..3 {
+        lo[k] = l[k].iter().fold(lo[k], |a, &b| a.min(b));
+        hi[k] = h[k].iter().fold(hi[k], |a, &b| a.max(b));
+    }
+}
+
 /// The number of feature coordinates the blocks will hold (normals 3, positions 3, or the
 /// background coordinate 1).
 pub(crate) fn feature_count(inp: &Input, s: &FillScales) -> usize {
@@ -429,11 +468,26 @@ pub(crate) fn feature_count(inp: &Input, s: &FillScales) -> usize {
     f.normal.zip(s.normal).map_or(0, |_| 3) + f.position.zip(s.position).map_or(1, |_| 3)
 }
 
-/// Fills block (strip `c`, row `y`): `blk` (K planes: colour, validity, variance) and `ab`
-/// (KA planes: the background flag in [`BG_PLANE`], the features from plane 2, scaled for
-/// the first level), margins included (0 beyond the image).
+multiversion! {
+    /// Fills block (strip `c`, row `y`): `blk` (K planes: colour, validity, variance) and
+    /// `ab` (KA planes: the background flag in [`BG_PLANE`], the features from plane 2,
+    /// scaled for the first level), margins included (0 beyond the image).
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn fill_block(
+        inp: &Input,
+        lay: Layout,
+        sparse: usize,
+        s: &FillScales,
+        c: usize,
+        y: usize,
+        blk: &mut [f32],
+        ab: &mut [f32],
+    ) => fill_block_impl
+}
+
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn fill_block(
+#[inline(always)]
+fn fill_block_impl(
     inp: &Input,
     lay: Layout,
     sparse: usize,
@@ -552,6 +606,7 @@ pub(crate) fn fill_all(
         });
 }
 
+#[inline(always)]
 fn background_row(f: &Features, i0: usize, out: &mut [f32]) {
     let n = out.len();
     out.fill(0.0);
@@ -596,11 +651,29 @@ fn position_background(c: usize, pos: &[f32], out: &mut [f32]) {
 #[inline(always)]
 fn normal_row(c: usize, data: &[f32], scale: f32, out: [&mut [f32]; 3]) {
     let [o0, o1, o2] = out;
-    for (t, n) in data.chunks_exact(c).enumerate() {
-        let f = |v: f32| if v.is_finite() { v * scale } else { 0.0 };
-        o0[t] = f(n[0]);
-        o1[t] = f(n[1]);
-        o2[t] = f(n[2]);
+    in_runs!(o0.len(), t0, n, {
+        // Sliced first, so the loop carries no bounds checks.
+        let d = &data[t0 * c..(t0 + n) * c];
+        let (a0, a1, a2) = (
+            &mut o0[t0..t0 + n],
+            &mut o1[t0..t0 + n],
+            &mut o2[t0..t0 + n],
+        );
+        for t in 0..n {
+            a0[t] = finite_scaled(d[t * c], scale);
+            a1[t] = finite_scaled(d[t * c + 1], scale);
+            a2[t] = finite_scaled(d[t * c + 2], scale);
+        }
+    });
+}
+
+/// `v · scale`, or 0 where `v` is not finite.
+#[inline(always)]
+fn finite_scaled(v: f32, scale: f32) -> f32 {
+    if v.is_finite() {
+        v * scale
+    } else {
+        0.0
     }
 }
 
@@ -616,12 +689,22 @@ fn position_row(
     out: [&mut [f32]; 3],
 ) {
     let [o0, o1, o2] = out;
-    for (t, (p, &bg)) in data.chunks_exact(c).zip(bgs).enumerate() {
-        let f = |v: f32, b: f32| if bg > 0.0 { b } else { v * scale };
-        o0[t] = f(p[0], bgv[0]);
-        o1[t] = f(p[1], bgv[1]);
-        o2[t] = f(p[2], bgv[2]);
-    }
+    in_runs!(o0.len(), t0, n, {
+        // Sliced first, so the loop carries no bounds checks.
+        let d = &data[t0 * c..(t0 + n) * c];
+        let bg = &bgs[t0..t0 + n];
+        let (a0, a1, a2) = (
+            &mut o0[t0..t0 + n],
+            &mut o1[t0..t0 + n],
+            &mut o2[t0..t0 + n],
+        );
+        for t in 0..n {
+            let b = bg[t] > 0.0;
+            a0[t] = if b { bgv[0] } else { d[t * c] * scale };
+            a1[t] = if b { bgv[1] } else { d[t * c + 1] * scale };
+            a2[t] = if b { bgv[2] } else { d[t * c + 2] * scale };
+        }
+    });
 }
 
 /// Copies the filtered colour out of `src` into an image; with demodulation, multiplies the
@@ -642,9 +725,14 @@ pub(crate) fn output(inp: &Input, lay: Layout, src: &[f32]) -> Image {
     out
 }
 
-/// One run of output pixels from pixel `i0` (`o`: 3 floats each) from the strip columns of
-/// block `blk` (from column M), with the rules of [`output`].
-pub(crate) fn output_row(inp: &Input, i0: usize, blk: &[f32], o: &mut [f32]) {
+multiversion! {
+    /// One run of output pixels from pixel `i0` (`o`: 3 floats each) from the strip columns
+    /// of block `blk` (from column M), with the rules of [`output`].
+    pub(crate) fn output_row(inp: &Input, i0: usize, blk: &[f32], o: &mut [f32]) => output_row_impl
+}
+
+#[inline(always)]
+fn output_row_impl(inp: &Input, i0: usize, blk: &[f32], o: &mut [f32]) {
     let n = o.len() / 3;
     let (r, g, b) = (&blk[M..][..n], &blk[QW + M..][..n], &blk[2 * QW + M..][..n]);
     let albedo = inp.features.albedo.filter(|_| inp.demodulate);
@@ -695,6 +783,73 @@ fn remodulate<const AC: usize>(color: &[f32], albedo: &[f32], f: [&[f32]; 3], o:
             let v = f[k][t] * a[k].max(ALBEDO_EPS);
             let p = if c[k].is_finite() { c[k] } else { 0.0 };
             o[3 * t + k] = if ok { v } else { p };
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::atrous_kernel::{K, KA};
+    use crate::synthetic::synthetic_frame;
+
+    /// The copies `multiversion!` compiles for this CPU (AVX-512 or AVX2) give the baseline
+    /// copy's results bit for bit: the claim that lets the input passes use them freely.
+    #[test]
+    fn simd_copies_match_the_baseline_bit_for_bit() {
+        // Two strips (the second 18 columns wide: runs with a remainder).
+        let (w, h) = (530, 9);
+        let f = synthetic_frame(w, h, 1, 3);
+        let mut color = f.noisy.clone();
+        color.data[5] = f32::NAN;
+        color.data[3 * 700 + 1] = f32::INFINITY;
+        let mut albedo = f.albedo.clone();
+        albedo.data[3 * 40] = f32::NAN;
+        let features = Features {
+            normal: Some(&f.normal),
+            position: Some(&f.position),
+            depth: Some(&f.depth),
+            albedo: Some(&albedo),
+            variance: None,
+        };
+        let lay = Layout::new(w, h);
+        let scales = FillScales {
+            inv_ml2: 0.5,
+            normal: Some(2.0),
+            position: Some(1.5),
+            inv_extent: 0.25,
+            position_background: [9.0; 3],
+        };
+        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        for demodulate in [false, true] {
+            let inp = Input {
+                color: &color,
+                features: &features,
+                demodulate,
+                use_variance: false,
+            };
+            for b in 0..lay.nch * lay.h {
+                let (x, y) = (block_stats(&inp, lay, b), block_stats_impl(&inp, lay, b));
+                assert_eq!(x.lum.to_bits(), y.lum.to_bits(), "block {b}");
+                assert_eq!((x.valid, x.missing), (y.valid, y.missing), "block {b}");
+                assert_eq!(bits(&x.lo), bits(&y.lo), "block {b}");
+                assert_eq!(bits(&x.hi), bits(&y.hi), "block {b}");
+            }
+            for c in 0..lay.nch {
+                for y in 0..lay.h {
+                    let (mut b1, mut a1) = (vec![0.0; K * QW], vec![0.0; KA * QW]);
+                    let (mut b2, mut a2) = (vec![0.0; K * QW], vec![0.0; KA * QW]);
+                    fill_block(&inp, lay, 1, &scales, c, y, &mut b1, &mut a1);
+                    fill_block_impl(&inp, lay, 1, &scales, c, y, &mut b2, &mut a2);
+                    assert_eq!(bits(&b1), bits(&b2), "strip {c} row {y}");
+                    assert_eq!(bits(&a1), bits(&a2), "strip {c} row {y}");
+                    let (x0, len) = lay.strip(c);
+                    let (mut o1, mut o2) = (vec![0.0; 3 * len], vec![0.0; 3 * len]);
+                    output_row(&inp, y * w + x0, &b1, &mut o1);
+                    output_row_impl(&inp, y * w + x0, &b1, &mut o2);
+                    assert_eq!(bits(&o1), bits(&o2), "strip {c} row {y}");
+                }
+            }
         }
     }
 }

@@ -19,6 +19,10 @@
 // `!(x > 0.0)` is deliberate: it rejects NaN as well as non-positive values.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+// First: the macro it defines is used by the modules below.
+#[macro_use]
+mod multiversion;
+
 mod albedo;
 mod atrous;
 mod atrous_fused;

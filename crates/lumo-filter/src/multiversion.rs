@@ -1,0 +1,53 @@
+//! Run-time selection between copies of one function compiled for AVX-512, AVX2 and the
+//! baseline instruction set.
+//!
+//! Why: the workspace builds for baseline x86-64 (SSE2), where the compiler leaves loops over
+//! interleaved pixels (RGB, xyz: a stride of 3 or 4 floats) scalar; compiled with AVX2 or
+//! AVX-512 it turns them into vector loads and permutes. The copies run the same operations
+//! (no fused multiply-adds are formed), so their results are identical bit for bit.
+
+/// Defines `fn $name(args) -> ret` that calls `$imp(args)` (an `#[inline(always)]` function,
+/// so that it is compiled into each copy) in its AVX-512 (F + VL) copy, its AVX2 copy or the
+/// baseline one, whichever is the best the CPU supports.
+macro_rules! multiversion {
+    (
+        $(#[$meta:meta])*
+        $vis:vis fn $name:ident($($arg:ident: $ty:ty),* $(,)?) $(-> $ret:ty)? => $imp:ident
+    ) => {
+        $(#[$meta])*
+        $vis fn $name($($arg: $ty),*) $(-> $ret)? {
+            #[cfg(target_arch = "x86_64")]
+            {
+                /// The AVX-512 copy.
+                ///
+                /// # Safety
+                /// The CPU must support AVX-512F and AVX-512VL.
+                #[target_feature(enable = "avx512f,avx512vl,avx2")]
+                #[allow(clippy::too_many_arguments)]
+                unsafe fn avx512($($arg: $ty),*) $(-> $ret)? {
+                    $imp($($arg),*)
+                }
+                /// The AVX2 copy.
+                ///
+                /// # Safety
+                /// The CPU must support AVX2.
+                #[target_feature(enable = "avx2")]
+                #[allow(clippy::too_many_arguments)]
+                unsafe fn avx2($($arg: $ty),*) $(-> $ret)? {
+                    $imp($($arg),*)
+                }
+                if std::is_x86_feature_detected!("avx512f")
+                    && std::is_x86_feature_detected!("avx512vl")
+                {
+                    // SAFETY: both features were detected just above.
+                    return unsafe { avx512($($arg),*) };
+                }
+                if std::is_x86_feature_detected!("avx2") {
+                    // SAFETY: AVX2 was detected just above.
+                    return unsafe { avx2($($arg),*) };
+                }
+            }
+            $imp($($arg),*)
+        }
+    };
+}
