@@ -790,7 +790,7 @@ fn remodulate<const AC: usize>(color: &[f32], albedo: &[f32], f: [&[f32]; 3], o:
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::atrous_kernel::{K, KA};
+    use crate::atrous_kernel::{normalise, normalise_impl, K, KA};
     use crate::synthetic::synthetic_frame;
 
     /// The copies `multiversion!` compiles for this CPU (AVX-512 or AVX2) give the baseline
@@ -850,6 +850,26 @@ mod tests {
                     assert_eq!(bits(&o1), bits(&o2), "strip {c} row {y}");
                 }
             }
+        }
+    }
+
+    /// The same for the normalisation of accumulated rows (with and without variance).
+    #[test]
+    fn normalise_copies_match_the_baseline_bit_for_bit() {
+        let stride = QW;
+        // Weight sums of every sign and size, including 0 (nothing contributed).
+        let acc: Vec<f32> = (0..5 * stride)
+            .map(|i| ((i * 2_654_435_761) % 1000) as f32 / 97.0 - 1.0)
+            .collect();
+        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        for (a0, d0, len) in [(0, M, CW), (3, M, 37), (M, M, CW)] {
+            let (mut d1, mut d2) = (vec![0.5; K * QW], vec![0.5; K * QW]);
+            normalise::<false>(&acc, stride, a0, &mut d1, d0, len);
+            normalise_impl::<false>(&acc, stride, a0, &mut d2, d0, len);
+            assert_eq!(bits(&d1), bits(&d2));
+            normalise::<true>(&acc, stride, a0, &mut d1, d0, len);
+            normalise_impl::<true>(&acc, stride, a0, &mut d2, d0, len);
+            assert_eq!(bits(&d1), bits(&d2));
         }
     }
 }

@@ -164,67 +164,25 @@ pub(crate) fn block(l: &Level, b: usize, dst: &mut [f32]) {
     }
 }
 
-/// Divides the accumulated colour by the weight sum and the variance by its square
-/// (SVGF: the variance of a weighted mean is Σw²·var / (Σw)²); validity becomes 0/1.
-/// `acc` holds 5 accumulator planes `stride` apart from column `a0`; the results go to
-/// columns `d0..d0 + len` of the block `dst`. Runs in an AVX-512 or AVX2 copy where the CPU
-/// has one (one division and three multiplications per pixel, no FMA: the same results bit
-/// for bit; the baseline copy's 4-wide loop was ~7 % of a 512² filter).
-pub(crate) fn normalise<const VAR: bool>(
-    acc: &[f32],
-    stride: usize,
-    a0: usize,
-    dst: &mut [f32],
-    d0: usize,
-    len: usize,
-) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        /// The AVX-512 copy.
-        ///
-        /// # Safety
-        /// The CPU must support AVX-512F.
-        #[target_feature(enable = "avx512f,avx2")]
-        unsafe fn avx512<const VAR: bool>(
-            acc: &[f32],
-            stride: usize,
-            a0: usize,
-            dst: &mut [f32],
-            d0: usize,
-            len: usize,
-        ) {
-            normalise_impl::<VAR>(acc, stride, a0, dst, d0, len)
-        }
-        /// The AVX2 copy.
-        ///
-        /// # Safety
-        /// The CPU must support AVX2.
-        #[target_feature(enable = "avx2")]
-        unsafe fn avx2<const VAR: bool>(
-            acc: &[f32],
-            stride: usize,
-            a0: usize,
-            dst: &mut [f32],
-            d0: usize,
-            len: usize,
-        ) {
-            normalise_impl::<VAR>(acc, stride, a0, dst, d0, len)
-        }
-        if std::is_x86_feature_detected!("avx512f") {
-            // SAFETY: AVX-512F was detected just above.
-            return unsafe { avx512::<VAR>(acc, stride, a0, dst, d0, len) };
-        }
-        if std::is_x86_feature_detected!("avx2") {
-            // SAFETY: AVX2 was detected just above.
-            return unsafe { avx2::<VAR>(acc, stride, a0, dst, d0, len) };
-        }
-    }
-    normalise_impl::<VAR>(acc, stride, a0, dst, d0, len)
+multiversion! {
+    /// Divides the accumulated colour by the weight sum and the variance by its square
+    /// (SVGF: the variance of a weighted mean is Σw²·var / (Σw)²); validity becomes 0/1.
+    /// `acc` holds 5 accumulator planes `stride` apart from column `a0`; the results go to
+    /// columns `d0..d0 + len` of the block `dst`. In the AVX-512 or AVX2 copy where the CPU
+    /// has one (the baseline's 4-wide loop was ~7 % of a 512² filter).
+    pub(crate) fn normalise<const VAR: bool>(
+        acc: &[f32],
+        stride: usize,
+        a0: usize,
+        dst: &mut [f32],
+        d0: usize,
+        len: usize,
+    ) => normalise_impl
 }
 
 /// [`normalise`]'s body.
 #[inline(always)]
-fn normalise_impl<const VAR: bool>(
+pub(crate) fn normalise_impl<const VAR: bool>(
     acc: &[f32],
     stride: usize,
     a0: usize,

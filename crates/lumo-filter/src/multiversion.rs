@@ -12,10 +12,11 @@
 macro_rules! multiversion {
     (
         $(#[$meta:meta])*
-        $vis:vis fn $name:ident($($arg:ident: $ty:ty),* $(,)?) $(-> $ret:ty)? => $imp:ident
+        $vis:vis fn $name:ident $(<$(const $g:ident: $gt:ty),*>)?
+            ($($arg:ident: $ty:ty),* $(,)?) $(-> $ret:ty)? => $imp:ident
     ) => {
         $(#[$meta])*
-        $vis fn $name($($arg: $ty),*) $(-> $ret)? {
+        $vis fn $name $(<$(const $g: $gt),*>)? ($($arg: $ty),*) $(-> $ret)? {
             #[cfg(target_arch = "x86_64")]
             {
                 /// The AVX-512 copy.
@@ -24,8 +25,8 @@ macro_rules! multiversion {
                 /// The CPU must support AVX-512F and AVX-512VL.
                 #[target_feature(enable = "avx512f,avx512vl,avx2")]
                 #[allow(clippy::too_many_arguments)]
-                unsafe fn avx512($($arg: $ty),*) $(-> $ret)? {
-                    $imp($($arg),*)
+                unsafe fn avx512 $(<$(const $g: $gt),*>)? ($($arg: $ty),*) $(-> $ret)? {
+                    $imp $(::<$($g),*>)? ($($arg),*)
                 }
                 /// The AVX2 copy.
                 ///
@@ -33,21 +34,21 @@ macro_rules! multiversion {
                 /// The CPU must support AVX2.
                 #[target_feature(enable = "avx2")]
                 #[allow(clippy::too_many_arguments)]
-                unsafe fn avx2($($arg: $ty),*) $(-> $ret)? {
-                    $imp($($arg),*)
+                unsafe fn avx2 $(<$(const $g: $gt),*>)? ($($arg: $ty),*) $(-> $ret)? {
+                    $imp $(::<$($g),*>)? ($($arg),*)
                 }
                 if std::is_x86_feature_detected!("avx512f")
                     && std::is_x86_feature_detected!("avx512vl")
                 {
                     // SAFETY: both features were detected just above.
-                    return unsafe { avx512($($arg),*) };
+                    return unsafe { avx512 $(::<$($g),*>)? ($($arg),*) };
                 }
                 if std::is_x86_feature_detected!("avx2") {
                     // SAFETY: AVX2 was detected just above.
-                    return unsafe { avx2($($arg),*) };
+                    return unsafe { avx2 $(::<$($g),*>)? ($($arg),*) };
                 }
             }
-            $imp($($arg),*)
+            $imp $(::<$($g),*>)? ($($arg),*)
         }
     };
 }
