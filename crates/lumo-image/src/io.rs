@@ -121,6 +121,26 @@ mod tests {
     }
 
     #[test]
+    fn pfm_reads_big_endian_bottom_row_first_and_rejects_huge_sizes() {
+        let dir = std::env::temp_dir();
+        // 2×2 grey, big-endian (positive scale), rows stored bottom to top.
+        let mut bytes = b"Pf\n2 2\n1.0\n".to_vec();
+        for v in [3.0f32, 4.0, 1.0, 2.0] {
+            bytes.extend_from_slice(&v.to_be_bytes());
+        }
+        let p = dir.join(format!("lumo-be-{}.pfm", std::process::id()));
+        std::fs::write(&p, &bytes).unwrap();
+        let img = read_image(&p).unwrap();
+        assert_eq!((img.width, img.height, img.channels), (2, 2, 1));
+        assert_eq!(img.data, vec![1.0, 2.0, 3.0, 4.0]);
+        // A header whose size overflows is an error, not a panic or a wrapped size.
+        std::fs::write(&p, b"PF\n9999999999999 9999999999999\n-1\n").unwrap();
+        let e = read_image(&p).unwrap_err();
+        assert!(e.to_string().contains("too large"), "{e}");
+        std::fs::remove_file(&p).ok();
+    }
+
+    #[test]
     fn errors_name_the_file() {
         let e = read_image(Path::new("/nonexistent/x.exr")).unwrap_err();
         assert!(e.to_string().contains("/nonexistent/x.exr"));

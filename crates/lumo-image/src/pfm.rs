@@ -44,7 +44,11 @@ pub(crate) fn read(path: &Path) -> Result<Image, ImageError> {
         .parse()
         .map_err(|_| format_err(path, format!("bad PFM scale {:?}", tokens[3])))?;
     let little = scale < 0.0;
-    let n = width * height * channels;
+    let n = width
+        .checked_mul(height)
+        .and_then(|n| n.checked_mul(channels))
+        .filter(|n| n.checked_mul(4).is_some())
+        .ok_or_else(|| format_err(path, format!("PFM size {width}x{height} is too large")))?;
     let body = bytes.get(pos..).unwrap_or(&[]);
     if body.len() < n * 4 {
         return Err(format_err(
@@ -58,16 +62,21 @@ pub(crate) fn read(path: &Path) -> Result<Image, ImageError> {
     }
     let mut data = vec![0.0f32; n];
     let row = width * channels;
-    for y in 0..height {
-        let src_row = height - 1 - y;
-        for i in 0..row {
-            let o = (src_row * row + i) * 4;
-            let b = [body[o], body[o + 1], body[o + 2], body[o + 3]];
-            data[y * row + i] = if little {
-                f32::from_le_bytes(b)
+    if row > 0 {
+        // Rows bottom to top; the byte order decided once, outside the loops, so each row is
+        // a plain (vectorised) conversion.
+        let src_rows = body[..n * 4].chunks_exact(row * 4).rev();
+        for (dst, src) in data.chunks_exact_mut(row).zip(src_rows) {
+            let bytes = src.chunks_exact(4);
+            if little {
+                for (d, b) in dst.iter_mut().zip(bytes) {
+                    *d = f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+                }
             } else {
-                f32::from_be_bytes(b)
-            };
+                for (d, b) in dst.iter_mut().zip(bytes) {
+                    *d = f32::from_be_bytes([b[0], b[1], b[2], b[3]]);
+                }
+            }
         }
     }
     Ok(Image::from_vec(width, height, channels, data))
@@ -81,12 +90,17 @@ pub(crate) fn write(path: &Path, image: &Image) -> Result<(), ImageError> {
         std::borrow::Cow::Owned(image.to_channels(3))
     };
     let magic = if img.channels == 1 { "Pf" } else { "PF" };
-    let mut out = Vec::with_capacity(img.data.len() * 4 + 32);
-    out.extend_from_slice(format!("{magic}\n{} {}\n-1.0\n", img.width, img.height).as_bytes());
+    let mut out = format!("{magic}\n{} {}\n-1.0\n", img.width, img.height).into_bytes();
+    let header = out.len();
     let row = img.width * img.channels;
-    for y in (0..img.height).rev() {
-        for v in &img.data[y * row..(y + 1) * row] {
-            out.extend_from_slice(&v.to_le_bytes());
+    out.resize(header + img.data.len() * 4, 0);
+    if row > 0 {
+        // Rows bottom to top, each a plain (vectorised) conversion into the sized buffer.
+        let dst_rows = out[header..].chunks_exact_mut(row * 4);
+        for (dst, src) in dst_rows.zip(img.data.chunks_exact(row).rev()) {
+            for (d, v) in dst.chunks_exact_mut(4).zip(src) {
+                d.copy_from_slice(&v.to_le_bytes());
+            }
         }
     }
     let mut f = std::fs::File::create(path).map_err(|e| io_err(path, e))?;
