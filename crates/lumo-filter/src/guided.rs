@@ -80,9 +80,7 @@ impl Guide {
                 format!("{} values for a {}-channel guide", eps.len(), img.channels),
             ));
         }
-        if let Some(e) = eps.iter().find(|e| !(**e > 0.0 && e.is_finite())) {
-            return Err(param("eps", format!("{e} (must be > 0)")));
-        }
+        check_eps(&eps)?;
         Ok(Guide {
             width: img.width,
             height: img.height,
@@ -94,6 +92,14 @@ impl Guide {
                 .collect(),
             eps,
         })
+    }
+}
+
+/// Every ε must be finite and > 0.
+fn check_eps(eps: &[f32]) -> Result<(), FilterError> {
+    match eps.iter().find(|e| !(**e > 0.0 && e.is_finite())) {
+        Some(e) => Err(param("eps", format!("{e} (must be > 0)"))),
+        None => Ok(()),
     }
 }
 
@@ -179,9 +185,7 @@ pub fn build_guide(
         }
         eps[3] = eps_depth;
     }
-    if let Some(e) = eps.iter().find(|e| !(**e > 0.0 && e.is_finite())) {
-        return Err(param("eps", format!("{e} (must be > 0)")));
-    }
+    check_eps(&eps)?;
     Ok(Guide {
         width: w,
         height: h,
