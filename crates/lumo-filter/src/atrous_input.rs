@@ -384,39 +384,36 @@ pub(crate) fn input_stats(inp: &Input, lay: Layout) -> Stats {
 
 multiversion! {
     /// The statistics of block `b`'s own columns (see [`input_stats`]).
-    fn block_stats(inp: &Input, lay: Layout, b: usize) -> BlockStats => block_stats_impl
-}
-
-#[inline(always)]
-fn block_stats_impl(inp: &Input, lay: Layout, b: usize) -> BlockStats {
-    let (c, y) = lay.strip_row(b);
-    let (x0, len) = lay.strip(c);
-    let i0 = y * lay.w + x0;
-    let mut st = BlockStats {
-        lum: 0.0,
-        valid: 0,
-        missing: 0,
-        lo: [f32::INFINITY; 3],
-        hi: [f32::NEG_INFINITY; 3],
-    };
-    // Mean luminance over every usable pixel (before the sparse grid, as `Prepared`).
-    let (lum, valid, missing) = color_stats(inp, i0, len);
-    st.missing = missing;
-    let valid: f32 = valid.iter().sum();
-    st.lum = lum.iter().map(|&l| l as f64).sum();
-    st.valid = valid as usize;
-    if let Some(p) = inp.features.position {
-        let mut bg = [0.0f32; CW];
-        let bgs = &mut bg[..len];
-        background_row(inp.features, i0, bgs);
-        let data = &p.data[i0 * p.channels..(i0 + len) * p.channels];
-        match p.channels {
-            3 => extent_run(3, data, bgs, &mut st.lo, &mut st.hi),
-            4 => extent_run(4, data, bgs, &mut st.lo, &mut st.hi),
-            c => extent_run(c, data, bgs, &mut st.lo, &mut st.hi),
+    fn block_stats(inp: &Input, lay: Layout, b: usize) -> BlockStats as block_stats_impl {
+        let (c, y) = lay.strip_row(b);
+        let (x0, len) = lay.strip(c);
+        let i0 = y * lay.w + x0;
+        let mut st = BlockStats {
+            lum: 0.0,
+            valid: 0,
+            missing: 0,
+            lo: [f32::INFINITY; 3],
+            hi: [f32::NEG_INFINITY; 3],
+        };
+        // Mean luminance over every usable pixel (before the sparse grid, as `Prepared`).
+        let (lum, valid, missing) = color_stats(inp, i0, len);
+        st.missing = missing;
+        let valid: f32 = valid.iter().sum();
+        st.lum = lum.iter().map(|&l| l as f64).sum();
+        st.valid = valid as usize;
+        if let Some(p) = inp.features.position {
+            let mut bg = [0.0f32; CW];
+            let bgs = &mut bg[..len];
+            background_row(inp.features, i0, bgs);
+            let data = &p.data[i0 * p.channels..(i0 + len) * p.channels];
+            match p.channels {
+                3 => extent_run(3, data, bgs, &mut st.lo, &mut st.hi),
+                4 => extent_run(4, data, bgs, &mut st.lo, &mut st.hi),
+                c => extent_run(c, data, bgs, &mut st.lo, &mut st.hi),
+            }
         }
+        st
     }
-    st
 }
 
 /// Widens `lo`/`hi` to the positions (first 3 of `c` channels) of the pixels of a run that
@@ -482,107 +479,94 @@ multiversion! {
         y: usize,
         blk: &mut [f32],
         ab: &mut [f32],
-    ) => fill_block_impl
-}
-
-#[allow(clippy::too_many_arguments)]
-#[inline(always)]
-fn fill_block_impl(
-    inp: &Input,
-    lay: Layout,
-    sparse: usize,
-    s: &FillScales,
-    c: usize,
-    y: usize,
-    blk: &mut [f32],
-    ab: &mut [f32],
-) {
-    let mask = sparse - 1;
-    let w = lay.w;
-    let (x0, _) = lay.strip(c);
-    let ja = M.saturating_sub(x0);
-    let jb = (w + M - x0).min(QW);
-    // Columns beyond the image hold 0 (validity 0: taps there add nothing); the rest of
-    // every plane in use is written here or per level.
-    for (planes, buf) in [(K, &mut *blk), (KA, &mut *ab)] {
-        for k in 0..planes {
-            buf[k * QW..k * QW + ja].fill(0.0);
-            buf[k * QW + jb..(k + 1) * QW].fill(0.0);
+    ) as fill_block_impl {
+        let mask = sparse - 1;
+        let w = lay.w;
+        let (x0, _) = lay.strip(c);
+        let ja = M.saturating_sub(x0);
+        let jb = (w + M - x0).min(QW);
+        // Columns beyond the image hold 0 (validity 0: taps there add nothing); the rest of
+        // every plane in use is written here or per level.
+        for (planes, buf) in [(K, &mut *blk), (KA, &mut *ab)] {
+            for k in 0..planes {
+                buf[k * QW..k * QW + ja].fill(0.0);
+                buf[k * QW + jb..(k + 1) * QW].fill(0.0);
+            }
         }
-    }
-    if ja >= jb {
-        return;
-    }
-    let i0 = y * w + x0 + ja - M;
-    {
-        let (rgb, vrest) = blk.split_at_mut(3 * QW);
-        let (r, gb) = rgb.split_at_mut(QW);
-        let (g, b) = gb.split_at_mut(QW);
-        let planes = ColorPlanes {
-            r: &mut r[ja..jb],
-            g: &mut g[ja..jb],
-            b: &mut b[ja..jb],
-            v: &mut vrest[..QW][ja..jb],
-        };
-        color_run(inp, i0, planes);
-    }
-    if mask != 0 {
-        let on_row = y & mask == 0;
-        for j in ja..jb {
-            let x = x0 + j - M;
-            if !(on_row && x & mask == 0) {
-                for k in 0..4 {
-                    blk[k * QW + j] = 0.0;
+        if ja >= jb {
+            return;
+        }
+        let i0 = y * w + x0 + ja - M;
+        {
+            let (rgb, vrest) = blk.split_at_mut(3 * QW);
+            let (r, gb) = rgb.split_at_mut(QW);
+            let (g, b) = gb.split_at_mut(QW);
+            let planes = ColorPlanes {
+                r: &mut r[ja..jb],
+                g: &mut g[ja..jb],
+                b: &mut b[ja..jb],
+                v: &mut vrest[..QW][ja..jb],
+            };
+            color_run(inp, i0, planes);
+        }
+        if mask != 0 {
+            let on_row = y & mask == 0;
+            for j in ja..jb {
+                let x = x0 + j - M;
+                if !(on_row && x & mask == 0) {
+                    for k in 0..4 {
+                        blk[k * QW + j] = 0.0;
+                    }
                 }
             }
         }
-    }
-    let (head, feat) = ab.split_at_mut(2 * QW);
-    let bgs = &mut head[BG_PLANE * QW..][ja..jb];
-    background_row(inp.features, i0, bgs);
-    let bgs = &*bgs;
-    if inp.use_variance {
-        for j in ja..jb {
-            // Variance in units of mean luminance², tiny values flushed to 0, so Σ w²·var
-            // never reaches the (slow) denormal range.
-            let v = inp.variance(i0 + j - ja) * s.inv_ml2;
-            blk[4 * QW + j] = if v > 1e-12 { v } else { 0.0 };
-        }
-    } else {
-        blk[4 * QW + ja..4 * QW + jb].fill(0.0);
-    }
-    let f = inp.features;
-    let mut k = 0;
-    if let Some((n, sn)) = f.normal.zip(s.normal) {
-        let (n0, rest) = feat.split_at_mut(QW);
-        let (n1, n2) = rest.split_at_mut(QW);
-        let out = [&mut n0[ja..jb], &mut n1[ja..jb], &mut n2[ja..jb]];
-        let data = &n.data[i0 * n.channels..(i0 + jb - ja) * n.channels];
-        match n.channels {
-            3 => normal_row(3, data, sn, out),
-            4 => normal_row(4, data, sn, out),
-            c => normal_row(c, data, sn, out),
-        }
-        k = 3;
-    }
-    let feat = &mut feat[k * QW..];
-    match f.position.zip(s.position) {
-        Some((p, sx)) => {
-            let (p0, rest) = feat.split_at_mut(QW);
-            let (p1, p2) = rest.split_at_mut(QW);
-            let out = [&mut p0[ja..jb], &mut p1[ja..jb], &mut p2[ja..jb]];
-            let data = &p.data[i0 * p.channels..(i0 + jb - ja) * p.channels];
-            let scale = s.inv_extent * sx;
-            let bgv = s.position_background;
-            match p.channels {
-                3 => position_row(3, data, bgs, scale, bgv, out),
-                4 => position_row(4, data, bgs, scale, bgv, out),
-                c => position_row(c, data, bgs, scale, bgv, out),
+        let (head, feat) = ab.split_at_mut(2 * QW);
+        let bgs = &mut head[BG_PLANE * QW..][ja..jb];
+        background_row(inp.features, i0, bgs);
+        let bgs = &*bgs;
+        if inp.use_variance {
+            for j in ja..jb {
+                // Variance in units of mean luminance², tiny values flushed to 0, so Σ w²·var
+                // never reaches the (slow) denormal range.
+                let v = inp.variance(i0 + j - ja) * s.inv_ml2;
+                blk[4 * QW + j] = if v > 1e-12 { v } else { 0.0 };
             }
+        } else {
+            blk[4 * QW + ja..4 * QW + jb].fill(0.0);
         }
-        None => {
-            for (o, &bg) in feat[ja..jb].iter_mut().zip(bgs) {
-                *o = bg * BACKGROUND_SCALE;
+        let f = inp.features;
+        let mut k = 0;
+        if let Some((n, sn)) = f.normal.zip(s.normal) {
+            let (n0, rest) = feat.split_at_mut(QW);
+            let (n1, n2) = rest.split_at_mut(QW);
+            let out = [&mut n0[ja..jb], &mut n1[ja..jb], &mut n2[ja..jb]];
+            let data = &n.data[i0 * n.channels..(i0 + jb - ja) * n.channels];
+            match n.channels {
+                3 => normal_row(3, data, sn, out),
+                4 => normal_row(4, data, sn, out),
+                c => normal_row(c, data, sn, out),
+            }
+            k = 3;
+        }
+        let feat = &mut feat[k * QW..];
+        match f.position.zip(s.position) {
+            Some((p, sx)) => {
+                let (p0, rest) = feat.split_at_mut(QW);
+                let (p1, p2) = rest.split_at_mut(QW);
+                let out = [&mut p0[ja..jb], &mut p1[ja..jb], &mut p2[ja..jb]];
+                let data = &p.data[i0 * p.channels..(i0 + jb - ja) * p.channels];
+                let scale = s.inv_extent * sx;
+                let bgv = s.position_background;
+                match p.channels {
+                    3 => position_row(3, data, bgs, scale, bgv, out),
+                    4 => position_row(4, data, bgs, scale, bgv, out),
+                    c => position_row(c, data, bgs, scale, bgv, out),
+                }
+            }
+            None => {
+                for (o, &bg) in feat[ja..jb].iter_mut().zip(bgs) {
+                    *o = bg * BACKGROUND_SCALE;
+                }
             }
         }
     }
@@ -728,35 +712,34 @@ pub(crate) fn output(inp: &Input, lay: Layout, src: &[f32]) -> Image {
 multiversion! {
     /// One run of output pixels from pixel `i0` (`o`: 3 floats each) from the strip columns
     /// of block `blk` (from column M), with the rules of [`output`].
-    pub(crate) fn output_row(inp: &Input, i0: usize, blk: &[f32], o: &mut [f32]) => output_row_impl
-}
-
-#[inline(always)]
-fn output_row_impl(inp: &Input, i0: usize, blk: &[f32], o: &mut [f32]) {
-    let n = o.len() / 3;
-    let (r, g, b) = (&blk[M..][..n], &blk[QW + M..][..n], &blk[2 * QW + M..][..n]);
-    let albedo = inp.features.albedo.filter(|_| inp.demodulate);
-    let color = &inp.color.data[3 * i0..3 * (i0 + n)];
-    match albedo.map(|a| a.channels) {
-        None => {
-            for t in 0..n {
-                o[3 * t..3 * t + 3].copy_from_slice(&[r[t], g[t], b[t]]);
+    pub(crate) fn output_row(inp: &Input, i0: usize, blk: &[f32], o: &mut [f32])
+        as output_row_impl
+    {
+        let n = o.len() / 3;
+        let (r, g, b) = (&blk[M..][..n], &blk[QW + M..][..n], &blk[2 * QW + M..][..n]);
+        let albedo = inp.features.albedo.filter(|_| inp.demodulate);
+        let color = &inp.color.data[3 * i0..3 * (i0 + n)];
+        match albedo.map(|a| a.channels) {
+            None => {
+                for t in 0..n {
+                    o[3 * t..3 * t + 3].copy_from_slice(&[r[t], g[t], b[t]]);
+                }
             }
-        }
-        Some(1) => remodulate::<1>(color, albedo_row(albedo, i0, n), [r, g, b], o),
-        Some(3) => remodulate::<3>(color, albedo_row(albedo, i0, n), [r, g, b], o),
-        Some(4) => remodulate::<4>(color, albedo_row(albedo, i0, n), [r, g, b], o),
-        Some(_) => {
-            for t in 0..n {
-                let f = [r[t], g[t], b[t]];
-                let v = match albedo.and_then(|a| albedo_divisor(a, i0 + t)) {
-                    Some(a) => [f[0] * a[0], f[1] * a[1], f[2] * a[2]],
-                    None => {
-                        let col = &color[3 * t..3 * t + 3];
-                        [passed(col[0]), passed(col[1]), passed(col[2])]
-                    }
-                };
-                o[3 * t..3 * t + 3].copy_from_slice(&v);
+            Some(1) => remodulate::<1>(color, albedo_row(albedo, i0, n), [r, g, b], o),
+            Some(3) => remodulate::<3>(color, albedo_row(albedo, i0, n), [r, g, b], o),
+            Some(4) => remodulate::<4>(color, albedo_row(albedo, i0, n), [r, g, b], o),
+            Some(_) => {
+                for t in 0..n {
+                    let f = [r[t], g[t], b[t]];
+                    let v = match albedo.and_then(|a| albedo_divisor(a, i0 + t)) {
+                        Some(a) => [f[0] * a[0], f[1] * a[1], f[2] * a[2]],
+                        None => {
+                            let col = &color[3 * t..3 * t + 3];
+                            [passed(col[0]), passed(col[1]), passed(col[2])]
+                        }
+                    };
+                    o[3 * t..3 * t + 3].copy_from_slice(&v);
+                }
             }
         }
     }

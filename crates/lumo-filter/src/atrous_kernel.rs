@@ -177,51 +177,40 @@ multiversion! {
         dst: &mut [f32],
         d0: usize,
         len: usize,
-    ) => normalise_impl
-}
-
-/// [`normalise`]'s body.
-#[inline(always)]
-pub(crate) fn normalise_impl<const VAR: bool>(
-    acc: &[f32],
-    stride: usize,
-    a0: usize,
-    dst: &mut [f32],
-    d0: usize,
-    len: usize,
-) {
-    let wsum = &acc[3 * stride + a0..][..len];
-    let (rgb, rest) = dst.split_at_mut(3 * QW);
-    let (valid, var) = rest.split_at_mut(QW);
-    let (r, rest) = rgb.split_at_mut(QW);
-    let (g, b) = rest.split_at_mut(QW);
-    let (ar, ag, ab) = (
-        &acc[a0..][..len],
-        &acc[stride + a0..][..len],
-        &acc[2 * stride + a0..][..len],
-    );
-    let av = if VAR {
-        &acc[4 * stride + a0..][..len]
-    } else {
-        &[][..]
-    };
-    let (r, g, b) = (
-        &mut r[d0..][..len],
-        &mut g[d0..][..len],
-        &mut b[d0..][..len],
-    );
-    let (valid, var) = (&mut valid[d0..][..len], &mut var[d0..][..len]);
-    for i in 0..len {
-        let s = wsum[i];
-        let has = (s > 0.0) as u8 as f32;
-        // One division per pixel; 0 where nothing contributed.
-        let inv = has / s.max(1e-30);
-        r[i] = ar[i] * inv;
-        g[i] = ag[i] * inv;
-        b[i] = ab[i] * inv;
-        valid[i] = has;
-        if VAR {
-            var[i] = av[i] * (inv * inv);
+    ) as normalise_impl {
+        let wsum = &acc[3 * stride + a0..][..len];
+        let (rgb, rest) = dst.split_at_mut(3 * QW);
+        let (valid, var) = rest.split_at_mut(QW);
+        let (r, rest) = rgb.split_at_mut(QW);
+        let (g, b) = rest.split_at_mut(QW);
+        let (ar, ag, ab) = (
+            &acc[a0..][..len],
+            &acc[stride + a0..][..len],
+            &acc[2 * stride + a0..][..len],
+        );
+        let av = if VAR {
+            &acc[4 * stride + a0..][..len]
+        } else {
+            &[][..]
+        };
+        let (r, g, b) = (
+            &mut r[d0..][..len],
+            &mut g[d0..][..len],
+            &mut b[d0..][..len],
+        );
+        let (valid, var) = (&mut valid[d0..][..len], &mut var[d0..][..len]);
+        for i in 0..len {
+            let s = wsum[i];
+            let has = (s > 0.0) as u8 as f32;
+            // One division per pixel; 0 where nothing contributed.
+            let inv = has / s.max(1e-30);
+            r[i] = ar[i] * inv;
+            g[i] = ag[i] * inv;
+            b[i] = ab[i] * inv;
+            valid[i] = has;
+            if VAR {
+                var[i] = av[i] * (inv * inv);
+            }
         }
     }
 }

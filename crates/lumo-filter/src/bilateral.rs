@@ -201,58 +201,45 @@ multiversion! {
         q0: usize,
         scale: f32,
         mask: Option<&[f32]>,
-    ) => add_dist3_impl
+    ) as add_dist3_impl {
+        let len = e.len();
+        let (a0, a1, a2) = (
+            &f[0][p0..p0 + len],
+            &f[1][p0..p0 + len],
+            &f[2][p0..p0 + len],
+        );
+        let (b0, b1, b2) = (
+            &f[0][q0..q0 + len],
+            &f[1][q0..q0 + len],
+            &f[2][q0..q0 + len],
+        );
+        match mask {
+            None => {
+                for i in 0..len {
+                    let (x, y, z) = (a0[i] - b0[i], a1[i] - b1[i], a2[i] - b2[i]);
+                    e[i] += (x * x + y * y + z * z) * scale;
+                }
+            }
+            Some(m) => {
+                let m = &m[..len];
+                for i in 0..len {
+                    let (x, y, z) = (a0[i] - b0[i], a1[i] - b1[i], a2[i] - b2[i]);
+                    e[i] += (x * x + y * y + z * z) * scale * m[i];
+                }
+            }
+        }
+    }
 }
 
 multiversion! {
     /// e[i] += inv_d · ((dp[i] − dq[i]) · ip[i])²: the relative depth term.
     fn add_rel_depth(e: &mut [f32], dp: &[f32], dq: &[f32], ip: &[f32], inv_d: f32)
-        => add_rel_depth_impl
-}
-
-#[inline(always)]
-fn add_rel_depth_impl(e: &mut [f32], dp: &[f32], dq: &[f32], ip: &[f32], inv_d: f32) {
-    let len = e.len();
-    let (dp, dq, ip) = (&dp[..len], &dq[..len], &ip[..len]);
-    for i in 0..len {
-        let t = (dp[i] - dq[i]) * ip[i];
-        e[i] += t * t * inv_d;
-    }
-}
-
-#[inline(always)]
-fn add_dist3_impl(
-    e: &mut [f32],
-    f: &[Vec<f32>; 3],
-    p0: usize,
-    q0: usize,
-    scale: f32,
-    mask: Option<&[f32]>,
-) {
-    let len = e.len();
-    let (a0, a1, a2) = (
-        &f[0][p0..p0 + len],
-        &f[1][p0..p0 + len],
-        &f[2][p0..p0 + len],
-    );
-    let (b0, b1, b2) = (
-        &f[0][q0..q0 + len],
-        &f[1][q0..q0 + len],
-        &f[2][q0..q0 + len],
-    );
-    match mask {
-        None => {
-            for i in 0..len {
-                let (x, y, z) = (a0[i] - b0[i], a1[i] - b1[i], a2[i] - b2[i]);
-                e[i] += (x * x + y * y + z * z) * scale;
-            }
-        }
-        Some(m) => {
-            let m = &m[..len];
-            for i in 0..len {
-                let (x, y, z) = (a0[i] - b0[i], a1[i] - b1[i], a2[i] - b2[i]);
-                e[i] += (x * x + y * y + z * z) * scale * m[i];
-            }
+        as add_rel_depth_impl {
+        let len = e.len();
+        let (dp, dq, ip) = (&dp[..len], &dq[..len], &ip[..len]);
+        for i in 0..len {
+            let t = (dp[i] - dq[i]) * ip[i];
+            e[i] += t * t * inv_d;
         }
     }
 }
@@ -267,39 +254,31 @@ multiversion! {
         masks: [&[f32]; 3],
         colour: [&[f32]; 3],
         acc: [&mut [f32]; 4],
-    ) => accumulate_impl
-}
-
-#[inline(always)]
-fn accumulate_impl(
-    ws: f32,
-    e: &[f32],
-    [qv, pbg, qbg]: [&[f32]; 3],
-    [cr, cg, cb]: [&[f32]; 3],
-    acc: [&mut [f32]; 4],
-) {
-    let len = e.len();
-    let [ar, ag, ab, aw] = acc;
-    let (ar, ag, ab, aw) = (
-        &mut ar[..len],
-        &mut ag[..len],
-        &mut ab[..len],
-        &mut aw[..len],
-    );
-    let (qv, pbg, qbg, cr, cg, cb) = (
-        &qv[..len],
-        &pbg[..len],
-        &qbg[..len],
-        &cr[..len],
-        &cg[..len],
-        &cb[..len],
-    );
-    for i in 0..len {
-        let same = 1.0 - (pbg[i] - qbg[i]).abs();
-        let wgt = ws * exp_neg(-e[i]) * qv[i] * same;
-        ar[i] += wgt * cr[i];
-        ag[i] += wgt * cg[i];
-        ab[i] += wgt * cb[i];
-        aw[i] += wgt;
+    ) as accumulate_impl {
+        let len = e.len();
+        let ([qv, pbg, qbg], [cr, cg, cb]) = (masks, colour);
+        let [ar, ag, ab, aw] = acc;
+        let (ar, ag, ab, aw) = (
+            &mut ar[..len],
+            &mut ag[..len],
+            &mut ab[..len],
+            &mut aw[..len],
+        );
+        let (qv, pbg, qbg, cr, cg, cb) = (
+            &qv[..len],
+            &pbg[..len],
+            &qbg[..len],
+            &cr[..len],
+            &cg[..len],
+            &cb[..len],
+        );
+        for i in 0..len {
+            let same = 1.0 - (pbg[i] - qbg[i]).abs();
+            let wgt = ws * exp_neg(-e[i]) * qv[i] * same;
+            ar[i] += wgt * cr[i];
+            ag[i] += wgt * cg[i];
+            ab[i] += wgt * cb[i];
+            aw[i] += wgt;
+        }
     }
 }

@@ -457,21 +457,18 @@ fn stream_dims(d: usize, pb: &Problem, out: &mut [f32], row_len: usize, emit: &E
 
 multiversion! {
     /// One output row: q_c = Σ_i ā_ci I_i + b̄_c from the row's averaged coefficients.
-    fn apply_row(guide: &[f32], d: usize, ab: &[f32], row: &mut [f32]) => apply_row_impl
-}
-
-#[inline(always)]
-fn apply_row_impl(guide: &[f32], d: usize, ab: &[f32], row: &mut [f32]) {
-    let k2 = 3 * d + 3;
-    for (x, o) in row.chunks_exact_mut(3).enumerate() {
-        let gi = &guide[x * d..(x + 1) * d];
-        let c = &ab[x * k2..(x + 1) * k2];
-        for ch in 0..3 {
-            let mut q = c[3 * d + ch];
-            for i in 0..d {
-                q += c[ch * d + i] * gi[i];
+    fn apply_row(guide: &[f32], d: usize, ab: &[f32], row: &mut [f32]) as apply_row_impl {
+        let k2 = 3 * d + 3;
+        for (x, o) in row.chunks_exact_mut(3).enumerate() {
+            let gi = &guide[x * d..(x + 1) * d];
+            let c = &ab[x * k2..(x + 1) * k2];
+            for ch in 0..3 {
+                let mut q = c[3 * d + ch];
+                for i in 0..d {
+                    q += c[ch * d + i] * gi[i];
+                }
+                o[ch] = q;
             }
-            o[ch] = q;
         }
     }
 }

@@ -6,15 +6,23 @@
 //! AVX-512 it turns them into vector loads and permutes. The copies run the same operations
 //! (no fused multiply-adds are formed), so their results are identical bit for bit.
 
-/// Defines `fn $name(args) -> ret` that calls `$imp(args)` (an `#[inline(always)]` function,
-/// so that it is compiled into each copy) in its AVX-512 (F + VL) copy, its AVX2 copy or the
-/// baseline one, whichever is the best the CPU supports.
+/// Defines `fn $name(args) -> ret { body }` as a dispatcher that runs the body in its AVX-512
+/// (F + VL) copy, its AVX2 copy or the baseline one, whichever is the best the CPU supports.
+/// The body itself becomes `$imp`, an `#[inline(always)]` function with the same signature,
+/// compiled into each copy (and callable directly: the tests compare it with the dispatcher).
 macro_rules! multiversion {
     (
         $(#[$meta:meta])*
         $vis:vis fn $name:ident $(<$(const $g:ident: $gt:ty),*>)?
-            ($($arg:ident: $ty:ty),* $(,)?) $(-> $ret:ty)? => $imp:ident
+            ($($arg:ident: $ty:ty),* $(,)?) $(-> $ret:ty)? as $imp:ident $body:block
     ) => {
+        #[doc = concat!(
+            "The body of [`", stringify!($name), "`], compiled into each of its copies."
+        )]
+        #[inline(always)]
+        #[allow(clippy::too_many_arguments)]
+        $vis fn $imp $(<$(const $g: $gt),*>)? ($($arg: $ty),*) $(-> $ret)? $body
+
         $(#[$meta])*
         $vis fn $name $(<$(const $g: $gt),*>)? ($($arg: $ty),*) $(-> $ret)? {
             #[cfg(target_arch = "x86_64")]
