@@ -15,7 +15,7 @@ use crate::albedo::{albedo_divisor, illumination_variance, ALBEDO_EPS};
 use crate::atrous::BACKGROUND_SCALE;
 use crate::atrous_kernel::{K, KA};
 use crate::atrous_layout::{Layout, CW, M, QW};
-use crate::gbuffer::{depth_is_background, position_is_background, Features};
+use crate::gbuffer::{depth_is_background, flush, position_is_background, Features};
 use crate::passthrough::passed;
 
 /// The input images of one call, and whether colour is demodulated by the albedo.
@@ -66,11 +66,7 @@ impl Input<'_> {
         }
         valid &= rgb.iter().all(|v| v.is_finite());
         // Denormal inputs flushed to 0: they would slow every product they enter.
-        let rgb = if valid {
-            rgb.map(|v| if v.abs() < 1e-30 { 0.0 } else { v })
-        } else {
-            [0.0; 3]
-        };
+        let rgb = if valid { rgb.map(flush) } else { [0.0; 3] };
         Pixel { rgb, valid }
     }
 
@@ -119,8 +115,8 @@ struct BlockStats {
     hi: [f32; 3],
 }
 
-/// Aux plane that holds the background flag between the two fill passes (the luminance
-/// plane, which `level_aux` writes before any kernel reads it).
+/// Aux plane that holds a block's background flags while `fill_block` fills it (the
+/// luminance plane, which `level_aux` writes before any kernel reads it).
 const BG_PLANE: usize = 1;
 
 /// The colour and validity planes of one block's columns being filled.

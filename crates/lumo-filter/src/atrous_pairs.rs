@@ -48,7 +48,7 @@ pub(crate) const MAX_PAIR_STEP: usize = M / 4;
 pub(crate) const CHUNK: usize = 16;
 
 /// Accumulator planes per row: r, g, b, weight.
-const AN: usize = 4;
+pub(crate) const AN: usize = 4;
 /// One accumulator row: r, g, b and weight sums, [`QW`] columns each.
 pub(crate) type Acc = [f32; AN * QW];
 
@@ -58,7 +58,7 @@ const V: usize = 3;
 const F: usize = 2;
 
 /// (dx, dy) in steps of the 12 taps after the centre in row-major order; dy picks the row.
-const PAIRS: [(isize, usize); 12] = [
+pub(crate) const PAIRS: [(isize, usize); 12] = [
     (1, 0),
     (2, 0),
     (-2, 1),

@@ -24,7 +24,7 @@ use rayon::prelude::*;
 
 use crate::atrous_kernel::{normalise, AuxBlock, Level, SrcBlock, K, KA};
 use crate::atrous_layout::{Layout, M, QW};
-use crate::atrous_pairs::{self, Acc, Accs, RowJob, Rows, CHUNK, ZERO_AUX, ZERO_SRC};
+use crate::atrous_pairs::{self, Acc, Accs, RowJob, Rows, AN, CHUNK, PAIRS, ZERO_AUX, ZERO_SRC};
 
 /// Most levels a pipeline runs (steps 1..16: the pair path's limit).
 pub(crate) const MAX_LEVELS: usize = 5;
@@ -201,22 +201,19 @@ impl Task<'_> {
             feat.resize(fr, [0.0; KA * QW]);
         }
         // Zeroed once; only ever overwritten with weights in [0, 1] (see atrous_pairs.rs).
-        if weights.len() < 12 * QW {
-            weights.resize(12 * QW, 0.0);
+        if weights.len() < PAIRS.len() * QW {
+            weights.resize(PAIRS.len() * QW, 0.0);
         }
         acc.resize_with(acc.len().max(n), Vec::new);
-        ring.resize_with(ring.len().max(n), Vec::new);
-        // One more ring: the last level's output row, handed to `emit`.
-        if ring.len() <= n {
-            ring.resize_with(n + 1, Vec::new);
-        }
+        // One ring per level, and one more: the last level's output row, handed to `emit`.
+        ring.resize_with(ring.len().max(n + 1), Vec::new);
         if ring[n].is_empty() {
             ring[n].push([0.0; K * QW]);
         }
         for k in 0..n {
             // New rows are zero; rows are cleared as they are finished (see `band` there).
             if acc[k].len() < rn(k) {
-                acc[k].resize(rn(k), [0.0; 4 * QW]);
+                acc[k].resize(rn(k), [0.0; AN * QW]);
             }
             debug_assert!(acc[k].iter().all(|r| r.iter().all(|&v| v == 0.0)));
             if ring[k].len() < rn(k) {

@@ -237,8 +237,6 @@ impl Prepared {
         let mut lum_sum = 0.0f64;
         for (i, p) in color.data.chunks_exact(3).enumerate() {
             if p.iter().all(|v| v.is_finite()) {
-                // Denormal inputs flushed to 0: they would slow every product they enter.
-                let flush = |v: f32| if v.abs() < 1e-30 { 0.0 } else { v };
                 planes[0][i] = flush(p[0]);
                 planes[1][i] = flush(p[1]);
                 planes[2][i] = flush(p[2]);
@@ -291,6 +289,16 @@ impl Prepared {
             background,
             mean_luminance,
         })
+    }
+}
+
+/// `v`, or 0 where |v| < 1e-30: denormal inputs would slow every product they enter.
+#[inline(always)]
+pub(crate) fn flush(v: f32) -> f32 {
+    if v.abs() < 1e-30 {
+        0.0
+    } else {
+        v
     }
 }
 

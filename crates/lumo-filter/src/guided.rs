@@ -7,7 +7,7 @@ use rayon::prelude::*;
 use crate::boxsum::box_mean;
 use crate::error::param;
 use crate::gbuffer::{
-    background_mask, check_color, check_features, check_size, plane0, Features, Filtered,
+    background_mask, check_color, check_features, check_size, flush, plane0, Features, Filtered,
 };
 use crate::guided_stream::{stream, Problem};
 use crate::FilterError;
@@ -324,7 +324,7 @@ fn guided_input(color: &Image) -> (Vec<f32>, Vec<f32>, usize) {
             {
                 if c.iter().all(|v| v.is_finite()) {
                     for (o, v) in o.iter_mut().zip(c) {
-                        *o = if v.abs() < 1e-30 { 0.0 } else { *v };
+                        *o = flush(*v);
                     }
                     *k = 1.0;
                 } else {
