@@ -136,6 +136,23 @@ pub(crate) struct RowJob {
     pub step: usize,
     pub color_scale: f32,
     pub normal_factor: f32,
+    /// The row is less than one step below the image's top, so no row above scatters into
+    /// it or into the row one step below: its own sweep and its dy = 1 scatter are the first
+    /// writers of those accumulator rows (see [`RowJob::first_writer`]).
+    pub top: bool,
+}
+
+impl RowJob {
+    /// Whether the scatter into the row `dy` steps below is the first write of that
+    /// accumulator row since it was last finished, so it stores instead of adding: the
+    /// accumulator rings are never cleared. A kept row Y is first written by row Y − 2·step's
+    /// scatter (every sweep starts 2·step above its first kept row), or, where Y − 2·step lies
+    /// above the image, by row Y − step's, or by its own sweep (`top`). 0 + x = x, so the sums
+    /// are the same as when adding into cleared rows (up to the sign of an all-zero sum).
+    /// Columns that no scatter writes (beyond the kept ones) keep stale sums: nothing reads them.
+    pub fn first_writer(&self, dy: usize) -> bool {
+        dy == 2 || (dy == 1 && self.top)
+    }
 }
 
 /// Rows [a, b) of strip `c` into `out` (their blocks).
@@ -149,12 +166,10 @@ fn band(l: &Level, c: usize, a: usize, b: usize, out: &mut [f32], scratch: &mut 
     let lay = l.lay;
     let s = l.step;
     let rn = 2 * s + 1;
-    // Rows are cleared as they are finished, and a band finishes every row it adds to, so
-    // the ring is all zeros between bands (new rows are zeroed by `resize`).
+    // Never cleared: each kept row's first writer stores (see [`RowJob::first_writer`]).
     if ring.len() < rn {
         ring.resize(rn, [0.0; AN * QW]);
     }
-    debug_assert!(ring.iter().all(|r| r.iter().all(|&v| v == 0.0)));
     let (_, len) = lay.strip(c);
     // Swept columns: the strip, plus 2·step into a neighbouring strip (whose pixels scatter
     // into this one), rounded out to whole chunks of [`CHUNK`] columns.
@@ -179,6 +194,7 @@ fn band(l: &Level, c: usize, a: usize, b: usize, out: &mut [f32], scratch: &mut 
             step: s,
             color_scale: l.color_scale,
             normal_factor: l.normal_factor,
+            top: y < s,
         };
         for dy in 0..3 {
             let yq = y + dy * s;
@@ -231,8 +247,7 @@ fn band(l: &Level, c: usize, a: usize, b: usize, out: &mut [f32], scratch: &mut 
             normalise::<false>(&acc.a0[..], QW, M, d, M, len);
         }
         // An own row is finished; the sums of a row swept for its scatter alone are not
-        // wanted. Either way the ring row is free again.
-        acc.a0.fill(0.0);
+        // wanted. Either way the ring row is free again (its next row's first writer stores).
     }
 }
 
@@ -482,10 +497,15 @@ fn row_impl<const NF: usize, const CM: u8, const L: usize, const FMA: bool>(
         let (sg, rest) = rest.split_at_mut(QW);
         let (sb, sw) = rest.split_at_mut(QW);
         for l in 0..L {
-            sr[j0 + l] += c.ar[l];
-            sg[j0 + l] += c.ag[l];
-            sb[j0 + l] += c.ab[l];
-            sw[j0 + l] += c.aw[l];
+            if job.top {
+                (sr[j0 + l], sg[j0 + l]) = (c.ar[l], c.ag[l]);
+                (sb[j0 + l], sw[j0 + l]) = (c.ab[l], c.aw[l]);
+            } else {
+                sr[j0 + l] += c.ar[l];
+                sg[j0 + l] += c.ag[l];
+                sb[j0 + l] += c.ab[l];
+                sw[j0 + l] += c.aw[l];
+            }
         }
         j0 += L;
     }
@@ -496,7 +516,8 @@ fn row_impl<const NF: usize, const CM: u8, const L: usize, const FMA: bool>(
                 1 => &mut *acc.a1,
                 _ => &mut *acc.a2,
             };
-            scatter::<L, FMA>(r.p, acc.w, a, dy, step, job.o_lo..job.o_hi);
+            let first = job.first_writer(dy);
+            scatter::<L, FMA>(r.p, acc.w, a, dy, step, job.o_lo..job.o_hi, first);
         }
     }
 }
@@ -522,6 +543,7 @@ fn scatter<const L: usize, const FMA: bool>(
     dy: usize,
     step: usize,
     out: std::ops::Range<usize>,
+    first: bool,
 ) {
     let ks = match dy {
         0 => 0..2,
@@ -552,10 +574,14 @@ fn scatter<const L: usize, const FMA: bool>(
         let (ag, rest) = rest.split_at_mut(QW);
         let (ab, aw) = rest.split_at_mut(QW);
         for l in 0..L {
-            ar[jq + l] += sr[l];
-            ag[jq + l] += sg[l];
-            ab[jq + l] += sb[l];
-            aw[jq + l] += sw[l];
+            if first {
+                (ar[jq + l], ag[jq + l], ab[jq + l], aw[jq + l]) = (sr[l], sg[l], sb[l], sw[l]);
+            } else {
+                ar[jq + l] += sr[l];
+                ag[jq + l] += sg[l];
+                ab[jq + l] += sb[l];
+                aw[jq + l] += sw[l];
+            }
         }
         jq += L;
     }

@@ -24,13 +24,14 @@ use crate::atrous_kernel::CM_FIXED;
 #[cfg(target_arch = "x86_64")]
 use crate::atrous_layout::QW;
 #[cfg(target_arch = "x86_64")]
-use crate::fastmath::{exp2_cut_avx2_x4, exp2_cut_avx512_x4, EXP_CUTOFF};
+use crate::fastmath::{exp2_cut_avx2_xn, exp2_cut_avx512_xn, EXP_CUTOFF};
 
 /// One row of the pair path (the sweep, then the scatter of the mirrored halves), for one
 /// instruction set.
 macro_rules! row_kernel {
-    ($name:ident, $feat:literal, $t:ty, $l:literal, $load:ident, $store:ident, $set1:ident,
-     $zero:ident, $add:ident, $sub:ident, $mul:ident, $fma:ident, $exp:ident) => {
+    ($d:tt $name:ident, $feat:literal, $t:ty, $l:literal, $load:ident, $store:ident, $set1:ident,
+     $zero:ident, $add:ident, $sub:ident, $mul:ident, $fma:ident, $exp:ident,
+     $([$($g:literal)+])+) => {
         /// One row's pairs (see the parent module's `row_impl`, which this mirrors).
         ///
         /// # Safety
@@ -95,14 +96,14 @@ macro_rules! row_kernel {
                     // of stalling the out-of-order window (measured: one pair after the
                     // other ran at ~1.2 instructions per cycle).
                     macro_rules! group {
-                        ($k0:literal $k1:literal $k2:literal $k3:literal) => {{
-                            let ks = [$k0, $k1, $k2, $k3];
+                        ($d($d k:literal)+) => {{
+                            let ks = [$d($d k),+];
                             let qp = ks.map(|k| q[PAIRS[k].1].add((j0 as isize + qoff[k]) as usize));
                             let qap =
                                 ks.map(|k| qa[PAIRS[k].1].add((j0 as isize + qoff[k]) as usize));
-                            let mut e = [$zero(); 4];
+                            let mut e = ks.map(|_| $zero());
                             if CM == CM_FIXED {
-                                for i in 0..4 {
+                                for i in 0..ks.len() {
                                     let dr = $sub(pr, $load(qp[i]));
                                     let dg = $sub(pg, $load(qp[i].add(QW)));
                                     let db = $sub(pb, $load(qp[i].add(2 * QW)));
@@ -110,10 +111,10 @@ macro_rules! row_kernel {
                                     e[i] = $mul(d2, $mul(pc, $load(qp[i].add(V * QW))));
                                 }
                             }
-                            let mut en = [$zero(); 4];
+                            let mut en = ks.map(|_| $zero());
                             for f in 0..NF {
                                 let pf = $load(pa.add((F + f) * QW + j0));
-                                for i in 0..4 {
+                                for i in 0..ks.len() {
                                     let d = $sub(pf, $load(qap[i].add((F + f) * QW)));
                                     if f < normals {
                                         en[i] = $fma(d, d, en[i]);
@@ -122,8 +123,8 @@ macro_rules! row_kernel {
                                     }
                                 }
                             }
-                            let mut t = [$zero(); 4];
-                            for i in 0..4 {
+                            let mut t = ks.map(|_| $zero());
+                            for i in 0..ks.len() {
                                 if NF >= 4 {
                                     e[i] = $fma(en[i], nfac, e[i]);
                                 }
@@ -131,7 +132,7 @@ macro_rules! row_kernel {
                             }
                             let cuts = ks.map(|k| $set1(cut[k]));
                             let wgt = $exp(t, cuts);
-                            for i in 0..4 {
+                            for i in 0..ks.len() {
                                 // Colour is 0 where the validity is, so w·colour needs no
                                 // validity factor (as in the portable kernel).
                                 ar = $fma(wgt[i], $load(qp[i]), ar);
@@ -142,12 +143,10 @@ macro_rules! row_kernel {
                             }
                         }};
                     }
-                    group!(0 1 2 3);
-                    group!(4 5 6 7);
-                    group!(8 9 10 11);
+                    $(group!($($g)+);)+
                     for (k, v) in [ar, ag, ab, aw].into_iter().enumerate() {
                         let at = a0.add(k * QW + j0);
-                        $store(at, $add($load(at), v));
+                        $store(at, if job.top { v } else { $add($load(at), v) });
                     }
                     j0 += L;
                 }
@@ -166,6 +165,7 @@ macro_rules! row_kernel {
                         1 => 2..7,
                         _ => 7..12,
                     };
+                    let first = job.first_writer(dy);
                     let mut jq = job.o_lo;
                     while jq < job.o_hi {
                         let mut s = [$zero(); 4];
@@ -178,7 +178,7 @@ macro_rules! row_kernel {
                         }
                         for (c, sc) in s.into_iter().enumerate() {
                             let at = a.add(c * QW + jq);
-                            $store(at, $add($load(at), sc));
+                            $store(at, if first { sc } else { $add($load(at), sc) });
                         }
                         jq += L;
                     }
@@ -189,7 +189,7 @@ macro_rules! row_kernel {
 }
 
 row_kernel!(
-    row_avx2,
+    $ row_avx2,
     "avx2,fma",
     __m256,
     8,
@@ -201,11 +201,12 @@ row_kernel!(
     _mm256_sub_ps,
     _mm256_mul_ps,
     _mm256_fmadd_ps,
-    exp2_cut_avx2_x4
+    exp2_cut_avx2_xn,
+    [0 1 2 3] [4 5 6 7] [8 9 10 11]
 );
 
 row_kernel!(
-    row_avx512,
+    $ row_avx512,
     "avx512f,avx512vl,avx2,fma",
     __m512,
     16,
@@ -217,5 +218,6 @@ row_kernel!(
     _mm512_sub_ps,
     _mm512_mul_ps,
     _mm512_fmadd_ps,
-    exp2_cut_avx512_x4
+    exp2_cut_avx512_xn,
+    [0 1 2 3] [4 5 6 7] [8 9 10 11]
 );

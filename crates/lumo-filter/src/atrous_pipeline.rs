@@ -118,7 +118,7 @@ thread_local! {
 
 /// A worker's buffers.
 struct Scratch {
-    /// Per level, its accumulator ring (2·step + 1 rows; all zero between tasks).
+    /// Per level, its accumulator ring (2·step + 1 rows; never cleared, see `RowJob::first_writer`).
     acc: Vec<Vec<Acc>>,
     /// Per level, the ring of input rows it reads (2·step + 1 rows): for the first, the
     /// input colour; for the others, the previous level's output.
@@ -211,11 +211,10 @@ impl Task<'_> {
             ring[n].push([0.0; K * QW]);
         }
         for k in 0..n {
-            // New rows are zero; rows are cleared as they are finished (see `band` there).
+            // Never cleared: each kept row's first writer stores (`RowJob::first_writer`).
             if acc[k].len() < rn(k) {
                 acc[k].resize(rn(k), [0.0; AN * QW]);
             }
-            debug_assert!(acc[k].iter().all(|r| r.iter().all(|&v| v == 0.0)));
             if ring[k].len() < rn(k) {
                 ring[k].resize(rn(k), [0.0; K * QW]);
             }
@@ -303,6 +302,7 @@ impl Task<'_> {
                 step: s,
                 color_scale: stages[k].color_scale,
                 normal_factor: stages[k].normal_factor,
+                top: y < s,
             };
             let [a0, a1, a2] = acc[k]
                 .get_disjoint_mut([y % rn(k), (y + s) % rn(k), (y + 2 * s) % rn(k)])
@@ -342,7 +342,6 @@ impl Task<'_> {
                     }
                 }
             }
-            accs.a0.fill(0.0);
             next[k] += 1;
         }
     }

@@ -94,12 +94,12 @@ const C5: f32 = C4 * C1 / 5.0;
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 #[inline]
-pub(crate) fn exp2_cut_avx2_x4(t: [__m256; 4], cut: [__m256; 4]) -> [__m256; 4] {
+pub(crate) fn exp2_cut_avx2_xn<const N: usize>(t: [__m256; N], cut: [__m256; N]) -> [__m256; N] {
     const MAGIC: f32 = 12_582_912.0;
     let magic = _mm256_set1_ps(MAGIC);
-    let tc: [__m256; 4] = std::array::from_fn(|i| _mm256_max_ps(t[i], cut[i]));
+    let tc: [__m256; N] = std::array::from_fn(|i| _mm256_max_ps(t[i], cut[i]));
     let r = tc.map(|x| _mm256_add_ps(x, magic));
-    let f: [__m256; 4] = std::array::from_fn(|i| _mm256_sub_ps(tc[i], _mm256_sub_ps(r[i], magic)));
+    let f: [__m256; N] = std::array::from_fn(|i| _mm256_sub_ps(tc[i], _mm256_sub_ps(r[i], magic)));
     let mut p = f.map(|f| _mm256_fmadd_ps(f, _mm256_set1_ps(C5), _mm256_set1_ps(C4)));
     for c in [C3, C2, C1, 1.0] {
         let c = _mm256_set1_ps(c);
@@ -116,15 +116,15 @@ pub(crate) fn exp2_cut_avx2_x4(t: [__m256; 4], cut: [__m256; 4]) -> [__m256; 4] 
 /// [`exp2_cut`] of four 16-lane vectors with AVX-512's round-to-integer and scale
 /// instructions: the same polynomial on the same reduced argument, 6 instructions fewer than
 /// the portable bit manipulation; exactly 0 below `cut` and for NaN, equal to the scalar one
-/// within 1e-6. Interleaved as [`exp2_cut_avx2_x4`].
+/// within 1e-6. Interleaved as [`exp2_cut_avx2_xn`].
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
 #[inline]
-pub(crate) fn exp2_cut_avx512_x4(t: [__m512; 4], cut: [__m512; 4]) -> [__m512; 4] {
-    let keep: [__mmask16; 4] =
+pub(crate) fn exp2_cut_avx512_xn<const N: usize>(t: [__m512; N], cut: [__m512; N]) -> [__m512; N] {
+    let keep: [__mmask16; N] =
         std::array::from_fn(|i| _mm512_cmp_ps_mask::<_CMP_GE_OQ>(t[i], cut[i]));
     let r = t.map(|x| _mm512_roundscale_ps::<{ _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC }>(x));
-    let f: [__m512; 4] = std::array::from_fn(|i| _mm512_sub_ps(t[i], r[i]));
+    let f: [__m512; N] = std::array::from_fn(|i| _mm512_sub_ps(t[i], r[i]));
     let mut p = f.map(|f| _mm512_fmadd_ps(f, _mm512_set1_ps(C5), _mm512_set1_ps(C4)));
     for c in [C3, C2, C1, 1.0] {
         let c = _mm512_set1_ps(c);
@@ -205,7 +205,7 @@ mod tests {
                     for h in 0..2 {
                         let t =
                             std::array::from_fn(|i| _mm256_loadu_ps(c[32 * h + 8 * i..].as_ptr()));
-                        let v = exp2_cut_avx2_x4(t, [_mm256_set1_ps(cut); 4]);
+                        let v = exp2_cut_avx2_xn(t, [_mm256_set1_ps(cut); 4]);
                         for (i, v) in v.into_iter().enumerate() {
                             _mm256_storeu_ps(got[32 * h + 8 * i..].as_mut_ptr(), v);
                         }
@@ -219,7 +219,7 @@ mod tests {
                 // SAFETY: AVX-512F was detected above; 4·16 floats read and written.
                 unsafe {
                     let t = std::array::from_fn(|i| _mm512_loadu_ps(c[16 * i..].as_ptr()));
-                    let v = exp2_cut_avx512_x4(t, [_mm512_set1_ps(cut); 4]);
+                    let v = exp2_cut_avx512_xn(t, [_mm512_set1_ps(cut); 4]);
                     for (i, v) in v.into_iter().enumerate() {
                         _mm512_storeu_ps(got[16 * i..].as_mut_ptr(), v);
                     }
