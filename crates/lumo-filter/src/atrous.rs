@@ -8,7 +8,7 @@ use crate::atrous_input::{
     feature_count, fill_all, fill_block, input_stats, output, output_row, FillScales, Input,
 };
 use crate::atrous_kernel::{self, Isa, Level, Path, CM_FIXED, CM_NONE, CM_VARIANCE, K, KA};
-use crate::atrous_layout::{Layout, SharedBuf, CW, M, QW};
+use crate::atrous_layout::{Layout, SharedBuf, M, QW};
 use crate::atrous_pairs;
 use crate::atrous_pipeline::{self, Stage};
 use crate::error::param;
@@ -464,7 +464,7 @@ fn inverse_sigma(
     eps: f32,
 ) -> f32 {
     const G: [f32; 3] = [0.25, 0.5, 0.25];
-    let x = (c * CW + j) as isize - M as isize;
+    let x = (lay.strip(c).0 + j) as isize - M as isize;
     let (mut s, mut k) = (0.0f32, 0.0f32);
     for (dy, gy) in G.iter().enumerate() {
         let yy = y as isize + dy as isize - 1;

@@ -13,7 +13,7 @@
 
 use crate::atrous::B3;
 use crate::atrous_fused::{block_fused, MAX_STEP};
-use crate::atrous_layout::{Layout, CW, M, QW};
+use crate::atrous_layout::{Layout, M, QW};
 use crate::fastmath::{exp2_cut, mul_add, EXP_CUTOFF};
 
 /// Source planes per block: r, g, b, validity, variance.
@@ -259,13 +259,13 @@ fn block_taps<const NF: usize, const CM: u8, const VAR: bool>(
             // Split where the taps cross into the next strip.
             let mut xa = lo;
             while xa < hi {
-                let cq = xa / CW;
-                let xb = hi.min((cq + 1) * CW);
+                let cq = xa / lay.sw;
+                let xb = hi.min((cq + 1) * lay.sw);
                 let qrow = &l.src[lay.block(cq, yy, K)..][..K * QW];
                 let qaux = &l.aux[lay.block(cq, yy, KA)..][..KA * QW];
                 let t = Tap {
                     x0: M + (xa as isize - off) as usize - sx0,
-                    q0: M + xa - cq * CW,
+                    q0: M + xa - cq * lay.sw,
                     len: xb - xa,
                     c0,
                     cut,

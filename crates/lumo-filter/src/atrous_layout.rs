@@ -27,15 +27,22 @@ pub(crate) struct Layout {
     pub h: usize,
     /// Number of strips.
     pub nch: usize,
+    /// Columns per strip (the last may have fewer): the fewest strips of at most [`CW`]
+    /// columns, of equal width rounded up to 16. Equal strips keep the threads equally busy
+    /// (1920 columns: 4 × 480 rather than 3 × 512 + 384, where two threads got 1024 and 896
+    /// columns).
+    pub sw: usize,
 }
 
 impl Layout {
     /// The layout of a `w`×`h` image.
     pub fn new(w: usize, h: usize) -> Layout {
+        let nch = w.div_ceil(CW).max(1);
         Layout {
             w,
             h,
-            nch: w.div_ceil(CW),
+            nch,
+            sw: w.div_ceil(nch).next_multiple_of(16).min(CW),
         }
     }
 
@@ -56,13 +63,14 @@ impl Layout {
 
     /// Image columns of strip `c` (its first column and how many).
     pub fn strip(&self, c: usize) -> (usize, usize) {
-        let x0 = c * CW;
-        (x0, (self.w - x0).min(CW))
+        let x0 = c * self.sw;
+        (x0, (self.w - x0).min(self.sw))
     }
 
     /// Copies every block's margins from its neighbours' strip columns, rows in parallel.
     /// Margins beyond the image are never written, nor are a last strip's columns beyond the
-    /// image (the kernels write 0 there).
+    /// image (the kernels write 0 there). With strips narrower than [`CW`], a block's columns
+    /// beyond its right margin are never read.
     /// `planes`: planes per block; the first `copy` of them are copied.
     pub fn fill_margins(&self, buf: &mut [f32], planes: usize, copy: usize) {
         if self.nch < 2 {
@@ -74,20 +82,25 @@ impl Layout {
         );
         let base = SharedBuf(buf.as_mut_ptr());
         let lay = *self;
+        assert!(
+            M <= lay.sw && lay.sw + 2 * M <= QW,
+            "strip width out of range"
+        );
         (0..self.h).into_par_iter().for_each(|y| {
             let base = &base;
             for c in 0..lay.nch {
                 for k in 0..copy.min(planes) {
                     let at = |cc: usize| lay.block(cc, y, planes) + k * QW;
-                    // SAFETY: all offsets are inside `buf` (checked size above). Row y's task
-                    // writes only the margin columns [0, M) and [M + CW, QW) of row y's blocks
-                    // and reads only their strip columns [M, M + CW), so no two tasks touch
-                    // the same float and no float is both read and written.
+                    // SAFETY: all offsets are inside `buf` (checked size above; M ≤ sw and
+                    // sw + 2·M ≤ QW). Row y's task writes only the margin columns [0, M) and
+                    // [M + sw, 2·M + sw) of row y's blocks and reads only their strip columns
+                    // [M, M + sw), so no two tasks touch the same float and no float is both
+                    // read and written.
                     unsafe {
                         if c > 0 {
-                            // Left margin: the last M columns of the previous strip.
+                            // Left margin: the last M columns of the previous (full) strip.
                             std::ptr::copy_nonoverlapping(
-                                base.0.add(at(c - 1) + CW),
+                                base.0.add(at(c - 1) + lay.sw),
                                 base.0.add(at(c)),
                                 M,
                             );
@@ -96,7 +109,7 @@ impl Layout {
                             // Right margin: the first M columns of the next strip.
                             std::ptr::copy_nonoverlapping(
                                 base.0.add(at(c + 1) + M),
-                                base.0.add(at(c) + M + CW),
+                                base.0.add(at(c) + M + lay.sw),
                                 M,
                             );
                         }
@@ -113,3 +126,29 @@ pub(crate) struct SharedBuf(pub(crate) *mut f32);
 // SAFETY: every user hands out disjoint floats to its tasks (see `fill_margins` and
 // `AtrousFilter::levels`).
 unsafe impl Sync for SharedBuf {}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn strips_tile_the_image_in_equal_widths() {
+        for w in [1, 15, 80, 255, 511, 512, 513, 600, 1023, 1024, 1025, 1920, 3840, 4097] {
+            let lay = Layout::new(w, 3);
+            assert_eq!(lay.nch, w.div_ceil(CW), "width {w}");
+            let mut next = 0;
+            for c in 0..lay.nch {
+                let (x0, len) = lay.strip(c);
+                assert_eq!(x0, next, "width {w}, strip {c}");
+                assert!(len > 0 && len <= lay.sw && lay.sw <= CW, "width {w}, strip {c}");
+                if c + 1 < lay.nch {
+                    // Interior strips are full and wide enough to fill a neighbour's margin.
+                    assert!(len == lay.sw && lay.sw >= M, "width {w}, strip {c}");
+                }
+                next += len;
+            }
+            assert_eq!(next, w, "width {w}");
+        }
+        assert_eq!(Layout::new(1920, 1).sw, 480);
+    }
+}
