@@ -8,7 +8,7 @@ use crate::atrous_input::{
     feature_count, fill_all, fill_block, input_stats, output, output_row, FillScales, Input,
 };
 use crate::atrous_kernel::{self, Isa, Level, Path, CM_FIXED, CM_NONE, CM_VARIANCE, K, KA};
-use crate::atrous_layout::{Layout, SharedBuf, M, QW};
+use crate::atrous_layout::{Layout, SharedBuf, CW, M, QW};
 use crate::atrous_pairs;
 use crate::atrous_pipeline::{self, Stage};
 use crate::error::param;
@@ -73,6 +73,11 @@ pub const DEFAULT_SIGMA_POSITION: f32 = 0.1;
 
 /// Keeps variance-guided weights finite where the variance is 0 (relative to mean luminance).
 pub(crate) const VARIANCE_EPS: f32 = 1e-6;
+
+thread_local! {
+    /// Each worker's output row for the level pipeline's `emit` (zeroed once, not per row).
+    static EMIT_ROW: std::cell::RefCell<Vec<f32>> = std::cell::RefCell::new(vec![0.0; 3 * CW]);
+}
 
 /// Filters `color` (3 channels). Missing (NaN/Inf) pixels get weight 0 and are in-painted.
 /// To filter many frames, keep an [`AtrousFilter`]: it reuses its working memory.
@@ -375,20 +380,41 @@ impl AtrousFilter {
                 let fill = |c: usize, y: usize, blk: &mut [f32], ab: &mut [f32]| {
                     fill_block(inp, lay, params.sparse, &scales, c, y, blk, ab);
                 };
-                let mut image = Image::new(lay.w, lay.h, 3, 0.0);
-                let base = SharedBuf(image.data.as_mut_ptr());
+                // The output is written once, row by row, by `emit`: not zeroed first (that
+                // was a full-image memset per call, 25 MB at 1080p).
+                let n = 3 * lay.w * lay.h;
+                let mut data: Vec<f32> = Vec::with_capacity(n);
+                let base = SharedBuf(data.as_mut_ptr());
+                let written = std::sync::atomic::AtomicUsize::new(0);
                 let emit = |c: usize, y: usize, blk: &[f32]| {
                     let base = &base;
                     let (x0, len) = lay.strip(c);
                     let i0 = y * lay.w + x0;
-                    // SAFETY: pixels i0 .. i0 + len of row y lie inside the image, and the
-                    // pipeline emits each (strip, row) once, so no two calls write the same
-                    // pixel and nothing else accesses the image meanwhile.
-                    let o = unsafe { std::slice::from_raw_parts_mut(base.0.add(3 * i0), 3 * len) };
-                    output_row(inp, i0, blk, o);
+                    // Formed in the worker's (cached) row buffer, then copied: no reference to
+                    // the uninitialised output is ever made.
+                    EMIT_ROW.with(|row| {
+                        let mut row = row.borrow_mut();
+                        let o = &mut row[..3 * len];
+                        output_row(inp, i0, blk, o);
+                        // SAFETY: pixels i0 .. i0 + len of row y lie inside the allocation (n
+                        // floats), and the pipeline emits each (strip, row) once, so no two
+                        // calls write the same pixel and nothing reads the buffer meanwhile.
+                        unsafe {
+                            std::ptr::copy_nonoverlapping(o.as_ptr(), base.0.add(3 * i0), 3 * len)
+                        };
+                    });
+                    written.fetch_add(3 * len, std::sync::atomic::Ordering::Relaxed);
                 };
                 atrous_pipeline::run(&level, &stages, band_rows, &fill, &emit);
-                return (image, stats.missing);
+                // Every (strip, row) was emitted once: the strips tile each row.
+                assert_eq!(
+                    written.into_inner(),
+                    n,
+                    "pipeline left output pixels unwritten"
+                );
+                // SAFETY: all n floats were written (counted above) and the capacity is n.
+                unsafe { data.set_len(n) };
+                return (Image::from_vec(lay.w, lay.h, 3, data), stats.missing);
             }
         }
         for (buf, planes) in [(&mut self.src, K), (&mut self.dst, K), (&mut self.aux, KA)] {

@@ -422,14 +422,14 @@ fn extent_run(c: usize, pos: &[f32], bgs: &[f32], lo: &mut [f32; 3], hi: &mut [f
     let mut h = [[f32::NEG_INFINITY; N]; 3];
     let mut add = |t: usize, p: &[f32], bg: f32| {
         for k in 0..3 {
-            // Background pixels (whose positions may be NaN) contribute nothing.
-            let (vl, vh) = if bg == 0.0 {
-                (p[k], p[k])
-            } else {
-                (f32::INFINITY, f32::NEG_INFINITY)
-            };
-            l[k][t] = l[k][t].min(vl);
-            h[k][t] = h[k][t].max(vh);
+            // Background pixels (whose positions may be NaN) contribute nothing; nor does a
+            // NaN coordinate (the comparisons are false). Written as compare-and-select, not
+            // `f32::min`, whose NaN rule compiled to a scalar branchy loop; `vminps` is this.
+            let keep = bg == 0.0;
+            let vl = if keep { p[k] } else { f32::INFINITY };
+            let vh = if keep { p[k] } else { f32::NEG_INFINITY };
+            l[k][t] = if vl < l[k][t] { vl } else { l[k][t] };
+            h[k][t] = if vh > h[k][t] { vh } else { h[k][t] };
         }
     };
     let full = bgs.len() / N * N;

@@ -133,14 +133,19 @@ mod tests {
 
     #[test]
     fn strips_tile_the_image_in_equal_widths() {
-        for w in [1, 15, 80, 255, 511, 512, 513, 600, 1023, 1024, 1025, 1920, 3840, 4097] {
+        for w in [
+            1, 15, 80, 255, 511, 512, 513, 600, 1023, 1024, 1025, 1920, 3840, 4097,
+        ] {
             let lay = Layout::new(w, 3);
             assert_eq!(lay.nch, w.div_ceil(CW), "width {w}");
             let mut next = 0;
             for c in 0..lay.nch {
                 let (x0, len) = lay.strip(c);
                 assert_eq!(x0, next, "width {w}, strip {c}");
-                assert!(len > 0 && len <= lay.sw && lay.sw <= CW, "width {w}, strip {c}");
+                assert!(
+                    len > 0 && len <= lay.sw && lay.sw <= CW,
+                    "width {w}, strip {c}"
+                );
                 if c + 1 < lay.nch {
                     // Interior strips are full and wide enough to fill a neighbour's margin.
                     assert!(len == lay.sw && lay.sw >= M, "width {w}, strip {c}");
