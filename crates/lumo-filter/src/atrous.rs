@@ -347,9 +347,9 @@ impl AtrousFilter {
         // (docs/filter-benchmarks.md).
         let threads = rayon::current_num_threads().max(1);
         let halo: usize = stages.iter().map(|s| 2 * s.step).sum();
-        let band_rows = lay.h.div_ceil(threads.div_ceil(lay.nch));
+        let auto_band_rows = lay.h.div_ceil(threads.div_ceil(lay.nch));
         let piped = match path {
-            Path::Auto if lay.nch >= threads || band_rows >= halo => Some(None),
+            Path::Auto if lay.nch >= threads || auto_band_rows >= halo => Some(None),
             Path::Bands(rows) => Some(Some(rows)),
             _ => None,
         };

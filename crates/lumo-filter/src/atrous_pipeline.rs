@@ -138,8 +138,8 @@ struct Scratch {
 pub(crate) fn run(l: &Level, stages: &[Stage], band_rows: Option<usize>, fill: &Fill, emit: &Emit) {
     let lay = l.lay;
     // One band per strip when there are strips enough to keep the threads busy (the halo
-    // then only costs columns; `atrous` only picks the pipeline then); else as many bands per
-    // strip as threads.
+    // then only costs columns); else enough bands per strip for every thread (`atrous` picks
+    // the pipeline then only where those bands are at least as tall as their halo).
     let threads = rayon::current_num_threads().max(1);
     let bands = threads.div_ceil(lay.nch).max(1);
     let band_rows = band_rows.unwrap_or(lay.h.div_ceil(bands)).max(1);
