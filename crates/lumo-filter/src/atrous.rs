@@ -338,18 +338,8 @@ impl AtrousFilter {
                 }
             })
             .collect();
-        // Automatically where one band per strip keeps every thread busy, or where the bands
-        // that do are at least as tall as the halo every band recomputes (Σ 2·step rows per
-        // level boundary, see atrous_pipeline.rs). Level by level, each level streams the
-        // whole padded image through memory; on a CPU with 512 KiB of L2 per core (AMD Zen 3)
-        // that cost more than the halo: 512², two threads, two bands: 37 → 28 ms. Shorter
-        // bands (512×64: 32-row bands for a 62-row halo) were faster level by level
-        // (docs/filter-benchmarks.md).
-        let threads = rayon::current_num_threads().max(1);
-        let halo: usize = stages.iter().map(|s| 2 * s.step).sum();
-        let auto_band_rows = lay.h.div_ceil(threads.div_ceil(lay.nch));
         let piped = match path {
-            Path::Auto if lay.nch >= threads || auto_band_rows >= halo => Some(None),
+            Path::Auto if atrous_pipeline::pays_off(lay, &stages) => Some(None),
             Path::Bands(rows) => Some(Some(rows)),
             _ => None,
         };

@@ -56,6 +56,30 @@ pub(crate) fn supports(stages: &[Stage], nf: usize, lay: Layout) -> bool {
         && (0..lay.nch).all(|c| columns(lay, c, stages).is_some())
 }
 
+/// Whether `Path::Auto` should run `stages` as a pipeline (where [`supports`] it): where one
+/// band per strip keeps every thread busy, or where the bands that do are at least as tall as
+/// the halo each recomputes ([`halo_rows`]). Level by level, each level streams the whole
+/// padded image through memory; on a CPU with 512 KiB of L2 per core (AMD Zen 3) that cost
+/// more than the halo (512², two threads, two bands: 37 → 28 ms), while shorter bands (512×64:
+/// 32-row bands for a 62-row halo) were faster level by level (docs/filter-benchmarks.md).
+pub(crate) fn pays_off(lay: Layout, stages: &[Stage]) -> bool {
+    lay.nch >= rayon::current_num_threads().max(1) || auto_band_rows(lay) >= halo_rows(stages)
+}
+
+/// Rows per task where the caller does not choose: one band per strip when there are strips
+/// enough to keep the threads busy (the halo then only costs columns), else enough bands per
+/// strip for every thread.
+fn auto_band_rows(lay: Layout) -> usize {
+    let bands = rayon::current_num_threads().max(1).div_ceil(lay.nch).max(1);
+    lay.h.div_ceil(bands).max(1)
+}
+
+/// The rows above its first kept row that a task's first level sweeps: Σ 2·step over the
+/// levels (each level lags the one before by its 2·step).
+fn halo_rows(stages: &[Stage]) -> usize {
+    stages.iter().map(|s| 2 * s.step).sum()
+}
+
 /// The columns (block coordinates) one level of one strip keeps and sweeps.
 #[derive(Clone, Copy, Debug, Default)]
 struct Cols {
@@ -118,7 +142,8 @@ thread_local! {
 
 /// A worker's buffers.
 struct Scratch {
-    /// Per level, its accumulator ring (2·step + 1 rows; never cleared, see `RowJob::first_writer`).
+    /// Per level, its accumulator ring (2·step + 1 rows; never cleared, see
+    /// `RowJob::first_writer`).
     acc: Vec<Vec<Acc>>,
     /// Per level, the ring of input rows it reads (2·step + 1 rows): for the first, the
     /// input colour; for the others, the previous level's output.
@@ -137,12 +162,7 @@ struct Scratch {
 /// here).
 pub(crate) fn run(l: &Level, stages: &[Stage], band_rows: Option<usize>, fill: &Fill, emit: &Emit) {
     let lay = l.lay;
-    // One band per strip when there are strips enough to keep the threads busy (the halo
-    // then only costs columns); else enough bands per strip for every thread (`atrous` picks
-    // the pipeline then only where those bands are at least as tall as their halo).
-    let threads = rayon::current_num_threads().max(1);
-    let bands = threads.div_ceil(lay.nch).max(1);
-    let band_rows = band_rows.unwrap_or(lay.h.div_ceil(bands)).max(1);
+    let band_rows = band_rows.unwrap_or(auto_band_rows(lay)).max(1);
     (0..lay.nch).into_par_iter().for_each(|c| {
         let cols = columns(lay, c, stages).expect("checked by `supports`");
         (0..lay.h.div_ceil(band_rows))
@@ -196,7 +216,7 @@ impl Task<'_> {
         } = scratch;
         // Feature rows live from the last level's next row to 2·step_0 below the first level's:
         // the levels lag each other by at most 2·step (see the scheduling below).
-        let fr = stages.iter().map(|s| 2 * s.step).sum::<usize>() + 2;
+        let fr = halo_rows(stages) + 2;
         if feat.len() < fr {
             feat.resize(fr, [0.0; KA * QW]);
         }
