@@ -228,7 +228,7 @@ fn level_aux(
         let (x0, len) = lay.strip(c);
         let s = &src[lay.block(c, y, K)..][..K * QW];
         let ja = M.saturating_sub(x0);
-        let jb = (lay.w + M - x0).min(QW);
+        let jb = (lay.w + M - x0).min(lay.span());
         let (cp, rest) = a.split_at_mut(QW);
         let (lum, fa) = rest.split_at_mut(QW);
         let valid = &s[3 * QW..4 * QW];
@@ -250,8 +250,10 @@ fn level_aux(
             _ => {}
         }
         if let Some(r) = rescale {
-            for v in &mut fa[..3 * QW] {
-                *v *= r;
+            for k in 0..3 {
+                for v in &mut fa[k * QW..k * QW + lay.span()] {
+                    *v *= r;
+                }
             }
         }
     });
@@ -343,13 +345,6 @@ impl AtrousFilter {
             Path::Bands(rows) => Some(Some(rows)),
             _ => None,
         };
-        // Contents are overwritten (by the input passes and the kernels); only growth
-        // allocates (zeroed by the OS: no pass over the memory until it is used).
-        let grow = |buf: &mut Vec<f32>, planes: usize| {
-            if buf.len() < lay.size(planes) {
-                *buf = vec![0.0; lay.size(planes)];
-            }
-        };
         if let Some(band_rows) = piped {
             if !var_mode && atrous_pipeline::supports(&stages, nf, lay) {
                 // The pipeline reads the inputs row by row and writes the output image row
@@ -408,7 +403,11 @@ impl AtrousFilter {
             }
         }
         for (buf, planes) in [(&mut self.src, K), (&mut self.dst, K), (&mut self.aux, KA)] {
-            grow(buf, planes);
+            // Contents are overwritten (by the input passes and the kernels); only growth
+            // allocates (zeroed by the OS: no pass over the memory until it is used).
+            if buf.len() < lay.size(planes) {
+                *buf = vec![0.0; lay.size(planes)];
+            }
         }
         let mut src = &mut self.src[..lay.size(K)];
         let mut dst = &mut self.dst[..lay.size(K)];

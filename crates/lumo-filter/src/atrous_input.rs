@@ -480,13 +480,15 @@ multiversion! {
         let w = lay.w;
         let (x0, _) = lay.strip(c);
         let ja = M.saturating_sub(x0);
-        let jb = (w + M - x0).min(QW);
+        let span = lay.span();
+        let jb = (w + M - x0).min(span);
         // Columns beyond the image hold 0 (validity 0: taps there add nothing); the rest of
-        // every plane in use is written here or per level.
+        // every plane in use is written here or per level. Columns beyond the span are not
+        // read.
         for (planes, buf) in [(K, &mut *blk), (KA, &mut *ab)] {
             for k in 0..planes {
                 buf[k * QW..k * QW + ja].fill(0.0);
-                buf[k * QW + jb..(k + 1) * QW].fill(0.0);
+                buf[k * QW + jb..k * QW + span].fill(0.0);
             }
         }
         if ja >= jb {

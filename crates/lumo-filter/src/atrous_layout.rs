@@ -46,6 +46,13 @@ impl Layout {
         }
     }
 
+    /// Floats of each sub-row in use: the strip's columns and both margins. Columns beyond
+    /// (there are some where strips are narrower than [`CW`]) are never read or written, so
+    /// nothing converts or zeroes them.
+    pub fn span(&self) -> usize {
+        self.sw + 2 * M
+    }
+
     /// Floats in a buffer of `planes` planes.
     pub fn size(&self, planes: usize) -> usize {
         self.nch * self.h * planes * QW
@@ -118,6 +125,24 @@ impl Layout {
             }
         });
     }
+}
+
+/// A value aligned to a cache line. Block rows stored in one start every plane's sub-row on
+/// a 64-byte boundary (`QW` floats are a whole number of lines), so the kernels' 16-float
+/// loads at multiples of 16 columns do not straddle two lines, as they did in rows that
+/// `malloc` placed 16 bytes past a page boundary.
+#[derive(Clone, Copy)]
+#[repr(C, align(64))]
+pub(crate) struct Aligned<T>(pub T);
+
+const _: () = assert!((QW * 4).is_multiple_of(64));
+
+/// Rows of [`QW`] floats, each on a cache line boundary, as one flat slice of floats.
+pub(crate) fn flat_rows(rows: &mut [Aligned<[f32; QW]>]) -> &mut [f32] {
+    const { assert!(std::mem::size_of::<Aligned<[f32; QW]>>() == QW * 4) };
+    // SAFETY: `Aligned<[f32; QW]>` is `repr(C)` with no padding (size checked above), so the
+    // rows are `rows.len() · QW` contiguous, initialised floats, borrowed mutably here.
+    unsafe { std::slice::from_raw_parts_mut(rows.as_mut_ptr().cast::<f32>(), rows.len() * QW) }
 }
 
 /// A float buffer shared between parallel tasks that each write their own disjoint floats

@@ -34,7 +34,7 @@ use crate::atrous::B3;
 use crate::atrous_kernel::{
     normalise, AuxBlock, Isa, Level, SrcBlock, CM_FIXED, CM_NONE, CM_VARIANCE, K, KA,
 };
-use crate::atrous_layout::{CW, M, QW};
+use crate::atrous_layout::{flat_rows, Aligned, CW, M, QW};
 use crate::fastmath::{exp2_cut, mul_add, EXP_CUTOFF};
 
 #[path = "atrous_pairs_simd.rs"]
@@ -92,10 +92,10 @@ thread_local! {
 
 /// A worker's buffers: the accumulator ring and one row of pair weights.
 struct Scratch {
-    ring: Vec<Acc>,
+    ring: Vec<Aligned<Acc>>,
     /// The 12 pair weights of the row being swept, [`QW`] columns each: the scatter half of
     /// the pairs is added from here in a second pass over the row (see [`scatter`]).
-    weights: Vec<f32>,
+    weights: Vec<Aligned<[f32; QW]>>,
 }
 
 /// One level over the whole image into `dst` (K planes per block; margins left 0).
@@ -160,15 +160,15 @@ fn band(l: &Level, c: usize, a: usize, b: usize, out: &mut [f32], scratch: &mut 
     let Scratch { ring, weights } = scratch;
     // Zeroed once; only ever overwritten with weights in [0, 1], so a stale one times the
     // zero colour of a column outside the swept range adds exactly 0 (see [`scatter`]).
-    if weights.len() < PAIRS.len() * QW {
-        weights.resize(PAIRS.len() * QW, 0.0);
+    if weights.len() < PAIRS.len() {
+        weights.resize(PAIRS.len(), Aligned([0.0; QW]));
     }
     let lay = l.lay;
     let s = l.step;
     let rn = 2 * s + 1;
     // Never cleared: each kept row's first writer stores (see [`RowJob::first_writer`]).
     if ring.len() < rn {
-        ring.resize(rn, [0.0; AN * QW]);
+        ring.resize(rn, Aligned([0.0; AN * QW]));
     }
     let (_, len) = lay.strip(c);
     // Swept columns: the strip, plus 2·step into a neighbouring strip (whose pixels scatter
@@ -206,7 +206,7 @@ fn band(l: &Level, c: usize, a: usize, b: usize, out: &mut [f32], scratch: &mut 
             if yq < lay.h {
                 src(yq)
             } else {
-                &ZERO_SRC
+                &ZERO_SRC.0
             }
         };
         let q_aux = |dy: usize| {
@@ -214,7 +214,7 @@ fn band(l: &Level, c: usize, a: usize, b: usize, out: &mut [f32], scratch: &mut 
             if yq < lay.h {
                 aux(yq)
             } else {
-                &ZERO_AUX
+                &ZERO_AUX.0
             }
         };
         let [a0, a1, a2] = ring
@@ -229,10 +229,10 @@ fn band(l: &Level, c: usize, a: usize, b: usize, out: &mut [f32], scratch: &mut 
             qa2: q_aux(2),
         };
         let mut acc = Accs {
-            a0,
-            a1,
-            a2,
-            w: weights,
+            a0: &mut a0.0,
+            a1: &mut a1.0,
+            a2: &mut a2.0,
+            w: flat_rows(weights),
         };
         row(l, &rows, &mut acc, job);
         if own {
@@ -242,7 +242,7 @@ fn band(l: &Level, c: usize, a: usize, b: usize, out: &mut [f32], scratch: &mut 
             // as it is: no pair level carries or reads it.)
             for k in 0..4 {
                 d[k * QW..k * QW + M].fill(0.0);
-                d[k * QW + M + len..(k + 1) * QW].fill(0.0);
+                d[k * QW + M + len..k * QW + lay.span()].fill(0.0);
             }
             normalise::<false>(&acc.a0[..], QW, M, d, M, len);
         }
@@ -252,9 +252,9 @@ fn band(l: &Level, c: usize, a: usize, b: usize, out: &mut [f32], scratch: &mut 
 }
 
 /// The block read for rows below the image.
-pub(crate) static ZERO_SRC: SrcBlock = [0.0; K * QW];
+pub(crate) static ZERO_SRC: Aligned<SrcBlock> = Aligned([0.0; K * QW]);
 /// The aux block read for rows below the image.
-pub(crate) static ZERO_AUX: AuxBlock = [0.0; KA * QW];
+pub(crate) static ZERO_AUX: Aligned<AuxBlock> = Aligned([0.0; KA * QW]);
 
 /// The source and aux blocks of a row and of the rows one and two steps below it.
 pub(crate) struct Rows<'a> {

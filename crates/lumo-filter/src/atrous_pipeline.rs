@@ -23,7 +23,7 @@ use std::cell::RefCell;
 use rayon::prelude::*;
 
 use crate::atrous_kernel::{normalise, AuxBlock, Level, SrcBlock, K, KA};
-use crate::atrous_layout::{Layout, M, QW};
+use crate::atrous_layout::{flat_rows, Aligned, Layout, M, QW};
 use crate::atrous_pairs::{self, Acc, Accs, RowJob, Rows, AN, CHUNK, PAIRS, ZERO_AUX, ZERO_SRC};
 
 /// Most levels a pipeline runs (steps 1..16: the pair path's limit).
@@ -94,7 +94,7 @@ struct Cols {
 }
 
 /// Each level's columns for strip `c`, or `None` if some sweep would read outside the
-/// block (more levels or wider steps than the margins hold).
+/// block's span (more levels or wider steps than the margins hold).
 fn columns(lay: Layout, c: usize, stages: &[Stage]) -> Option<[Cols; MAX_LEVELS]> {
     let (x0, len) = lay.strip(c);
     // The image's columns in block coordinates (may start before the block).
@@ -114,7 +114,8 @@ fn columns(lay: Layout, c: usize, stages: &[Stage]) -> Option<[Cols; MAX_LEVELS]
         let j_hi = (hi + s + ch - 1).div_euclid(ch) * ch;
         // The kernel reads 2·step either side of the sweep; the scatter writes the output
         // columns rounded up to a whole vector and reads 2·step beyond.
-        if j_lo < s || j_hi + s > QW as isize || hi + ch + s > QW as isize {
+        let span = lay.span() as isize;
+        if j_lo < s || j_hi + s > span || hi + ch + s > span {
             return None;
         }
         cols[k] = Cols {
@@ -144,14 +145,14 @@ thread_local! {
 struct Scratch {
     /// Per level, its accumulator ring (2·step + 1 rows; never cleared, see
     /// `RowJob::first_writer`).
-    acc: Vec<Vec<Acc>>,
+    acc: Vec<Vec<Aligned<Acc>>>,
     /// Per level, the ring of input rows it reads (2·step + 1 rows): for the first, the
     /// input colour; for the others, the previous level's output.
-    rows: Vec<Vec<SrcBlock>>,
+    rows: Vec<Vec<Aligned<SrcBlock>>>,
     /// The ring of feature rows (all levels read them).
-    feat: Vec<AuxBlock>,
+    feat: Vec<Aligned<AuxBlock>>,
     /// One row of the 12 pair weights (see atrous_pairs.rs).
-    weights: Vec<f32>,
+    weights: Vec<Aligned<[f32; QW]>>,
 }
 
 /// Every level over the whole image; each row of the last level's result (a source block:
@@ -218,25 +219,25 @@ impl Task<'_> {
         // the levels lag each other by at most 2·step (see the scheduling below).
         let fr = halo_rows(stages) + 2;
         if feat.len() < fr {
-            feat.resize(fr, [0.0; KA * QW]);
+            feat.resize(fr, Aligned([0.0; KA * QW]));
         }
         // Zeroed once; only ever overwritten with weights in [0, 1] (see atrous_pairs.rs).
-        if weights.len() < PAIRS.len() * QW {
-            weights.resize(PAIRS.len() * QW, 0.0);
+        if weights.len() < PAIRS.len() {
+            weights.resize(PAIRS.len(), Aligned([0.0; QW]));
         }
         acc.resize_with(acc.len().max(n), Vec::new);
         // One ring per level, and one more: the last level's output row, handed to `emit`.
         ring.resize_with(ring.len().max(n + 1), Vec::new);
         if ring[n].is_empty() {
-            ring[n].push([0.0; K * QW]);
+            ring[n].push(Aligned([0.0; K * QW]));
         }
         for k in 0..n {
             // Never cleared: each kept row's first writer stores (`RowJob::first_writer`).
             if acc[k].len() < rn(k) {
-                acc[k].resize(rn(k), [0.0; AN * QW]);
+                acc[k].resize(rn(k), Aligned([0.0; AN * QW]));
             }
             if ring[k].len() < rn(k) {
-                ring[k].resize(rn(k), [0.0; K * QW]);
+                ring[k].resize(rn(k), Aligned([0.0; K * QW]));
             }
         }
         // Output rows of each level: what the next level reads, clipped to the image.
@@ -290,8 +291,8 @@ impl Task<'_> {
                     fill(
                         c,
                         filled,
-                        &mut ring[0][filled % rn(0)],
-                        &mut feat[filled % fr],
+                        &mut ring[0][filled % rn(0)].0,
+                        &mut feat[filled % fr].0,
                     );
                     filled += 1;
                 }
@@ -299,16 +300,16 @@ impl Task<'_> {
             let (inp, outp) = ring.split_at_mut(k + 1);
             let src = |yq: usize| -> &SrcBlock {
                 if yq >= h {
-                    &ZERO_SRC
+                    &ZERO_SRC.0
                 } else {
-                    &inp[k][yq % rn(k)]
+                    &inp[k][yq % rn(k)].0
                 }
             };
             let aux = |yq: usize| {
                 if yq >= h {
-                    &ZERO_AUX
+                    &ZERO_AUX.0
                 } else {
-                    &feat[yq % fr]
+                    &feat[yq % fr].0
                 }
             };
             let kept = |yq: usize| yq >= o_lo[k] && yq < o_hi[k];
@@ -336,15 +337,15 @@ impl Task<'_> {
                 qa2: aux(y + 2 * s),
             };
             let mut accs = Accs {
-                a0,
-                a1,
-                a2,
-                w: weights,
+                a0: &mut a0.0,
+                a1: &mut a1.0,
+                a2: &mut a2.0,
+                w: flat_rows(weights),
             };
             atrous_pairs::row(&levels[k], &r, &mut accs, job);
             if kept(y) {
                 if k + 1 == n {
-                    let d = &mut outp[0][0];
+                    let d = &mut outp[0][0].0;
                     let len = cl.o_hi - cl.o_lo;
                     normalise::<false>(&accs.a0[..], QW, cl.o_lo, d, cl.o_lo, len);
                     emit(c, y, d);
@@ -352,13 +353,13 @@ impl Task<'_> {
                     // The slot's previous row must have been read for the last time.
                     let next_rn = rn(k + 1);
                     assert!(y < next[k + 1] + next_rn, "pipeline ring overrun");
-                    let d = &mut outp[0][y % next_rn];
+                    let d = &mut outp[0][y % next_rn].0;
                     normalise::<false>(&accs.a0[..], QW, cl.o_lo, d, cl.o_lo, cl.o_hi - cl.o_lo);
                     // Columns beyond the output: 0, so that those beyond the image have no
                     // colour or validity (the rest are read only for sums nobody keeps).
                     for p in 0..4 {
                         d[p * QW..p * QW + cl.o_lo].fill(0.0);
-                        d[p * QW + cl.o_hi..(p + 1) * QW].fill(0.0);
+                        d[p * QW + cl.o_hi..p * QW + lay.span()].fill(0.0);
                     }
                 }
             }
