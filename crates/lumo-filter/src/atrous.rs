@@ -342,10 +342,10 @@ impl AtrousFilter {
             .collect();
         let piped = match path {
             Path::Auto if atrous_pipeline::pays_off(lay, &stages) => Some(None),
-            Path::Bands(rows) => Some(Some(rows)),
+            Path::Bands(rows, groups) => Some(Some((rows, groups))),
             _ => None,
         };
-        if let Some(band_rows) = piped {
+        if let Some(split) = piped {
             if !var_mode && atrous_pipeline::supports(&stages, nf, lay) {
                 // The pipeline reads the inputs row by row and writes the output image row
                 // by row itself: no full-image working buffers.
@@ -390,7 +390,7 @@ impl AtrousFilter {
                     });
                     written.fetch_add(3 * len, std::sync::atomic::Ordering::Relaxed);
                 };
-                atrous_pipeline::run(&level, &stages, band_rows, &fill, &emit);
+                atrous_pipeline::run(&level, &stages, split, &fill, &emit);
                 // Every (strip, row) was emitted once: the strips tile each row.
                 assert_eq!(
                     written.into_inner(),
@@ -424,7 +424,7 @@ impl AtrousFilter {
                 sigma: sigma_l * ml,
                 eps: VARIANCE_EPS * ml,
             };
-            let pairs = matches!(path, Path::Auto | Path::Pairs | Path::Bands(_))
+            let pairs = matches!(path, Path::Auto | Path::Pairs | Path::Bands(..))
                 && atrous_pairs::supports(step, var_mode, cm, nf);
             // The normal coordinates' scale relative to level 0 should be 1/step. The pair
             // path applies the factor to the squared distance instead of rescaling the

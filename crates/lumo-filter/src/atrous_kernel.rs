@@ -52,9 +52,10 @@ pub(crate) enum Path {
     /// Pairs level by level where the level allows (never the pipeline).
     #[cfg_attr(not(test), allow(dead_code))] // tests compare the paths
     Pairs,
-    /// The pipeline with this many rows per task (as `Auto` where it cannot run).
+    /// The pipeline with this many rows per task and groups of strips (as `Auto` where it
+    /// cannot run).
     #[cfg_attr(not(test), allow(dead_code))] // tests compare band splits
-    Bands(usize),
+    Bands(usize, usize),
     /// Fused where the step allows, else per tap (never pairs).
     #[cfg_attr(not(test), allow(dead_code))] // tests compare the paths
     Fused,

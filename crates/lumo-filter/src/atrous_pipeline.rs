@@ -53,25 +53,28 @@ pub(crate) fn supports(stages: &[Stage], nf: usize, lay: Layout) -> bool {
         && stages
             .iter()
             .all(|s| atrous_pairs::supports(s.step, false, s.cm, nf))
-        && (0..lay.nch).all(|c| columns(lay, c, stages).is_some())
+        && (0..lay.nch).all(|c| columns(lay, c, c..c + 1, stages).is_some())
 }
 
 /// Whether `Path::Auto` should run `stages` as a pipeline (where [`supports`] it): where one
-/// band per strip keeps every thread busy, or where the bands that do are at least as tall as
-/// the halo each recomputes ([`halo_rows`]). Level by level, each level streams the whole
-/// padded image through memory; on a CPU with 512 KiB of L2 per core (AMD Zen 3) that cost
-/// more than the halo (512², two threads, two bands: 37 → 28 ms), while shorter bands (512×64:
-/// 32-row bands for a 62-row halo) were faster level by level (docs/filter-benchmarks.md).
+/// band per group of strips keeps every thread busy, or where the bands that do are at least
+/// as tall as the halo each recomputes ([`halo_rows`]). Level by level, each level streams the
+/// whole padded image through memory; on a CPU with 512 KiB of L2 per core (AMD Zen 3) that
+/// cost more than the halo (512², two threads, two bands: 37 → 28 ms), while shorter bands
+/// (512×64: 32-row bands for a 62-row halo) were faster level by level
+/// (docs/filter-benchmarks.md).
 pub(crate) fn pays_off(lay: Layout, stages: &[Stage]) -> bool {
-    lay.nch >= rayon::current_num_threads().max(1) || auto_band_rows(lay) >= halo_rows(stages)
+    let (band_rows, groups) = auto_split(lay);
+    groups >= rayon::current_num_threads().max(1) || band_rows >= halo_rows(stages)
 }
 
-/// Rows per task where the caller does not choose: one band per strip when there are strips
-/// enough to keep the threads busy (the halo then only costs columns), else enough bands per
-/// strip for every thread.
-fn auto_band_rows(lay: Layout) -> usize {
-    let bands = rayon::current_num_threads().max(1).div_ceil(lay.nch).max(1);
-    lay.h.div_ceil(bands).max(1)
+/// Rows per task and groups of strips where the caller does not choose: a group per thread
+/// (at most one per strip), and enough bands per group for every thread.
+fn auto_split(lay: Layout) -> (usize, usize) {
+    let threads = rayon::current_num_threads().max(1);
+    let groups = threads.min(lay.nch).max(1);
+    let bands = threads.div_ceil(groups);
+    (lay.h.div_ceil(bands).max(1), groups)
 }
 
 /// The rows above its first kept row that a task's first level sweeps: Σ 2·step over the
@@ -93,9 +96,16 @@ struct Cols {
     j_hi: usize,
 }
 
-/// Each level's columns for strip `c`, or `None` if some sweep would read outside the
-/// block's span (more levels or wider steps than the margins hold).
-fn columns(lay: Layout, c: usize, stages: &[Stage]) -> Option<[Cols; MAX_LEVELS]> {
+/// Each level's columns for strip `c` of the group of strips `group`, or `None` if some sweep
+/// would read outside the block's span (more levels or wider steps than the margins hold).
+/// Only at the group's edges does a level keep a halo for the later levels; inside the group
+/// each strip keeps its own columns and its margins are copied from its neighbours' rows.
+fn columns(
+    lay: Layout,
+    c: usize,
+    group: std::ops::Range<usize>,
+    stages: &[Stage],
+) -> Option<[Cols; MAX_LEVELS]> {
     let (x0, len) = lay.strip(c);
     // The image's columns in block coordinates (may start before the block).
     let img_lo = M as isize - x0 as isize;
@@ -105,8 +115,12 @@ fn columns(lay: Layout, c: usize, stages: &[Stage]) -> Option<[Cols; MAX_LEVELS]
     for k in (0..stages.len()).rev() {
         if k + 1 < stages.len() {
             let s = 2 * stages[k + 1].step as isize;
-            lo = (lo - s).max(img_lo);
-            hi = (hi + s).min(img_hi);
+            if c == group.start {
+                lo = (lo - s).max(img_lo);
+            }
+            if c + 1 == group.end {
+                hi = (hi + s).min(img_hi);
+            }
         }
         let s = 2 * stages[k].step as isize;
         let ch = CHUNK as isize;
@@ -133,9 +147,7 @@ thread_local! {
     /// per task would cost more than their rows' arithmetic).
     static SCRATCH: RefCell<Scratch> = const {
         RefCell::new(Scratch {
-            acc: Vec::new(),
-            rows: Vec::new(),
-            feat: Vec::new(),
+            strips: Vec::new(),
             weights: Vec::new(),
         })
     };
@@ -143,29 +155,76 @@ thread_local! {
 
 /// A worker's buffers.
 struct Scratch {
+    /// Per strip of the task's group, its rings.
+    strips: Vec<Rings>,
+    /// One row of the 12 pair weights (see atrous_pairs.rs).
+    weights: Vec<Aligned<[f32; QW]>>,
+}
+
+/// The rings of one strip.
+#[derive(Default)]
+struct Rings {
     /// Per level, its accumulator ring (2·step + 1 rows; never cleared, see
     /// `RowJob::first_writer`).
     acc: Vec<Vec<Aligned<Acc>>>,
     /// Per level, the ring of input rows it reads (2·step + 1 rows): for the first, the
-    /// input colour; for the others, the previous level's output.
+    /// input colour; for the others, the previous level's output. One more: the last level's
+    /// output row, handed to `emit`.
     rows: Vec<Vec<Aligned<SrcBlock>>>,
     /// The ring of feature rows (all levels read them).
     feat: Vec<Aligned<AuxBlock>>,
-    /// One row of the 12 pair weights (see atrous_pairs.rs).
-    weights: Vec<Aligned<[f32; QW]>>,
+}
+
+impl Rings {
+    /// Grows the rings to `fr` feature rows and, per level, 2·step + 1 rows.
+    fn grow(&mut self, stages: &[Stage], fr: usize) {
+        let n = stages.len();
+        if self.feat.len() < fr {
+            self.feat.resize(fr, Aligned([0.0; KA * QW]));
+        }
+        self.acc.resize_with(self.acc.len().max(n), Vec::new);
+        self.rows.resize_with(self.rows.len().max(n + 1), Vec::new);
+        if self.rows[n].is_empty() {
+            self.rows[n].push(Aligned([0.0; K * QW]));
+        }
+        for (k, st) in stages.iter().enumerate() {
+            let rn = 2 * st.step + 1;
+            // Never cleared: each kept row's first writer stores (`RowJob::first_writer`).
+            if self.acc[k].len() < rn {
+                self.acc[k].resize(rn, Aligned([0.0; AN * QW]));
+            }
+            if self.rows[k].len() < rn {
+                self.rows[k].resize(rn, Aligned([0.0; K * QW]));
+            }
+        }
+    }
 }
 
 /// Every level over the whole image; each row of the last level's result (a source block:
 /// colour and validity of the strip's own columns) is handed to `emit` with its strip and row.
 /// `l` gives the layout, feature count and instruction set (its per-level fields are replaced
 /// by `stages`; its buffers are not read), `fill` converts the inputs of one block (strip,
-/// row) into a source block and an aux block. `band_rows`: rows per task (`None`: chosen
-/// here).
-pub(crate) fn run(l: &Level, stages: &[Stage], band_rows: Option<usize>, fill: &Fill, emit: &Emit) {
+/// row) into a source block and an aux block. `split`: rows per task and groups of strips
+/// (`None`: chosen here). A task runs a band of rows of a group of adjacent strips together,
+/// so that inside the group no strip recomputes its neighbours' columns (1080p, two threads,
+/// two groups of two 480-column strips: 60 of the first level's 600 swept columns per side
+/// are halo instead of 60 of every 480-column strip's).
+pub(crate) fn run(
+    l: &Level,
+    stages: &[Stage],
+    split: Option<(usize, usize)>,
+    fill: &Fill,
+    emit: &Emit,
+) {
     let lay = l.lay;
-    let band_rows = band_rows.unwrap_or(auto_band_rows(lay)).max(1);
-    (0..lay.nch).into_par_iter().for_each(|c| {
-        let cols = columns(lay, c, stages).expect("checked by `supports`");
+    let (band_rows, groups) = split.unwrap_or(auto_split(lay));
+    let (band_rows, groups) = (band_rows.max(1), groups.clamp(1, lay.nch));
+    (0..groups).into_par_iter().for_each(|g| {
+        let strips = g * lay.nch / groups..(g + 1) * lay.nch / groups;
+        let cols: Vec<[Cols; MAX_LEVELS]> = strips
+            .clone()
+            .map(|c| columns(lay, c, strips.clone(), stages).expect("checked by `supports`"))
+            .collect();
         (0..lay.h.div_ceil(band_rows))
             .into_par_iter()
             .for_each(|bi| {
@@ -175,31 +234,36 @@ pub(crate) fn run(l: &Level, stages: &[Stage], band_rows: Option<usize>, fill: &
                     Task {
                         l,
                         stages,
+                        strips: strips.clone(),
                         cols: &cols,
                         fill,
                         emit,
                     }
-                    .run(c, a..b, &mut s.borrow_mut());
+                    .run(a..b, &mut s.borrow_mut());
                 });
             });
     });
 }
 
-/// What every task of one strip shares.
+/// What every task of one group of strips shares.
 struct Task<'a> {
     l: &'a Level<'a>,
     stages: &'a [Stage],
-    cols: &'a [Cols; MAX_LEVELS],
+    /// The group's strips.
+    strips: std::ops::Range<usize>,
+    /// Per strip of the group, its levels' columns.
+    cols: &'a [[Cols; MAX_LEVELS]],
     fill: &'a Fill<'a>,
     emit: &'a Emit<'a>,
 }
 
 impl Task<'_> {
-    /// Rows `rows` of strip `c` through every level, each finished row to `emit`.
-    fn run(&self, c: usize, rows: std::ops::Range<usize>, scratch: &mut Scratch) {
+    /// Rows `rows` of the group's strips through every level, each finished row to `emit`.
+    fn run(&self, rows: std::ops::Range<usize>, scratch: &mut Scratch) {
         let Task {
             l,
             stages,
+            ref strips,
             cols,
             fill,
             emit,
@@ -207,38 +271,23 @@ impl Task<'_> {
         let lay = l.lay;
         let n = stages.len();
         let h = lay.h;
+        let m = strips.len();
         let step = |k: usize| stages[k].step;
         let rn = |k: usize| 2 * step(k) + 1;
-        let Scratch {
-            acc,
-            rows: ring,
-            feat,
-            weights,
-        } = scratch;
         // Feature rows live from the last level's next row to 2·step_0 below the first level's:
         // the levels lag each other by at most 2·step (see the scheduling below).
         let fr = halo_rows(stages) + 2;
-        if feat.len() < fr {
-            feat.resize(fr, Aligned([0.0; KA * QW]));
+        let Scratch {
+            strips: rings,
+            weights,
+        } = scratch;
+        rings.resize_with(rings.len().max(m), Rings::default);
+        for r in &mut rings[..m] {
+            r.grow(stages, fr);
         }
         // Zeroed once; only ever overwritten with weights in [0, 1] (see atrous_pairs.rs).
         if weights.len() < PAIRS.len() {
             weights.resize(PAIRS.len(), Aligned([0.0; QW]));
-        }
-        acc.resize_with(acc.len().max(n), Vec::new);
-        // One ring per level, and one more: the last level's output row, handed to `emit`.
-        ring.resize_with(ring.len().max(n + 1), Vec::new);
-        if ring[n].is_empty() {
-            ring[n].push(Aligned([0.0; K * QW]));
-        }
-        for k in 0..n {
-            // Never cleared: each kept row's first writer stores (`RowJob::first_writer`).
-            if acc[k].len() < rn(k) {
-                acc[k].resize(rn(k), Aligned([0.0; AN * QW]));
-            }
-            if ring[k].len() < rn(k) {
-                ring[k].resize(rn(k), Aligned([0.0; K * QW]));
-            }
         }
         // Output rows of each level: what the next level reads, clipped to the image.
         let mut o_lo = [0usize; MAX_LEVELS];
@@ -288,78 +337,102 @@ impl Task<'_> {
                         filled < low.unwrap_or(0) + fr && filled < y + rn(0),
                         "pipeline input ring overrun"
                     );
-                    fill(
-                        c,
-                        filled,
-                        &mut ring[0][filled % rn(0)].0,
-                        &mut feat[filled % fr].0,
-                    );
+                    for (c, r) in strips.clone().zip(rings.iter_mut()) {
+                        fill(
+                            c,
+                            filled,
+                            &mut r.rows[0][filled % rn(0)].0,
+                            &mut r.feat[filled % fr].0,
+                        );
+                    }
                     filled += 1;
                 }
             }
-            let (inp, outp) = ring.split_at_mut(k + 1);
-            let src = |yq: usize| -> &SrcBlock {
-                if yq >= h {
-                    &ZERO_SRC.0
-                } else {
-                    &inp[k][yq % rn(k)].0
-                }
-            };
-            let aux = |yq: usize| {
-                if yq >= h {
-                    &ZERO_AUX.0
-                } else {
-                    &feat[yq % fr].0
-                }
-            };
             let kept = |yq: usize| yq >= o_lo[k] && yq < o_hi[k];
-            let cl = cols[k];
-            let job = RowJob {
-                scatter: [kept(y), kept(y + s), kept(y + 2 * s)],
-                j_lo: cl.j_lo,
-                j_hi: cl.j_hi,
-                o_lo: cl.o_lo,
-                o_hi: cl.o_hi,
-                step: s,
-                color_scale: stages[k].color_scale,
-                normal_factor: stages[k].normal_factor,
-                top: y < s,
-            };
-            let [a0, a1, a2] = acc[k]
-                .get_disjoint_mut([y % rn(k), (y + s) % rn(k), (y + 2 * s) % rn(k)])
-                .expect("ring rows are distinct");
-            let r = Rows {
-                p: src(y),
-                pa: aux(y),
-                q1: src(y + s),
-                qa1: aux(y + s),
-                q2: src(y + 2 * s),
-                qa2: aux(y + 2 * s),
-            };
-            let mut accs = Accs {
-                a0: &mut a0.0,
-                a1: &mut a1.0,
-                a2: &mut a2.0,
-                w: flat_rows(weights),
-            };
-            atrous_pairs::row(&levels[k], &r, &mut accs, job);
-            if kept(y) {
+            // The slot's previous row must have been read for the last time.
+            assert!(
+                k + 1 == n || !kept(y) || y < next[k + 1] + rn(k + 1),
+                "pipeline ring overrun"
+            );
+            for (i, c) in strips.clone().enumerate() {
+                let Rings { acc, rows, feat } = &mut rings[i];
+                let (inp, outp) = rows.split_at_mut(k + 1);
+                let src = |yq: usize| -> &SrcBlock {
+                    if yq >= h {
+                        &ZERO_SRC.0
+                    } else {
+                        &inp[k][yq % rn(k)].0
+                    }
+                };
+                let aux = |yq: usize| {
+                    if yq >= h {
+                        &ZERO_AUX.0
+                    } else {
+                        &feat[yq % fr].0
+                    }
+                };
+                let cl = cols[i][k];
+                let job = RowJob {
+                    scatter: [kept(y), kept(y + s), kept(y + 2 * s)],
+                    j_lo: cl.j_lo,
+                    j_hi: cl.j_hi,
+                    o_lo: cl.o_lo,
+                    o_hi: cl.o_hi,
+                    step: s,
+                    color_scale: stages[k].color_scale,
+                    normal_factor: stages[k].normal_factor,
+                    top: y < s,
+                };
+                let [a0, a1, a2] = acc[k]
+                    .get_disjoint_mut([y % rn(k), (y + s) % rn(k), (y + 2 * s) % rn(k)])
+                    .expect("ring rows are distinct");
+                let r = Rows {
+                    p: src(y),
+                    pa: aux(y),
+                    q1: src(y + s),
+                    qa1: aux(y + s),
+                    q2: src(y + 2 * s),
+                    qa2: aux(y + 2 * s),
+                };
+                let mut accs = Accs {
+                    a0: &mut a0.0,
+                    a1: &mut a1.0,
+                    a2: &mut a2.0,
+                    w: flat_rows(weights),
+                };
+                atrous_pairs::row(&levels[k], &r, &mut accs, job);
+                if !kept(y) {
+                    continue;
+                }
+                let len = cl.o_hi - cl.o_lo;
                 if k + 1 == n {
                     let d = &mut outp[0][0].0;
-                    let len = cl.o_hi - cl.o_lo;
                     normalise::<false>(&accs.a0[..], QW, cl.o_lo, d, cl.o_lo, len);
                     emit(c, y, d);
                 } else {
-                    // The slot's previous row must have been read for the last time.
-                    let next_rn = rn(k + 1);
-                    assert!(y < next[k + 1] + next_rn, "pipeline ring overrun");
-                    let d = &mut outp[0][y % next_rn].0;
-                    normalise::<false>(&accs.a0[..], QW, cl.o_lo, d, cl.o_lo, cl.o_hi - cl.o_lo);
+                    let d = &mut outp[0][y % rn(k + 1)].0;
+                    normalise::<false>(&accs.a0[..], QW, cl.o_lo, d, cl.o_lo, len);
                     // Columns beyond the output: 0, so that those beyond the image have no
-                    // colour or validity (the rest are read only for sums nobody keeps).
+                    // colour or validity (the rest are read only for sums nobody keeps, or
+                    // are margins copied from a neighbour below).
                     for p in 0..4 {
                         d[p * QW..p * QW + cl.o_lo].fill(0.0);
                         d[p * QW + cl.o_hi..p * QW + lay.span()].fill(0.0);
+                    }
+                }
+            }
+            if k + 1 < n && kept(y) {
+                // Inside the group, each strip's margins of the row are its neighbours'
+                // columns, as `Layout::fill_margins` copies them level by level.
+                let slot = y % rn(k + 1);
+                for i in 0..m.saturating_sub(1) {
+                    let (left, right) = rings.split_at_mut(i + 1);
+                    let a = &mut left[i].rows[k + 1][slot].0;
+                    let b = &mut right[0].rows[k + 1][slot].0;
+                    for p in 0..4 {
+                        let (pa, pb) = (&mut a[p * QW..][..QW], &mut b[p * QW..][..QW]);
+                        pa[M + lay.sw..2 * M + lay.sw].copy_from_slice(&pb[M..2 * M]);
+                        pb[..M].copy_from_slice(&pa[lay.sw..lay.sw + M]);
                     }
                 }
             }

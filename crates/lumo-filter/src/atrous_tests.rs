@@ -255,11 +255,13 @@ fn check(params: &AtrousParams, with_variance: bool) {
             "{isa:?}: pipeline and level-by-level pairs differ"
         );
         for rows in [7, 64, 100] {
-            let banded = run(isa, Path::Bands(rows));
-            assert_eq!(
-                banded, pairs,
-                "{isa:?}: pipeline with {rows}-row bands differs"
-            );
+            for groups in [1, 2] {
+                let banded = run(isa, Path::Bands(rows, groups));
+                assert_eq!(
+                    banded, pairs,
+                    "{isa:?}: pipeline with {rows}-row bands, {groups} groups differs"
+                );
+            }
         }
     }
     // A fresh filter gives the same image as the reused one.
