@@ -233,7 +233,12 @@ test('filtered-frame mode shows À-Trous frames', async () => {
   const url = await serve(['--size', '64x64', '--threads', '1']);
   const { page, errors } = await open(url);
   await page.selectOption('#mode', 'atrous');
-  await page.waitForFunction(() => window.lumo.counts().frameCount > 0, null, { timeout: 20000 });
+  // The overlay is redrawn at most every 100 ms, so the first frame can arrive before it
+  // names the new mode: wait for both.
+  await page.waitForFunction(() => {
+    const c = window.lumo.counts();
+    return c.frameCount > 0 && /atrous/.test(c.overlay);
+  }, null, { timeout: WAIT_MS });
   const c = await counts(page);
   assert.match(c.overlay, /atrous/);
   assert.ok(mean(await pixels(page)) > 20, 'filtered frame is black');
