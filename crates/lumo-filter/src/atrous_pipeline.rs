@@ -1,4 +1,4 @@
-//! The À-Trous levels run as one pipeline per strip and band of rows, when every level takes
+//! The À-Trous levels run as one pipeline per group of strips and band of rows, when every level takes
 //! the symmetric-pair path (atrous_pairs.rs): level k sweeps its rows 2·step_k behind level
 //! k − 1, reading level k − 1's output from a ring of 2·step_k + 1 rows instead of a
 //! full-image buffer.
@@ -11,12 +11,14 @@
 //! spans the levels' lag, Σ 2·step + 2 rows). Only the last level's output goes to a
 //! full-image buffer.
 //!
-//! The price: a task cannot see its neighbours' intermediate levels, so it computes their
-//! halo itself — each level produces the rows and columns the later levels read (2·step per
-//! later level beyond the task's own), clipped to the image. Every pixel of every level is
-//! computed with the same operations in the same order as by the level-by-level pair path
-//! (`Path::Pairs`), whichever task computes it, so results are identical to it, bit for bit,
-//! for any band split or thread count (tested).
+//! A task runs its group's strips row by row together: after each level row, every strip's
+//! margins are copied from its neighbours' rows (as `Layout::fill_margins` does level by
+//! level). The price: a task cannot see other tasks' intermediate levels, so at its edges it
+//! computes their halo itself — each level produces the rows and columns the later levels
+//! read (2·step per later level beyond the task's own), clipped to the image. Every pixel of
+//! every level is computed with the same operations in the same order as by the
+//! level-by-level pair path (`Path::Pairs`), whichever task computes it, so results are
+//! identical to it, bit for bit, for any band split, grouping or thread count (tested).
 
 use std::cell::RefCell;
 
