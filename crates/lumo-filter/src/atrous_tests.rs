@@ -3,8 +3,9 @@
 
 use lumo_image::{luminance, Image};
 
-use crate::atrous::{AtrousFilter, AtrousParams, B3, VARIANCE_EPS};
-use crate::atrous_kernel::{Isa, Path};
+use crate::atrous::{inverse_sigma_row, AtrousFilter, AtrousParams, B3, VARIANCE_EPS};
+use crate::atrous_kernel::{Isa, Path, K};
+use crate::atrous_layout::{Layout, M, QW};
 use crate::gbuffer::{Features, Prepared};
 use crate::synthetic::synthetic_frame;
 
@@ -366,6 +367,73 @@ fn pipeline_strip_groups_match_level_by_level_pairs() {
                     pairs,
                     "{isa:?}: {groups} groups of {rows}-row bands differ from level by level"
                 );
+            }
+        }
+    }
+}
+
+/// The per-pixel inverse σ the row-wise `inverse_sigma_row` replaced, as it was.
+fn inverse_sigma_reference(
+    src: &[f32],
+    lay: Layout,
+    c: usize,
+    y: usize,
+    j: usize,
+    sigma: f32,
+    eps: f32,
+) -> f32 {
+    const G: [f32; 3] = [0.25, 0.5, 0.25];
+    let x = (lay.strip(c).0 + j) as isize - M as isize;
+    let (mut s, mut k) = (0.0f32, 0.0f32);
+    for (dy, gy) in G.iter().enumerate() {
+        let yy = y as isize + dy as isize - 1;
+        if yy < 0 || yy >= lay.h as isize {
+            continue;
+        }
+        let row = &src[lay.block(c, yy as usize, K) + 4 * QW..][..QW];
+        for (dx, gx) in G.iter().enumerate() {
+            let xx = x + dx as isize - 1;
+            if xx < 0 || xx >= lay.w as isize {
+                continue;
+            }
+            s += gx * gy * row[j + dx - 1];
+            k += gx * gy;
+        }
+    }
+    1.0 / (sigma * (s / k).max(0.0).sqrt() + eps)
+}
+
+#[test]
+fn row_wise_inverse_sigma_equals_the_per_pixel_one() {
+    // Three strips; variance in the image, margins copied from the neighbours, 0 beyond.
+    for (w, h) in [(1100, 5), (37, 1), (512, 3)] {
+        let lay = Layout::new(w, h);
+        let mut src = vec![0.0f32; lay.size(K)];
+        let mut seed = 12345u32;
+        for c in 0..lay.nch {
+            let len = lay.strip(c).1;
+            for y in 0..h {
+                let b = lay.block(c, y, K) + 4 * QW;
+                for v in &mut src[b + M..b + M + len] {
+                    seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+                    *v = (seed >> 8) as f32 / (1u32 << 24) as f32 * 3.0;
+                }
+            }
+        }
+        lay.fill_margins(&mut src, K, K);
+        for c in 0..lay.nch {
+            let len = lay.strip(c).1;
+            for y in 0..h {
+                let mut got = vec![0.0f32; len];
+                inverse_sigma_row(&src, lay, c, y, 16.0, 1e-6, &mut got);
+                for (t, g) in got.iter().enumerate() {
+                    let want = inverse_sigma_reference(&src, lay, c, y, M + t, 16.0, 1e-6);
+                    assert_eq!(
+                        g.to_bits(),
+                        want.to_bits(),
+                        "{w}×{h}: strip {c}, row {y}, column {t}"
+                    );
+                }
             }
         }
     }
