@@ -159,6 +159,32 @@ macro_rules! in_runs {
     }};
 }
 
+/// Pixels `t0 .. t0 + n` (n ≤ [`LANES`]) of interleaved `data` with `C` channels into the first
+/// `n` of three lanes per channel: lane k from channel k, or from channel 0 when `C` is 1
+/// (grey); lanes of channels the data lacks are left as they are.
+#[inline(always)]
+fn to_lanes<const C: usize>(data: &[f32], t0: usize, n: usize, out: &mut [[f32; LANES]; 3]) {
+    // Sliced first, so the loops carry no bounds checks.
+    #[inline(always)]
+    fn copy<const C: usize>(d: &[f32], n: usize, out: &mut [[f32; LANES]; 3]) {
+        for t in 0..n {
+            for (k, o) in out.iter_mut().enumerate() {
+                if C == 1 {
+                    o[t] = d[t];
+                } else if k < C {
+                    o[t] = d[C * t + k];
+                }
+            }
+        }
+    }
+    // A constant count for whole runs: that copy compiles to vector loads and permutes.
+    if n == LANES {
+        copy::<C>(&data[C * t0..C * (t0 + LANES)], LANES, out);
+    } else {
+        copy::<C>(&data[C * t0..C * (t0 + n)], n, out);
+    }
+}
+
 /// Colour (divided by the albedo when `AC` > 0, the albedo's channel count) and validity of
 /// a run of pixels, with the rules of `Input::pixel`, written branch-free; colour is 0 where
 /// the validity is.
@@ -189,32 +215,9 @@ fn color_lanes<const AC: usize>(
 ) -> ([[f32; LANES]; 4], [f32; LANES]) {
     let mut c = [[0.0f32; LANES]; 3];
     let mut a = [[1.0f32; LANES]; 3];
-    // A constant count for whole runs: that copy compiles to vector loads and permutes.
-    // (A macro, not a closure called twice: a closure the compiler keeps out of line would
-    // not be compiled with the caller's target features.)
-    macro_rules! copy {
-        ($n:expr) => {{
-            // Sliced first, so the loops carry no bounds checks.
-            let cs = &color[3 * t0..3 * (t0 + $n)];
-            for t in 0..$n {
-                for k in 0..3 {
-                    c[k][t] = cs[3 * t + k];
-                }
-            }
-            if AC > 0 {
-                let al = &albedo[AC * t0..AC * (t0 + $n)];
-                for t in 0..$n {
-                    for k in 0..3 {
-                        a[k][t] = al[AC * t + if AC == 1 { 0 } else { k }];
-                    }
-                }
-            }
-        }};
-    }
-    if m == LANES {
-        copy!(LANES)
-    } else {
-        copy!(m)
+    to_lanes::<3>(color, t0, m, &mut c);
+    if AC > 0 {
+        to_lanes::<AC>(albedo, t0, m, &mut a);
     }
     let mut o = [[0.0f32; LANES]; 4];
     let mut finite = [0.0f32; LANES];
@@ -371,29 +374,9 @@ fn variance_row<const VC: usize, const AC: usize>(
         let m = LANES.min(n - t0);
         let mut v = [[0.0f32; LANES]; 3];
         let mut a = [[1.0f32; LANES]; 3];
-        // A constant count for whole runs: that copy compiles to vector loads and permutes.
-        macro_rules! copy {
-            ($n:expr) => {{
-                let vs = &var[VC * t0..VC * (t0 + $n)];
-                for t in 0..$n {
-                    for k in 0..VC.min(3) {
-                        v[k][t] = vs[VC * t + k];
-                    }
-                }
-                if AC > 0 {
-                    let al = &albedo[AC * t0..AC * (t0 + $n)];
-                    for t in 0..$n {
-                        for k in 0..3 {
-                            a[k][t] = al[AC * t + if AC == 1 { 0 } else { k }];
-                        }
-                    }
-                }
-            }};
-        }
-        if m == LANES {
-            copy!(LANES)
-        } else {
-            copy!(m)
+        to_lanes::<VC>(var, t0, m, &mut v);
+        if AC > 0 {
+            to_lanes::<AC>(albedo, t0, m, &mut a);
         }
         let mut o = [0.0f32; LANES];
         for t in 0..LANES {
