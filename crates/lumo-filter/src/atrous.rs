@@ -71,6 +71,9 @@ pub const DEFAULT_SIGMA_NORMAL: f32 = 0.3;
 /// Default position σ (fraction of the scene extent), see docs/filters.md.
 pub const DEFAULT_SIGMA_POSITION: f32 = 0.1;
 
+/// Floats per cache line.
+const LINE_FLOATS: usize = 16;
+
 /// Keeps variance-guided weights finite where the variance is 0 (relative to mean luminance).
 pub(crate) const VARIANCE_EPS: f32 = 1e-6;
 
@@ -403,16 +406,26 @@ impl AtrousFilter {
                 return (Image::from_vec(lay.w, lay.h, 3, data), stats.missing);
             }
         }
-        for (buf, planes) in [(&mut self.src, K), (&mut self.dst, K), (&mut self.aux, KA)] {
+        // Each buffer is used from its first cache-line boundary (`malloc` places large
+        // buffers 16 bytes past one), so that blocks and their planes start on cache lines:
+        // 512² default filter, two threads, 16.9 → 15.8 ms.
+        let aligned = |buf: &mut Vec<f32>, planes: usize| -> usize {
+            let len = lay.size(planes) + LINE_FLOATS;
             // Contents are overwritten (by the input passes and the kernels); only growth
             // allocates (zeroed by the OS: no pass over the memory until it is used).
-            if buf.len() < lay.size(planes) {
-                *buf = vec![0.0; lay.size(planes)];
+            if buf.len() < len {
+                *buf = vec![0.0; len];
             }
-        }
-        let mut src = &mut self.src[..lay.size(K)];
-        let mut dst = &mut self.dst[..lay.size(K)];
-        let aux = &mut self.aux[..lay.size(KA)];
+            buf.as_ptr().align_offset(4 * LINE_FLOATS).min(LINE_FLOATS)
+        };
+        let (os, od, oa) = (
+            aligned(&mut self.src, K),
+            aligned(&mut self.dst, K),
+            aligned(&mut self.aux, KA),
+        );
+        let mut src = &mut self.src[os..os + lay.size(K)];
+        let mut dst = &mut self.dst[od..od + lay.size(K)];
+        let aux = &mut self.aux[oa..oa + lay.size(KA)];
         fill_all(inp, lay, params.sparse, &scales, src, aux);
         let mut normal_held = 1.0f32;
         for it in 0..params.iterations {
