@@ -8,7 +8,7 @@ use crate::atrous_input::{
     feature_count, fill_all, fill_block, input_stats, output, output_row, FillScales, Input,
 };
 use crate::atrous_kernel::{self, Isa, Level, Path, CM_FIXED, CM_NONE, CM_VARIANCE, K, KA};
-use crate::atrous_layout::{Layout, SharedBuf, CW, M, QW};
+use crate::atrous_layout::{Layout, SharedBuf, CW, LINE_FLOATS, M, QW};
 use crate::atrous_pairs;
 use crate::atrous_pipeline::{self, Stage};
 use crate::error::param;
@@ -70,9 +70,6 @@ pub const DEFAULT_SIGMA_LUMINANCE: f32 = 16.0;
 pub const DEFAULT_SIGMA_NORMAL: f32 = 0.3;
 /// Default position σ (fraction of the scene extent), see docs/filters.md.
 pub const DEFAULT_SIGMA_POSITION: f32 = 0.1;
-
-/// Floats per cache line.
-const LINE_FLOATS: usize = 16;
 
 /// Keeps variance-guided weights finite where the variance is 0 (relative to mean luminance).
 pub(crate) const VARIANCE_EPS: f32 = 1e-6;

@@ -185,6 +185,15 @@ fn to_lanes<const C: usize>(data: &[f32], t0: usize, n: usize, out: &mut [[f32; 
     }
 }
 
+/// `albedo_divisor` for one pixel's albedo, branch-free: whether it is usable (finite, some
+/// channel at least [`ALBEDO_EPS`]), and the divisor (each channel clamped to at least that).
+#[inline(always)]
+fn albedo_lane(a: [f32; 3]) -> (bool, [f32; 3]) {
+    let finite = a[0].is_finite() & a[1].is_finite() & a[2].is_finite();
+    let usable = finite & (a[0].max(a[1]).max(a[2]) >= ALBEDO_EPS);
+    (usable, a.map(|c| c.max(ALBEDO_EPS)))
+}
+
 /// Colour (divided by the albedo when `AC` > 0, the albedo's channel count) and validity of
 /// a run of pixels, with the rules of `Input::pixel`, written branch-free; colour is 0 where
 /// the validity is.
@@ -228,11 +237,10 @@ fn color_lanes<const AC: usize>(
         let mut rgb = [c[0][t], c[1][t], c[2][t]];
         let mut ok = true;
         if AC > 0 {
-            let a = [a[0][t], a[1][t], a[2][t]];
-            let finite = a[0].is_finite() & a[1].is_finite() & a[2].is_finite();
-            ok = finite & (a[0].max(a[1]).max(a[2]) >= ALBEDO_EPS);
+            let (usable, divisor) = albedo_lane([a[0][t], a[1][t], a[2][t]]);
+            ok = usable;
             for k in 0..3 {
-                rgb[k] /= a[k].max(ALBEDO_EPS);
+                rgb[k] /= divisor[k];
             }
         }
         ok &= rgb[0].is_finite() & rgb[1].is_finite() & rgb[2].is_finite();
@@ -389,10 +397,8 @@ fn variance_row<const VC: usize, const AC: usize>(
             if AC > 0 {
                 // `albedo_divisor` and `illumination_variance`: pass-through pixels (no
                 // usable albedo) have no illumination variance.
-                let al = [a[0][t], a[1][t], a[2][t]];
-                let finite = al[0].is_finite() & al[1].is_finite() & al[2].is_finite();
-                let usable = finite & (al[0].max(al[1]).max(al[2]) >= ALBEDO_EPS);
-                let l = luminance(al.map(|c| c.max(ALBEDO_EPS))).max(ALBEDO_EPS);
+                let (usable, divisor) = albedo_lane([a[0][t], a[1][t], a[2][t]]);
+                let l = luminance(divisor).max(ALBEDO_EPS);
                 x = if usable { x / (l * l) } else { 0.0 };
             }
             let x = x * scale;
@@ -923,11 +929,8 @@ mod tests {
     fn variance_runs_match_the_per_pixel_rule() {
         let (w, h) = (37, 3);
         let f = synthetic_frame(w, h, 1, 9);
-        let mut seed = 7u32;
-        let mut rnd = || {
-            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-            (seed >> 8) as f32 / (1u32 << 24) as f32
-        };
+        let mut seed = 7u64;
+        let mut rnd = || crate::synthetic::splitmix(&mut seed);
         for vc in [1usize, 2, 3, 4] {
             let mut var = Image::new(w, h, vc, 0.0);
             for v in &mut var.data {

@@ -95,37 +95,36 @@ impl Layout {
         );
         (0..self.h).into_par_iter().for_each(|y| {
             let base = &base;
-            for c in 0..lay.nch {
+            for c in 0..lay.nch - 1 {
                 for k in 0..copy.min(planes) {
                     let at = |cc: usize| lay.block(cc, y, planes) + k * QW;
-                    // SAFETY: all offsets are inside `buf` (checked size above; M ≤ sw and
-                    // sw + 2·M ≤ QW). Row y's task writes only the margin columns [0, M) and
-                    // [M + sw, 2·M + sw) of row y's blocks and reads only their strip columns
-                    // [M, M + sw), so no two tasks touch the same float and no float is both
-                    // read and written.
-                    unsafe {
-                        if c > 0 {
-                            // Left margin: the last M columns of the previous (full) strip.
-                            std::ptr::copy_nonoverlapping(
-                                base.0.add(at(c - 1) + lay.sw),
-                                base.0.add(at(c)),
-                                M,
-                            );
-                        }
-                        if c + 1 < lay.nch {
-                            // Right margin: the first M columns of the next strip.
-                            std::ptr::copy_nonoverlapping(
-                                base.0.add(at(c + 1) + M),
-                                base.0.add(at(c) + M + lay.sw),
-                                M,
-                            );
-                        }
-                    }
+                    // SAFETY: both sub-rows are inside `buf` (checked size above) and belong
+                    // to different blocks of row y; only row y's task touches row y's blocks,
+                    // so the two slices are the only references to these floats.
+                    let (left, right) = unsafe {
+                        (
+                            std::slice::from_raw_parts_mut(base.0.add(at(c)), QW),
+                            std::slice::from_raw_parts_mut(base.0.add(at(c + 1)), QW),
+                        )
+                    };
+                    exchange_margins(left, right, lay.sw);
                 }
             }
         });
     }
 }
+
+/// Copies the margins between one plane's sub-rows of two side-by-side blocks, `left`'s strip
+/// being a full `sw` columns wide: `left`'s right margin from `right`'s first M strip columns,
+/// `right`'s left margin from `left`'s last M. Only strip columns are read, only margins
+/// written.
+pub(crate) fn exchange_margins(left: &mut [f32], right: &mut [f32], sw: usize) {
+    left[M + sw..2 * M + sw].copy_from_slice(&right[M..2 * M]);
+    right[..M].copy_from_slice(&left[sw..sw + M]);
+}
+
+/// Floats per cache line.
+pub(crate) const LINE_FLOATS: usize = 16;
 
 /// A value aligned to a cache line. Block rows stored in one start every plane's sub-row on
 /// a 64-byte boundary (`QW` floats are a whole number of lines), so the kernels' 16-float
@@ -135,7 +134,7 @@ impl Layout {
 #[repr(C, align(64))]
 pub(crate) struct Aligned<T>(pub T);
 
-const _: () = assert!((QW * 4).is_multiple_of(64));
+const _: () = assert!(QW.is_multiple_of(LINE_FLOATS) && 4 * LINE_FLOATS == 64);
 
 /// Rows of [`QW`] floats, each on a cache line boundary, as one flat slice of floats.
 pub(crate) fn flat_rows(rows: &mut [Aligned<[f32; QW]>]) -> &mut [f32] {

@@ -25,7 +25,7 @@ use std::cell::RefCell;
 use rayon::prelude::*;
 
 use crate::atrous_kernel::{normalise, AuxBlock, Level, SrcBlock, K, KA};
-use crate::atrous_layout::{flat_rows, Aligned, Layout, M, QW};
+use crate::atrous_layout::{exchange_margins, flat_rows, Aligned, Layout, M, QW};
 use crate::atrous_pairs::{self, Acc, Accs, RowJob, Rows, AN, CHUNK, PAIRS, ZERO_AUX, ZERO_SRC};
 
 /// Most levels a pipeline runs (steps 1..16: the pair path's limit).
@@ -219,7 +219,7 @@ pub(crate) fn run(
     emit: &Emit,
 ) {
     let lay = l.lay;
-    let (band_rows, groups) = split.unwrap_or(auto_split(lay));
+    let (band_rows, groups) = split.unwrap_or_else(|| auto_split(lay));
     let (band_rows, groups) = (band_rows.max(1), groups.clamp(1, lay.nch));
     (0..groups).into_par_iter().for_each(|g| {
         let strips = g * lay.nch / groups..(g + 1) * lay.nch / groups;
@@ -433,8 +433,7 @@ impl Task<'_> {
                     let b = &mut right[0].rows[k + 1][slot].0;
                     for p in 0..4 {
                         let (pa, pb) = (&mut a[p * QW..][..QW], &mut b[p * QW..][..QW]);
-                        pa[M + lay.sw..2 * M + lay.sw].copy_from_slice(&pb[M..2 * M]);
-                        pb[..M].copy_from_slice(&pa[lay.sw..lay.sw + M]);
+                        exchange_margins(pa, pb, lay.sw);
                     }
                 }
             }

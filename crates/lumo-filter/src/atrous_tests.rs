@@ -409,14 +409,13 @@ fn row_wise_inverse_sigma_equals_the_per_pixel_one() {
     for (w, h) in [(1100, 5), (37, 1), (512, 3)] {
         let lay = Layout::new(w, h);
         let mut src = vec![0.0f32; lay.size(K)];
-        let mut seed = 12345u32;
+        let mut seed = 12345u64;
         for c in 0..lay.nch {
             let len = lay.strip(c).1;
             for y in 0..h {
                 let b = lay.block(c, y, K) + 4 * QW;
                 for v in &mut src[b + M..b + M + len] {
-                    seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-                    *v = (seed >> 8) as f32 / (1u32 << 24) as f32 * 3.0;
+                    *v = crate::synthetic::splitmix(&mut seed) * 3.0;
                 }
             }
         }

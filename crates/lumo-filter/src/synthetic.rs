@@ -134,7 +134,7 @@ fn trace(o: V3, d: V3, tmin: f32) -> Option<Hit> {
 }
 
 /// SplitMix64: a tiny, stateless-seedable generator so every pixel's noise is reproducible.
-fn splitmix(state: &mut u64) -> f32 {
+pub(crate) fn splitmix(state: &mut u64) -> f32 {
     *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
     let mut z = *state;
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);

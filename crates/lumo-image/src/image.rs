@@ -57,12 +57,7 @@ impl Image {
     /// The RGB triple of pixel (x, y); a one-channel image is broadcast to grey.
     #[inline]
     pub fn rgb(&self, x: usize, y: usize) -> [f32; 3] {
-        let p = self.pixel(x, y);
-        match self.channels {
-            1 => [p[0]; 3],
-            2 => [p[0], p[1], 0.0],
-            _ => [p[0], p[1], p[2]],
-        }
+        rgb_of(self.pixel(x, y))
     }
 
     /// This image with exactly `channels` channels: grey is broadcast, extra channels dropped.
@@ -118,5 +113,16 @@ impl Image {
                 bh: other.height,
             })
         }
+    }
+}
+
+/// The RGB triple of one pixel's channels (`pixel.len()` of them): one channel is broadcast to
+/// grey, a missing blue is 0, channels after the third are ignored.
+#[inline]
+pub fn rgb_of(pixel: &[f32]) -> [f32; 3] {
+    match pixel.len() {
+        1 => [pixel[0]; 3],
+        2 => [pixel[0], pixel[1], 0.0],
+        _ => [pixel[0], pixel[1], pixel[2]],
     }
 }

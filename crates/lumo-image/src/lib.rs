@@ -12,5 +12,5 @@ mod png_io;
 
 pub use color::{linear_to_srgb, luminance, srgb_to_linear};
 pub use error::ImageError;
-pub use image::Image;
+pub use image::{rgb_of, Image};
 pub use io::{read_image, write_image, ImageFormat};
