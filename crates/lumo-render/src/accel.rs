@@ -15,7 +15,9 @@ use obvhs::ray::{Ray, RayHit};
 use obvhs::rt_triangle::RtTriangle;
 
 use crate::blas::WideBlas;
-use crate::bvh_wide::TriHit;
+use crate::bvh8::Bvh8;
+use crate::bvh_wide::{TriHit, EMPTY};
+use crate::packet::{RayPacket, LANES};
 
 use lumo_scene::Scene;
 
@@ -358,6 +360,57 @@ impl Accel {
         self.scene_hit(pi, h)
     }
 
+    /// The tree packets can traverse: the 8-wide BVH of a scene that is one placement with
+    /// the identity transform (the merged static scene). Otherwise packets go ray by ray.
+    fn packet_tree(&self) -> Option<&Bvh8> {
+        match self.placements.as_slice() {
+            [p] if p.identity => self.blas(p.target)?.wide.eight(),
+            _ => None,
+        }
+    }
+
+    /// Nearest hits of the first `rays.count` rays of a packet: `out[i]` is what
+    /// [`Accel::intersect`] returns for ray `i`, bit for bit.
+    pub fn intersect_packet(&self, rays: &RayPacket, out: &mut [Option<Hit>; LANES]) {
+        let n = rays.count;
+        if let Some(tree) = self.packet_tree() {
+            let h = tree.intersect_packet(rays);
+            for (i, o) in out.iter_mut().enumerate().take(n) {
+                *o = if h.id[i] == EMPTY {
+                    None
+                } else {
+                    self.scene_hit(
+                        0,
+                        TriHit {
+                            t: h.t[i],
+                            triangle: h.id[i],
+                            u: h.u[i],
+                            v: h.v[i],
+                        },
+                    )
+                };
+            }
+            return;
+        }
+        for (i, o) in out.iter_mut().enumerate().take(n) {
+            let (origin, dir) = lane_ray(rays, i);
+            *o = self.intersect(origin, dir, rays.tmin[i], rays.tmax[i]);
+        }
+    }
+
+    /// Bit `i` set if something blocks ray `i` of the packet ([`Accel::occluded`] per ray).
+    pub fn occluded_packet(&self, rays: &RayPacket) -> u32 {
+        if let Some(tree) = self.packet_tree() {
+            return tree.occluded_packet(rays);
+        }
+        let mut out = 0;
+        for i in 0..rays.count {
+            let (origin, dir) = lane_ray(rays, i);
+            out |= (self.occluded(origin, dir, rays.tmin[i], rays.tmax[i]) as u32) << i;
+        }
+        out
+    }
+
     /// True if anything blocks `origin + t·dir` for t in (tmin, tmax) (any-hit query).
     pub fn occluded(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> bool {
         if self.tlas.nodes.is_empty() {
@@ -380,4 +433,13 @@ impl Accel {
             }
         })
     }
+}
+
+/// Origin and direction of lane `i` of a packet.
+#[inline]
+fn lane_ray(rays: &RayPacket, i: usize) -> (Vec3, Vec3) {
+    (
+        Vec3::new(rays.o[0][i], rays.o[1][i], rays.o[2][i]),
+        Vec3::new(rays.d[0][i], rays.d[1][i], rays.d[2][i]),
+    )
 }

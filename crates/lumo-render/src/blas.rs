@@ -57,6 +57,15 @@ impl WideBlas {
         WideBlas::Four(Bvh4::from_bvh2(bvh2, positions, indices))
     }
 
+    /// The 8-wide form, which also traverses packets of rays.
+    #[inline]
+    pub fn eight(&self) -> Option<&Bvh8> {
+        match self {
+            WideBlas::Four(_) => None,
+            WideBlas::Eight(b) => Some(b),
+        }
+    }
+
     /// Nearest hit of `origin + t·dir` with t in [tmin, tmax].
     #[inline]
     pub fn intersect(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Option<TriHit> {

@@ -10,7 +10,7 @@
 use glam::{BVec4A, Vec3, Vec4};
 
 use crate::bvh_stack::{
-    descend_any, descend_nearest, keep_nearest, pop_closer, with_stack, TraversalStack,
+    descend_any, descend_nearest, keep_nearest, pop_closer, with_stack, TraversalStack, CULL_SLACK,
 };
 use crate::bvh_wide::{ray_slopes, TriHit, WideBvh, LEAF};
 
@@ -135,7 +135,7 @@ impl Bvh4 {
                 }
             } else {
                 let node = &self.nodes[current as usize];
-                let (bits, tnear) = hit_boxes(node, r, tmin, tmax);
+                let (bits, tnear) = hit_boxes(node, r, tmin, tmax * CULL_SLACK);
                 if bits != 0 {
                     current = if bits.is_power_of_two() {
                         // One child hit (the common case near the leaves): no ordering.
@@ -146,7 +146,7 @@ impl Bvh4 {
                     continue;
                 }
             }
-            match pop_closer(&mut stack, tmax) {
+            match pop_closer(&mut stack, tmax * CULL_SLACK) {
                 Some(child) => current = child,
                 None => return best,
             }

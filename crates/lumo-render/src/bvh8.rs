@@ -15,6 +15,7 @@ use glam::Vec3;
 #[cfg(target_arch = "x86_64")]
 use crate::bvh_stack::with_stack;
 use crate::bvh_wide::{TriHit, WideBvh};
+use crate::packet::{self, PacketHits, RayPacket};
 
 /// The 8-wide BVH of one mesh. Exists only where AVX2 and FMA were detected, which is what
 /// makes its safe methods sound.
@@ -57,7 +58,7 @@ impl Bvh8 {
         {
             with_stack(self.tree.stack_need, |stack| {
                 // SAFETY: a `Bvh8` exists only where AVX2 and FMA were detected (`new`).
-                unsafe { avx2::closest(&self.tree, origin, dir, tmin, tmax, stack) }
+                unsafe { avx2::closest(&self.tree, 0, origin, dir, tmin, tmax, stack) }
             })
         }
         #[cfg(not(target_arch = "x86_64"))]
@@ -65,6 +66,18 @@ impl Bvh8 {
             let _ = (origin, dir, tmin, tmax);
             unreachable!("Bvh8::new returns None without AVX2")
         }
+    }
+
+    /// Nearest hits of a packet of rays (the same hits as [`Bvh8::intersect`] per ray).
+    #[inline]
+    pub fn intersect_packet(&self, rays: &RayPacket) -> PacketHits {
+        packet::closest(&self.tree, rays)
+    }
+
+    /// Bit `i` set if ray `i` of the packet hits anything.
+    #[inline]
+    pub fn occluded_packet(&self, rays: &RayPacket) -> u32 {
+        packet::any(&self.tree, rays)
     }
 
     /// True if anything hits `origin + t·dir` with t in [tmin, tmax].
@@ -77,7 +90,7 @@ impl Bvh8 {
         {
             with_stack(self.tree.stack_need, |stack| {
                 // SAFETY: a `Bvh8` exists only where AVX2 and FMA were detected (`new`).
-                unsafe { avx2::any(&self.tree, origin, dir, tmin, tmax, stack) }
+                unsafe { avx2::any(&self.tree, 0, origin, dir, tmin, tmax, stack) }
             })
         }
         #[cfg(not(target_arch = "x86_64"))]
@@ -89,13 +102,13 @@ impl Bvh8 {
 }
 
 #[cfg(target_arch = "x86_64")]
-mod avx2 {
+pub(crate) mod avx2 {
     use std::arch::x86_64::*;
 
     use glam::Vec3;
 
     use crate::bvh_stack::{
-        descend_any, descend_nearest, keep_nearest, pop_closer, TraversalStack,
+        descend_any, descend_nearest, keep_nearest, pop_closer, TraversalStack, CULL_SLACK,
     };
     use crate::bvh_wide::{ray_slopes, Node, Packet, TriHit, WideBvh, LEAF};
 
@@ -246,15 +259,17 @@ mod avx2 {
         a
     }
 
-    /// Closest-hit traversal: nearest child first, the others pushed with their entry
-    /// distance so they are skipped once a closer hit is known.
+    /// Closest-hit traversal of the subtree at `start` (0: the whole tree): nearest child
+    /// first, the others pushed with their entry distance so they are skipped once a closer
+    /// hit is known.
     ///
     /// # Safety
     /// The CPU must support AVX2 and FMA. (`stack` must hold `tree.stack_need` entries, or a
     /// push panics.)
     #[target_feature(enable = "avx2,fma")]
-    pub(super) unsafe fn closest(
+    pub(crate) unsafe fn closest(
         tree: &WideBvh<8>,
+        start: u32,
         origin: Vec3,
         dir: Vec3,
         tmin: f32,
@@ -264,7 +279,7 @@ mod avx2 {
         // SAFETY: AVX2 and FMA are enabled in this function.
         let r = unsafe { Ray8::new(origin, dir, tmin) };
         let mut best: Option<TriHit> = None;
-        let mut current = 0u32;
+        let mut current = start;
         loop {
             if current & LEAF != 0 {
                 let pk = &tree.packets[(current & !LEAF) as usize];
@@ -278,7 +293,8 @@ mod avx2 {
             } else {
                 let node = &tree.nodes[current as usize];
                 // SAFETY: as above.
-                let (bits, tnear) = unsafe { hit_boxes(node, &r, _mm256_set1_ps(tmax)) };
+                let cull = _mm256_set1_ps(tmax * CULL_SLACK);
+                let (bits, tnear) = unsafe { hit_boxes(node, &r, cull) };
                 if bits != 0 {
                     current = if bits.is_power_of_two() {
                         // One child hit (the common case near the leaves): no ordering.
@@ -290,21 +306,23 @@ mod avx2 {
                     continue;
                 }
             }
-            match pop_closer(&mut stack, tmax) {
+            match pop_closer(&mut stack, tmax * CULL_SLACK) {
                 Some(child) => current = child,
                 None => return best,
             }
         }
     }
 
-    /// Any-hit traversal: stops at the first triangle hit, in no particular order.
+    /// Any-hit traversal of the subtree at `start`: stops at the first triangle hit, in no
+    /// particular order.
     ///
     /// # Safety
     /// The CPU must support AVX2 and FMA. (`stack` must hold `tree.stack_need` entries, or a
     /// push panics.)
     #[target_feature(enable = "avx2,fma")]
-    pub(super) unsafe fn any(
+    pub(crate) unsafe fn any(
         tree: &WideBvh<8>,
+        start: u32,
         origin: Vec3,
         dir: Vec3,
         tmin: f32,
@@ -314,7 +332,7 @@ mod avx2 {
         // SAFETY: AVX2 and FMA are enabled in this function.
         let r = unsafe { Ray8::new(origin, dir, tmin) };
         let vtmax = _mm256_set1_ps(tmax);
-        let mut current = 0u32;
+        let mut current = start;
         loop {
             if current & LEAF != 0 {
                 let pk = &tree.packets[(current & !LEAF) as usize];

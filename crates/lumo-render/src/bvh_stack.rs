@@ -87,12 +87,20 @@ pub(crate) fn descend_nearest<const W: usize>(
     hits[n - 1].0
 }
 
-/// The next pushed subtree whose entry distance does not exceed `tmax` (the others cannot hold
-/// a closer hit), or `None` when the stack is empty.
+/// Closest-hit traversals cull boxes against the nearest hit so far times this factor, not the
+/// hit itself: a box's entry distance and a triangle's hit distance are rounded differently, so
+/// a box holding a triangle exactly as near as the best hit (a shared edge) may enter a few ulps
+/// late. Visiting it keeps the tie rule of [`keep_nearest`] independent of the visiting order.
+/// (16 bits of slack: far above the rounding, far below any culling that matters.)
+pub(crate) const CULL_SLACK: f32 = 1.0 + 1.0 / 65_536.0;
+
+/// The next pushed subtree whose entry distance does not exceed `cull` (the nearest hit so far
+/// times [`CULL_SLACK`]; the others cannot hold a hit as near), or `None` when the stack is
+/// empty.
 #[inline(always)]
-pub(crate) fn pop_closer(stack: &mut TraversalStack<(u32, f32)>, tmax: f32) -> Option<u32> {
+pub(crate) fn pop_closer(stack: &mut TraversalStack<(u32, f32)>, cull: f32) -> Option<u32> {
     while let Some((child, t)) = stack.pop() {
-        if t <= tmax {
+        if t <= cull {
             return Some(child);
         }
     }
@@ -117,7 +125,9 @@ pub(crate) fn descend_any<const W: usize>(
 }
 
 /// Closest-hit bookkeeping at a leaf whose lanes `bits` were hit at `tuv` = (t, u, v): keeps
-/// the nearest hit so far in `best` and shrinks `tmax` to it.
+/// the nearest hit so far in `best` and shrinks `tmax` to it. Of equally distant triangles the
+/// one with the lower index wins, so the result does not depend on the order leaves are
+/// visited in (the packet traversal of [`crate::packet`] visits them in another).
 #[inline(always)]
 pub(crate) fn keep_nearest<const W: usize>(
     mut bits: u32,
@@ -129,7 +139,9 @@ pub(crate) fn keep_nearest<const W: usize>(
     while bits != 0 {
         let lane = bits.trailing_zeros() as usize;
         bits &= bits - 1;
-        if t[lane] <= *tmax {
+        let nearer =
+            t[lane] < *tmax || (t[lane] == *tmax && best.is_none_or(|b| ids[lane] < b.triangle));
+        if nearer {
             *tmax = t[lane];
             *best = Some(TriHit {
                 t: t[lane],

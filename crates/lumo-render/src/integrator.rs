@@ -6,6 +6,7 @@
 
 use glam::Vec3;
 
+use crate::accel::Hit;
 use crate::geometry::power_heuristic;
 use crate::render_scene::RenderScene;
 use crate::sampler::PixelSampler;
@@ -76,54 +77,105 @@ impl PathRadiance {
     }
 }
 
-/// Traces one path starting with the ray `origin + t·dir` (unit `dir`).
-pub fn trace_path(
-    rs: &RenderScene,
-    origin: Vec3,
-    dir: Vec3,
-    sampler: &mut PixelSampler,
-    settings: &PathSettings,
-    mut first_hit: Option<&mut FirstHit>,
-) -> PathRadiance {
-    let mut out = PathRadiance::default();
-    let mut throughput = Vec3::ONE;
-    let (mut origin, mut dir) = (origin, dir);
-    // Density of the BSDF sample that produced the current ray; None for camera rays and
-    // delta lobes (no MIS against light sampling).
-    let mut prev_pdf: Option<f32> = None;
-    let mut prev_point = origin;
-    let mut eta_scale = 1.0f32;
-    let mut depth = 1u32;
-    loop {
-        out.rays += 1;
-        let Some(hit) = rs.accel.intersect(origin, dir, 0.0, f32::INFINITY) else {
-            if depth == 1 || settings.bsdf_emission || prev_pdf.is_none() {
+/// A shadow ray of next-event estimation and what it adds to its path if nothing blocks it.
+#[derive(Clone, Copy, Debug)]
+pub struct ShadowRay {
+    /// Ray origin (offset off the surface).
+    pub origin: Vec3,
+    /// Unit direction towards the light.
+    pub dir: Vec3,
+    /// Largest ray parameter that still lies before the light.
+    pub tmax: f32,
+    /// Radiance the path receives if the ray is unoccluded.
+    contribution: Vec3,
+    /// Depth the contribution counts at.
+    depth: u32,
+}
+
+/// One camera path between ray queries: the integrator as a state machine, so that the
+/// one-path loop ([`trace_path`]) and the wavefront renderer ([`crate::wavefront`]), which
+/// traces the rays of many paths together, run the same code and give the same result.
+#[derive(Clone, Copy, Debug)]
+pub struct PathState {
+    /// Origin of the ray to trace next.
+    pub origin: Vec3,
+    /// Unit direction of the ray to trace next.
+    pub dir: Vec3,
+    /// The path's random numbers.
+    pub sampler: PixelSampler,
+    /// Radiance gathered so far.
+    pub radiance: PathRadiance,
+    /// The first hit, once known (filled only if asked for).
+    pub first_hit: FirstHit,
+    want_first_hit: bool,
+    throughput: Vec3,
+    /// Density of the BSDF sample that produced the current ray; None for camera rays and
+    /// delta lobes (no MIS against light sampling).
+    prev_pdf: Option<f32>,
+    prev_point: Vec3,
+    eta_scale: f32,
+    depth: u32,
+}
+
+impl PathState {
+    /// A path starting with the ray `origin + t·dir` (unit `dir`); `want_first_hit` asks for
+    /// the G-buffer record of its first hit.
+    pub fn new(origin: Vec3, dir: Vec3, sampler: PixelSampler, want_first_hit: bool) -> Self {
+        PathState {
+            origin,
+            dir,
+            sampler,
+            radiance: PathRadiance::default(),
+            first_hit: FirstHit::default(),
+            want_first_hit,
+            throughput: Vec3::ONE,
+            prev_pdf: None,
+            prev_point: origin,
+            eta_scale: 1.0,
+            depth: 1,
+        }
+    }
+
+    /// Takes the closest hit of the current ray (traced by the caller) and does everything up
+    /// to the next ray: emission and MIS, light sampling, BSDF sampling, Russian roulette.
+    /// Returns the shadow ray to test (if any; the caller passes unoccluded ones to
+    /// [`PathState::add_unoccluded`]) and whether the path goes on with `origin`/`dir`.
+    pub fn advance(
+        &mut self,
+        rs: &RenderScene,
+        settings: &PathSettings,
+        hit: Option<Hit>,
+    ) -> (Option<ShadowRay>, bool) {
+        self.radiance.rays += 1;
+        let (depth, dir) = (self.depth, self.dir);
+        let Some(hit) = hit else {
+            if depth == 1 || settings.bsdf_emission || self.prev_pdf.is_none() {
                 let le = rs.lights.environment(dir);
                 if le != Vec3::ZERO {
-                    let w = match prev_pdf {
+                    let w = match self.prev_pdf {
                         Some(pdf) if settings.nee => {
                             power_heuristic(pdf, rs.lights.environment_pdf(dir))
                         }
                         _ => 1.0,
                     };
-                    out.add(depth, throughput * le * w);
+                    self.radiance.add(depth, self.throughput * le * w);
                 }
             }
-            if let Some(fh) = first_hit.take() {
-                *fh = FirstHit {
+            if std::mem::take(&mut self.want_first_hit) {
+                self.first_hit = FirstHit {
                     depth: f32::INFINITY,
                     emitted: rs.lights.environment(dir),
                     ..Default::default()
                 };
             }
-            break;
+            return (None, false);
         };
-        let s = rs.surface(&hit, origin, dir);
+        let s = rs.surface(&hit, self.origin, dir);
         let bsdf = rs.bsdf(&s);
         let le = rs.emission(&s, dir);
-        if let Some(fh) = first_hit.take() {
+        if std::mem::take(&mut self.want_first_hit) {
             let n = s.frame.n;
-            *fh = FirstHit {
+            self.first_hit = FirstHit {
                 normal: if n.dot(dir) > 0.0 { -n } else { n },
                 position: s.p,
                 depth: hit.t,
@@ -131,24 +183,25 @@ pub fn trace_path(
                 emitted: le,
             };
         }
-        if le != Vec3::ZERO && (depth == 1 || settings.bsdf_emission || prev_pdf.is_none()) {
-            let w = match prev_pdf {
+        if le != Vec3::ZERO && (depth == 1 || settings.bsdf_emission || self.prev_pdf.is_none()) {
+            let w = match self.prev_pdf {
                 Some(pdf) if settings.nee => power_heuristic(
                     pdf,
                     rs.lights
-                        .triangle_pdf(s.instance, s.triangle, prev_point, s.p),
+                        .triangle_pdf(s.instance, s.triangle, self.prev_point, s.p),
                 ),
                 _ => 1.0,
             };
-            out.add(depth, throughput * le * w);
+            self.radiance.add(depth, self.throughput * le * w);
         }
         if depth >= settings.max_depth {
-            break;
+            return (None, false);
         }
         let wo = s.frame.to_local(-dir);
         // Next-event estimation.
-        let u_light = sampler.next_1d();
-        let u_light2 = sampler.next_2d();
+        let u_light = self.sampler.next_1d();
+        let u_light2 = self.sampler.next_2d();
+        let mut shadow = None;
         if settings.nee && !bsdf.is_delta() {
             if let Some(ls) = rs.lights.sample(s.p, u_light, u_light2) {
                 let wi = s.frame.to_local(ls.wi);
@@ -161,52 +214,93 @@ pub fn trace_path(
                     } else {
                         f32::INFINITY
                     };
-                    out.rays += 1;
-                    if !rs.accel.occluded(o, ls.wi, 0.0, tmax) {
-                        let w = if ls.pdf > 0.0 && settings.bsdf_emission {
-                            power_heuristic(ls.pdf, bsdf.pdf(wo, wi))
-                        } else {
-                            1.0
-                        };
-                        out.add(depth + 1, throughput * f * ls.weight * w);
-                    }
+                    self.radiance.rays += 1;
+                    let w = if ls.pdf > 0.0 && settings.bsdf_emission {
+                        power_heuristic(ls.pdf, bsdf.pdf(wo, wi))
+                    } else {
+                        1.0
+                    };
+                    shadow = Some(ShadowRay {
+                        origin: o,
+                        dir: ls.wi,
+                        tmax,
+                        contribution: self.throughput * f * ls.weight * w,
+                        depth: depth + 1,
+                    });
                 }
             }
         }
         // Continue the path by sampling the BSDF.
-        let u_lobe = sampler.next_1d();
-        let u_dir = sampler.next_2d();
-        let u_rr = sampler.next_1d();
+        let u_lobe = self.sampler.next_1d();
+        let u_dir = self.sampler.next_2d();
+        let u_rr = self.sampler.next_1d();
         let Some(bs) = bsdf.sample(wo, u_lobe, u_dir) else {
-            break;
+            return (shadow, false);
         };
         let new_dir = s.frame.to_world(bs.wi).normalize();
         // Shading normals can send a sample through the geometric surface; drop it.
         let reflect = bs.wi.z * wo.z > 0.0;
         if reflect != (new_dir.dot(s.ng) * (-dir).dot(s.ng) > 0.0) {
-            break;
+            return (shadow, false);
         }
-        throughput *= bs.weight;
+        self.throughput *= bs.weight;
         if bs.eta != 1.0 {
-            eta_scale *= bs.eta * bs.eta;
+            self.eta_scale *= bs.eta * bs.eta;
         }
-        prev_pdf = if bs.delta { None } else { Some(bs.pdf) };
-        prev_point = s.p;
-        origin = rs.offset(&s, new_dir);
-        dir = new_dir;
+        self.prev_pdf = if bs.delta { None } else { Some(bs.pdf) };
+        self.prev_point = s.p;
+        self.origin = rs.offset(&s, new_dir);
+        self.dir = new_dir;
         if depth >= settings.rr_depth {
             // Roulette on throughput without the 1/η² radiance scaling (as Mitsuba does), so
             // paths inside glass are not killed for a change of units.
-            let q = (throughput.max_element() * eta_scale).min(0.95);
+            let q = (self.throughput.max_element() * self.eta_scale).min(0.95);
             if u_rr >= q {
-                break;
+                return (shadow, false);
             }
-            throughput /= q;
+            self.throughput /= q;
         }
-        if throughput == Vec3::ZERO {
+        if self.throughput == Vec3::ZERO {
+            return (shadow, false);
+        }
+        self.depth += 1;
+        (shadow, true)
+    }
+
+    /// Adds the contribution of a shadow ray this path produced and nothing blocked.
+    #[inline]
+    pub fn add_unoccluded(&mut self, shadow: &ShadowRay) {
+        self.radiance.add(shadow.depth, shadow.contribution);
+    }
+}
+
+/// Traces one path starting with the ray `origin + t·dir` (unit `dir`), one ray at a time.
+pub fn trace_path(
+    rs: &RenderScene,
+    origin: Vec3,
+    dir: Vec3,
+    sampler: &mut PixelSampler,
+    settings: &PathSettings,
+    first_hit: Option<&mut FirstHit>,
+) -> PathRadiance {
+    let mut path = PathState::new(origin, dir, *sampler, first_hit.is_some());
+    loop {
+        let hit = rs
+            .accel
+            .intersect(path.origin, path.dir, 0.0, f32::INFINITY);
+        let (shadow, goes_on) = path.advance(rs, settings, hit);
+        if let Some(sh) = shadow {
+            if !rs.accel.occluded(sh.origin, sh.dir, 0.0, sh.tmax) {
+                path.add_unoccluded(&sh);
+            }
+        }
+        if !goes_on {
             break;
         }
-        depth += 1;
     }
-    out
+    *sampler = path.sampler;
+    if let Some(fh) = first_hit {
+        *fh = path.first_hit;
+    }
+    path.radiance
 }

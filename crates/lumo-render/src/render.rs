@@ -4,7 +4,7 @@
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use glam::{Vec2, Vec3};
-use lumo_image::{luminance, Image};
+use lumo_image::Image;
 use rayon::prelude::*;
 
 use crate::camera::CameraRays;
@@ -12,6 +12,7 @@ use crate::frame::Frame;
 use crate::integrator::{trace_path, FirstHit, PathRadiance, PathSettings};
 use crate::render_scene::RenderScene;
 use crate::sampler::PixelSampler;
+use crate::wavefront::{estimate, render_pixels};
 
 /// What to render.
 #[derive(Clone, Copy, Debug)]
@@ -78,7 +79,9 @@ pub fn trace_sample(
     (r, offset)
 }
 
-/// Renders samples `0..spp` of pixel (x, y): a pure function of its arguments.
+/// Renders samples `0..spp` of pixel (x, y): a pure function of its arguments. The paths go
+/// through the wavefront renderer, sixteen rays per packet; rendering whole rows with
+/// [`render_pixels`](crate::wavefront::render_pixels) keeps the packets fuller.
 pub fn render_pixel(
     rs: &RenderScene,
     camera: &CameraRays,
@@ -86,33 +89,49 @@ pub fn render_pixel(
     x: usize,
     y: usize,
 ) -> PixelEstimate {
-    let mut est = PixelEstimate::default();
-    let (mut sum_d, mut sum_i) = (glam::DVec3::ZERO, glam::DVec3::ZERO);
-    let (mut mean, mut m2) = (0.0f64, 0.0f64);
-    for i in 0..settings.spp {
-        let first = if i == 0 {
-            Some(&mut est.first_hit)
-        } else {
-            None
-        };
-        let (r, _) = trace_sample(rs, camera, settings, (x, y), i, first);
-        est.rays += r.rays as u64;
-        sum_d += r.direct.as_dvec3();
-        sum_i += r.indirect.as_dvec3();
-        let l = luminance((r.direct + r.indirect).into()) as f64;
-        let delta = l - mean;
-        mean += delta / (i + 1) as f64;
-        m2 += delta * (l - mean);
-    }
-    let n = settings.spp.max(1) as f64;
-    est.direct = (sum_d / n).as_vec3();
-    est.indirect = (sum_i / n).as_vec3();
-    est.luminance_variance = if settings.spp > 1 {
-        (m2 / (n - 1.0)) as f32
-    } else {
-        0.0
-    };
-    est
+    render_pixels(rs, camera, settings, y, x..x + 1)
+        .pop()
+        .unwrap_or_default()
+}
+
+/// [`render_pixel`] one ray at a time ([`trace_sample`] per sample): the reference the
+/// wavefront renderer is tested against, bit for bit.
+pub fn render_pixel_one_ray(
+    rs: &RenderScene,
+    camera: &CameraRays,
+    settings: &RenderSettings,
+    x: usize,
+    y: usize,
+) -> PixelEstimate {
+    let mut first_hit = FirstHit::default();
+    let radiance: Vec<PathRadiance> = (0..settings.spp)
+        .map(|i| {
+            let first = (i == 0).then_some(&mut first_hit);
+            trace_sample(rs, camera, settings, (x, y), i, first).0
+        })
+        .collect();
+    estimate(radiance.into_iter(), first_hit, settings.spp as usize)
+}
+
+/// Evaluates `f(y)` (a row's results, left to right) for every row of an image of `height`
+/// rows, rows in parallel, and returns the results in row-major order. `progress` gets the
+/// number of rows finished.
+pub fn map_rows<T, F>(height: usize, progress: &(dyn Fn(usize) + Sync), f: F) -> Vec<T>
+where
+    T: Send,
+    F: Fn(usize) -> Vec<T> + Sync,
+{
+    let done = AtomicU64::new(0);
+    let rows: Vec<Vec<T>> = (0..height)
+        .into_par_iter()
+        .map(|y| {
+            let row = f(y);
+            let finished = done.fetch_add(1, Ordering::Relaxed) + 1;
+            progress(finished as usize);
+            row
+        })
+        .collect();
+    rows.into_iter().flatten().collect()
 }
 
 /// Evaluates `f(x, y)` for every pixel of a `width`×`height` image, rows in parallel, and
@@ -149,8 +168,8 @@ pub fn render(
 ) -> (Frame, RenderStats) {
     let (w, h) = (settings.width, settings.height);
     let camera = CameraRays::new(&rs.scene.camera, w, h);
-    let estimates = map_pixels(w, h, progress, |x, y| {
-        render_pixel(rs, &camera, settings, x, y)
+    let estimates = map_rows(h, progress, |y| {
+        render_pixels(rs, &camera, settings, y, 0..w)
     });
     let frame = frame_from_estimates(w, h, settings.spp, &estimates);
     let stats = RenderStats {

@@ -1,0 +1,163 @@
+//! The wavefront renderer: the paths of a run of pixels advance together, one bounce at a
+//! time, so their rays can be traced sixteen at a time ([`crate::packet`]).
+//!
+//! Each bounce is three stages over the paths still alive: trace their rays in packets, let
+//! every path take its hit ([`PathState::advance`]: emission, light sample, BSDF sample), then
+//! trace the shadow rays in packets and credit the unoccluded ones. Paths are packed densely
+//! each bounce (finished ones drop out), so packets stay full while paths end at different
+//! depths. A path's arithmetic is the one-ray-at-a-time integrator's and packet traversal finds
+//! the same hits, so the estimates equal [`crate::trace_sample`]'s bit for bit; and since a
+//! pixel's paths depend only on (pixel, sample, seed), so does the image, whatever the
+//! threads.
+
+use std::ops::Range;
+
+use glam::{DVec3, Vec2};
+use lumo_image::luminance;
+
+use crate::accel::Hit;
+use crate::camera::CameraRays;
+use crate::integrator::{FirstHit, PathRadiance, PathState, ShadowRay};
+use crate::packet::{RayPacket, LANES};
+use crate::render::{PixelEstimate, RenderSettings};
+use crate::render_scene::RenderScene;
+use crate::sampler::PixelSampler;
+
+/// Paths advanced together: enough to keep packets full as paths end, few enough that their
+/// states (~200 bytes each) stay in the first- and second-level caches.
+const BATCH_PATHS: usize = 256;
+
+/// Renders samples `0..spp` of pixels `xs` of row `y`, in order: for each pixel the same
+/// estimate as [`crate::render_pixel`] (which calls this for one pixel).
+pub fn render_pixels(
+    rs: &RenderScene,
+    camera: &CameraRays,
+    settings: &RenderSettings,
+    y: usize,
+    xs: Range<usize>,
+) -> Vec<PixelEstimate> {
+    let spp = settings.spp as usize;
+    let per_batch = (BATCH_PATHS / spp.max(1)).max(1);
+    let mut out = Vec::with_capacity(xs.len());
+    let mut batch = Batch::default();
+    let mut x0 = xs.start;
+    while x0 < xs.end {
+        let x1 = (x0 + per_batch).min(xs.end);
+        batch.run(rs, camera, settings, y, x0..x1);
+        for paths in batch.paths.chunks(spp.max(1)) {
+            let first_hit = paths.first().map(|p| p.first_hit).unwrap_or_default();
+            out.push(estimate(paths.iter().map(|p| p.radiance), first_hit, spp));
+        }
+        x0 = x1;
+    }
+    out
+}
+
+/// Reusable buffers of one batch of paths.
+#[derive(Default)]
+struct Batch {
+    paths: Vec<PathState>,
+    active: Vec<u32>,
+    next: Vec<u32>,
+    shadows: Vec<(u32, ShadowRay)>,
+}
+
+impl Batch {
+    /// Traces all samples of pixels `xs` of row `y` to the end of their paths.
+    fn run(
+        &mut self,
+        rs: &RenderScene,
+        camera: &CameraRays,
+        settings: &RenderSettings,
+        y: usize,
+        xs: Range<usize>,
+    ) {
+        self.paths.clear();
+        for x in xs {
+            for index in 0..settings.spp {
+                let mut sampler = PixelSampler::new(x as u32, y as u32, index, settings.seed);
+                let jitter = sampler.next_2d();
+                // Sample 0 goes through the pixel centre: the guided filter's guide ray.
+                let offset = if index == 0 { Vec2::splat(0.5) } else { jitter };
+                let dir = camera.direction(Vec2::new(x as f32, y as f32) + offset);
+                self.paths
+                    .push(PathState::new(camera.origin(), dir, sampler, index == 0));
+            }
+        }
+        self.active.clear();
+        self.active.extend(0..self.paths.len() as u32);
+        while !self.active.is_empty() {
+            self.bounce(rs, settings);
+            std::mem::swap(&mut self.active, &mut self.next);
+        }
+    }
+
+    /// One bounce of every active path: closest hits, shading and sampling, shadow rays.
+    fn bounce(&mut self, rs: &RenderScene, settings: &RenderSettings) {
+        self.next.clear();
+        self.shadows.clear();
+        let mut hits: [Option<Hit>; LANES] = [None; LANES];
+        for group in self.active.chunks(LANES) {
+            let mut rays = RayPacket::default();
+            for (lane, &p) in group.iter().enumerate() {
+                let path = &self.paths[p as usize];
+                rays.set(lane, path.origin, path.dir, 0.0, f32::INFINITY);
+            }
+            rs.accel.intersect_packet(&rays, &mut hits);
+            for (&p, &hit) in group.iter().zip(&hits) {
+                let (shadow, goes_on) = self.paths[p as usize].advance(rs, &settings.path, hit);
+                if let Some(sh) = shadow {
+                    self.shadows.push((p, sh));
+                }
+                if goes_on {
+                    self.next.push(p);
+                }
+            }
+        }
+        for group in self.shadows.chunks(LANES) {
+            let mut rays = RayPacket::default();
+            for (lane, (_, sh)) in group.iter().enumerate() {
+                rays.set(lane, sh.origin, sh.dir, 0.0, sh.tmax);
+            }
+            let blocked = rs.accel.occluded_packet(&rays);
+            for (lane, (p, sh)) in group.iter().enumerate() {
+                if blocked & (1 << lane) == 0 {
+                    self.paths[*p as usize].add_unoccluded(sh);
+                }
+            }
+        }
+    }
+}
+
+/// A pixel's estimate from the radiance of its paths in sample order (the order fixes the
+/// rounding of the sums, so it never depends on scheduling) and its first hit.
+pub(crate) fn estimate(
+    radiance: impl Iterator<Item = PathRadiance>,
+    first_hit: FirstHit,
+    spp: usize,
+) -> PixelEstimate {
+    let mut est = PixelEstimate {
+        first_hit,
+        ..Default::default()
+    };
+    let (mut sum_d, mut sum_i) = (DVec3::ZERO, DVec3::ZERO);
+    let (mut mean, mut m2) = (0.0f64, 0.0f64);
+    for (i, r) in radiance.enumerate() {
+        est.rays += r.rays as u64;
+        sum_d += r.direct.as_dvec3();
+        sum_i += r.indirect.as_dvec3();
+        let l = luminance((r.direct + r.indirect).into()) as f64;
+        let delta = l - mean;
+        mean += delta / (i + 1) as f64;
+        m2 += delta * (l - mean);
+    }
+    let n = spp.max(1) as f64;
+    est.direct = (sum_d / n).as_vec3();
+    est.indirect = (sum_i / n).as_vec3();
+    est.luminance_variance = if spp > 1 {
+        (m2 / (n - 1.0)) as f32
+    } else {
+        0.0
+    };
+    est
+}
