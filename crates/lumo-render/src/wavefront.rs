@@ -97,7 +97,8 @@ impl Batch {
         self.next.clear();
         self.shadows.clear();
         let mut hits: [Option<Hit>; LANES] = [None; LANES];
-        for group in self.active.chunks(LANES) {
+        let active = std::mem::take(&mut self.active);
+        for group in active.chunks(LANES) {
             let mut rays = RayPacket::default();
             for (lane, &p) in group.iter().enumerate() {
                 let path = &self.paths[p as usize];
@@ -114,6 +115,7 @@ impl Batch {
                 }
             }
         }
+        self.active = active;
         for group in self.shadows.chunks(LANES) {
             let mut rays = RayPacket::default();
             for (lane, (_, sh)) in group.iter().enumerate() {
