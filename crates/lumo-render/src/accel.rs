@@ -22,7 +22,7 @@ use crate::packet::{RayPacket, LANES};
 use lumo_scene::Scene;
 
 /// The nearest intersection of a ray with the scene.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, Default)]
 pub struct Hit {
     /// Ray parameter of the hit (distance when the direction is unit length).
     pub t: f32,

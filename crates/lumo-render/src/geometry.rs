@@ -45,7 +45,7 @@ impl Frame {
 /// below 3·10⁻⁷ there, under f32's resolution near 1. The concentric disk map only needs this
 /// range, and libm's general `sincosf` with its range reduction took ~3 % of render time.
 #[inline]
-fn cos_sin_quarter(phi: f32) -> (f32, f32) {
+pub(crate) fn cos_sin_quarter(phi: f32) -> (f32, f32) {
     let x2 = phi * phi;
     let cos = 1.0 + x2 * (-0.5 + x2 * (1.0 / 24.0 + x2 * (-1.0 / 720.0 + x2 * (1.0 / 40320.0))));
     let sin = phi * (1.0 + x2 * (-1.0 / 6.0 + x2 * (1.0 / 120.0 + x2 * (-1.0 / 5040.0))));

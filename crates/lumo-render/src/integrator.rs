@@ -8,10 +8,10 @@ use glam::{Vec2, Vec3};
 
 use crate::accel::Hit;
 use crate::bsdf::Bsdf;
-use crate::lights::LightSample;
-use crate::render_scene::Surface;
 use crate::geometry::power_heuristic;
+use crate::lights::LightSample;
 use crate::render_scene::RenderScene;
+use crate::render_scene::Surface;
 use crate::sampler::PixelSampler;
 
 /// Integrator parameters.
@@ -67,7 +67,7 @@ pub struct PathRadiance {
 
 impl PathRadiance {
     #[inline]
-    fn add(&mut self, depth: u32, value: Vec3) {
+    pub(crate) fn add(&mut self, depth: u32, value: Vec3) {
         // A NaN from a degenerate configuration must not poison the pixel.
         if !value.is_finite() {
             return;
@@ -90,9 +90,9 @@ pub struct ShadowRay {
     /// Largest ray parameter that still lies before the light.
     pub tmax: f32,
     /// Radiance the path receives if the ray is unoccluded.
-    contribution: Vec3,
+    pub(crate) contribution: Vec3,
     /// Depth the contribution counts at.
-    depth: u32,
+    pub(crate) depth: u32,
 }
 
 /// A path's shading point after [`PathState::arrive`]: surface, BSDF, outgoing direction.
@@ -109,11 +109,11 @@ pub struct Arrival {
 /// The random numbers of one bounce.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct BounceNumbers {
-    light: f32,
-    light_point: Vec2,
-    lobe: f32,
-    direction: Vec2,
-    roulette: f32,
+    pub(crate) light: f32,
+    pub(crate) light_point: Vec2,
+    pub(crate) lobe: f32,
+    pub(crate) direction: Vec2,
+    pub(crate) roulette: f32,
 }
 
 /// One camera path between ray queries: the integrator as a state machine, so that the
@@ -131,14 +131,14 @@ pub struct PathState {
     pub radiance: PathRadiance,
     /// The first hit, once known (filled only if asked for).
     pub first_hit: FirstHit,
-    want_first_hit: bool,
-    throughput: Vec3,
+    pub(crate) want_first_hit: bool,
+    pub(crate) throughput: Vec3,
     /// Density of the BSDF sample that produced the current ray; None for camera rays and
     /// delta lobes (no MIS against light sampling).
-    prev_pdf: Option<f32>,
-    prev_point: Vec3,
-    eta_scale: f32,
-    depth: u32,
+    pub(crate) prev_pdf: Option<f32>,
+    pub(crate) prev_point: Vec3,
+    pub(crate) eta_scale: f32,
+    pub(crate) depth: u32,
 }
 
 impl PathState {
@@ -223,17 +223,39 @@ impl PathState {
         let s = rs.surface(&hit, self.origin, dir);
         let bsdf = rs.bsdf(&s);
         let le = rs.emission(&s, dir);
+        self.take_hit(rs, settings, &s, hit.t, &bsdf, le);
+        if depth >= settings.max_depth {
+            return None;
+        }
+        let wo = s.frame.to_local(-dir);
+        Some(Arrival { s, bsdf, wo })
+    }
+
+    /// What a hit contributes before the path bounces: the first-hit record if asked for, and
+    /// the radiance `le` the surface emits towards the ray, MIS-weighted against light
+    /// sampling. (Shared by [`PathState::arrive`] and the vector bounce.)
+    #[inline]
+    pub(crate) fn take_hit(
+        &mut self,
+        rs: &RenderScene,
+        settings: &PathSettings,
+        s: &Surface,
+        t: f32,
+        bsdf: &Bsdf,
+        le: Vec3,
+    ) {
         if std::mem::take(&mut self.want_first_hit) {
             let n = s.frame.n;
             self.first_hit = FirstHit {
-                normal: if n.dot(dir) > 0.0 { -n } else { n },
+                normal: if n.dot(self.dir) > 0.0 { -n } else { n },
                 position: s.p,
-                depth: hit.t,
+                depth: t,
                 albedo: bsdf.albedo(),
                 emitted: le,
             };
         }
-        if le != Vec3::ZERO && (depth == 1 || settings.bsdf_emission || self.prev_pdf.is_none())
+        if le != Vec3::ZERO
+            && (self.depth == 1 || settings.bsdf_emission || self.prev_pdf.is_none())
         {
             let w = match self.prev_pdf {
                 Some(pdf) if settings.nee => power_heuristic(
@@ -243,13 +265,8 @@ impl PathState {
                 ),
                 _ => 1.0,
             };
-            self.radiance.add(depth, self.throughput * le * w);
+            self.radiance.add(self.depth, self.throughput * le * w);
         }
-        if depth >= settings.max_depth {
-            return None;
-        }
-        let wo = s.frame.to_local(-dir);
-        Some(Arrival { s, bsdf, wo })
     }
 
     /// Phase 2: the bounce's random numbers, always all of them and in one order, so the

@@ -23,6 +23,7 @@ pub mod pipeline;
 mod render;
 mod render_scene;
 pub mod sampler;
+mod simd_bounce;
 pub mod wavefront;
 
 pub use frame::{Frame, AOV_NAMES};

@@ -13,13 +13,18 @@ use crate::geometry::{square_to_triangle, square_to_uniform_sphere, UNIFORM_SPHE
 /// An emissive triangle in world space.
 #[derive(Clone, Copy, Debug)]
 pub struct EmissiveTriangle {
-    p0: Vec3,
-    e1: Vec3,
-    e2: Vec3,
+    /// First corner.
+    pub(crate) p0: Vec3,
+    /// Second corner minus the first.
+    pub(crate) e1: Vec3,
+    /// Third corner minus the first.
+    pub(crate) e2: Vec3,
     /// Unit geometric normal; the triangle emits on this side only.
-    normal: Vec3,
-    area: f32,
-    radiance: Vec3,
+    pub(crate) normal: Vec3,
+    /// Area.
+    pub(crate) area: f32,
+    /// Emitted radiance.
+    pub(crate) radiance: Vec3,
 }
 
 /// An importance-sampled latitude-longitude environment.
@@ -311,6 +316,31 @@ impl Lights {
             return 0.0;
         }
         self.choice.pmf(index) * dist2 / (tri.area * cos)
+    }
+
+    /// Whether there are lights and all are emissive triangles: the lights the wavefront's
+    /// vector bounce samples itself.
+    pub(crate) fn triangles_only(&self) -> bool {
+        !self.lights.is_empty()
+            && self
+                .lights
+                .iter()
+                .all(|l| matches!(l, LightKind::Triangle(_)))
+    }
+
+    /// The light [`Lights::sample`] picks for `u_choice`, with its probability, if it is an
+    /// emissive triangle that can be picked.
+    #[inline]
+    pub(crate) fn choose_triangle(&self, u_choice: f32) -> Option<(f32, &EmissiveTriangle)> {
+        if self.lights.is_empty() {
+            return None;
+        }
+        let index = self.alias.sample(u_choice);
+        let pick = self.choice.pmf(index);
+        match &self.lights[index] {
+            LightKind::Triangle(tri) if pick > 0.0 => Some((pick, tri)),
+            _ => None,
+        }
     }
 
     /// Picks a light and a point on it as seen from `p`.

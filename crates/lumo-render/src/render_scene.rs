@@ -61,6 +61,21 @@ pub struct RenderScene {
     unit_normals: Vec<Vec<Vec3>>,
     /// Offset applied to ray origins to escape the surface they leave.
     pub ray_epsilon: f32,
+    /// Per instance, its reflectance and emission if it is a diffuse surface in world space
+    /// (identity transform, no vertex colours, constant reflectance):
+    /// the case the wavefront's vector bounce ([`crate::simd_bounce`]) handles.
+    simple_diffuse: Vec<Option<SimpleDiffuse>>,
+}
+
+/// A constant-reflectance diffuse instance in world space.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct SimpleDiffuse {
+    /// Mesh index (for its unit normals).
+    pub mesh: usize,
+    /// Diffuse reflectance.
+    pub albedo: Vec3,
+    /// Emitted radiance (front side).
+    pub emission: Vec3,
 }
 
 impl RenderScene {
@@ -99,7 +114,31 @@ impl RenderScene {
                     .collect()
             })
             .collect();
+        let simple_diffuse = scene
+            .instances
+            .iter()
+            .map(|inst| {
+                let mesh = &scene.meshes[inst.mesh];
+                let material = &scene.materials[mesh.material];
+                match &material.bsdf {
+                    SceneBsdf::Diffuse {
+                        reflectance: Texture::Constant(albedo),
+                    } if inst.transform == Mat4::IDENTITY
+                        && albedo.is_finite()
+                        && mesh.colors.is_empty() =>
+                    {
+                        Some(SimpleDiffuse {
+                            mesh: inst.mesh,
+                            albedo: *albedo,
+                            emission: material.emission,
+                        })
+                    }
+                    _ => None,
+                }
+            })
+            .collect();
         Ok(Self {
+            simple_diffuse,
             // Relative to the coordinate magnitude (see `offset`): float error in the hit
             // point grows with it.
             ray_epsilon: 1e-4,
@@ -110,6 +149,19 @@ impl RenderScene {
             placements,
             unit_normals,
         })
+    }
+
+    /// The instance's reflectance and emission if it is a simple diffuse surface (see the
+    /// field's doc), for the vector bounce.
+    #[inline]
+    pub(crate) fn simple_diffuse(&self, instance: u32) -> Option<SimpleDiffuse> {
+        self.simple_diffuse[instance as usize]
+    }
+
+    /// Unit geometric normal of triangle `triangle` of mesh `mesh`, in object space.
+    #[inline]
+    pub(crate) fn unit_normal(&self, mesh: usize, triangle: u32) -> Vec3 {
+        self.unit_normals[mesh][triangle as usize]
     }
 
     /// Reconstructs the surface at `hit` of the ray with direction `dir`.
