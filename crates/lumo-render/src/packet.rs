@@ -23,7 +23,7 @@
 use glam::Vec3;
 
 use crate::bvh_stack::{with_stack, TraversalStack, CULL_SLACK};
-use crate::bvh_wide::{ray_slopes, Node, Packet, WideBvh, EMPTY, LEAF};
+use crate::bvh_wide::{Node, Packet, WideBvh, EMPTY, LEAF};
 
 /// Rays per packet.
 pub const LANES: usize = 16;
@@ -109,6 +109,7 @@ struct Prepared {
 }
 
 impl Prepared {
+    #[inline(always)]
     fn new(rays: &RayPacket) -> Self {
         let mut p = Prepared {
             o: rays.o,
@@ -117,13 +118,18 @@ impl Prepared {
             neg: [[0; LANES]; 3],
             tmin: rays.tmin,
         };
-        for lane in 0..LANES {
-            let dir = Vec3::new(rays.d[0][lane], rays.d[1][lane], rays.d[2][lane]);
-            // The single-ray traversal's slopes, so both compute the same slab distances.
-            let (inv, near) = ray_slopes(dir);
-            for axis in 0..3 {
-                p.inv[axis][lane] = inv[axis];
-                p.neg[axis][lane] = if near[axis] == 1 { u32::MAX } else { 0 };
+        // The single-ray traversal's slopes (`bvh_wide::ray_slopes`), lane by lane, so both compute
+        // the same slab distances.
+        for axis in 0..3 {
+            for i in 0..LANES {
+                let d = rays.d[axis][i];
+                let inv = if d.abs() < 1e-30 {
+                    1e30f32.copysign(d)
+                } else {
+                    1.0 / d
+                };
+                p.inv[axis][i] = inv;
+                p.neg[axis][i] = if inv < 0.0 { u32::MAX } else { 0 };
             }
         }
         p
