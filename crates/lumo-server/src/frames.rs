@@ -9,7 +9,8 @@ use lumo_filter::{
     DEFAULT_EPS_DEPTH, DEFAULT_EPS_NORMAL,
 };
 use lumo_image::{luminance, Image};
-use lumo_render::{camera::CameraRays, render_pixel, RenderScene, RenderSettings};
+use lumo_render::wavefront::render_pixels;
+use lumo_render::{camera::CameraRays, RenderScene, RenderSettings};
 use rayon::prelude::*;
 
 use crate::protocol::Mode;
@@ -84,11 +85,8 @@ impl FrameAccumulator {
                 if abort() {
                     return None;
                 }
-                Some(
-                    (0..w)
-                        .map(|x| render_pixel(rs, rays, &settings, x, y))
-                        .collect(),
-                )
+                // A whole row through the wavefront renderer (fuller ray packets).
+                Some(render_pixels(rs, rays, &settings, y, 0..w))
             })
             .collect();
         let rows = rows?;

@@ -10,7 +10,8 @@ use lumo_filter::{atrous, spatial_variance, with_passthrough, AtrousParams, Feat
 use super::compose::trace_full;
 use super::{PipelineError, PipelineOptions, PipelineOutput, Timings};
 use crate::camera::CameraRays;
-use crate::render::{frame_from_estimates, map_pixels, render_pixel};
+use crate::render::{frame_from_estimates, map_pixels, map_rows, render_pixel};
+use crate::wavefront::render_pixels;
 use crate::{RenderScene, RenderSettings, RenderStats};
 
 pub(super) fn run(
@@ -119,14 +120,19 @@ fn trace_sparse(
     gbuffer_only.spp = 1;
     gbuffer_only.path.max_depth = 1;
     let rows = |done: usize| progress(done as f32 / h.max(1) as f32);
-    let estimates = map_pixels(w, h, &rows, |x, y| {
-        let s = if x.is_multiple_of(n) && y.is_multiple_of(n) {
-            settings
-        } else {
-            &gbuffer_only
-        };
-        render_pixel(rs, &camera, s, x, y)
-    });
+    let estimates = if n == 1 {
+        // Every pixel traced: whole rows through the wavefront renderer (fuller packets).
+        map_rows(h, &rows, |y| render_pixels(rs, &camera, settings, y, 0..w))
+    } else {
+        map_pixels(w, h, &rows, |x, y| {
+            let s = if x.is_multiple_of(n) && y.is_multiple_of(n) {
+                settings
+            } else {
+                &gbuffer_only
+            };
+            render_pixel(rs, &camera, s, x, y)
+        })
+    };
     let frame = frame_from_estimates(w, h, settings.spp, &estimates);
     let traced = w.div_ceil(n) * h.div_ceil(n);
     let stats = RenderStats {

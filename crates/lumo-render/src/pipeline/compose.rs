@@ -8,7 +8,8 @@ use lumo_image::Image;
 
 use super::{PipelineOutput, Timings};
 use crate::camera::CameraRays;
-use crate::render::{frame_from_estimates, map_pixels, render_pixel};
+use crate::render::{frame_from_estimates, map_rows};
+use crate::wavefront::render_pixels;
 use crate::{Frame, PixelEstimate, RenderScene, RenderSettings, RenderStats};
 
 /// Traces every pixel with `settings`, reporting progress as a fraction of rows.
@@ -21,9 +22,8 @@ pub(super) fn trace_full(
     let (w, h) = (settings.width, settings.height);
     let camera = CameraRays::new(&rs.scene.camera, w, h);
     let rows = |done: usize| progress(done as f32 / h.max(1) as f32);
-    let estimates = map_pixels(w, h, &rows, |x, y| {
-        render_pixel(rs, &camera, settings, x, y)
-    });
+    // Whole rows through the wavefront renderer: packets of many pixels' paths stay full.
+    let estimates = map_rows(h, &rows, |y| render_pixels(rs, &camera, settings, y, 0..w));
     let frame = frame_from_estimates(w, h, settings.spp, &estimates);
     let stats = RenderStats {
         samples: (w * h) as u64 * settings.spp as u64,
