@@ -271,7 +271,7 @@ impl PathState {
 
     /// Phase 2: the bounce's random numbers, always all of them and in one order, so the
     /// sample stream does not depend on which branches a bounce takes.
-    #[inline]
+    #[inline(always)]
     pub fn draw(&mut self) -> BounceNumbers {
         BounceNumbers {
             light: self.sampler.next_1d(),

@@ -330,7 +330,7 @@ impl Lights {
 
     /// The light [`Lights::sample`] picks for `u_choice`, with its probability, if it is an
     /// emissive triangle that can be picked.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn choose_triangle(&self, u_choice: f32) -> Option<(f32, &EmissiveTriangle)> {
         if self.lights.is_empty() {
             return None;
