@@ -371,6 +371,7 @@ impl Accel {
 
     /// Nearest hits of the first `rays.count` rays of a packet: `out[i]` is what
     /// [`Accel::intersect`] returns for ray `i`, bit for bit.
+    #[inline]
     pub fn intersect_packet(&self, rays: &RayPacket, out: &mut [Option<Hit>; LANES]) {
         let n = rays.count;
         if let Some(tree) = self.packet_tree() {
