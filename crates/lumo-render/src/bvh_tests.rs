@@ -290,6 +290,26 @@ fn packets_find_the_single_ray_hits_bit_for_bit() {
         }
         let got = bvh.intersect_packet(&rays);
         let occluded = bvh.occluded_packet(&rays);
+        // The AVX2 kernels (what AVX2-only CPUs run) agree with the widest one here.
+        let got2 = crate::packet::closest_at(false, bvh.tree(), &rays);
+        let occluded2 = crate::packet::any_at(false, bvh.tree(), &rays);
+        assert_eq!(occluded2, occluded, "packet {p}: AVX2 any-hit kernel");
+        for lane in 0..count {
+            assert_eq!(
+                (
+                    got2.t[lane].to_bits(),
+                    got2.u[lane].to_bits(),
+                    got2.v[lane].to_bits()
+                ),
+                (
+                    got.t[lane].to_bits(),
+                    got.u[lane].to_bits(),
+                    got.v[lane].to_bits()
+                ),
+                "packet {p} lane {lane}: AVX2 closest-hit kernel"
+            );
+            assert_eq!(got2.id[lane], got.id[lane], "packet {p} lane {lane}");
+        }
         assert_eq!(
             occluded >> count,
             0,

@@ -716,6 +716,12 @@ fn no_hits(rays: &RayPacket) -> PacketHits {
 /// Nearest hits of the packet's rays in `tree`. Only called through [`crate::bvh8::Bvh8`],
 /// which exists only on x86-64 where AVX2 and FMA were detected.
 pub(crate) fn closest(tree: &WideBvh<8>, rays: &RayPacket) -> PacketHits {
+    closest_at(true, tree, rays)
+}
+
+/// [`closest`] with the AVX2 kernel even where AVX-512 exists if `avx512` is false (tests run
+/// both).
+pub(crate) fn closest_at(avx512: bool, tree: &WideBvh<8>, rays: &RayPacket) -> PacketHits {
     if tree.nodes.is_empty() || rays.count == 0 {
         return no_hits(rays);
     }
@@ -725,7 +731,7 @@ pub(crate) fn closest(tree: &WideBvh<8>, rays: &RayPacket) -> PacketHits {
             // SAFETY: `Bvh8` (the only caller) exists only where AVX2 and FMA were detected;
             // the AVX-512 variant additionally checks its own features.
             unsafe {
-                if dispatch::has_avx512() {
+                if avx512 && dispatch::has_avx512() {
                     dispatch::closest_avx512(tree, rays, stack)
                 } else {
                     dispatch::closest_avx2(tree, rays, stack)
@@ -742,6 +748,11 @@ pub(crate) fn closest(tree: &WideBvh<8>, rays: &RayPacket) -> PacketHits {
 /// Bit `i` set if ray `i` of the packet hits anything in `tree` (same caller rule as
 /// [`closest`]).
 pub(crate) fn any(tree: &WideBvh<8>, rays: &RayPacket) -> u32 {
+    any_at(true, tree, rays)
+}
+
+/// [`any`] with the choice of kernel of [`closest_at`].
+pub(crate) fn any_at(avx512: bool, tree: &WideBvh<8>, rays: &RayPacket) -> u32 {
     if tree.nodes.is_empty() || rays.count == 0 {
         return 0;
     }
@@ -750,7 +761,7 @@ pub(crate) fn any(tree: &WideBvh<8>, rays: &RayPacket) -> u32 {
         with_stack(tree.stack_need, |stack| {
             // SAFETY: as in `closest`.
             unsafe {
-                if dispatch::has_avx512() {
+                if avx512 && dispatch::has_avx512() {
                     dispatch::any_avx512(tree, rays, stack)
                 } else {
                     dispatch::any_avx2(tree, rays, stack)

@@ -82,11 +82,16 @@ pub(crate) fn diffuse_bounce(
     shadows: &mut Vec<(u32, ShadowRay)>,
     next: &mut Vec<u32>,
 ) {
+    diffuse_bounce_at(detected_level(), rs, settings, paths, lanes, shadows, next)
+}
+
+/// The widest form of the bounce this CPU runs: 2 = AVX-512, 1 = AVX2, 0 = baseline x86-64.
+fn detected_level() -> u8 {
     #[cfg(target_arch = "x86_64")]
     {
         use std::sync::OnceLock;
         static LEVEL: OnceLock<u8> = OnceLock::new();
-        let level = *LEVEL.get_or_init(|| {
+        *LEVEL.get_or_init(|| {
             if std::is_x86_feature_detected!("avx512f") && std::is_x86_feature_detected!("avx512vl")
             {
                 2
@@ -95,16 +100,34 @@ pub(crate) fn diffuse_bounce(
             } else {
                 0
             }
-        });
-        // SAFETY: each variant runs only where its features were detected.
-        unsafe {
-            match level {
-                2 => return bounce_avx512(rs, settings, paths, lanes, shadows, next),
-                1 => return bounce_avx2(rs, settings, paths, lanes, shadows, next),
-                _ => {}
-            }
+        })
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        0
+    }
+}
+
+/// [`diffuse_bounce`] compiled for `level` (at most what this CPU runs; tests run each).
+fn diffuse_bounce_at(
+    level: u8,
+    rs: &RenderScene,
+    settings: &PathSettings,
+    paths: &mut [PathState],
+    lanes: &[(u32, Hit)],
+    shadows: &mut Vec<(u32, ShadowRay)>,
+    next: &mut Vec<u32>,
+) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: each variant runs only at or below the detected level.
+    unsafe {
+        match level.min(detected_level()) {
+            2 => return bounce_avx512(rs, settings, paths, lanes, shadows, next),
+            1 => return bounce_avx2(rs, settings, paths, lanes, shadows, next),
+            _ => {}
         }
     }
+    let _ = level;
     bounce(rs, settings, paths, lanes, shadows, next)
 }
 
@@ -516,6 +539,14 @@ mod tests {
             ..Default::default()
         };
         assert!(applies(&rs, &settings));
+        // Every compiled form this CPU runs: AVX-512, AVX2, baseline.
+        for level in 0..=detected_level() {
+            check_level(&rs, &settings, level);
+        }
+    }
+
+    fn check_level(rs: &RenderScene, settings: &PathSettings, level: u8) {
+        let (rs, settings) = (rs, *settings);
         let camera = CameraRays::new(&rs.scene.camera, 32, 32);
         let mut checked = [0usize; 7];
         for y in 0..32u32 {
@@ -552,11 +583,23 @@ mod tests {
                     }
                 }
                 let (mut shadows, mut next) = (vec![], vec![]);
-                diffuse_bounce(&rs, &settings, &mut paths, &lanes, &mut shadows, &mut next);
+                diffuse_bounce_at(
+                    level,
+                    rs,
+                    &settings,
+                    &mut paths,
+                    &lanes,
+                    &mut shadows,
+                    &mut next,
+                );
                 for (p, depth, alone, shadow, on) in want {
                     let got = shadows.iter().find(|s| s.0 == p).map(|s| &s.1);
-                    assert_eq!(got.is_some(), shadow.is_some(), "row {y} path {p}");
-                    assert_eq!(next.contains(&p), on, "row {y} path {p}");
+                    assert_eq!(
+                        got.is_some(),
+                        shadow.is_some(),
+                        "level {level} row {y} path {p}"
+                    );
+                    assert_eq!(next.contains(&p), on, "level {level} row {y} path {p}");
                     if on {
                         assert_eq!(
                             bits(&paths[p as usize], got),
@@ -578,7 +621,7 @@ mod tests {
         }
         assert!(
             checked[1] > 400 && checked[3] > 100 && checked[6] > 20,
-            "bounces checked per depth: {checked:?}"
+            "level {level}: bounces checked per depth: {checked:?}"
         );
     }
 }
