@@ -568,7 +568,7 @@ mod tests {
                         .accel
                         .intersect(path.origin, path.dir, 0.0, f32::INFINITY);
                     let mut alone = *path;
-                    let (shadow, on) = alone.advance(&rs, &settings, hit);
+                    let (shadow, on) = alone.advance(rs, &settings, hit);
                     match hit.filter(|h| rs.simple_diffuse(h.instance).is_some()) {
                         Some(h) => {
                             lanes.push((p, h));
