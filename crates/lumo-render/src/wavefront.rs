@@ -28,6 +28,10 @@ use crate::simd_bounce::{self, diffuse_bounce};
 /// states (~200 bytes each) stay in the first- and second-level caches.
 const BATCH_PATHS: usize = 256;
 
+/// Packets of fewer paths take the scalar bounce: the vector bounce costs sixteen lanes
+/// whatever the number of paths in it.
+const MIN_VECTOR_LANES: usize = 4;
+
 /// Renders samples `0..spp` of pixels `xs` of row `y`, in order: for each pixel the same
 /// estimate as [`crate::render_pixel`] (which calls this for one pixel).
 pub fn render_pixels(
@@ -111,7 +115,11 @@ impl Batch {
             let mut simple: [(u32, Hit); LANES] = [(0, Hit::default()); LANES];
             let mut n_simple = 0;
             for (&p, &hit) in group.iter().zip(&hits) {
-                if let Some(h) = hit.filter(|h| vector && rs.simple_diffuse(h.instance).is_some()) {
+                if let Some(h) = hit.filter(|h| {
+                    vector
+                        && group.len() >= MIN_VECTOR_LANES
+                        && rs.simple_diffuse(h.instance).is_some()
+                }) {
                     simple[n_simple] = (p, h);
                     n_simple += 1;
                     continue;

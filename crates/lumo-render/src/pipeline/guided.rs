@@ -17,7 +17,8 @@ use lumo_image::Image;
 use super::compose::{depth_scale, direct_only, recompose};
 use super::{PipelineError, PipelineOptions, PipelineOutput, Timings};
 use crate::camera::CameraRays;
-use crate::render::{frame_from_estimates, map_pixels, render_pixel, trace_sample};
+use crate::render::{frame_from_estimates, map_pixels, map_rows, trace_sample};
+use crate::wavefront::render_pixels;
 use crate::{FirstHit, Frame, PixelEstimate, RenderScene, RenderSettings, RenderStats};
 
 /// A pixel's guide-ray estimate plus its extra direct-light samples.
@@ -59,8 +60,13 @@ pub(super) fn run(
     guide_settings.spp = 1;
     let direct_settings = direct_only(settings);
     let rows = |done: usize| progress(done as f32 / h.max(1) as f32);
-    let pixels = map_pixels(w, h, &rows, |x, y| {
-        let guide = render_pixel(rs, &camera, &guide_settings, x, y);
+    // The guide rays (sample 0 of each pixel, full paths) a row at a time through the wavefront
+    // renderer; each pixel's extra direct-light samples one at a time.
+    let guides = map_rows(h, &rows, |y| {
+        render_pixels(rs, &camera, &guide_settings, y, 0..w)
+    });
+    let pixels = map_pixels(w, h, &|_| {}, |x, y| {
+        let guide = guides[y * w + x];
         let extra = (1..settings.spp)
             .map(|i| {
                 let mut hit = FirstHit::default();
@@ -76,7 +82,6 @@ pub(super) fn run(
             .collect();
         GuidedPixel { guide, extra }
     });
-    let guides: Vec<PixelEstimate> = pixels.iter().map(|p| p.guide).collect();
     let mut frame = frame_from_estimates(w, h, 1, &guides);
     let stats = RenderStats {
         samples: (w * h) as u64 * settings.spp.max(1) as u64,
