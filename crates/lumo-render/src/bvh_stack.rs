@@ -73,14 +73,7 @@ pub(crate) fn descend_nearest<const W: usize>(
         n += 1;
     }
     let hits = &mut hits[..n];
-    // Insertion sort, descending by distance (n ≤ W).
-    for i in 1..n {
-        let mut j = i;
-        while j > 0 && hits[j - 1].1 < hits[j].1 {
-            hits.swap(j - 1, j);
-            j -= 1;
-        }
-    }
+    sort_farthest_first(hits, |h| h.1);
     for &h in &hits[..n - 1] {
         stack.push(h);
     }
@@ -93,6 +86,19 @@ pub(crate) fn descend_nearest<const W: usize>(
 /// late. Visiting it keeps the tie rule of [`keep_nearest`] independent of the visiting order.
 /// (16 bits of slack: far above the rounding, far below any culling that matters.)
 pub(crate) const CULL_SLACK: f32 = 1.0 + 1.0 / 65_536.0;
+
+/// Sorts a node's hit children by entry distance `key`, farthest first (insertion sort: at
+/// most eight items, so cheaper than a general sort).
+#[inline(always)]
+pub(crate) fn sort_farthest_first<T>(items: &mut [T], key: impl Fn(&T) -> f32) {
+    for i in 1..items.len() {
+        let mut j = i;
+        while j > 0 && key(&items[j - 1]) < key(&items[j]) {
+            items.swap(j - 1, j);
+            j -= 1;
+        }
+    }
+}
 
 /// The next pushed subtree whose entry distance does not exceed `cull` (the nearest hit so far
 /// times [`CULL_SLACK`]; the others cannot hold a hit as near), or `None` when the stack is

@@ -22,7 +22,7 @@
 
 use glam::Vec3;
 
-use crate::bvh_stack::{with_stack, TraversalStack, CULL_SLACK};
+use crate::bvh_stack::{sort_farthest_first, with_stack, TraversalStack, CULL_SLACK};
 use crate::bvh_wide::{Node, Packet, WideBvh, EMPTY, LEAF};
 
 /// Rays per packet.
@@ -469,14 +469,7 @@ unsafe fn closest_impl<M: Masks>(
             }
             if n > 0 {
                 let hits = &mut hits[..n];
-                // Insertion sort, farthest first (n ≤ 8).
-                for i in 1..n {
-                    let mut j = i;
-                    while j > 0 && hits[j - 1].2 < hits[j].2 {
-                        hits.swap(j - 1, j);
-                        j -= 1;
-                    }
-                }
+                sort_farthest_first(hits, |h| h.2);
                 for &(c, m, _) in &hits[..n - 1] {
                     stack.push(Entry {
                         tnear: tnear[c as usize],
