@@ -1,7 +1,7 @@
 //! One bounce of up to sixteen paths at once, structure of arrays, for the common case: a
-//! diffuse surface with constant reflectance in world space (flat or with vertex normals), in a scene lit only
-//! by emissive triangles. Used by the wavefront renderer for the lanes that qualify
-//! ([`RenderScene::simple_diffuse`]); all others take [`PathState::advance`].
+//! diffuse surface with constant reflectance in world space (flat or with vertex normals), in
+//! a scene lit only by emissive triangles. Used by the wavefront renderer for the lanes that
+//! qualify ([`RenderScene::simple_diffuse`]); all others take [`PathState::advance`].
 //!
 //! Why: after packet traversal, shading and sampling one path at a time was ≈ 60 % of a
 //! Cornell-box render, a few hundred scalar instructions per bounce with square roots and
@@ -10,7 +10,8 @@
 //!
 //! It computes, per lane, exactly what `advance` computes for such a surface — the same
 //! operations in the same order (Rust never fuses a multiply and an add on its own), so the
-//! wavefront's bit-for-bit test against the one-ray integrator covers it too. Only what is
+//! wavefront's bit-for-bit test against the one-ray integrator covers it too, and a unit test
+//! compares it with `advance` lane for lane, shadow rays included. Only what is
 //! per-lane by nature stays scalar: gathering path state and scene data, the random numbers,
 //! the light choice, and the rare emitter hit and first-hit record.
 

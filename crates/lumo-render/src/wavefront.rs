@@ -2,7 +2,8 @@
 //! time, so their rays can be traced sixteen at a time ([`crate::packet`]).
 //!
 //! Each bounce is three stages over the paths still alive: trace their rays in packets, let
-//! every path take its hit ([`PathState::advance`]: emission, light sample, BSDF sample), then
+//! every path take its hit ([`PathState::advance`]: emission, light sample, BSDF sample; paths
+//! at simple diffuse surfaces sixteen at a time in [`crate::simd_bounce`]), then
 //! trace the shadow rays in packets and credit the unoccluded ones. Paths are packed densely
 //! each bounce (finished ones drop out), so packets stay full while paths end at different
 //! depths. A path's arithmetic is the one-ray-at-a-time integrator's and packet traversal finds
