@@ -97,18 +97,18 @@ pub struct ShadowRay {
 
 /// A path's shading point after [`PathState::arrive`]: surface, BSDF, outgoing direction.
 #[derive(Clone, Copy, Debug)]
-pub struct Arrival {
+struct Arrival {
     /// The surface hit.
-    pub s: Surface,
+    s: Surface,
     /// Its BSDF.
-    pub bsdf: Bsdf,
+    bsdf: Bsdf,
     /// Direction back along the ray, in the shading frame.
-    pub wo: Vec3,
+    wo: Vec3,
 }
 
 /// The random numbers of one bounce.
 #[derive(Clone, Copy, Debug, Default)]
-pub struct BounceNumbers {
+pub(crate) struct BounceNumbers {
     pub(crate) light: f32,
     pub(crate) light_point: Vec2,
     pub(crate) lobe: f32,
@@ -165,10 +165,10 @@ impl PathState {
     /// Returns the shadow ray to test (if any; the caller passes unoccluded ones to
     /// [`PathState::add_unoccluded`]) and whether the path goes on with `origin`/`dir`.
     ///
-    /// The work is split into the phases below, which a renderer may also run one at a time
-    /// over many paths. (Running each phase over a whole packet before the next measured
-    /// 10 % slower on the Cornell box than whole bounces per path: the surface and BSDF
-    /// records moved between phases cost more than the overlap of paths gained.)
+    /// The work is split into the phases below for reading; they stay private. (Running each
+    /// phase over a whole packet before the next measured 10 % slower on the Cornell box than
+    /// whole bounces per path: the surface and BSDF records moved between phases cost more
+    /// than the overlap of paths gained.)
     #[inline]
     pub fn advance(
         &mut self,
@@ -190,7 +190,7 @@ impl PathState {
     /// emitter contributes; records the first hit. Returns the shading point if the path may
     /// bounce again.
     #[inline]
-    pub fn arrive(
+    fn arrive(
         &mut self,
         rs: &RenderScene,
         settings: &PathSettings,
@@ -272,7 +272,7 @@ impl PathState {
     /// Phase 2: the bounce's random numbers, always all of them and in one order, so the
     /// sample stream does not depend on which branches a bounce takes.
     #[inline(always)]
-    pub fn draw(&mut self) -> BounceNumbers {
+    pub(crate) fn draw(&mut self) -> BounceNumbers {
         BounceNumbers {
             light: self.sampler.next_1d(),
             light_point: self.sampler.next_2d(),
@@ -284,7 +284,7 @@ impl PathState {
 
     /// Phase 3: a point on a light for next-event estimation (none for delta BSDFs).
     #[inline]
-    pub fn sample_light(
+    fn sample_light(
         &self,
         rs: &RenderScene,
         settings: &PathSettings,
@@ -300,7 +300,7 @@ impl PathState {
     /// Phase 4: the shadow ray towards the light point, with the MIS-weighted contribution it
     /// carries.
     #[inline]
-    pub fn connect(
+    fn connect(
         &mut self,
         rs: &RenderScene,
         settings: &PathSettings,
@@ -339,7 +339,7 @@ impl PathState {
     /// Phase 5: continues the path by sampling the BSDF, with Russian roulette. Returns
     /// whether it goes on.
     #[inline]
-    pub fn scatter(
+    fn scatter(
         &mut self,
         rs: &RenderScene,
         settings: &PathSettings,

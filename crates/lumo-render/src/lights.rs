@@ -332,28 +332,28 @@ impl Lights {
     /// emissive triangle that can be picked.
     #[inline(always)]
     pub(crate) fn choose_triangle(&self, u_choice: f32) -> Option<(f32, &EmissiveTriangle)> {
-        if self.lights.is_empty() {
-            return None;
-        }
-        let index = self.alias.sample(u_choice);
-        let pick = self.choice.pmf(index);
-        match &self.lights[index] {
-            LightKind::Triangle(tri) if pick > 0.0 => Some((pick, tri)),
+        match self.choose(u_choice)? {
+            (pick, LightKind::Triangle(tri)) => Some((pick, tri)),
             _ => None,
         }
     }
 
-    /// Picks a light and a point on it as seen from `p`.
-    pub fn sample(&self, p: Vec3, u_choice: f32, u: Vec2) -> Option<LightSample> {
+    /// The light chosen for `u_choice` in proportion to power, with its probability; `None`
+    /// without lights or where the chosen one cannot be picked.
+    #[inline(always)]
+    fn choose(&self, u_choice: f32) -> Option<(f32, &LightKind)> {
         if self.lights.is_empty() {
             return None;
         }
         let index = self.alias.sample(u_choice);
         let pick = self.choice.pmf(index);
-        if pick <= 0.0 {
-            return None;
-        }
-        let sample = match &self.lights[index] {
+        (pick > 0.0).then(|| (pick, &self.lights[index]))
+    }
+
+    /// Picks a light and a point on it as seen from `p`.
+    pub fn sample(&self, p: Vec3, u_choice: f32, u: Vec2) -> Option<LightSample> {
+        let (pick, light) = self.choose(u_choice)?;
+        let sample = match light {
             LightKind::Triangle(tri) => {
                 let b = square_to_triangle(u);
                 let q = tri.p0 + tri.e1 * b.x + tri.e2 * b.y;

@@ -64,10 +64,7 @@ pub fn trace_sample(
     index: u32,
     first: Option<&mut FirstHit>,
 ) -> (PathRadiance, Vec2) {
-    let mut sampler = PixelSampler::new(x as u32, y as u32, index, settings.seed);
-    let jitter = sampler.next_2d();
-    let offset = if index == 0 { Vec2::splat(0.5) } else { jitter };
-    let dir = camera.direction(Vec2::new(x as f32, y as f32) + offset);
+    let (mut sampler, offset, dir) = camera_sample(camera, (x, y), index, settings.seed);
     let r = trace_path(
         rs,
         camera.origin(),
@@ -77,6 +74,23 @@ pub fn trace_sample(
         first,
     );
     (r, offset)
+}
+
+/// Camera sample `index` of pixel (x, y): its sampler (past the jitter it drew), its offset in
+/// the pixel and its ray direction. Sample 0 goes through the pixel centre (the guided-filter
+/// paper's guide ray, §3.2), the others through a jittered point.
+#[inline]
+pub(crate) fn camera_sample(
+    camera: &CameraRays,
+    (x, y): (usize, usize),
+    index: u32,
+    seed: u32,
+) -> (PixelSampler, Vec2, Vec3) {
+    let mut sampler = PixelSampler::new(x as u32, y as u32, index, seed);
+    let jitter = sampler.next_2d();
+    let offset = if index == 0 { Vec2::splat(0.5) } else { jitter };
+    let dir = camera.direction(Vec2::new(x as f32, y as f32) + offset);
+    (sampler, offset, dir)
 }
 
 /// Renders samples `0..spp` of pixel (x, y): a pure function of its arguments. The paths go

@@ -68,7 +68,7 @@ pub struct RenderScene {
 }
 
 /// A constant-reflectance diffuse instance in world space.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct SimpleDiffuse {
     /// Mesh index (for its unit normals).
     pub mesh: usize,

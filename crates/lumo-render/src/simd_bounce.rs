@@ -28,9 +28,12 @@ use crate::bsdf::Bsdf;
 use crate::geometry::{cos_sin_quarter, power_heuristic, Frame};
 use crate::integrator::{PathSettings, PathState, ShadowRay};
 use crate::packet::LANES;
-use crate::render_scene::{RenderScene, Surface};
+use crate::render_scene::{RenderScene, SimpleDiffuse, Surface};
 
 const N: usize = LANES;
+
+/// A path at a simple diffuse surface: its index, its hit and the surface's material.
+pub(crate) type SimpleLane = (u32, Hit, SimpleDiffuse);
 type L = [f32; N];
 type L3 = [L; 3];
 
@@ -72,14 +75,14 @@ fn offset(p: [f32; 3], ng: [f32; 3], d: [f32; 3], eps: f32) -> [f32; 3] {
     [p[0] + ng[0] * k, p[1] + ng[1] * k, p[2] + ng[2] * k]
 }
 
-/// Advances the paths `lanes` (path index and hit; at most [`LANES`], every hit on a simple
-/// diffuse instance, [`applies`] true) by one bounce, pushing shadow rays and continuing paths
+/// Advances the paths `lanes` (at most [`LANES`], every hit on a simple diffuse instance,
+/// [`applies`] true) by one bounce, pushing shadow rays and continuing paths
 /// as [`PathState::advance`] would.
 pub(crate) fn diffuse_bounce(
     rs: &RenderScene,
     settings: &PathSettings,
     paths: &mut [PathState],
-    lanes: &[(u32, Hit)],
+    lanes: &[SimpleLane],
     shadows: &mut Vec<(u32, ShadowRay)>,
     next: &mut Vec<u32>,
 ) {
@@ -115,7 +118,7 @@ fn diffuse_bounce_at(
     rs: &RenderScene,
     settings: &PathSettings,
     paths: &mut [PathState],
-    lanes: &[(u32, Hit)],
+    lanes: &[SimpleLane],
     shadows: &mut Vec<(u32, ShadowRay)>,
     next: &mut Vec<u32>,
 ) {
@@ -140,7 +143,7 @@ unsafe fn bounce_avx512(
     rs: &RenderScene,
     settings: &PathSettings,
     paths: &mut [PathState],
-    lanes: &[(u32, Hit)],
+    lanes: &[SimpleLane],
     shadows: &mut Vec<(u32, ShadowRay)>,
     next: &mut Vec<u32>,
 ) {
@@ -155,7 +158,7 @@ unsafe fn bounce_avx2(
     rs: &RenderScene,
     settings: &PathSettings,
     paths: &mut [PathState],
-    lanes: &[(u32, Hit)],
+    lanes: &[SimpleLane],
     shadows: &mut Vec<(u32, ShadowRay)>,
     next: &mut Vec<u32>,
 ) {
@@ -168,7 +171,7 @@ fn bounce(
     rs: &RenderScene,
     settings: &PathSettings,
     paths: &mut [PathState],
-    lanes: &[(u32, Hit)],
+    lanes: &[SimpleLane],
     shadows: &mut Vec<(u32, ShadowRay)>,
     next: &mut Vec<u32>,
 ) {
@@ -189,12 +192,9 @@ fn bounce(
     let (mut bu, mut bv) = ([0.0f32; N], [0.0f32; N]);
     let (mut nv0, mut nv1, mut nv2): (L3, L3, L3) = ([[0.0; N]; 3], [[0.0; N]; 3], [[0.0; N]; 3]);
     let mut interpolate = [false; N];
-    for (i, &(p, hit)) in lanes.iter().enumerate().take(n) {
+    for (i, &(p, hit, sd)) in lanes.iter().enumerate().take(n) {
         let path = &mut paths[p as usize];
         path.radiance.rays += 1;
-        let Some(sd) = rs.simple_diffuse(hit.instance) else {
-            continue;
-        };
         let normal = rs.unit_normal(sd.mesh, hit.triangle);
         let mesh = &rs.scene.meshes[sd.mesh];
         if !mesh.normals.is_empty() {
@@ -276,10 +276,7 @@ fn bounce(
     }
 
     // What `arrive` records for the hit: the first-hit record, emission seen along the ray.
-    for (i, &(p, hit)) in lanes.iter().enumerate().take(n) {
-        let Some(sd) = rs.simple_diffuse(hit.instance) else {
-            continue;
-        };
+    for (i, &(p, hit, sd)) in lanes.iter().enumerate().take(n) {
         let path = &mut paths[p as usize];
         let g = Vec3::new(ng[0][i], ng[1][i], ng[2][i]);
         let le = if g.dot(path.dir) < 0.0 {
@@ -315,7 +312,7 @@ fn bounce(
     );
     let (mut pick, mut area) = ([1.0f32; N], [0.0f32; N]);
     let mut has_light = [false; N];
-    for (i, &(p, _)) in lanes.iter().enumerate().take(n) {
+    for (i, &(p, _, _)) in lanes.iter().enumerate().take(n) {
         if !alive[i] {
             continue;
         }
@@ -468,7 +465,7 @@ fn bounce(
     }
 
     // Scatter: shadow rays, continuing paths.
-    for (i, &(p, _)) in lanes.iter().enumerate().take(n) {
+    for (i, &(p, _, _)) in lanes.iter().enumerate().take(n) {
         if sh_ok[i] {
             let path = &mut paths[p as usize];
             path.radiance.rays += 1;
@@ -570,9 +567,9 @@ mod tests {
                         .intersect(path.origin, path.dir, 0.0, f32::INFINITY);
                     let mut alone = *path;
                     let (shadow, on) = alone.advance(rs, &settings, hit);
-                    match hit.filter(|h| rs.simple_diffuse(h.instance).is_some()) {
-                        Some(h) => {
-                            lanes.push((p, h));
+                    match hit.and_then(|h| Some((h, rs.simple_diffuse(h.instance)?))) {
+                        Some((h, sd)) => {
+                            lanes.push((p, h, sd));
                             want.push((p, path.depth, alone, shadow, on));
                         }
                         None => {

@@ -13,17 +13,16 @@
 
 use std::ops::Range;
 
-use glam::{DVec3, Vec2};
+use glam::DVec3;
 use lumo_image::luminance;
 
 use crate::accel::Hit;
 use crate::camera::CameraRays;
 use crate::integrator::{FirstHit, PathRadiance, PathState, ShadowRay};
 use crate::packet::{RayPacket, LANES};
-use crate::render::{PixelEstimate, RenderSettings};
+use crate::render::{camera_sample, PixelEstimate, RenderSettings};
 use crate::render_scene::RenderScene;
-use crate::sampler::PixelSampler;
-use crate::simd_bounce::{self, diffuse_bounce};
+use crate::simd_bounce::{self, diffuse_bounce, SimpleLane};
 
 /// Paths advanced together: enough to keep packets full as paths end, few enough that their
 /// states (~200 bytes each) stay in the first- and second-level caches.
@@ -81,11 +80,7 @@ impl Batch {
         self.paths.clear();
         for x in xs {
             for index in 0..settings.spp {
-                let mut sampler = PixelSampler::new(x as u32, y as u32, index, settings.seed);
-                let jitter = sampler.next_2d();
-                // Sample 0 goes through the pixel centre: the guided filter's guide ray.
-                let offset = if index == 0 { Vec2::splat(0.5) } else { jitter };
-                let dir = camera.direction(Vec2::new(x as f32, y as f32) + offset);
+                let (sampler, _, dir) = camera_sample(camera, (x, y), index, settings.seed);
                 self.paths
                     .push(PathState::new(camera.origin(), dir, sampler, index == 0));
             }
@@ -113,17 +108,16 @@ impl Batch {
                 rays.set(lane, path.origin, path.dir, 0.0, f32::INFINITY);
             }
             rs.accel.intersect_packet(&rays, &mut hits);
-            let mut simple: [(u32, Hit); LANES] = [(0, Hit::default()); LANES];
+            let vector_group = vector && group.len() >= MIN_VECTOR_LANES;
+            let mut simple: [SimpleLane; LANES] = [Default::default(); LANES];
             let mut n_simple = 0;
             for (&p, &hit) in group.iter().zip(&hits) {
-                if let Some(h) = hit.filter(|h| {
-                    vector
-                        && group.len() >= MIN_VECTOR_LANES
-                        && rs.simple_diffuse(h.instance).is_some()
-                }) {
-                    simple[n_simple] = (p, h);
-                    n_simple += 1;
-                    continue;
+                if let Some(h) = hit.filter(|_| vector_group) {
+                    if let Some(sd) = rs.simple_diffuse(h.instance) {
+                        simple[n_simple] = (p, h, sd);
+                        n_simple += 1;
+                        continue;
+                    }
                 }
                 let (shadow, goes_on) = self.paths[p as usize].advance(rs, &settings.path, hit);
                 if let Some(sh) = shadow {
