@@ -440,13 +440,14 @@ unsafe fn closest_impl<M: Masks>(
                 }
                 // SAFETY: the caller runs with `M`'s instruction set and FMA.
                 let hit = unsafe { hit_triangle::<M>(pk, j, &r, &best.t, &mut tuv) } & lanes;
-                if hit != 0 {
-                    // SAFETY: as above.
-                    unsafe { keep::<M>(hit, id, &tuv, &mut best) };
-                    for i in 0..LANES {
-                        cull[i] = best.t[i] * CULL_SLACK;
-                    }
-                }
+                // Unconditionally: whether any lane hits is data-dependent and mispredicted
+                // often; merging an empty mask is cheaper than a wrong guess.
+                // SAFETY: as above.
+                unsafe { keep::<M>(hit, id, &tuv, &mut best) };
+            }
+            // Only box tests read the culling distances: once per leaf is enough.
+            for i in 0..LANES {
+                cull[i] = best.t[i] * CULL_SLACK;
             }
         } else if lanes.count_ones() <= FEW_LANES {
             // SAFETY: the caller runs with AVX2 and FMA.
