@@ -158,3 +158,29 @@ pub(crate) fn keep_nearest<const W: usize>(
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The children order is a stable descending sort by entry distance, ties and signed zeros
+    /// included.
+    #[test]
+    fn sort_farthest_first_is_a_stable_descending_sort() {
+        let pool = [3.0f32, -1.0, 0.0, 2.5, 3.0, f32::INFINITY, -7.0, 2.5, 1e-30, -0.0];
+        let mut state = 1u32;
+        for trial in 0..2000 {
+            let n = 1 + trial % 8;
+            let mut items: Vec<(usize, f32)> = (0..n)
+                .map(|i| {
+                    state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+                    (i, pool[(state >> 24) as usize % pool.len()])
+                })
+                .collect();
+            let mut want = items.clone();
+            want.sort_by(|a, b| b.1.partial_cmp(&a.1).unwrap());
+            sort_farthest_first(&mut items, |h| h.1);
+            assert_eq!(items, want, "trial {trial}");
+        }
+    }
+}
