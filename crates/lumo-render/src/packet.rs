@@ -190,6 +190,37 @@ trait Masks {
     /// # Safety
     /// As [`Masks::le`].
     unsafe fn eq(a: &Lanes, b: &Lanes) -> u32;
+    /// Bit `i` set where `a[i] < b[i]`, unsigned.
+    ///
+    /// # Safety
+    /// As [`Masks::le`].
+    unsafe fn lt_u32(a: &[u32; LANES], b: &[u32; LANES]) -> u32;
+    /// `a[i] = b[i]` in the lanes whose bit is set (any 32-bit lanes, as bits).
+    ///
+    /// # Safety
+    /// As [`Masks::le`].
+    #[inline(always)]
+    unsafe fn blend(mask: u32, a: &mut [u32; LANES], b: &[u32; LANES]) {
+        let m = expand(mask);
+        for i in 0..LANES {
+            a[i] = (a[i] & !m[i]) | (b[i] & m[i]);
+        }
+    }
+}
+
+/// The bits of a lane array, for [`Masks::blend`].
+#[inline(always)]
+fn bits_mut(x: &mut Lanes) -> &mut [u32; LANES] {
+    // SAFETY: f32 and u32 have the same size and alignment, and every bit pattern is valid
+    // for both.
+    unsafe { &mut *(x as *mut Lanes).cast::<[u32; LANES]>() }
+}
+
+/// The bits of a lane array.
+#[inline(always)]
+fn bits(x: &Lanes) -> &[u32; LANES] {
+    // SAFETY: as in `bits_mut`.
+    unsafe { &*(x as *const Lanes).cast::<[u32; LANES]>() }
 }
 
 /// All ones in the lanes whose bit is set.
@@ -307,23 +338,18 @@ unsafe fn hit_triangle<M: Masks>(
 /// The CPU must support `M`'s instruction set.
 #[inline(always)]
 unsafe fn keep<M: Masks>(hit: u32, id: u32, tuv: &[Lanes; 3], best: &mut PacketHits) {
+    let ids = [id; LANES];
+    // All in vector registers and mask bits: the merges of a leaf's triangles form a chain, so
+    // its latency is what a leaf costs.
     // SAFETY: the caller runs with `M`'s instruction set.
-    let (nearer, tied) = unsafe { (M::lt(&tuv[0], &best.t), M::eq(&tuv[0], &best.t)) };
-    let mut take = hit & nearer;
-    let mut ties = hit & tied;
-    while ties != 0 {
-        let i = ties.trailing_zeros() as usize;
-        ties &= ties - 1;
-        if id < best.id[i] {
-            take |= 1 << i;
-        }
-    }
-    let m = expand(take);
-    for i in 0..LANES {
-        best.t[i] = pick(m[i], best.t[i], tuv[0][i]);
-        best.u[i] = pick(m[i], best.u[i], tuv[1][i]);
-        best.v[i] = pick(m[i], best.v[i], tuv[2][i]);
-        best.id[i] = (best.id[i] & !m[i]) | (id & m[i]);
+    unsafe {
+        let nearer = M::lt(&tuv[0], &best.t);
+        let tied = M::eq(&tuv[0], &best.t) & M::lt_u32(&ids, &best.id);
+        let take = hit & (nearer | tied);
+        M::blend(take, bits_mut(&mut best.t), bits(&tuv[0]));
+        M::blend(take, bits_mut(&mut best.u), bits(&tuv[1]));
+        M::blend(take, bits_mut(&mut best.v), bits(&tuv[2]));
+        M::blend(take, &mut best.id, &ids);
     }
 }
 
@@ -433,13 +459,16 @@ unsafe fn closest_impl<M: Masks>(
     loop {
         if current & LEAF != 0 {
             let pk = &tree.packets[(current & !LEAF) as usize];
+            // The triangles are tested against the best hits at the leaf's entry, so the tests
+            // do not wait for each other's merges; `keep` compares with the current best.
+            let tmax = best.t;
             for j in 0..8 {
                 let id = pk.id[j];
                 if id == EMPTY {
                     break;
                 }
                 // SAFETY: the caller runs with `M`'s instruction set and FMA.
-                let hit = unsafe { hit_triangle::<M>(pk, j, &r, &best.t, &mut tuv) } & lanes;
+                let hit = unsafe { hit_triangle::<M>(pk, j, &r, &tmax, &mut tuv) } & lanes;
                 // Unconditionally: whether any lane hits is data-dependent and mispredicted
                 // often; merging an empty mask is cheaper than a wrong guess.
                 // SAFETY: as above.
@@ -602,6 +631,25 @@ mod dispatch {
             // SAFETY: as in `le`.
             unsafe { avx512_mask!(a, b, _CMP_EQ_OQ) }
         }
+        #[inline(always)]
+        unsafe fn lt_u32(a: &[u32; LANES], b: &[u32; LANES]) -> u32 {
+            // SAFETY: as in `le`.
+            unsafe {
+                let a = _mm512_loadu_si512(a.as_ptr().cast());
+                let b = _mm512_loadu_si512(b.as_ptr().cast());
+                u32::from(_mm512_cmplt_epu32_mask(a, b))
+            }
+        }
+        #[inline(always)]
+        unsafe fn blend(mask: u32, a: &mut [u32; LANES], b: &[u32; LANES]) {
+            // SAFETY: as in `le`.
+            unsafe {
+                let va = _mm512_loadu_si512(a.as_ptr().cast());
+                let vb = _mm512_loadu_si512(b.as_ptr().cast());
+                let r = _mm512_mask_blend_epi32(mask as __mmask16, va, vb);
+                _mm512_storeu_si512(a.as_mut_ptr().cast(), r);
+            }
+        }
     }
 
     /// AVX2: two 8-lane compares and their sign masks.
@@ -636,6 +684,21 @@ mod dispatch {
         unsafe fn eq(a: &Lanes, b: &Lanes) -> u32 {
             // SAFETY: as in `le`.
             unsafe { avx2_mask!(a, b, _CMP_EQ_OQ) }
+        }
+        #[inline(always)]
+        unsafe fn lt_u32(a: &[u32; LANES], b: &[u32; LANES]) -> u32 {
+            // SAFETY: as in `le`. Unsigned order is signed order with the top bits flipped.
+            unsafe {
+                let flip = _mm256_set1_epi32(i32::MIN);
+                let mut bits = 0;
+                for k in [0, 8] {
+                    let x = _mm256_xor_si256(_mm256_loadu_si256(a.as_ptr().add(k).cast()), flip);
+                    let y = _mm256_xor_si256(_mm256_loadu_si256(b.as_ptr().add(k).cast()), flip);
+                    let lt = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpgt_epi32(y, x)));
+                    bits |= (lt as u32) << k;
+                }
+                bits
+            }
         }
     }
 
