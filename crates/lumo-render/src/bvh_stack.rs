@@ -167,7 +167,18 @@ mod tests {
     /// included.
     #[test]
     fn sort_farthest_first_is_a_stable_descending_sort() {
-        let pool = [3.0f32, -1.0, 0.0, 2.5, 3.0, f32::INFINITY, -7.0, 2.5, 1e-30, -0.0];
+        let pool = [
+            3.0f32,
+            -1.0,
+            0.0,
+            2.5,
+            3.0,
+            f32::INFINITY,
+            -7.0,
+            2.5,
+            1e-30,
+            -0.0,
+        ];
         let mut state = 1u32;
         for trial in 0..2000 {
             let n = 1 + trial % 8;

@@ -86,7 +86,18 @@ pub(crate) fn camera_sample(
     index: u32,
     seed: u32,
 ) -> (PixelSampler, Vec2, Vec3) {
-    let mut sampler = PixelSampler::new(x as u32, y as u32, index, seed);
+    let sampler = PixelSampler::new(x as u32, y as u32, index, seed);
+    camera_sample_with(camera, (x, y), index, sampler)
+}
+
+/// [`camera_sample`] for a sampler already made (by [`PixelSampler::run`]).
+#[inline]
+pub(crate) fn camera_sample_with(
+    camera: &CameraRays,
+    (x, y): (usize, usize),
+    index: u32,
+    mut sampler: PixelSampler,
+) -> (PixelSampler, Vec2, Vec3) {
     let jitter = sampler.next_2d();
     let offset = if index == 0 { Vec2::splat(0.5) } else { jitter };
     let dir = camera.direction(Vec2::new(x as f32, y as f32) + offset);

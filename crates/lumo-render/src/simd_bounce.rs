@@ -90,7 +90,7 @@ pub(crate) fn diffuse_bounce(
 }
 
 /// The widest form of the bounce this CPU runs: 2 = AVX-512, 1 = AVX2, 0 = baseline x86-64.
-fn detected_level() -> u8 {
+pub(crate) fn detected_level() -> u8 {
     #[cfg(target_arch = "x86_64")]
     {
         use std::sync::OnceLock;

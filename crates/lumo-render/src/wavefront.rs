@@ -20,8 +20,9 @@ use crate::accel::Hit;
 use crate::camera::CameraRays;
 use crate::integrator::{FirstHit, PathRadiance, PathState, ShadowRay};
 use crate::packet::{RayPacket, LANES};
-use crate::render::{camera_sample, PixelEstimate, RenderSettings};
+use crate::render::{camera_sample_with, PixelEstimate, RenderSettings};
 use crate::render_scene::RenderScene;
+use crate::sampler::{PixelSampler, RUN};
 use crate::simd_bounce::{self, diffuse_bounce, SimpleLane};
 
 /// Paths advanced together: enough to keep packets full as paths end, few enough that their
@@ -78,11 +79,18 @@ impl Batch {
         xs: Range<usize>,
     ) {
         self.paths.clear();
+        let mut run = [PixelSampler::new(0, 0, 0, 0); RUN];
         for x in xs {
-            for index in 0..settings.spp {
-                let (sampler, _, dir) = camera_sample(camera, (x, y), index, settings.seed);
-                self.paths
-                    .push(PathState::new(camera.origin(), dir, sampler, index == 0));
+            // The samplers of a pixel's samples are made sixteen at a time (vector lanes).
+            for first in (0..settings.spp).step_by(RUN) {
+                let n = (settings.spp - first).min(RUN as u32) as usize;
+                PixelSampler::run(x as u32, y as u32, first, settings.seed, &mut run[..n]);
+                for (k, &sampler) in run[..n].iter().enumerate() {
+                    let index = first + k as u32;
+                    let (sampler, _, dir) = camera_sample_with(camera, (x, y), index, sampler);
+                    self.paths
+                        .push(PathState::new(camera.origin(), dir, sampler, index == 0));
+                }
             }
         }
         self.active.clear();
