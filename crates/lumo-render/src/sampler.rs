@@ -256,9 +256,9 @@ fn sobol_run(first: u32, set: u32, seed: u32, out: &mut [[f32; RUN]; 4]) {
 }
 
 /// # Safety
-/// The CPU must support AVX-512 F/VL/BW and AVX2.
+/// The CPU must support AVX-512 F/VL and AVX2.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl,avx512bw,avx2")]
+#[target_feature(enable = "avx512f,avx512vl,avx2")]
 unsafe fn sobol_run_avx512(first: u32, set: u32, seed: u32, out: &mut [[f32; RUN]; 4]) {
     sobol_run_lanes(first, set, seed, out)
 }
