@@ -233,24 +233,6 @@ fn expand(bits: u32) -> [u32; LANES] {
     m
 }
 
-/// The smallest of `x` over the lanes whose bit is set (+∞ if none).
-#[inline(always)]
-fn min_where(bits: u32, x: &Lanes) -> f32 {
-    let m = expand(bits);
-    let mut v = [0.0f32; LANES];
-    for i in 0..LANES {
-        v[i] = pick(m[i], f32::INFINITY, x[i]);
-    }
-    let mut width = LANES / 2;
-    while width > 0 {
-        for i in 0..width {
-            v[i] = vmin(v[i], v[i + width]);
-        }
-        width /= 2;
-    }
-    v[0]
-}
-
 /// Slab test of every lane against child `c` of `node`: the lanes that enter the box within
 /// [tmin, tmax] and their entry distances.
 ///
@@ -492,8 +474,10 @@ unsafe fn closest_impl<M: Masks>(
                 // SAFETY: as above.
                 let m = unsafe { hit_box::<M>(node, c, &r, &cull, &mut tnear[c]) } & lanes;
                 if m != 0 {
-                    // Ordered by the nearest entry among the lanes that entered.
-                    hits[n] = (c as u32, m, min_where(m, &tnear[c]));
+                    // Ordered by the entry distance of the first lane that entered: the nearest
+                    // entry over all of them (a 16-lane masked reduction per child) ordered
+                    // no better on the Cornell boxes and the atrium and cost 3 % of a render.
+                    hits[n] = (c as u32, m, tnear[c][m.trailing_zeros() as usize]);
                     n += 1;
                 }
             }
