@@ -474,9 +474,10 @@ unsafe fn closest_impl<M: Masks>(
                 // SAFETY: as above.
                 let m = unsafe { hit_box::<M>(node, c, &r, &cull, &mut tnear[c]) } & lanes;
                 if m != 0 {
-                    // Ordered by the entry distance of the first lane that entered: the nearest
-                    // entry over all of them (a 16-lane masked reduction per child) ordered
-                    // no better on the Cornell boxes and the atrium and cost 3 % of a render.
+                    // Ordered by the entry distance of the first lane that entered. The nearest
+                    // entry over all of them (a 16-lane masked reduction per child) cost more
+                    // than its better order saved: without it, Cornell +2.6 %, cornell-spheres
+                    // +3.9 %, atrium ±0.
                     hits[n] = (c as u32, m, tnear[c][m.trailing_zeros() as usize]);
                     n += 1;
                 }
