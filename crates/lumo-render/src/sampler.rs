@@ -27,8 +27,8 @@ pub const RUN: usize = 16;
 /// numbers past the first `4·SOBOL_SETS` dimensions.
 ///
 /// The Sobol numbers are computed when the sampler is made (four dimensions at a time, as
-/// `sobol_burley::sample_4d` does), for many samples of a pixel at once by
-/// [`PixelSampler::run`]: sixteen samples' scrambles in vector lanes instead of one
+/// `sobol_burley::sample_4d` does), by the wavefront for sixteen samples at once with
+/// [`PixelSampler::run`]: sixteen samples' hashes and scrambles in vector lanes instead of one
 /// sample's four dimensions, whose multiply chains (latency ~10 cycles each) cost ~6 % of a
 /// Cornell-box render when each sample fetched its own.
 #[derive(Clone, Copy, Debug)]
@@ -84,30 +84,22 @@ impl PixelSampler {
         Self::with_cache(cache, pixel_seed, index)
     }
 
-    /// The samplers of samples `first .. first + out.len()` (at most [`RUN`]) of pixel
-    /// (x, y): each equal to [`PixelSampler::new`]'s bit for bit, computed together.
-    pub fn run(x: u32, y: u32, first: u32, seed: u32, out: &mut [PixelSampler]) {
-        let n = out.len();
-        assert!(n <= RUN, "at most {RUN} samples per run");
-        let last = first.wrapping_add(n.saturating_sub(1) as u32);
-        if n == 0 || first >> 16 != last >> 16 || last < first {
-            // A run across a 2^16-sample block boundary: one seed per block.
-            for (k, s) in out.iter_mut().enumerate() {
-                *s = Self::new(x, y, first.wrapping_add(k as u32), seed);
-            }
-            return;
-        }
-        let pixel_seed = pixel_seed(x, y, first >> 16, seed);
+    /// The samplers of the (pixel x, pixel y, sample index) triples `samples` (at most
+    /// [`RUN`]): each equal to [`PixelSampler::new`]'s bit for bit, their Sobol numbers computed
+    /// together in vector lanes (a pixel's samples, or at 1 spp sixteen pixels).
+    pub fn run(samples: &[(u32, u32, u32)], seed: u32, out: &mut [PixelSampler]) {
+        let n = samples.len();
+        assert!(
+            n <= RUN && out.len() == n,
+            "at most {RUN} samples per run, one output each"
+        );
+        let mut lanes = [(0, 0, 0); RUN];
+        lanes[..n].copy_from_slice(samples);
         let mut dims = [[0.0f32; RUN]; SOBOL_DIMS];
-        for set in 0..SOBOL_SETS as usize {
-            let four: &mut [[f32; RUN]; 4] = (&mut dims[4 * set..4 * set + 4])
-                .try_into()
-                .expect("four dimensions per set");
-            sobol_run(first & 0xffff, set as u32, pixel_seed, four);
-        }
+        let pixel_seeds = sobol_run(&lanes, seed, &mut dims);
         for (k, s) in out.iter_mut().enumerate() {
             let cache = std::array::from_fn(|d| dims[d][k]);
-            *s = Self::with_cache(cache, pixel_seed, first + k as u32);
+            *s = Self::with_cache(cache, pixel_seeds[k], lanes[k].2);
         }
     }
 
@@ -240,66 +232,90 @@ unsafe fn scramble_avx2(sobol: [u32; 4], set: u32, seed: u32) -> [f32; 4] {
     scramble(sobol, set, seed)
 }
 
-/// `sobol_4d(first + k, set, seed)` for k in 0..[`RUN`] (indices taken modulo 2¹⁶), dimension
-/// by dimension: `out[d][k]`.
-fn sobol_run(first: u32, set: u32, seed: u32, out: &mut [[f32; RUN]; 4]) {
+/// Lane `k`: `sobol_4d(index & 0xffff, set, pixel_seed(x, y, index >> 16, seed))` of every
+/// set for `samples[k] = (x, y, index)`, dimension by dimension (`out[4·set + d][k]`); returns
+/// the pixel seeds.
+fn sobol_run(
+    samples: &[(u32, u32, u32); RUN],
+    seed: u32,
+    out: &mut [[f32; RUN]; SOBOL_DIMS],
+) -> [u32; RUN] {
     #[cfg(target_arch = "x86_64")]
     // SAFETY: each form runs only where its features were detected.
     unsafe {
         match crate::simd_bounce::detected_level() {
-            2 => return sobol_run_avx512(first, set, seed, out),
-            1 => return sobol_run_avx2(first, set, seed, out),
+            2 => return sobol_run_avx512(samples, seed, out),
+            1 => return sobol_run_avx2(samples, seed, out),
             _ => {}
         }
     }
-    sobol_run_lanes(first, set, seed, out)
+    sobol_run_lanes(samples, seed, out)
 }
 
 /// # Safety
 /// The CPU must support AVX-512 F/VL and AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx512vl,avx2")]
-unsafe fn sobol_run_avx512(first: u32, set: u32, seed: u32, out: &mut [[f32; RUN]; 4]) {
-    sobol_run_lanes(first, set, seed, out)
+unsafe fn sobol_run_avx512(
+    samples: &[(u32, u32, u32); RUN],
+    seed: u32,
+    out: &mut [[f32; RUN]; SOBOL_DIMS],
+) -> [u32; RUN] {
+    sobol_run_lanes(samples, seed, out)
 }
 
 /// # Safety
 /// The CPU must support AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn sobol_run_avx2(first: u32, set: u32, seed: u32, out: &mut [[f32; RUN]; 4]) {
-    sobol_run_lanes(first, set, seed, out)
+unsafe fn sobol_run_avx2(
+    samples: &[(u32, u32, u32); RUN],
+    seed: u32,
+    out: &mut [[f32; RUN]; SOBOL_DIMS],
+) -> [u32; RUN] {
+    sobol_run_lanes(samples, seed, out)
 }
 
-/// [`sobol_run`]'s arithmetic: [`sobol_bits`] and [`scramble`] with samples as lanes (loops
-/// the compiler vectorises), the per-pixel hashes computed once.
+/// [`sobol_run`]'s arithmetic: [`pixel_seed`], [`sobol_bits`] and [`scramble`] with samples as
+/// lanes (loops the compiler vectorises).
 #[inline(always)]
 #[allow(clippy::needless_range_loop)]
-fn sobol_run_lanes(first: u32, set: u32, seed: u32, out: &mut [[f32; RUN]; 4]) {
+fn sobol_run_lanes(
+    samples: &[(u32, u32, u32); RUN],
+    seed: u32,
+    out: &mut [[f32; RUN]; SOBOL_DIMS],
+) -> [u32; RUN] {
     const DIM: [u32; 4] = [0x912f69ba, 0x174f18ab, 0x691e72ca, 0xb40cc1b8];
-    let index_key = parts::hash(seed ^ 0x79c68e4a);
+    let (mut xs, mut ys, mut indices) = ([0u32; RUN], [0u32; RUN], [0u32; RUN]);
+    for k in 0..RUN {
+        (xs[k], ys[k], indices[k]) = samples[k];
+    }
+    let mut seeds = [0u32; RUN];
     let mut shuffled = [0u32; RUN];
     for k in 0..RUN {
-        let index = first.wrapping_add(k as u32) & 0xffff;
-        shuffled[k] = parts::owen_scramble_rev(index.reverse_bits(), index_key);
+        seeds[k] = pixel_seed(xs[k], ys[k], indices[k] >> 16, seed);
+        let index_key = parts::hash(seeds[k] ^ 0x79c68e4a);
+        shuffled[k] = parts::owen_scramble_rev((indices[k] & 0xffff).reverse_bits(), index_key);
     }
-    let t = &sobol_tables()[set as usize];
-    let mut sobol = [[0u32; RUN]; 4];
-    for k in 0..RUN {
-        let hi = t.high[(shuffled[k] >> 24) as usize];
-        let lo = t.low[((shuffled[k] >> 16) & 0xff) as usize];
-        for d in 0..4 {
-            sobol[d][k] = hi[d] ^ lo[d];
-        }
-    }
-    let s = seed.wrapping_mul(0x9c8f2d3b) ^ set;
-    for d in 0..4 {
-        let key = parts::hash(s ^ DIM[d]);
+    // The shuffled index is the same for every set; the direction numbers and scrambles differ.
+    for (set, t) in sobol_tables().iter().enumerate() {
+        let mut sobol = [[0u32; RUN]; 4];
         for k in 0..RUN {
-            let scrambled = parts::owen_scramble_rev(sobol[d][k], key);
-            out[d][k] = parts::u32_to_f32_norm(scrambled.reverse_bits());
+            let hi = t.high[(shuffled[k] >> 24) as usize];
+            let lo = t.low[((shuffled[k] >> 16) & 0xff) as usize];
+            for d in 0..4 {
+                sobol[d][k] = hi[d] ^ lo[d];
+            }
+        }
+        for d in 0..4 {
+            for k in 0..RUN {
+                let s = seeds[k].wrapping_mul(0x9c8f2d3b) ^ set as u32;
+                let scrambled = parts::owen_scramble_rev(sobol[d][k], parts::hash(s ^ DIM[d]));
+                out[4 * set + d][k] = parts::u32_to_f32_norm(scrambled.reverse_bits());
+            }
         }
     }
+    seeds
 }
 
 #[cfg(test)]
@@ -324,19 +340,26 @@ mod tests {
         }
     }
 
+    /// Runs over a pixel's samples and over many pixels, across a 2^16-sample block
+    /// boundary and near the top of the index range, equal one-at-a-time samplers.
     #[test]
     fn runs_equal_single_samplers() {
-        for (x, y, seed) in [(0u32, 0u32, 0u32), (17, 3, 9), (511, 200, 0xdead_beef)] {
-            for first in [0u32, 5, 16, 65_530, 65_536 + 3, u32::MAX - 20] {
-                for n in [1usize, 7, 16] {
-                    let mut run = [PixelSampler::new(0, 0, 0, 0); RUN];
-                    PixelSampler::run(x, y, first, seed, &mut run[..n]);
-                    for (k, r) in run[..n].iter().enumerate() {
-                        let mut a = *r;
-                        let mut b = PixelSampler::new(x, y, first.wrapping_add(k as u32), seed);
-                        for _ in 0..SOBOL_DIMS + 3 {
-                            assert_eq!(a.next_1d().to_bits(), b.next_1d().to_bits());
-                        }
+        let mut cases: Vec<Vec<(u32, u32, u32)>> = Vec::new();
+        for first in [0u32, 5, 65_530, u32::MAX - 20] {
+            for n in [1u32, 7, 16] {
+                cases.push((0..n).map(|k| (17, 3, first.wrapping_add(k))).collect());
+            }
+        }
+        cases.push((0..16).map(|k| (k * 37 % 512, 200 + k / 5, 0)).collect());
+        cases.push((0..11).map(|k| (k, k, k * 9_000)).collect());
+        for seed in [0u32, 9, 0xdead_beef] {
+            for samples in &cases {
+                let mut run = vec![PixelSampler::new(0, 0, 0, 0); samples.len()];
+                PixelSampler::run(samples, seed, &mut run);
+                for (r, &(x, y, index)) in run.iter().zip(samples) {
+                    let (mut a, mut b) = (*r, PixelSampler::new(x, y, index, seed));
+                    for _ in 0..SOBOL_DIMS + 3 {
+                        assert_eq!(a.next_1d().to_bits(), b.next_1d().to_bits());
                     }
                 }
             }
@@ -347,35 +370,38 @@ mod tests {
     #[test]
     #[allow(clippy::needless_range_loop)]
     fn sobol_runs_equal_sobol_4d_in_every_form() {
-        type Form = fn(u32, u32, u32, &mut [[f32; RUN]; 4]);
+        type Form = fn(&[(u32, u32, u32); RUN], u32, &mut [[f32; RUN]; SOBOL_DIMS]) -> [u32; RUN];
         let forms: Vec<(&str, Form)> = {
-            let mut v: Vec<(&str, Form)> =
-                vec![("baseline", |a, b, c, o| sobol_run_lanes(a, b, c, o))];
+            let mut v: Vec<(&str, Form)> = vec![("baseline", |a, b, o| sobol_run_lanes(a, b, o))];
             #[cfg(target_arch = "x86_64")]
             {
                 let level = crate::simd_bounce::detected_level();
                 if level >= 1 {
                     // SAFETY: AVX2 detected.
-                    v.push(("avx2", |a, b, c, o| unsafe { sobol_run_avx2(a, b, c, o) }));
+                    v.push(("avx2", |a, b, o| unsafe { sobol_run_avx2(a, b, o) }));
                 }
                 if level >= 2 {
                     // SAFETY: AVX-512 detected.
-                    v.push(("avx512", |a, b, c, o| unsafe {
-                        sobol_run_avx512(a, b, c, o)
-                    }));
+                    v.push(("avx512", |a, b, o| unsafe { sobol_run_avx512(a, b, o) }));
                 }
             }
             v
         };
         for (name, f) in forms {
-            for set in 0..SOBOL_SETS {
-                for seed in [0u32, 0xdead_beef] {
-                    for first in [0u32, 9, 65_530] {
-                        let mut out = [[0.0; RUN]; 4];
-                        f(first, set, seed, &mut out);
-                        for k in 0..RUN {
-                            let want = sobol_4d((first + k as u32) & 0xffff, set, seed);
-                            let got = [out[0][k], out[1][k], out[2][k], out[3][k]];
+            for seed in [0u32, 0xdead_beef] {
+                for first in [0u32, 9, 65_530] {
+                    let samples = std::array::from_fn(|k| {
+                        (k as u32 % 3, 7, first.wrapping_add(k as u32 * 4_000))
+                    });
+                    let mut out = [[0.0; RUN]; SOBOL_DIMS];
+                    let seeds = f(&samples, seed, &mut out);
+                    for k in 0..RUN {
+                        let (x, y, index) = samples[k];
+                        let ps = pixel_seed(x, y, index >> 16, seed);
+                        assert_eq!(seeds[k], ps, "{name}");
+                        for set in 0..SOBOL_SETS as usize {
+                            let want = sobol_4d(index & 0xffff, set as u32, ps);
+                            let got: [f32; 4] = std::array::from_fn(|d| out[4 * set + d][k]);
                             assert_eq!(want.map(f32::to_bits), got.map(f32::to_bits), "{name}");
                         }
                     }

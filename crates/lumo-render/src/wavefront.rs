@@ -66,6 +66,8 @@ struct Batch {
     active: Vec<u32>,
     next: Vec<u32>,
     shadows: Vec<(u32, ShadowRay)>,
+    /// (x, y, sample index) of each path, in path order.
+    samples: Vec<(u32, u32, u32)>,
 }
 
 impl Batch {
@@ -79,18 +81,22 @@ impl Batch {
         xs: Range<usize>,
     ) {
         self.paths.clear();
-        let mut run = [PixelSampler::new(0, 0, 0, 0); RUN];
+        self.samples.clear();
         for x in xs {
-            // The samplers of a pixel's samples are made sixteen at a time (vector lanes).
-            for first in (0..settings.spp).step_by(RUN) {
-                let n = (settings.spp - first).min(RUN as u32) as usize;
-                PixelSampler::run(x as u32, y as u32, first, settings.seed, &mut run[..n]);
-                for (k, &sampler) in run[..n].iter().enumerate() {
-                    let index = first + k as u32;
-                    let (sampler, _, dir) = camera_sample_with(camera, (x, y), index, sampler);
-                    self.paths
-                        .push(PathState::new(camera.origin(), dir, sampler, index == 0));
-                }
+            for index in 0..settings.spp {
+                self.samples.push((x as u32, y as u32, index));
+            }
+        }
+        // Samplers are made sixteen samples at a time (vector lanes).
+        let mut run = [PixelSampler::new(0, 0, 0, 0); RUN];
+        for samples in self.samples.chunks(RUN) {
+            let run = &mut run[..samples.len()];
+            PixelSampler::run(samples, settings.seed, run);
+            for (&(x, y, index), &sampler) in samples.iter().zip(run.iter()) {
+                let pixel = (x as usize, y as usize);
+                let (sampler, _, dir) = camera_sample_with(camera, pixel, index, sampler);
+                self.paths
+                    .push(PathState::new(camera.origin(), dir, sampler, index == 0));
             }
         }
         self.active.clear();
