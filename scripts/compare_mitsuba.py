@@ -41,6 +41,7 @@ Examples
     python3 scripts/compare_mitsuba.py --spp 64 --max-depth 3
     python3 scripts/compare_mitsuba.py --lumo-bin target/release/lumo
     python3 scripts/compare_mitsuba.py --mitsuba-only --runs 3
+    python3 scripts/compare_mitsuba.py --avx2 --lumo-bin target/release/lumo   # AVX2 code on both
     python3 scripts/compare_mitsuba.py --reference --ref-spp 1024
 """
 
@@ -99,12 +100,29 @@ def ensure_llvm_path() -> None:
             return
 
 
-def import_mitsuba(variant: str):
+def import_mitsuba(variant: str, avx2: bool = False):
     ensure_llvm_path()
     import mitsuba as mi  # noqa: E402  (must follow DRJIT_LIBLLVM_PATH)
 
     mi.set_variant(variant)
+    if avx2:
+        llvm_target_avx2()
     return mi
+
+
+def llvm_target_avx2():
+    """Makes Dr.Jit's LLVM backend generate AVX2 code, 8 lanes ("haswell"), as on a CPU without
+    AVX-512. Dr.Jit's Python module does not expose jit_llvm_set_target, so it is called from
+    libdrjit-core.so by its (C++-mangled) name. Ray queries go to Embree, which picks its own
+    instruction set."""
+    import ctypes
+    import drjit as dr
+
+    lib = ctypes.CDLL(str(Path(dr.__file__).parent / "libdrjit-core.so"))
+    set_target = getattr(lib, "_Z19jit_llvm_set_targetPKcS0_j")
+    set_target(b"haswell", b"+avx2,+fma,-avx512f,-avx512vl,-avx512dq,-avx512bw", 8)
+    width = getattr(lib, "_Z21jit_llvm_vector_widthv")()
+    print(f"Dr.Jit LLVM target set to haswell (AVX2), vector width {width}")
 
 
 def parse_size(s: str) -> tuple[int, int]:
@@ -244,7 +262,10 @@ def run_lumo(args, width, height, out_path: Path):
 
     c0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
-    p = subprocess.run(cmd, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    env = dict(os.environ)
+    if args.avx2:
+        env["LUMO_SIMD"] = "avx2"
+    p = subprocess.run(cmd, cwd=REPO, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     wall = time.perf_counter() - t0
     c1 = resource.getrusage(resource.RUSAGE_CHILDREN)
     # CPU seconds of the whole lumo process (scene setup, BVH, EXR writing included; with
@@ -382,6 +403,8 @@ def main() -> None:
     ap.add_argument("--lumo-out", default="/tmp/lumo_cornell.exr")
     ap.add_argument("--mitsuba-out", help="also write Mitsuba's (last timed) image to this EXR")
     ap.add_argument("--mitsuba-only", action="store_true", help="skip lumo")
+    ap.add_argument("--avx2", action="store_true",
+                    help="both in their AVX2 forms: Dr.Jit's LLVM target haswell (8 lanes), lumo with LUMO_SIMD=avx2")
     ap.add_argument("--reference", action="store_true", help="write converged reference EXRs + JSON, then exit")
     ap.add_argument("--ref-spp", type=int, default=1024)
     ap.add_argument("--chunk-spp", type=int, default=64, help="spp per render pass in --reference mode")
@@ -389,7 +412,7 @@ def main() -> None:
     ap.add_argument("--ref-dir", default=str(REFERENCE_JSON.parent))
     args = ap.parse_args()
 
-    mi = import_mitsuba(args.variant)
+    mi = import_mitsuba(args.variant, args.avx2)
     print(f"mitsuba {mi.__version__}, variant {mi.variant()}, DRJIT_LIBLLVM_PATH={os.environ.get('DRJIT_LIBLLVM_PATH')}")
     m = machine_info()
     print(f"machine: {m['nproc']} cores, {m['cpu_model']}")

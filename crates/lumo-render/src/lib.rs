@@ -24,6 +24,7 @@ mod render;
 mod render_scene;
 pub mod sampler;
 mod simd_bounce;
+mod simd_level;
 pub mod wavefront;
 
 pub use frame::{Frame, AOV_NAMES};

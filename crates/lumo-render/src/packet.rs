@@ -735,13 +735,9 @@ mod dispatch {
         unsafe { any_impl::<Avx2>(tree, rays, stack) }
     }
 
-    /// Whether the AVX-512 kernels can run here.
+    /// Whether the AVX-512 kernels can run here (and `LUMO_SIMD` does not rule them out).
     pub(super) fn has_avx512() -> bool {
-        use std::sync::OnceLock;
-        static AVX512: OnceLock<bool> = OnceLock::new();
-        *AVX512.get_or_init(|| {
-            std::is_x86_feature_detected!("avx512f") && std::is_x86_feature_detected!("avx512vl")
-        })
+        crate::simd_level::simd_level() >= 2
     }
 }
 

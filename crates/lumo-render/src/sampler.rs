@@ -243,7 +243,7 @@ fn sobol_run(
     #[cfg(target_arch = "x86_64")]
     // SAFETY: each form runs only where its features were detected.
     unsafe {
-        match crate::simd_bounce::detected_level() {
+        match crate::simd_level::simd_level() {
             2 => return sobol_run_avx512(samples, seed, out),
             1 => return sobol_run_avx2(samples, seed, out),
             _ => {}
@@ -375,7 +375,7 @@ mod tests {
             let mut v: Vec<(&str, Form)> = vec![("baseline", |a, b, o| sobol_run_lanes(a, b, o))];
             #[cfg(target_arch = "x86_64")]
             {
-                let level = crate::simd_bounce::detected_level();
+                let level = crate::simd_level::simd_level();
                 if level >= 1 {
                     // SAFETY: AVX2 detected.
                     v.push(("avx2", |a, b, o| unsafe { sobol_run_avx2(a, b, o) }));

@@ -86,30 +86,15 @@ pub(crate) fn diffuse_bounce(
     shadows: &mut Vec<(u32, ShadowRay)>,
     next: &mut Vec<u32>,
 ) {
-    diffuse_bounce_at(detected_level(), rs, settings, paths, lanes, shadows, next)
-}
-
-/// The widest form of the bounce this CPU runs: 2 = AVX-512, 1 = AVX2, 0 = baseline x86-64.
-pub(crate) fn detected_level() -> u8 {
-    #[cfg(target_arch = "x86_64")]
-    {
-        use std::sync::OnceLock;
-        static LEVEL: OnceLock<u8> = OnceLock::new();
-        *LEVEL.get_or_init(|| {
-            if std::is_x86_feature_detected!("avx512f") && std::is_x86_feature_detected!("avx512vl")
-            {
-                2
-            } else if std::is_x86_feature_detected!("avx2") {
-                1
-            } else {
-                0
-            }
-        })
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        0
-    }
+    diffuse_bounce_at(
+        crate::simd_level::simd_level(),
+        rs,
+        settings,
+        paths,
+        lanes,
+        shadows,
+        next,
+    )
 }
 
 /// [`diffuse_bounce`] compiled for `level` (at most what this CPU runs; tests run each).
@@ -125,7 +110,7 @@ fn diffuse_bounce_at(
     #[cfg(target_arch = "x86_64")]
     // SAFETY: each variant runs only at or below the detected level.
     unsafe {
-        match level.min(detected_level()) {
+        match level.min(crate::simd_level::simd_level()) {
             2 => return bounce_avx512(rs, settings, paths, lanes, shadows, next),
             1 => return bounce_avx2(rs, settings, paths, lanes, shadows, next),
             _ => {}
@@ -538,7 +523,7 @@ mod tests {
         };
         assert!(applies(&rs, &settings));
         // Every compiled form this CPU runs: AVX-512, AVX2, baseline.
-        for level in 0..=detected_level() {
+        for level in 0..=crate::simd_level::simd_level() {
             check_level(&rs, &settings, level);
         }
     }
