@@ -190,11 +190,27 @@ fn sobol_4d(index: u32, set: u32, seed: u32) -> [f32; 4] {
     let sobol = sobol_bits(index, set, seed);
     // Then the crate's last step: Owen-scramble each dimension with its own hash.
     #[cfg(target_arch = "x86_64")]
-    if std::is_x86_feature_detected!("avx2") {
-        // SAFETY: AVX2 was detected just above.
+    if crate::simd_level::simd_level() >= 1 {
+        // SAFETY: level 1 and above have AVX2.
         return unsafe { scramble_avx2(sobol, set, seed) };
     }
     scramble(sobol, set, seed)
+}
+
+/// The per-dimension hash inputs of `sobol_burley::sample_4d`'s scramble.
+const DIM: [u32; 4] = [0x912f69ba, 0x174f18ab, 0x691e72ca, 0xb40cc1b8];
+
+/// The key that shuffles sample indices under `seed` (as `sobol_burley::sample_4d`).
+#[inline(always)]
+fn index_key(seed: u32) -> u32 {
+    parts::hash(seed ^ 0x79c68e4a)
+}
+
+/// The Owen-scramble key of dimension `d` of dimension set `set` under `seed` (as
+/// `sobol_burley::sample_4d`).
+#[inline(always)]
+fn dim_key(seed: u32, set: u32, d: usize) -> u32 {
+    parts::hash((seed.wrapping_mul(0x9c8f2d3b) ^ set) ^ DIM[d])
 }
 
 /// The unscrambled Sobol integers of `sobol_burley::sample_4d`: the index shuffled (its
@@ -202,7 +218,7 @@ fn sobol_4d(index: u32, set: u32, seed: u32) -> [f32; 4] {
 /// `sobol_int4_rev` reads) looked up in the set's two tables.
 #[inline(always)]
 fn sobol_bits(index: u32, set: u32, seed: u32) -> [u32; 4] {
-    let shuffled = parts::owen_scramble_rev(index.reverse_bits(), parts::hash(seed ^ 0x79c68e4a));
+    let shuffled = parts::owen_scramble_rev(index.reverse_bits(), index_key(seed));
     let t = &sobol_tables()[set as usize];
     let (hi, lo) = (
         t.high[(shuffled >> 24) as usize],
@@ -215,11 +231,9 @@ fn sobol_bits(index: u32, set: u32, seed: u32) -> [u32; 4] {
 /// their conversion to floats in [0, 1).
 #[inline(always)]
 fn scramble(sobol: [u32; 4], set: u32, seed: u32) -> [f32; 4] {
-    const DIM: [u32; 4] = [0x912f69ba, 0x174f18ab, 0x691e72ca, 0xb40cc1b8];
-    let s = seed.wrapping_mul(0x9c8f2d3b) ^ set;
     let mut out = [0.0f32; 4];
     for d in 0..4 {
-        let scrambled = parts::owen_scramble_rev(sobol[d], parts::hash(s ^ DIM[d]));
+        let scrambled = parts::owen_scramble_rev(sobol[d], dim_key(seed, set, d));
         out[d] = parts::u32_to_f32_norm(scrambled.reverse_bits());
     }
     out
@@ -285,7 +299,6 @@ fn sobol_run_lanes(
     seed: u32,
     out: &mut [[f32; RUN]; SOBOL_DIMS],
 ) -> [u32; RUN] {
-    const DIM: [u32; 4] = [0x912f69ba, 0x174f18ab, 0x691e72ca, 0xb40cc1b8];
     let (mut xs, mut ys, mut indices) = ([0u32; RUN], [0u32; RUN], [0u32; RUN]);
     for k in 0..RUN {
         (xs[k], ys[k], indices[k]) = samples[k];
@@ -294,8 +307,8 @@ fn sobol_run_lanes(
     let mut shuffled = [0u32; RUN];
     for k in 0..RUN {
         seeds[k] = pixel_seed(xs[k], ys[k], indices[k] >> 16, seed);
-        let index_key = parts::hash(seeds[k] ^ 0x79c68e4a);
-        shuffled[k] = parts::owen_scramble_rev((indices[k] & 0xffff).reverse_bits(), index_key);
+        let key = index_key(seeds[k]);
+        shuffled[k] = parts::owen_scramble_rev((indices[k] & 0xffff).reverse_bits(), key);
     }
     // The shuffled index is the same for every set; the direction numbers and scrambles differ.
     for (set, t) in sobol_tables().iter().enumerate() {
@@ -309,8 +322,8 @@ fn sobol_run_lanes(
         }
         for d in 0..4 {
             for k in 0..RUN {
-                let s = seeds[k].wrapping_mul(0x9c8f2d3b) ^ set as u32;
-                let scrambled = parts::owen_scramble_rev(sobol[d][k], parts::hash(s ^ DIM[d]));
+                let key = dim_key(seeds[k], set as u32, d);
+                let scrambled = parts::owen_scramble_rev(sobol[d][k], key);
                 out[4 * set + d][k] = parts::u32_to_f32_norm(scrambled.reverse_bits());
             }
         }
