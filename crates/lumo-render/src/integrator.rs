@@ -8,7 +8,7 @@ use glam::{Vec2, Vec3};
 
 use crate::accel::Hit;
 use crate::bsdf::Bsdf;
-use crate::geometry::power_heuristic;
+use crate::geometry::{power_heuristic, shadow_segment};
 use crate::lights::LightSample;
 use crate::render_scene::RenderScene;
 use crate::render_scene::Surface;
@@ -316,10 +316,11 @@ impl PathState {
             return None;
         }
         let o = rs.offset(s, ls.wi);
-        let tmax = if ls.distance.is_finite() {
-            (ls.distance - (o - s.p).length()) * (1.0 - 1e-4)
+        let (dir, tmax) = if ls.distance.is_finite() {
+            let (d, t) = shadow_segment(o.into(), ls.point.into(), ls.wi.into(), rs.ray_epsilon);
+            (Vec3::from(d), t)
         } else {
-            f32::INFINITY
+            (ls.wi, f32::INFINITY)
         };
         self.radiance.rays += 1;
         let w = if ls.pdf > 0.0 && settings.bsdf_emission {
@@ -329,7 +330,7 @@ impl PathState {
         };
         Some(ShadowRay {
             origin: o,
-            dir: ls.wi,
+            dir,
             tmax,
             contribution: self.throughput * f * ls.weight * w,
             depth: self.depth + 1,

@@ -17,10 +17,11 @@ use lumo_scene::{Camera, Light, Scene};
 
 use crate::distribution::Distribution1d;
 use crate::geometry::{
-    square_to_cosine_hemisphere, square_to_disk, square_to_triangle, square_to_uniform_sphere,
-    Frame, UNIFORM_SPHERE_PDF,
+    shadow_segment, square_to_cosine_hemisphere, square_to_disk, square_to_triangle,
+    square_to_uniform_sphere, Frame, UNIFORM_SPHERE_PDF,
 };
 use crate::integrator::PathSettings;
+use crate::lights::SpotCone;
 use crate::render_scene::RenderScene;
 use crate::sampler::PixelSampler;
 
@@ -44,8 +45,7 @@ enum Emitter {
         position: Vec3,
         axis: Vec3,
         intensity: Vec3,
-        cos_inner: f32,
-        cos_outer: f32,
+        cone: SpotCone,
     },
     Directional {
         direction: Vec3,
@@ -112,15 +112,14 @@ impl Emitters {
                     beam_width,
                     cutoff,
                 } => {
-                    let cos_outer = cutoff.to_radians().cos();
-                    let cos_inner = beam_width.min(*cutoff).to_radians().cos();
-                    power.push(2.0 * PI * (1.0 - cos_outer) * luminance((*intensity).into()));
+                    // The same cone and power as the path tracer's light choice.
+                    let cone = SpotCone::new(*beam_width, *cutoff);
+                    power.push(cone.solid_angle() * luminance((*intensity).into()));
                     emitters.push(Emitter::Spot {
                         position: *position,
                         axis: direction.normalize(),
                         intensity: *intensity,
-                        cos_inner,
-                        cos_outer,
+                        cone,
                     });
                 }
                 Light::Directional {
@@ -245,8 +244,8 @@ fn connect(
         return None;
     }
     let o = origin_off(wc);
-    let tmax = ((camera.origin - o).length()) * (1.0 - 1e-4);
-    if rs.accel.occluded(o, wc, 0.0, tmax) {
+    let (dir, tmax) = shadow_segment(o.into(), camera.origin.into(), wc.into(), rs.ray_epsilon);
+    if rs.accel.occluded(o, dir.into(), 0.0, tmax) {
         return Some((
             LightSplat {
                 film,
@@ -334,17 +333,16 @@ pub fn trace_light_path(
             position,
             axis,
             intensity,
-            cos_inner,
-            cos_outer,
+            cone,
         } => {
-            // Uniform in the outer cone, weighted by the smooth falloff.
+            // Uniform in the cutoff cone, weighted by the falloff.
+            let cos_outer = cone.cos_cutoff();
             let cos = 1.0 - u_dir.x * (1.0 - cos_outer);
             let sin = (1.0 - cos * cos).max(0.0).sqrt();
             let phi = 2.0 * PI * u_dir.y;
             let local = Vec3::new(sin * phi.cos(), sin * phi.sin(), cos);
             let dir = Frame::new(axis).to_world(local).normalize();
-            let t = ((cos - cos_outer) / (cos_inner - cos_outer).max(1e-6)).clamp(0.0, 1.0);
-            let falloff = t * t * (3.0 - 2.0 * t);
+            let falloff = cone.falloff(cos);
             let pdf_dir = 1.0 / (2.0 * PI * (1.0 - cos_outer));
             (position, dir, intensity * falloff / (pick * pdf_dir))
         }

@@ -44,14 +44,72 @@ enum LightKind {
         position: Vec3,
         axis: Vec3,
         intensity: Vec3,
-        cos_inner: f32,
-        cos_outer: f32,
+        cone: SpotCone,
     },
     Directional {
         direction: Vec3,
         irradiance: Vec3,
     },
     Environment,
+}
+
+/// A spot light's cone: full intensity inside the beam, falling off linearly in angle to zero
+/// at the cutoff, as Mitsuba 3's `spot` defines it (its `falloff_curve`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SpotCone {
+    cos_beam: f32,
+    cos_cutoff: f32,
+    cutoff: f32,
+    inv_transition: f32,
+}
+
+impl SpotCone {
+    /// The cone of a spot with the given beam width and cutoff half-angles in degrees (a beam
+    /// wider than the cutoff is clamped to it).
+    pub fn new(beam_width_deg: f32, cutoff_deg: f32) -> Self {
+        let cutoff = cutoff_deg.to_radians();
+        let beam = beam_width_deg.min(cutoff_deg).to_radians();
+        Self {
+            cos_beam: beam.cos(),
+            cos_cutoff: cutoff.cos(),
+            cutoff,
+            // A hard-edged spot (beam = cutoff) never reaches the transition branch.
+            inv_transition: if cutoff > beam {
+                1.0 / (cutoff - beam)
+            } else {
+                0.0
+            },
+        }
+    }
+
+    /// Cosine of the cutoff angle: nothing is emitted outside it.
+    pub fn cos_cutoff(&self) -> f32 {
+        self.cos_cutoff
+    }
+
+    /// The factor in [0, 1] applied to the intensity at `cos` from the axis.
+    #[inline]
+    pub fn falloff(&self, cos: f32) -> f32 {
+        if cos <= self.cos_cutoff {
+            0.0
+        } else if cos >= self.cos_beam {
+            1.0
+        } else {
+            ((self.cutoff - cos.clamp(-1.0, 1.0).acos()) * self.inv_transition).clamp(0.0, 1.0)
+        }
+    }
+
+    /// ∫ falloff dω over the sphere: the emitted power over the intensity. With θ_b the beam
+    /// and θ_c the cutoff angle, 2π (1 − (sin θ_c − sin θ_b) / (θ_c − θ_b)), or 2π (1 − cos θ_b)
+    /// for a hard edge.
+    pub fn solid_angle(&self) -> f32 {
+        let beam = self.cos_beam.clamp(-1.0, 1.0).acos();
+        if self.inv_transition == 0.0 {
+            2.0 * PI * (1.0 - self.cos_beam)
+        } else {
+            2.0 * PI * (1.0 - (self.cutoff.sin() - beam.sin()) * self.inv_transition)
+        }
+    }
 }
 
 /// A light direction chosen for a shading point.
@@ -61,6 +119,9 @@ pub struct LightSample {
     pub wi: Vec3,
     /// Distance to the light point (infinite for distant lights).
     pub distance: f32,
+    /// The light point itself (the light's position for point and spot lights; unused for
+    /// distant lights): shadow rays aim at it from their offset origin.
+    pub point: Vec3,
     /// Emitted radiance (or intensity term) divided by the full sampling density.
     pub weight: Vec3,
     /// Solid-angle density including the light choice (0 for delta lights).
@@ -213,19 +274,13 @@ impl Lights {
                     beam_width,
                     cutoff,
                 } => {
-                    let cos_outer = cutoff.to_radians().cos();
-                    let cos_inner = beam_width.min(*cutoff).to_radians().cos();
-                    power.push(
-                        2.0 * PI
-                            * (1.0 - 0.5 * (cos_inner + cos_outer))
-                            * luminance((*intensity).into()),
-                    );
+                    let cone = SpotCone::new(*beam_width, *cutoff);
+                    power.push(cone.solid_angle() * luminance((*intensity).into()));
                     lights.push(LightKind::Spot {
                         position: *position,
                         axis: direction.normalize(),
                         intensity: *intensity,
-                        cos_inner,
-                        cos_outer,
+                        cone,
                     });
                 }
                 Light::Directional {
@@ -371,6 +426,7 @@ impl Lights {
                 LightSample {
                     wi,
                     distance,
+                    point: q,
                     weight: tri.radiance * (den / num),
                     pdf: num / den,
                 }
@@ -385,6 +441,7 @@ impl Lights {
                 LightSample {
                     wi: d / distance,
                     distance,
+                    point: *position,
                     weight: *intensity / (dist2 * pick),
                     pdf: 0.0,
                 }
@@ -393,23 +450,20 @@ impl Lights {
                 position,
                 axis,
                 intensity,
-                cos_inner,
-                cos_outer,
+                cone,
             } => {
                 let d = *position - p;
                 let dist2 = d.length_squared();
                 let distance = dist2.sqrt();
                 let wi = d / distance;
-                let cos = axis.dot(-wi);
-                // Smooth falloff between the cones (smoothstep on the cosine, as pbrt does).
-                let t = ((cos - cos_outer) / (cos_inner - cos_outer).max(1e-6)).clamp(0.0, 1.0);
-                let falloff = t * t * (3.0 - 2.0 * t);
+                let falloff = cone.falloff(axis.dot(-wi));
                 if falloff <= 0.0 {
                     return None;
                 }
                 LightSample {
                     wi,
                     distance,
+                    point: *position,
                     weight: *intensity * falloff / (dist2 * pick),
                     pdf: 0.0,
                 }
@@ -420,6 +474,7 @@ impl Lights {
             } => LightSample {
                 wi: -*direction,
                 distance: f32::INFINITY,
+                point: Vec3::ZERO,
                 weight: *irradiance / pick,
                 pdf: 0.0,
             },
@@ -446,6 +501,7 @@ impl Lights {
                 LightSample {
                     wi,
                     distance: f32::INFINITY,
+                    point: Vec3::ZERO,
                     weight: self.environment(wi) / pdf,
                     pdf,
                 }

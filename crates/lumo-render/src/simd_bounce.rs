@@ -25,7 +25,7 @@ use glam::{Vec2, Vec3};
 
 use crate::accel::Hit;
 use crate::bsdf::Bsdf;
-use crate::geometry::{cos_sin_quarter, power_heuristic, Frame};
+use crate::geometry::{cos_sin_quarter, power_heuristic, shadow_segment, Frame};
 use crate::integrator::{PathSettings, PathState, ShadowRay};
 use crate::packet::LANES;
 use crate::render_scene::{RenderScene, SimpleDiffuse, Surface};
@@ -374,14 +374,13 @@ fn bounce(
         ];
         ok &= !(f[0] == 0.0 && f[1] == 0.0 && f[2] == 0.0);
         let so = offset(p, at(&ng, i), wi, eps);
-        let gap = [so[0] - p[0], so[1] - p[1], so[2] - p[2]];
-        let tmax = (distance - dot(gap, gap).sqrt()) * (1.0 - 1e-4);
+        let (sdir, tmax) = shadow_segment(so, q, wi, eps);
         // Bsdf::pdf: 0 when the viewer is below the (oriented) surface.
         let bsdf_pdf = sel(woz <= 0.0, 0.0, cos_pdf);
         let w = sel(pdf > 0.0, power_heuristic(pdf, bsdf_pdf), 1.0);
         for a in 0..3 {
             sh_o[a][i] = so[a];
-            sh_d[a][i] = wi[a];
+            sh_d[a][i] = sdir[a];
             sh_c[a][i] = thr[a][i] * f[a] * weight[a] * w;
         }
         sh_tmax[i] = tmax;

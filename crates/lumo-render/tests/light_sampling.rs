@@ -153,3 +153,39 @@ fn light_sampling_follows_its_pdf() {
     }
     assert!(failures.is_empty(), "χ² rejects: {failures:?}");
 }
+
+#[test]
+fn spot_falloff_is_mitsubas_linear_in_angle_and_its_power_integrates() {
+    use lumo_render::lights::SpotCone;
+    // Mitsuba 3's falloff_curve: 1 inside the beam, (cutoff − θ)/(cutoff − beam) between,
+    // 0 at and beyond the cutoff.
+    let cone = SpotCone::new(15.0, 30.0);
+    for (deg, expected) in [
+        (0.0f32, 1.0f32),
+        (14.9, 1.0),
+        (20.0, 2.0 / 3.0),
+        (25.0, 1.0 / 3.0),
+        (29.9, 0.1 / 15.0),
+        (30.5, 0.0),
+        (90.0, 0.0),
+    ] {
+        let got = cone.falloff(deg.to_radians().cos());
+        assert!((got - expected).abs() < 2e-3, "{deg}°: {got} vs {expected}");
+    }
+    // The power factor is ∫ falloff dω, integrated numerically over θ.
+    for (beam, cutoff) in [(15.0f32, 30.0f32), (30.0, 30.0), (0.0, 45.0), (60.0, 80.0)] {
+        let cone = SpotCone::new(beam, cutoff);
+        let n = 200_000;
+        let mut sum = 0.0f64;
+        for i in 0..n {
+            let theta = (i as f64 + 0.5) / n as f64 * std::f64::consts::PI;
+            sum += cone.falloff(theta.cos() as f32) as f64 * theta.sin();
+        }
+        let numeric = 2.0 * std::f64::consts::PI * sum * std::f64::consts::PI / n as f64;
+        let closed = cone.solid_angle() as f64;
+        assert!(
+            (numeric - closed).abs() < 1e-3 * closed,
+            "{beam}/{cutoff}: {numeric} vs {closed}"
+        );
+    }
+}
