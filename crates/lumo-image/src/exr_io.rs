@@ -2,20 +2,20 @@ use std::path::Path;
 
 use exr::prelude::{self as exrp, ReadChannels, ReadLayers, WritableImage};
 
-use crate::io::format_err;
+use crate::io::{format_err, io_err};
+use crate::limits::{check_image_size, max_image_pixels, MAX_PIXELS_VAR};
 use crate::{Image, ImageError};
 
 /// Reads the first valid layer of an OpenEXR file (half, float or uint channels).
 ///
 /// Channel choice: `R,G,B` (any layer prefix) → 3 channels; else `X,Y,Z` → 3; else a single
 /// non-alpha channel (`Y`, `Z`, `depth`, …) → 1. Alpha is ignored.
-pub(crate) fn read(path: &Path) -> Result<Image, ImageError> {
-    if !path.exists() {
-        return Err(ImageError::Io {
-            path: path.to_path_buf(),
-            source: std::io::Error::new(std::io::ErrorKind::NotFound, "file not found"),
-        });
-    }
+///
+/// The headers are read and checked first (every layer's size against the pixel budget, its
+/// block count against the file's `file_bytes`): the exr crate allocates a layer's pixels and
+/// block table as its header says, before it finds out that the file is too short.
+pub(crate) fn read(path: &Path, file_bytes: u64) -> Result<Image, ImageError> {
+    check_headers(path, file_bytes)?;
     let image = exrp::read()
         .no_deep_data()
         .largest_resolution_level()
@@ -23,7 +23,7 @@ pub(crate) fn read(path: &Path) -> Result<Image, ImageError> {
         .first_valid_layer()
         .all_attributes()
         .from_file(path)
-        .map_err(|e| format_err(path, format!("cannot read OpenEXR: {e}")))?;
+        .map_err(|e| exr_err(path, "cannot read OpenEXR", e))?;
     let size = image.layer_data.size;
     let (w, h) = (size.width(), size.height());
     let channels = &image.layer_data.channel_data.list;
@@ -68,6 +68,55 @@ pub(crate) fn read(path: &Path) -> Result<Image, ImageError> {
     Ok(Image::from_vec(w, h, n, data))
 }
 
+/// Every layer within the pixel budget (counting all its channels, as the exr crate allocates
+/// them all) and no more blocks than the file can hold.
+fn check_headers(path: &Path, file_bytes: u64) -> Result<(), ImageError> {
+    let file = std::fs::File::open(path).map_err(|e| io_err(path, e))?;
+    let meta = exr::meta::MetaData::read_from_unbuffered(file, false)
+        .map_err(|e| exr_err(path, "cannot read OpenEXR header", e))?;
+    let mut blocks = 0u64;
+    for header in &meta.headers {
+        let size = header.layer_size;
+        let (w, h) = (size.width(), size.height());
+        check_image_size(path, w, h, file_bytes)?;
+        // Up to four channels (RGBA) fit the budget's pixel count; more count as more pixels.
+        let channels = header.channels.list.len().max(1) as u64;
+        let samples = (w as u64 * h as u64).saturating_mul(channels.div_ceil(4));
+        if samples > max_image_pixels() {
+            return Err(format_err(
+                path,
+                format!(
+                    "{w}x{h} pixels in {channels} channels (in a file of {file_bytes} bytes) is \
+                     over the image limit of {} pixels of up to 4 channels; if the image is \
+                     genuine, raise the limit with {MAX_PIXELS_VAR}=PIXELS",
+                    max_image_pixels()
+                ),
+            ));
+        }
+        blocks = blocks.saturating_add(header.chunk_count as u64);
+    }
+    // Each block has an 8-byte entry in the offset table and at least an 8-byte block header.
+    if blocks.saturating_mul(16) > file_bytes {
+        return Err(format_err(
+            path,
+            format!(
+                "truncated or corrupt OpenEXR: its headers announce {blocks} blocks of pixels, \
+                 more than a file of {file_bytes} bytes can hold"
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// An exr crate error as an [`ImageError`]: an I/O failure keeps its kind, anything else is a
+/// format error prefixed with `what`.
+fn exr_err(path: &Path, what: &str, e: exrp::Error) -> ImageError {
+    match e {
+        exrp::Error::Io(source) => io_err(path, source),
+        other => format_err(path, format!("{what}: {other}")),
+    }
+}
+
 /// Writes float32 channels: `Y` for one channel, `R,G,B` for three, `R,G,B,A` for four.
 pub(crate) fn write(path: &Path, image: &Image) -> Result<(), ImageError> {
     let names: &[&str] = match image.channels {
@@ -104,11 +153,5 @@ pub(crate) fn write(path: &Path, image: &Image) -> Result<(), ImageError> {
     exrp::Image::from_layer(layer)
         .write()
         .to_file(path)
-        .map_err(|e| match e {
-            exrp::Error::Io(source) => ImageError::Io {
-                path: path.to_path_buf(),
-                source,
-            },
-            other => format_err(path, format!("cannot write OpenEXR: {other}")),
-        })
+        .map_err(|e| exr_err(path, "cannot write OpenEXR", e))
 }

@@ -1,5 +1,6 @@
 use std::path::Path;
 
+use crate::limits::{check_image_size, regular_file_size};
 use crate::{exr_io, pfm, png_io, Image, ImageError};
 
 /// The file formats lumo reads and writes, chosen by extension.
@@ -32,12 +33,22 @@ impl ImageFormat {
 }
 
 /// Reads an EXR, PFM or PNG file (by extension) into a linear float image.
+///
+/// Refused with an error naming the file: a path that is not a regular file (checked before
+/// opening it), a header whose size is over the pixel budget ([`crate::max_image_pixels`],
+/// checked before allocating) and an image without pixels.
 pub fn read_image(path: &Path) -> Result<Image, ImageError> {
-    match ImageFormat::from_path(path)? {
-        ImageFormat::Exr => exr_io::read(path),
-        ImageFormat::Pfm => pfm::read(path),
-        ImageFormat::Png => png_io::read(path),
-    }
+    let format = ImageFormat::from_path(path)?;
+    let file_bytes = regular_file_size(path)?;
+    let image = match format {
+        ImageFormat::Exr => exr_io::read(path, file_bytes)?,
+        ImageFormat::Pfm => pfm::read(path, file_bytes)?,
+        ImageFormat::Png => png_io::read(path, file_bytes)?,
+    };
+    // The readers check their headers; this is the one rule all formats share, kept here too
+    // so that no reader can hand out an image that indexing would panic on.
+    check_image_size(path, image.width, image.height, file_bytes)?;
+    Ok(image)
 }
 
 /// Writes `image` as EXR, PFM or PNG (by extension). One-channel images stay one channel in

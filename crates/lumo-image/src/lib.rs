@@ -6,11 +6,16 @@ mod error;
 mod exr_io;
 mod image;
 mod io;
+mod limits;
 pub mod metrics;
 mod pfm;
 mod png_io;
 
 pub use color::{linear_to_srgb, luminance, srgb_to_linear};
-pub use error::ImageError;
+pub use error::{describe_io_error, ImageError};
 pub use image::{rgb_of, Image};
 pub use io::{read_image, write_image, ImageFormat};
+pub use limits::{
+    check_image_size, file_kind, max_image_pixels, regular_file_size, DEFAULT_MAX_PIXELS,
+    MAX_PIXELS_VAR,
+};

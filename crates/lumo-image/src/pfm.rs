@@ -1,29 +1,52 @@
-use std::io::Write;
+use std::io::{Read, Write};
 use std::path::Path;
 
 use crate::io::{format_err, io_err};
+use crate::limits::check_image_size;
 use crate::{Image, ImageError};
 
+/// Longest header token accepted: magic, width, height and scale are a few characters each.
+const MAX_TOKEN: usize = 64;
+
 /// Reads a PFM (`PF` colour or `Pf` grey); rows are stored bottom to top.
-pub(crate) fn read(path: &Path) -> Result<Image, ImageError> {
-    let bytes = std::fs::read(path).map_err(|e| io_err(path, e))?;
+///
+/// The header is read and checked (size against the pixel budget, data against the file's
+/// `file_bytes`) before the pixels are allocated and read.
+pub(crate) fn read(path: &Path, file_bytes: u64) -> Result<Image, ImageError> {
+    let file = std::fs::File::open(path).map_err(|e| io_err(path, e))?;
+    let mut reader = std::io::BufReader::new(file);
     // Header: three whitespace-separated tokens, then exactly one whitespace byte.
     let mut tokens = Vec::new();
-    let mut pos = 0;
+    let mut header_len = 0u64;
+    let mut byte = || -> Result<Option<u8>, ImageError> {
+        let mut b = [0u8; 1];
+        match reader.read(&mut b).map_err(|e| io_err(path, e))? {
+            0 => Ok(None),
+            _ => {
+                header_len += 1;
+                Ok(Some(b[0]))
+            }
+        }
+    };
+    let mut next = byte()?;
     while tokens.len() < 4 {
-        while pos < bytes.len() && bytes[pos].is_ascii_whitespace() {
-            pos += 1;
+        while next.is_some_and(|b| b.is_ascii_whitespace()) {
+            next = byte()?;
         }
-        let start = pos;
-        while pos < bytes.len() && !bytes[pos].is_ascii_whitespace() {
-            pos += 1;
+        let mut token = Vec::new();
+        while let Some(b) = next.filter(|b| !b.is_ascii_whitespace()) {
+            if token.len() == MAX_TOKEN {
+                return Err(format_err(path, "not a PFM file (header token too long)"));
+            }
+            token.push(b);
+            next = byte()?;
         }
-        if start == pos {
+        if token.is_empty() {
             return Err(format_err(path, "truncated PFM header"));
         }
-        tokens.push(String::from_utf8_lossy(&bytes[start..pos]).into_owned());
+        tokens.push(String::from_utf8_lossy(&token).into_owned());
     }
-    pos += 1;
+    // The single whitespace byte ending the header was read (and counted) with the token.
     let channels = match tokens[0].as_str() {
         "PF" => 3,
         "Pf" => 1,
@@ -49,23 +72,25 @@ pub(crate) fn read(path: &Path) -> Result<Image, ImageError> {
         .and_then(|n| n.checked_mul(channels))
         .filter(|n| n.checked_mul(4).is_some())
         .ok_or_else(|| format_err(path, format!("PFM size {width}x{height} is too large")))?;
-    let body = bytes.get(pos..).unwrap_or(&[]);
-    if body.len() < n * 4 {
+    check_image_size(path, width, height, file_bytes)?;
+    let body = file_bytes.saturating_sub(header_len);
+    if body < n as u64 * 4 {
         return Err(format_err(
             path,
             format!(
-                "truncated PFM data: {width}x{height}x{channels} needs {} bytes, found {}",
+                "truncated PFM data: {width}x{height}x{channels} needs {} bytes, found {body}",
                 n * 4,
-                body.len()
             ),
         ));
     }
+    let mut raw = vec![0u8; n * 4];
+    reader.read_exact(&mut raw).map_err(|e| io_err(path, e))?;
     let mut data = vec![0.0f32; n];
     let row = width * channels;
     if row > 0 {
         // Rows bottom to top; the byte order decided once, outside the loops, so each row is
         // a plain (vectorised) conversion.
-        let src_rows = body[..n * 4].chunks_exact(row * 4).rev();
+        let src_rows = raw.chunks_exact(row * 4).rev();
         for (dst, src) in data.chunks_exact_mut(row).zip(src_rows) {
             let bytes = src.chunks_exact(4);
             if little {

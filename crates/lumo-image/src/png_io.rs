@@ -1,16 +1,33 @@
 use std::path::Path;
 
 use crate::io::{format_err, io_err};
+use crate::limits::check_image_size;
 use crate::{linear_to_srgb, srgb_to_linear, Image, ImageError};
 
 /// Reads an 8- or 16-bit PNG and converts it from sRGB to linear RGB (alpha dropped).
-pub(crate) fn read(path: &Path) -> Result<Image, ImageError> {
+///
+/// The header is checked before the pixel buffer is allocated: its size against the pixel
+/// budget, and against what the file's `file_bytes` can possibly hold.
+pub(crate) fn read(path: &Path, file_bytes: u64) -> Result<Image, ImageError> {
     let file = std::fs::File::open(path).map_err(|e| io_err(path, e))?;
     let mut decoder = png::Decoder::new(std::io::BufReader::new(file));
     decoder.set_transformations(png::Transformations::EXPAND);
     let mut reader = decoder
         .read_info()
         .map_err(|e| format_err(path, e.to_string()))?;
+    let header = reader.info();
+    let (w, h) = (header.width as usize, header.height as usize);
+    check_image_size(path, w, h, file_bytes)?;
+    let raw = min_raw_bytes(header.width, header.height, header.bits_per_pixel());
+    if raw > file_bytes.saturating_mul(MAX_DEFLATE_RATIO) {
+        return Err(format_err(
+            path,
+            format!(
+                "truncated or corrupt: {w}x{h} pixels need at least {} bytes of compressed                  data, but the file has {file_bytes} bytes",
+                raw.div_ceil(MAX_DEFLATE_RATIO)
+            ),
+        ));
+    }
     let mut buf = vec![0; reader.output_buffer_size()];
     let info = reader
         .next_frame(&mut buf)
@@ -36,6 +53,16 @@ pub(crate) fn read(path: &Path) -> Result<Image, ImageError> {
         data.extend(rgb.iter().map(|&c| srgb_to_linear(c)));
     }
     Ok(Image::from_vec(w, h, 3, data))
+}
+
+/// Deflate's best possible compression: one 258-byte match coded in two bits.
+pub(crate) const MAX_DEFLATE_RATIO: u64 = 1032;
+
+/// Bytes of filtered scanlines a PNG of this size decompresses to (without interlacing, which
+/// only adds more): one filter byte and the packed samples per row.
+pub(crate) fn min_raw_bytes(width: u32, height: u32, bits_per_pixel: usize) -> u64 {
+    let row_bits = width as u64 * bits_per_pixel as u64;
+    height as u64 * (1 + row_bits.div_ceil(8))
 }
 
 /// Writes an 8-bit sRGB PNG; values are clamped to [0,1], NaN becomes 0.

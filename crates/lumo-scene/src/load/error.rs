@@ -78,7 +78,7 @@ impl fmt::Display for Warning {
 #[derive(Debug, thiserror::Error)]
 pub enum LoadError {
     /// The file (or one it refers to) cannot be read.
-    #[error("{}: cannot read: {error}", path.display())]
+    #[error("{}: cannot read: {}", path.display(), lumo_image::describe_io_error(error))]
     Io {
         /// The file.
         path: PathBuf,

@@ -13,7 +13,9 @@ use super::check::check_mesh;
 use super::gltf_refs::check_references;
 use super::images::decode_image;
 use super::materials::metal_from_reflectance;
-use super::{defaults, read_file, Diagnostics, FileSettings, LoadError, LoadOptions, Location};
+use super::{
+    defaults, read_file, read_limited, Diagnostics, FileSettings, LoadError, LoadOptions, Location,
+};
 use crate::animation::{
     AnimatedNode, AnimatedProperty, AnimatedScene, Animation, AnimationChannel, Interpolation,
     NodeItem,
@@ -211,7 +213,7 @@ fn uri_bytes(path: &Path, uri: &str, at: &Location) -> Result<Vec<u8>, LoadError
         .parent()
         .unwrap_or(Path::new(""))
         .join(percent_decode(uri));
-    std::fs::read(&file)
+    read_limited(&file, u64::MAX)
         .map_err(|e| LoadError::invalid(at.clone(), format!("cannot read {}: {e}", file.display())))
 }
 
@@ -300,12 +302,35 @@ impl GltfReader<'_, '_> {
             ));
         }
         let (t, r, s) = node.transform().decomposed();
+        let (translation, scale) = (Vec3::from(t), Vec3::from(s));
+        if !translation.is_finite() || !scale.is_finite() {
+            return Err(LoadError::invalid(
+                self.at(format!("node {}", node.index())),
+                format!(
+                    "translation {translation} or scale {scale} is not finite; fix the node's \
+                     transform"
+                ),
+            ));
+        }
+        let rotation = match unit_quat(Vec4::from(r)) {
+            Some(q) => q,
+            None => {
+                self.diag.warn(
+                    self.at(format!("node {}", node.index())),
+                    format!(
+                        "rotation {r:?} is not a rotation (a unit quaternion x, y, z, w); \
+                         using no rotation"
+                    ),
+                )?;
+                Quat::IDENTITY
+            }
+        };
         let me = self.rig.nodes.len();
         self.rig.nodes.push(AnimatedNode {
             parent,
-            translation: Vec3::from(t),
-            rotation: Quat::from_array(r).normalize(),
-            scale: Vec3::from(s),
+            translation,
+            rotation,
+            scale,
         });
         self.node_index.insert(node.index(), me);
         if let Some(mesh) = node.mesh() {
@@ -826,6 +851,28 @@ impl GltfReader<'_, '_> {
                         ),
                     ));
                 }
+                let mut values = values;
+                if property == AnimatedProperty::Rotation {
+                    // Key values only: a cubic spline's tangents (first and third of each
+                    // triple) may be zero.
+                    let keys = values.iter_mut().skip(per_key / 2).step_by(per_key);
+                    let mut bad = 0;
+                    for v in keys {
+                        if unit_quat(*v).is_none() {
+                            *v = Vec4::W;
+                            bad += 1;
+                        }
+                    }
+                    if bad > 0 {
+                        self.diag.warn(
+                            self.at(label),
+                            format!(
+                                "{bad} rotation key(s) are not rotations (zero quaternions); \
+                                 using no rotation there"
+                            ),
+                        )?;
+                    }
+                }
                 channels.push(AnimationChannel {
                     node,
                     property,
@@ -843,6 +890,13 @@ impl GltfReader<'_, '_> {
         }
         Ok(())
     }
+}
+
+/// `q` normalised, if it is a usable rotation: finite and not (nearly) zero. glTF requires
+/// unit quaternions; slightly off ones are normalised, a zero one has no direction at all.
+fn unit_quat(q: Vec4) -> Option<Quat> {
+    let len = q.length();
+    (len.is_finite() && len > 1e-6).then(|| Quat::from_vec4(q / len))
 }
 
 fn flip_rows(img: lumo_image::Image) -> lumo_image::Image {

@@ -6,35 +6,90 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use lumo_image::{read_image, srgb_to_linear, Image};
+use lumo_image::{max_image_pixels, read_image, srgb_to_linear, Image, MAX_PIXELS_VAR};
 
-use super::{read_file, LoadError, Location};
+use super::{read_limited, LoadError, Location, Warning};
 
-/// Images already decoded, by (path, raw), so a texture used twice is read once.
+/// Images already decoded, by (path, raw), so a texture used twice is read once; and the
+/// warnings about their values, for the loader to pass on to its diagnostics (the callers
+/// that hold both the cache and the diagnostics flush them with [`ImageCache::take_warnings`]).
 #[derive(Default)]
 pub(crate) struct ImageCache {
     images: HashMap<(PathBuf, bool), Arc<Image>>,
+    warnings: Vec<Warning>,
 }
 
 impl ImageCache {
-    /// The image at `path`; `raw` keeps 8-bit values linear (no sRGB decoding).
+    /// The image at `path`; `raw` keeps 8-bit values linear (no sRGB decoding). Its values are
+    /// checked as radiance or reflectance: all NaN is an error, NaN, infinite and negative
+    /// values are read as 0 with a warning (see [`ImageCache::take_warnings`]).
     pub fn load(&mut self, path: &Path, raw: bool, at: &Location) -> Result<Arc<Image>, LoadError> {
         if let Some(img) = self.images.get(&(path.to_path_buf(), raw)) {
             return Ok(img.clone());
         }
-        if !path.exists() {
-            return Err(LoadError::invalid(
-                at.clone(),
-                format!("image {} does not exist", path.display()),
-            ));
+        let mut img = load_image_file(path, raw, at)?;
+        if let Some(message) = check_values(&mut img, path, at)? {
+            self.warnings.push(Warning {
+                at: at.clone(),
+                message,
+            });
         }
-        let img = Arc::new(load_image_file(path, raw, at)?);
+        let img = Arc::new(img);
         self.images.insert((path.to_path_buf(), raw), img.clone());
         Ok(img)
     }
+
+    /// The warnings collected so far (emptied).
+    pub fn take_warnings(&mut self) -> Vec<Warning> {
+        std::mem::take(&mut self.warnings)
+    }
 }
 
-/// Reads an image file of any supported kind (chosen by content, then extension).
+/// Checks an image's values as light or reflectance, which cannot be negative or NaN: an image
+/// with no finite value is an error; otherwise non-finite and negative values become 0 and the
+/// returned message says how many there were.
+pub(crate) fn check_values(
+    img: &mut Image,
+    path: &Path,
+    at: &Location,
+) -> Result<Option<String>, LoadError> {
+    let total = img.data.len();
+    let non_finite = img.non_finite_count();
+    if non_finite == total {
+        return Err(LoadError::invalid(
+            at.clone(),
+            format!(
+                "image {}: every value is NaN or infinite; re-export the image",
+                path.display()
+            ),
+        ));
+    }
+    let negative = img.data.iter().filter(|v| **v < 0.0).count();
+    if non_finite == 0 && negative == 0 {
+        return Ok(None);
+    }
+    for v in &mut img.data {
+        if !v.is_finite() || *v < 0.0 {
+            *v = 0.0;
+        }
+    }
+    let mut what = Vec::new();
+    if non_finite > 0 {
+        what.push(format!("{non_finite} NaN or infinite"));
+    }
+    if negative > 0 {
+        what.push(format!("{negative} negative"));
+    }
+    Ok(Some(format!(
+        "image {}: {} of its {total} values (light and reflectance cannot be negative or NaN); \
+         they are read as 0",
+        path.display(),
+        what.join(" and ")
+    )))
+}
+
+/// Reads an image file of any supported kind (chosen by content, then extension); an error
+/// at `at` naming the file otherwise.
 pub(crate) fn load_image_file(path: &Path, raw: bool, at: &Location) -> Result<Image, LoadError> {
     let ext = path
         .extension()
@@ -42,14 +97,32 @@ pub(crate) fn load_image_file(path: &Path, raw: bool, at: &Location) -> Result<I
         .map(|e| e.to_ascii_lowercase())
         .unwrap_or_default();
     if ext == "exr" || ext == "pfm" {
-        // Float formats are linear already.
-        return read_image(path)
-            .map_err(|e| LoadError::invalid(at.clone(), format!("cannot read image: {e}")));
+        // Float formats are linear already. The error names the file and says what is wrong.
+        return read_image(path).map_err(|e| LoadError::invalid(at.clone(), format!("image {e}")));
     }
-    let bytes = read_file(path)?;
+    let bytes = read_limited(path, u64::MAX)
+        .map_err(|e| LoadError::invalid(at.clone(), format!("image {}: {e}", path.display())))?;
     decode_image(&bytes, raw).map_err(|reason| {
         LoadError::invalid(at.clone(), format!("image {}: {reason}", path.display()))
     })
+}
+
+/// Errors unless a `w`×`h` image decoded from `bytes` bytes has pixels and fits the pixel
+/// budget ([`max_image_pixels`]); checked on the header, before any pixel is allocated.
+fn check_size(w: usize, h: usize, bytes: usize) -> Result<(), String> {
+    if w == 0 || h == 0 {
+        return Err(format!(
+            "the image is empty ({w}x{h} pixels); save it with at least one pixel"
+        ));
+    }
+    let limit = max_image_pixels();
+    if (w as u64).saturating_mul(h as u64) > limit {
+        return Err(format!(
+            "{w}x{h} pixels (in {bytes} bytes) is over the image limit of {limit} pixels; if the \
+             image is genuine, raise the limit with {MAX_PIXELS_VAR}=PIXELS"
+        ));
+    }
+    Ok(())
 }
 
 /// Decodes PNG, JPEG or Radiance HDR bytes (by their signature) into a linear RGB image.
@@ -74,6 +147,10 @@ pub(crate) fn decode_image(bytes: &[u8], raw: bool) -> Result<Image, String> {
     Ok(img)
 }
 
+/// Deflate's best possible compression: one 258-byte match coded in two bits. A PNG whose
+/// header asks for more than this many times its size in pixel data is truncated or corrupt.
+const MAX_DEFLATE_RATIO: u64 = 1032;
+
 /// 8- or 16-bit PNG of any colour type to RGB in [0,1] (alpha dropped), values not linearised.
 fn decode_png(bytes: &[u8]) -> Result<Image, String> {
     let mut decoder = png::Decoder::new(std::io::Cursor::new(bytes));
@@ -81,6 +158,19 @@ fn decode_png(bytes: &[u8]) -> Result<Image, String> {
     let mut reader = decoder
         .read_info()
         .map_err(|e| format!("corrupt PNG: {e}"))?;
+    let header = reader.info();
+    check_size(header.width as usize, header.height as usize, bytes.len())?;
+    // Filtered scanlines: a filter byte and the packed samples per row.
+    let row_bits = header.width as u64 * header.bits_per_pixel() as u64;
+    let raw_bytes = header.height as u64 * (1 + row_bits.div_ceil(8));
+    if raw_bytes > bytes.len() as u64 * MAX_DEFLATE_RATIO {
+        return Err(format!(
+            "truncated or corrupt PNG: {}x{} pixels need more compressed data than its {} bytes",
+            header.width,
+            header.height,
+            bytes.len()
+        ));
+    }
     let mut buf = vec![0; reader.output_buffer_size()];
     let info = reader
         .next_frame(&mut buf)
@@ -91,10 +181,22 @@ fn decode_png(bytes: &[u8]) -> Result<Image, String> {
     Ok(to_rgb(w, h, channels, data))
 }
 
+/// Baseline or progressive JPEG to RGB in [0,1], values not linearised.
 fn decode_jpeg(bytes: &[u8]) -> Result<Image, String> {
     use zune_jpeg::zune_core::{colorspace::ColorSpace, options::DecoderOptions};
-    let options = DecoderOptions::default().jpeg_set_out_colorspace(ColorSpace::RGB);
+    // zune's own size limit (16384 a side) is replaced by lumo's pixel budget, checked below.
+    let options = DecoderOptions::default()
+        .jpeg_set_out_colorspace(ColorSpace::RGB)
+        .set_max_width(usize::from(u16::MAX))
+        .set_max_height(usize::from(u16::MAX));
     let mut decoder = zune_jpeg::JpegDecoder::new_with_options(bytes, options);
+    decoder
+        .decode_headers()
+        .map_err(|e| format!("corrupt JPEG: {e:?}"))?;
+    let (w, h) = decoder
+        .dimensions()
+        .ok_or("corrupt JPEG: no size in its header")?;
+    check_size(w, h, bytes.len())?;
     let data = decoder
         .decode()
         .map_err(|e| format!("corrupt JPEG: {e:?}"))?;
@@ -157,9 +259,7 @@ fn decode_hdr(bytes: &[u8]) -> Result<Image, String> {
         h.map_err(|_| "HDR: bad height")?,
         w.map_err(|_| "HDR: bad width")?,
     );
-    if w == 0 || h == 0 || w.saturating_mul(h) > 1 << 28 {
-        return Err(format!("HDR: unreasonable size {w}x{h}"));
-    }
+    check_size(w, h, bytes.len())?;
     let data = &bytes[pos..];
     let mut at = 0usize;
     let mut next = || -> Result<u8, String> {
@@ -167,7 +267,10 @@ fn decode_hdr(bytes: &[u8]) -> Result<Image, String> {
         at += 1;
         Ok(b)
     };
-    let mut out = Vec::with_capacity(w * h * 3);
+    // Reserve no more than the data can hold (a run-length coded pixel takes at least 4 × 2
+    // bytes per 127 pixels), so that a short file with a big header allocates little before
+    // it runs out of data.
+    let mut out = Vec::with_capacity((w * h).min(data.len().saturating_mul(16)) * 3);
     let mut scan = vec![[0u8; 4]; w];
     for _ in 0..h {
         let head = [next()?, next()?, next()?, next()?];

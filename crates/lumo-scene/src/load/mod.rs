@@ -169,7 +169,63 @@ fn finish(
     })
 }
 
-/// Reads a whole file, naming it in the error.
+/// Reads a whole regular file, naming it in the error (see [`read_limited`]).
 pub(crate) fn read_file(path: &Path) -> Result<Vec<u8>, LoadError> {
-    std::fs::read(path).map_err(|e| LoadError::io(path, e))
+    read_limited(path, u64::MAX).map_err(|e| match e {
+        ReadError::Io(error) => LoadError::io(path, error),
+        other => LoadError::invalid(Location::file(path), format!("cannot read: {other}")),
+    })
+}
+
+/// Why [`read_limited`] failed; its message is the cause and a fix, without the path.
+#[derive(Debug)]
+pub(crate) enum ReadError {
+    /// Opening or reading failed.
+    Io(std::io::Error),
+    /// Not a regular file: what it is.
+    NotAFile(&'static str),
+    /// Longer than the limit given.
+    TooLarge {
+        /// The limit in bytes.
+        limit: u64,
+    },
+}
+
+impl std::fmt::Display for ReadError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ReadError::Io(e) => f.write_str(&lumo_image::describe_io_error(e)),
+            ReadError::NotAFile(kind) => {
+                write!(f, "it is a {kind}, not a regular file; name a file")
+            }
+            ReadError::TooLarge { limit } => write!(f, "it is larger than {limit} bytes"),
+        }
+    }
+}
+
+/// Reads the regular file at `path`, at most `limit` bytes.
+///
+/// Anything but a regular file is refused from its metadata, before it is opened: opening a
+/// FIFO blocks until something writes to it, and a device such as `/dev/zero` never ends. The
+/// read itself stops at the limit too, so a file that grows while it is read cannot run on.
+pub(crate) fn read_limited(path: &Path, limit: u64) -> Result<Vec<u8>, ReadError> {
+    use std::io::Read;
+    let meta = std::fs::metadata(path).map_err(ReadError::Io)?;
+    if !meta.is_file() {
+        return Err(ReadError::NotAFile(lumo_image::file_kind(
+            &meta.file_type(),
+        )));
+    }
+    if meta.len() > limit {
+        return Err(ReadError::TooLarge { limit });
+    }
+    let file = std::fs::File::open(path).map_err(ReadError::Io)?;
+    let mut bytes = Vec::with_capacity(meta.len() as usize);
+    file.take(limit.saturating_add(1))
+        .read_to_end(&mut bytes)
+        .map_err(ReadError::Io)?;
+    if bytes.len() as u64 > limit {
+        return Err(ReadError::TooLarge { limit });
+    }
+    Ok(bytes)
 }

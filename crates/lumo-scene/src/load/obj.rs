@@ -8,8 +8,12 @@ use glam::{Vec2, Vec3};
 
 use super::check::check_mesh;
 use super::images::ImageCache;
-use super::{read_file, Diagnostics, LoadError, Location};
+use super::{read_file, read_limited, Diagnostics, LoadError, Location, ReadError};
 use crate::{Bsdf, Material, Mesh, Texture};
+
+/// Most bytes of MTL read for one OBJ file, all its `mtllib`s together. Material libraries
+/// are text of a few kilobytes; the bound stops a file that names a huge one.
+const MAX_MTL_BYTES: u64 = 64 << 20;
 
 /// Reads `path` for a lone-mesh scene: meshes and their materials (indices into the list).
 pub(crate) fn load(
@@ -37,6 +41,8 @@ pub(crate) fn read(
         materials: vec![],
         material_index: HashMap::new(),
         warned: vec![],
+        mtl_files: vec![],
+        mtl_bytes: 0,
     };
     r.groups.push(Group::new("default", None));
     for (i, line) in text.lines().enumerate() {
@@ -77,6 +83,10 @@ struct ObjReader<'p, 'd> {
     material_index: HashMap<String, usize>,
     /// Statements already warned about (one warning per kind).
     warned: Vec<String>,
+    /// MTL files already read (each is read once).
+    mtl_files: Vec<std::path::PathBuf>,
+    /// Bytes of MTL read so far (see [`MAX_MTL_BYTES`]).
+    mtl_bytes: u64,
 }
 
 impl ObjReader<'_, '_> {
@@ -177,8 +187,16 @@ impl ObjReader<'_, '_> {
                 let dir = self.path.parent().unwrap_or(Path::new(""));
                 let name = args.join(" ");
                 let mtl = dir.join(&name);
-                match std::fs::read(&mtl) {
+                // Each MTL file is read once, and all of them together within a budget: an
+                // OBJ can name the same or a huge file on every line.
+                if self.mtl_files.contains(&mtl) {
+                    return Ok(());
+                }
+                self.mtl_files.push(mtl.clone());
+                let left = MAX_MTL_BYTES - self.mtl_bytes;
+                match read_limited(&mtl, left) {
                     Ok(bytes) => {
+                        self.mtl_bytes += bytes.len() as u64;
                         let text = String::from_utf8_lossy(&bytes).into_owned();
                         read_mtl(
                             &mtl,
@@ -188,13 +206,22 @@ impl ObjReader<'_, '_> {
                             &mut self.material_index,
                         )?;
                     }
-                    Err(e) => self.diag.warn(
-                        self.at(n),
-                        format!(
-                            "mtllib {}: cannot read ({e}); faces get grey diffuse",
-                            mtl.display()
-                        ),
-                    )?,
+                    Err(e) => {
+                        let cause = match e {
+                            ReadError::TooLarge { .. } => format!(
+                                "the MTL files of this OBJ would be over {} MiB together",
+                                MAX_MTL_BYTES >> 20
+                            ),
+                            other => other.to_string(),
+                        };
+                        self.diag.warn(
+                            self.at(n),
+                            format!(
+                                "mtllib {}: cannot read: {cause}; its faces get grey diffuse",
+                                mtl.display()
+                            ),
+                        )?
+                    }
                 }
             }
             // Grouping and smoothing groups do not change the geometry.
@@ -394,9 +421,24 @@ fn read_mtl(
             continue;
         };
         match kw {
-            "Kd" => m.kd = Some(Vec3::from_slice(&nums(3)?)),
-            "Ks" => m.ks = Vec3::from_slice(&nums(3)?),
-            "Ke" => m.ke = Vec3::from_slice(&nums(3)?),
+            "Kd" | "Ks" | "Ke" => {
+                let mut c = Vec3::from_slice(&nums(3)?);
+                if c.min_element() < 0.0 {
+                    diag.warn(
+                        at,
+                        format!(
+                            "{kw} {c} has a negative value; a colour cannot be negative, so it \
+                             is read as 0"
+                        ),
+                    )?;
+                    c = c.max(Vec3::ZERO);
+                }
+                match kw {
+                    "Kd" => m.kd = Some(c),
+                    "Ks" => m.ks = c,
+                    _ => m.ke = c,
+                }
+            }
             "Ns" => m.ns = nums(1)?[0],
             "Ni" => m.ni = Some(nums(1)?[0]),
             "d" => m.dissolve = nums(1)?[0],
@@ -427,6 +469,10 @@ fn read_mtl(
                             uv_scale,
                         })
                     }
+                    // The warning has its own location; keep only the message.
+                    Err(LoadError::Invalid { message, .. }) => {
+                        diag.warn(at, format!("{message}; using Kd instead"))?
+                    }
                     Err(e) => diag.warn(at, format!("{e}; using Kd instead"))?,
                 }
             }
@@ -439,6 +485,9 @@ fn read_mtl(
         }
     }
     done.extend(current);
+    for w in images.take_warnings() {
+        diag.warn(w.at, w.message)?;
+    }
     for m in done {
         let at = Location::line(path, m.line);
         let kd = m.kd.unwrap_or(Vec3::splat(0.7));

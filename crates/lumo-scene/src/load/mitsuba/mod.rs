@@ -103,6 +103,11 @@ fn convert(
             )?,
         }
     }
+    // The image cache cannot reach the diagnostics; its warnings (NaN or negative pixels in an
+    // envmap or texture) are passed on here.
+    for w in b.images.take_warnings() {
+        b.diag.warn(w.at, w.message)?;
+    }
     props.finish(b.diag)?;
     if !b.has_camera {
         let (lo, hi) = b.scene.bounds();

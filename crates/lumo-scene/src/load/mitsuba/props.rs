@@ -1,13 +1,13 @@
 //! A plugin's parameters (`<float name=...>`, `<rgb>`, `<transform>`, nested plugins), read on
 //! demand and tracked so that parameters lumo never looked at are reported.
 
-use std::cell::Cell;
+use std::cell::{Cell, RefCell};
 
 use glam::{Mat4, Vec3};
 
 use super::spectrum::spectrum_to_rgb;
 use super::xml::Element;
-use crate::load::{Diagnostics, LoadError};
+use crate::load::{Diagnostics, LoadError, Warning};
 
 /// Tags that hold a value rather than a plugin.
 const VALUE_TAGS: &[&str] = &[
@@ -27,6 +27,9 @@ pub(crate) struct Props<'a> {
     /// The plugin element.
     pub el: &'a Element,
     used: Vec<Cell<bool>>,
+    /// Warnings about values read (negative colours), issued by [`Props::finish`]: the
+    /// readers return values, and the diagnostics belong to the caller.
+    pending: RefCell<Vec<Warning>>,
 }
 
 impl<'a> Props<'a> {
@@ -35,6 +38,7 @@ impl<'a> Props<'a> {
         Self {
             el,
             used: el.children.iter().map(|_| Cell::new(false)).collect(),
+            pending: RefCell::new(Vec::new()),
         }
     }
 
@@ -97,8 +101,11 @@ impl<'a> Props<'a> {
         }
     }
 
-    /// Warns about every child nobody read.
+    /// Issues the warnings about values read, then warns about every child nobody read.
     pub fn finish(&self, diag: &mut Diagnostics) -> Result<(), LoadError> {
+        for w in self.pending.take() {
+            diag.warn(w.at, w.message)?;
+        }
         for (c, used) in self.el.children.iter().zip(&self.used) {
             if used.get() {
                 continue;
@@ -163,8 +170,31 @@ impl<'a> Props<'a> {
     }
 
     /// A colour given as `<rgb>`, `<spectrum>` or a single `<float>`.
+    ///
+    /// Every colour lumo reads (reflectance, radiance, intensity, irradiance, index of
+    /// refraction) is physically non-negative: a negative value is read as 0, with a warning
+    /// naming the element, rather than silently making a surface or light emit negative energy.
     pub fn color(&self, name: &str) -> Result<Option<Vec3>, LoadError> {
-        self.value(name).map(parse_color).transpose()
+        let Some(el) = self.value(name) else {
+            return Ok(None);
+        };
+        let c = parse_color(el)?;
+        if has_negative_value(el) {
+            let message = format!(
+                "{name}: {} in {} has a negative value; a colour (reflectance, radiance, \
+                 intensity) cannot be negative, so it is read as 0",
+                el.describe(),
+                self.el.describe()
+            );
+            let mut pending = self.pending.borrow_mut();
+            if !pending.iter().any(|w| w.message == message) {
+                pending.push(Warning {
+                    at: el.at(),
+                    message,
+                });
+            }
+        }
+        Ok(Some(c.max(Vec3::ZERO)))
     }
 
     /// A `<point>` or `<vector>` (attributes x, y, z or value="x, y, z").
@@ -287,6 +317,17 @@ pub(crate) fn parse_color(el: &Element) -> Result<Vec3, LoadError> {
             ),
         )),
     }
+}
+
+/// Whether the value of a colour element (already parsed by [`parse_color`]) has a negative
+/// number: an rgb or grey component, or the value of a wavelength:value pair (whose RGB
+/// projection is clamped to 0 and would hide it).
+fn has_negative_value(el: &Element) -> bool {
+    let text = el.attr("value").unwrap_or("");
+    text.split(|c: char| c == ',' || c.is_whitespace())
+        .filter(|s| !s.is_empty())
+        .map(|item| item.rsplit(':').next().unwrap_or(item))
+        .any(|v| v.trim().parse::<f32>().is_ok_and(|v| v < 0.0))
 }
 
 /// x/y/z attributes, or value="x, y, z".

@@ -5,10 +5,18 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::rc::Rc;
 
-use crate::load::{read_file, Diagnostics, LoadError, Location};
+use crate::load::{read_limited, Diagnostics, LoadError, Location, ReadError};
 
 /// Deepest `<include>` nesting accepted (guards against include cycles and runaway files).
 const MAX_INCLUDE_DEPTH: usize = 16;
+
+/// Most `<include>`s followed while reading one scene, counting every occurrence. Depth alone
+/// does not bound the work: 13 files that each include the next 4 times make 4^12 includes.
+const MAX_INCLUDES: usize = 4096;
+
+/// Most bytes of XML read for one scene, the scene file and all its includes together. Real
+/// scenes keep meshes and images in their own files, so their XML is small.
+const MAX_XML_BYTES: u64 = 64 << 20;
 
 /// Deepest element nesting accepted. Mitsuba scenes nest a handful of levels; the bound keeps
 /// the recursive readers here and in the scene conversion within the stack.
@@ -102,6 +110,10 @@ struct Reader<'d> {
     depth: usize,
     /// Bytes produced by substitution so far (see [`MAX_SUBSTITUTED_BYTES`]).
     substituted: usize,
+    /// `<include>`s followed so far (see [`MAX_INCLUDES`]).
+    includes: usize,
+    /// Bytes of XML read so far (see [`MAX_XML_BYTES`]).
+    xml_bytes: u64,
 }
 
 impl<'d> Reader<'d> {
@@ -114,6 +126,8 @@ impl<'d> Reader<'d> {
             files,
             depth: 0,
             substituted: 0,
+            includes: 0,
+            xml_bytes: 0,
         }
     }
 
@@ -129,18 +143,41 @@ impl<'d> Reader<'d> {
                 ),
             ));
         }
-        let bytes = match read_file(path) {
-            Ok(b) => b,
-            Err(e) => {
-                return Err(match from {
-                    Some(at) => LoadError::invalid(
-                        at,
-                        format!("included file {} cannot be read: {e}", path.display()),
+        if let Some(at) = &from {
+            self.includes += 1;
+            if self.includes > MAX_INCLUDES {
+                return Err(LoadError::invalid(
+                    at.clone(),
+                    format!(
+                        "<include> of {}: the scene includes more than {MAX_INCLUDES} files in \
+                         all (files that include others several times multiply); include each \
+                         file once",
+                        path.display()
                     ),
-                    None => e,
-                })
+                ));
             }
-        };
+        }
+        let left = MAX_XML_BYTES - self.xml_bytes;
+        let bytes = read_limited(path, left).map_err(|e| {
+            let cause = match e {
+                // The top-level file keeps the typed I/O error.
+                ReadError::Io(error) if from.is_none() => return LoadError::io(path, error),
+                ReadError::TooLarge { .. } => format!(
+                    "the scene's XML, its file and all included files together, would be \
+                     over {} MiB; include each file once and keep meshes in .ply or .obj files",
+                    MAX_XML_BYTES >> 20
+                ),
+                other => other.to_string(),
+            };
+            match &from {
+                Some(at) => LoadError::invalid(
+                    at.clone(),
+                    format!("cannot read included file {}: {cause}", path.display()),
+                ),
+                None => LoadError::invalid(Location::file(path), format!("cannot read: {cause}")),
+            }
+        })?;
+        self.xml_bytes += bytes.len() as u64;
         let text = String::from_utf8(bytes).map_err(|e| {
             LoadError::invalid(Location::file(path), format!("not UTF-8 text: {e}"))
         })?;

@@ -1,0 +1,269 @@
+//! Scene files that attack the loader (issue 25): images that are empty, lie about their size
+//! or hold NaN and negative light; an include fan-out bomb; includes and material libraries
+//! that are devices or FIFOs; negative colours; a glTF camera with a zero rotation; and the
+//! messages of missing files. Each must be an error or a warning naming the file and the
+//! element, returned fast, never a panic, a hang or an allocation of what a header claims.
+//! The inputs are in tests/data/bad/ (written by make.py there).
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use common::{load, load_strict, temp_dir, write};
+use lumo_scene::load::{LoadError, LoadedScene};
+use lumo_scene::{Light, Texture};
+
+fn bad(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../tests/data/bad")
+        .join(name)
+}
+
+/// Loads `path` on another thread; fails the test if that takes more than 30 s (a loader that
+/// blocks on a FIFO or reads a device forever must not hang the suite).
+fn load_within_time(path: PathBuf) -> Result<LoadedScene, LoadError> {
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        // The receiver may have given up; nothing to do then.
+        let _ = tx.send(load(&path));
+    });
+    rx.recv_timeout(Duration::from_secs(30))
+        .expect("loading blocked or ran on")
+}
+
+/// The error text of a scene that must be refused.
+fn error_text(path: PathBuf) -> String {
+    load_within_time(path)
+        .expect_err("the scene must be refused")
+        .to_string()
+}
+
+/// The error text of a scene that must be refused; it names the scene file.
+fn error_of(path: PathBuf) -> String {
+    let name = path.file_name().unwrap().to_string_lossy().into_owned();
+    let text = error_text(path);
+    assert!(text.contains(&name), "the error must name {name}: {text}");
+    text
+}
+
+fn warnings(scene: &LoadedScene) -> Vec<String> {
+    scene.warnings.iter().map(ToString::to_string).collect()
+}
+
+#[test]
+fn an_empty_image_as_envmap_or_texture_is_an_error_not_a_panic() {
+    // Item 7: a 0×4 PFM used to reach the renderer and panic indexing it.
+    for (scene, line) in [("envmap_empty.xml", 4), ("texture_empty.xml", 3)] {
+        let text = error_of(bad(scene));
+        assert!(text.contains(&format!("{scene}:{line}:")), "{text}");
+        assert!(
+            text.contains("empty.pfm: the image is empty (0x4 pixels)"),
+            "{text}"
+        );
+    }
+}
+
+#[test]
+fn image_headers_over_the_pixel_budget_are_refused_naming_file_size_and_limit() {
+    // Item 8: each of these files is under 300 bytes and claims gigabytes of pixels.
+    for (scene, image, claim) in [
+        ("envmap_huge_exr.xml", "huge_window.exr", "100000x100000"),
+        ("texture_huge_png.xml", "huge_ihdr.png", "100000x100000"),
+        ("texture_huge_hdr.xml", "huge.hdr", "16384x16384"),
+        ("texture_huge_jpg.xml", "huge.jpg", "60000x60000"),
+    ] {
+        let start = Instant::now();
+        let text = error_of(bad(scene));
+        let bytes = std::fs::metadata(bad(image)).unwrap().len();
+        assert!(text.contains(image) && text.contains(claim), "{text}");
+        assert!(text.contains(&format!("{bytes} bytes")), "{text}");
+        assert!(
+            text.contains("over the image limit of 134217728 pixels"),
+            "{text}"
+        );
+        assert!(!text.contains('\n'), "{text}");
+        assert!(
+            start.elapsed() < Duration::from_secs(5),
+            "{scene} took long"
+        );
+    }
+    // Within the budget, but more pixels than the compressed data can hold.
+    let text = error_of(bad("texture_short_png.xml"));
+    assert!(
+        text.contains("short_8k.png: truncated or corrupt PNG"),
+        "{text}"
+    );
+}
+
+#[test]
+fn an_include_fan_out_bomb_is_bounded() {
+    // Item 10: 13 files of 148 bytes, each including the next four times: 4^12 includes.
+    let start = Instant::now();
+    let text = error_text(bad("include_bomb/b00.xml"));
+    // At the <include> where the count runs out, deep in the chain.
+    assert!(text.contains("include_bomb/b1") && text.contains(".xml:1: <include> of"));
+    assert!(text.contains("includes more than 4096 files"), "{text}");
+    assert!(
+        start.elapsed() < Duration::from_secs(10),
+        "took {:?}",
+        start.elapsed()
+    );
+}
+
+#[cfg(unix)]
+fn mkfifo(path: &Path) {
+    let made = std::process::Command::new("mkfifo").arg(path).status();
+    assert!(made.is_ok_and(|s| s.success()), "mkfifo failed");
+}
+
+#[cfg(unix)]
+#[test]
+fn includes_that_are_devices_or_fifos_are_refused_without_reading() {
+    // Item 10: /dev/zero read 4 GB; a FIFO blocked forever.
+    let dir = temp_dir("hostile-include");
+    mkfifo(&dir.join("pipe.xml"));
+    for (target, kind) in [("/dev/zero", "device"), ("pipe.xml", "FIFO (named pipe)")] {
+        let scene = write(
+            &dir,
+            "scene.xml",
+            format!("<scene version=\"3.0.0\">\n<include filename=\"{target}\"/>\n</scene>\n"),
+        );
+        let text = error_of(scene);
+        assert!(text.contains("scene.xml:2:"), "{text}");
+        assert!(
+            text.contains(&format!("it is a {kind}, not a regular file")),
+            "{text}"
+        );
+    }
+}
+
+#[cfg(unix)]
+#[test]
+fn material_libraries_and_buffers_that_are_devices_or_fifos_are_refused() {
+    let dir = temp_dir("hostile-mtllib");
+    mkfifo(&dir.join("pipe.mtl"));
+    for target in ["/dev/zero", "pipe.mtl"] {
+        let obj = write(
+            &dir,
+            "mesh.obj",
+            format!("mtllib {target}\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"),
+        );
+        let scene = load_within_time(obj).expect("an unreadable mtllib is a warning");
+        let w = warnings(&scene).join("\n");
+        assert!(w.contains("mesh.obj:1: warning: mtllib"), "{w}");
+        assert!(w.contains("not a regular file"), "{w}");
+    }
+    mkfifo(&dir.join("pipe.bin"));
+    let gltf = write(
+        &dir,
+        "scene.gltf",
+        r#"{"asset": {"version": "2.0"}, "buffers": [{"uri": "pipe.bin", "byteLength": 4}]}"#,
+    );
+    let text = error_of(gltf);
+    assert!(text.contains("pipe.bin: it is a FIFO"), "{text}");
+}
+
+#[test]
+fn an_all_nan_envmap_is_an_error() {
+    let text = error_of(bad("envmap_nan.xml"));
+    assert!(text.contains("envmap_nan.xml:4:"), "{text}");
+    assert!(
+        text.contains("nan_envmap.pfm: every value is NaN or infinite"),
+        "{text}"
+    );
+}
+
+#[test]
+fn negative_and_nan_envmap_values_are_read_as_zero_with_a_warning() {
+    let scene = load(&bad("envmap_negative.xml")).expect("loads");
+    let w = warnings(&scene).join("\n");
+    assert!(
+        w.contains("envmap_negative.xml:4: warning: image")
+            && w.contains("negative_envmap.pfm: 1 NaN or infinite and 1 negative of its 6 values"),
+        "{w}"
+    );
+    let env = scene.scene.lights.iter().find_map(|l| match l {
+        Light::Environment(env) => Some(env),
+        _ => None,
+    });
+    let data = &env.expect("an envmap").image.data;
+    assert!(data.iter().all(|v| v.is_finite() && *v >= 0.0), "{data:?}");
+    assert!(load_strict(&bad("envmap_negative.xml")).is_err());
+}
+
+#[test]
+fn negative_colours_in_mitsuba_xml_are_warned_about_and_read_as_zero() {
+    // Item 12: negative reflectance, radiance and (spectral) intensity.
+    let scene = load(&bad("negative_values.xml")).expect("loads");
+    let w = warnings(&scene).join("\n");
+    for (line, name) in [(4, "reflectance"), (5, "radiance"), (7, "intensity")] {
+        assert!(
+            w.contains(&format!("negative_values.xml:{line}: warning: {name}: <"))
+                && w.contains("has a negative value"),
+            "{name}: {w}"
+        );
+    }
+    for m in &scene.scene.materials {
+        assert!(m.emission.min_element() >= 0.0, "{:?}", m.emission);
+        if let lumo_scene::Bsdf::Diffuse {
+            reflectance: Texture::Constant(c),
+        } = &m.bsdf
+        {
+            assert!(c.min_element() >= 0.0, "{c}");
+        }
+    }
+    for l in &scene.scene.lights {
+        if let Light::Point { intensity, .. } = l {
+            assert!(intensity.min_element() >= 0.0, "{intensity}");
+        }
+    }
+}
+
+#[test]
+fn a_gltf_camera_with_a_zero_rotation_is_warned_about_and_not_rotated() {
+    let scene = load(&bad("zero_rotation.gltf")).expect("loads");
+    let w = warnings(&scene).join("\n");
+    assert!(
+        w.contains("zero_rotation.gltf (node 0): warning: rotation [0.0, 0.0, 0.0, 0.0]"),
+        "{w}"
+    );
+    let cam = &scene.scene.camera;
+    assert!(cam.origin.is_finite() && cam.target.is_finite() && cam.up.is_finite());
+    // No rotation: at (0, 0, 5) looking down -Z.
+    assert!((cam.origin - lumo_scene::Vec3::new(0.0, 0.0, 5.0)).length() < 1e-5);
+    assert!((cam.target - cam.origin).normalize().z < -0.999, "{cam:?}");
+}
+
+/// Item 14: the path once, the cause once, a fix, and no OS error codes.
+fn assert_says_once(text: &str, path: &str, fix: &str) {
+    assert_eq!(
+        text.matches(path).count(),
+        1,
+        "{path} must appear once: {text}"
+    );
+    assert!(text.contains(fix), "{text}");
+    assert!(!text.contains("os error"), "{text}");
+    assert_eq!(text.matches("no such file").count(), 1, "{text}");
+}
+
+#[test]
+fn missing_files_are_named_once_with_their_cause_once() {
+    let fix = "no such file; check the name and the directory";
+    let text = error_of(bad("missing_include.xml"));
+    assert!(
+        text.contains("missing_include.xml:3: cannot read included file"),
+        "{text}"
+    );
+    assert_says_once(&text, "no_such_file.xml", fix);
+    let text = error_of(bad("texture_missing.xml"));
+    assert!(text.contains("texture_missing.xml:3: image"), "{text}");
+    assert_says_once(&text, "no_such_texture.png", fix);
+    // The mesh reader names the mesh (the scene's line is not passed to it).
+    let text = error_text(bad("missing_mesh.xml"));
+    assert_says_once(&text, "no_such_mesh.ply", fix);
+    let text = load(&bad("no_such_scene.xml")).unwrap_err().to_string();
+    assert_says_once(&text, "no_such_scene.xml", fix);
+    let text = load(&bad("no_such_scene.gltf")).unwrap_err().to_string();
+    assert_says_once(&text, "no_such_scene.gltf", fix);
+}
