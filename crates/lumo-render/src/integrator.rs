@@ -228,6 +228,10 @@ impl PathState {
             return None;
         }
         let wo = s.frame.to_local(-dir);
+        // A one-sided BSDF seen from behind reflects nothing: no light sample, no bounce.
+        if wo.z <= 0.0 && rs.one_sided(s.material) {
+            return None;
+        }
         Some(Arrival { s, bsdf, wo })
     }
 

@@ -52,6 +52,9 @@ pub struct RenderScene {
     pub lights: Lights,
     /// Internal diffuse Fresnel reflectance per material (plastics only; 0 otherwise).
     fdr_int: Vec<f32>,
+    /// Per material, whether its back side is black (an opaque BSDF that is not two-sided:
+    /// Mitsuba's plain BSDFs).
+    one_sided: Vec<bool>,
     /// Per instance, what surface reconstruction needs of its transform, computed once
     /// rather than per hit.
     placements: Vec<InstancePlacement>,
@@ -76,6 +79,8 @@ pub(crate) struct SimpleDiffuse {
     pub albedo: Vec3,
     /// Emitted radiance (front side).
     pub emission: Vec3,
+    /// Black from behind (see [`RenderScene::one_sided`]).
+    pub one_sided: bool,
 }
 
 impl RenderScene {
@@ -91,6 +96,11 @@ impl RenderScene {
                 SceneBsdf::Plastic { ior, .. } => fresnel_diffuse_reflectance(1.0 / ior),
                 _ => 0.0,
             })
+            .collect();
+        let one_sided = scene
+            .materials
+            .iter()
+            .map(|m| !m.two_sided && !matches!(m.bsdf, SceneBsdf::Dielectric { .. }))
             .collect();
         let placements = scene
             .instances
@@ -131,6 +141,7 @@ impl RenderScene {
                             mesh: inst.mesh,
                             albedo: *albedo,
                             emission: material.emission,
+                            one_sided: !material.two_sided,
                         })
                     }
                     _ => None,
@@ -146,6 +157,7 @@ impl RenderScene {
             accel,
             lights,
             fdr_int,
+            one_sided,
             placements,
             unit_normals,
         })
@@ -254,6 +266,13 @@ impl RenderScene {
                 alpha: *roughness,
             },
         }
+    }
+
+    /// Whether material `material` is black from behind: a path that reaches its back side
+    /// (the viewer below the shading normal) ends there, as with Mitsuba's one-sided BSDFs.
+    #[inline]
+    pub fn one_sided(&self, material: usize) -> bool {
+        self.one_sided[material]
     }
 
     /// Radiance emitted by `surface` towards `-dir` (front side only).

@@ -174,6 +174,7 @@ fn bounce(
     let mut eta_scale = [1.0f32; N];
     let mut depth = [0u32; N];
     let mut alive = [false; N];
+    let mut one_sided = [false; N];
     let (mut bu, mut bv) = ([0.0f32; N], [0.0f32; N]);
     let (mut nv0, mut nv1, mut nv2): (L3, L3, L3) = ([[0.0; N]; 3], [[0.0; N]; 3], [[0.0; N]; 3]);
     let mut interpolate = [false; N];
@@ -205,6 +206,7 @@ fn bounce(
         eta_scale[i] = path.eta_scale;
         depth[i] = path.depth;
         alive[i] = path.depth < settings.max_depth;
+        one_sided[i] = sd.one_sided;
     }
 
     // Shading normal (RenderScene::surface: interpolated, normalised, on the side of the
@@ -258,6 +260,8 @@ fn bounce(
         wo[0][i] = dot(nd, at(&fs, i));
         wo[1][i] = dot(nd, at(&ft, i));
         wo[2][i] = dot(nd, sn);
+        // `arrive`: a one-sided surface seen from behind ends the path.
+        alive[i] &= !(one_sided[i] && wo[2][i] <= 0.0);
     }
 
     // What `arrive` records for the hit: the first-hit record, emission seen along the ray.

@@ -22,6 +22,6 @@ pub use light::{EnvMap, Light};
 pub use material::{Bsdf, Material};
 pub use mesh::{Instance, Mesh};
 pub use scene::{RenderDefaults, Scene};
-pub use texture::Texture;
+pub use texture::{Texture, TextureFilter, WrapMode};
 
 pub use glam::{Mat4, Vec2, Vec3};

@@ -51,6 +51,10 @@ pub struct Material {
     pub bsdf: Bsdf,
     /// Emitted radiance (front side only).
     pub emission: Vec3,
+    /// Whether an opaque BSDF reflects on both sides of the surface (lumo's built-in, glTF and
+    /// OBJ scenes; Mitsuba's `twosided`). When false the back of an opaque surface is black,
+    /// as Mitsuba's plain `diffuse`, `conductor` and `plastic` are. Transmissive BSDFs ignore it.
+    pub two_sided: bool,
 }
 
 impl Material {
@@ -62,6 +66,7 @@ impl Material {
                 reflectance: Texture::Constant(rgb),
             },
             emission: Vec3::ZERO,
+            two_sided: true,
         }
     }
 

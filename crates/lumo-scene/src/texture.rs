@@ -3,6 +3,49 @@ use std::sync::Arc;
 use glam::{Affine2, Vec2, Vec3};
 use lumo_image::Image;
 
+/// How a bitmap lookup between texel centres is reconstructed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum TextureFilter {
+    /// The texel that contains the point.
+    #[default]
+    Nearest,
+    /// Bilinear interpolation of the four nearest texel centres (Mitsuba's default).
+    Bilinear,
+}
+
+/// What a bitmap holds outside [0, 1]² (applied to each texel index, as Mitsuba does).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum WrapMode {
+    /// Tiled.
+    #[default]
+    Repeat,
+    /// Tiled, every other copy mirrored.
+    Mirror,
+    /// The edge texels extended.
+    Clamp,
+}
+
+impl WrapMode {
+    /// The texel index in `0..n` (n ≥ 1) that stands for index `i`.
+    #[inline]
+    pub fn index(self, i: i64, n: usize) -> usize {
+        let n = n.max(1) as i64;
+        let j = match self {
+            WrapMode::Repeat => i.rem_euclid(n),
+            WrapMode::Clamp => i.clamp(0, n - 1),
+            WrapMode::Mirror => {
+                let p = i.rem_euclid(2 * n);
+                if p >= n {
+                    2 * n - 1 - p
+                } else {
+                    p
+                }
+            }
+        };
+        j as usize
+    }
+}
+
 /// A spatially varying reflectance, looked up by texture coordinates.
 #[derive(Clone, Debug)]
 pub enum Texture {
@@ -17,12 +60,16 @@ pub enum Texture {
         /// Squares per unit of uv.
         scale: f32,
     },
-    /// A linear-RGB bitmap, repeated, nearest-neighbour lookup (v = 0 at the bottom row).
+    /// A linear-RGB bitmap (v = 0 at the bottom row).
     Bitmap {
         /// The pixels.
         image: Arc<Image>,
         /// uv multiplier (tiling).
         uv_scale: Vec2,
+        /// How a lookup between texel centres is reconstructed.
+        filter: TextureFilter,
+        /// What lies outside [0, 1]².
+        wrap: WrapMode,
     },
     /// Another texture looked up at transformed coordinates (Mitsuba's `to_uv`, glTF's
     /// `KHR_texture_transform`).
@@ -51,13 +98,33 @@ impl Texture {
                     *color1
                 }
             }
-            Texture::Bitmap { image, uv_scale } => {
+            Texture::Bitmap {
+                image,
+                uv_scale,
+                filter,
+                wrap,
+            } => {
                 let uv = uv * *uv_scale;
                 let (w, h) = (image.width, image.height);
-                let x = ((uv.x - uv.x.floor()) * w as f32) as usize;
-                let y = ((1.0 - (uv.y - uv.y.floor())) * h as f32) as usize;
-                let rgb = image.rgb(x.min(w - 1), y.min(h - 1));
-                Vec3::from(rgb)
+                // Texel coordinates: texel (i, j) covers [i, i+1) × [j, j+1), row 0 at v = 1.
+                let (px, py) = (uv.x * w as f32, (1.0 - uv.y) * h as f32);
+                let texel = |x: f32, y: f32| {
+                    let (x, y) = (wrap.index(x as i64, w), wrap.index(y as i64, h));
+                    Vec3::from(image.rgb(x, y))
+                };
+                match filter {
+                    TextureFilter::Nearest => texel(px.floor(), py.floor()),
+                    TextureFilter::Bilinear => {
+                        // Weights between the four nearest texel centres (as Mitsuba's bitmap).
+                        let (fx, fy) = (px - 0.5, py - 0.5);
+                        let (x0, y0) = (fx.floor(), fy.floor());
+                        let (tx, ty) = (fx - x0, fy - y0);
+                        let top = texel(x0, y0) * (1.0 - tx) + texel(x0 + 1.0, y0) * tx;
+                        let bottom =
+                            texel(x0, y0 + 1.0) * (1.0 - tx) + texel(x0 + 1.0, y0 + 1.0) * tx;
+                        top * (1.0 - ty) + bottom * ty
+                    }
+                }
             }
             Texture::Transformed { texture, uv: m } => texture.eval(m.transform_point2(uv)),
         }
@@ -75,5 +142,69 @@ impl Texture {
             // Exact for affine maps that tile whole periods; close otherwise.
             Texture::Transformed { texture, .. } => texture.average(),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ramp() -> Texture {
+        // 4×1 texels with values 0, 1, 2, 3.
+        let data = (0..4).flat_map(|i| [i as f32; 3]).collect();
+        Texture::Bitmap {
+            image: Arc::new(Image::from_vec(4, 1, 3, data)),
+            uv_scale: Vec2::ONE,
+            filter: TextureFilter::Bilinear,
+            wrap: WrapMode::Clamp,
+        }
+    }
+
+    #[test]
+    fn bilinear_interpolates_between_texel_centres() {
+        let t = ramp();
+        // Texel centres at u = (i + 0.5) / 4 give the texel values exactly.
+        for i in 0..4 {
+            let u = (i as f32 + 0.5) / 4.0;
+            assert!((t.eval(Vec2::new(u, 0.5)).x - i as f32).abs() < 1e-5);
+        }
+        // Halfway between centres 1 and 2.
+        assert!((t.eval(Vec2::new(0.5, 0.5)).x - 1.5).abs() < 1e-5);
+        // Clamped beyond the edges.
+        assert_eq!(t.eval(Vec2::new(-3.0, 0.5)).x, 0.0);
+        assert_eq!(t.eval(Vec2::new(7.0, 0.5)).x, 3.0);
+    }
+
+    #[test]
+    fn wrap_modes_map_indices_as_mitsuba_does() {
+        let idx = |m: WrapMode| (-5..9).map(|i| m.index(i, 4)).collect::<Vec<_>>();
+        assert_eq!(
+            idx(WrapMode::Repeat),
+            [3, 0, 1, 2, 3, 0, 1, 2, 3, 0, 1, 2, 3, 0]
+        );
+        assert_eq!(
+            idx(WrapMode::Clamp),
+            [0, 0, 0, 0, 0, 0, 1, 2, 3, 3, 3, 3, 3, 3]
+        );
+        assert_eq!(
+            idx(WrapMode::Mirror),
+            [3, 3, 2, 1, 0, 0, 1, 2, 3, 3, 2, 1, 0, 0]
+        );
+    }
+
+    #[test]
+    fn nearest_takes_the_containing_texel() {
+        let Texture::Bitmap { image, .. } = ramp() else {
+            unreachable!()
+        };
+        let t = Texture::Bitmap {
+            image,
+            uv_scale: Vec2::ONE,
+            filter: TextureFilter::Nearest,
+            wrap: WrapMode::Repeat,
+        };
+        assert_eq!(t.eval(Vec2::new(0.30, 0.5)).x, 1.0);
+        assert_eq!(t.eval(Vec2::new(1.30, 0.5)).x, 1.0);
+        assert_eq!(t.eval(Vec2::new(-0.05, 0.5)).x, 3.0);
     }
 }

@@ -444,6 +444,7 @@ pub(crate) fn atrium() -> Scene {
             },
         },
         emission: Vec3::ZERO,
+        two_sided: true,
     });
     let wall = diffuse(&mut scene, "wall", Vec3::new(0.74, 0.73, 0.70));
     let stone = diffuse(&mut scene, "stone", Vec3::new(0.76, 0.76, 0.73));
@@ -457,6 +458,7 @@ pub(crate) fn atrium() -> Scene {
             roughness: 0.15,
         },
         emission: Vec3::ZERO,
+        two_sided: true,
     });
     let gold = scene.add_material(Material {
         name: "rough-gold".into(),
@@ -466,6 +468,7 @@ pub(crate) fn atrium() -> Scene {
             roughness: 0.3,
         },
         emission: Vec3::ZERO,
+        two_sided: true,
     });
     let drape_colours = [
         ("drape-red", Vec3::new(0.75, 0.08, 0.06)),
@@ -715,6 +718,7 @@ pub(crate) fn atrium() -> Scene {
             },
         },
         emission: Vec3::ZERO,
+        two_sided: true,
     });
     let (tapestry_width, tapestry_top) = (4.8, 9.6);
     // Local frame: width along +z, folds along x; turned so the width runs along +x and the

@@ -107,6 +107,7 @@ pub(crate) fn cornell_spheres() -> Scene {
             },
         },
         emission: Vec3::ZERO,
+        two_sided: true,
     });
     // Replace the floor's material with the checkerboard.
     if let Some(floor) = scene.meshes.iter_mut().find(|m| m.name == "floor") {
@@ -121,6 +122,7 @@ pub(crate) fn cornell_spheres() -> Scene {
             roughness: 0.15,
         },
         emission: Vec3::ZERO,
+        two_sided: true,
     });
     let glass = scene.add_material(Material {
         name: "glass".into(),
@@ -129,6 +131,7 @@ pub(crate) fn cornell_spheres() -> Scene {
             roughness: 0.0,
         },
         emission: Vec3::ZERO,
+        two_sided: true,
     });
     let r = 0.35;
     let mut metal = sphere(

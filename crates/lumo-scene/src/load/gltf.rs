@@ -20,7 +20,9 @@ use crate::animation::{
     AnimatedNode, AnimatedProperty, AnimatedScene, Animation, AnimationChannel, Interpolation,
     NodeItem,
 };
-use crate::{Bsdf, Camera, FovAxis, Instance, Light, Material, Mesh, Scene, Texture};
+use crate::{
+    Bsdf, Camera, FovAxis, Instance, Light, Material, Mesh, Scene, Texture, TextureFilter, WrapMode,
+};
 
 /// Extensions lumo reads; a file that requires any other one is refused.
 const SUPPORTED: &[&str] = &[
@@ -623,6 +625,8 @@ impl GltfReader<'_, '_> {
             name,
             bsdf,
             emission,
+            // glTF's doubleSided is about culling; lumo's opaque glTF surfaces reflect on both sides.
+            two_sided: true,
         });
         self.material_map.insert(mat.index(), index);
         Ok(index)
@@ -678,9 +682,12 @@ impl GltfReader<'_, '_> {
             }
             Arc::new(img)
         };
+        // glTF samplers' filters are not read yet: nearest, as lumo has always looked them up.
         let texture = Texture::Bitmap {
             image,
             uv_scale: Vec2::ONE,
+            filter: TextureFilter::Nearest,
+            wrap: WrapMode::Repeat,
         };
         Ok(match info.texture_transform() {
             None => texture,

@@ -9,7 +9,7 @@ use glam::{Vec2, Vec3};
 use super::check::check_mesh;
 use super::images::ImageCache;
 use super::{read_file, read_limited, Diagnostics, LoadError, Location, ReadError};
-use crate::{Bsdf, Material, Mesh, Texture};
+use crate::{Bsdf, Material, Mesh, Texture, TextureFilter, WrapMode};
 
 /// Most bytes of MTL read for one OBJ file, all its `mtllib`s together. Material libraries
 /// are text of a few kilobytes; the bound stops a file that names a huge one.
@@ -467,6 +467,8 @@ fn read_mtl(
                         m.map_kd = Some(Texture::Bitmap {
                             image: Arc::clone(&image),
                             uv_scale,
+                            filter: TextureFilter::Nearest,
+                            wrap: WrapMode::Repeat,
                         })
                     }
                     // The warning has its own location; keep only the message.
@@ -535,6 +537,7 @@ fn read_mtl(
             name: m.name.clone(),
             bsdf,
             emission: m.ke.max(Vec3::ZERO),
+            two_sided: true,
         });
         index.insert(m.name, materials.len() - 1);
     }

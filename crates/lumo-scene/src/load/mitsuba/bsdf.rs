@@ -8,7 +8,7 @@ use super::props::Props;
 use super::xml::Element;
 use super::{presets, Builder};
 use crate::load::LoadError;
-use crate::{Bsdf, Texture};
+use crate::{Bsdf, Texture, TextureFilter, WrapMode};
 
 /// Mitsuba's default exterior medium (air) for `int_ior / ext_ior`.
 const AIR: f32 = 1.00028;
@@ -29,6 +29,25 @@ impl<'a> Builder<'a, '_> {
         props.finish(self.diag)?;
         self.bsdfs.insert(key, (name.clone(), bsdf.clone()));
         Ok((name, bsdf))
+    }
+
+    /// Whether the `<bsdf>` reflects on both sides: a `twosided` wrapper, possibly inside the
+    /// wrappers lumo reads as their first nested BSDF.
+    pub(super) fn two_sided(&self, el: &'a Element) -> Result<bool, LoadError> {
+        let el = self.resolve(el)?;
+        match el.attr("type") {
+            Some("twosided") => Ok(true),
+            Some("mask" | "bumpmap" | "normalmap" | "blendbsdf") => {
+                for c in el.children.iter() {
+                    let r = self.resolve(c)?;
+                    if r.tag == "bsdf" {
+                        return self.two_sided(r);
+                    }
+                }
+                Ok(false)
+            }
+            _ => Ok(false),
+        }
     }
 
     fn convert_bsdf(&mut self, props: &Props<'a>) -> Result<Bsdf, LoadError> {
@@ -364,20 +383,40 @@ impl<'a> Builder<'a, '_> {
                     LoadError::invalid(at.clone(), "bitmap texture needs a filename")
                 })?;
                 let raw = props.bool("raw", false)?;
-                // lumo looks textures up nearest-neighbour; bilinear filtering is not modelled.
-                props.accept(&["filter_type", "format"]);
-                if let Some(w) = props.string("wrap_mode")? {
-                    if w != "repeat" {
-                        self.diag
-                            .warn(at.clone(), format!("wrap_mode {w:?} is rendered as repeat"))?;
+                props.accept(&["format"]);
+                let filter = match props.string("filter_type")?.as_deref() {
+                    None | Some("bilinear") => TextureFilter::Bilinear,
+                    Some("nearest") => TextureFilter::Nearest,
+                    Some(other) => {
+                        return Err(LoadError::invalid(
+                            at.clone(),
+                            format!(
+                                "filter_type {other:?} is not one of \"bilinear\", \"nearest\""
+                            ),
+                        ))
                     }
-                }
+                };
+                let wrap = match props.string("wrap_mode")?.as_deref() {
+                    None | Some("repeat") => WrapMode::Repeat,
+                    Some("mirror") => WrapMode::Mirror,
+                    Some("clamp") => WrapMode::Clamp,
+                    Some(other) => {
+                        return Err(LoadError::invalid(
+                            at.clone(),
+                            format!(
+                            "wrap_mode {other:?} is not one of \"repeat\", \"mirror\", \"clamp\""
+                        ),
+                        ))
+                    }
+                };
                 let path = self.file_path(el, &file)?;
                 let image = self.images.load(&path, raw, &at)?;
                 // Mitsuba puts v = 0 at the image's top row, lumo at its bottom row.
                 Texture::Bitmap {
                     image: Arc::new(flip_rows(&image)),
                     uv_scale: Vec2::ONE,
+                    filter,
+                    wrap,
                 }
             }
             "checkerboard" => Texture::Checkerboard {

@@ -237,6 +237,11 @@ impl<'a> Builder<'a, '_> {
         if let Some(&m) = self.materials.get(&key) {
             return Ok(m);
         }
+        // Mitsuba's BSDFs are one-sided unless wrapped in `twosided` (its default BSDF too).
+        let two_sided = match bsdf {
+            Some(el) => self.two_sided(el)?,
+            None => false,
+        };
         let (name, bsdf) = match bsdf {
             Some(el) => self.bsdf(el)?,
             // Mitsuba 3's default: grey diffuse, but black on an emitting shape (its
@@ -256,6 +261,7 @@ impl<'a> Builder<'a, '_> {
             name,
             bsdf,
             emission,
+            two_sided,
         });
         self.materials.insert(key, index);
         Ok(index)
