@@ -1,15 +1,22 @@
 //! HTTP and WebSocket endpoints: the embedded viewer files and `/ws`.
 //!
-//! Requests are accepted only with a `Host` of `localhost` or an IP literal (a DNS-rebinding
-//! page cannot reach the server under its own host name), and the WebSocket only from the
-//! page's own origin or from non-browser clients that send no `Origin`.
+//! Requests are accepted only with exactly one `Host` header naming `localhost` or an IP
+//! literal (a DNS-rebinding page cannot reach the server under its own host name; malformed or
+//! duplicate headers get 400), and the WebSocket only from the page's own origin or from
+//! non-browser clients that send no `Origin`.
+//!
+//! A viewer's messages are read at most [`crate::Limits::messages_per_second`] (faster senders
+//! wait at their own socket); invalid ones get an ERROR reply until
+//! [`crate::Limits::violation_burst`] is used up, then the viewer is closed with code 1008.
 
 use std::sync::Arc;
 
+use std::time::{Duration, Instant};
+
 use axum::body::Bytes;
-use axum::extract::ws::{Message, WebSocket, WebSocketUpgrade};
-use axum::extract::{Request, State};
-use axum::http::{header, HeaderMap, StatusCode};
+use axum::extract::ws::{CloseFrame, Message, WebSocket, WebSocketUpgrade};
+use axum::extract::{ConnectInfo, Request, State};
+use axum::http::{header, Extensions, HeaderMap, StatusCode};
 use axum::middleware::{self, Next};
 use axum::response::{IntoResponse, Response};
 use axum::routing::get;
@@ -17,8 +24,9 @@ use axum::Router;
 use futures_util::{SinkExt, StreamExt};
 
 use crate::assets;
+use crate::conn::{ConnHandle, GuardedListener};
 use crate::hub::Hub;
-use crate::outbox::{Kind, Outgoing};
+use crate::outbox::{Kind, Next as Queued, Outgoing, CLOSE_POLICY, CLOSE_TRY_LATER};
 use crate::protocol::{self, ClientMessage, ErrorCode, ProtocolError};
 
 /// Largest WebSocket message or frame accepted at all; larger ones close the connection in
@@ -35,37 +43,96 @@ pub fn router(hub: Arc<Hub>) -> Router {
         .with_state(hub)
 }
 
-/// Serves until the listener fails; also runs the hub's pump.
+/// Serves until the listener fails; also runs the hub's pump. Connections go through a
+/// [`GuardedListener`] with the hub's [`crate::Limits`].
 pub async fn serve(listener: tokio::net::TcpListener, hub: Arc<Hub>) -> std::io::Result<()> {
+    serve_guarded(GuardedListener::new(listener, hub.limits().clone()), hub).await
+}
+
+/// [`serve`] on a listener made by the caller (to watch its connection count).
+pub async fn serve_guarded(listener: GuardedListener, hub: Arc<Hub>) -> std::io::Result<()> {
     tokio::spawn(hub.clone().pump());
-    axum::serve(listener, router(hub)).await
+    let app = router(hub).into_make_service_with_connect_info::<ConnHandle>();
+    axum::serve(listener, app).await
 }
 
-fn host_of(authority: &str) -> &str {
-    // "[::1]:8080" → "[::1]", "localhost:80" → "localhost".
-    if authority.starts_with('[') {
-        return authority
-            .split(']')
-            .next()
-            .map_or(authority, |h| &authority[..h.len() + 1]);
+/// Why a request's `Host` header was refused.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum HostError {
+    /// No `Host` header (HTTP/1.1 requires one).
+    #[error("no Host header")]
+    Missing,
+    /// More than one `Host` header: which one a proxy or browser meant is ambiguous.
+    #[error("more than one Host header")]
+    Duplicate,
+    /// Not `host[:port]` with a valid host and a decimal port.
+    #[error("malformed Host header")]
+    Malformed,
+    /// Well-formed, but neither `localhost` nor an IP literal.
+    #[error("host {0:?} is not localhost or an IP address")]
+    NotAllowed(String),
+}
+
+impl HostError {
+    fn status(&self) -> StatusCode {
+        match self {
+            HostError::NotAllowed(_) => StatusCode::FORBIDDEN,
+            _ => StatusCode::BAD_REQUEST,
+        }
     }
-    authority.rsplit_once(':').map_or(authority, |(h, _)| h)
 }
 
-/// True for `localhost` and IP literals.
-fn local_or_ip(host: &str) -> bool {
-    let bare = host.trim_start_matches('[').trim_end_matches(']');
-    host.eq_ignore_ascii_case("localhost") || bare.parse::<std::net::IpAddr>().is_ok()
+/// Checks a `Host` value strictly (RFC 9110 `uri-host [":" port]`, nothing else: no user
+/// info, no path) and accepts only `localhost` and IP literals.
+pub fn check_host_value(value: &str) -> Result<(), HostError> {
+    let (host, port) = if let Some(rest) = value.strip_prefix('[') {
+        let (inside, after) = rest.split_once(']').ok_or(HostError::Malformed)?;
+        inside
+            .parse::<std::net::Ipv6Addr>()
+            .map_err(|_| HostError::Malformed)?;
+        let port = match after {
+            "" => None,
+            p => Some(p.strip_prefix(':').ok_or(HostError::Malformed)?),
+        };
+        (None, port)
+    } else {
+        match value.split_once(':') {
+            Some((h, p)) => (Some(h), Some(p)),
+            None => (Some(value), None),
+        }
+    };
+    if let Some(p) = port {
+        if p.is_empty() || !p.bytes().all(|b| b.is_ascii_digit()) || p.parse::<u16>().is_err() {
+            return Err(HostError::Malformed);
+        }
+    }
+    let Some(host) = host else {
+        // A bracketed IPv6 literal, already parsed.
+        return Ok(());
+    };
+    if host.eq_ignore_ascii_case("localhost") || host.parse::<std::net::Ipv4Addr>().is_ok() {
+        return Ok(());
+    }
+    let name_chars = |b: u8| b.is_ascii_alphanumeric() || b == b'-' || b == b'.';
+    if host.is_empty() || !host.bytes().all(name_chars) {
+        return Err(HostError::Malformed);
+    }
+    Err(HostError::NotAllowed(host.to_string()))
+}
+
+/// Checks that a request has exactly one acceptable `Host` header.
+pub fn check_host_headers(headers: &HeaderMap) -> Result<(), HostError> {
+    let mut all = headers.get_all(header::HOST).iter();
+    let first = all.next().ok_or(HostError::Missing)?;
+    if all.next().is_some() {
+        return Err(HostError::Duplicate);
+    }
+    check_host_value(first.to_str().map_err(|_| HostError::Malformed)?)
 }
 
 async fn check_host(req: Request, next: Next) -> Response {
-    let ok = req
-        .headers()
-        .get(header::HOST)
-        .and_then(|h| h.to_str().ok())
-        .is_some_and(|h| local_or_ip(host_of(h)));
-    if !ok {
-        return (StatusCode::FORBIDDEN, "host not allowed").into_response();
+    if let Err(e) = check_host_headers(req.headers()) {
+        return (e.status(), e.to_string()).into_response();
     }
     next.run(req).await
 }
@@ -104,54 +171,204 @@ async fn asset(uri: axum::http::Uri) -> Response {
 async fn ws_handler(
     ws: WebSocketUpgrade,
     headers: HeaderMap,
+    extensions: Extensions,
     State(hub): State<Arc<Hub>>,
 ) -> Response {
     if !origin_allowed(&headers) {
         return (StatusCode::FORBIDDEN, "cross-origin WebSocket refused").into_response();
     }
+    // Checked again, exactly, in Hub::join; refusing here spares the upgrade.
+    if hub.viewer_count() >= hub.limits().max_viewers {
+        return (StatusCode::SERVICE_UNAVAILABLE, "too many viewers").into_response();
+    }
+    // Present when served by `serve` (absent when the router runs under another listener).
+    let conn = extensions
+        .get::<ConnectInfo<ConnHandle>>()
+        .map(|c| c.0.clone());
     ws.max_message_size(MAX_WS_MESSAGE)
         .max_frame_size(MAX_WS_MESSAGE)
-        .on_upgrade(move |socket| connection(socket, hub))
+        .on_upgrade(move |socket| async move {
+            if let Some(c) = conn {
+                c.mark_upgraded();
+            }
+            connection(socket, hub).await
+        })
 }
 
 fn error_reply(e: &ProtocolError) -> Outgoing {
     Outgoing {
-        kind: Kind::Control,
+        kind: Kind::Error,
         bytes: Bytes::from(protocol::encode_error(e)),
     }
 }
 
-/// One viewer: a writer task drains its outbox; this task reads its messages.
-async fn connection(socket: WebSocket, hub: Arc<Hub>) {
-    let (id, outbox) = hub.join();
-    let (mut sink, mut stream) = socket.split();
-    let out = outbox.clone();
-    let writer = tokio::spawn(async move {
-        while let Some(m) = out.pop().await {
-            if sink.send(Message::Binary(m.bytes)).await.is_err() {
-                break;
-            }
-        }
-        let _ = sink.close().await;
-    });
-    while let Some(msg) = stream.next().await {
-        match msg {
-            Ok(Message::Binary(b)) => match protocol::decode_client(&b) {
-                Ok(ClientMessage::Camera(c)) => hub.set_camera(c),
-                Ok(ClientMessage::Params { integrator, mode }) => hub.set_params(integrator, mode),
-                Err(e) => outbox.push(error_reply(&e)),
-            },
-            Ok(Message::Text(_)) => outbox.push(error_reply(&ProtocolError {
-                code: ErrorCode::TextMessage,
-                message: "text messages are not part of the protocol; send binary".into(),
-            })),
-            Ok(Message::Close(_)) | Err(_) => break,
-            Ok(Message::Ping(_) | Message::Pong(_)) => {}
+fn close_message(code: u16, reason: &str) -> Message {
+    Message::Close(Some(CloseFrame {
+        code,
+        reason: reason.into(),
+    }))
+}
+
+/// A token bucket: `burst` tokens, refilled at `rate` per second.
+struct Bucket {
+    tokens: f64,
+    burst: f64,
+    rate: f64,
+    last: Instant,
+}
+
+impl Bucket {
+    fn new(burst: f64, rate: f64) -> Self {
+        // Guard against a zero or negative configuration: it would never refill.
+        let rate = rate.max(1e-3);
+        let burst = burst.max(1.0);
+        Self {
+            tokens: burst,
+            burst,
+            rate,
+            last: Instant::now(),
         }
     }
+
+    fn refill(&mut self) {
+        let now = Instant::now();
+        let dt = now.duration_since(self.last).as_secs_f64();
+        self.tokens = (self.tokens + dt * self.rate).min(self.burst);
+        self.last = now;
+    }
+
+    /// Takes a token if there is one.
+    fn take(&mut self) -> bool {
+        self.refill();
+        if self.tokens >= 1.0 {
+            self.tokens -= 1.0;
+            true
+        } else {
+            false
+        }
+    }
+
+    /// Takes a token on credit; returns how long to wait until the balance is back to zero.
+    fn take_or_wait(&mut self) -> Duration {
+        self.refill();
+        self.tokens -= 1.0;
+        if self.tokens >= 0.0 {
+            Duration::ZERO
+        } else {
+            Duration::from_secs_f64(-self.tokens / self.rate)
+        }
+    }
+}
+
+/// Why the reading loop of a connection ended.
+enum End {
+    /// The peer closed or the socket failed.
+    Peer,
+    /// The server closes (budget exceeded, violations, stall): its close frame is queued.
+    Server,
+}
+
+/// One viewer: a writer task drains its outbox; this task reads its messages.
+async fn connection(socket: WebSocket, hub: Arc<Hub>) {
+    let limits = hub.limits().clone();
+    let (mut sink, mut stream) = socket.split();
+    let Some((id, outbox)) = hub.join() else {
+        let frame = close_message(CLOSE_TRY_LATER, "too many viewers");
+        let _ = tokio::time::timeout(limits.close_grace, sink.send(frame)).await;
+        return;
+    };
+    let out = outbox.clone();
+    let stall = limits.write_stall_timeout;
+    let mut writer = tokio::spawn(async move {
+        while let Some(next) = out.pop().await {
+            match next {
+                Queued::Send(bytes) => {
+                    match tokio::time::timeout(stall, sink.send(Message::Binary(bytes))).await {
+                        Ok(Ok(())) => {}
+                        // The peer is gone.
+                        Ok(Err(_)) => break,
+                        Err(_) => {
+                            // It has not read for the whole timeout: a close frame could not
+                            // get through either, so just stop.
+                            out.close();
+                            return;
+                        }
+                    }
+                }
+                Queued::Close(code, reason) => {
+                    let _ = sink.send(close_message(code, &reason)).await;
+                    return;
+                }
+            }
+        }
+        // Tell the reading side in case the writer ended first.
+        out.close();
+        let _ = sink.close().await;
+    });
+    let mut rate = Bucket::new(limits.message_burst, limits.messages_per_second);
+    let mut violations = Bucket::new(limits.violation_burst, limits.violations_per_second);
+    let end = loop {
+        let msg = tokio::select! {
+            m = stream.next() => m,
+            _ = outbox.closed() => break End::Server,
+        };
+        let refused = match msg {
+            Some(Ok(Message::Binary(b))) => match protocol::decode_client(&b) {
+                Ok(ClientMessage::Camera(c)) => {
+                    hub.set_camera(id, c);
+                    None
+                }
+                Ok(ClientMessage::Params { integrator, mode }) => {
+                    hub.set_params(integrator, mode);
+                    None
+                }
+                Err(e) => Some(e),
+            },
+            Some(Ok(Message::Text(_))) => Some(ProtocolError {
+                code: ErrorCode::TextMessage,
+                message: "text messages are not part of the protocol; send binary".into(),
+            }),
+            Some(Ok(Message::Ping(_) | Message::Pong(_))) => None,
+            Some(Ok(Message::Close(_)) | Err(_)) | None => break End::Peer,
+        };
+        if let Some(e) = refused {
+            if !violations.take() {
+                outbox.close_with(CLOSE_POLICY, "too many invalid messages");
+                break End::Server;
+            }
+            outbox.push(error_reply(&e));
+        }
+        // Read no faster than the allowed rate: a flooding viewer is slowed down at its own
+        // socket (TCP flow control) instead of queueing work for everyone.
+        let wait = rate.take_or_wait();
+        if !wait.is_zero() {
+            tokio::select! {
+                _ = tokio::time::sleep(wait) => {}
+                _ = outbox.closed() => break End::Server,
+            }
+        }
+    };
     hub.leave(id);
-    // The writer may be stuck sending to a peer that stopped reading; it has nothing left to do.
-    writer.abort();
+    if tokio::time::timeout(limits.close_grace, &mut writer)
+        .await
+        .is_err()
+    {
+        // Stuck sending to a peer that stopped reading.
+        writer.abort();
+    }
+    if matches!(end, End::Server) {
+        // Let the peer's close reply (and whatever it sent before) arrive before the socket
+        // is dropped: dropping it with unread data resets the connection, and the peer might
+        // lose the close frame.
+        let drain = async {
+            while let Some(Ok(m)) = stream.next().await {
+                if matches!(m, Message::Close(_)) {
+                    break;
+                }
+            }
+        };
+        let _ = tokio::time::timeout(limits.close_grace, drain).await;
+    }
 }
 
 #[cfg(test)]
@@ -160,12 +377,45 @@ mod tests {
 
     #[test]
     fn host_and_origin_rules() {
-        assert!(local_or_ip(host_of("127.0.0.1:8080")));
-        assert!(local_or_ip(host_of("localhost:8080")));
-        assert!(local_or_ip(host_of("[::1]:8080")));
-        assert!(local_or_ip(host_of("192.168.1.5")));
-        assert!(!local_or_ip(host_of("evil.example:8080")));
+        for ok in [
+            "127.0.0.1:8080",
+            "localhost:8080",
+            "LOCALHOST",
+            "[::1]:8080",
+            "[::1]",
+            "192.168.1.5",
+        ] {
+            assert_eq!(check_host_value(ok), Ok(()), "{ok}");
+        }
+        assert!(matches!(
+            check_host_value("evil.example:8080"),
+            Err(HostError::NotAllowed(_))
+        ));
+        for bad in [
+            "[",
+            "[::1",
+            "[::1]x",
+            "[::1]:",
+            "[evil]:80",
+            "localhost:8080@evil",
+            "localhost:99999",
+            "localhost:-1",
+            "localhost:",
+            ":80",
+            "",
+            "local host",
+            "a:b:c",
+            "127.0.0.1/x",
+        ] {
+            assert_eq!(check_host_value(bad), Err(HostError::Malformed), "{bad:?}");
+        }
         let mut h = HeaderMap::new();
+        assert_eq!(check_host_headers(&h), Err(HostError::Missing));
+        h.insert(header::HOST, "127.0.0.1:8080".parse().expect("header"));
+        assert_eq!(check_host_headers(&h), Ok(()));
+        h.append(header::HOST, "evil.example".parse().expect("header"));
+        assert_eq!(check_host_headers(&h), Err(HostError::Duplicate));
+        h.remove(header::HOST);
         h.insert(header::HOST, "127.0.0.1:8080".parse().expect("header"));
         assert!(origin_allowed(&h));
         h.insert(
@@ -178,5 +428,20 @@ mod tests {
             "http://evil.example".parse().expect("header"),
         );
         assert!(!origin_allowed(&h));
+    }
+
+    #[test]
+    fn buckets_allow_a_burst_then_the_rate() {
+        let mut b = Bucket::new(3.0, 10.0);
+        assert!(b.take() && b.take() && b.take());
+        assert!(!b.take());
+        let mut r = Bucket::new(2.0, 100.0);
+        assert_eq!(r.take_or_wait(), Duration::ZERO);
+        assert_eq!(r.take_or_wait(), Duration::ZERO);
+        let w = r.take_or_wait();
+        assert!(
+            w > Duration::from_millis(5) && w <= Duration::from_millis(10),
+            "{w:?}"
+        );
     }
 }

@@ -1,5 +1,11 @@
 //! The shared state of a server: the render worker, the current job, and the viewers'
 //! outboxes. A pump task queries the worker at display rate and fans the samples out.
+//!
+//! Camera and parameter changes restart the render at most once per
+//! [`crate::Limits::min_restart_interval`]: changes arriving faster are merged into the next
+//! restart, which the pump applies. A viewer still gets one CAMERA per camera it sent (the
+//! viewer counts its requests in flight by them); other viewers get only the newest. With no
+//! viewer connected the renderer is paused ([`crate::Limits::pause_when_idle`]).
 
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
@@ -9,7 +15,7 @@ use axum::body::Bytes;
 use lumo_render::RenderScene;
 use lumo_scene::{Camera, FovAxis};
 
-use crate::outbox::{Kind, Outbox, Outgoing};
+use crate::outbox::{Kind, Outbox, Outgoing, QueueReport, Slot};
 use crate::protocol::{self, Finish, Hello, Integrator, Mode, Stats, Stream, WireCamera};
 use crate::worker::{FinishEvent, Job, QueryBuffer, RenderWorker};
 use crate::ServerConfig;
@@ -26,6 +32,8 @@ pub const STATS_INTERVAL: Duration = Duration::from_millis(250);
 struct Viewer {
     id: u64,
     outbox: Arc<Outbox>,
+    /// Cameras this viewer sent that no CAMERA has answered yet.
+    owed: u32,
 }
 
 /// State shared by the pump and the connections.
@@ -43,9 +51,19 @@ pub struct Hub {
 }
 
 struct HubState {
+    /// The job rendering now (epoch `epoch`).
     job: Job,
     epoch: u64,
     viewers: Vec<Viewer>,
+    /// The job viewers asked for, applied at the next restart.
+    next: Job,
+    /// `next` differs from `job` (a restart is due).
+    pending: bool,
+    /// The integrator or mode changed since the last restart (PARAMS goes out with it).
+    params_changed: bool,
+    last_restart: Instant,
+    /// Rendering is stopped because nobody watches.
+    paused: bool,
 }
 
 fn to_wire(c: &Camera) -> WireCamera {
@@ -89,16 +107,27 @@ impl Hub {
             config.threads,
             Box::new(move |e| lock(&f2).push(e)),
         )?;
-        let epoch = worker.render(job.clone());
+        // Nobody watches yet: render only once a viewer connects, unless told to keep going.
+        let paused = config.limits.pause_when_idle;
+        let epoch = if paused {
+            worker.abort()
+        } else {
+            worker.render(job.clone())
+        };
         let hub = Arc::new(Self {
             worker,
             config,
             name,
             triangles,
             state: Mutex::new(HubState {
+                next: job.clone(),
                 job,
                 epoch,
                 viewers: Vec::new(),
+                pending: false,
+                params_changed: false,
+                last_restart: Instant::now(),
+                paused,
             }),
             next_id: AtomicU64::new(1),
             finished,
@@ -111,11 +140,32 @@ impl Hub {
         self.worker.threads()
     }
 
-    /// Registers a viewer; returns its id, outbox, and the hello it must get first.
-    pub fn join(&self) -> (u64, Arc<Outbox>) {
-        let id = self.next_id.fetch_add(1, Ordering::Relaxed);
-        let outbox = Arc::new(Outbox::new(self.config.viewer_queue_bytes));
+    /// The limits this server enforces.
+    pub fn limits(&self) -> &crate::Limits {
+        &self.config.limits
+    }
+
+    /// Registers a viewer and queues its hello; returns its id and outbox, or None when
+    /// [`crate::Limits::max_viewers`] are connected. Resumes a paused render.
+    pub fn join(&self) -> Option<(u64, Arc<Outbox>)> {
         let mut st = lock(&self.state);
+        if st.viewers.len() >= self.config.limits.max_viewers {
+            return None;
+        }
+        let id = self.next_id.fetch_add(1, Ordering::Relaxed);
+        let outbox = Arc::new(Outbox::with_budgets(
+            self.config.viewer_queue_bytes,
+            self.config.limits.control_queue_bytes,
+        ));
+        if st.paused {
+            st.paused = false;
+            // Changes asked for before the pause apply now; nobody is owed a CAMERA.
+            st.job = st.next.clone();
+            st.pending = false;
+            st.params_changed = false;
+            st.epoch = self.worker.render(st.job.clone());
+            st.last_restart = Instant::now();
+        }
         let hello = Hello {
             width: self.config.width as u32,
             height: self.config.height as u32,
@@ -131,11 +181,12 @@ impl Hub {
         st.viewers.push(Viewer {
             id,
             outbox: outbox.clone(),
+            owed: 0,
         });
-        (id, outbox)
+        Some((id, outbox))
     }
 
-    /// Unregisters a viewer and closes its outbox.
+    /// Unregisters a viewer and closes its outbox; pauses rendering when it was the last.
     pub fn leave(&self, id: u64) {
         let mut st = lock(&self.state);
         st.viewers.retain(|v| {
@@ -144,6 +195,30 @@ impl Hub {
             }
             v.id != id
         });
+        if st.viewers.is_empty() && self.config.limits.pause_when_idle && !st.paused {
+            st.paused = true;
+            // A pending change stays in `next` and applies on resume.
+            st.epoch = self.worker.abort();
+        }
+    }
+
+    /// True while rendering is paused because no viewer is connected.
+    pub fn is_paused(&self) -> bool {
+        lock(&self.state).paused
+    }
+
+    /// Epoch of the current render (it grows by one per restart).
+    pub fn epoch(&self) -> u64 {
+        lock(&self.state).epoch
+    }
+
+    /// Each viewer's id and queue sizes, for tests and tools.
+    pub fn queue_reports(&self) -> Vec<(u64, QueueReport)> {
+        lock(&self.state)
+            .viewers
+            .iter()
+            .map(|v| (v.id, v.outbox.report()))
+            .collect()
     }
 
     /// Viewers connected.
@@ -151,36 +226,73 @@ impl Hub {
         lock(&self.state).viewers.len()
     }
 
-    /// A viewer moved the camera: restart rendering and tell every viewer.
-    pub fn set_camera(&self, c: WireCamera) {
+    /// Viewer `id` moved the camera: restart rendering (now, or merged into the next restart
+    /// if the last one was too recent) and tell every viewer.
+    pub fn set_camera(&self, id: u64, c: WireCamera) {
         let mut st = lock(&self.state);
-        st.job.camera.origin = c.origin;
-        st.job.camera.target = c.target;
-        st.job.camera.up = c.up;
-        st.job.camera.fov = c.fov;
-        self.restart(&mut st);
-        let msg = control(protocol::encode_camera(st.epoch as u32, &c));
-        broadcast(&st, &msg);
+        st.next.camera.origin = c.origin;
+        st.next.camera.target = c.target;
+        st.next.camera.up = c.up;
+        st.next.camera.fov = c.fov;
+        if let Some(v) = st.viewers.iter_mut().find(|v| v.id == id) {
+            v.owed = v.owed.saturating_add(1);
+        }
+        st.pending = true;
+        self.maybe_restart(&mut st);
     }
 
-    /// A viewer changed integrator or mode: restart rendering and tell every viewer.
+    /// A viewer changed integrator or mode: restart rendering (now or merged as above) and
+    /// tell every viewer.
     pub fn set_params(&self, integrator: Integrator, mode: Mode) {
         let mut st = lock(&self.state);
-        st.job.integrator = integrator;
-        st.job.mode = mode;
-        self.restart(&mut st);
-        let cam = to_wire(&st.job.camera);
-        broadcast(&st, &control(protocol::encode_params(integrator, mode)));
-        broadcast(
-            &st,
-            &control(protocol::encode_camera(st.epoch as u32, &cam)),
-        );
+        st.next.integrator = integrator;
+        st.next.mode = mode;
+        st.pending = true;
+        st.params_changed = true;
+        self.maybe_restart(&mut st);
     }
 
+    fn maybe_restart(&self, st: &mut HubState) {
+        if st.pending
+            && !st.paused
+            && st.last_restart.elapsed() >= self.config.limits.min_restart_interval
+        {
+            self.restart(st);
+        }
+    }
+
+    /// Starts `next`, purges old data and announces the new epoch: PARAMS if they changed,
+    /// then CAMERA, once per camera a viewer asked for and once (replacing an older queued
+    /// one) for the others.
     fn restart(&self, st: &mut HubState) {
+        st.job = st.next.clone();
         st.epoch = self.worker.render(st.job.clone());
+        st.last_restart = Instant::now();
+        st.pending = false;
+        let epoch = st.epoch as u32;
         for v in &st.viewers {
-            v.outbox.purge_except(st.epoch as u32);
+            v.outbox.purge_except(epoch);
+        }
+        if std::mem::take(&mut st.params_changed) {
+            let params = protocol::encode_params(st.job.integrator, st.job.mode);
+            broadcast(st, &latest(Slot::Params, params));
+        }
+        let camera = Bytes::from(protocol::encode_camera(epoch, &to_wire(&st.job.camera)));
+        for v in &mut st.viewers {
+            if v.owed == 0 {
+                v.outbox.push(Outgoing {
+                    kind: Kind::Latest(Slot::Camera),
+                    bytes: camera.clone(),
+                });
+            }
+            // Owed copies must all arrive; a viewer that keeps asking without reading runs
+            // into its control budget and is closed.
+            for _ in 0..std::mem::take(&mut v.owed) {
+                v.outbox.push(Outgoing {
+                    kind: Kind::Control,
+                    bytes: camera.clone(),
+                });
+            }
         }
     }
 
@@ -199,7 +311,10 @@ impl Hub {
     }
 
     fn pump_once(&self, buf: &mut QueryBuffer, last_stats: &mut Instant, last: &mut (u64, u64)) {
-        let st = lock(&self.state);
+        let mut st = lock(&self.state);
+        // Changes merged because they came too fast start here, at most one pump tick late.
+        self.maybe_restart(&mut st);
+        let st = st;
         let stats = self.worker.query(buf);
         if buf.epoch == st.epoch {
             let epoch = buf.epoch as u32;
@@ -253,7 +368,7 @@ impl Hub {
                 light_paths: e.light_paths,
                 seconds: e.elapsed.as_secs_f32(),
             });
-            broadcast(&st, &control(msg));
+            broadcast(&st, &latest(Slot::Finish, msg));
         }
         let dt = last_stats.elapsed();
         if dt >= STATS_INTERVAL {
@@ -292,6 +407,13 @@ impl Hub {
 fn control(v: Vec<u8>) -> Outgoing {
     Outgoing {
         kind: Kind::Control,
+        bytes: Bytes::from(v),
+    }
+}
+
+fn latest(slot: Slot, v: Vec<u8>) -> Outgoing {
+    Outgoing {
+        kind: Kind::Latest(slot),
         bytes: Bytes::from(v),
     }
 }

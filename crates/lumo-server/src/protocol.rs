@@ -23,6 +23,11 @@ pub const FRAME_HEADER_BYTES: usize = HEADER_BYTES + 16;
 pub const MAX_NAME: usize = 200;
 /// Longest error text.
 pub const MAX_ERROR_TEXT: usize = 400;
+/// Largest camera coordinate accepted. The renderers measure distances from the eye in single
+/// precision and square them (normalising directions, the light tracer's falloff): with every
+/// coordinate within ±1e18 a squared distance is at most 3·(2e18)² ≈ 1.2e37, below f32's
+/// 3.4e38; beyond it they overflow and the image turns black or NaN.
+pub const MAX_CAMERA_COORD: f32 = 1e18;
 
 /// Message type bytes.
 pub mod kind {
@@ -66,7 +71,8 @@ pub enum ErrorCode {
 }
 
 /// A refused message: code and human-readable reason.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{message} (code {})", *code as u16)]
 pub struct ProtocolError {
     /// Machine-readable code.
     pub code: ErrorCode,
@@ -164,12 +170,32 @@ impl WireCamera {
                 format!("field of view {} outside 1..=170 degrees", self.fov),
             ));
         }
-        let forward = self.target - self.origin;
-        if forward.length() < 1e-6 || forward.normalize().cross(self.up).length() < 1e-4 {
-            return Err(ProtocolError::new(
-                ErrorCode::InvalidValue,
-                "camera target equals its origin or up is parallel to the view",
-            ));
+        let invalid = |m: String| Err(ProtocolError::new(ErrorCode::InvalidValue, m));
+        for (name, v) in [
+            ("origin", self.origin),
+            ("target", self.target),
+            ("up", self.up),
+        ] {
+            let m = v.abs().max_element();
+            if m > MAX_CAMERA_COORD {
+                return invalid(format!(
+                    "camera {name} coordinate {m:e} is beyond ±{MAX_CAMERA_COORD:e}, where the \
+                     renderer's single-precision distances overflow"
+                ));
+            }
+        }
+        // Direction first, then normalisable: within the bound above the difference and its
+        // squared length stay finite, so a zero or denormal-tiny difference is what fails here.
+        let Some(forward) = (self.target - self.origin).try_normalize() else {
+            return invalid("camera target coincides with its origin (no view direction)".into());
+        };
+        // The renderer builds right = normalize(forward × up): that must be normalisable, and
+        // up must not be (nearly) parallel to the view.
+        let right = forward.cross(self.up);
+        if right.try_normalize().is_none() || right.length() < 1e-4 * self.up.length() {
+            return invalid(
+                "camera up vector is zero, too short, or parallel to the view direction".into(),
+            );
         }
         Ok(())
     }
@@ -869,5 +895,66 @@ mod tests {
         ] {
             assert_eq!(code(&encode_camera(0, &bad)), Err(ErrorCode::InvalidValue));
         }
+    }
+
+    #[test]
+    fn cameras_are_checked_in_terms_of_what_the_renderer_computes() {
+        let why = |c: WireCamera| c.validate().map_err(|e| e.message);
+        // The overflow probe: every number finite, their difference not.
+        let e = why(WireCamera {
+            origin: Vec3::splat(3e38),
+            target: Vec3::splat(-3e38),
+            ..camera()
+        });
+        assert!(e.as_ref().is_err_and(|m| m.contains("beyond")), "{e:?}");
+        // A far eye beyond the bound is refused for its distance, not as "parallel".
+        let e = why(WireCamera {
+            origin: Vec3::new(0.0, 0.0, 1e30),
+            ..camera()
+        });
+        assert!(
+            e.as_ref()
+                .is_err_and(|m| m.contains("origin") && m.contains("beyond")),
+            "{e:?}"
+        );
+        // Far but within it: accepted, and the renderer's basis is finite and orthonormal.
+        for far in [1e6f32, 1e15, 9e17] {
+            let c = WireCamera {
+                origin: Vec3::new(far, 0.5, far),
+                ..camera()
+            };
+            assert_eq!(why(c), Ok(()), "{far}");
+            let cam = lumo_scene::Camera {
+                origin: c.origin,
+                target: c.target,
+                up: c.up,
+                fov: c.fov,
+                fov_axis: lumo_scene::FovAxis::Smaller,
+            };
+            let (r, u, f) = cam.basis();
+            for v in [r, u, f] {
+                assert!(
+                    v.is_finite() && (v.length() - 1.0).abs() < 1e-3,
+                    "{far}: {v}"
+                );
+            }
+        }
+        // A huge or tiny up hint, or one along the view, cannot make a basis.
+        for up in [Vec3::new(0.0, 1e30, 0.0), Vec3::splat(1e-30), Vec3::ZERO] {
+            assert!(why(WireCamera { up, ..camera() }).is_err(), "{up}");
+        }
+        let e = why(WireCamera {
+            up: camera().target - camera().origin,
+            ..camera()
+        });
+        assert!(e.is_err_and(|m| m.contains("parallel")));
+        // Within the bound, an up of any length works.
+        assert_eq!(
+            why(WireCamera {
+                up: Vec3::new(0.0, 1e-3, 0.0),
+                ..camera()
+            }),
+            Ok(())
+        );
     }
 }
