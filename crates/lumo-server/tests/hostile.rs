@@ -563,3 +563,45 @@ async fn overflowing_cameras_are_refused_and_far_eyes_within_range_render() {
     };
     assert!(!samples.is_empty());
 }
+
+/// Item 1, the stalled viewer: one that neither reads nor sends keeps only a bounded queue
+/// (dropping data), and once its socket has accepted nothing for the write stall timeout it is
+/// closed, freeing its slot.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_viewer_that_stops_reading_is_closed_after_the_stall_timeout() {
+    let (addr, hub, counter) = start(|c| {
+        // Unthrottled, so the socket buffers fill quickly.
+        c.max_rate = None;
+        c.viewer_queue_bytes = 256 << 10;
+        c.limits.write_stall_timeout = Duration::from_secs(1);
+    })
+    .await;
+    let stalled = connect(addr).await;
+    eventually(Duration::from_secs(2), "viewer joined", || {
+        hub.viewer_count() == 1
+    })
+    .await;
+    let t0 = Instant::now();
+    let mut worst = 0;
+    while hub.viewer_count() > 0 {
+        assert!(
+            t0.elapsed() < Duration::from_secs(15),
+            "stalled viewer still connected"
+        );
+        for (_, r) in hub.queue_reports() {
+            worst = worst.max(r.data_bytes);
+        }
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    eprintln!(
+        "stalled viewer closed after {:?}, worst data queue {worst} bytes",
+        t0.elapsed()
+    );
+    assert!(worst <= 256 << 10);
+    assert!(t0.elapsed() >= Duration::from_millis(900));
+    drop(stalled);
+    eventually(Duration::from_secs(3), "connection released", || {
+        counter.open() == 0
+    })
+    .await;
+}
