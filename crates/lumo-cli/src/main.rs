@@ -1,4 +1,5 @@
 //! The `lumo` command.
+#![forbid(unsafe_code)]
 
 mod bench;
 mod cli_common;

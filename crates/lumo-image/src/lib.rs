@@ -1,5 +1,6 @@
 //! Image planes for lumo: a float image type, OpenEXR / PFM / PNG reading and writing, and the
 //! colour helpers (sRGB transfer, luminance) that renderer, filters and tools share.
+#![forbid(unsafe_code)]
 
 mod color;
 mod error;

@@ -168,10 +168,27 @@ impl EnvSampler {
         let (w, h) = (img.width, img.height);
         let mut row_weights = Vec::with_capacity(h);
         let mut columns = Vec::with_capacity(h);
+        let lum = |x: usize, y: usize| luminance(img.rgb(x % w, y)).max(0.0);
         for y in 0..h {
             let sin_theta = ((y as f32 + 0.5) / h as f32 * PI).sin();
+            // Cell (x, y) of the sampling grid is lit by every texel its bilinear lookup
+            // ([`EnvSampler::radiance`]) can reach: columns x−1..=x+1, and the rows that
+            // v·(h−1) spans over the cell. Their largest luminance keeps the density positive
+            // wherever the interpolated radiance is.
+            let (r0, r1) = (
+                (y * (h - 1)) / h,
+                ((y + 1) * (h - 1)).div_ceil(h).min(h - 1),
+            );
             let weights: Vec<f32> = (0..w)
-                .map(|x| luminance(img.rgb(x, y)).max(0.0) * sin_theta)
+                .map(|x| {
+                    let mut m = 0.0f32;
+                    for r in r0..=r1 {
+                        for c in [x + w - 1, x, x + 1] {
+                            m = m.max(lum(c, r));
+                        }
+                    }
+                    m * sin_theta
+                })
                 .collect();
             let d = Distribution1d::new(&weights);
             row_weights.push(weights.iter().sum::<f32>());
@@ -184,12 +201,29 @@ impl EnvSampler {
         }
     }
 
+    /// The map's radiance towards `-dir`, interpolated as Mitsuba 3's `envmap` does: bilinear
+    /// between texel centres along u (wrapping around), between rows placed from pole to pole
+    /// (row 0 at v = 0, row h−1 at v = 1) along v.
     fn radiance(&self, dir: Vec3) -> Vec3 {
         let uv = lat_long_uv(&self.map, dir);
         let img = &self.map.image;
-        let x = ((uv.x * img.width as f32) as usize).min(img.width - 1);
-        let y = ((uv.y * img.height as f32) as usize).min(img.height - 1);
-        Vec3::from(img.rgb(x, y)) * self.map.scale
+        let (w, h) = (img.width, img.height);
+        let fx = uv.x * w as f32 - 0.5;
+        let x0 = fx.floor();
+        let tx = fx - x0;
+        let c0 = (x0 as i64).rem_euclid(w as i64) as usize;
+        let c1 = (c0 + 1) % w;
+        let (r0, r1, ty) = if h < 2 {
+            (0, 0, 0.0)
+        } else {
+            let fy = (uv.y * (h - 1) as f32).clamp(0.0, (h - 1) as f32);
+            let r0 = (fy as usize).min(h - 2);
+            (r0, r0 + 1, fy - r0 as f32)
+        };
+        let px = |x: usize, y: usize| Vec3::from(img.rgb(x, y));
+        let top = px(c0, r0) * (1.0 - tx) + px(c1, r0) * tx;
+        let bottom = px(c0, r1) * (1.0 - tx) + px(c1, r1) * tx;
+        (top * (1.0 - ty) + bottom * ty) * self.map.scale
     }
 
     fn pdf(&self, dir: Vec3) -> f32 {

@@ -189,3 +189,52 @@ fn spot_falloff_is_mitsubas_linear_in_angle_and_its_power_integrates() {
         );
     }
 }
+
+#[test]
+fn interpolated_envmap_light_sampling_agrees_with_bsdf_sampling() {
+    // The map is looked up bilinearly, the light sampler draws texel cells: its density must
+    // stay positive wherever the interpolated radiance is (next to the black band and the
+    // bright patch) or light sampling would miss light that BSDF sampling finds.
+    use lumo_render::{render, PathSettings, RenderScene, RenderSettings};
+    let mut scene = scene_with_lights(false, false, false);
+    // One-texel stripes: every other column and row black, so half of the texel cells are
+    // black while the interpolated radiance there is not.
+    let (w, h) = (32, 16);
+    let data = (0..w * h)
+        .flat_map(|i| {
+            let v = if (i % w) % 2 == 0 && (i / w) % 2 == 0 { 2.0 } else { 0.0 };
+            [v, v, v]
+        })
+        .collect();
+    scene.lights.push(Light::Environment(EnvMap {
+        image: Arc::new(Image::from_vec(w, h, 3, data)),
+        scale: 1.0,
+        to_world: Mat4::IDENTITY,
+    }));
+    let grey = scene.add_material(Material::diffuse("grey", Vec3::splat(0.6)));
+    scene.add_mesh(rectangle(
+        &(Mat4::from_rotation_x(-std::f32::consts::FRAC_PI_2) * Mat4::from_scale(Vec3::splat(0.8))),
+        grey,
+    ));
+    scene.camera.origin = Vec3::new(0.0, 1.5, 1.5);
+    let rs = RenderScene::new(scene).unwrap();
+    let mean = |nee: bool, bsdf_emission: bool| {
+        let settings = RenderSettings {
+            width: 24,
+            height: 24,
+            spp: 512,
+            seed: 3,
+            path: PathSettings {
+                max_depth: 2,
+                nee,
+                bsdf_emission,
+                ..Default::default()
+            },
+        };
+        let m = render(&rs, &settings, &|_| {}).0.direct.channel_means();
+        Vec3::new(m[0] as f32, m[1] as f32, m[2] as f32)
+    };
+    let (light, bsdf) = (mean(true, false), mean(false, true));
+    let rel = ((light - bsdf) / bsdf).abs().max_element();
+    assert!(rel < 0.02, "light sampling {light} vs BSDF sampling {bsdf}");
+}

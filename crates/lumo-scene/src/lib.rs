@@ -1,6 +1,7 @@
 //! The scene model of lumo: triangle meshes placed by instances, materials, lights and a
 //! pinhole camera. Loaders (built-in scenes, and scene files in [`load`]) fill it; the renderer
 //! reads it. Plain data: no acceleration structures, no threads.
+#![forbid(unsafe_code)]
 
 pub mod animation;
 mod builtin;
