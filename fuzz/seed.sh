@@ -45,3 +45,42 @@ for w in ply format ascii binary_little_endian binary_big_endian 1.0 comment obj
     vertex_indices vertex_index end_header; do
     echo "\"$w\""
 done > ply.dict
+
+# Image readers, OBJ and glTF (issue 25): the sample files, the crafted hostile inputs of
+# tests/data/bad, small reference images, and a tiny valid uncompressed EXR and PFM.
+mkdir -p corpus/image_exr corpus/image_pfm corpus/image_png corpus/obj corpus/gltf
+cp ../tests/data/bad/*.exr corpus/image_exr/
+cp ../tests/data/bad/*.pfm corpus/image_pfm/
+cp ../tests/data/bad/*.png ../tests/data/flip/blur_*.png ../scenes/textures/checker.png \
+    corpus/image_png/
+find ../tests/data/mitsuba/refs -name '*.exr' -size -10k -exec cp {} corpus/image_exr/ \;
+cp ../scenes/meshes/*.obj corpus/obj/
+# The gltf target reads its first byte as the choice of .gltf (even) or .glb (odd).
+{ printf '\000'; cat ../scenes/hierarchy.gltf; } > corpus/gltf/hierarchy.gltf
+{ printf '\001'; cat ../scenes/hierarchy.glb; } > corpus/gltf/hierarchy.glb
+{ printf '\000'; cat ../tests/data/bad/zero_rotation.gltf; } > corpus/gltf/zero_rotation.gltf
+python3 - <<'PY'
+import struct
+def attr(name, kind, value):
+    return name.encode() + b"\0" + kind.encode() + b"\0" + struct.pack("<i", len(value)) + value
+w, h = 2, 2
+chlist = b"".join(c + b"\0" + struct.pack("<iB3xii", 2, 0, 1, 1) for c in (b"B", b"G", b"R")) + b"\0"
+window = struct.pack("<iiii", 0, 0, w - 1, h - 1)
+header = (attr("channels", "chlist", chlist) + attr("compression", "compression", b"\0")
+          + attr("dataWindow", "box2i", window) + attr("displayWindow", "box2i", window)
+          + attr("lineOrder", "lineOrder", b"\0")
+          + attr("pixelAspectRatio", "float", struct.pack("<f", 1.0))
+          + attr("screenWindowCenter", "v2f", struct.pack("<ff", 0, 0))
+          + attr("screenWindowWidth", "float", struct.pack("<f", 1.0)) + b"\0")
+start = 8 + len(header) + 8 * h
+chunks, offsets = b"", []
+for y in range(h):
+    data = struct.pack("<6f", *[0.25 * (y + 1)] * 6)  # B, G, R rows of 2 floats each
+    offsets.append(start + len(chunks))
+    chunks += struct.pack("<ii", y, len(data)) + data
+exr = b"\x76\x2f\x31\x01" + struct.pack("<i", 2) + header + b"".join(struct.pack("<Q", o) for o in offsets) + chunks
+open("corpus/image_exr/tiny_rgb.exr", "wb").write(exr)
+pfm = b"PF\n2 2\n-1.0\n" + struct.pack("<12f", *[0.5] * 12)
+open("corpus/image_pfm/tiny.pfm", "wb").write(pfm)
+open("corpus/image_pfm/tiny_grey_be.pfm", "wb").write(b"Pf\n3 1\n1.0\n" + struct.pack(">3f", 1, 2, 3))
+PY

@@ -267,3 +267,24 @@ fn missing_files_are_named_once_with_their_cause_once() {
     let text = load(&bad("no_such_scene.gltf")).unwrap_err().to_string();
     assert_says_once(&text, "no_such_scene.gltf", fix);
 }
+
+#[test]
+fn negative_gltf_colours_are_warned_about_and_read_as_zero() {
+    let scene = load(&bad("negative_color.gltf")).expect("loads");
+    let w = warnings(&scene).join("\n");
+    assert!(
+        w.contains("negative_color.gltf (material 0): warning: baseColorFactor [0.5, -0.5, 0.5]")
+            && w.contains("warning: emissiveFactor × KHR_materials_emissive_strength [-1, 0, 0]"),
+        "{w}"
+    );
+    let m = &scene.scene.materials[scene.scene.meshes[0].material];
+    assert!(m.emission.min_element() >= 0.0, "{:?}", m.emission);
+    let lumo_scene::Bsdf::Plastic {
+        diffuse: Texture::Constant(c),
+        ..
+    } = &m.bsdf
+    else {
+        panic!("glTF's dielectric is a plastic: {:?}", m.bsdf);
+    };
+    assert!(c.min_element() >= 0.0, "{c}");
+}

@@ -3,6 +3,8 @@
 about their size, empty and NaN images, negative colours, an include fan-out bomb, a glTF node
 with a zero rotation. Each one is used by a regression test in crates/lumo-image/tests or
 crates/lumo-scene/tests (hostile_input.rs). Run from anywhere; the files are committed."""
+import base64
+import json
 import os
 import struct
 import zlib
@@ -120,3 +122,21 @@ put("zero_rotation.gltf", """{
   "cameras": [{"type": "perspective", "perspective": {"yfov": 0.8, "znear": 0.1}}]
 }
 """)
+
+# Item 12: a material with a negative base colour and emission (glTF allows [0, 1]).
+triangle = struct.pack("<9f", 0, 0, 0, 1, 0, 0, 0, 1, 0)
+put("negative_color.gltf", json.dumps({
+    "asset": {"version": "2.0"},
+    "scene": 0,
+    "scenes": [{"nodes": [0]}],
+    "nodes": [{"mesh": 0}],
+    "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "material": 0}]}],
+    "materials": [{"pbrMetallicRoughness": {"baseColorFactor": [0.5, -0.5, 0.5, 1],
+                                            "metallicFactor": 0},
+                   "emissiveFactor": [-1, 0, 0]}],
+    "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                   "min": [0, 0, 0], "max": [1, 1, 0]}],
+    "bufferViews": [{"buffer": 0, "byteLength": 36}],
+    "buffers": [{"byteLength": 36, "uri": "data:application/octet-stream;base64,"
+                 + base64.b64encode(triangle).decode()}],
+}, indent=1) + "\n")

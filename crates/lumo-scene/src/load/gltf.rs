@@ -538,6 +538,21 @@ impl GltfReader<'_, '_> {
         Ok(out)
     }
 
+    /// `v` with negative components read as 0, with a warning at `label`: a colour (base
+    /// colour, emission) cannot be negative, and glTF allows only [0, 1] there.
+    fn non_negative(&mut self, label: &str, what: &str, v: Vec3) -> Result<Vec3, LoadError> {
+        if v.min_element() < 0.0 {
+            self.diag.warn(
+                self.at(label.to_string()),
+                format!(
+                    "{what} {v} has a negative value; a colour cannot be negative, so it is read \
+                     as 0"
+                ),
+            )?;
+        }
+        Ok(v.max(Vec3::ZERO))
+    }
+
     /// The lumo material for a glTF material (metallic-roughness model).
     fn material(&mut self, mat: gltf::Material) -> Result<usize, LoadError> {
         if let Some(&m) = self.material_map.get(&mat.index()) {
@@ -548,10 +563,11 @@ impl GltfReader<'_, '_> {
             None => "default material".into(),
         };
         let pbr = mat.pbr_metallic_roughness();
-        let factor = Vec4::from(pbr.base_color_factor());
+        let factor = Vec4::from(pbr.base_color_factor()).truncate();
+        let factor = self.non_negative(&label, "baseColorFactor", factor)?;
         let base = match pbr.base_color_texture() {
-            Some(info) => self.texture(&info, false, factor.truncate())?,
-            None => Texture::Constant(factor.truncate()),
+            Some(info) => self.texture(&info, false, factor)?,
+            None => Texture::Constant(factor),
         };
         let mut metallic = pbr.metallic_factor();
         let mut roughness = pbr.roughness_factor();
@@ -580,8 +596,12 @@ impl GltfReader<'_, '_> {
                 format!("alphaMode {:?} is rendered opaque", mat.alpha_mode()),
             )?;
         }
-        let mut emission =
-            Vec3::from(mat.emissive_factor()) * mat.emissive_strength().unwrap_or(1.0);
+        let emission = Vec3::from(mat.emissive_factor()) * mat.emissive_strength().unwrap_or(1.0);
+        let mut emission = self.non_negative(
+            &label,
+            "emissiveFactor × KHR_materials_emissive_strength",
+            emission,
+        )?;
         if let Some(info) = mat.emissive_texture() {
             let mean = self.texture(&info, false, Vec3::ONE)?.average();
             emission *= mean;
