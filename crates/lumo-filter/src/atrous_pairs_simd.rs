@@ -76,7 +76,7 @@ macro_rules! row_kernel {
             let centre = $set1(CENTRE);
             let normals = if NF >= 4 { 3 } else { 0 };
             let mut j0 = job.j_lo;
-            // SAFETY (all loads and stores below): within the ranges checked above; the
+            // SAFETY: (all loads and stores below) within the ranges checked above; the
             // blocks hold their planes at multiples of QW, the weights buffer 12 rows.
             unsafe {
                 while j0 < job.j_hi {

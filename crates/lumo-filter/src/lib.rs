@@ -13,7 +13,8 @@
 //! Colour images have 3 channels. Non-finite colour pixels are treated as missing (weight 0);
 //! results are always finite and report how many pixels were missing.
 //! See docs/filters.md for parameters, defaults and how they were chosen.
-
+// Every unsafe block (the SIMD kernels) says why it is sound.
+#![deny(clippy::undocumented_unsafe_blocks)]
 // Index loops over several parallel planes read more clearly than zips of six iterators.
 #![allow(clippy::needless_range_loop)]
 // `!(x > 0.0)` is deliberate: it rejects NaN as well as non-positive values.

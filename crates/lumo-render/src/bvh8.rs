@@ -292,8 +292,8 @@ pub(crate) mod avx2 {
                 }
             } else {
                 let node = &tree.nodes[current as usize];
-                // SAFETY: as above.
                 let cull = _mm256_set1_ps(tmax * CULL_SLACK);
+                // SAFETY: as above.
                 let (bits, tnear) = unsafe { hit_boxes(node, &r, cull) };
                 if bits != 0 {
                     current = if bits.is_power_of_two() {

@@ -130,6 +130,39 @@ pub fn power_heuristic(f: f32, g: f32) -> f32 {
     }
 }
 
+/// The shadow ray from `o` — a shading point already moved off its surface — to the point `q`
+/// on a light: its unit direction and the largest `t` it may test, short of the light's own
+/// surface. `wi` is the light direction from the unmoved point, used where there is nothing
+/// to test (then `t` is −1, so nothing can block it: the light is nearer than the ray offset,
+/// or the offset moved the origin past it).
+///
+/// The length is measured from `o` itself. Subtracting the offset's length from the distance
+/// of the unmoved point, as lumo once did, is right only where the offset points along the
+/// ray: at grazing angles to a light parallel to the receiver the offset brings the origin
+/// nearer the light by `offset / cos θ`, the shadow ray reached into the light and every
+/// light sample counted as blocked (a panel 1.35 m below a ceiling lit it 20× too dark).
+///
+/// The stop-short margin is the larger of 1e-4 of the length and `eps · (1 + |q|∞)`, the
+/// offset's own scale at the light, so intersection round-off at the light point never
+/// counts the light as its own occluder. Arrays, not `Vec3`, so the vector bounce computes
+/// the same bits lane by lane.
+#[inline(always)]
+pub(crate) fn shadow_segment(o: [f32; 3], q: [f32; 3], wi: [f32; 3], eps: f32) -> ([f32; 3], f32) {
+    let d = [q[0] - o[0], q[1] - o[1], q[2] - o[2]];
+    let len = ((d[0] * d[0]) + (d[1] * d[1]) + (d[2] * d[2])).sqrt();
+    let ahead = (d[0] * wi[0]) + (d[1] * wi[1]) + (d[2] * wi[2]) > 0.0;
+    let scale = q[0].abs().max(q[1].abs().max(q[2].abs()));
+    let tmax = len - (eps * (1.0 + scale)).max(len * 1e-4);
+    let clear = ahead && tmax > 0.0;
+    let inv = 1.0 / len;
+    let dir = [d[0] * inv, d[1] * inv, d[2] * inv];
+    if clear {
+        (dir, tmax)
+    } else {
+        (wi, -1.0)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -175,38 +208,5 @@ mod tests {
                 assert!(b.x >= 0.0 && b.y >= 0.0 && b.x + b.y <= 1.0 + 1e-6);
             }
         }
-    }
-}
-
-/// The shadow ray from `o` — a shading point already moved off its surface — to the point `q`
-/// on a light: its unit direction and the largest `t` it may test, short of the light's own
-/// surface. `wi` is the light direction from the unmoved point, used where there is nothing
-/// to test (then `t` is −1, so nothing can block it: the light is nearer than the ray offset,
-/// or the offset moved the origin past it).
-///
-/// The length is measured from `o` itself. Subtracting the offset's length from the distance
-/// of the unmoved point, as lumo once did, is right only where the offset points along the
-/// ray: at grazing angles to a light parallel to the receiver the offset brings the origin
-/// nearer the light by `offset / cos θ`, the shadow ray reached into the light and every
-/// light sample counted as blocked (a panel 1.35 m below a ceiling lit it 20× too dark).
-///
-/// The stop-short margin is the larger of 1e-4 of the length and `eps · (1 + |q|∞)`, the
-/// offset's own scale at the light, so intersection round-off at the light point never
-/// counts the light as its own occluder. Arrays, not `Vec3`, so the vector bounce computes
-/// the same bits lane by lane.
-#[inline(always)]
-pub(crate) fn shadow_segment(o: [f32; 3], q: [f32; 3], wi: [f32; 3], eps: f32) -> ([f32; 3], f32) {
-    let d = [q[0] - o[0], q[1] - o[1], q[2] - o[2]];
-    let len = ((d[0] * d[0]) + (d[1] * d[1]) + (d[2] * d[2])).sqrt();
-    let ahead = (d[0] * wi[0]) + (d[1] * wi[1]) + (d[2] * wi[2]) > 0.0;
-    let scale = q[0].abs().max(q[1].abs().max(q[2].abs()));
-    let tmax = len - (eps * (1.0 + scale)).max(len * 1e-4);
-    let clear = ahead && tmax > 0.0;
-    let inv = 1.0 / len;
-    let dir = [d[0] * inv, d[1] * inv, d[2] * inv];
-    if clear {
-        (dir, tmax)
-    } else {
-        (wi, -1.0)
     }
 }

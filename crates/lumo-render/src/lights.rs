@@ -208,6 +208,9 @@ impl EnvSampler {
         let uv = lat_long_uv(&self.map, dir);
         let img = &self.map.image;
         let (w, h) = (img.width, img.height);
+        if w == 0 || h == 0 {
+            return Vec3::ZERO;
+        }
         let fx = uv.x * w as f32 - 0.5;
         let x0 = fx.floor();
         let tx = fx - x0;
@@ -328,6 +331,9 @@ impl Lights {
                     });
                 }
                 Light::Constant { radiance } => constant += *radiance,
+                // An empty image emits nothing (the loaders refuse one; a scene built in code
+                // must not panic).
+                Light::Environment(map) if map.image.width == 0 || map.image.height == 0 => {}
                 Light::Environment(map) => env = Some(EnvSampler::new(map)),
             }
         }

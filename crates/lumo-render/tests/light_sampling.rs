@@ -202,7 +202,11 @@ fn interpolated_envmap_light_sampling_agrees_with_bsdf_sampling() {
     let (w, h) = (32, 16);
     let data = (0..w * h)
         .flat_map(|i| {
-            let v = if (i % w) % 2 == 0 && (i / w) % 2 == 0 { 2.0 } else { 0.0 };
+            let v = if (i % w) % 2 == 0 && (i / w) % 2 == 0 {
+                2.0
+            } else {
+                0.0
+            };
             [v, v, v]
         })
         .collect();
@@ -237,4 +241,44 @@ fn interpolated_envmap_light_sampling_agrees_with_bsdf_sampling() {
     let (light, bsdf) = (mean(true, false), mean(false, true));
     let rel = ((light - bsdf) / bsdf).abs().max_element();
     assert!(rel < 0.02, "light sampling {light} vs BSDF sampling {bsdf}");
+}
+
+#[test]
+fn empty_images_built_in_code_emit_and_reflect_nothing() {
+    // The loaders refuse 0×N images; a scene built in code must still render, not panic.
+    use lumo_render::{render, PathSettings, RenderScene, RenderSettings};
+    use lumo_scene::{Texture, TextureFilter, WrapMode};
+    let empty = Arc::new(Image::from_vec(0, 4, 3, vec![]));
+    let mut scene = scene_with_lights(false, true, false);
+    scene.lights.push(Light::Environment(EnvMap {
+        image: empty.clone(),
+        scale: 1.0,
+        to_world: Mat4::IDENTITY,
+    }));
+    let textured = scene.add_material(Material {
+        name: "empty texture".into(),
+        bsdf: lumo_scene::Bsdf::Diffuse {
+            reflectance: Texture::Bitmap {
+                image: empty,
+                uv_scale: Vec2::ONE,
+                filter: TextureFilter::Bilinear,
+                wrap: WrapMode::Repeat,
+            },
+        },
+        emission: Vec3::ZERO,
+        two_sided: true,
+    });
+    scene.add_mesh(rectangle(&Mat4::IDENTITY, textured));
+    let rs = RenderScene::new(scene).unwrap();
+    let settings = RenderSettings {
+        width: 8,
+        height: 8,
+        spp: 4,
+        seed: 1,
+        path: PathSettings::default(),
+    };
+    let frame = render(&rs, &settings, &|_| {}).0;
+    // The constant light is seen around the black (empty-textured) square.
+    let m = frame.color.channel_means();
+    assert!(m.iter().all(|v| v.is_finite() && *v > 0.0), "{m:?}");
 }

@@ -106,6 +106,10 @@ impl Texture {
             } => {
                 let uv = uv * *uv_scale;
                 let (w, h) = (image.width, image.height);
+                // The loaders refuse empty images; one built in code must not panic here.
+                if w == 0 || h == 0 {
+                    return Vec3::ZERO;
+                }
                 // Texel coordinates: texel (i, j) covers [i, i+1) × [j, j+1), row 0 at v = 1.
                 let (px, py) = (uv.x * w as f32, (1.0 - uv.y) * h as f32);
                 let texel = |x: f32, y: f32| {
