@@ -1,7 +1,9 @@
 // The viewer: the paper's client loop at display rate — process input, rasterise new samples,
 // repaint, (swap), fetch new samples — whatever the server's speed.
 
-import { decode, encodeCamera, encodeParams, KIND } from './protocol.js';
+import {
+  camerasInFlightAfterError, decode, encodeCamera, encodeParams, KIND,
+} from './protocol.js';
 import { floatFormats, loadText, program } from './gl.js';
 import { SampleStream } from './stream.js';
 import { Display } from './display.js';
@@ -34,7 +36,7 @@ const overlayEl = document.getElementById('overlay');
 const statusEl = document.getElementById('status');
 
 const state = {
-  hello: null, epoch: 0, integrator: 'path', mode: 'progressive', inflight: 0,
+  hello: null, epoch: 0, integrator: 'path', mode: 'progressive', inflight: 0, serverCamera: null,
   rate: 0, dropped: 0, clientDropped: 0, viewers: 1, serverSamples: 0, fps: 0, frames: 0, errors: [],
   lastLocalMove: -1e9,
 };
@@ -127,6 +129,7 @@ ws.onmessage = async (ev) => {
       state.mode = msg.mode;
       ui.setParams(msg.integrator, msg.mode);
       nav.set(msg.camera);
+      state.serverCamera = msg.camera;
       try {
         gpu = await initGpu(msg);
         requestAnimationFrame(frame);
@@ -137,6 +140,7 @@ ws.onmessage = async (ev) => {
       break;
     case KIND.CAMERA:
       state.inflight = Math.max(0, state.inflight - 1);
+      state.serverCamera = msg.camera;
       if (msg.epoch !== state.epoch) {
         state.epoch = msg.epoch;
         resetImage();
@@ -164,10 +168,19 @@ ws.onmessage = async (ev) => {
       state.viewers = msg.viewers;
       state.serverSamples = msg.samples;
       break;
-    case KIND.ERROR:
+    case KIND.ERROR: {
       state.errors.push(`${msg.code}: ${msg.message}`);
       statusEl.textContent = `server: ${msg.message}`;
+      const before = state.inflight;
+      state.inflight = camerasInFlightAfterError(state.inflight, msg.code);
+      if (state.inflight < before && state.inflight === 0 && !pendingCamera && state.serverCamera) {
+        // The server refused our camera and kept rendering its own: show that view again
+        // (its samples are accepted now that nothing is in flight).
+        nav.set(state.serverCamera);
+        resetImage();
+      }
       break;
+    }
     default:
       break;
   }

@@ -11,6 +11,18 @@ export const KIND = {
   STATS: 0x12, FINISH: 0x13, ERROR: 0x7f,
 };
 
+// ERROR codes with which the server refuses a CAMERA: malformed (1), invalid value (4), too
+// large (5). The server answers every CAMERA a viewer sends, in order, with a CAMERA (taken)
+// or an ERROR (refused); the viewer's PARAMS come from its own menus and are always valid.
+export const CAMERA_REFUSAL_CODES = new Set([1, 4, 5]);
+
+// The viewer's count of CAMERA messages in flight after an ERROR with `code`: one fewer when
+// the error refuses a camera and one is in flight. Without this, a refused camera stayed in
+// flight for ever and the viewer ignored every sample until the next CAMERA arrived.
+export function camerasInFlightAfterError(inflight, code) {
+  return inflight > 0 && CAMERA_REFUSAL_CODES.has(code) ? inflight - 1 : inflight;
+}
+
 export const INTEGRATORS = ['path', 'light', 'both'];
 export const MODES = ['progressive', 'atrous', 'guided'];
 

@@ -1,13 +1,100 @@
-//! Small pieces every subcommand shares: the worker pool and checks of common options.
+//! Small pieces every subcommand shares: the worker pool, the memory check and checks of
+//! common options.
 
 use anyhow::{bail, Context, Result};
 
-/// A rayon pool of `threads` workers (`None`: all cores).
+/// Most worker threads per core `--threads` may ask for: the renderer keeps every thread
+/// busy, so more than a few per core only adds switching and per-thread memory (100,000
+/// threads exhausted the machine).
+pub const MAX_THREADS_PER_CORE: usize = 4;
+
+/// The cores this process may use (1 when unknown).
+pub fn cores() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get())
+}
+
+/// The worker-thread count for `--threads` (`None`: all cores): warns about and corrects
+/// `--threads 0` (all cores) and counts over [`MAX_THREADS_PER_CORE`] per core (capped).
+pub fn thread_count(threads: Option<usize>) -> Option<usize> {
+    let max = MAX_THREADS_PER_CORE * cores();
+    match threads {
+        Some(0) => {
+            eprintln!(
+                "warning: --threads 0: using all {} cores (omit --threads for that)",
+                cores()
+            );
+            None
+        }
+        Some(n) if n > max => {
+            eprintln!(
+                "warning: --threads {n}: at most {MAX_THREADS_PER_CORE} per core; using {max}"
+            );
+            Some(max)
+        }
+        t => t,
+    }
+}
+
+/// A rayon pool of `threads` workers (`None`: all cores), corrected by [`thread_count`].
 pub fn worker_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
     rayon::ThreadPoolBuilder::new()
-        .num_threads(threads.unwrap_or(0))
+        .num_threads(thread_count(threads).unwrap_or(0))
         .build()
         .context("cannot start worker threads")
+}
+
+/// Memory this process may still allocate, in bytes: `LUMO_MEMORY_LIMIT` (bytes, or with a
+/// K, M or G suffix: powers of 1024) if set, else MemAvailable from /proc/meminfo; `None`
+/// where neither is known (then nothing is refused).
+pub fn memory_available() -> Option<u64> {
+    if let Ok(v) = std::env::var("LUMO_MEMORY_LIMIT") {
+        let v = v.trim();
+        let (digits, unit) = match v.char_indices().last() {
+            Some((i, c)) if c.is_ascii_alphabetic() => (&v[..i], c.to_ascii_uppercase()),
+            _ => (v, 'B'),
+        };
+        let shift = match unit {
+            'K' => 10,
+            'M' => 20,
+            'G' => 30,
+            _ => 0,
+        };
+        if let Ok(n) = digits.trim().parse::<u64>() {
+            return Some(n.saturating_mul(1 << shift));
+        }
+        eprintln!("warning: LUMO_MEMORY_LIMIT={v:?} is not a size like 512M; ignored");
+    }
+    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = info.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib.saturating_mul(1024))
+}
+
+/// Refuses, before anything is allocated, work that needs about `need` bytes when less
+/// memory than that is available: `what` says what needs it, `advice` how to ask for less.
+pub fn check_memory(need: u64, what: &str, advice: &str) -> Result<()> {
+    if let Some(available) = memory_available() {
+        if need > available {
+            bail!(
+                "{what} needs about {} of memory, but only {} is available; {advice}",
+                bytes(need),
+                bytes(available),
+            );
+        }
+    }
+    Ok(())
+}
+
+/// `n` bytes in binary units for messages ("79.0 GiB").
+pub fn bytes(n: u64) -> String {
+    let n = n as f64;
+    if n >= (1u64 << 30) as f64 {
+        format!("{:.1} GiB", n / (1u64 << 30) as f64)
+    } else if n >= (1u64 << 20) as f64 {
+        format!("{:.1} MiB", n / (1u64 << 20) as f64)
+    } else {
+        format!("{:.0} KiB", n / 1024.0)
+    }
 }
 
 /// Refuses `--max-depth 0` (Mitsuba's convention starts at 1).

@@ -63,6 +63,12 @@ struct Row {
     diff: Option<PathBuf>,
 }
 
+/// Most pixels per degree `--ppd` accepts. FLIP's filters are as wide as a fixed visual
+/// angle, so their size in pixels grows with the ppd (1e30 would allocate without end);
+/// 1000 ppd is beyond any display viewed by a person (FLIP's default, 67, is a 0.7 m
+/// viewing distance from a 24-inch 4K monitor).
+pub const MAX_PPD: f32 = 1000.0;
+
 /// Runs `lumo compare`.
 pub fn run(args: CompareArgs) -> Result<()> {
     if !args.exposure.is_finite() {
@@ -71,6 +77,16 @@ pub fn run(args: CompareArgs) -> Result<()> {
     let ppd = args.ppd.unwrap_or(FLIP_DEFAULT_PPD);
     if !(ppd.is_finite() && ppd > 0.0) {
         bail!("--ppd must be a positive number");
+    }
+    if ppd > MAX_PPD {
+        bail!("--ppd {ppd:e}: use at most {MAX_PPD} pixels per degree (FLIP's default is {FLIP_DEFAULT_PPD})");
+    }
+    // The diff images are the only outputs: check where they go before reading anything.
+    if let Some(out) = &args.diff {
+        for i in 0..args.images.len() {
+            crate::render_cmd::check_writable(&diff_path(out, i, args.images.len()))
+                .context("--diff")?;
+        }
     }
     let settings = CompareSettings {
         exposure: args.exposure,

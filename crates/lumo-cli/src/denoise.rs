@@ -436,8 +436,23 @@ fn run_filter(
 
 /// Runs `lumo denoise`.
 pub fn run(args: DenoiseArgs) -> anyhow::Result<()> {
+    // Named as the command line spells them: the filter's own error calls --subsample
+    // "sparse".
+    if ![1, 2, 4].contains(&args.subsample) {
+        bail!("--subsample {}: use 1, 2 or 4", args.subsample);
+    }
+    crate::render_cmd::check_writable(&args.output).context("-o")?;
     let t0 = Instant::now();
     let inputs = read_inputs(&args)?;
+    let (w, h) = (inputs.color.1.width, inputs.color.1.height);
+    if let Some(r) = args.radius {
+        if r == 0 || r > w.max(h) {
+            bail!(
+                "--radius {r}: use 1 to {} (the image's larger side)",
+                w.max(h)
+            );
+        }
+    }
     let t_read = t0.elapsed();
     let missing = missing_pixels(&inputs.color.1);
     if missing > 0 {

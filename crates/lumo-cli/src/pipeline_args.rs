@@ -1,7 +1,7 @@
 //! The `--pipeline` options of `lumo render`: which of the papers' filtered-GI pipelines turns
 //! traced paths into the image, and its knobs.
 
-use anyhow::{anyhow, Result};
+use anyhow::{anyhow, bail, Result};
 use lumo_render::{Pipeline, PipelineOptions};
 
 /// Pipeline selection and parameters.
@@ -33,17 +33,49 @@ pub struct PipelineArgs {
     pub prefilter: bool,
 }
 
+/// Largest image side (`--size`), which also bounds `--radius` and `--block`.
+pub const MAX_SIDE: usize = 16384;
+
+/// Most `--paths` per JBU sample point (each point traces them all; 2^20 at the default
+/// block size is already more work than 64 spp per pixel).
+pub const MAX_PATHS: u32 = 1 << 20;
+
 /// Samples per pixel of filtered pipelines when `--spp` is not given: with À-Trous, 4 spp at
 /// 512×512 is a clean image in about a second on 2 cores (docs/pipelines.md).
 pub const FILTERED_DEFAULT_SPP: u32 = 4;
 
 impl PipelineArgs {
-    /// The library's options.
-    pub fn options(&self) -> PipelineOptions {
+    /// Checks the options, naming each as the command line spells it (the filters' own
+    /// errors use their internal names).
+    pub fn check(&self) -> Result<()> {
+        if ![1, 2, 4].contains(&self.subsample) {
+            bail!("--subsample {}: use 1, 2 or 4", self.subsample);
+        }
+        if ![1, 3, 4].contains(&self.guide_dims) {
+            bail!("--guide-dims {}: use 1, 3 or 4", self.guide_dims);
+        }
+        // Bounded by the largest image side: a larger window or block covers any image
+        // whole, and the guided filter's buffers grow with the radius (1e8 asked for 819 GB).
+        if self.radius == 0 || self.radius > MAX_SIDE {
+            bail!("--radius {}: use 1 to {MAX_SIDE}", self.radius);
+        }
+        if self.block == 0 || self.block > MAX_SIDE {
+            bail!("--block {}: use 1 to {MAX_SIDE}", self.block);
+        }
+        if self.paths == 0 || self.paths > MAX_PATHS {
+            bail!("--paths {}: use 1 to {MAX_PATHS}", self.paths);
+        }
+        Ok(())
+    }
+
+    /// The library's options for a `width`×`height` image.
+    pub fn options(&self, width: usize, height: usize) -> PipelineOptions {
         PipelineOptions {
             subsample: self.subsample,
             guide_dims: self.guide_dims,
-            radius: self.radius,
+            // A window wider than the image already covers all of it: the same result, with
+            // buffers sized by the image instead of the radius.
+            radius: self.radius.min(width.max(height)),
             block: self.block,
             paths: self.paths,
             prefilter: self.prefilter,

@@ -65,6 +65,15 @@ pub struct RenderArgs {
     pub pipeline: crate::pipeline_args::PipelineArgs,
 }
 
+/// Most samples per pixel `--spp` accepts: 2^20 is days of rendering at 512x512; beyond,
+/// a typo (4294967295) would run for ever.
+pub const MAX_SPP: u32 = 1 << 20;
+
+/// Working memory of `lumo render` per image pixel, in bytes: the frame's AOV planes, the
+/// pipeline's buffers and the output (measured: about 294 bytes at 4096x4096 with the
+/// default pipeline), rounded up. Used to refuse sizes that cannot fit before allocating.
+pub const RENDER_BYTES_PER_PIXEL: u64 = 320;
+
 /// Parses `WxH`.
 pub fn parse_size(s: &str) -> Result<(usize, usize), String> {
     let err = || {
@@ -113,7 +122,18 @@ pub fn load_scene_with(name: &str, options: &LoadOptions) -> Result<(Scene, File
         }
         return Ok((loaded.scene, loaded.settings));
     }
-    Ok((builtin_scene(name)?, FileSettings::default()))
+    let scene = builtin_scene(name)?;
+    // The file loader warns about these for non-glTF files; built-ins have one camera and
+    // no animation, so say so rather than ignore the options silently.
+    if options.camera.is_some() {
+        eprintln!(
+            "warning: --camera applies to glTF scenes; the built-in {name} has one camera, ignored"
+        );
+    }
+    if options.time.is_some() {
+        eprintln!("warning: --time applies to animated glTF scenes; the built-in {name} is static, ignored");
+    }
+    Ok((scene, FileSettings::default()))
 }
 
 fn builtin_names() -> String {
@@ -188,13 +208,20 @@ pub fn run(args: RenderArgs) -> Result<()> {
     for o in &outputs {
         check_writable(o)?;
     }
+    // Every output location is checked before the render, which may take hours.
     if let Some(dir) = &args.aovs {
         if dir.exists() && !dir.is_dir() {
             bail!("--aovs {}: exists and is not a directory", dir.display());
         }
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("--aovs {}: cannot create the directory", dir.display()))?;
+        check_writable(&dir.join("color.exr"))
+            .with_context(|| format!("--aovs {}", dir.display()))?;
     }
-    if args.spp == Some(0) {
-        bail!("--spp must be at least 1");
+    match args.spp {
+        Some(0) => bail!("--spp must be at least 1"),
+        Some(n) if n > MAX_SPP => bail!("--spp {n}: at most {MAX_SPP} samples per pixel"),
+        _ => {}
     }
     crate::cli_common::check_max_depth(args.max_depth)?;
     // Command-line options win over the scene file's settings, which win over the defaults.
@@ -223,6 +250,18 @@ pub fn run(args: RenderArgs) -> Result<()> {
             ..Default::default()
         },
     };
+    if settings.spp > MAX_SPP {
+        bail!(
+            "the scene asks for {} samples per pixel; at most {MAX_SPP} (use --spp)",
+            settings.spp
+        );
+    }
+    args.pipeline.check()?;
+    crate::cli_common::check_memory(
+        (width as u64 * height as u64).saturating_mul(RENDER_BYTES_PER_PIXEL),
+        &format!("a {width}x{height} render (about {RENDER_BYTES_PER_PIXEL} bytes per pixel)"),
+        "use a smaller --size",
+    )?;
     let pool = crate::cli_common::worker_pool(args.threads)?;
     let threads = pool.current_num_threads();
     let tris = scene.triangle_count();
@@ -242,9 +281,13 @@ pub fn run(args: RenderArgs) -> Result<()> {
     );
     let start = Instant::now();
     let out = pool.install(|| {
-        run_pipeline(&rs, pipeline, &settings, &args.pipeline.options(), &|f| {
-            bar.set_position((f * 1000.0) as u64)
-        })
+        run_pipeline(
+            &rs,
+            pipeline,
+            &settings,
+            &args.pipeline.options(width, height),
+            &|f| bar.set_position((f * 1000.0) as u64),
+        )
     })?;
     let secs = start.elapsed().as_secs_f64();
     bar.finish_and_clear();

@@ -70,7 +70,7 @@ pub fn run(args: ServeArgs) -> Result<()> {
         bail!("--size {width}x{height}: the viewer supports at most 4096x4096");
     }
     let mut config = ServerConfig::new(width, height);
-    config.threads = args.threads.unwrap_or(0);
+    config.threads = crate::cli_common::thread_count(args.threads).unwrap_or(0);
     config.integrator = match args.integrator {
         IntegratorArg::Path => Integrator::Path,
         IntegratorArg::Light => Integrator::Light,

@@ -133,6 +133,27 @@ impl fmt::Display for ImageError {
 
 impl std::error::Error for ImageError {}
 
+impl ImageError {
+    /// The same error naming `to` where it named `from`: writes go through a temporary file,
+    /// and the user should read the name they asked for.
+    pub(crate) fn with_path(mut self, from: &std::path::Path, to: &std::path::Path) -> Self {
+        match &mut self {
+            ImageError::Io { path, .. }
+            | ImageError::NotAFile { path, .. }
+            | ImageError::Format { path, .. }
+            | ImageError::Empty { path, .. }
+            | ImageError::TooLarge { path, .. }
+            | ImageError::UnsupportedExtension { path } => {
+                if path == from {
+                    *path = to.to_path_buf();
+                }
+            }
+            ImageError::SizeMismatch { .. } => {}
+        }
+        self
+    }
+}
+
 /// An I/O error as a short cause and, where there is an obvious one, a fix, without the
 /// "(os error N)" suffix. For messages that name the path themselves.
 pub fn describe_io_error(e: &std::io::Error) -> String {

@@ -1,4 +1,5 @@
-use std::path::Path;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use crate::limits::{check_image_size, regular_file_size};
 use crate::{exr_io, pfm, png_io, Image, ImageError};
@@ -53,12 +54,39 @@ pub fn read_image(path: &Path) -> Result<Image, ImageError> {
 
 /// Writes `image` as EXR, PFM or PNG (by extension). One-channel images stay one channel in
 /// EXR and PFM; PNG is always RGB.
+///
+/// The write is all or nothing: the image goes to a temporary file in `path`'s directory
+/// ([`temp_path`]) that is then renamed over `path`. A rename within one directory is atomic
+/// on POSIX file systems, so a failed or interrupted write (a full disk, Ctrl-C, a crash)
+/// leaves the previous file as it was instead of half an image. Errors name `path`.
 pub fn write_image(path: &Path, image: &Image) -> Result<(), ImageError> {
-    match ImageFormat::from_path(path)? {
-        ImageFormat::Exr => exr_io::write(path, image),
-        ImageFormat::Pfm => pfm::write(path, image),
-        ImageFormat::Png => png_io::write(path, image),
+    let format = ImageFormat::from_path(path)?;
+    let tmp = temp_path(path);
+    let written = match format {
+        ImageFormat::Exr => exr_io::write(&tmp, image),
+        ImageFormat::Pfm => pfm::write(&tmp, image),
+        ImageFormat::Png => png_io::write(&tmp, image),
     }
+    .and_then(|()| std::fs::rename(&tmp, path).map_err(|e| io_err(path, e)));
+    if let Err(e) = written {
+        // Best effort: the temporary may not exist (creating it is what failed).
+        std::fs::remove_file(&tmp).ok();
+        return Err(e.with_path(&tmp, path));
+    }
+    Ok(())
+}
+
+/// The temporary name [`write_image`] writes `path` under before renaming it: the same
+/// directory (a rename cannot cross file systems), hidden, unique per process and write (so
+/// concurrent writers never share one), and ending in the real extension.
+pub fn temp_path(path: &Path) -> PathBuf {
+    static NEXT: AtomicU64 = AtomicU64::new(0);
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "out".into());
+    let n = NEXT.fetch_add(1, Ordering::Relaxed);
+    path.with_file_name(format!(".lumo-tmp-{}-{n}.{name}", std::process::id()))
 }
 
 pub(crate) fn io_err(path: &Path, source: std::io::Error) -> ImageError {
@@ -78,6 +106,36 @@ pub(crate) fn format_err(path: &Path, reason: impl Into<String>) -> ImageError {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The names in `dir`, sorted.
+    fn names(dir: &Path) -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    }
+
+    #[test]
+    fn writes_replace_the_file_whole_or_not_at_all() {
+        let dir = std::env::temp_dir().join(format!("lumo-image-atomic-{}", std::process::id()));
+        std::fs::remove_dir_all(&dir).ok();
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("out.png");
+        let good = gradient(3);
+        write_image(&p, &good).unwrap();
+        assert_eq!(names(&dir), ["out.png"], "no temporary left behind");
+        let before = std::fs::read(&p).unwrap();
+        // The PNG encoder refuses a zero width after the file was created: a write that fails
+        // half way. The previous image must survive it, and the temporary must go.
+        let err = write_image(&p, &Image::new(0, 4, 3, 0.5)).unwrap_err();
+        assert!(err.to_string().contains("out.png"), "{err}");
+        assert!(!err.to_string().contains("lumo-tmp"), "{err}");
+        assert_eq!(std::fs::read(&p).unwrap(), before);
+        assert_eq!(names(&dir), ["out.png"]);
+        std::fs::remove_dir_all(&dir).ok();
+    }
 
     fn gradient(channels: usize) -> Image {
         let (w, h) = (7, 5);

@@ -8,9 +8,7 @@
 
 use glam::{Mat4, Vec3, Vec3A};
 use obvhs::aabb::Aabb;
-use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
 use obvhs::bvh2::Bvh2;
-use obvhs::ploc::{PlocBuilder, PlocSearchDistance, SortPrecision};
 use obvhs::ray::{Ray, RayHit};
 use obvhs::rt_triangle::RtTriangle;
 
@@ -20,6 +18,8 @@ use crate::bvh_wide::{TriHit, EMPTY};
 use crate::packet::{RayPacket, LANES};
 
 use lumo_scene::Scene;
+
+mod robust;
 
 /// The nearest intersection of a ray with the scene.
 #[derive(Clone, Copy, Debug, Default)]
@@ -46,21 +46,17 @@ struct MeshBvh {
 
 impl MeshBvh {
     fn build(positions: &[Vec3], indices: &[[u32; 3]]) -> Self {
-        let tris: Vec<RtTriangle> = indices
+        let boxes: Vec<Aabb> = indices
             .iter()
-            .map(|t| {
-                let p = |i: u32| Vec3A::from(positions[i as usize]);
-                RtTriangle::new(p(t[0]), p(t[1]), p(t[2]))
-            })
+            .map(|&t| triangle_box(positions, t))
             .collect();
-        let mut bvh2 = PlocBuilder::with_capacity(tris.len()).build(
-            PlocSearchDistance::Medium,
-            &tris,
-            (0..tris.len() as u32).collect(),
-            SortPrecision::U64,
-            3,
+        let bvh2 = robust::build_bvh2(
+            &boxes,
+            robust::BuildOptions {
+                search_depth_threshold: 3,
+                reinsertion: 0.05,
+            },
         );
-        ReinsertionOptimizer::default().run(&mut bvh2, 0.05, None);
         let wide = WideBlas::build(&bvh2, positions, indices);
         MeshBvh { bvh2, wide }
     }
@@ -68,21 +64,15 @@ impl MeshBvh {
     /// Moves vertices without changing the tree's topology (fast; quality degrades with
     /// large deformations, when a rebuild is better).
     fn refit(&mut self, positions: &[Vec3], indices: &[[u32; 3]]) {
-        let tris: Vec<RtTriangle> = indices
-            .iter()
-            .map(|t| {
-                let p = |i: u32| Vec3A::from(positions[i as usize]);
-                RtTriangle::new(p(t[0]), p(t[1]), p(t[2]))
-            })
-            .collect();
-        self.bvh2.init_primitives_to_nodes_if_uninit();
-        for (prim, tri) in tris.iter().enumerate() {
-            let node = self.bvh2.primitives_to_nodes[prim] as usize;
-            self.bvh2.nodes[node].set_aabb(tri.aabb());
-        }
-        self.bvh2.refit_all();
+        robust::refit_leaves(&mut self.bvh2, |p| triangle_box(positions, indices[p]));
         self.wide = WideBlas::build(&self.bvh2, positions, indices);
     }
+}
+
+/// The bounding box of triangle `t`.
+fn triangle_box(positions: &[Vec3], t: [u32; 3]) -> Aabb {
+    let p = |i: u32| Vec3A::from(positions[i as usize]);
+    RtTriangle::new(p(t[0]), p(t[1]), p(t[2])).aabb()
 }
 
 /// What a TLAS leaf points at.
@@ -189,12 +179,12 @@ impl Accel {
             tlas: Bvh2::default(),
         };
         let boxes = accel.placement_boxes(scene);
-        accel.tlas = PlocBuilder::with_capacity(boxes.len()).build(
-            PlocSearchDistance::Medium,
+        accel.tlas = robust::build_bvh2(
             &boxes,
-            (0..boxes.len() as u32).collect(),
-            SortPrecision::U64,
-            1,
+            robust::BuildOptions {
+                search_depth_threshold: 1,
+                reinsertion: 0.0,
+            },
         );
         accel
     }
@@ -288,12 +278,7 @@ impl Accel {
             }
         }
         let boxes = self.placement_boxes(scene);
-        self.tlas.init_primitives_to_nodes_if_uninit();
-        for (prim, b) in boxes.iter().enumerate() {
-            let node = self.tlas.primitives_to_nodes[prim] as usize;
-            self.tlas.nodes[node].set_aabb(*b);
-        }
-        self.tlas.refit_all();
+        robust::refit_leaves(&mut self.tlas, |p| boxes[p]);
     }
 
     /// The ray `origin + t·dir` in placement `p`'s object space.

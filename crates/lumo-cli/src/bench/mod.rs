@@ -82,3 +82,14 @@ pub fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(|a, b| a.total_cmp(b));
     v[v.len() / 2]
 }
+
+/// Where `bench quality` and `bench speed` write their reports: `--out-dir`, else
+/// docs/results with `--publish`, else target/lumo-bench, so that a trial run never replaces
+/// the committed results.
+pub fn out_dir(out_dir: Option<&std::path::Path>, publish: bool) -> std::path::PathBuf {
+    match out_dir {
+        Some(d) => d.to_path_buf(),
+        None if publish => "docs/results".into(),
+        None => "target/lumo-bench".into(),
+    }
+}

@@ -50,9 +50,13 @@ pub struct QualityArgs {
     /// Directory of cached references.
     #[arg(long, default_value = "target/lumo-bench-cache")]
     pub cache: PathBuf,
-    /// Where quality.md and quality.png go.
-    #[arg(long, default_value = "docs/results")]
-    pub out_dir: PathBuf,
+    /// Where quality.md and quality.png go [default: target/lumo-bench, or docs/results with --publish].
+    #[arg(long)]
+    pub out_dir: Option<PathBuf>,
+    /// Write into docs/results, replacing the committed results (without it, nothing under
+    /// docs/ is touched unless --out-dir names it).
+    #[arg(long, conflicts_with = "out_dir")]
+    pub publish: bool,
     /// A line added to the report's header (e.g. what else the machine was doing).
     #[arg(long)]
     pub note: Option<String>,
@@ -80,7 +84,8 @@ pub struct Scored {
 /// Runs `lumo bench quality`.
 pub fn run(args: QualityArgs) -> Result<()> {
     validate(&args)?;
-    check_dir_writable(&args.out_dir)?;
+    let out_dir = super::out_dir(args.out_dir.as_deref(), args.publish);
+    check_dir_writable(&out_dir)?;
     let pool = crate::cli_common::worker_pool(args.threads)?;
     let scenes = load_all(&scene_names(&args.scenes), &pool)?;
     let compare_settings = CompareSettings {
@@ -148,8 +153,8 @@ pub fn run(args: QualityArgs) -> Result<()> {
     let markdown = quality_markdown(&ctx, &scored);
     let sheet = sheet(&args, &scenes, &references, &scored);
     // Everything is computed: only now touch the output files, each all-or-nothing.
-    let png = args.out_dir.join("quality.png");
-    let md = args.out_dir.join("quality.md");
+    let png = out_dir.join("quality.png");
+    let md = out_dir.join("quality.md");
     write_image_atomic(&png, &sheet)?;
     write_bytes(&md, markdown.as_bytes())?;
     println!("wrote {} and {}", md.display(), png.display());

@@ -40,6 +40,9 @@ pub fn run(args: RenderBenchArgs) -> Result<()> {
 }
 
 fn run_render(args: RenderBenchArgs) -> Result<()> {
+    if args.repeats == 0 {
+        eprintln!("warning: --repeats 0: timing each scene once");
+    }
     let names = super::scenes::scene_names(&args.scenes);
     let pool = crate::cli_common::worker_pool(args.threads)?;
     let threads = pool.current_num_threads();

@@ -53,9 +53,13 @@ pub struct SpeedArgs {
     /// Skip Table 2 (filters).
     #[arg(long)]
     pub no_filters: bool,
-    /// Where speed.md goes.
-    #[arg(long, default_value = "docs/results")]
-    pub out_dir: PathBuf,
+    /// Where speed.md go [default: target/lumo-bench, or docs/results with --publish].
+    #[arg(long)]
+    pub out_dir: Option<PathBuf>,
+    /// Write into docs/results, replacing the committed results (without it, nothing under
+    /// docs/ is touched unless --out-dir names it).
+    #[arg(long, conflicts_with = "out_dir")]
+    pub publish: bool,
     /// A line added to the header (e.g. what else the machine was doing).
     #[arg(long)]
     pub note: Option<String>,
@@ -75,7 +79,8 @@ pub fn run(args: SpeedArgs) -> Result<()> {
     if args.bounces.iter().any(|&b| b > 62) {
         bail!("--bounces: use at most 62 indirect bounces");
     }
-    check_dir_writable(&args.out_dir)?;
+    let out_dir = super::out_dir(args.out_dir.as_deref(), args.publish);
+    check_dir_writable(&out_dir)?;
     let pool = crate::cli_common::worker_pool(args.threads)?;
     let names = scene_names(&args.scenes);
     let scenes = if args.no_render {
@@ -164,7 +169,7 @@ pub fn run(args: SpeedArgs) -> Result<()> {
         filter_sizes: args.filter_sizes.clone(),
     };
     let md = speed_markdown(&ctx, &render_rows, &filter_rows);
-    let path = args.out_dir.join("speed.md");
+    let path = out_dir.join("speed.md");
     write_bytes(&path, md.as_bytes())?;
     println!("wrote {}", path.display());
     Ok(())

@@ -1,7 +1,7 @@
 //! Mitsuba XML to an owned element tree: `<default>` and `$name` substitution, `<include>`
 //! splicing, and the renaming Mitsuba applies to scenes older than version 2.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 use std::rc::Rc;
 
@@ -81,7 +81,9 @@ pub(crate) fn read_tree(
     diag: &mut Diagnostics,
 ) -> Result<Element, LoadError> {
     let mut reader = Reader::new(defines, diag, true);
-    reader.read_file(path, None)
+    let root = reader.read_file(path, None)?;
+    reader.warn_unused_defines(defines, path)?;
+    Ok(root)
 }
 
 /// Reads the scene `text` (as if from the file `path`) into a tree rooted at `<scene>`;
@@ -93,12 +95,17 @@ pub(crate) fn read_tree_str(
     diag: &mut Diagnostics,
 ) -> Result<Element, LoadError> {
     let mut reader = Reader::new(defines, diag, false);
-    reader.read_text(path, path.to_path_buf(), text, None)
+    let root = reader.read_text(path, path.to_path_buf(), text, None)?;
+    reader.warn_unused_defines(defines, path)?;
+    Ok(root)
 }
 
 struct Reader<'d> {
     /// Parameter values: command line first, then `<default>`s in document order.
     vars: HashMap<String, String>,
+    /// Parameter names the scene declares (`<default>`) or uses (`$name`): a command-line
+    /// definition of any other name has no effect, which the user should hear about.
+    known: HashSet<String>,
     diag: &'d mut Diagnostics,
     /// Files being read (for include cycles).
     stack: Vec<PathBuf>,
@@ -120,6 +127,7 @@ impl<'d> Reader<'d> {
     fn new(defines: &[(String, String)], diag: &'d mut Diagnostics, files: bool) -> Self {
         Self {
             vars: defines.iter().cloned().collect(),
+            known: HashSet::new(),
             diag,
             stack: Vec::new(),
             legacy: false,
@@ -129,6 +137,27 @@ impl<'d> Reader<'d> {
             includes: 0,
             xml_bytes: 0,
         }
+    }
+
+    /// One warning per command-line definition (`-D NAME=VALUE`) of a name the scene neither
+    /// declares nor uses: it changes nothing, which is most likely a typo.
+    fn warn_unused_defines(
+        &mut self,
+        defines: &[(String, String)],
+        path: &Path,
+    ) -> Result<(), LoadError> {
+        for (name, _) in defines {
+            if !self.known.contains(name) {
+                self.diag.warn(
+                    Location::file(path),
+                    format!(
+                        "-D {name}=…: the scene has no parameter ${name} (no <default \
+                         name=\"{name}\"> and no use of ${name}); the definition is ignored"
+                    ),
+                )?;
+            }
+        }
+        Ok(())
     }
 
     fn read_file(&mut self, path: &Path, from: Option<Location>) -> Result<Element, LoadError> {
@@ -304,6 +333,7 @@ impl<'d> Reader<'d> {
                         )?;
                     }
                     // Command-line definitions and earlier defaults win.
+                    self.known.insert(name.clone());
                     self.vars.entry(name).or_insert(value);
                 }
                 "include" => {
@@ -371,6 +401,9 @@ impl<'d> Reader<'d> {
                 continue;
             }
             let name = &after[..len];
+            if !self.known.contains(name) {
+                self.known.insert(name.to_string());
+            }
             let value = self.vars.get(name).ok_or_else(|| {
                 LoadError::invalid(
                     at.clone(),
