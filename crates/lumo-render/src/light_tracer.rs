@@ -379,6 +379,12 @@ pub fn trace_light_path(
         // Arrival half of the adjoint shading-normal correction.
         throughput *= cos_ns_l / cos_ng_l;
         let wl_local = s.frame.to_local(wl);
+        // A one-sided BSDF lit from behind is black both ways (Mitsuba checks both directions
+        // against the front side): no connection, no continuation — as the path tracer ends
+        // a camera path at its back.
+        if wl_local.z <= 0.0 && rs.one_sided(s.material) {
+            break;
+        }
         if !bsdf.is_delta() {
             let off = |d: Vec3| rs.offset(&s, d);
             let seen = connect(rs, camera, s.p, ng, off, |wc| {
