@@ -10,6 +10,7 @@
 //! Every resource a client can make the server spend is bounded by [`Limits`]: connections,
 //! request time and size ([`conn`]), queued messages per viewer ([`outbox`]), message rate
 //! and render restarts ([`http`], [`hub`]); with no viewer connected the renderer pauses.
+#![forbid(unsafe_code)]
 
 pub mod assets;
 pub mod conn;
