@@ -70,9 +70,17 @@ pub struct RenderArgs {
 pub const MAX_SPP: u32 = 1 << 20;
 
 /// Working memory of `lumo render` per image pixel, in bytes: the frame's AOV planes, the
-/// pipeline's buffers and the output (measured: about 294 bytes at 4096x4096 with the
-/// default pipeline), rounded up. Used to refuse sizes that cannot fit before allocating.
-pub const RENDER_BYTES_PER_PIXEL: u64 = 320;
+/// pipeline's buffers and the output. Measured as peak RSS over a 1024x1024 render, less
+/// that of an 8x8 one: none 199, jbu 199, bilateral 210, atrous 306, guided 408 (at 4096x4096
+/// atrous: 294); rounded up. Used to refuse sizes that cannot fit before allocating.
+pub fn render_bytes_per_pixel(pipeline: Pipeline) -> u64 {
+    match pipeline {
+        Pipeline::None | Pipeline::Jbu => 220,
+        Pipeline::Bilateral => 230,
+        Pipeline::Atrous => 320,
+        Pipeline::Guided => 430,
+    }
+}
 
 /// Parses `WxH`.
 pub fn parse_size(s: &str) -> Result<(usize, usize), String> {
@@ -257,9 +265,13 @@ pub fn run(args: RenderArgs) -> Result<()> {
         );
     }
     args.pipeline.check()?;
+    let per_pixel = render_bytes_per_pixel(args.pipeline.pipeline);
     crate::cli_common::check_memory(
-        (width as u64 * height as u64).saturating_mul(RENDER_BYTES_PER_PIXEL),
-        &format!("a {width}x{height} render (about {RENDER_BYTES_PER_PIXEL} bytes per pixel)"),
+        (width as u64 * height as u64).saturating_mul(per_pixel),
+        &format!(
+            "a {width}x{height} render with --pipeline {} (about {per_pixel} bytes per pixel)",
+            args.pipeline.pipeline
+        ),
         "use a smaller --size",
     )?;
     let pool = crate::cli_common::worker_pool(args.threads)?;
