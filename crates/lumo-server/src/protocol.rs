@@ -579,7 +579,7 @@ pub mod client {
             /// Samples.
             samples: Vec<[f32; 6]>,
         },
-        /// Frame header fields: epoch, width, height, accumulated frames.
+        /// Frame header fields: epoch, width, height, mode, accumulated frames.
         Frame {
             /// Epoch.
             epoch: u32,
@@ -587,6 +587,8 @@ pub mod client {
             width: u16,
             /// Height.
             height: u16,
+            /// The filtered-frame mode that made it (the viewer labels frames by it).
+            mode: Mode,
             /// 1-spp frames averaged.
             frames: u32,
         },
@@ -683,7 +685,8 @@ pub mod client {
                 let epoch = r.u32()?;
                 let width = u16::from_le_bytes(r.take()?);
                 let height = u16::from_le_bytes(r.take()?);
-                r.take::<4>()?;
+                let mode = Mode::from_u8(r.u8()?).ok_or_else(|| bad("mode"))?;
+                r.take::<3>()?;
                 let frames = r.u32()?;
                 if r.0.len() != width as usize * height as usize * 8 {
                     return Err(bad("frame size"));
@@ -693,6 +696,7 @@ pub mod client {
                     epoch,
                     width,
                     height,
+                    mode,
                     frames,
                 }
             }
@@ -821,6 +825,7 @@ mod tests {
                 epoch: 6,
                 width: 2,
                 height: 1,
+                mode: Mode::Atrous,
                 frames: 8
             })
         );

@@ -1,0 +1,246 @@
+//! Golden byte files of every wire message (tests/data/protocol/), shared with the viewer's
+//! decoder: this test checks that the Rust encoder still writes exactly those bytes and that the
+//! Rust decoders read them back; `web/tests/protocol_golden.test.mjs` (plain node, run by
+//! `.ci/run`) decodes the same files with `web/protocol.js` and compares every field with the
+//! `.json` file beside each one, and encodes the client messages byte for byte. A change to
+//! the format on one side only fails one of the two.
+//!
+//! After an intended format change: `LUMO_BLESS=1 cargo test -p lumo-server --test
+//! protocol_golden` rewrites the files (then update docs/protocol.md and web/protocol.js).
+
+use std::path::PathBuf;
+
+use glam::Vec3;
+use lumo_server::protocol::client::{decode_server, ServerMessage};
+use lumo_server::protocol::{
+    begin_batch, decode_client, encode_camera, encode_error, encode_finish, encode_frame,
+    encode_hello, encode_params, encode_stats, push_sample, ClientMessage, ErrorCode, Finish,
+    Hello, Integrator, Mode, ProtocolError, Stats, Stream, WireCamera,
+};
+
+fn dir() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/protocol")
+}
+
+fn camera() -> WireCamera {
+    WireCamera {
+        origin: Vec3::new(0.0, 1.0, 3.5),
+        target: Vec3::new(0.0, 0.75, -0.5),
+        up: Vec3::Y,
+        fov: 39.25,
+    }
+}
+
+/// The camera as the viewer's decoder returns it.
+fn camera_json(c: &WireCamera) -> String {
+    let v = |v: Vec3| format!("[{}, {}, {}]", v.x, v.y, v.z);
+    format!(
+        r#"{{"origin": {}, "target": {}, "up": {}, "fov": {}}}"#,
+        v(c.origin),
+        v(c.target),
+        v(c.up),
+        c.fov
+    )
+}
+
+/// Compares `bytes` with the golden file `name.bin` (and `json` with `name.json`), or writes
+/// both when blessing.
+fn golden(name: &str, bytes: &[u8], json: &str) {
+    let (bin_path, json_path) = (
+        dir().join(format!("{name}.bin")),
+        dir().join(format!("{name}.json")),
+    );
+    let json = format!("{json}\n");
+    if std::env::var_os("LUMO_BLESS").is_some() {
+        std::fs::create_dir_all(dir()).unwrap();
+        std::fs::write(&bin_path, bytes).unwrap();
+        std::fs::write(&json_path, &json).unwrap();
+        return;
+    }
+    let stored = std::fs::read(&bin_path).unwrap_or_else(|e| {
+        panic!(
+            "{}: {e} (LUMO_BLESS=1 writes the golden files)",
+            bin_path.display()
+        )
+    });
+    assert_eq!(
+        stored,
+        bytes,
+        "{name}: the encoder no longer writes {}",
+        bin_path.display()
+    );
+    let stored_json = std::fs::read_to_string(&json_path).unwrap();
+    assert_eq!(stored_json, json, "{}", json_path.display());
+}
+
+#[test]
+fn server_messages_match_their_golden_files_and_decode() {
+    let hello = Hello {
+        width: 512,
+        height: 384,
+        triangles: 36,
+        threads: 2,
+        integrator: Integrator::Light,
+        mode: Mode::Guided,
+        epoch: 7,
+        camera: camera(),
+        name: "cornell".into(),
+    };
+    let bytes = encode_hello(&hello);
+    assert_eq!(
+        decode_server(&bytes),
+        Ok(ServerMessage::Hello(hello.clone()))
+    );
+    golden(
+        "hello",
+        &bytes,
+        &format!(
+            r#"{{"kind": 1, "width": 512, "height": 384, "triangles": 36, "threads": 2, "integrator": "light", "mode": "guided", "epoch": 7, "camera": {}, "name": "cornell"}}"#,
+            camera_json(&hello.camera)
+        ),
+    );
+
+    let bytes = encode_camera(9, &camera());
+    assert_eq!(
+        decode_server(&bytes),
+        Ok(ServerMessage::Camera(9, camera()))
+    );
+    golden(
+        "camera",
+        &bytes,
+        &format!(
+            r#"{{"kind": 2, "epoch": 9, "camera": {}}}"#,
+            camera_json(&camera())
+        ),
+    );
+
+    let bytes = encode_params(Integrator::Both, Mode::Atrous);
+    assert_eq!(
+        decode_server(&bytes),
+        Ok(ServerMessage::Params(Integrator::Both, Mode::Atrous))
+    );
+    golden(
+        "params",
+        &bytes,
+        r#"{"kind": 3, "integrator": "both", "mode": "atrous"}"#,
+    );
+
+    let mut bytes = begin_batch(11, Stream::Light, 2, 5);
+    push_sample(&mut bytes, [0.25, 0.75], [1.0, 0.5, 0.25, 1.0]);
+    push_sample(&mut bytes, [1.0, 0.0], [2.0, 3.0, 4.0, 0.5]);
+    match decode_server(&bytes) {
+        Ok(ServerMessage::Samples {
+            epoch: 11,
+            stream: Stream::Light,
+            light_paths: 5,
+            samples,
+        }) => assert_eq!(samples.len(), 2),
+        other => panic!("samples decoded as {other:?}"),
+    }
+    golden(
+        "samples",
+        &bytes,
+        r#"{"kind": 16, "epoch": 11, "stream": 1, "count": 2, "lightPaths": 5}"#,
+    );
+
+    let bytes = encode_frame(12, 2, 1, Mode::Guided, 30, &[0.5, 1.0, 2.0, 4.0, 8.0, 16.0]);
+    assert_eq!(
+        decode_server(&bytes),
+        Ok(ServerMessage::Frame {
+            epoch: 12,
+            width: 2,
+            height: 1,
+            mode: Mode::Guided,
+            frames: 30
+        })
+    );
+    golden(
+        "frame",
+        &bytes,
+        r#"{"kind": 17, "epoch": 12, "width": 2, "height": 1, "mode": "guided", "frames": 30}"#,
+    );
+
+    let stats = Stats {
+        epoch: 13,
+        viewers: 3,
+        samples: 5_000_000_000,
+        light_paths: 12345,
+        rate: 1.5e6,
+        dropped: 4,
+    };
+    let bytes = encode_stats(&stats);
+    assert_eq!(decode_server(&bytes), Ok(ServerMessage::Stats(stats)));
+    golden(
+        "stats",
+        &bytes,
+        r#"{"kind": 18, "epoch": 13, "viewers": 3, "samples": 5000000000, "lightPaths": 12345, "rate": 1500000, "dropped": 4}"#,
+    );
+
+    let finish = Finish {
+        epoch: 14,
+        aborted: true,
+        samples: 262144,
+        light_paths: 0,
+        seconds: 2.5,
+    };
+    let bytes = encode_finish(&finish);
+    assert_eq!(decode_server(&bytes), Ok(ServerMessage::Finish(finish)));
+    golden(
+        "finish",
+        &bytes,
+        r#"{"kind": 19, "epoch": 14, "aborted": true, "samples": 262144, "seconds": 2.5}"#,
+    );
+
+    let err = ProtocolError {
+        code: ErrorCode::InvalidValue,
+        message: "camera fov 0 is outside (0, 180)".into(),
+    };
+    let bytes = encode_error(&err);
+    assert_eq!(
+        decode_server(&bytes),
+        Ok(ServerMessage::Error(
+            4,
+            "camera fov 0 is outside (0, 180)".into()
+        ))
+    );
+    golden(
+        "error",
+        &bytes,
+        r#"{"kind": 127, "code": 4, "message": "camera fov 0 is outside (0, 180)"}"#,
+    );
+}
+
+#[test]
+fn client_messages_match_their_golden_files_and_decode() {
+    // A viewer's CAMERA: the header, 4 reserved bytes, then origin, target, up and fov as
+    // little-endian f32 (docs/protocol.md); the viewer's encodeCamera must write these bytes.
+    let c = camera();
+    let mut bytes = vec![0x02, 1, 0, 0, 0, 0, 0, 0];
+    for v in c
+        .origin
+        .to_array()
+        .into_iter()
+        .chain(c.target.to_array())
+        .chain(c.up.to_array())
+        .chain([c.fov])
+    {
+        bytes.extend_from_slice(&v.to_le_bytes());
+    }
+    assert_eq!(decode_client(&bytes), Ok(ClientMessage::Camera(c)));
+    golden("client_camera", &bytes, &camera_json(&c));
+
+    // PARAMS: the header, integrator, mode and 2 reserved bytes.
+    let bytes = vec![0x03, 1, 0, 0, 2, 1, 0, 0];
+    assert_eq!(
+        decode_client(&bytes),
+        Ok(ClientMessage::Params {
+            integrator: Integrator::Both,
+            mode: Mode::Atrous
+        })
+    );
+    golden(
+        "client_params",
+        &bytes,
+        r#"{"integrator": "both", "mode": "atrous"}"#,
+    );
+}
