@@ -13,6 +13,7 @@ use crate::lights::LightSample;
 use crate::render_scene::RenderScene;
 use crate::render_scene::Surface;
 use crate::sampler::PixelSampler;
+use crate::shading::ShadingBsdf;
 
 /// Integrator parameters.
 #[derive(Clone, Copy, Debug)]
@@ -101,7 +102,7 @@ struct Arrival {
     /// The surface hit.
     s: Surface,
     /// Its BSDF.
-    bsdf: Bsdf,
+    bsdf: ShadingBsdf,
     /// Direction back along the ray, in the shading frame.
     wo: Vec3,
 }
@@ -223,7 +224,7 @@ impl PathState {
         let s = rs.surface(&hit, self.origin, dir);
         let bsdf = rs.bsdf(&s);
         let le = rs.emission(&s, dir);
-        self.take_hit(rs, settings, &s, hit.t, &bsdf, le);
+        self.take_hit(rs, settings, &s, hit.t, &bsdf.bsdf, le);
         if depth >= settings.max_depth {
             return None;
         }

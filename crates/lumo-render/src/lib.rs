@@ -25,6 +25,7 @@ pub mod pipeline;
 mod render;
 mod render_scene;
 pub mod sampler;
+pub mod shading;
 mod simd_bounce;
 mod simd_level;
 pub mod wavefront;

@@ -5,9 +5,10 @@ use glam::{Mat3, Mat4, Vec2, Vec3};
 use lumo_scene::{Bsdf as SceneBsdf, Scene, SceneError, Texture};
 
 use crate::accel::{Accel, Hit};
-use crate::bsdf::{fresnel_diffuse_reflectance, Bsdf};
+use crate::bsdf::{fresnel_diffuse_reflectance, Bsdf, Microfacet, RoughCoat, SMOOTH_ALPHA};
 use crate::geometry::Frame;
 use crate::lights::Lights;
+use crate::shading::ShadingBsdf;
 
 /// Everything known about a ray's hit point.
 #[derive(Clone, Copy, Debug)]
@@ -50,11 +51,19 @@ pub struct RenderScene {
     pub accel: Accel,
     /// Light sampling.
     pub lights: Lights,
-    /// Internal diffuse Fresnel reflectance per material (plastics only; 0 otherwise).
+    /// Internal diffuse reflectance of the coat per material (plastics only; 0 otherwise).
     fdr_int: Vec<f32>,
+    /// Per material, Mitsuba's tabulated rough coat (rough plastics from Mitsuba scenes).
+    coats: Vec<Option<&'static RoughCoat>>,
+    /// Per material, whether its roughness is anisotropic: only then does the shading
+    /// frame's tangent matter, and only then is it built from ∂p/∂u as Mitsuba's is.
+    anisotropic: Vec<bool>,
     /// Per material, whether its back side is black (an opaque BSDF that is not two-sided:
     /// Mitsuba's plain BSDFs).
     one_sided: Vec<bool>,
+    /// Per material, whether the BSDF under its adapters is black from behind (as
+    /// `one_sided`, but also under a mask, whose straight-through lobe still lets light pass).
+    back_black: Vec<bool>,
     /// Per instance, what surface reconstruction needs of its transform, computed once
     /// rather than per hit.
     placements: Vec<InstancePlacement>,
@@ -89,18 +98,58 @@ impl RenderScene {
         scene.validate()?;
         let accel = Accel::build(&scene);
         let lights = Lights::new(&scene);
+        let coats: Vec<Option<&'static RoughCoat>> = scene
+            .materials
+            .iter()
+            .map(|m| match innermost(&m.bsdf) {
+                SceneBsdf::Plastic {
+                    ior,
+                    roughness,
+                    exact_rough_coat: true,
+                    ..
+                } => {
+                    let mf = microfacet(roughness);
+                    (mf.max_alpha() >= SMOOTH_ALPHA).then(|| RoughCoat::shared(mf, *ior))
+                }
+                _ => None,
+            })
+            .collect();
         let fdr_int = scene
             .materials
             .iter()
-            .map(|m| match m.bsdf {
-                SceneBsdf::Plastic { ior, .. } => fresnel_diffuse_reflectance(1.0 / ior),
+            .zip(&coats)
+            .map(|(m, coat)| match (innermost(&m.bsdf), coat) {
+                (SceneBsdf::Plastic { .. }, Some(c)) => c.internal_reflectance,
+                (SceneBsdf::Plastic { ior, .. }, None) => fresnel_diffuse_reflectance(1.0 / ior),
                 _ => 0.0,
+            })
+            .collect();
+        let anisotropic = scene
+            .materials
+            .iter()
+            .map(|m| match innermost(&m.bsdf) {
+                SceneBsdf::Conductor { roughness, .. }
+                | SceneBsdf::Plastic { roughness, .. }
+                | SceneBsdf::Dielectric { roughness, .. } => roughness.is_anisotropic(),
+                _ => false,
+            })
+            .collect();
+        let back_black: Vec<bool> = scene
+            .materials
+            .iter()
+            .map(|m| {
+                !m.two_sided
+                    && !matches!(
+                        innermost(&m.bsdf),
+                        SceneBsdf::Dielectric { .. } | SceneBsdf::ThinDielectric { .. }
+                    )
             })
             .collect();
         let one_sided = scene
             .materials
             .iter()
-            .map(|m| !m.two_sided && !matches!(m.bsdf, SceneBsdf::Dielectric { .. }))
+            .zip(&back_black)
+            .map(|(m, &black)| black && !has_mask(&m.bsdf))
             .collect();
         let placements = scene
             .instances
@@ -157,7 +206,10 @@ impl RenderScene {
             accel,
             lights,
             fdr_int,
+            coats,
+            anisotropic,
             one_sided,
+            back_black,
             placements,
             unit_normals,
         })
@@ -224,7 +276,7 @@ impl RenderScene {
         } else {
             mesh.colors[i0] * w + mesh.colors[i1] * u + mesh.colors[i2] * v
         };
-        Surface {
+        let mut surface = Surface {
             p,
             ng,
             frame: Frame::new(ns),
@@ -233,13 +285,151 @@ impl RenderScene {
             material: mesh.material,
             instance: hit.instance,
             triangle: hit.triangle,
+        };
+        if self.anisotropic[mesh.material] {
+            surface.frame = self.tangent_frame(&surface);
+        }
+        surface
+    }
+
+    /// Mitsuba's shading frame at `s`: the tangent is ∂p/∂u made perpendicular to the normal
+    /// and the bitangent n × tangent, which orients anisotropic roughness (α_u along ∂p/∂u).
+    /// Falls back to the normal-only frame where the uv map is degenerate.
+    fn tangent_frame(&self, s: &Surface) -> Frame {
+        let n = s.frame.n;
+        match self
+            .dp_duv(s)
+            .and_then(|(dp_du, _)| (dp_du - n * n.dot(dp_du)).try_normalize())
+        {
+            Some(t) => Frame {
+                s: t,
+                t: n.cross(t),
+                n,
+            },
+            None => s.frame,
         }
     }
 
-    /// The BSDF of `surface` with textures evaluated.
+    /// The BSDF of `surface` with textures evaluated and Mitsuba's adapters (normal and bump
+    /// maps, masks) applied.
     #[inline]
-    pub fn bsdf(&self, surface: &Surface) -> Bsdf {
-        match &self.scene.materials[surface.material].bsdf {
+    pub fn bsdf(&self, surface: &Surface) -> ShadingBsdf {
+        let material = &self.scene.materials[surface.material];
+        let mut b = &material.bsdf;
+        if !is_adapter(b) {
+            return self.base_bsdf(b, surface).into();
+        }
+        let (mut normal, mut opacity) = (None, 1.0f32);
+        // Adapters nest; masks multiply, and the outermost normal or bump map shapes the frame
+        // (a map under another map is not composed with it).
+        loop {
+            b = match b {
+                SceneBsdf::Mask { opacity: t, nested } => {
+                    opacity *= t.eval_1(surface.uv).clamp(0.0, 1.0);
+                    nested
+                }
+                SceneBsdf::NormalMap { normals, nested } => {
+                    if normal.is_none() {
+                        normal = Some(self.normal_mapped(surface, normals));
+                    }
+                    nested
+                }
+                SceneBsdf::BumpMap {
+                    height,
+                    scale,
+                    nested,
+                } => {
+                    if normal.is_none() {
+                        normal = Some(self.bump_mapped(surface, height, *scale));
+                    }
+                    nested
+                }
+                _ => break,
+            };
+        }
+        ShadingBsdf::new(
+            self.base_bsdf(b, surface),
+            normal.flatten(),
+            opacity,
+            self.back_black[surface.material],
+        )
+    }
+
+    /// World-space ∂p/∂u and ∂p/∂v of the triangle under `s` from its texture coordinates (as
+    /// Mitsuba's meshes; lumo's barycentric uv where the mesh has none); `None` where the uv
+    /// map is degenerate.
+    fn dp_duv(&self, s: &Surface) -> Option<(Vec3, Vec3)> {
+        let inst = &self.scene.instances[s.instance as usize];
+        let place = &self.placements[s.instance as usize];
+        let mesh = &self.scene.meshes[inst.mesh];
+        let idx = mesh.indices[s.triangle as usize].map(|i| i as usize);
+        let [p0, p1, p2] = idx.map(|i| mesh.positions[i]);
+        let (dp0, dp1) = (p1 - p0, p2 - p0);
+        let (duv0, duv1) = if mesh.uvs.is_empty() {
+            (Vec2::X, Vec2::Y)
+        } else {
+            let [t0, t1, t2] = idx.map(|i| mesh.uvs[i]);
+            (t1 - t0, t2 - t0)
+        };
+        let det = duv0.x * duv1.y - duv0.y * duv1.x;
+        if det == 0.0 || !det.is_finite() {
+            return None;
+        }
+        let dp_du = (dp0 * duv1.y - dp1 * duv0.y) / det;
+        let dp_dv = (dp1 * duv0.x - dp0 * duv1.x) / det;
+        Some(if place.identity {
+            (dp_du, dp_dv)
+        } else {
+            (
+                place.to_world.transform_vector3(dp_du),
+                place.to_world.transform_vector3(dp_dv),
+            )
+        })
+    }
+
+    /// The shading normal a tangent-space normal map gives `s`, in its shading frame: the
+    /// map's RGB in [0, 1] is (x, y, z) in [-1, 1] along the tangent (∂p/∂u made
+    /// perpendicular to the normal), the bitangent n × tangent and the normal, as Mitsuba 3
+    /// reads it. `None` for an exactly flat texel (no perturbation).
+    fn normal_mapped(&self, s: &Surface, normals: &Texture) -> Option<Vec3> {
+        let c = normals.eval(s.uv) * 2.0 - Vec3::ONE;
+        if c.x == 0.0 && c.y == 0.0 {
+            return None;
+        }
+        let n = s.frame.n;
+        let tangent = self
+            .dp_duv(s)
+            .and_then(|(dp_du, _)| (dp_du - n * n.dot(dp_du)).try_normalize())
+            .unwrap_or(s.frame.s);
+        let bitangent = n.cross(tangent);
+        let world = (tangent * c.x + bitangent * c.y + n * c.z).try_normalize()?;
+        s.frame.to_local(world).try_normalize()
+    }
+
+    /// The shading normal a height texture gives `s`, in its shading frame: the surface moved
+    /// along its normal by `scale`·height, differentiated along u and v (Mitsuba 3's
+    /// `bumpmap`), turned to the side of the geometric normal. `None` where the height is
+    /// flat.
+    fn bump_mapped(&self, s: &Surface, height: &Texture, scale: f32) -> Option<Vec3> {
+        let grad = height.eval_1_grad(s.uv) * scale;
+        if grad == Vec2::ZERO {
+            return None;
+        }
+        let (dp_du, dp_dv) = self.dp_duv(s)?;
+        let n = s.frame.n;
+        let du = dp_du + n * (grad.x - n.dot(dp_du));
+        let dv = dp_dv + n * (grad.y - n.dot(dp_dv));
+        let mut bumped = du.cross(dv).try_normalize()?;
+        if bumped.dot(s.ng) < 0.0 {
+            bumped = -bumped;
+        }
+        s.frame.to_local(bumped).try_normalize()
+    }
+
+    /// A scene BSDF without its adapters, with textures evaluated at `surface`.
+    #[inline]
+    fn base_bsdf(&self, bsdf: &SceneBsdf, surface: &Surface) -> Bsdf {
+        match bsdf {
             SceneBsdf::Diffuse { reflectance } => Bsdf::Diffuse {
                 albedo: texture(reflectance, surface.uv) * surface.color,
             },
@@ -249,22 +439,32 @@ impl RenderScene {
             SceneBsdf::Conductor { eta, k, roughness } => Bsdf::Conductor {
                 eta: *eta,
                 k: *k,
-                alpha: *roughness,
+                mf: microfacet(roughness),
             },
             SceneBsdf::Plastic {
                 diffuse,
                 ior,
                 roughness,
+                nonlinear,
+                ..
             } => Bsdf::Plastic {
                 diffuse: texture(diffuse, surface.uv) * surface.color,
                 eta: *ior,
-                alpha: *roughness,
+                mf: microfacet(roughness),
                 fdr_int: self.fdr_int[surface.material],
+                coat: self.coats[surface.material],
+                nonlinear: *nonlinear,
             },
             SceneBsdf::Dielectric { ior, roughness } => Bsdf::Dielectric {
                 eta: *ior,
-                alpha: *roughness,
+                mf: microfacet(roughness),
             },
+            SceneBsdf::ThinDielectric { ior } => Bsdf::ThinDielectric { eta: *ior },
+            // Adapters are unwrapped by `bsdf`; one reached here (nested in a way it does not
+            // unwrap) stands for the BSDF it wraps.
+            SceneBsdf::NormalMap { nested, .. }
+            | SceneBsdf::BumpMap { nested, .. }
+            | SceneBsdf::Mask { nested, .. } => self.base_bsdf(nested, surface),
         }
     }
 
@@ -291,6 +491,58 @@ impl RenderScene {
     pub fn offset(&self, s: &Surface, d: Vec3) -> Vec3 {
         let side = if s.ng.dot(d) >= 0.0 { 1.0 } else { -1.0 };
         s.p + s.ng * (side * self.ray_epsilon * (1.0 + s.p.abs().max_element()))
+    }
+}
+
+/// The render-side distribution of a scene roughness. Like Mitsuba, a rough surface keeps
+/// α ≥ 1e-4 on each axis (one axis at 0 would divide by zero); negative or NaN α is smooth.
+fn microfacet(r: &lumo_scene::Roughness) -> Microfacet {
+    let clean = |a: f32| if a.is_finite() { a.max(0.0) } else { 0.0 };
+    let (mut au, mut av) = (clean(r.alpha_u), clean(r.alpha_v));
+    if au.max(av) >= SMOOTH_ALPHA {
+        (au, av) = (au.max(1e-4), av.max(1e-4));
+    }
+    Microfacet {
+        distribution: r.distribution,
+        alpha_u: au,
+        alpha_v: av,
+    }
+}
+
+/// The BSDF under a material's adapters (normal and bump maps, masks).
+fn innermost(mut b: &SceneBsdf) -> &SceneBsdf {
+    while let Some(nested) = adapted(b) {
+        b = nested;
+    }
+    b
+}
+
+/// The BSDF an adapter wraps (`None` for a plain BSDF).
+fn adapted(b: &SceneBsdf) -> Option<&SceneBsdf> {
+    match b {
+        SceneBsdf::NormalMap { nested, .. }
+        | SceneBsdf::BumpMap { nested, .. }
+        | SceneBsdf::Mask { nested, .. } => Some(nested),
+        _ => None,
+    }
+}
+
+/// Whether `b` is an adapter.
+#[inline]
+fn is_adapter(b: &SceneBsdf) -> bool {
+    adapted(b).is_some()
+}
+
+/// Whether a mask is among the adapters of `b`.
+fn has_mask(mut b: &SceneBsdf) -> bool {
+    loop {
+        match b {
+            SceneBsdf::Mask { .. } => return true,
+            _ => match adapted(b) {
+                Some(nested) => b = nested,
+                None => return false,
+            },
+        }
     }
 }
 

@@ -2,7 +2,48 @@ use glam::Vec3;
 
 use crate::Texture;
 
-/// How a surface scatters light. Roughness values are GGX α (0 = perfectly smooth).
+/// A microfacet normal distribution (Mitsuba's `distribution` parameter).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Distribution {
+    /// Beckmann–Spizzichino: Gaussian slopes (Mitsuba's default).
+    Beckmann,
+    /// GGX (Trowbridge–Reitz): long-tailed slopes (lumo's built-in, glTF and OBJ materials).
+    Ggx,
+}
+
+/// The roughness of a microfacet surface: a distribution and its α along the shading
+/// tangent (u) and bitangent (v). α = 0 on both axes means perfectly smooth.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Roughness {
+    /// The normal distribution.
+    pub distribution: Distribution,
+    /// α along the tangent (Mitsuba's `alpha_u`, or `alpha`).
+    pub alpha_u: f32,
+    /// α along the bitangent (Mitsuba's `alpha_v`, or `alpha`).
+    pub alpha_v: f32,
+}
+
+impl Roughness {
+    /// Isotropic GGX of roughness α.
+    pub const fn ggx(alpha: f32) -> Self {
+        Self {
+            distribution: Distribution::Ggx,
+            alpha_u: alpha,
+            alpha_v: alpha,
+        }
+    }
+
+    /// A perfectly smooth surface.
+    pub const SMOOTH: Self = Self::ggx(0.0);
+
+    /// True when α differs between the two tangent directions (the shading frame's tangent
+    /// then matters).
+    pub fn is_anisotropic(&self) -> bool {
+        self.alpha_u != self.alpha_v
+    }
+}
+
+/// How a surface scatters light.
 #[derive(Clone, Debug)]
 pub enum Bsdf {
     /// Lambertian reflection.
@@ -15,14 +56,14 @@ pub enum Bsdf {
         /// Reflectance.
         reflectance: Vec3,
     },
-    /// A metal: GGX microfacets with the exact conductor Fresnel term (α = 0: smooth).
+    /// A metal: microfacets with the exact conductor Fresnel term (α = 0: smooth).
     Conductor {
         /// Real part of the complex index of refraction, per RGB channel.
         eta: Vec3,
         /// Imaginary part (absorption), per RGB channel.
         k: Vec3,
-        /// GGX α.
-        roughness: f32,
+        /// Microfacet distribution and α.
+        roughness: Roughness,
     },
     /// A diffuse base under a smooth or rough dielectric coat (Mitsuba's (rough)plastic).
     Plastic {
@@ -30,15 +71,56 @@ pub enum Bsdf {
         diffuse: Texture,
         /// Index of refraction of the coat.
         ior: f32,
-        /// GGX α of the coat.
-        roughness: f32,
+        /// Microfacet distribution and α of the coat (isotropic, as Mitsuba requires).
+        roughness: Roughness,
+        /// Mitsuba's `nonlinear`: the base's own colour also tints the light it re-reflects
+        /// inside the coat, saturating the colour (default false).
+        nonlinear: bool,
+        /// Mitsuba's rough coat: the diffuse layer sees the coat's transmittance and internal
+        /// reflectance integrated over its microfacets (tabulated when the scene is prepared).
+        /// False keeps the smooth coat's Fresnel terms at any roughness, as lumo's built-in,
+        /// glTF and OBJ materials do (cheaper to prepare; their images stay as they were).
+        exact_rough_coat: bool,
     },
     /// Glass: refraction and reflection at an interface (α = 0: smooth).
     Dielectric {
         /// Interior index of refraction over exterior.
         ior: f32,
-        /// GGX α.
-        roughness: f32,
+        /// Microfacet distribution and α.
+        roughness: Roughness,
+    },
+    /// A thin dielectric sheet (Mitsuba's `thindielectric`): specular reflection and
+    /// straight-through transmission, with the bounces inside the sheet summed.
+    ThinDielectric {
+        /// Index of refraction of the sheet over that of its surroundings.
+        ior: f32,
+    },
+    /// A BSDF whose shading normal is read from a tangent-space normal map (Mitsuba's
+    /// `normalmap`): RGB in [0, 1] encodes the normal (x, y, z) relative to the frame of the
+    /// tangent ∂p/∂u and the surface normal.
+    NormalMap {
+        /// The normal map (linear values, as Mitsuba's `raw` bitmap).
+        normals: Texture,
+        /// The BSDF seen under the perturbed normal.
+        nested: Box<Bsdf>,
+    },
+    /// A BSDF whose shading normal is tilted by the gradient of a height texture (Mitsuba's
+    /// `bumpmap`).
+    BumpMap {
+        /// Height, in uv units (its luminance for colour textures).
+        height: Texture,
+        /// Multiplier of the height (Mitsuba's `scale`).
+        scale: f32,
+        /// The BSDF seen under the perturbed normal.
+        nested: Box<Bsdf>,
+    },
+    /// An opacity cut-out (Mitsuba's `mask`): the nested BSDF with probability `opacity`,
+    /// otherwise the ray passes straight through.
+    Mask {
+        /// Opacity in [0, 1] (its luminance for colour textures).
+        opacity: Texture,
+        /// The BSDF of the opaque part.
+        nested: Box<Bsdf>,
     },
 }
 

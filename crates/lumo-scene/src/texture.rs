@@ -134,6 +134,53 @@ impl Texture {
         }
     }
 
+    /// The scalar value at `uv`: the luminance of the colour (a grey texture's own value), as
+    /// Mitsuba reads a colour texture where a number is expected.
+    pub fn eval_1(&self, uv: Vec2) -> f32 {
+        lumo_image::luminance(self.eval(uv).to_array())
+    }
+
+    /// Gradient (∂/∂u, ∂/∂v) of [`Texture::eval_1`] at `uv`, as Mitsuba's `eval_1_grad`: exact
+    /// for bilinear bitmaps, zero where the texture is piecewise constant (constant,
+    /// checkerboard, nearest-filtered bitmaps).
+    pub fn eval_1_grad(&self, uv: Vec2) -> Vec2 {
+        match self {
+            Texture::Constant(_) | Texture::Checkerboard { .. } => Vec2::ZERO,
+            Texture::Bitmap {
+                image,
+                uv_scale,
+                filter,
+                wrap,
+            } => {
+                if *filter == TextureFilter::Nearest {
+                    return Vec2::ZERO;
+                }
+                let (w, h) = (image.width, image.height);
+                let st = uv * *uv_scale;
+                // The same texel coordinates and weights as `eval`.
+                let (px, py) = (st.x * w as f32, (1.0 - st.y) * h as f32);
+                let (fx, fy) = (px - 0.5, py - 0.5);
+                let (x0, y0) = (fx.floor(), fy.floor());
+                let (tx, ty) = (fx - x0, fy - y0);
+                let texel = |x: f32, y: f32| {
+                    let (x, y) = (wrap.index(x as i64, w), wrap.index(y as i64, h));
+                    lumo_image::luminance(image.rgb(x, y))
+                };
+                let (f00, f10) = (texel(x0, y0), texel(x0 + 1.0, y0));
+                let (f01, f11) = (texel(x0, y0 + 1.0), texel(x0 + 1.0, y0 + 1.0));
+                let d_px = (1.0 - ty) * (f10 - f00) + ty * (f11 - f01);
+                let d_py = (1.0 - tx) * (f01 - f00) + tx * (f11 - f10);
+                // px grows with u; py falls as v grows (row 0 at v = 1).
+                Vec2::new(d_px * w as f32 * uv_scale.x, -d_py * h as f32 * uv_scale.y)
+            }
+            Texture::Transformed { texture, uv: m } => {
+                // Chain rule: the gradient pulled back through the affine map (its transpose).
+                let g = texture.eval_1_grad(m.transform_point2(uv));
+                m.matrix2.transpose() * g
+            }
+        }
+    }
+
     /// Mean value (exact for constant and checkerboard, pixel mean for bitmaps).
     pub fn average(&self) -> Vec3 {
         match self {
@@ -177,6 +224,42 @@ mod tests {
         // Clamped beyond the edges.
         assert_eq!(t.eval(Vec2::new(-3.0, 0.5)).x, 0.0);
         assert_eq!(t.eval(Vec2::new(7.0, 0.5)).x, 3.0);
+    }
+
+    #[test]
+    fn gradient_matches_finite_differences() {
+        // A 3×3 bitmap, varying along both axes, under a rotation and scale of uv.
+        let data = (0..9)
+            .flat_map(|i| [((i % 3) * (i / 3 + 1)) as f32 + 0.3 * (i / 3) as f32; 3])
+            .collect();
+        let bitmap = Texture::Bitmap {
+            image: Arc::new(Image::from_vec(3, 3, 3, data)),
+            uv_scale: Vec2::new(1.0, 2.0),
+            filter: TextureFilter::Bilinear,
+            wrap: WrapMode::Repeat,
+        };
+        let t = Texture::Transformed {
+            texture: Arc::new(bitmap),
+            uv: Affine2::from_angle(0.4) * Affine2::from_scale(Vec2::new(1.5, 0.7)),
+        };
+        for uv in [
+            Vec2::new(0.31, 0.17),
+            Vec2::new(0.62, 0.05),
+            Vec2::new(0.1, 0.4),
+        ] {
+            let h = 1e-3;
+            let du = (t.eval_1(uv + Vec2::X * h) - t.eval_1(uv - Vec2::X * h)) / (2.0 * h);
+            let dv = (t.eval_1(uv + Vec2::Y * h) - t.eval_1(uv - Vec2::Y * h)) / (2.0 * h);
+            let g = t.eval_1_grad(uv);
+            assert!(
+                (g - Vec2::new(du, dv)).length() < 0.02 * (1.0 + g.length()),
+                "{g} vs {du} {dv}"
+            );
+        }
+        assert_eq!(
+            Texture::Constant(Vec3::ONE).eval_1_grad(Vec2::ZERO),
+            Vec2::ZERO
+        );
     }
 
     #[test]

@@ -80,7 +80,7 @@ fn hierarchy_camera_lights_and_materials() {
     ));
     assert!(matches!(
         s.materials[s.meshes[1].material].bsdf,
-        Bsdf::Conductor { roughness, .. } if (roughness - 0.16).abs() < 1e-6
+        Bsdf::Conductor { roughness, .. } if (roughness.alpha_u - 0.16).abs() < 1e-6
     ));
     let rig = loaded.animation.as_ref().expect("rig");
     assert_eq!(rig.animations.len(), 1);

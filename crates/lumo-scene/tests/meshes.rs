@@ -157,7 +157,8 @@ fn obj_with_mtl() {
             ..
         } => {
             assert_eq!((image.width, image.height), (8, 8));
-            assert!((roughness - (2.0f32 / 202.0).sqrt()).abs() < 1e-6);
+            assert!((roughness.alpha_u - (2.0f32 / 202.0).sqrt()).abs() < 1e-6);
+            assert_eq!(roughness.alpha_u, roughness.alpha_v);
         }
         other => panic!("{other:?}"),
     }

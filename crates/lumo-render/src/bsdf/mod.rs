@@ -2,18 +2,20 @@
 //! viewer, `wi` towards the light; both unit vectors. Values returned by `eval` include the
 //! cosine factor |cos θi|, and sample weights are eval / pdf.
 
+mod coat;
 mod fresnel;
 mod microfacet;
 
+pub use coat::RoughCoat;
 pub use fresnel::{fresnel_conductor, fresnel_dielectric, fresnel_diffuse_reflectance};
-pub use microfacet::Ggx;
+pub use microfacet::{Distribution, Microfacet};
 
 use glam::{Vec2, Vec3};
 
 use crate::geometry::{cosine_hemisphere_pdf, reflect, square_to_cosine_hemisphere};
 
 /// Roughness below which a microfacet BSDF is treated as perfectly smooth.
-const SMOOTH_ALPHA: f32 = 1e-3;
+pub const SMOOTH_ALPHA: f32 = 1e-3;
 
 /// A BSDF with its textures resolved at one surface point.
 #[derive(Clone, Copy, Debug)]
@@ -28,14 +30,14 @@ pub enum Bsdf {
         /// Reflectance.
         reflectance: Vec3,
     },
-    /// GGX conductor (α < 1e-3: smooth).
+    /// Microfacet conductor (α < 1e-3 on both axes: smooth).
     Conductor {
         /// Real index.
         eta: Vec3,
         /// Absorption.
         k: Vec3,
-        /// GGX α.
-        alpha: f32,
+        /// Microfacet distribution.
+        mf: Microfacet,
     },
     /// Diffuse base under a dielectric coat (Mitsuba's (rough)plastic, linear mode).
     Plastic {
@@ -43,17 +45,29 @@ pub enum Bsdf {
         diffuse: Vec3,
         /// Coat index.
         eta: f32,
-        /// GGX α of the coat.
-        alpha: f32,
-        /// Internal diffuse Fresnel reflectance of the coat, precomputed.
+        /// Microfacet distribution of the coat (α < 1e-3: smooth).
+        mf: Microfacet,
+        /// Internal diffuse reflectance of the coat, precomputed: of the smooth coat, or of
+        /// the rough one when `coat` is given.
         fdr_int: f32,
+        /// Mitsuba's rough coat (transmittance table); `None` uses the smooth coat's Fresnel
+        /// terms for the diffuse layer whatever the roughness.
+        coat: Option<&'static RoughCoat>,
+        /// Mitsuba's `nonlinear`: divide by 1 − diffuse·fdr_int instead of 1 − fdr_int.
+        nonlinear: bool,
     },
-    /// Dielectric interface (α < 1e-3: smooth).
+    /// Dielectric interface (α < 1e-3 on both axes: smooth).
     Dielectric {
         /// Relative index inside / outside.
         eta: f32,
-        /// GGX α.
-        alpha: f32,
+        /// Microfacet distribution.
+        mf: Microfacet,
+    },
+    /// Thin dielectric sheet (Mitsuba's `thindielectric`): delta reflection and straight-through
+    /// transmission, with the internal bounces summed.
+    ThinDielectric {
+        /// Relative index of the sheet.
+        eta: f32,
     },
 }
 
@@ -87,14 +101,16 @@ impl Bsdf {
     pub fn is_delta(&self) -> bool {
         match *self {
             Bsdf::Diffuse { .. } | Bsdf::Plastic { .. } => false,
-            Bsdf::Mirror { .. } => true,
-            Bsdf::Conductor { alpha, .. } | Bsdf::Dielectric { alpha, .. } => alpha < SMOOTH_ALPHA,
+            Bsdf::Mirror { .. } | Bsdf::ThinDielectric { .. } => true,
+            Bsdf::Conductor { mf, .. } | Bsdf::Dielectric { mf, .. } => {
+                mf.max_alpha() < SMOOTH_ALPHA
+            }
         }
     }
 
     /// Transmissive BSDFs see both sides as different media; opaque ones are two-sided.
     fn is_transmissive(&self) -> bool {
-        matches!(self, Bsdf::Dielectric { .. })
+        matches!(self, Bsdf::Dielectric { .. } | Bsdf::ThinDielectric { .. })
     }
 
     /// The G-buffer "albedo": diffuse reflectance, or the specular albedo at normal incidence.
@@ -104,7 +120,7 @@ impl Bsdf {
             Bsdf::Mirror { reflectance } => reflectance,
             Bsdf::Conductor { eta, k, .. } => conductor_fresnel(1.0, eta, k),
             Bsdf::Plastic { diffuse, .. } => diffuse,
-            Bsdf::Dielectric { .. } => Vec3::ONE,
+            Bsdf::Dielectric { .. } | Bsdf::ThinDielectric { .. } => Vec3::ONE,
         }
     }
 
@@ -128,42 +144,55 @@ impl Bsdf {
                 }
                 albedo * cosine_hemisphere_pdf(wi)
             }
-            Bsdf::Mirror { .. } => Vec3::ZERO,
-            Bsdf::Conductor { eta, k, alpha } => {
-                if alpha < SMOOTH_ALPHA || wo.z <= 0.0 || wi.z <= 0.0 {
+            Bsdf::Mirror { .. } | Bsdf::ThinDielectric { .. } => Vec3::ZERO,
+            Bsdf::Conductor { eta, k, mf } => {
+                if mf.max_alpha() < SMOOTH_ALPHA || wo.z <= 0.0 || wi.z <= 0.0 {
                     return Vec3::ZERO;
                 }
                 let m = (wo + wi).normalize();
-                let g = Ggx { alpha };
+                let g = mf;
                 let f = conductor_fresnel(wo.dot(m), eta, k);
                 f * (g.d(m) * g.g1(wo, m) * g.g1(wi, m) / (4.0 * wo.z))
             }
             Bsdf::Plastic {
                 diffuse,
                 eta,
-                alpha,
+                mf,
                 fdr_int,
+                coat,
+                nonlinear,
             } => {
                 if wo.z <= 0.0 || wi.z <= 0.0 {
                     return Vec3::ZERO;
                 }
-                let f_o = fresnel_dielectric(wo.z, eta).0;
-                let f_i = fresnel_dielectric(wi.z, eta).0;
-                let mut value = diffuse / (1.0 - fdr_int)
-                    * (cosine_hemisphere_pdf(wi) / (eta * eta) * (1.0 - f_i) * (1.0 - f_o));
-                if alpha >= SMOOTH_ALPHA {
+                // Transmittances into the coat towards the viewer and the light.
+                let (t_o, t_i) = match coat {
+                    Some(c) => (c.transmittance(wo.z), c.transmittance(wi.z)),
+                    None => (
+                        1.0 - fresnel_dielectric(wo.z, eta).0,
+                        1.0 - fresnel_dielectric(wi.z, eta).0,
+                    ),
+                };
+                let internal = if nonlinear {
+                    Vec3::ONE - diffuse * fdr_int
+                } else {
+                    Vec3::splat(1.0 - fdr_int)
+                };
+                let mut value =
+                    diffuse / internal * (cosine_hemisphere_pdf(wi) / (eta * eta) * t_i * t_o);
+                if mf.max_alpha() >= SMOOTH_ALPHA {
                     let m = (wo + wi).normalize();
-                    let g = Ggx { alpha };
+                    let g = mf;
                     let f = fresnel_dielectric(wo.dot(m), eta).0;
                     value += Vec3::splat(f * g.d(m) * g.g1(wo, m) * g.g1(wi, m) / (4.0 * wo.z));
                 }
                 value
             }
-            Bsdf::Dielectric { eta, alpha } => {
-                if alpha < SMOOTH_ALPHA || wo.z == 0.0 || wi.z == 0.0 {
+            Bsdf::Dielectric { eta, mf } => {
+                if mf.max_alpha() < SMOOTH_ALPHA || wo.z == 0.0 || wi.z == 0.0 {
                     return Vec3::ZERO;
                 }
-                Vec3::splat(rough_dielectric(wo, wi, eta, alpha).0)
+                Vec3::splat(rough_dielectric(wo, wi, eta, mf).0)
             }
         }
     }
@@ -179,36 +208,37 @@ impl Bsdf {
                     cosine_hemisphere_pdf(wi)
                 }
             }
-            Bsdf::Mirror { .. } => 0.0,
-            Bsdf::Conductor { alpha, .. } => {
-                if alpha < SMOOTH_ALPHA || wo.z <= 0.0 || wi.z <= 0.0 {
+            Bsdf::Mirror { .. } | Bsdf::ThinDielectric { .. } => 0.0,
+            Bsdf::Conductor { mf, .. } => {
+                if mf.max_alpha() < SMOOTH_ALPHA || wo.z <= 0.0 || wi.z <= 0.0 {
                     return 0.0;
                 }
                 let m = (wo + wi).normalize();
-                Ggx { alpha }.pdf_visible(wo, m) / (4.0 * wo.dot(m))
+                mf.pdf_visible(wo, m) / (4.0 * wo.dot(m))
             }
             Bsdf::Plastic {
                 diffuse,
                 eta,
-                alpha,
+                mf,
+                coat,
                 ..
             } => {
                 if wo.z <= 0.0 || wi.z <= 0.0 {
                     return 0.0;
                 }
-                let p_spec = plastic_specular_probability(wo.z, eta, diffuse);
+                let p_spec = plastic_specular_probability(wo.z, eta, diffuse, coat);
                 let mut pdf = (1.0 - p_spec) * cosine_hemisphere_pdf(wi);
-                if alpha >= SMOOTH_ALPHA {
+                if mf.max_alpha() >= SMOOTH_ALPHA {
                     let m = (wo + wi).normalize();
-                    pdf += p_spec * Ggx { alpha }.pdf_visible(wo, m) / (4.0 * wo.dot(m));
+                    pdf += p_spec * mf.pdf_visible(wo, m) / (4.0 * wo.dot(m));
                 }
                 pdf
             }
-            Bsdf::Dielectric { eta, alpha } => {
-                if alpha < SMOOTH_ALPHA || wo.z == 0.0 || wi.z == 0.0 {
+            Bsdf::Dielectric { eta, mf } => {
+                if mf.max_alpha() < SMOOTH_ALPHA || wo.z == 0.0 || wi.z == 0.0 {
                     return 0.0;
                 }
-                rough_dielectric(wo, wi, eta, alpha).1
+                rough_dielectric(wo, wi, eta, mf).1
             }
         }
     }
@@ -247,11 +277,25 @@ impl Bsdf {
                 })
             }
             Bsdf::Mirror { reflectance } => Some(mirror(reflectance, 1.0)),
-            Bsdf::Conductor { eta, k, alpha } => {
-                if alpha < SMOOTH_ALPHA {
+            Bsdf::ThinDielectric { eta } => {
+                let r = thin_dielectric_reflectance(wo.z.abs(), eta);
+                if u_lobe < r {
+                    return Some(mirror(Vec3::ONE, r));
+                }
+                // Straight through: the sheet's two refractions cancel.
+                Some(BsdfSample {
+                    wi: -wo,
+                    weight: Vec3::ONE,
+                    pdf: 1.0 - r,
+                    delta: true,
+                    eta: 1.0,
+                })
+            }
+            Bsdf::Conductor { eta, k, mf } => {
+                if mf.max_alpha() < SMOOTH_ALPHA {
                     return Some(mirror(conductor_fresnel(wo.z, eta, k), 1.0));
                 }
-                let g = Ggx { alpha };
+                let g = mf;
                 let m = g.sample_visible(wo, u);
                 let wi = reflect(wo, m);
                 if wi.z <= 0.0 {
@@ -268,11 +312,12 @@ impl Bsdf {
             Bsdf::Plastic {
                 diffuse,
                 eta,
-                alpha,
+                mf,
+                coat,
                 ..
             } => {
-                let p_spec = plastic_specular_probability(wo.z, eta, diffuse);
-                if alpha < SMOOTH_ALPHA {
+                let p_spec = plastic_specular_probability(wo.z, eta, diffuse, coat);
+                if mf.max_alpha() < SMOOTH_ALPHA {
                     if u_lobe < p_spec {
                         let f = fresnel_dielectric(wo.z, eta).0;
                         return Some(mirror(Vec3::splat(f / p_spec), p_spec));
@@ -289,7 +334,7 @@ impl Bsdf {
                     });
                 }
                 let wi = if u_lobe < p_spec {
-                    reflect(wo, Ggx { alpha }.sample_visible(wo, u))
+                    reflect(wo, mf.sample_visible(wo, u))
                 } else {
                     square_to_cosine_hemisphere(u)
                 };
@@ -305,8 +350,8 @@ impl Bsdf {
                     eta: 1.0,
                 })
             }
-            Bsdf::Dielectric { eta, alpha } => {
-                if alpha < SMOOTH_ALPHA {
+            Bsdf::Dielectric { eta, mf } => {
+                if mf.max_alpha() < SMOOTH_ALPHA {
                     let (f, cos_t, _, eta_ti) = fresnel_dielectric(wo.z, eta);
                     if u_lobe < f {
                         return Some(mirror(Vec3::ONE, f));
@@ -319,7 +364,7 @@ impl Bsdf {
                         eta: 1.0 / eta_ti,
                     });
                 }
-                let g = Ggx { alpha };
+                let g = mf;
                 // Sample in the frame where wo is above; the microfacet normal stays in the
                 // upper hemisphere so the signed cosine tells Fresnel which side wo is on.
                 let side = wo.z.signum();
@@ -334,7 +379,7 @@ impl Bsdf {
                 if (wi.z * wo.z > 0.0) != (u_lobe < f) {
                     return None;
                 }
-                let (value, pdf) = rough_dielectric(wo, wi, eta, alpha);
+                let (value, pdf) = rough_dielectric(wo, wi, eta, mf);
                 if pdf <= 0.0 {
                     return None;
                 }
@@ -350,10 +395,28 @@ impl Bsdf {
     }
 }
 
-/// Probability of sampling the coat of a plastic rather than its base.
+/// Reflectance of a thin dielectric sheet at incidence cosine `cos` (either side): the Fresnel
+/// reflectance R of one interface with every path bouncing inside the sheet summed,
+/// R + T²R(1 + R² + R⁴ + …) = R + T²R / (1 − R²) = 2R / (1 + R) with T = 1 − R; the rest
+/// (1 − that) is transmitted. Mitsuba 3's `thindielectric`.
+pub fn thin_dielectric_reflectance(cos: f32, eta: f32) -> f32 {
+    let r = fresnel_dielectric(cos, eta).0;
+    2.0 * r / (1.0 + r)
+}
+
+/// Probability of sampling the coat of a plastic rather than its base: the coat's
+/// reflectance (one minus its transmittance) against the base's, as Mitsuba weighs them.
 #[inline]
-fn plastic_specular_probability(cos_o: f32, eta: f32, diffuse: Vec3) -> f32 {
-    let f = fresnel_dielectric(cos_o, eta).0;
+fn plastic_specular_probability(
+    cos_o: f32,
+    eta: f32,
+    diffuse: Vec3,
+    coat: Option<&RoughCoat>,
+) -> f32 {
+    let f = match coat {
+        Some(c) => 1.0 - c.transmittance(cos_o),
+        None => fresnel_dielectric(cos_o, eta).0,
+    };
     let d_mean = (diffuse.x + diffuse.y + diffuse.z) / 3.0;
     let s_weight = 1.0 / (1.0 + d_mean);
     let (ps, pd) = (f * s_weight, (1.0 - f) * (1.0 - s_weight));
@@ -365,8 +428,7 @@ fn plastic_specular_probability(cos_o: f32, eta: f32, diffuse: Vec3) -> f32 {
 }
 
 /// Rough dielectric (Walter et al. 2007) value f·|cos θi| and sampling density.
-fn rough_dielectric(wo: Vec3, wi: Vec3, eta: f32, alpha: f32) -> (f32, f32) {
-    let g = Ggx { alpha };
+fn rough_dielectric(wo: Vec3, wi: Vec3, eta: f32, g: Microfacet) -> (f32, f32) {
     let reflect = wo.z * wi.z > 0.0;
     let eta_rel = if wo.z > 0.0 { eta } else { 1.0 / eta };
     let mut m = if reflect {

@@ -46,7 +46,8 @@ use glam::{Mat4, Vec2, Vec3};
 
 use crate::shapes::{aabox, cylinder, sphere};
 use crate::{
-    Bsdf, Camera, FovAxis, Instance, Light, Material, Mesh, RenderDefaults, Scene, Texture,
+    Bsdf, Camera, FovAxis, Instance, Light, Material, Mesh, RenderDefaults, Roughness, Scene,
+    Texture,
 };
 
 // ---- Layout (metres) --------------------------------------------------------------------
@@ -455,7 +456,9 @@ pub(crate) fn atrium() -> Scene {
         bsdf: Bsdf::Plastic {
             diffuse: Texture::Constant(Vec3::new(0.10, 0.22, 0.16)),
             ior: 1.5,
-            roughness: 0.15,
+            roughness: Roughness::ggx(0.15),
+            nonlinear: false,
+            exact_rough_coat: false,
         },
         emission: Vec3::ZERO,
         two_sided: true,
@@ -465,7 +468,7 @@ pub(crate) fn atrium() -> Scene {
         bsdf: Bsdf::Conductor {
             eta: Vec3::new(0.143, 0.374, 1.442),
             k: Vec3::new(3.983, 2.385, 1.603),
-            roughness: 0.3,
+            roughness: Roughness::ggx(0.3),
         },
         emission: Vec3::ZERO,
         two_sided: true,

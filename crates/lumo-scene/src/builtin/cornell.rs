@@ -4,7 +4,7 @@
 use glam::{Mat4, Vec3};
 
 use crate::shapes::{cube, rectangle, sphere};
-use crate::{Bsdf, Camera, FovAxis, Material, RenderDefaults, Scene, Texture};
+use crate::{Bsdf, Camera, FovAxis, Material, RenderDefaults, Roughness, Scene, Texture};
 
 fn deg(a: f32) -> f32 {
     a.to_radians()
@@ -119,7 +119,7 @@ pub(crate) fn cornell_spheres() -> Scene {
             // Au at R, G, B (650, 550, 450 nm), Johnson & Christy.
             eta: Vec3::new(0.143, 0.374, 1.442),
             k: Vec3::new(3.983, 2.385, 1.603),
-            roughness: 0.15,
+            roughness: Roughness::ggx(0.15),
         },
         emission: Vec3::ZERO,
         two_sided: true,
@@ -128,7 +128,7 @@ pub(crate) fn cornell_spheres() -> Scene {
         name: "glass".into(),
         bsdf: Bsdf::Dielectric {
             ior: 1.5,
-            roughness: 0.0,
+            roughness: Roughness::SMOOTH,
         },
         emission: Vec3::ZERO,
         two_sided: true,

@@ -21,7 +21,8 @@ use crate::animation::{
     NodeItem,
 };
 use crate::{
-    Bsdf, Camera, FovAxis, Instance, Light, Material, Mesh, Scene, Texture, TextureFilter, WrapMode,
+    Bsdf, Camera, FovAxis, Instance, Light, Material, Mesh, Roughness, Scene, Texture,
+    TextureFilter, WrapMode,
 };
 
 /// Extensions lumo reads; a file that requires any other one is refused.
@@ -624,7 +625,7 @@ impl GltfReader<'_, '_> {
             Bsdf::Conductor {
                 eta,
                 k,
-                roughness: alpha,
+                roughness: Roughness::ggx(alpha),
             }
         } else {
             if metallic > 0.0 {
@@ -637,7 +638,9 @@ impl GltfReader<'_, '_> {
             Bsdf::Plastic {
                 diffuse: base,
                 ior: 1.5,
-                roughness: alpha,
+                roughness: Roughness::ggx(alpha),
+                nonlinear: false,
+                exact_rough_coat: false,
             }
         };
         let name = mat.name().map_or(label, str::to_string);

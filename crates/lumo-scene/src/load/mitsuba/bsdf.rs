@@ -8,7 +8,7 @@ use super::props::Props;
 use super::xml::Element;
 use super::{presets, Builder};
 use crate::load::LoadError;
-use crate::{Bsdf, Texture, TextureFilter, WrapMode};
+use crate::{Bsdf, Distribution, Roughness, Texture, TextureFilter, WrapMode};
 
 /// Mitsuba's default exterior medium (air) for `int_ior / ext_ior`.
 const AIR: f32 = 1.00028;
@@ -58,8 +58,9 @@ impl<'a> Builder<'a, '_> {
             "diffuse" => Bsdf::Diffuse {
                 reflectance: self.texture_param(props, "reflectance", Vec3::splat(0.5))?,
             },
+            "normalmap" | "bumpmap" | "mask" => self.wrapper(props)?,
             // lumo's opaque BSDFs already reflect on both sides.
-            "twosided" | "mask" | "bumpmap" | "normalmap" | "blendbsdf" => {
+            "twosided" | "blendbsdf" => {
                 if kind != "twosided" {
                     self.diag.warn(
                         at.clone(),
@@ -108,47 +109,50 @@ impl<'a> Builder<'a, '_> {
                 };
                 self.unit_scale(props, "specular_reflectance")?;
                 let roughness = if kind == "roughconductor" {
-                    self.alpha(props)?
+                    self.roughness(props)?
                 } else {
-                    0.0
+                    Roughness::SMOOTH
                 };
                 Bsdf::Conductor { eta, k, roughness }
             }
             "plastic" | "roughplastic" => {
                 let ior = self.ior(props)?;
                 self.unit_scale(props, "specular_reflectance")?;
-                if props.bool("nonlinear", false)? {
-                    self.diag.warn(
-                        at,
-                        "plastic nonlinear=true is not modelled; rendering the linear variant",
-                    )?;
-                }
+                let nonlinear = props.bool("nonlinear", false)?;
                 let roughness = if kind == "roughplastic" {
-                    self.alpha(props)?
+                    self.roughness(props)?
                 } else {
-                    0.0
+                    Roughness::SMOOTH
                 };
+                if roughness.is_anisotropic() {
+                    // Mitsuba refuses this too (its coat tables are one-dimensional).
+                    return Err(LoadError::invalid(
+                        at,
+                        "roughplastic does not support anisotropic roughness (alpha_u != alpha_v)",
+                    ));
+                }
                 Bsdf::Plastic {
                     diffuse: self.texture_param(props, "diffuse_reflectance", Vec3::splat(0.5))?,
                     ior,
                     roughness,
+                    nonlinear,
+                    exact_rough_coat: true,
                 }
             }
-            "dielectric" | "roughdielectric" | "thindielectric" => {
+            "thindielectric" => {
                 let ior = self.ior(props)?;
                 self.unit_scale(props, "specular_reflectance")?;
                 self.unit_scale(props, "specular_transmittance")?;
-                if kind == "thindielectric" {
-                    self.diag.warn(
-                        at,
-                        "thindielectric is rendered as a solid dielectric interface (lumo has \
-                         no thin-sheet BSDF); close the sheet into a slab for correct refraction",
-                    )?;
-                }
+                Bsdf::ThinDielectric { ior }
+            }
+            "dielectric" | "roughdielectric" => {
+                let ior = self.ior(props)?;
+                self.unit_scale(props, "specular_reflectance")?;
+                self.unit_scale(props, "specular_transmittance")?;
                 let roughness = if kind == "roughdielectric" {
-                    self.alpha(props)?
+                    self.roughness(props)?
                 } else {
-                    0.0
+                    Roughness::SMOOTH
                 };
                 Bsdf::Dielectric { ior, roughness }
             }
@@ -164,6 +168,84 @@ impl<'a> Builder<'a, '_> {
                 }
             }
         })
+    }
+
+    /// `normalmap`, `bumpmap` and `mask`: a texture and exactly one nested BSDF.
+    fn wrapper(&mut self, props: &Props<'a>) -> Result<Bsdf, LoadError> {
+        let kind = props.kind();
+        let at = props.el.at();
+        let mut nested = None;
+        let mut texture = None;
+        for (i, c) in props.nested() {
+            let r = self.resolve(c)?;
+            if r.tag == "bsdf" {
+                props.mark(i);
+                if nested.is_some() {
+                    return Err(LoadError::invalid(
+                        r.at(),
+                        format!("bsdf {kind:?} takes exactly one nested <bsdf>"),
+                    ));
+                }
+                nested = Some(Box::new(self.bsdf(r)?.1));
+            } else if r.tag == "texture" && kind == "bumpmap" {
+                // The height texture may have any name (Mitsuba takes the one nested texture).
+                props.mark(i);
+                if texture.is_none() {
+                    texture = Some(self.texture(r)?);
+                }
+            }
+        }
+        let nested = nested.ok_or_else(|| {
+            LoadError::invalid(at.clone(), format!("bsdf {kind:?} needs a nested <bsdf>"))
+        })?;
+        Ok(match kind {
+            "normalmap" => {
+                if !props.has("normalmap") {
+                    return Err(LoadError::invalid(
+                        at,
+                        "normalmap needs a <texture name=\"normalmap\">",
+                    ));
+                }
+                self.default_on_flags(props)?;
+                Bsdf::NormalMap {
+                    normals: self.texture_param(props, "normalmap", Vec3::new(0.5, 0.5, 1.0))?,
+                    nested,
+                }
+            }
+            "bumpmap" => {
+                self.default_on_flags(props)?;
+                let height = texture.ok_or_else(|| {
+                    LoadError::invalid(at.clone(), "bumpmap needs a nested height <texture>")
+                })?;
+                let scale = props.float("scale", 1.0)?;
+                if !scale.is_finite() {
+                    return Err(LoadError::invalid(at, "bumpmap scale is not finite"));
+                }
+                Bsdf::BumpMap {
+                    height,
+                    scale,
+                    nested,
+                }
+            }
+            _ => Bsdf::Mask {
+                opacity: self.texture_param(props, "opacity", Vec3::splat(0.5))?,
+                nested,
+            },
+        })
+    }
+
+    /// Mitsuba's `flip_invalid_normals` and `use_shadowing_function` of normal and bump maps:
+    /// lumo implements them on (Mitsuba's default) and warns when a file turns them off.
+    fn default_on_flags(&mut self, props: &Props<'a>) -> Result<(), LoadError> {
+        for flag in ["flip_invalid_normals", "use_shadowing_function"] {
+            if !props.bool(flag, true)? {
+                self.diag.warn(
+                    props.el.at(),
+                    format!("{flag} = false is not supported; lumo renders it as true"),
+                )?;
+            }
+        }
+        Ok(())
     }
 
     /// `principled` mapped to the closest lumo BSDF, naming what is lost.
@@ -192,20 +274,22 @@ impl<'a> Builder<'a, '_> {
             lost.push("base_color (glass is clear)");
             Bsdf::Dielectric {
                 ior: eta,
-                roughness: alpha,
+                roughness: Roughness::ggx(alpha),
             }
         } else if metallic >= 0.5 {
             let (eta, k) = crate::load::materials::metal_from_reflectance(base.average());
             Bsdf::Conductor {
                 eta,
                 k,
-                roughness: alpha,
+                roughness: Roughness::ggx(alpha),
             }
         } else {
             Bsdf::Plastic {
                 diffuse: base,
                 ior: eta,
-                roughness: alpha,
+                roughness: Roughness::ggx(alpha),
+                nonlinear: false,
+                exact_rough_coat: false,
             }
         };
         let what = match bsdf {
@@ -227,34 +311,44 @@ impl<'a> Builder<'a, '_> {
     }
 
     /// GGX α from `alpha` (or `alpha_u`/`alpha_v`), warning about Beckmann and anisotropy.
-    fn alpha(&mut self, props: &Props<'a>) -> Result<f32, LoadError> {
+    fn roughness(&mut self, props: &Props<'a>) -> Result<Roughness, LoadError> {
         let at = props.el.at();
-        let distribution = props.string("distribution")?;
-        if distribution.as_deref() != Some("ggx") {
-            self.diag.warn(
-                at.clone(),
-                format!(
-                    "microfacet distribution {} is rendered as GGX with the same alpha (add \
-                     <string name=\"distribution\" value=\"ggx\"/> to match exactly)",
-                    distribution
-                        .as_deref()
-                        .unwrap_or("beckmann (Mitsuba's default)")
-                ),
-            )?;
-        }
+        // Mitsuba's default is Beckmann; the name is case-insensitive there.
+        let distribution = match props.string("distribution")? {
+            None => Distribution::Beckmann,
+            Some(d) => match d.to_ascii_lowercase().as_str() {
+                "beckmann" => Distribution::Beckmann,
+                "ggx" => Distribution::Ggx,
+                _ => {
+                    return Err(LoadError::invalid(
+                        at,
+                        format!("unknown microfacet distribution {d:?}; use beckmann or ggx"),
+                    ))
+                }
+            },
+        };
+        // Visible-normal sampling is all lumo does; it changes only the noise.
         props.accept(&["sample_visible"]);
-        if props.has("alpha_u") || props.has("alpha_v") {
-            let u = self.scalar_param(props, "alpha_u", 0.1)?;
-            let v = self.scalar_param(props, "alpha_v", 0.1)?;
-            if u != v {
-                self.diag.warn(
+        let (alpha_u, alpha_v) = if props.has("alpha_u") || props.has("alpha_v") {
+            if props.has("alpha") || !(props.has("alpha_u") && props.has("alpha_v")) {
+                return Err(LoadError::invalid(
                     at,
-                    format!("anisotropic roughness ({u}, {v}) approximated by its mean"),
-                )?;
+                    "give either alpha or both alpha_u and alpha_v (as Mitsuba requires)",
+                ));
             }
-            return Ok(0.5 * (u + v));
-        }
-        self.scalar_param(props, "alpha", 0.1)
+            (
+                self.scalar_param(props, "alpha_u", 0.1)?,
+                self.scalar_param(props, "alpha_v", 0.1)?,
+            )
+        } else {
+            let a = self.scalar_param(props, "alpha", 0.1)?;
+            (a, a)
+        };
+        Ok(Roughness {
+            distribution,
+            alpha_u,
+            alpha_v,
+        })
     }
 
     /// `int_ior / ext_ior`, each a number or a named medium.

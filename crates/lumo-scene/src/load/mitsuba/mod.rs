@@ -72,6 +72,7 @@ fn convert(
         bsdfs: HashMap::new(),
         materials: HashMap::new(),
         textures: HashMap::new(),
+        groups: HashMap::new(),
         has_camera: false,
         has_environment: false,
         root_dir: path.parent().unwrap_or(Path::new("")).to_path_buf(),
@@ -158,6 +159,8 @@ pub(super) struct Builder<'a, 'd> {
     materials: HashMap<(usize, [u32; 3]), usize>,
     /// Converted textures by element address.
     textures: HashMap<usize, Texture>,
+    /// Mesh indices of each converted shapegroup, by element address.
+    groups: HashMap<usize, Vec<usize>>,
     has_camera: bool,
     has_environment: bool,
     /// Directory of the top-level scene file.

@@ -8,7 +8,7 @@ use super::props::Props;
 use super::xml::Element;
 use super::Builder;
 use crate::load::{check::check_mesh, obj, ply, LoadError};
-use crate::{shapes, Camera, EnvMap, FovAxis, Light, Mesh};
+use crate::{shapes, Camera, EnvMap, FovAxis, Instance, Light, Mesh};
 
 /// Tessellation of analytic shapes (Mitsuba intersects them exactly; lumo renders triangles).
 const SPHERE_RINGS: u32 = 64;
@@ -262,8 +262,104 @@ impl<'a> Builder<'a, '_> {
         props.finish(self.diag)
     }
 
-    /// `<shape>`: one or more meshes with the shape's material.
+    /// `<shape>`: one or more meshes with the shape's material, placed once; a `shapegroup`
+    /// (meshes without placement) or an `instance` (placements of a group's meshes).
     pub(super) fn shape(&mut self, el: &'a Element) -> Result<(), LoadError> {
+        match el.attr("type") {
+            Some("shapegroup") => self.shapegroup(el).map(drop),
+            Some("instance") => self.instance(el),
+            _ => {
+                if let Some(mesh) = self.shape_mesh(el)? {
+                    self.scene.add_mesh(mesh);
+                }
+                Ok(())
+            }
+        }
+    }
+
+    /// A `shapegroup`'s meshes (converted once, on first use): each nested shape becomes a
+    /// mesh in the group's space, placed only by the `instance`s that refer to the group.
+    fn shapegroup(&mut self, el: &'a Element) -> Result<Vec<usize>, LoadError> {
+        let key = el as *const Element as usize;
+        if let Some(meshes) = self.groups.get(&key) {
+            return Ok(meshes.clone());
+        }
+        let props = Props::new(el);
+        let mut meshes = Vec::new();
+        for (i, c) in props.nested() {
+            let r = self.resolve(c)?;
+            if r.tag != "shape" {
+                continue;
+            }
+            props.mark(i);
+            if let Some(kind @ ("shapegroup" | "instance")) = r.attr("type") {
+                // As Mitsuba: instancing does not nest.
+                return Err(LoadError::invalid(
+                    r.at(),
+                    format!("a {kind} inside a shapegroup; instancing does not nest"),
+                ));
+            }
+            if let Some(mesh) = self.shape_mesh(r)? {
+                self.scene.meshes.push(mesh);
+                meshes.push(self.scene.meshes.len() - 1);
+            }
+        }
+        props.finish(self.diag)?;
+        self.groups.insert(key, meshes.clone());
+        Ok(meshes)
+    }
+
+    /// An `instance`: one lumo instance per mesh of the referenced shapegroup, each placed by
+    /// the instance's `to_world` (the meshes themselves are shared, not copied).
+    fn instance(&mut self, el: &'a Element) -> Result<(), LoadError> {
+        let props = Props::new(el);
+        let at = el.at();
+        let to_world = props.transform("to_world")?;
+        let mut group = None;
+        for (i, c) in props.nested() {
+            let r = self.resolve(c)?;
+            if r.tag == "shape" {
+                props.mark(i);
+                if r.attr("type") != Some("shapegroup") {
+                    return Err(LoadError::invalid(
+                        r.at(),
+                        format!("an instance refers to {}; only a shapegroup", r.describe()),
+                    ));
+                }
+                if group.is_some() {
+                    return Err(LoadError::invalid(
+                        at,
+                        "an instance refers to more than one shapegroup",
+                    ));
+                }
+                group = Some(r);
+            }
+        }
+        let group = group.ok_or_else(|| {
+            LoadError::invalid(
+                at.clone(),
+                "an instance needs a <ref id=\"...\"/> to a shapegroup",
+            )
+        })?;
+        if !to_world.is_finite() || to_world.determinant() == 0.0 {
+            return Err(LoadError::invalid(
+                at,
+                "the instance's to_world is singular or not finite",
+            ));
+        }
+        props.finish(self.diag)?;
+        for mesh in self.shapegroup(group)? {
+            self.scene.instances.push(Instance {
+                mesh,
+                transform: to_world,
+            });
+        }
+        Ok(())
+    }
+
+    /// The mesh of a single (non-group) `<shape>` in the space its `to_world` maps to; `None`
+    /// (with a warning) for shape types lumo does not support.
+    fn shape_mesh(&mut self, el: &'a Element) -> Result<Option<Mesh>, LoadError> {
         let props = Props::new(el);
         let at = el.at();
         let kind = props.kind();
@@ -292,9 +388,13 @@ impl<'a> Builder<'a, '_> {
             "sphere" => {
                 let center = props.vec3("center")?.unwrap_or(Vec3::ZERO);
                 let radius = props.float("radius", 1.0)?;
+                // lumo's UV sphere has its poles on y; Mitsuba's on local z, with u = φ/2π
+                // around z. Turning y onto z makes u, and so the tangent dp/du that orients
+                // anisotropic roughness, Mitsuba's.
                 let m = to_world
                     * Mat4::from_translation(center)
-                    * Mat4::from_scale(Vec3::splat(radius));
+                    * Mat4::from_scale(Vec3::splat(radius))
+                    * Mat4::from_rotation_x(std::f32::consts::FRAC_PI_2);
                 shapes::sphere(&m, material, SPHERE_RINGS, SPHERE_SEGMENTS)
             }
             "cylinder" => {
@@ -344,10 +444,11 @@ impl<'a> Builder<'a, '_> {
                 mesh.transformed(&to_world)
             }
             other => {
-                return self.diag.warn(
+                self.diag.warn(
                     at,
                     format!("shape type {other:?} is not supported by lumo; the shape is skipped"),
-                );
+                )?;
+                return Ok(None);
             }
         };
         if props.bool("face_normals", false)? {
@@ -364,8 +465,7 @@ impl<'a> Builder<'a, '_> {
         mesh.name = el.attr("id").unwrap_or(kind).to_string();
         check_mesh(&mut mesh, &at, self.diag)?;
         props.finish(self.diag)?;
-        self.scene.add_mesh(mesh);
-        Ok(())
+        Ok(Some(mesh))
     }
 
     /// A nested `area` emitter: its radiance.
