@@ -160,7 +160,8 @@ fn pick(explicit: &Option<PathBuf>, dir: &Option<PathBuf>, name: &str) -> Option
 }
 
 fn read(path: &Path) -> anyhow::Result<(PathBuf, Image)> {
-    let img = read_image(path).with_context(|| format!("cannot read {}", path.display()))?;
+    // The image error names the path itself: say it once.
+    let img = read_image(path).map_err(|e| anyhow::anyhow!("cannot read {e}"))?;
     Ok((path.to_path_buf(), img))
 }
 

@@ -245,7 +245,9 @@ fn unreadable_input_names_the_file_and_reason() {
     ]);
     let (_, stderr) = text(&o);
     assert!(
-        stderr.contains("nope.exr") && stderr.contains("not found"),
+        stderr.contains("nope.exr")
+            && stderr.contains("no such file")
+            && stderr.matches("nope.exr").count() == 1,
         "{stderr}"
     );
 }
