@@ -131,6 +131,25 @@ impl ShadingBsdf {
         )
     }
 
+    /// `wo`, `wi` (mirrored through the plane when an opaque BSDF is seen from behind) in the
+    /// perturbed frame of normal `n`: (frame, wo and wi in it, wi before it), or `None` where
+    /// `wi` changes side between the two frames or the viewer is below an opaque perturbed
+    /// surface. Shared by `eval` and `pdf` so the two agree on where the BSDF is zero.
+    #[inline]
+    fn perturbed(&self, n: Vec3, wo: Vec3, wi: Vec3) -> Option<(Frame, Vec3, Vec3, Vec3)> {
+        let (wo, wi) = if self.opaque() && wo.z < 0.0 {
+            (flip_z(wo), flip_z(wi))
+        } else {
+            (wo, wi)
+        };
+        let f = Self::frame(n, wo);
+        let (po, pi) = (f.to_local(wo), f.to_local(wi));
+        if wi.z * pi.z <= 0.0 || (self.opaque() && po.z <= 0.0) {
+            return None;
+        }
+        Some((f, po, pi, wi))
+    }
+
     /// f(wo, wi)·|cos θi|.
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         if self.dark(wo) {
@@ -139,16 +158,9 @@ impl ShadingBsdf {
         let value = match self.normal {
             None => self.bsdf.eval(wo, wi),
             Some(n) => {
-                let (wo, wi) = if self.opaque() && wo.z < 0.0 {
-                    (flip_z(wo), flip_z(wi))
-                } else {
-                    (wo, wi)
-                };
-                let f = Self::frame(n, wo);
-                let (po, pi) = (f.to_local(wo), f.to_local(wi));
-                if wi.z * pi.z <= 0.0 || (self.opaque() && po.z <= 0.0) {
+                let Some((f, po, pi, wi)) = self.perturbed(n, wo, wi) else {
                     return Vec3::ZERO;
-                }
+                };
                 self.bsdf.eval(po, pi) * shadow_terminator(f.n, wi)
             }
         };
@@ -163,16 +175,9 @@ impl ShadingBsdf {
         let pdf = match self.normal {
             None => self.bsdf.pdf(wo, wi),
             Some(n) => {
-                let (wo, wi) = if self.opaque() && wo.z < 0.0 {
-                    (flip_z(wo), flip_z(wi))
-                } else {
-                    (wo, wi)
-                };
-                let f = Self::frame(n, wo);
-                let (po, pi) = (f.to_local(wo), f.to_local(wi));
-                if wi.z * pi.z <= 0.0 || (self.opaque() && po.z <= 0.0) {
+                let Some((_, po, pi, _)) = self.perturbed(n, wo, wi) else {
                     return 0.0;
-                }
+                };
                 self.bsdf.pdf(po, pi)
             }
         };

@@ -46,6 +46,53 @@ impl WrapMode {
     }
 }
 
+/// Where a bitmap lookup at some uv falls: texel coordinates (texel (i, j) covers
+/// [i, i+1) × [j, j+1), row 0 at v = 1) with the image's size and wrap mode. Shared by the
+/// lookup and its gradient so the two cannot disagree.
+struct TexelGrid {
+    px: f32,
+    py: f32,
+    w: usize,
+    h: usize,
+    wrap: WrapMode,
+}
+
+impl TexelGrid {
+    /// `None` for an empty image.
+    fn new(image: &Image, wrap: WrapMode, uv: Vec2) -> Option<Self> {
+        let (w, h) = (image.width, image.height);
+        (w > 0 && h > 0).then(|| Self {
+            px: uv.x * w as f32,
+            py: (1.0 - uv.y) * h as f32,
+            w,
+            h,
+            wrap,
+        })
+    }
+
+    /// The texel containing the point.
+    fn nearest(&self) -> (usize, usize) {
+        (
+            self.wrap.index(self.px.floor() as i64, self.w),
+            self.wrap.index(self.py.floor() as i64, self.h),
+        )
+    }
+
+    /// The four nearest texel centres as columns [x0, x1] and rows [y0, y1], and the weights
+    /// of x1 and y1 (as Mitsuba's bitmap).
+    fn bilinear(&self) -> ([usize; 2], [usize; 2], f32, f32) {
+        let (fx, fy) = (self.px - 0.5, self.py - 0.5);
+        let (x0, y0) = (fx.floor(), fy.floor());
+        let (xi, yi) = (x0 as i64, y0 as i64);
+        (
+            [self.wrap.index(xi, self.w), self.wrap.index(xi + 1, self.w)],
+            [self.wrap.index(yi, self.h), self.wrap.index(yi + 1, self.h)],
+            fx - x0,
+            fy - y0,
+        )
+    }
+}
+
 /// A spatially varying reflectance, looked up by texture coordinates.
 #[derive(Clone, Debug)]
 pub enum Texture {
@@ -104,28 +151,20 @@ impl Texture {
                 filter,
                 wrap,
             } => {
-                let uv = uv * *uv_scale;
-                let (w, h) = (image.width, image.height);
                 // The loaders refuse empty images; one built in code must not panic here.
-                if w == 0 || h == 0 {
+                let Some(grid) = TexelGrid::new(image, *wrap, uv * *uv_scale) else {
                     return Vec3::ZERO;
-                }
-                // Texel coordinates: texel (i, j) covers [i, i+1) × [j, j+1), row 0 at v = 1.
-                let (px, py) = (uv.x * w as f32, (1.0 - uv.y) * h as f32);
-                let texel = |x: f32, y: f32| {
-                    let (x, y) = (wrap.index(x as i64, w), wrap.index(y as i64, h));
-                    Vec3::from(image.rgb(x, y))
                 };
+                let texel = |x: usize, y: usize| Vec3::from(image.rgb(x, y));
                 match filter {
-                    TextureFilter::Nearest => texel(px.floor(), py.floor()),
+                    TextureFilter::Nearest => {
+                        let (x, y) = grid.nearest();
+                        texel(x, y)
+                    }
                     TextureFilter::Bilinear => {
-                        // Weights between the four nearest texel centres (as Mitsuba's bitmap).
-                        let (fx, fy) = (px - 0.5, py - 0.5);
-                        let (x0, y0) = (fx.floor(), fy.floor());
-                        let (tx, ty) = (fx - x0, fy - y0);
-                        let top = texel(x0, y0) * (1.0 - tx) + texel(x0 + 1.0, y0) * tx;
-                        let bottom =
-                            texel(x0, y0 + 1.0) * (1.0 - tx) + texel(x0 + 1.0, y0 + 1.0) * tx;
+                        let ([x0, x1], [y0, y1], tx, ty) = grid.bilinear();
+                        let top = texel(x0, y0) * (1.0 - tx) + texel(x1, y0) * tx;
+                        let bottom = texel(x0, y1) * (1.0 - tx) + texel(x1, y1) * tx;
                         top * (1.0 - ty) + bottom * ty
                     }
                 }
@@ -155,23 +194,18 @@ impl Texture {
                 if *filter == TextureFilter::Nearest {
                     return Vec2::ZERO;
                 }
-                let (w, h) = (image.width, image.height);
-                let st = uv * *uv_scale;
-                // The same texel coordinates and weights as `eval`.
-                let (px, py) = (st.x * w as f32, (1.0 - st.y) * h as f32);
-                let (fx, fy) = (px - 0.5, py - 0.5);
-                let (x0, y0) = (fx.floor(), fy.floor());
-                let (tx, ty) = (fx - x0, fy - y0);
-                let texel = |x: f32, y: f32| {
-                    let (x, y) = (wrap.index(x as i64, w), wrap.index(y as i64, h));
-                    lumo_image::luminance(image.rgb(x, y))
+                let Some(grid) = TexelGrid::new(image, *wrap, uv * *uv_scale) else {
+                    return Vec2::ZERO;
                 };
-                let (f00, f10) = (texel(x0, y0), texel(x0 + 1.0, y0));
-                let (f01, f11) = (texel(x0, y0 + 1.0), texel(x0 + 1.0, y0 + 1.0));
+                let ([x0, x1], [y0, y1], tx, ty) = grid.bilinear();
+                let texel = |x: usize, y: usize| lumo_image::luminance(image.rgb(x, y));
+                let (f00, f10) = (texel(x0, y0), texel(x1, y0));
+                let (f01, f11) = (texel(x0, y1), texel(x1, y1));
                 let d_px = (1.0 - ty) * (f10 - f00) + ty * (f11 - f01);
                 let d_py = (1.0 - tx) * (f01 - f00) + tx * (f11 - f10);
                 // px grows with u; py falls as v grows (row 0 at v = 1).
-                Vec2::new(d_px * w as f32 * uv_scale.x, -d_py * h as f32 * uv_scale.y)
+                let (w, h) = (image.width as f32, image.height as f32);
+                Vec2::new(d_px * w * uv_scale.x, -d_py * h * uv_scale.y)
             }
             Texture::Transformed { texture, uv: m } => {
                 // Chain rule: the gradient pulled back through the affine map (its transpose).
