@@ -61,7 +61,7 @@ impl TexelGrid {
     /// `None` for an empty image.
     fn new(image: &Image, wrap: WrapMode, uv: Vec2) -> Option<Self> {
         let (w, h) = (image.width, image.height);
-        (w > 0 && h > 0).then(|| Self {
+        (w > 0 && h > 0).then_some(Self {
             px: uv.x * w as f32,
             py: (1.0 - uv.y) * h as f32,
             w,
