@@ -6,7 +6,7 @@ Generates a few small, deterministic 8-bit sRGB image pairs that exercise FLIP's
 tests/data/flip/, evaluates them with NVIDIA's `flip-evaluator` package (LDR mode, default
 67.02 ppd, sRGB input) and writes the mean FLIP and a few per-pixel values to
 tests/data/flip/reference.json. The Rust test `flip_matches_flip_evaluator` in
-crates/lumo-image/tests/flip_reference.rs reads both.
+crates/lumo-image/tests/integration/flip_reference.rs reads both.
 
 Usage:  pip install flip-evaluator numpy
         python3 scripts/check_flip.py            # rewrite the PNGs and reference.json

@@ -7,7 +7,7 @@ different seeds (averaged), and written as a half-float RGB OpenEXR to
 tests/data/mitsuba/refs/NAME.exr. tests/data/mitsuba/references.json records the Mitsuba
 version, variant, samples, the noise left in each reference (standard error of the image mean
 and the largest of the 16x16 block means, relative, from the spread of the passes), the time and
-the machine. The Rust test crates/lumo-render/tests/mitsuba_suite.rs compares lumo against the
+the machine. The Rust test crates/lumo-render/tests/integration/mitsuba_suite.rs compares lumo against the
 stored files; CI never needs Mitsuba.
 
 The textures the scenes use (tests/data/mitsuba/textures/) are written by this script too when

@@ -1,5 +1,5 @@
 // The viewer's decoder and encoders against the golden byte files the Rust encoder writes
-// (tests/data/protocol/, checked on the Rust side by crates/lumo-server/tests/protocol_golden.rs).
+// (tests/data/protocol/, checked on the Rust side by crates/lumo-server/tests/integration/protocol_golden.rs).
 // Plain node, no browser: node --test web/tests/protocol_golden.test.mjs
 
 import { test } from 'node:test';

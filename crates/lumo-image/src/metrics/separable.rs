@@ -5,7 +5,7 @@ use rayon::prelude::*;
 /// Correlates a `w`×`h` plane with the separable kernel `kx` (along rows) ⊗ `ky` (down
 /// columns), both of odd length centred on the middle tap. Samples outside the plane repeat
 /// the nearest edge pixel: with this rule FLIP's corner and edge pixels match the
-/// `flip-evaluator` package (tests/flip_reference.rs).
+/// `flip-evaluator` package (tests/integration/flip_reference.rs).
 pub(crate) fn filter_clamped(
     plane: &[f32],
     w: usize,

@@ -35,7 +35,7 @@ const SUPPORTED: &[&str] = &[
 /// Loads a glTF scene; its node hierarchy and clips go to `animation`.
 ///
 /// The `gltf` crate trusts its own validation and unwraps in accessors; its validation misses
-/// some malformed inputs (found by tests/robustness.rs), so a panic inside it is caught here
+/// some malformed inputs (found by tests/integration/robustness.rs), so a panic inside it is caught here
 /// and reported as a malformed file rather than taking the process down.
 pub(crate) fn load(
     path: &Path,

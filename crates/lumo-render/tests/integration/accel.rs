@@ -1,7 +1,7 @@
 //! The two-level BVH: hits agree with brute force, barycentrics reconstruct the hit point,
 //! and refitting after instance or vertex motion equals a fresh build.
 
-mod common;
+use crate::common;
 
 use glam::{Mat4, Vec3};
 use lumo_render::accel::Accel;

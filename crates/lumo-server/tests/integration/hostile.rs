@@ -438,7 +438,7 @@ async fn idle_connections_cannot_lock_a_viewer_out() {
 }
 
 /// Item 4: protocol violators are closed with a close frame (1008) once they use up their
-/// allowance of invalid messages; well-behaved viewers get errors and stay (tests/server.rs).
+/// allowance of invalid messages; well-behaved viewers get errors and stay (the server module).
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn protocol_violators_are_closed_with_a_close_frame() {
     let (addr, hub, _) = start(|_| {}).await;

@@ -1,7 +1,7 @@
 //! Mitsuba features beyond plain BSDFs: instanced shape groups (lights in them too), the thin
 //! dielectric sheet, and the normal-map, bump-map and mask adapters where they must change
 //! nothing. (Their agreement with Mitsuba 3 itself is checked by the validation suite,
-//! tests/mitsuba_suite.rs.)
+//! tests/integration/mitsuba_suite.rs.)
 
 use std::path::Path;
 

@@ -8,7 +8,7 @@
 //! ray reached into the light itself and every light sample counted as blocked (issue 20's
 //! ceiling scene: 0.0017 instead of Mitsuba's 0.0349).
 
-mod common;
+use crate::common;
 
 use std::f32::consts::{FRAC_PI_2, PI};
 use std::path::Path;

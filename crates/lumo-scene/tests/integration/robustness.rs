@@ -2,7 +2,7 @@
 //! flips, overwritten bytes, truncations, duplicated and deleted runs) must load or fail with
 //! an error, never panic. `LUMO_FUZZ_ITERS=N` runs N mutations per file (default 300).
 
-mod common;
+use crate::common;
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::Path;

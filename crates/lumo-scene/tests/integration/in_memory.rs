@@ -1,7 +1,7 @@
 //! The in-memory entry points (`load_mitsuba_str`, `load_ply_bytes`): the same scene as from
 //! the file, and no file-system access from the text.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 

@@ -1,7 +1,7 @@
 //! Physics tests of the path tracer: furnace, analytic direct light, strategy agreement,
 //! direct/indirect split and thread-count independence.
 
-mod common;
+use crate::common;
 
 use glam::{Vec2, Vec3};
 use lumo_render::camera::CameraRays;

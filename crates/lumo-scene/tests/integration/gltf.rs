@@ -1,6 +1,6 @@
 //! glTF 2.0 loading: hierarchy, cameras, lights, materials, animation and bad input.
 
-mod common;
+use crate::common;
 
 use common::{load, scenes, temp_dir, write};
 use lumo_scene::load::{load_scene, LoadOptions};

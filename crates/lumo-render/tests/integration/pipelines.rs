@@ -3,7 +3,7 @@
 //! guided pipeline's lookup stays on the sample's surface, and results do not depend on the
 //! thread count.
 
-mod common;
+use crate::common;
 
 use lumo_image::Image;
 use lumo_render::{

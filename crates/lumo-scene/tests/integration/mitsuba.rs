@@ -1,6 +1,6 @@
 //! Mitsuba 3 XML loading: structure, values, transforms, materials, emitters and errors.
 
-mod common;
+use crate::common;
 
 use common::{load, load_strict, mitsuba, scenes, temp_dir, write};
 use lumo_scene::load::{load_scene, LoadError, LoadOptions};

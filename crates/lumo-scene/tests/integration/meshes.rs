@@ -1,6 +1,6 @@
 //! OBJ/MTL and PLY loading, lone-mesh defaults and bad-input errors.
 
-mod common;
+use crate::common;
 
 use common::{load, scenes, temp_dir, write};
 use lumo_scene::{Bsdf, Light, Texture, Vec2, Vec3};

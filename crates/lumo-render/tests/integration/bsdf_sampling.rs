@@ -1,7 +1,7 @@
 //! χ² goodness-of-fit of every BSDF's sampling routine against its own pdf, and energy
 //! bounds (white furnace per BSDF).
 
-mod common;
+use crate::common;
 
 use common::chi2::{self, dir};
 use glam::{Vec2, Vec3};

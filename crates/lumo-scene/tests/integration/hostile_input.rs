@@ -5,7 +5,7 @@
 //! element, returned fast, never a panic, a hang or an allocation of what a header claims.
 //! The inputs are in tests/data/bad/ (written by make.py there).
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};

@@ -1,7 +1,7 @@
 //! χ² goodness-of-fit of light sampling: directions drawn by `Lights::sample` from a point must
 //! follow the density that `environment_pdf` and `triangle_pdf` report (the densities MIS uses).
 
-mod common;
+use crate::common;
 
 use common::chi2;
 

@@ -1,0 +1,13 @@
+//! The lumo-render integration tests, one test program (each separate program would link the whole
+//! crate again: minutes of a fresh build). Each module is one topic.
+mod accel;
+mod bsdf_sampling;
+mod common;
+mod direct_light_geometry;
+mod integrator;
+mod light_sampling;
+mod mitsuba_adapters;
+mod mitsuba_cornell;
+mod mitsuba_suite;
+mod pipelines;
+mod wavefront;

@@ -1,0 +1,9 @@
+//! The lumo-scene integration tests, one test program (each separate program would link the whole
+//! crate again: minutes of a fresh build). Each module is one topic.
+mod common;
+mod gltf;
+mod hostile_input;
+mod in_memory;
+mod meshes;
+mod mitsuba;
+mod robustness;
