@@ -134,8 +134,37 @@ impl AtrousFilter {
             use_variance: params.use_variance && features.variance.is_some(),
         };
         let lay = Layout::new(color.width, color.height);
-        let (image, missing) = self.levels(&inp, lay, params, isa, path);
+        let (image, missing) = self.levels(&inp, lay, params, isa, path, None);
         Ok(Filtered { image, missing })
+    }
+
+    /// [`Self::filter`] that also returns the first level's output (what SVGF feeds back as
+    /// the next frame's colour history), with the same remodulation as the final output.
+    /// Always runs level by level (the pipeline never materialises a level).
+    pub(crate) fn filter_keeping_first_level(
+        &mut self,
+        color: &Image,
+        features: &Features,
+        params: &AtrousParams,
+    ) -> Result<(Filtered, Image), FilterError> {
+        validate(color, features, params)?;
+        let inp = Input {
+            color,
+            features,
+            demodulate: params.demodulate,
+            use_variance: params.use_variance && features.variance.is_some(),
+        };
+        let lay = Layout::new(color.width, color.height);
+        let mut first = Image::new(0, 0, 3, 0.0);
+        let (image, missing) = self.levels(
+            &inp,
+            lay,
+            params,
+            Isa::detect(),
+            Path::Auto,
+            Some(&mut first),
+        );
+        Ok((Filtered { image, missing }, first))
     }
 }
 
@@ -270,6 +299,7 @@ impl AtrousFilter {
         params: &AtrousParams,
         isa: Isa,
         path: Path,
+        mut first: Option<&mut Image>,
     ) -> (Image, usize) {
         let stats = input_stats(inp, lay);
         let ml = stats.mean_luminance;
@@ -342,6 +372,7 @@ impl AtrousFilter {
             })
             .collect();
         let piped = match path {
+            _ if first.is_some() => None,
             Path::Auto if atrous_pipeline::pays_off(lay, &stages) => Some(None),
             Path::Bands(rows, groups) => Some(Some((rows, groups))),
             _ => None,
@@ -473,6 +504,11 @@ impl AtrousFilter {
             // The variance plane only matters where it is carried.
             lay.fill_margins(dst, K, if var_mode { K } else { K - 1 });
             std::mem::swap(&mut src, &mut dst);
+            if it == 0 {
+                if let Some(f) = first.as_deref_mut() {
+                    *f = output(inp, lay, src);
+                }
+            }
         }
         (output(inp, lay, src), stats.missing)
     }

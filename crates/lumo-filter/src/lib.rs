@@ -9,6 +9,9 @@
 //! - [`jbu()`]: joint bilateral upsampling of a low-resolution buffer (Kopf et al. 2007), with
 //!   [`remove_outliers`] and an optional bilateral pre-filter.
 //! - [`most_similar`]: the geometry-aware lookup of Bauszat et al. (eqs 3–5).
+//! - [`TemporalFilter`]: spatiotemporal variance-guided filtering (SVGF, Schied et al. 2017),
+//!   the one stateful filter: reprojected, accumulated history + the variance-guided À-Trous;
+//!   [`motion_vectors`] computes its motion vectors for a static scene and a moving camera.
 //!
 //! Colour images have 3 channels. Non-finite colour pixels are treated as missing (weight 0);
 //! results are always finite and report how many pixels were missing.
@@ -50,6 +53,7 @@ mod passthrough;
 pub mod synthetic;
 pub use synthetic::{synthetic_frame, SyntheticFrame};
 pub mod table2;
+mod temporal;
 
 pub use albedo::{demodulate, with_demodulation, Demodulated, ALBEDO_EPS};
 pub use atrous::{
@@ -70,3 +74,7 @@ pub use lookup::{most_similar, most_similar_in_grid, neighbour_cells};
 pub use noise::spatial_variance;
 pub use outliers::remove_outliers;
 pub use passthrough::with_passthrough;
+pub use temporal::{
+    motion_vectors, pinhole_view_projection, project_to_pixel, TemporalFilter, TemporalFrame,
+    TemporalParams, DEFAULT_ALPHA, DEFAULT_TEMPORAL_SIGMA_LUMINANCE,
+};

@@ -1,0 +1,402 @@
+//! Spatiotemporal variance-guided filtering (SVGF; Schied et al. 2017): a stateful filter that
+//! reprojects the previous frame's history with per-pixel motion vectors, accumulates
+//! demodulated colour and the first two luminance moments with an exponential moving average,
+//! estimates the per-pixel variance temporally (spatially while the history is short) and then
+//! runs the variance-guided À-Trous of [`crate::atrous`], feeding its first level back as the
+//! next frame's colour history.
+//!
+//! The filter is pure except for its own history: the same sequence of frames gives the same
+//! images, bit for bit, on any number of threads. See docs/filters.md ("Temporal filter").
+
+mod motion;
+mod reproject;
+#[cfg(test)]
+mod tests;
+
+use lumo_image::Image;
+use rayon::prelude::*;
+
+pub use motion::{motion_vectors, pinhole_view_projection, project_to_pixel};
+
+use crate::albedo::albedo_divisor;
+use crate::atrous::{AtrousFilter, AtrousParams};
+use crate::error::param;
+use crate::gbuffer::{check_color, check_size, missing_pixels, Features, Filtered};
+use crate::passthrough::passed;
+use crate::FilterError;
+use reproject::{History, Sample, Surface};
+
+/// SVGF's temporal colour weight: the new frame's share once the history is long.
+pub const DEFAULT_ALPHA: f32 = 0.2;
+/// SVGF's variance-guided σ_l (with a temporal variance estimate; the spatial-only À-Trous
+/// default is [`crate::DEFAULT_SIGMA_LUMINANCE`]).
+pub const DEFAULT_TEMPORAL_SIGMA_LUMINANCE: f32 = 4.0;
+
+/// Parameters of [`TemporalFilter`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct TemporalParams {
+    /// Exponential moving average weight of the new colour sample (SVGF: 0.2); while the
+    /// history is short the weight is max(α, 1/n), n the history length including this frame
+    /// (a plain mean of the first 1/α frames).
+    pub alpha: f32,
+    /// The same for the two luminance moments (SVGF: 0.2).
+    pub alpha_moments: f32,
+    /// History length cap (frames).
+    pub max_history: u32,
+    /// Below this history length the variance is estimated spatially (SVGF: 4): mean moments
+    /// over a (2r+1)² window of consistent pixels, scaled by `variance_history / n`.
+    pub variance_history: u32,
+    /// Radius r of the spatial variance window (SVGF: 3, a 7×7 window).
+    pub spatial_radius: usize,
+    /// Reprojection: a history tap is rejected when |depth_prev − depth| > this × depth.
+    pub depth_tolerance: f32,
+    /// Reprojection: a history tap is rejected when dot(normal_prev, normal) < this.
+    pub normal_min_dot: f32,
+    /// The spatial filter. `demodulate` is ignored (the temporal filter demodulates itself);
+    /// `use_variance` should stay on (the temporal variance steers the colour weight);
+    /// `sigma_position` is dropped when a frame has no position plane; `sparse` must be 1.
+    pub atrous: AtrousParams,
+}
+
+impl Default for TemporalParams {
+    fn default() -> Self {
+        Self {
+            alpha: DEFAULT_ALPHA,
+            alpha_moments: DEFAULT_ALPHA,
+            max_history: 32,
+            variance_history: 4,
+            spatial_radius: 3,
+            depth_tolerance: 0.1,
+            normal_min_dot: 0.9,
+            atrous: AtrousParams {
+                iterations: 5,
+                sigma_luminance: Some(DEFAULT_TEMPORAL_SIGMA_LUMINANCE),
+                use_variance: true,
+                ..AtrousParams::default()
+            },
+        }
+    }
+}
+
+/// One frame's input planes. All have the colour image's size.
+#[derive(Clone, Copy, Debug)]
+pub struct TemporalFrame<'a> {
+    /// Noisy colour, 3 channels. Non-finite pixels are *missing* (see [`TemporalFilter`]).
+    pub color: &'a Image,
+    /// Albedo (1 or 3 channels): colour is divided by it before accumulation and multiplied
+    /// back after filtering; pixels without a usable albedo (below [`crate::ALBEDO_EPS`] in
+    /// every channel, or not finite: lights, sky, black surfaces) are passed through
+    /// unfiltered and keep no history. `None`: colour is filtered as it is.
+    pub albedo: Option<&'a Image>,
+    /// World-space unit normals (3 channels).
+    pub normal: &'a Image,
+    /// Camera distance (1 channel, or more: the first is used); 0 or not finite = background.
+    pub depth: &'a Image,
+    /// World-space positions (3 channels), for the À-Trous position weight; optional.
+    pub position: Option<&'a Image>,
+    /// Object / instance id per pixel (row-major, `width·height` values); history taps with a
+    /// different id are rejected. Optional (both frames need one for the test to apply).
+    pub ids: Option<&'a [u32]>,
+    /// Motion vectors (2 channels, or more: the first two are used): for each pixel, where its
+    /// surface was in the previous frame, in pixels, relative to this pixel (previous position
+    /// = pixel + motion; x right, y down). Non-finite = no history. `None`: no motion.
+    pub motion: Option<&'a Image>,
+}
+
+/// SVGF as a stateful filter: feed it frame after frame (see [`TemporalFilter::filter`]).
+///
+/// Per pixel and frame: the previous frame's history is read bilinearly at pixel + motion; each
+/// of the 2×2 taps counts only if it lies in the image, has history, and matches the current
+/// surface (relative depth difference ≤ `depth_tolerance`, normal dot ≥ `normal_min_dot`, equal
+/// id when both frames have ids, background only with background); the valid taps' weights are
+/// renormalised (rejected when they sum to < 0.01). The history length n (that of the valid
+/// tap with the largest weight, + 1, at most `max_history`; 1 without history) sets the blend
+/// weight max(α, 1/n) of colour / albedo and of the luminance moments (l, l²). The variance is
+/// l² − l·l from the moments once n ≥ `variance_history`, else from the moments' mean over a
+/// 7×7 window of consistent pixels (scaled by `variance_history / n`). The À-Trous then filters
+/// the accumulated colour, steered by that variance; its first level's output becomes the
+/// colour history, the accumulated moments the moments history.
+///
+/// Inputs are sanitised: a pixel whose colour (or colour / albedo) is not finite is *missing*:
+/// with history it keeps the reprojected history unchanged (its length not incremented),
+/// without it gets weight 0 in the À-Trous (filled from its neighbours) and keeps no history.
+/// Non-finite normals reject history, non-finite depth is background, non-finite motion means
+/// no history. Outputs and history are always finite. A frame of another size resets the
+/// history first.
+#[derive(Debug)]
+pub struct TemporalFilter {
+    params: TemporalParams,
+    history: Option<History>,
+    atrous: AtrousFilter,
+    /// The last frame's per-pixel results (see the accessors).
+    reprojected: Image,
+    variance: Image,
+}
+
+impl TemporalFilter {
+    /// A filter with no history. Errors on parameters out of range.
+    pub fn new(params: TemporalParams) -> Result<Self, FilterError> {
+        validate_params(&params)?;
+        Ok(Self {
+            params,
+            history: None,
+            atrous: AtrousFilter::new(),
+            reprojected: Image::new(0, 0, 3, 0.0),
+            variance: Image::new(0, 0, 1, 0.0),
+        })
+    }
+
+    /// The parameters.
+    pub fn params(&self) -> &TemporalParams {
+        &self.params
+    }
+
+    /// Forgets the history (a camera cut, a scene change): the next frame starts afresh.
+    pub fn reset(&mut self) {
+        self.history = None;
+    }
+
+    /// Size of the history (`None` after [`Self::reset`] or before the first frame).
+    pub fn history_size(&self) -> Option<(usize, usize)> {
+        self.history.as_ref().map(|h| (h.w, h.h))
+    }
+
+    /// Per-pixel history length after the last frame (row-major): 0 where the pixel keeps no
+    /// history (passed through, or missing with nothing to reproject), 1 for a fresh start.
+    pub fn history_length(&self) -> &[u32] {
+        self.history.as_ref().map_or(&[], |h| &h.len)
+    }
+
+    /// The colour history after the last frame (colour / albedo, first À-Trous level).
+    pub fn history_color(&self) -> Option<&Image> {
+        self.history.as_ref().map(|h| &h.color)
+    }
+
+    /// The last frame's reprojected colour history (colour / albedo, before blending), NaN
+    /// where there was none.
+    pub fn reprojected_history(&self) -> &Image {
+        &self.reprojected
+    }
+
+    /// The last frame's luminance variance estimate of colour / albedo (1 channel).
+    pub fn variance(&self) -> &Image {
+        &self.variance
+    }
+
+    /// Filters one frame and updates the history. Returns the filtered colour (3 channels,
+    /// finite) and the number of non-finite input colour pixels.
+    pub fn filter(&mut self, frame: &TemporalFrame) -> Result<Filtered, FilterError> {
+        validate_frame(frame)?;
+        let (w, h) = (frame.color.width, frame.color.height);
+        if self
+            .history
+            .as_ref()
+            .is_some_and(|hi| hi.w != w || hi.h != h)
+        {
+            self.reset();
+        }
+        let n = w * h;
+        let p = &self.params;
+        // 1. This frame's samples: demodulated colour, surface, luminance moments.
+        let mut samples = vec![Sample::default(); n];
+        samples.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+            for (x, s) in row.iter_mut().enumerate() {
+                *s = Sample::read(frame, y * w + x);
+            }
+        });
+        // 2. Reprojection and accumulation.
+        let mut acc = vec![reproject::Accumulated::default(); n];
+        let hist = self.history.as_ref();
+        acc.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+            for (x, a) in row.iter_mut().enumerate() {
+                *a = reproject::accumulate(p, hist, frame, &samples, x, y);
+            }
+        });
+        // 3. Variance: temporal from the moments, spatial while the history is short.
+        let mut variance = Image::new(w, h, 1, 0.0);
+        variance
+            .data
+            .par_chunks_mut(w)
+            .enumerate()
+            .for_each(|(y, row)| {
+                for (x, v) in row.iter_mut().enumerate() {
+                    *v = reproject::variance(p, &samples, &acc, w, h, x, y);
+                }
+            });
+        // 4. The variance-guided À-Trous on the accumulated colour / albedo; pixels with
+        // nothing to show (passed through, or missing without history) are NaN: weight 0.
+        let mut integrated = Image::new(w, h, 3, 0.0);
+        let mut reprojected = Image::new(w, h, 3, f32::NAN);
+        integrated
+            .data
+            .par_chunks_mut(3 * w)
+            .zip(reprojected.data.par_chunks_mut(3 * w))
+            .enumerate()
+            .for_each(|(y, (ir, rr))| {
+                for x in 0..w {
+                    let a = &acc[y * w + x];
+                    let c = if a.len > 0 { a.color } else { [f32::NAN; 3] };
+                    ir[3 * x..3 * x + 3].copy_from_slice(&c);
+                    if let Some(hc) = a.history {
+                        rr[3 * x..3 * x + 3].copy_from_slice(&hc);
+                    }
+                }
+            });
+        let mut ap = p.atrous.clone();
+        ap.demodulate = false;
+        if frame.position.is_none() {
+            ap.sigma_position = None;
+        }
+        let features = Features {
+            normal: Some(frame.normal),
+            position: frame.position,
+            depth: Some(frame.depth),
+            albedo: None,
+            variance: Some(&variance),
+        };
+        let (filtered, first) =
+            self.atrous
+                .filter_keeping_first_level(&integrated, &features, &ap)?;
+        // 5. Remodulation; pass-through pixels get their own colour.
+        let mut image = filtered.image;
+        image
+            .data
+            .par_chunks_mut(3 * w)
+            .enumerate()
+            .for_each(|(y, row)| {
+                for x in 0..w {
+                    let i = y * w + x;
+                    let o = &mut row[3 * x..3 * x + 3];
+                    match samples[i].divisor {
+                        Some(d) => {
+                            for k in 0..3 {
+                                o[k] = sanitize(o[k] * d[k]);
+                            }
+                        }
+                        None => {
+                            for k in 0..3 {
+                                o[k] = passed(frame.color.data[3 * i + k]);
+                            }
+                        }
+                    }
+                }
+            });
+        // 6. The new history.
+        let mut color = first;
+        for v in &mut color.data {
+            *v = sanitize(*v);
+        }
+        self.history = Some(History {
+            w,
+            h,
+            color,
+            moments: acc.iter().map(|a| a.moments).collect(),
+            len: acc.iter().map(|a| a.len).collect(),
+            surface: samples.iter().map(|s| s.surface).collect::<Vec<Surface>>(),
+            ids: frame.ids.map(|ids| ids.to_vec()),
+        });
+        self.reprojected = reprojected;
+        self.variance = variance;
+        Ok(Filtered {
+            image,
+            missing: missing_pixels(frame.color),
+        })
+    }
+}
+
+/// `v`, or 0 where it is not finite.
+#[inline]
+fn sanitize(v: f32) -> f32 {
+    if v.is_finite() {
+        v
+    } else {
+        0.0
+    }
+}
+
+fn validate_params(p: &TemporalParams) -> Result<(), FilterError> {
+    for (name, v) in [("alpha", p.alpha), ("alpha_moments", p.alpha_moments)] {
+        if !(v > 0.0 && v <= 1.0) {
+            return Err(param(name, format!("{v} (use 0 < α ≤ 1)")));
+        }
+    }
+    if p.max_history == 0 {
+        return Err(param("max_history", "0 (use ≥ 1)"));
+    }
+    if p.spatial_radius > 16 {
+        return Err(param(
+            "spatial_radius",
+            format!("{} (use 0..=16)", p.spatial_radius),
+        ));
+    }
+    if !(p.depth_tolerance > 0.0) {
+        return Err(param(
+            "depth_tolerance",
+            format!("{} (must be > 0)", p.depth_tolerance),
+        ));
+    }
+    if !(p.normal_min_dot <= 1.0) {
+        return Err(param(
+            "normal_min_dot",
+            format!("{} (use ≤ 1)", p.normal_min_dot),
+        ));
+    }
+    if p.atrous.sparse != 1 {
+        return Err(param(
+            "atrous.sparse",
+            "the temporal filter needs sparse = 1",
+        ));
+    }
+    Ok(())
+}
+
+fn validate_frame(f: &TemporalFrame) -> Result<(), FilterError> {
+    check_color("color", f.color)?;
+    let (w, h) = (f.color.width, f.color.height);
+    let chan = |name: &'static str, img: &Image, min: usize, expected: &'static str| {
+        check_size(name, img, "color", w, h)?;
+        if img.channels < min || img.data.len() != w * h * img.channels {
+            return Err(FilterError::Channels {
+                name,
+                got: img.channels,
+                expected,
+            });
+        }
+        Ok(())
+    };
+    chan("normal", f.normal, 3, "3 (x, y, z)")?;
+    chan("depth", f.depth, 1, "1")?;
+    if let Some(a) = f.albedo {
+        chan("albedo", a, 1, "1 or 3")?;
+        if a.channels == 2 {
+            return Err(FilterError::Channels {
+                name: "albedo",
+                got: 2,
+                expected: "1 or 3",
+            });
+        }
+    }
+    if let Some(p) = f.position {
+        chan("position", p, 3, "3 (x, y, z)")?;
+    }
+    if let Some(m) = f.motion {
+        chan("motion", m, 2, "2 (dx, dy)")?;
+    }
+    if let Some(ids) = f.ids {
+        if ids.len() != w * h {
+            return Err(param(
+                "ids",
+                format!("{} values for a {w}x{h} image", ids.len()),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The albedo divisor of pixel `i` (`None`: passed through), [1; 3] without an albedo.
+fn divisor(albedo: Option<&Image>, i: usize) -> Option<[f32; 3]> {
+    match albedo {
+        Some(a) => albedo_divisor(a, i),
+        None => Some([1.0; 3]),
+    }
+}

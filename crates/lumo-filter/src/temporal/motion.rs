@@ -1,0 +1,88 @@
+//! Motion vectors of a static scene seen by a moving pinhole camera: where each pixel's
+//! surface point was on the previous frame's image.
+//!
+//! Conventions (those of lumo's camera, `lumo-render/src/camera.rs`): a view-projection matrix
+//! maps world points to clip space with x right and y up, visible points having w > 0; a point
+//! lands on pixel ((x/w + 1)/2 · width, (1 − y/w)/2 · height), x right and y down, pixel
+//! (i, j) covering [i, i+1) × [j, j+1) (its centre at i + 0.5). Any OpenGL- or Vulkan-style
+//! perspective × look-at product follows the x/y part of this (clip z is not used).
+
+use glam::{Mat4, Vec3, Vec4};
+use lumo_image::Image;
+use rayon::prelude::*;
+
+/// The view-projection matrix of lumo's pinhole camera: eye, target and up hint as in
+/// `lumo_scene::Camera` (basis forward = target − eye, right = forward × up, up' = right ×
+/// forward), and `half_extent` the image plane's half width and height at distance 1 (what
+/// `Camera::half_extent(width, height)` returns). Clip z equals clip w (unused here).
+pub fn pinhole_view_projection(eye: Vec3, target: Vec3, up: Vec3, half_extent: [f32; 2]) -> Mat4 {
+    let forward = (target - eye).normalize();
+    let right = forward.cross(up).normalize();
+    let up = right.cross(forward);
+    let row = |axis: Vec3, scale: f32| {
+        let a = axis / scale;
+        Vec4::new(a.x, a.y, a.z, -a.dot(eye))
+    };
+    let rx = row(right, half_extent[0]);
+    let ry = row(up, half_extent[1]);
+    let rw = row(forward, 1.0);
+    // Rows in, so the matrix is their transpose's columns.
+    Mat4::from_cols(rx, ry, rw, rw).transpose()
+}
+
+/// Pixel coordinates (x right, y down, continuous: pixel (i, j)'s centre is (i + 0.5, j + 0.5))
+/// of world point `p` on a `width`×`height` image, or `None` when it is not in front of the
+/// camera (clip w ≤ 0) or not finite.
+pub fn project_to_pixel(
+    view_proj: &Mat4,
+    p: Vec3,
+    width: usize,
+    height: usize,
+) -> Option<[f32; 2]> {
+    let c = *view_proj * p.extend(1.0);
+    if !(c.w > 0.0) {
+        return None;
+    }
+    let (nx, ny) = (c.x / c.w, c.y / c.w);
+    let px = [
+        (nx + 1.0) * 0.5 * width as f32,
+        (1.0 - ny) * 0.5 * height as f32,
+    ];
+    (px[0].is_finite() && px[1].is_finite()).then_some(px)
+}
+
+/// Motion vectors (2 channels: dx, dy in pixels) of a static scene: for each pixel, where
+/// its surface point (`position`, the current frame's world-position plane, 3 or more
+/// channels) lands under `prev_view_proj`, minus where it lands under `view_proj` — so the
+/// previous position is pixel + motion, as [`super::TemporalFrame::motion`] expects. NaN
+/// where the position is not finite (background) or behind either camera: such pixels keep
+/// no history.
+pub fn motion_vectors(prev_view_proj: &Mat4, view_proj: &Mat4, position: &Image) -> Image {
+    let (w, h) = (position.width, position.height);
+    let pc = position.channels;
+    let mut out = Image::new(w, h, 2, f32::NAN);
+    if pc < 3 || w == 0 {
+        return out;
+    }
+    out.data
+        .par_chunks_mut(2 * w)
+        .enumerate()
+        .for_each(|(y, row)| {
+            for x in 0..w {
+                let q = &position.data[(y * w + x) * pc..][..3];
+                let p = Vec3::new(q[0], q[1], q[2]);
+                if !p.is_finite() {
+                    continue;
+                }
+                let (Some(a), Some(b)) = (
+                    project_to_pixel(prev_view_proj, p, w, h),
+                    project_to_pixel(view_proj, p, w, h),
+                ) else {
+                    continue;
+                };
+                row[2 * x] = a[0] - b[0];
+                row[2 * x + 1] = a[1] - b[1];
+            }
+        });
+    out
+}

@@ -1,0 +1,285 @@
+//! The per-pixel half of the temporal filter: reading a frame's samples, reprojecting the
+//! history with per-tap validity, the moving averages and the variance estimate.
+
+use lumo_image::{luminance, Image};
+
+use super::{divisor, TemporalFrame, TemporalParams};
+use crate::gbuffer::{is_background, Features};
+
+/// What reprojection compares between a pixel and a history tap.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(crate) struct Surface {
+    /// Camera distance; 0 on background.
+    pub depth: f32,
+    /// Unit normal (0 where not finite).
+    pub normal: [f32; 3],
+    /// The normal was finite.
+    pub normal_ok: bool,
+}
+
+impl Surface {
+    fn background(&self) -> bool {
+        self.depth == 0.0
+    }
+
+    /// Whether `prev` (a history tap) shows the same surface as `self`: background only
+    /// matches background; geometry needs finite normals, a relative depth difference within
+    /// the tolerance and normals within the minimum dot product.
+    pub fn matches(&self, prev: &Surface, p: &TemporalParams) -> bool {
+        if self.background() || prev.background() {
+            return self.background() && prev.background();
+        }
+        let dot = self.normal[0] * prev.normal[0]
+            + self.normal[1] * prev.normal[1]
+            + self.normal[2] * prev.normal[2];
+        self.normal_ok
+            && prev.normal_ok
+            && (prev.depth - self.depth).abs() <= p.depth_tolerance * self.depth
+            && dot >= p.normal_min_dot
+    }
+}
+
+/// One pixel of the current frame.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Sample {
+    /// The albedo the colour is divided by; `None`: passed through (no usable albedo).
+    pub divisor: Option<[f32; 3]>,
+    /// Colour / albedo (0 where not `valid`).
+    pub illum: [f32; 3],
+    /// Luminance moments (l, l²) of `illum`.
+    pub moments: [f32; 2],
+    /// The sample is usable: not passed through, colour / albedo and its moments finite.
+    pub valid: bool,
+    pub surface: Surface,
+}
+
+impl Sample {
+    /// Pixel `i` of `frame`, sanitised.
+    pub fn read(frame: &TemporalFrame, i: usize) -> Self {
+        let features = Features {
+            depth: Some(frame.depth),
+            position: frame.position,
+            ..Features::default()
+        };
+        let depth = if is_background(&features, i) {
+            0.0
+        } else {
+            frame.depth.data[i * frame.depth.channels]
+        };
+        let nc = frame.normal.channels;
+        let n = &frame.normal.data[i * nc..i * nc + 3];
+        let normal_ok = n.iter().all(|v| v.is_finite());
+        let surface = Surface {
+            depth,
+            normal: if normal_ok {
+                [n[0], n[1], n[2]]
+            } else {
+                [0.0; 3]
+            },
+            normal_ok,
+        };
+        let divisor = divisor(frame.albedo, i);
+        let c = &frame.color.data[3 * i..3 * i + 3];
+        let (illum, valid) = match divisor {
+            Some(d) => {
+                let v = [c[0] / d[0], c[1] / d[1], c[2] / d[2]];
+                let l = luminance(v);
+                let ok = v.iter().all(|x| x.is_finite()) && (l * l).is_finite();
+                (if ok { v } else { [0.0; 3] }, ok)
+            }
+            None => ([0.0; 3], false),
+        };
+        let l = luminance(illum);
+        Self {
+            divisor,
+            illum,
+            moments: [l, l * l],
+            valid,
+            surface,
+        }
+    }
+}
+
+/// The state kept between frames.
+#[derive(Debug)]
+pub(crate) struct History {
+    pub w: usize,
+    pub h: usize,
+    /// Colour / albedo: the first À-Trous level's output (3 channels).
+    pub color: Image,
+    /// Accumulated luminance moments.
+    pub moments: Vec<[f32; 2]>,
+    /// History length; 0 = none.
+    pub len: Vec<u32>,
+    pub surface: Vec<Surface>,
+    pub ids: Option<Vec<u32>>,
+}
+
+/// One pixel after reprojection and accumulation.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Accumulated {
+    /// Accumulated colour / albedo (meaningful where `len` > 0).
+    pub color: [f32; 3],
+    pub moments: [f32; 2],
+    /// History length including this frame; 0: nothing to show (passed through, or missing
+    /// with no history).
+    pub len: u32,
+    /// The reprojected history colour, if any.
+    pub history: Option<[f32; 3]>,
+}
+
+/// The reprojected history at pixel (x, y): colour, moments and length, bilinear over the
+/// 2×2 taps around pixel + motion that pass the validity tests (weights renormalised).
+fn reproject(
+    p: &TemporalParams,
+    hist: &History,
+    frame: &TemporalFrame,
+    cur: &Surface,
+    x: usize,
+    y: usize,
+) -> Option<([f32; 3], [f32; 2], u32)> {
+    let (w, h) = (hist.w, hist.h);
+    let i = y * w + x;
+    let (mx, my) = match frame.motion {
+        Some(m) => (m.data[i * m.channels], m.data[i * m.channels + 1]),
+        None => (0.0, 0.0),
+    };
+    let (px, py) = (x as f32 + mx, y as f32 + my);
+    // Also rejects non-finite motion (the comparisons are false for NaN).
+    if !(px > -1.0 && py > -1.0 && px < w as f32 && py < h as f32) {
+        return None;
+    }
+    let (x0, y0) = (px.floor(), py.floor());
+    let (fx, fy) = (px - x0, py - y0);
+    let (x0, y0) = (x0 as isize, y0 as isize);
+    let mut color = [0.0f32; 3];
+    let mut moments = [0.0f32; 2];
+    let mut sum = 0.0f32;
+    let (mut best_w, mut len) = (-1.0f32, 0u32);
+    for (dx, dy, wt) in [
+        (0, 0, (1.0 - fx) * (1.0 - fy)),
+        (1, 0, fx * (1.0 - fy)),
+        (0, 1, (1.0 - fx) * fy),
+        (1, 1, fx * fy),
+    ] {
+        let (tx, ty) = (x0 + dx, y0 + dy);
+        if tx < 0 || ty < 0 || tx >= w as isize || ty >= h as isize {
+            continue;
+        }
+        let t = ty as usize * w + tx as usize;
+        if hist.len[t] == 0 || !cur.matches(&hist.surface[t], p) {
+            continue;
+        }
+        if let (Some(ci), Some(hi)) = (frame.ids, hist.ids.as_ref()) {
+            if ci[i] != hi[t] {
+                continue;
+            }
+        }
+        let c = &hist.color.data[3 * t..3 * t + 3];
+        for k in 0..3 {
+            color[k] += wt * c[k];
+        }
+        moments[0] += wt * hist.moments[t][0];
+        moments[1] += wt * hist.moments[t][1];
+        sum += wt;
+        if wt > best_w {
+            best_w = wt;
+            len = hist.len[t];
+        }
+    }
+    // SVGF's threshold: a history made of slivers of taps is not trusted.
+    if sum < 0.01 {
+        return None;
+    }
+    let inv = 1.0 / sum;
+    Some((color.map(|c| c * inv), moments.map(|m| m * inv), len))
+}
+
+/// Reprojects and blends pixel (x, y).
+pub(crate) fn accumulate(
+    p: &TemporalParams,
+    hist: Option<&History>,
+    frame: &TemporalFrame,
+    samples: &[Sample],
+    x: usize,
+    y: usize,
+) -> Accumulated {
+    let w = frame.color.width;
+    let s = &samples[y * w + x];
+    if s.divisor.is_none() {
+        return Accumulated::default();
+    }
+    let prev = hist.and_then(|hi| reproject(p, hi, frame, &s.surface, x, y));
+    match (s.valid, prev) {
+        (true, Some((hc, hm, hl))) => {
+            let len = (hl + 1).min(p.max_history);
+            let a = p.alpha.max(1.0 / len as f32);
+            let am = p.alpha_moments.max(1.0 / len as f32);
+            Accumulated {
+                color: [0, 1, 2].map(|k| hc[k] + a * (s.illum[k] - hc[k])),
+                moments: [0, 1].map(|k| hm[k] + am * (s.moments[k] - hm[k])),
+                len,
+                history: Some(hc),
+            }
+        }
+        (true, None) => Accumulated {
+            color: s.illum,
+            moments: s.moments,
+            len: 1,
+            history: None,
+        },
+        // A missing sample keeps its history as it is.
+        (false, Some((hc, hm, hl))) => Accumulated {
+            color: hc,
+            moments: hm,
+            len: hl,
+            history: Some(hc),
+        },
+        (false, None) => Accumulated::default(),
+    }
+}
+
+/// The luminance variance of colour / albedo at pixel (x, y): from the accumulated moments
+/// once the history is long enough, else from their mean over the window of consistent
+/// pixels, boosted by `variance_history / len` (SVGF).
+pub(crate) fn variance(
+    p: &TemporalParams,
+    samples: &[Sample],
+    acc: &[Accumulated],
+    w: usize,
+    h: usize,
+    x: usize,
+    y: usize,
+) -> f32 {
+    let a = &acc[y * w + x];
+    let v = if a.len == 0 {
+        0.0
+    } else if a.len >= p.variance_history {
+        a.moments[1] - a.moments[0] * a.moments[0]
+    } else {
+        let r = p.spatial_radius;
+        let cur = &samples[y * w + x].surface;
+        let (mut m1, mut m2, mut n) = (0.0f32, 0.0f32, 0.0f32);
+        for yy in y.saturating_sub(r)..(y + r + 1).min(h) {
+            for xx in x.saturating_sub(r)..(x + r + 1).min(w) {
+                let j = yy * w + xx;
+                if acc[j].len > 0 && cur.matches(&samples[j].surface, p) {
+                    m1 += acc[j].moments[0];
+                    m2 += acc[j].moments[1];
+                    n += 1.0;
+                }
+            }
+        }
+        if n > 0.0 {
+            let (m1, m2) = (m1 / n, m2 / n);
+            (m2 - m1 * m1) * (p.variance_history as f32 / a.len as f32)
+        } else {
+            0.0
+        }
+    };
+    if v.is_finite() && v > 0.0 {
+        v
+    } else {
+        0.0
+    }
+}
