@@ -2,7 +2,7 @@
 //! reprojects the previous frame's history with per-pixel motion vectors, accumulates
 //! demodulated colour and the first two luminance moments with an exponential moving average,
 //! estimates the per-pixel variance temporally (spatially while the history is short) and then
-//! runs the variance-guided À-Trous of [`crate::atrous`], feeding its first level back as the
+//! runs the variance-guided À-Trous of [`crate::atrous()`], feeding its first level back as the
 //! next frame's colour history.
 //!
 //! The filter is pure except for its own history: the same sequence of frames gives the same
@@ -24,7 +24,7 @@ use crate::error::param;
 use crate::gbuffer::{check_color, check_size, missing_pixels, Features, Filtered};
 use crate::passthrough::passed;
 use crate::FilterError;
-use reproject::{History, Sample, Surface};
+use reproject::{History, Sample};
 
 /// SVGF's temporal colour weight: the new frame's share once the history is long.
 pub const DEFAULT_ALPHA: f32 = 0.2;
@@ -131,6 +131,10 @@ pub struct TemporalFilter {
     /// The last frame's per-pixel results (see the accessors).
     reprojected: Image,
     variance: Image,
+    /// Working buffers, reused between frames.
+    samples: Vec<Sample>,
+    acc: Vec<reproject::Accumulated>,
+    integrated: Image,
 }
 
 impl TemporalFilter {
@@ -143,6 +147,9 @@ impl TemporalFilter {
             atrous: AtrousFilter::new(),
             reprojected: Image::new(0, 0, 3, 0.0),
             variance: Image::new(0, 0, 1, 0.0),
+            samples: vec![],
+            acc: vec![],
+            integrated: Image::new(0, 0, 3, 0.0),
         })
     }
 
@@ -197,49 +204,62 @@ impl TemporalFilter {
         }
         let n = w * h;
         let p = &self.params;
+        // Working buffers are kept between frames (allocating and page-faulting ~30 MB per
+        // 512² frame cost as much as the reprojection itself); every element is overwritten.
+        let samples = &mut self.samples;
+        samples.resize(n, Sample::default());
+        let acc = &mut self.acc;
+        acc.resize(n, reproject::Accumulated::default());
+        for (img, c) in [
+            (&mut self.variance, 1),
+            (&mut self.integrated, 3),
+            (&mut self.reprojected, 3),
+        ] {
+            if (img.width, img.height, img.channels) != (w, h, c) {
+                *img = Image::new(w, h, c, 0.0);
+            }
+        }
         // 1. This frame's samples: demodulated colour, surface, luminance moments.
-        let mut samples = vec![Sample::default(); n];
         samples.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
             for (x, s) in row.iter_mut().enumerate() {
                 *s = Sample::read(frame, y * w + x);
             }
         });
+        let samples = &samples[..];
         // 2. Reprojection and accumulation.
-        let mut acc = vec![reproject::Accumulated::default(); n];
         let hist = self.history.as_ref();
         acc.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
             for (x, a) in row.iter_mut().enumerate() {
-                *a = reproject::accumulate(p, hist, frame, &samples, x, y);
+                *a = reproject::accumulate(p, hist, frame, samples, x, y);
             }
         });
         // 3. Variance: temporal from the moments, spatial while the history is short.
-        let mut variance = Image::new(w, h, 1, 0.0);
+        let acc = &acc[..];
+        let variance = &mut self.variance;
         variance
             .data
             .par_chunks_mut(w)
             .enumerate()
             .for_each(|(y, row)| {
                 for (x, v) in row.iter_mut().enumerate() {
-                    *v = reproject::variance(p, &samples, &acc, w, h, x, y);
+                    *v = reproject::variance(p, samples, acc, w, h, x, y);
                 }
             });
         // 4. The variance-guided À-Trous on the accumulated colour / albedo; pixels with
         // nothing to show (passed through, or missing without history) are NaN: weight 0.
-        let mut integrated = Image::new(w, h, 3, 0.0);
-        let mut reprojected = Image::new(w, h, 3, f32::NAN);
+        let integrated = &mut self.integrated;
         integrated
             .data
             .par_chunks_mut(3 * w)
-            .zip(reprojected.data.par_chunks_mut(3 * w))
+            .zip(self.reprojected.data.par_chunks_mut(3 * w))
             .enumerate()
             .for_each(|(y, (ir, rr))| {
                 for x in 0..w {
                     let a = &acc[y * w + x];
                     let c = if a.len > 0 { a.color } else { [f32::NAN; 3] };
                     ir[3 * x..3 * x + 3].copy_from_slice(&c);
-                    if let Some(hc) = a.history {
-                        rr[3 * x..3 * x + 3].copy_from_slice(&hc);
-                    }
+                    let hc = a.history.unwrap_or([f32::NAN; 3]);
+                    rr[3 * x..3 * x + 3].copy_from_slice(&hc);
                 }
             });
         let mut ap = p.atrous.clone();
@@ -252,11 +272,11 @@ impl TemporalFilter {
             position: frame.position,
             depth: Some(frame.depth),
             albedo: None,
-            variance: Some(&variance),
+            variance: Some(&*variance),
         };
-        let (filtered, first) =
-            self.atrous
-                .filter_keeping_first_level(&integrated, &features, &ap)?;
+        let (filtered, first) = self
+            .atrous
+            .filter_keeping_first_level(integrated, &features, &ap)?;
         // 5. Remodulation; pass-through pixels get their own colour.
         let mut image = filtered.image;
         image
@@ -286,17 +306,32 @@ impl TemporalFilter {
         for v in &mut color.data {
             *v = sanitize(*v);
         }
-        self.history = Some(History {
+        // Written over the old history's vectors (it has been read).
+        let mut hist = self.history.take().unwrap_or(History {
             w,
             h,
-            color,
-            moments: acc.iter().map(|a| a.moments).collect(),
-            len: acc.iter().map(|a| a.len).collect(),
-            surface: samples.iter().map(|s| s.surface).collect::<Vec<Surface>>(),
-            ids: frame.ids.map(|ids| ids.to_vec()),
+            color: Image::new(0, 0, 3, 0.0),
+            moments: vec![],
+            len: vec![],
+            surface: vec![],
+            ids: None,
         });
-        self.reprojected = reprojected;
-        self.variance = variance;
+        hist.color = color;
+        hist.moments.clear();
+        hist.moments.extend(acc.iter().map(|a| a.moments));
+        hist.len.clear();
+        hist.len.extend(acc.iter().map(|a| a.len));
+        hist.surface.clear();
+        hist.surface.extend(samples.iter().map(|s| s.surface));
+        match frame.ids {
+            Some(ids) => {
+                let v = hist.ids.get_or_insert_with(Vec::new);
+                v.clear();
+                v.extend_from_slice(ids);
+            }
+            None => hist.ids = None,
+        }
+        self.history = Some(hist);
         Ok(Filtered {
             image,
             missing: missing_pixels(frame.color),
