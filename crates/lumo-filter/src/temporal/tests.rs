@@ -506,3 +506,37 @@ fn parameters_are_checked() {
     }));
     assert!(!bad(TemporalParams::default()));
 }
+
+#[test]
+fn pass_through_and_background_pixels() {
+    let (w, h) = (24, 16);
+    let mut g = flat(w, h);
+    // The top rows are background (nothing hit), the rest geometry.
+    for y in 0..4 {
+        for x in 0..w {
+            g.depth.pixel_mut(x, y)[0] = f32::INFINITY;
+            g.position.pixel_mut(x, y).fill(f32::INFINITY);
+            g.normal.pixel_mut(x, y).fill(0.0);
+        }
+    }
+    let color = random_image(w, h, 11);
+    // Without an albedo, background accumulates with background.
+    let mut f = TemporalFilter::new(TemporalParams::default()).unwrap();
+    for _ in 0..3 {
+        f.filter(&frame(&color, &g)).unwrap();
+    }
+    assert!(f.history_length().iter().all(|&n| n == 3));
+    // With an albedo of 0 everywhere every pixel is passed through as it is.
+    let black = Image::new(w, h, 1, 0.0);
+    let mut f = TemporalFilter::new(TemporalParams::default()).unwrap();
+    for _ in 0..2 {
+        let out = f
+            .filter(&TemporalFrame {
+                albedo: Some(&black),
+                ..frame(&color, &g)
+            })
+            .unwrap();
+        assert_eq!(out.image, color);
+        assert!(f.history_length().iter().all(|&n| n == 0));
+    }
+}
