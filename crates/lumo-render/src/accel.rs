@@ -17,7 +17,9 @@ use crate::bvh8::Bvh8;
 use crate::bvh_wide::{TriHit, EMPTY};
 use crate::packet::{RayPacket, LANES};
 
-use lumo_scene::Scene;
+use lumo_scene::{AnalyticKind, Scene};
+
+use crate::analytic::{self, Shape};
 
 mod robust;
 
@@ -82,6 +84,8 @@ enum Target {
     Static,
     /// Instance `instance` of mesh `mesh`, through its transform.
     Instance { instance: u32, mesh: u32 },
+    /// Instance `instance` of an analytic shape, through its transform times the shape's.
+    Analytic { instance: u32, kind: AnalyticKind },
 }
 
 /// One TLAS leaf.
@@ -115,10 +119,10 @@ type StaticGeometry = (Vec<Vec3>, Vec<[u32; 3]>, Vec<(u32, u32)>);
 fn gather_static(scene: &Scene) -> StaticGeometry {
     let (mut positions, mut indices, mut origin) = (vec![], vec![], vec![]);
     for (ii, inst) in scene.instances.iter().enumerate() {
-        if inst.transform != Mat4::IDENTITY {
+        let mesh = &scene.meshes[inst.mesh];
+        if inst.transform != Mat4::IDENTITY || mesh.analytic.is_some() {
             continue;
         }
-        let mesh = &scene.meshes[inst.mesh];
         let base = positions.len() as u32;
         positions.extend_from_slice(&mesh.positions);
         for (t, tri) in mesh.indices.iter().enumerate() {
@@ -139,6 +143,7 @@ impl Accel {
                     .instances
                     .iter()
                     .any(|i| i.mesh == m && i.transform != Mat4::IDENTITY)
+                    && scene.meshes[m].analytic.is_none()
             })
             .collect();
         let meshes: Vec<Option<MeshBvh>> = scene
@@ -161,6 +166,17 @@ impl Accel {
             });
         }
         for (ii, inst) in scene.instances.iter().enumerate() {
+            if let Some(a) = &scene.meshes[inst.mesh].analytic {
+                placements.push(Placement {
+                    target: Target::Analytic {
+                        instance: ii as u32,
+                        kind: a.kind,
+                    },
+                    to_local: Shape::new(a, inst.transform).to_local,
+                    identity: false,
+                });
+                continue;
+            }
             if inst.transform != Mat4::IDENTITY && !scene.meshes[inst.mesh].indices.is_empty() {
                 placements.push(Placement {
                     target: Target::Instance {
@@ -193,6 +209,7 @@ impl Accel {
         match target {
             Target::Static => self.static_bvh.as_ref().map(|(b, _)| b),
             Target::Instance { mesh, .. } => self.meshes.get(mesh as usize)?.as_ref(),
+            Target::Analytic { .. } => None,
         }
     }
 
@@ -200,15 +217,22 @@ impl Accel {
         self.placements
             .iter()
             .map(|p| {
-                let Some(blas) = self.blas(p.target) else {
-                    return Aabb::new(Vec3A::splat(f32::MAX), Vec3A::splat(f32::MAX));
-                };
-                let lb = blas.bvh2.nodes[0].aabb();
-                let transform = match p.target {
-                    Target::Static => Mat4::IDENTITY,
-                    Target::Instance { instance, .. } => {
-                        scene.instances[instance as usize].transform
-                    }
+                let (lb, transform) = if let Target::Analytic { kind, .. } = p.target {
+                    // Padded: the transform is the inverse of the inverse, to rounding.
+                    let (lo, hi) = Shape::local_bounds(kind);
+                    let (lo, hi) = (lo - Vec3::splat(1e-4), hi + Vec3::splat(1e-4));
+                    (Aabb::new(lo.into(), hi.into()), p.to_local.inverse())
+                } else {
+                    let Some(blas) = self.blas(p.target) else {
+                        return Aabb::new(Vec3A::splat(f32::MAX), Vec3A::splat(f32::MAX));
+                    };
+                    let transform = match p.target {
+                        Target::Instance { instance, .. } => {
+                            scene.instances[instance as usize].transform
+                        }
+                        _ => Mat4::IDENTITY,
+                    };
+                    (*blas.bvh2.nodes[0].aabb(), transform)
                 };
                 let mut b = Aabb::empty();
                 for i in 0..8 {
@@ -251,7 +275,10 @@ impl Accel {
         let static_count = scene
             .instances
             .iter()
-            .filter(|i| i.transform == Mat4::IDENTITY && !scene.meshes[i.mesh].indices.is_empty())
+            .filter(|i| {
+                let mesh = &scene.meshes[i.mesh];
+                i.transform == Mat4::IDENTITY && !mesh.indices.is_empty() && mesh.analytic.is_none()
+            })
             .count();
         let was_static = self
             .static_bvh
@@ -271,10 +298,19 @@ impl Accel {
             return;
         }
         for p in &mut self.placements {
-            if let Target::Instance { instance, .. } = p.target {
-                let t = scene.instances[instance as usize].transform;
-                p.to_local = t.inverse();
-                p.identity = false;
+            match p.target {
+                Target::Instance { instance, .. } => {
+                    let t = scene.instances[instance as usize].transform;
+                    p.to_local = t.inverse();
+                    p.identity = false;
+                }
+                Target::Analytic { instance, .. } => {
+                    let inst = &scene.instances[instance as usize];
+                    if let Some(a) = &scene.meshes[inst.mesh].analytic {
+                        p.to_local = Shape::new(a, inst.transform).to_local;
+                    }
+                }
+                Target::Static => {}
             }
         }
         let boxes = self.placement_boxes(scene);
@@ -300,7 +336,10 @@ impl Accel {
     fn scene_hit(&self, pi: usize, h: TriHit) -> Option<Hit> {
         let (instance, triangle) = match self.placements[pi].target {
             Target::Static => self.static_bvh.as_ref()?.1[h.triangle as usize],
-            Target::Instance { instance, .. } => (instance, h.triangle),
+            // An analytic hit's `triangle` is 0 (see `intersect_placement`).
+            Target::Instance { instance, .. } | Target::Analytic { instance, .. } => {
+                (instance, h.triangle)
+            }
         };
         Some(Hit {
             t: h.t,
@@ -311,6 +350,47 @@ impl Accel {
         })
     }
 
+    /// Nearest hit of the world ray `origin + t·dir` with placement `p`'s geometry.
+    #[inline]
+    fn intersect_placement(
+        &self,
+        p: &Placement,
+        origin: Vec3,
+        dir: Vec3,
+        tmin: f32,
+        tmax: f32,
+    ) -> Option<TriHit> {
+        let (o, d) = self.local_ray(p, origin, dir);
+        if let Target::Analytic { kind, .. } = p.target {
+            let t = analytic::intersect(kind, o, d, tmin, tmax)?;
+            return Some(TriHit {
+                t,
+                triangle: 0,
+                u: 0.0,
+                v: 0.0,
+            });
+        }
+        self.blas(p.target)?.wide.intersect(o, d, tmin, tmax)
+    }
+
+    /// Whether placement `p`'s geometry blocks the world ray `origin + t·dir`.
+    #[inline]
+    fn occluded_placement(
+        &self,
+        p: &Placement,
+        origin: Vec3,
+        dir: Vec3,
+        tmin: f32,
+        tmax: f32,
+    ) -> bool {
+        let (o, d) = self.local_ray(p, origin, dir);
+        if let Target::Analytic { kind, .. } = p.target {
+            return analytic::intersect(kind, o, d, tmin, tmax).is_some();
+        }
+        self.blas(p.target)
+            .is_some_and(|b| b.wide.occluded(o, d, tmin, tmax))
+    }
+
     /// Nearest hit along `origin + t·dir` for t in (tmin, tmax).
     pub fn intersect(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
         if self.tlas.nodes.is_empty() {
@@ -318,9 +398,7 @@ impl Accel {
         }
         if self.placements.len() == 1 {
             // A single placement (typically the merged static scene): skip the instance tree.
-            let p = &self.placements[0];
-            let (o, d) = self.local_ray(p, origin, dir);
-            let h = self.blas(p.target)?.wide.intersect(o, d, tmin, tmax)?;
+            let h = self.intersect_placement(&self.placements[0], origin, dir, tmin, tmax)?;
             return self.scene_hit(0, h);
         }
         let ray = Ray::new(origin.into(), dir.into(), tmin, tmax);
@@ -329,11 +407,7 @@ impl Accel {
         self.tlas.ray_traverse(ray, &mut hit, |r, id| {
             let pi = self.tlas.primitive_indices[id] as usize;
             let p = &self.placements[pi];
-            let Some(blas) = self.blas(p.target) else {
-                return f32::INFINITY;
-            };
-            let (o, d) = self.local_ray(p, origin, dir);
-            match blas.wide.intersect(o, d, r.tmin, r.tmax) {
+            match self.intersect_placement(p, origin, dir, r.tmin, r.tmax) {
                 Some(h) => {
                     best = Some((pi, h));
                     h.t
@@ -407,19 +481,15 @@ impl Accel {
             return false;
         }
         if self.placements.len() == 1 {
-            let p = &self.placements[0];
-            let (o, d) = self.local_ray(p, origin, dir);
-            return self
-                .blas(p.target)
-                .is_some_and(|b| b.wide.occluded(o, d, tmin, tmax));
+            return self.occluded_placement(&self.placements[0], origin, dir, tmin, tmax);
         }
         let ray = Ray::new(origin.into(), dir.into(), tmin, tmax);
         !self.tlas.ray_traverse_miss(ray, |r, id| {
             let p = &self.placements[self.tlas.primitive_indices[id] as usize];
-            let (o, d) = self.local_ray(p, origin, dir);
-            match self.blas(p.target) {
-                Some(blas) if blas.wide.occluded(o, d, r.tmin, r.tmax) => r.tmin,
-                _ => f32::INFINITY,
+            if self.occluded_placement(p, origin, dir, r.tmin, r.tmax) {
+                r.tmin
+            } else {
+                f32::INFINITY
             }
         })
     }

@@ -5,6 +5,7 @@
 #![deny(clippy::undocumented_unsafe_blocks)]
 
 pub mod accel;
+mod analytic;
 mod blas;
 pub mod bsdf;
 mod bvh4;

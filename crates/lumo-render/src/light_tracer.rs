@@ -15,6 +15,7 @@ use glam::{Vec2, Vec3};
 use lumo_image::luminance;
 use lumo_scene::{Camera, Light, Scene};
 
+use crate::analytic::Shape;
 use crate::distribution::Distribution1d;
 use crate::geometry::{
     shadow_segment, square_to_cosine_hemisphere, square_to_disk, square_to_triangle,
@@ -35,6 +36,11 @@ enum Emitter {
         e2: Vec3,
         normal: Vec3,
         area: f32,
+        radiance: Vec3,
+    },
+    /// One-sided emissive exact sphere, disk or cylinder, sampled uniformly by area.
+    Shape {
+        shape: Shape,
         radiance: Vec3,
     },
     Point {
@@ -73,6 +79,17 @@ impl Emitters {
             let mesh = &scene.meshes[inst.mesh];
             let material = &scene.materials[mesh.material];
             if !material.is_emissive() {
+                continue;
+            }
+            if let Some(a) = &mesh.analytic {
+                let shape = Shape::new(a, inst.transform);
+                if shape.area > 0.0 && shape.area.is_finite() {
+                    power.push(shape.area * PI * luminance(material.emission.into()));
+                    emitters.push(Emitter::Shape {
+                        shape,
+                        radiance: material.emission,
+                    });
+                }
                 continue;
             }
             for t in 0..mesh.triangle_count() {
@@ -292,7 +309,8 @@ pub fn trace_light_path(
         }
     };
     // The first ray: origin, direction and throughput (radiance × cos / densities).
-    let (mut origin, mut dir, mut throughput) = match emitters.emitters[index] {
+    // A point on an area emitter: position, normal, area and radiance.
+    let area_point = match emitters.emitters[index] {
         Emitter::Triangle {
             p0,
             e1,
@@ -302,7 +320,19 @@ pub fn trace_light_path(
             radiance,
         } => {
             let b = square_to_triangle(u_pos);
-            let p = p0 + e1 * b.x + e2 * b.y;
+            Some((p0 + e1 * b.x + e2 * b.y, normal, area, radiance))
+        }
+        Emitter::Shape { shape, radiance } => {
+            let sp = shape.sample_area(u_pos);
+            Some((sp.p, sp.n, shape.area, radiance))
+        }
+        _ => None,
+    };
+    let (mut origin, mut dir, mut throughput) = match emitters.emitters[index] {
+        Emitter::Triangle { .. } | Emitter::Shape { .. } => {
+            let Some((p, normal, area, radiance)) = area_point else {
+                return stats;
+            };
             let pdf_area = pick / area;
             let off = |d: Vec3| {
                 let side = if normal.dot(d) >= 0.0 { 1.0 } else { -1.0 };

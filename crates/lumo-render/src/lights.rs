@@ -7,6 +7,7 @@ use glam::{Vec2, Vec3};
 use lumo_image::luminance;
 use lumo_scene::{EnvMap, Light, Scene};
 
+use crate::analytic::Shape;
 use crate::distribution::{AliasTable, Distribution1d};
 use crate::geometry::{square_to_triangle, square_to_uniform_sphere, UNIFORM_SPHERE_PDF};
 
@@ -36,6 +37,11 @@ struct EnvSampler {
 
 enum LightKind {
     Triangle(EmissiveTriangle),
+    /// An emissive exact sphere, disk or cylinder.
+    Shape {
+        shape: Shape,
+        radiance: Vec3,
+    },
     Point {
         position: Vec3,
         intensity: Vec3,
@@ -268,6 +274,19 @@ impl Lights {
                 continue;
             }
             instance_offset[ii] = Some(lights.len() as u32);
+            if let Some(a) = &mesh.analytic {
+                let shape = Shape::new(a, inst.transform);
+                power.push(if shape.area > 0.0 && shape.area.is_finite() {
+                    shape.area * PI * luminance(material.emission.into())
+                } else {
+                    0.0
+                });
+                lights.push(LightKind::Shape {
+                    shape,
+                    radiance: material.emission,
+                });
+                continue;
+            }
             for t in 0..mesh.triangle_count() {
                 let [a, b, c] = mesh.triangle(t).map(|p| inst.transform.transform_point3(p));
                 let cross = (b - a).cross(c - a);
@@ -395,14 +414,19 @@ impl Lights {
     }
 
     /// Density (solid angle at `from`) of sampling the point `p` on emissive triangle
-    /// `triangle` of instance `instance`.
+    /// `triangle` of instance `instance` (on the exact shape, for a sphere, disk or cylinder).
     pub fn triangle_pdf(&self, instance: u32, triangle: u32, from: Vec3, p: Vec3) -> f32 {
         let Some(Some(offset)) = self.instance_offset.get(instance as usize) else {
             return 0.0;
         };
         let index = (*offset + triangle) as usize;
-        let Some(LightKind::Triangle(tri)) = self.lights.get(index) else {
-            return 0.0;
+        let tri = match self.lights.get(index) {
+            Some(LightKind::Triangle(tri)) => tri,
+            Some(LightKind::Shape { shape, .. }) => {
+                let n = shape.surface_at(p).n;
+                return self.choice.pmf(index) * shape.pdf_direction(from, p, n);
+            }
+            _ => return 0.0,
         };
         let d = p - from;
         let dist2 = d.length_squared();
@@ -469,6 +493,23 @@ impl Lights {
                     point: q,
                     weight: tri.radiance * (den / num),
                     pdf: num / den,
+                }
+            }
+            LightKind::Shape { shape, radiance } => {
+                let (sp, pdf) = shape.sample_direction(p, u)?;
+                let d = sp.p - p;
+                let distance = d.length();
+                let wi = d / distance;
+                if sp.n.dot(-wi) <= 0.0 || distance <= 0.0 {
+                    return None;
+                }
+                let pdf = pick * pdf;
+                LightSample {
+                    wi,
+                    distance,
+                    point: sp.p,
+                    weight: *radiance / pdf,
+                    pdf,
                 }
             }
             LightKind::Point {

@@ -5,6 +5,7 @@ use glam::{Mat3, Mat4, Vec2, Vec3};
 use lumo_scene::{Bsdf as SceneBsdf, Scene, SceneError, Texture};
 
 use crate::accel::{Accel, Hit};
+use crate::analytic::Shape;
 use crate::bsdf::{fresnel_diffuse_reflectance, Bsdf, Microfacet, RoughCoat, SMOOTH_ALPHA};
 use crate::geometry::Frame;
 use crate::lights::Lights;
@@ -41,6 +42,9 @@ struct InstancePlacement {
     to_world: Mat4,
     /// Object → world for normals (inverse transpose of the linear part).
     normal_to_world: Mat3,
+    /// The instance is an exact sphere, disk or cylinder (its shape in
+    /// [`RenderScene::shapes`]).
+    analytic: bool,
 }
 
 /// A scene with its acceleration structure and light sampler.
@@ -67,6 +71,8 @@ pub struct RenderScene {
     /// Per instance, what surface reconstruction needs of its transform, computed once
     /// rather than per hit.
     placements: Vec<InstancePlacement>,
+    /// Per instance, its exact shape if its mesh is analytic.
+    shapes: Vec<Option<Shape>>,
     /// Per mesh, each triangle's unit geometric normal in object space (zero if degenerate):
     /// identity instances read it instead of re-deriving it with a cross product, square
     /// root and division per hit (~3 % of render time).
@@ -158,6 +164,15 @@ impl RenderScene {
                 identity: inst.transform == Mat4::IDENTITY,
                 to_world: inst.transform,
                 normal_to_world: Mat3::from_mat4(inst.transform).inverse().transpose(),
+                analytic: scene.meshes[inst.mesh].analytic.is_some(),
+            })
+            .collect();
+        let shapes = scene
+            .instances
+            .iter()
+            .map(|inst| {
+                let a = scene.meshes[inst.mesh].analytic.as_ref()?;
+                Some(Shape::new(a, inst.transform))
             })
             .collect();
         let unit_normals = scene
@@ -183,6 +198,7 @@ impl RenderScene {
                     SceneBsdf::Diffuse {
                         reflectance: Texture::Constant(albedo),
                     } if inst.transform == Mat4::IDENTITY
+                        && mesh.analytic.is_none()
                         && albedo.is_finite()
                         && mesh.colors.is_empty() =>
                     {
@@ -211,6 +227,7 @@ impl RenderScene {
             one_sided,
             back_black,
             placements,
+            shapes,
             unit_normals,
         })
     }
@@ -233,6 +250,9 @@ impl RenderScene {
     pub fn surface(&self, hit: &Hit, origin: Vec3, dir: Vec3) -> Surface {
         let inst = &self.scene.instances[hit.instance as usize];
         let place = &self.placements[hit.instance as usize];
+        if place.analytic {
+            return self.analytic_surface(hit, origin, dir);
+        }
         let mesh = &self.scene.meshes[inst.mesh];
         let [i0, i1, i2] = mesh.indices[hit.triangle as usize].map(|i| i as usize);
         let (u, v) = (hit.u, hit.v);
@@ -290,6 +310,38 @@ impl RenderScene {
             surface.frame = self.tangent_frame(&surface);
         }
         surface
+    }
+
+    /// The surface of an exact shape at `hit`: the hit point re-projected onto it, the
+    /// shape's normal as both geometric and shading normal, Mitsuba's uv.
+    #[cold]
+    fn analytic_surface(&self, hit: &Hit, origin: Vec3, dir: Vec3) -> Surface {
+        let inst = &self.scene.instances[hit.instance as usize];
+        let material = self.scene.meshes[inst.mesh].material;
+        let Some(shape) = &self.shapes[hit.instance as usize] else {
+            unreachable!("analytic placement without a shape");
+        };
+        let sp = shape.surface_at(origin + dir * hit.t);
+        let mut surface = Surface {
+            p: sp.p,
+            ng: sp.n,
+            frame: Frame::new(sp.n),
+            uv: sp.uv,
+            color: Vec3::ONE,
+            material,
+            instance: hit.instance,
+            triangle: 0,
+        };
+        if self.anisotropic[material] {
+            surface.frame = self.tangent_frame(&surface);
+        }
+        surface
+    }
+
+    /// The exact shape of instance `instance`, if it is one.
+    #[inline]
+    pub(crate) fn shape(&self, instance: u32) -> Option<&Shape> {
+        self.shapes.get(instance as usize)?.as_ref()
     }
 
     /// Mitsuba's shading frame at `s`: the tangent is ∂p/∂u made perpendicular to the normal
@@ -359,6 +411,10 @@ impl RenderScene {
     /// Mitsuba's meshes; lumo's barycentric uv where the mesh has none); `None` where the uv
     /// map is degenerate.
     fn dp_duv(&self, s: &Surface) -> Option<(Vec3, Vec3)> {
+        if let Some(shape) = self.shape(s.instance) {
+            let sp = shape.surface_at(s.p);
+            return Some((sp.dp_du, sp.dp_dv));
+        }
         let inst = &self.scene.instances[s.instance as usize];
         let place = &self.placements[s.instance as usize];
         let mesh = &self.scene.meshes[inst.mesh];

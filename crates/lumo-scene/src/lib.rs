@@ -21,7 +21,7 @@ pub use camera::{Camera, FovAxis};
 pub use error::SceneError;
 pub use light::{EnvMap, Light};
 pub use material::{Bsdf, Distribution, Material, Roughness};
-pub use mesh::{Instance, Mesh};
+pub use mesh::{Analytic, AnalyticKind, Instance, Mesh};
 pub use scene::{RenderDefaults, Scene};
 pub use texture::{Texture, TextureFilter, WrapMode};
 

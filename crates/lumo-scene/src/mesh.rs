@@ -18,6 +18,33 @@ pub struct Mesh {
     pub indices: Vec<[u32; 3]>,
     /// Index into [`crate::Scene::materials`].
     pub material: usize,
+    /// Set for Mitsuba's `sphere`, `disk` and `cylinder`: the renderer intersects the exact
+    /// shape, and the triangles above are only a proxy (bounds, counts, viewers).
+    pub analytic: Option<Analytic>,
+}
+
+/// Which exact shape an analytic mesh stands for, in its own object space.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AnalyticKind {
+    /// The unit sphere at the origin (Mitsuba's `sphere`: u = φ/2π, v = θ/π, poles on z).
+    Sphere,
+    /// The unit disk in the z = 0 plane facing +z (Mitsuba's `disk`: uv = (r, φ/2π)).
+    Disk,
+    /// The open cylinder of radius 1 around z from z = 0 to 1, normals outwards (Mitsuba's
+    /// `cylinder`: uv = (φ/2π, z)).
+    Cylinder,
+}
+
+/// An exact shape placed in the mesh's space.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Analytic {
+    /// The shape.
+    pub kind: AnalyticKind,
+    /// Shape object space → the mesh's space (Mitsuba's `to_world`, with the sphere's centre
+    /// and radius and the cylinder's end points folded in); the instance transform follows.
+    pub to_mesh: Mat4,
+    /// Normals point inwards (Mitsuba's `flip_normals`).
+    pub flip_normals: bool,
 }
 
 impl Mesh {
@@ -75,6 +102,9 @@ impl Mesh {
         }
         for n in &mut self.normals {
             *n = normal_matrix.transform_vector3(*n).normalize_or_zero();
+        }
+        if let Some(a) = &mut self.analytic {
+            a.to_mesh = *m * a.to_mesh;
         }
         // A mirroring transform flips the winding; keep geometric normals facing outwards.
         if m.determinant() < 0.0 {

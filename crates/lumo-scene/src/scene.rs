@@ -124,6 +124,14 @@ impl Scene {
                 index,
                 value,
             };
+            if let Some(a) = &mesh.analytic {
+                if !a.to_mesh.is_finite() || a.to_mesh.determinant() == 0.0 {
+                    return Err(SceneError::Invalid(format!(
+                        "mesh {mi} ({:?}): analytic shape transform is singular or not finite",
+                        mesh.name
+                    )));
+                }
+            }
             if let Some(i) = mesh.positions.iter().position(|p| !p.is_finite()) {
                 return Err(bad("position", i, format!("{:?}", mesh.positions[i])));
             }

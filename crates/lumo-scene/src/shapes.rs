@@ -24,6 +24,7 @@ pub fn rectangle(to_world: &Mat4, material: usize) -> Mesh {
         indices: vec![[0, 1, 2], [2, 3, 0]],
         material,
         colors: Vec::new(),
+        analytic: None,
     }
     .transformed(to_world)
 }
@@ -91,6 +92,7 @@ pub fn sphere(to_world: &Mat4, material: usize, rings: u32, segments: u32) -> Me
         indices,
         material,
         colors: Vec::new(),
+        analytic: None,
     }
     .transformed(to_world)
 }
@@ -124,6 +126,7 @@ pub fn cylinder(to_world: &Mat4, material: usize, segments: u32) -> Mesh {
         indices,
         material,
         colors: Vec::new(),
+        analytic: None,
     }
     .transformed(to_world)
 }
@@ -148,6 +151,7 @@ pub fn disk(to_world: &Mat4, material: usize, segments: u32) -> Mesh {
         indices,
         material,
         colors: Vec::new(),
+        analytic: None,
     }
     .transformed(to_world)
 }

@@ -282,3 +282,106 @@ fn empty_images_built_in_code_emit_and_reflect_nothing() {
     let m = frame.color.channel_means();
     assert!(m.iter().all(|v| v.is_finite() && *v > 0.0), "{m:?}");
 }
+
+/// Emissive exact shapes: the light pdf of the point a direction hits integrates to one over
+/// the sphere of directions, every light sample lands where its ray hits the shape with the
+/// pdf `triangle_pdf` gives that point, and E[1/pdf] is the solid angle the shape covers — for
+/// a sphere seen from outside (its visible cone, by solid angle), from inside (by area), a disk
+/// and an open cylinder seen from inside (by area, converted to solid angle).
+#[test]
+fn analytic_light_pdfs_integrate_to_one_and_match_their_samples() {
+    use lumo_render::RenderScene;
+    use lumo_scene::load::{load_mitsuba_str, LoadOptions};
+    use std::f32::consts::PI;
+    let emitter = r#"<emitter type="area"><rgb name="radiance" value="1"/></emitter>"#;
+    let cases = [
+        (
+            format!(
+                r#"<shape type="sphere"><point name="center" value="0.2,0,0"/><float name="radius" value="0.5"/>{emitter}</shape>"#
+            ),
+            Vec3::new(0.0, 0.3, 1.7),
+        ),
+        (
+            format!(
+                r#"<shape type="sphere"><float name="radius" value="0.5"/><boolean name="flip_normals" value="true"/>{emitter}</shape>"#
+            ),
+            Vec3::new(0.1, -0.2, 0.15),
+        ),
+        (
+            format!(
+                r#"<shape type="disk"><transform name="to_world"><scale value="0.7"/></transform>{emitter}</shape>"#
+            ),
+            Vec3::new(0.3, 0.2, 0.6),
+        ),
+        (
+            format!(
+                r#"<shape type="cylinder"><point name="p0" value="0,0,-1"/><point name="p1" value="0,0,1"/><boolean name="flip_normals" value="true"/>{emitter}</shape>"#
+            ),
+            Vec3::new(0.2, 0.1, 0.3),
+        ),
+    ];
+    for (shape, from) in cases {
+        let text = format!(r#"<scene version="3.0.0">{shape}</scene>"#);
+        let loaded = load_mitsuba_str(
+            &text,
+            std::path::Path::new("t.xml"),
+            &LoadOptions::default(),
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        let rs = RenderScene::new(loaded.scene).unwrap();
+        // ∫ pdf dω and the covered solid angle, over stratified directions.
+        let (nt, np) = (400usize, 800usize);
+        let (mut integral, mut covered) = (0.0f64, 0.0f64);
+        for i in 0..nt {
+            for j in 0..np {
+                let cos = 1.0 - 2.0 * (i as f32 + 0.5) / nt as f32;
+                let phi = 2.0 * PI * (j as f32 + 0.5) / np as f32;
+                let sin = (1.0 - cos * cos).max(0.0).sqrt();
+                let d = Vec3::new(sin * phi.cos(), sin * phi.sin(), cos);
+                if let Some(hit) = rs.accel.intersect(from, d, 0.0, f32::INFINITY) {
+                    let s = rs.surface(&hit, from, d);
+                    let dw = 4.0 * std::f64::consts::PI / (nt * np) as f64;
+                    integral +=
+                        rs.lights.triangle_pdf(hit.instance, s.triangle, from, s.p) as f64 * dw;
+                    covered += dw;
+                }
+            }
+        }
+        assert!(
+            (integral - 1.0).abs() < 0.01,
+            "{shape}: ∫ pdf dω = {integral}"
+        );
+        let mut inv_pdf = 0.0f64;
+        let n = 20000;
+        for k in 0..n {
+            let u = Vec2::new(
+                (k as f32 + 0.5) / n as f32,
+                ((k as u64 * 2654435761) % 65536) as f32 / 65536.0,
+            );
+            let ls = rs
+                .lights
+                .sample(from, 0.5, u)
+                .unwrap_or_else(|| panic!("{shape}: no sample"));
+            let hit = rs.accel.intersect(from, ls.wi, 0.0, f32::INFINITY).unwrap();
+            assert!(
+                (hit.t - ls.distance).abs() < 1e-3 * (1.0 + ls.distance),
+                "{shape}: sample at {} but its ray hits at {}",
+                ls.distance,
+                hit.t
+            );
+            let s = rs.surface(&hit, from, ls.wi);
+            let pdf = rs.lights.triangle_pdf(hit.instance, s.triangle, from, s.p);
+            assert!(
+                (pdf - ls.pdf).abs() <= 2e-3 * ls.pdf,
+                "{shape}: sampled pdf {} but pdf {pdf} at the hit",
+                ls.pdf
+            );
+            inv_pdf += 1.0 / ls.pdf as f64;
+        }
+        let solid_angle = inv_pdf / n as f64;
+        assert!(
+            (solid_angle - covered).abs() < 0.01 * covered,
+            "{shape}: E[1/pdf] = {solid_angle}, covered solid angle {covered}"
+        );
+    }
+}

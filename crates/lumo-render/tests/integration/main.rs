@@ -1,6 +1,7 @@
 //! The lumo-render integration tests, one test program (each separate program would link the whole
 //! crate again: minutes of a fresh build). Each module is one topic.
 mod accel;
+mod analytic_shapes;
 mod bsdf_sampling;
 mod common;
 mod direct_light_geometry;

@@ -19,6 +19,35 @@ fn wavefront_equals_one_ray_at_a_time_on_every_builtin_scene() {
     moved.instances[last].transform =
         glam::Mat4::from_translation(glam::Vec3::new(0.05, 0.0, 0.02));
     scenes.push(("cornell, one instance moved".into(), moved));
+    // The Cornell box with an exact (non-emissive) sphere: triangle lights, so the vector
+    // bounce runs, while packets go ray by ray through the sphere's placement.
+    let mut with_ball = lumo_scene::builtin_scene("cornell").expect("built-in");
+    let (lo, hi) = with_ball.bounds();
+    let to_mesh = glam::Mat4::from_translation((lo + hi) * 0.5)
+        * glam::Mat4::from_scale(glam::Vec3::splat((hi - lo).min_element() * 0.2));
+    let mut ball = lumo_scene::shapes::sphere(&to_mesh, 0, 8, 16);
+    ball.analytic = Some(lumo_scene::Analytic {
+        kind: lumo_scene::AnalyticKind::Sphere,
+        to_mesh,
+        flip_normals: false,
+    });
+    with_ball.add_mesh(ball);
+    scenes.push(("cornell with an exact sphere".into(), with_ball));
+    // Exact spheres, disks and cylinders (leaves of the instance tree), with disk and sphere
+    // area lights: the vector bounce stands aside, packets go ray by ray.
+    for name in ["analytic_shapes", "sphere_limb_closeup"] {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../tests/data/mitsuba/scenes")
+            .join(format!("{name}.xml"));
+        let text = std::fs::read_to_string(&path).expect("suite scene");
+        let loaded = lumo_scene::load::load_mitsuba_str(
+            &text,
+            &path,
+            &lumo_scene::load::LoadOptions::default(),
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        scenes.push((name.into(), loaded.scene));
+    }
     for (name, scene) in scenes {
         let rs = RenderScene::new(scene).expect("valid scene");
         for spp in [1u32, 3, 16] {

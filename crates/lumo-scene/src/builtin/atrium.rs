@@ -140,6 +140,7 @@ fn grid(cols: u32, rows: u32, wrap: bool, f: impl Fn(u32, u32) -> Vec3) -> Mesh 
         indices,
         material: 0,
         colors: Vec::new(),
+        analytic: None,
     }
 }
 

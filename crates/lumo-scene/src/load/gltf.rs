@@ -515,6 +515,7 @@ impl GltfReader<'_, '_> {
                 colors,
                 indices,
                 material,
+                analytic: None,
             };
             for (attr, len) in [
                 ("NORMAL", m.normals.len()),

@@ -8,9 +8,10 @@ use super::props::Props;
 use super::xml::Element;
 use super::Builder;
 use crate::load::{check::check_mesh, obj, ply, LoadError};
-use crate::{shapes, Camera, EnvMap, FovAxis, Instance, Light, Mesh};
+use crate::{shapes, Analytic, AnalyticKind, Camera, EnvMap, FovAxis, Instance, Light, Mesh};
 
-/// Tessellation of analytic shapes (Mitsuba intersects them exactly; lumo renders triangles).
+/// Tessellation of the analytic shapes: only their proxy (bounds, triangle counts, viewers);
+/// the renderer intersects the exact shapes, as Mitsuba does.
 const SPHERE_RINGS: u32 = 64;
 const SPHERE_SEGMENTS: u32 = 128;
 const ROUND_SEGMENTS: u32 = 128;
@@ -384,18 +385,27 @@ impl<'a> Builder<'a, '_> {
         let mut mesh = match kind {
             "rectangle" => shapes::rectangle(&to_world, material),
             "cube" => shapes::cube(&to_world, material),
-            "disk" => shapes::disk(&to_world, material, ROUND_SEGMENTS),
+            "disk" => analytic(
+                shapes::disk(&to_world, material, ROUND_SEGMENTS),
+                AnalyticKind::Disk,
+                to_world,
+            ),
             "sphere" => {
                 let center = props.vec3("center")?.unwrap_or(Vec3::ZERO);
                 let radius = props.float("radius", 1.0)?;
                 // lumo's UV sphere has its poles on y; Mitsuba's on local z, with u = φ/2π
                 // around z. Turning y onto z makes u, and so the tangent dp/du that orients
                 // anisotropic roughness, Mitsuba's.
-                let m = to_world
+                // The renderer intersects the exact sphere; the tessellation is its proxy.
+                let placed = to_world
                     * Mat4::from_translation(center)
-                    * Mat4::from_scale(Vec3::splat(radius))
-                    * Mat4::from_rotation_x(std::f32::consts::FRAC_PI_2);
-                shapes::sphere(&m, material, SPHERE_RINGS, SPHERE_SEGMENTS)
+                    * Mat4::from_scale(Vec3::splat(radius));
+                let m = placed * Mat4::from_rotation_x(std::f32::consts::FRAC_PI_2);
+                analytic(
+                    shapes::sphere(&m, material, SPHERE_RINGS, SPHERE_SEGMENTS),
+                    AnalyticKind::Sphere,
+                    placed,
+                )
             }
             "cylinder" => {
                 let p0 = props.vec3("p0")?.unwrap_or(Vec3::ZERO);
@@ -414,7 +424,11 @@ impl<'a> Builder<'a, '_> {
                     * Mat4::from_translation(p0)
                     * Mat4::from_quat(rot)
                     * Mat4::from_scale(Vec3::new(radius, radius, len));
-                shapes::cylinder(&m, material, ROUND_SEGMENTS)
+                analytic(
+                    shapes::cylinder(&m, material, ROUND_SEGMENTS),
+                    AnalyticKind::Cylinder,
+                    m,
+                )
             }
             "obj" | "ply" => {
                 let file = props.string("filename")?.ok_or_else(|| {
@@ -455,6 +469,9 @@ impl<'a> Builder<'a, '_> {
             mesh.normals.clear();
         }
         if props.bool("flip_normals", false)? {
+            if let Some(a) = &mut mesh.analytic {
+                a.flip_normals = true;
+            }
             for t in &mut mesh.indices {
                 t.swap(1, 2);
             }
@@ -577,4 +594,14 @@ fn single_lookat(el: &Element) -> Option<(Vec3, Vec3, Vec3)> {
         (v.len() == 3).then(|| Vec3::new(v[0], v[1], v[2]))
     };
     Some((get("origin")?, get("target")?, get("up").unwrap_or(Vec3::Y)))
+}
+
+/// `mesh` (the tessellated proxy) marked as the exact shape `kind` placed by `to_mesh`.
+fn analytic(mut mesh: Mesh, kind: AnalyticKind, to_mesh: Mat4) -> Mesh {
+    mesh.analytic = Some(Analytic {
+        kind,
+        to_mesh,
+        flip_normals: false,
+    });
+    mesh
 }

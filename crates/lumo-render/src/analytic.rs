@@ -1,0 +1,338 @@
+//! Exact spheres, disks and cylinders with Mitsuba 3's conventions (`src/shapes/sphere.cpp`,
+//! `disk.cpp`, `cylinder.cpp`): ray intersection in the shape's object space, the surface at
+//! a hit (re-projected onto the shape, as Mitsuba does, so secondary rays start on it),
+//! uniform area sampling and, for spheres, sampling of the visible cone by solid angle.
+//!
+//! Each shape is a leaf of the instance tree ([`crate::accel`]); the ray is carried into the
+//! unit shape by the inverse of its placement without renormalising the direction, so the
+//! ray parameter stays the world one. Roots are solved in f64: a sphere's near root behind an
+//! offset origin is then rejected by its sign rather than by rounding luck.
+
+use std::f32::consts::{PI, TAU};
+
+use glam::{DVec3, Mat3, Mat4, Vec2, Vec3};
+use lumo_scene::{Analytic, AnalyticKind};
+
+use crate::geometry::{square_to_disk, square_to_uniform_sphere, Frame};
+
+/// An exact shape placed in the world.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Shape {
+    /// Which shape.
+    pub kind: AnalyticKind,
+    /// Unit shape → world.
+    pub to_world: Mat4,
+    /// World → unit shape.
+    pub to_local: Mat4,
+    /// Unit-shape normals → world (inverse transpose).
+    pub normal_to_world: Mat3,
+    /// Normals point inwards.
+    pub flip: bool,
+    /// World-space centre of the unit shape's origin (the sphere's centre).
+    pub center: Vec3,
+    /// World-space radius (length of the transformed x axis; Mitsuba requires uniform scale).
+    pub radius: f32,
+    /// World-space surface area.
+    pub area: f32,
+}
+
+/// A point on a shape's surface.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct ShapePoint {
+    /// World position, on the shape.
+    pub p: Vec3,
+    /// Unit normal (flipped with `flip_normals`).
+    pub n: Vec3,
+    /// Mitsuba's texture coordinates.
+    pub uv: Vec2,
+    /// World-space ∂p/∂u.
+    pub dp_du: Vec3,
+    /// World-space ∂p/∂v.
+    pub dp_dv: Vec3,
+}
+
+impl Shape {
+    /// `a` placed by the instance transform `instance`.
+    pub fn new(a: &Analytic, instance: Mat4) -> Self {
+        let to_world = instance * a.to_mesh;
+        let radius = to_world.transform_vector3(Vec3::X).length();
+        let area = match a.kind {
+            AnalyticKind::Sphere => 4.0 * PI * radius * radius,
+            AnalyticKind::Disk => {
+                PI * to_world
+                    .transform_vector3(Vec3::X)
+                    .cross(to_world.transform_vector3(Vec3::Y))
+                    .length()
+            }
+            AnalyticKind::Cylinder => TAU * radius * to_world.transform_vector3(Vec3::Z).length(),
+        };
+        Shape {
+            kind: a.kind,
+            to_world,
+            to_local: to_world.inverse(),
+            normal_to_world: Mat3::from_mat4(to_world).inverse().transpose(),
+            flip: a.flip_normals,
+            center: to_world.transform_point3(Vec3::ZERO),
+            radius,
+            area,
+        }
+    }
+
+    /// The unit shape's bounding box in object space.
+    pub fn local_bounds(kind: AnalyticKind) -> (Vec3, Vec3) {
+        match kind {
+            AnalyticKind::Sphere => (Vec3::splat(-1.0), Vec3::ONE),
+            AnalyticKind::Disk => (Vec3::new(-1.0, -1.0, 0.0), Vec3::new(1.0, 1.0, 0.0)),
+            AnalyticKind::Cylinder => (Vec3::new(-1.0, -1.0, 0.0), Vec3::ONE),
+        }
+    }
+
+    /// The world normal of the unit-shape normal `local_n`, flipped as asked.
+    #[inline]
+    fn world_normal(&self, local_n: Vec3) -> Vec3 {
+        let n = (self.normal_to_world * local_n).normalize_or_zero();
+        if self.flip {
+            -n
+        } else {
+            n
+        }
+    }
+
+    /// The surface at the unit-shape point `local` (already on the shape).
+    pub fn point_at_local(&self, local: Vec3) -> ShapePoint {
+        let t = &self.to_world;
+        let (x, y, z) = (local.x, local.y, local.z);
+        let azimuth = |x: f32, y: f32| {
+            let phi = y.atan2(x);
+            if phi < 0.0 {
+                phi + TAU
+            } else {
+                phi
+            }
+        };
+        let (n, uv, dp_du, dp_dv) = match self.kind {
+            AnalyticKind::Sphere => {
+                let phi = azimuth(x, y);
+                let theta = z.clamp(-1.0, 1.0).acos();
+                let rd = (x * x + y * y).sqrt();
+                let dv = if rd == 0.0 {
+                    Vec3::X
+                } else {
+                    Vec3::new(z * x / rd, z * y / rd, -rd)
+                };
+                (
+                    local,
+                    Vec2::new(phi / TAU, theta / PI),
+                    t.transform_vector3(Vec3::new(-y, x, 0.0) * TAU),
+                    t.transform_vector3(dv * PI),
+                )
+            }
+            AnalyticKind::Disk => {
+                let r = (x * x + y * y).sqrt();
+                let (c, s) = if r == 0.0 { (0.0, 0.0) } else { (x / r, y / r) };
+                (
+                    Vec3::Z,
+                    Vec2::new(r, azimuth(x, y) / TAU),
+                    t.transform_vector3(Vec3::new(c, s, 0.0)),
+                    t.transform_vector3(Vec3::new(-s, c, 0.0) * (TAU * r)),
+                )
+            }
+            AnalyticKind::Cylinder => (
+                Vec3::new(x, y, 0.0),
+                Vec2::new(azimuth(x, y) / TAU, z),
+                t.transform_vector3(Vec3::new(-y, x, 0.0) * TAU),
+                t.transform_vector3(Vec3::Z),
+            ),
+        };
+        ShapePoint {
+            p: t.transform_point3(local),
+            n: self.world_normal(n),
+            uv,
+            dp_du,
+            dp_dv,
+        }
+    }
+
+    /// The surface where a ray hit the shape at world point `p`: `p` re-projected onto the
+    /// shape (Mitsuba's "re-project to improve accuracy"), with normal, uv and tangents.
+    pub fn surface_at(&self, p: Vec3) -> ShapePoint {
+        let mut local = self.to_local.transform_point3(p);
+        match self.kind {
+            AnalyticKind::Sphere => local = local.normalize_or(Vec3::Z),
+            AnalyticKind::Disk => local.z = 0.0,
+            AnalyticKind::Cylinder => {
+                let r = (local.x * local.x + local.y * local.y).sqrt();
+                if r > 0.0 {
+                    local.x /= r;
+                    local.y /= r;
+                } else {
+                    local.x = 1.0;
+                }
+            }
+        }
+        self.point_at_local(local)
+    }
+
+    /// A point uniformly distributed over the surface (density 1/`area`).
+    pub fn sample_area(&self, u: Vec2) -> ShapePoint {
+        let local = match self.kind {
+            AnalyticKind::Sphere => square_to_uniform_sphere(u),
+            AnalyticKind::Disk => square_to_disk(u).extend(0.0),
+            AnalyticKind::Cylinder => {
+                let phi = TAU * u.x;
+                Vec3::new(phi.cos(), phi.sin(), u.y)
+            }
+        };
+        self.point_at_local(local)
+    }
+
+    /// Whether `from` sees the sphere from outside: then its visible cone is sampled.
+    #[inline]
+    fn sees_cone(&self, from: Vec3) -> bool {
+        self.kind == AnalyticKind::Sphere
+            && (self.center - from).length_squared() > self.radius * self.radius
+    }
+
+    /// sin²θ_max, cos θ_max and 1 − cos θ_max of the cone the sphere fills seen from `from`.
+    #[inline]
+    fn cone(&self, from: Vec3) -> (f32, f32, f32) {
+        let dc2 = (self.center - from).length_squared();
+        let sin2 = (self.radius * self.radius / dc2).min(1.0);
+        let cos = (1.0 - sin2).max(0.0).sqrt();
+        // 1 − cos without cancellation for small cones.
+        (sin2, cos, sin2 / (1.0 + cos))
+    }
+
+    /// A point on the shape for a light sample seen from `from`, with its solid-angle density
+    /// at `from`: the sphere's visible cone uniformly by solid angle from outside (Mitsuba's
+    /// `sample_direction`), otherwise uniform by area converted to solid angle. `None` where
+    /// the density is zero.
+    pub fn sample_direction(&self, from: Vec3, u: Vec2) -> Option<(ShapePoint, f32)> {
+        if self.sees_cone(from) {
+            let (sin2_max, cos_max, one_minus_cos) = self.cone(from);
+            let dc = self.center - from;
+            let inv_dc = 1.0 / dc.length();
+            let sin_max = self.radius * inv_dc;
+            // θ from the cone axis at `from`, uniform in solid angle (Taylor form for tiny cones).
+            let sin2 = if sin2_max > 0.000_685_23 {
+                let c = (cos_max - 1.0) * u.x + 1.0;
+                1.0 - c * c
+            } else {
+                sin2_max * u.x
+            };
+            let cos_theta = (1.0 - sin2).max(0.0).sqrt();
+            // The angle α at the centre between −axis and the point (Akalin's construction).
+            let cos_alpha = sin2 / sin_max + cos_theta * (1.0 - sin2 / sin2_max).max(0.0).sqrt();
+            let sin_alpha = (1.0 - cos_alpha * cos_alpha).max(0.0).sqrt();
+            let phi = TAU * u.y;
+            let d = Frame::new(-dc * inv_dc)
+                .to_world(Vec3::new(
+                    phi.cos() * sin_alpha,
+                    phi.sin() * sin_alpha,
+                    cos_alpha,
+                ))
+                .normalize();
+            let local = self.to_local.transform_vector3(d).normalize_or(Vec3::Z);
+            let point = self.point_at_local(local);
+            let pdf = 1.0 / (TAU * one_minus_cos);
+            return (pdf.is_finite() && pdf > 0.0).then_some((point, pdf));
+        }
+        let point = self.sample_area(u);
+        let pdf = self.area_to_solid_angle(from, point.p, point.n);
+        (pdf > 0.0).then_some((point, pdf))
+    }
+
+    /// Density (solid angle at `from`) with which [`Shape::sample_direction`] picks the
+    /// surface point `p` with normal `n`.
+    pub fn pdf_direction(&self, from: Vec3, p: Vec3, n: Vec3) -> f32 {
+        if self.sees_cone(from) {
+            let (_, _, one_minus_cos) = self.cone(from);
+            let pdf = 1.0 / (TAU * one_minus_cos);
+            return if pdf.is_finite() { pdf } else { 0.0 };
+        }
+        self.area_to_solid_angle(from, p, n)
+    }
+
+    /// 1/area as a solid-angle density at `from`.
+    #[inline]
+    fn area_to_solid_angle(&self, from: Vec3, p: Vec3, n: Vec3) -> f32 {
+        let d = p - from;
+        let dist2 = d.length_squared();
+        let cos = n.dot(d).abs() / dist2.sqrt();
+        if cos <= 0.0 || self.area <= 0.0 || !dist2.is_finite() {
+            0.0
+        } else {
+            dist2 / (self.area * cos)
+        }
+    }
+}
+
+/// The nearest ray parameter in [tmin, tmax] where the object-space ray `o + t·d` meets the
+/// unit shape `kind`.
+#[inline]
+pub(crate) fn intersect(kind: AnalyticKind, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<f32> {
+    let (o, d) = (DVec3::from(o), DVec3::from(d));
+    let accept = |t: f64| {
+        let t = t as f32;
+        (t >= tmin && t <= tmax).then_some(t)
+    };
+    match kind {
+        AnalyticKind::Sphere => {
+            let (t0, t1) = quadratic(d.length_squared(), o.dot(d), o.length_squared() - 1.0)?;
+            accept(t0).or_else(|| accept(t1))
+        }
+        AnalyticKind::Disk => {
+            if d.z == 0.0 {
+                return None;
+            }
+            let t = -o.z / d.z;
+            let p = o + d * t;
+            if p.x * p.x + p.y * p.y > 1.0 {
+                return None;
+            }
+            accept(t)
+        }
+        AnalyticKind::Cylinder => {
+            let (t0, t1) = quadratic(
+                d.x * d.x + d.y * d.y,
+                o.x * d.x + o.y * d.y,
+                o.x * o.x + o.y * o.y - 1.0,
+            )?;
+            let within = |t: f64| {
+                let z = o.z + d.z * t;
+                (0.0..=1.0).contains(&z)
+            };
+            [t0, t1].into_iter().filter(|&t| within(t)).find_map(accept)
+        }
+    }
+}
+
+/// The roots t0 ≤ t1 of a·t² + 2·b·t + c (with a > 0), in the cancellation-free form.
+#[inline]
+fn quadratic(a: f64, b: f64, c: f64) -> Option<(f64, f64)> {
+    if a <= 0.0 {
+        return None;
+    }
+    let disc = b * b - a * c;
+    if disc < 0.0 {
+        return None;
+    }
+    let q = -(b + disc.sqrt().copysign(b));
+    if q == 0.0 {
+        return Some((0.0, 0.0));
+    }
+    let (x, y) = (q / a, c / q);
+    Some(if x <= y { (x, y) } else { (y, x) })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quadratic_roots() {
+        // (t − 1)(t − 3) = t² − 4t + 3.
+        assert_eq!(quadratic(1.0, -2.0, 3.0), Some((1.0, 3.0)));
+        assert_eq!(quadratic(1.0, 0.0, 1.0), None);
+    }
+}
