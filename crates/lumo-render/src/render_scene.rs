@@ -114,7 +114,7 @@ impl RenderScene {
                     exact_rough_coat: true,
                     ..
                 } => {
-                    let mf = microfacet(roughness);
+                    let mf = microfacet(roughness, None);
                     (mf.max_alpha() >= SMOOTH_ALPHA).then(|| RoughCoat::shared(mf, *ior))
                 }
                 _ => None,
@@ -495,7 +495,7 @@ impl RenderScene {
             SceneBsdf::Conductor { eta, k, roughness } => Bsdf::Conductor {
                 eta: *eta,
                 k: *k,
-                mf: microfacet(roughness),
+                mf: microfacet(roughness, Some(surface.uv)),
             },
             SceneBsdf::Plastic {
                 diffuse,
@@ -506,14 +506,14 @@ impl RenderScene {
             } => Bsdf::Plastic {
                 diffuse: texture(diffuse, surface.uv) * surface.color,
                 eta: *ior,
-                mf: microfacet(roughness),
+                mf: microfacet(roughness, Some(surface.uv)),
                 fdr_int: self.fdr_int[surface.material],
                 coat: self.coats[surface.material],
                 nonlinear: *nonlinear,
             },
             SceneBsdf::Dielectric { ior, roughness } => Bsdf::Dielectric {
                 eta: *ior,
-                mf: microfacet(roughness),
+                mf: microfacet(roughness, Some(surface.uv)),
             },
             SceneBsdf::ThinDielectric { ior } => Bsdf::ThinDielectric { eta: *ior },
             // Adapters are unwrapped by `bsdf`; one reached here (nested in a way it does not
@@ -552,9 +552,14 @@ impl RenderScene {
 
 /// The render-side distribution of a scene roughness. Like Mitsuba, a rough surface keeps
 /// α ≥ 1e-4 on each axis (one axis at 0 would divide by zero); negative or NaN α is smooth.
-fn microfacet(r: &lumo_scene::Roughness) -> Microfacet {
+/// A per-texel α is read at `uv` (`None`: its average, for what is set up once per material).
+fn microfacet(r: &lumo_scene::Roughness, uv: Option<glam::Vec2>) -> Microfacet {
     let clean = |a: f32| if a.is_finite() { a.max(0.0) } else { 0.0 };
-    let (mut au, mut av) = (clean(r.alpha_u), clean(r.alpha_v));
+    let (au, av) = match uv {
+        Some(uv) => r.alpha_at(uv),
+        None => (r.alpha_u, r.alpha_v),
+    };
+    let (mut au, mut av) = (clean(au), clean(av));
     if au.max(av) >= SMOOTH_ALPHA {
         (au, av) = (au.max(1e-4), av.max(1e-4));
     }

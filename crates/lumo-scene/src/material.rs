@@ -1,4 +1,6 @@
-use glam::Vec3;
+use std::sync::Arc;
+
+use glam::{Vec2, Vec3};
 
 use crate::Texture;
 
@@ -13,14 +15,45 @@ pub enum Distribution {
 
 /// The roughness of a microfacet surface: a distribution and its α along the shading
 /// tangent (u) and bitangent (v). α = 0 on both axes means perfectly smooth.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug)]
 pub struct Roughness {
     /// The normal distribution.
     pub distribution: Distribution,
-    /// α along the tangent (Mitsuba's `alpha_u`, or `alpha`).
+    /// α along the tangent (Mitsuba's `alpha_u`, or `alpha`); where `maps` is given, the
+    /// average of its map (for what needs one number, such as light-path heuristics).
     pub alpha_u: f32,
-    /// α along the bitangent (Mitsuba's `alpha_v`, or `alpha`).
+    /// α along the bitangent (Mitsuba's `alpha_v`, or `alpha`); see `alpha_u`.
     pub alpha_v: f32,
+    /// Per-texel α (Mitsuba's `alpha` / `alpha_u` / `alpha_v` given as a texture); `None`
+    /// where α is the same everywhere.
+    pub maps: Option<Arc<RoughnessMaps>>,
+}
+
+/// Textures of α along the two tangent directions, read as numbers (a colour texture's
+/// luminance, as Mitsuba reads one where a number is expected).
+#[derive(Clone, Debug)]
+pub struct RoughnessMaps {
+    /// α along the tangent.
+    pub alpha_u: Texture,
+    /// α along the bitangent.
+    pub alpha_v: Texture,
+    /// Whether the two are one texture (isotropic `alpha`).
+    pub isotropic: bool,
+}
+
+impl PartialEq for Roughness {
+    /// Equal distributions and α; maps are equal only when they are the same maps.
+    fn eq(&self, other: &Self) -> bool {
+        let maps = match (&self.maps, &other.maps) {
+            (None, None) => true,
+            (Some(a), Some(b)) => Arc::ptr_eq(a, b),
+            _ => false,
+        };
+        self.distribution == other.distribution
+            && self.alpha_u == other.alpha_u
+            && self.alpha_v == other.alpha_v
+            && maps
+    }
 }
 
 impl Roughness {
@@ -30,16 +63,33 @@ impl Roughness {
             distribution: Distribution::Ggx,
             alpha_u: alpha,
             alpha_v: alpha,
+            maps: None,
         }
     }
 
     /// A perfectly smooth surface.
     pub const SMOOTH: Self = Self::ggx(0.0);
 
-    /// True when α differs between the two tangent directions (the shading frame's tangent
-    /// then matters).
+    /// True when α may differ between the two tangent directions (the shading frame's
+    /// tangent then matters).
     pub fn is_anisotropic(&self) -> bool {
-        self.alpha_u != self.alpha_v
+        match &self.maps {
+            Some(maps) => !maps.isotropic,
+            None => self.alpha_u != self.alpha_v,
+        }
+    }
+
+    /// α along the tangent and the bitangent at texture coordinates `uv`.
+    #[inline]
+    pub fn alpha_at(&self, uv: Vec2) -> (f32, f32) {
+        match &self.maps {
+            None => (self.alpha_u, self.alpha_v),
+            Some(maps) if maps.isotropic => {
+                let a = maps.alpha_u.eval_1(uv);
+                (a, a)
+            }
+            Some(maps) => (maps.alpha_u.eval_1(uv), maps.alpha_v.eval_1(uv)),
+        }
     }
 }
 

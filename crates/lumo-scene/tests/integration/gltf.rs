@@ -79,7 +79,7 @@ fn hierarchy_camera_lights_and_materials() {
         Bsdf::Plastic { .. }
     ));
     assert!(matches!(
-        s.materials[s.meshes[1].material].bsdf,
+        &s.materials[s.meshes[1].material].bsdf,
         Bsdf::Conductor { roughness, .. } if (roughness.alpha_u - 0.16).abs() < 1e-6
     ));
     let rig = loaded.animation.as_ref().expect("rig");

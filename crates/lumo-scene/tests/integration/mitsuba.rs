@@ -4,7 +4,7 @@ use crate::common;
 
 use common::{load, load_strict, mitsuba, scenes, temp_dir, write};
 use lumo_scene::load::{load_scene, LoadError, LoadOptions};
-use lumo_scene::{Bsdf, Distribution, FovAxis, Light, Mat4, Roughness, Texture, Vec3};
+use lumo_scene::{Bsdf, Distribution, FovAxis, Light, Mat4, Roughness, Texture, Vec2, Vec3};
 
 #[test]
 fn cornell_xml_is_the_builtin_cornell_exactly() {
@@ -106,7 +106,7 @@ fn include_relative_paths_textures_and_spectra() {
     let gold = s
         .materials
         .iter()
-        .find(|m| matches!(m.bsdf, Bsdf::Conductor { roughness, .. } if roughness.alpha_u == 0.2))
+        .find(|m| matches!(&m.bsdf, Bsdf::Conductor { roughness, .. } if roughness.alpha_u == 0.2))
         .expect("gold");
     if let Bsdf::Conductor { eta, k, .. } = gold.bsdf {
         assert!(
@@ -294,6 +294,7 @@ fn approximations_are_reported() {
                 distribution: Distribution::Beckmann,
                 alpha_u: 0.1,
                 alpha_v: 0.1,
+                maps: None,
             }
         ),
         "{rough:?}"
@@ -306,7 +307,7 @@ fn approximations_are_reported() {
         Bsdf::ThinDielectric { ior } if (ior - 1.5046 / 1.00028).abs() < 1e-6
     ));
     assert!(matches!(
-        s.materials[s.meshes[0].material].bsdf,
+        &s.materials[s.meshes[0].material].bsdf,
         Bsdf::Plastic { roughness, .. } if (roughness.alpha_u - 0.25).abs() < 1e-6
     ));
 }
@@ -451,6 +452,7 @@ fn microfacet_distribution_and_anisotropic_alpha_are_kept() {
             distribution: Distribution::Ggx,
             alpha_u: 0.05,
             alpha_v: 0.35,
+            maps: None,
         }
     ));
     assert!(matches!(
@@ -459,6 +461,7 @@ fn microfacet_distribution_and_anisotropic_alpha_are_kept() {
             distribution: Distribution::Beckmann,
             alpha_u: 0.2,
             alpha_v: 0.2,
+            maps: None,
         }
     ));
     assert!(matches!(
@@ -491,6 +494,51 @@ fn microfacet_distribution_and_anisotropic_alpha_are_kept() {
             "{name}: {err}"
         );
     }
+}
+
+#[test]
+fn textured_alpha_is_kept_per_texel_except_on_roughplastic() {
+    let dir = temp_dir("alpha_texture");
+    let p = write(
+        &dir,
+        "a.xml",
+        mitsuba(
+            r#"<shape type="cube"><bsdf type="roughconductor">
+                <texture type="checkerboard" name="alpha"><rgb name="color0" value="0.1"/><rgb name="color1" value="0.5"/></texture></bsdf></shape>
+               <shape type="sphere"><bsdf type="roughdielectric">
+                <texture type="checkerboard" name="alpha_u"><rgb name="color0" value="0.1"/><rgb name="color1" value="0.5"/></texture>
+                <float name="alpha_v" value="0.2"/></bsdf></shape>
+               <shape type="disk"><bsdf type="roughplastic">
+                <texture type="checkerboard" name="alpha"><rgb name="color0" value="0.1"/><rgb name="color1" value="0.5"/></texture></bsdf></shape>
+               <emitter type="constant"/>"#,
+        ),
+    );
+    let loaded = load(&p).unwrap();
+    let s = &loaded.scene;
+    let roughness = |i: usize| match &s.materials[s.meshes[i].material].bsdf {
+        Bsdf::Conductor { roughness, .. }
+        | Bsdf::Dielectric { roughness, .. }
+        | Bsdf::Plastic { roughness, .. } => roughness.clone(),
+        other => panic!("unexpected {other:?}"),
+    };
+    // Mitsuba's checkerboard: color0 where floor(2u) + floor(2v) is even.
+    let (conductor, dielectric, plastic) = (roughness(0), roughness(1), roughness(2));
+    assert!(!conductor.is_anisotropic());
+    assert_eq!(conductor.alpha_at(Vec2::new(0.25, 0.25)), (0.1, 0.1));
+    assert_eq!(conductor.alpha_at(Vec2::new(0.75, 0.25)), (0.5, 0.5));
+    assert!(
+        (conductor.alpha_u - 0.3).abs() < 1e-6,
+        "the average stands for the map"
+    );
+    assert!(dielectric.is_anisotropic());
+    assert_eq!(dielectric.alpha_at(Vec2::new(0.75, 0.25)), (0.5, 0.2));
+    // roughplastic takes a number only: the map's average, with a warning naming the slot.
+    assert!(plastic.maps.is_none());
+    assert!((plastic.alpha_u - 0.3).abs() < 1e-6);
+    assert_eq!(loaded.warnings.len(), 1, "{:?}", loaded.warnings);
+    assert!(loaded.warnings[0]
+        .to_string()
+        .contains("roughplastic takes alpha as a number"));
 }
 
 #[test]

@@ -8,7 +8,7 @@ use super::props::Props;
 use super::xml::Element;
 use super::{presets, Builder};
 use crate::load::LoadError;
-use crate::{Bsdf, Distribution, Roughness, Texture, TextureFilter, WrapMode};
+use crate::{Bsdf, Distribution, Roughness, RoughnessMaps, Texture, TextureFilter, WrapMode};
 
 /// Mitsuba's default exterior medium (air) for `int_ior / ext_ior`.
 const AIR: f32 = 1.00028;
@@ -119,11 +119,23 @@ impl<'a> Builder<'a, '_> {
                 let ior = self.ior(props)?;
                 self.unit_scale(props, "specular_reflectance")?;
                 let nonlinear = props.bool("nonlinear", false)?;
-                let roughness = if kind == "roughplastic" {
+                let mut roughness = if kind == "roughplastic" {
                     self.roughness(props)?
                 } else {
                     Roughness::SMOOTH
                 };
+                if roughness.maps.take().is_some() {
+                    // Mitsuba's roughplastic takes α as a number only (its coat tables are
+                    // integrated once, for one α).
+                    self.diag.warn(
+                        at.clone(),
+                        format!(
+                            "roughplastic takes alpha as a number, not a texture; using the \
+                             texture's average {}",
+                            roughness.alpha_u
+                        ),
+                    )?;
+                }
                 if roughness.is_anisotropic() {
                     // Mitsuba refuses this too (its coat tables are one-dimensional).
                     return Err(LoadError::invalid(
@@ -329,7 +341,7 @@ impl<'a> Builder<'a, '_> {
         };
         // Visible-normal sampling is all lumo does; it changes only the noise.
         props.accept(&["sample_visible"]);
-        let (alpha_u, alpha_v) = if props.has("alpha_u") || props.has("alpha_v") {
+        let (u, v, isotropic) = if props.has("alpha_u") || props.has("alpha_v") {
             if props.has("alpha") || !(props.has("alpha_u") && props.has("alpha_v")) {
                 return Err(LoadError::invalid(
                     at,
@@ -337,17 +349,36 @@ impl<'a> Builder<'a, '_> {
                 ));
             }
             (
-                self.scalar_param(props, "alpha_u", 0.1)?,
-                self.scalar_param(props, "alpha_v", 0.1)?,
+                self.texture_param(props, "alpha_u", Vec3::splat(0.1))?,
+                self.texture_param(props, "alpha_v", Vec3::splat(0.1))?,
+                false,
             )
         } else {
-            let a = self.scalar_param(props, "alpha", 0.1)?;
-            (a, a)
+            let a = self.texture_param(props, "alpha", Vec3::splat(0.1))?;
+            (a.clone(), a, true)
         };
-        Ok(Roughness {
-            distribution,
-            alpha_u,
-            alpha_v,
+        let number = |t: &Texture| match t {
+            Texture::Constant(c) => Some(lumo_image::luminance(c.to_array())),
+            _ => None,
+        };
+        Ok(match (number(&u), number(&v)) {
+            (Some(alpha_u), Some(alpha_v)) => Roughness {
+                distribution,
+                alpha_u,
+                alpha_v,
+                maps: None,
+            },
+            // Per-texel α, as Mitsuba's roughconductor and roughdielectric take it.
+            _ => Roughness {
+                distribution,
+                alpha_u: lumo_image::luminance(u.average().to_array()),
+                alpha_v: lumo_image::luminance(v.average().to_array()),
+                maps: Some(Arc::new(RoughnessMaps {
+                    alpha_u: u,
+                    alpha_v: v,
+                    isotropic,
+                })),
+            },
         })
     }
 
