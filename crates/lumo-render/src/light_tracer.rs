@@ -22,7 +22,7 @@ use crate::geometry::{
     square_to_uniform_sphere, Frame, UNIFORM_SPHERE_PDF,
 };
 use crate::integrator::PathSettings;
-use crate::lights::SpotCone;
+use crate::lights::{SpotCone, TexturedEmission, NO_TEXTURE};
 use crate::render_scene::RenderScene;
 use crate::sampler::PixelSampler;
 
@@ -37,6 +37,8 @@ enum Emitter {
         normal: Vec3,
         area: f32,
         radiance: Vec3,
+        /// Index into the textured emission records, or `NO_TEXTURE`.
+        texture: u32,
     },
     /// One-sided emissive exact sphere, disk or cylinder, sampled uniformly by area.
     Shape {
@@ -62,6 +64,8 @@ enum Emitter {
 /// The scene's emitters with a power-proportional choice among them.
 pub struct Emitters {
     emitters: Vec<Emitter>,
+    /// Radiance textures of textured emissive triangles (`Emitter::Triangle::texture`).
+    textured: Vec<TexturedEmission>,
     choice: Distribution1d,
     scene_center: Vec3,
     scene_radius: f32,
@@ -74,6 +78,7 @@ impl Emitters {
         let scene_center = (lo + hi) * 0.5;
         let scene_radius = ((hi - lo).length() * 0.5).max(1e-3);
         let mut emitters = Vec::new();
+        let mut textured = Vec::new();
         let mut power = Vec::new();
         for inst in &scene.instances {
             let mesh = &scene.meshes[inst.mesh];
@@ -100,6 +105,13 @@ impl Emitters {
                     continue;
                 }
                 power.push(area * PI * luminance(material.emission.into()));
+                let texture = match &material.emission_map {
+                    Some(map) => {
+                        textured.push(TexturedEmission::new(map, mesh, t));
+                        textured.len() as u32 - 1
+                    }
+                    None => NO_TEXTURE,
+                };
                 emitters.push(Emitter::Triangle {
                     p0: a,
                     e1: b - a,
@@ -107,6 +119,7 @@ impl Emitters {
                     normal: cross / (2.0 * area),
                     area,
                     radiance: material.emission,
+                    texture,
                 });
             }
         }
@@ -155,6 +168,7 @@ impl Emitters {
         Self {
             choice: Distribution1d::new(&power),
             emitters,
+            textured,
             scene_center,
             scene_radius,
         }
@@ -318,8 +332,13 @@ pub fn trace_light_path(
             normal,
             area,
             radiance,
+            texture,
         } => {
             let b = square_to_triangle(u_pos);
+            let radiance = match emitters.textured.get(texture as usize) {
+                Some(t) => t.radiance(b),
+                None => radiance,
+            };
             Some((p0 + e1 * b.x + e2 * b.y, normal, area, radiance))
         }
         Emitter::Shape { shape, radiance } => {

@@ -3,9 +3,11 @@
 
 use std::f32::consts::PI;
 
+use std::sync::Arc;
+
 use glam::{Vec2, Vec3};
 use lumo_image::luminance;
-use lumo_scene::{EnvMap, Light, Scene};
+use lumo_scene::{EnvMap, Light, Mesh, Scene, Texture};
 
 use crate::analytic::Shape;
 use crate::distribution::{AliasTable, Distribution1d};
@@ -24,8 +26,44 @@ pub struct EmissiveTriangle {
     pub(crate) normal: Vec3,
     /// Area.
     pub(crate) area: f32,
-    /// Emitted radiance.
+    /// Emitted radiance (the average of its texture where `texture` is set).
     pub(crate) radiance: Vec3,
+    /// Index into [`Lights`]' textured emission records, or `NO_TEXTURE` where the radiance
+    /// is the same everywhere (an index, not a pointer, keeps the triangle `Copy` and small).
+    pub(crate) texture: u32,
+}
+
+/// [`EmissiveTriangle::texture`] of a triangle whose radiance is constant.
+pub(crate) const NO_TEXTURE: u32 = u32::MAX;
+
+/// The radiance texture of an emissive triangle and its corners' texture coordinates.
+#[derive(Clone, Debug)]
+pub(crate) struct TexturedEmission {
+    texture: Arc<Texture>,
+    uv: [Vec2; 3],
+}
+
+impl TexturedEmission {
+    /// The record for triangle `t` of `mesh` under `texture`, with the uv a hit on it gets
+    /// (the mesh's own, or the barycentric coordinates where it has none).
+    pub(crate) fn new(texture: &Arc<Texture>, mesh: &Mesh, t: usize) -> Self {
+        let uv = if mesh.uvs.is_empty() {
+            [Vec2::ZERO, Vec2::X, Vec2::Y]
+        } else {
+            mesh.indices[t].map(|i| mesh.uvs[i as usize])
+        };
+        Self {
+            texture: texture.clone(),
+            uv,
+        }
+    }
+
+    /// Radiance at the point with weights `b` of the second and third corner.
+    #[inline]
+    pub(crate) fn radiance(&self, b: Vec2) -> Vec3 {
+        let [a, c, d] = self.uv;
+        self.texture.eval(a * (1.0 - b.x - b.y) + c * b.x + d * b.y)
+    }
 }
 
 /// An importance-sampled latitude-longitude environment.
@@ -142,6 +180,8 @@ pub struct Lights {
     alias: AliasTable,
     /// For each instance, the index of its first emissive triangle in `lights`, if emissive.
     instance_offset: Vec<Option<u32>>,
+    /// Radiance textures of textured emissive triangles ([`EmissiveTriangle::texture`]).
+    textured: Vec<TexturedEmission>,
     env: Option<EnvSampler>,
     constant: Vec3,
     scene_radius: f32,
@@ -267,6 +307,7 @@ impl Lights {
         let mut lights = Vec::new();
         let mut power = Vec::new();
         let mut instance_offset = vec![None; scene.instances.len()];
+        let mut textured = Vec::new();
         for (ii, inst) in scene.instances.iter().enumerate() {
             let mesh = &scene.meshes[inst.mesh];
             let material = &scene.materials[mesh.material];
@@ -291,6 +332,13 @@ impl Lights {
                 let [a, b, c] = mesh.triangle(t).map(|p| inst.transform.transform_point3(p));
                 let cross = (b - a).cross(c - a);
                 let area = 0.5 * cross.length();
+                let texture = match &material.emission_map {
+                    Some(map) => {
+                        textured.push(TexturedEmission::new(map, mesh, t));
+                        textured.len() as u32 - 1
+                    }
+                    None => NO_TEXTURE,
+                };
                 let tri = EmissiveTriangle {
                     p0: a,
                     e1: b - a,
@@ -298,6 +346,7 @@ impl Lights {
                     normal: cross.normalize_or_zero(),
                     area,
                     radiance: material.emission,
+                    texture,
                 };
                 // Degenerate triangles keep their slot (indices must line up) but get no power.
                 power.push(if area > 0.0 {
@@ -375,6 +424,7 @@ impl Lights {
             choice,
             lights,
             instance_offset,
+            textured,
             env,
             constant,
             scene_radius,
@@ -437,10 +487,21 @@ impl Lights {
         self.choice.pmf(index) * dist2 / (tri.area * cos)
     }
 
+    /// Radiance of `tri` at the point with weights `b` of its second and third corner.
+    #[inline(always)]
+    fn triangle_radiance(&self, tri: &EmissiveTriangle, b: Vec2) -> Vec3 {
+        match self.textured.get(tri.texture as usize) {
+            Some(t) => t.radiance(b),
+            None => tri.radiance,
+        }
+    }
+
     /// Whether there are lights and all are emissive triangles: the lights the wavefront's
     /// vector bounce samples itself.
     pub(crate) fn triangles_only(&self) -> bool {
-        !self.lights.is_empty()
+        // The vector bounce reads a triangle's radiance as one constant.
+        self.textured.is_empty()
+            && !self.lights.is_empty()
             && self
                 .lights
                 .iter()
@@ -491,7 +552,7 @@ impl Lights {
                     wi,
                     distance,
                     point: q,
-                    weight: tri.radiance * (den / num),
+                    weight: self.triangle_radiance(tri, b) * (den / num),
                     pdf: num / den,
                 }
             }

@@ -200,7 +200,8 @@ impl RenderScene {
                     } if inst.transform == Mat4::IDENTITY
                         && mesh.analytic.is_none()
                         && albedo.is_finite()
-                        && mesh.colors.is_empty() =>
+                        && mesh.colors.is_empty()
+                        && material.emission_map.is_none() =>
                     {
                         Some(SimpleDiffuse {
                             mesh: inst.mesh,
@@ -534,11 +535,13 @@ impl RenderScene {
     /// Radiance emitted by `surface` towards `-dir` (front side only).
     #[inline]
     pub fn emission(&self, surface: &Surface, dir: Vec3) -> Vec3 {
-        let e = self.scene.materials[surface.material].emission;
-        if surface.ng.dot(dir) < 0.0 {
-            e
-        } else {
+        let m = &self.scene.materials[surface.material];
+        if surface.ng.dot(dir) >= 0.0 {
             Vec3::ZERO
+        } else if let Some(map) = &m.emission_map {
+            map.eval(surface.uv)
+        } else {
+            m.emission
         }
     }
 

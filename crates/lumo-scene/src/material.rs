@@ -181,8 +181,12 @@ pub struct Material {
     pub name: String,
     /// Scattering.
     pub bsdf: Bsdf,
-    /// Emitted radiance (front side only).
+    /// Emitted radiance (front side only); where `emission_map` is given, its average (what
+    /// weighs this light against the others).
     pub emission: Vec3,
+    /// Per-texel emitted radiance (Mitsuba's area `radiance` given as a texture), looked up
+    /// at the surface's uv; `None` where `emission` holds everywhere.
+    pub emission_map: Option<Arc<Texture>>,
     /// Whether an opaque BSDF reflects on both sides of the surface (lumo's built-in, glTF and
     /// OBJ scenes; Mitsuba's `twosided`). When false the back of an opaque surface is black,
     /// as Mitsuba's plain `diffuse`, `conductor` and `plastic` are. Transmissive BSDFs ignore it.
@@ -199,6 +203,7 @@ impl Material {
             },
             emission: Vec3::ZERO,
             two_sided: true,
+            emission_map: None,
         }
     }
 

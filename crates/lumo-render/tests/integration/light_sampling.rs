@@ -266,6 +266,7 @@ fn empty_images_built_in_code_emit_and_reflect_nothing() {
             },
         },
         emission: Vec3::ZERO,
+        emission_map: None,
         two_sided: true,
     });
     scene.add_mesh(rectangle(&Mat4::IDENTITY, textured));

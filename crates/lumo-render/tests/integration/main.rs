@@ -5,6 +5,7 @@ mod analytic_shapes;
 mod bsdf_sampling;
 mod common;
 mod direct_light_geometry;
+mod emission_texture;
 mod integrator;
 mod light_sampling;
 mod mitsuba_adapters;

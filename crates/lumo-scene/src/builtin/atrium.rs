@@ -447,6 +447,7 @@ pub(crate) fn atrium() -> Scene {
         },
         emission: Vec3::ZERO,
         two_sided: true,
+        emission_map: None,
     });
     let wall = diffuse(&mut scene, "wall", Vec3::new(0.74, 0.73, 0.70));
     let stone = diffuse(&mut scene, "stone", Vec3::new(0.76, 0.76, 0.73));
@@ -463,6 +464,7 @@ pub(crate) fn atrium() -> Scene {
         },
         emission: Vec3::ZERO,
         two_sided: true,
+        emission_map: None,
     });
     let gold = scene.add_material(Material {
         name: "rough-gold".into(),
@@ -473,6 +475,7 @@ pub(crate) fn atrium() -> Scene {
         },
         emission: Vec3::ZERO,
         two_sided: true,
+        emission_map: None,
     });
     let drape_colours = [
         ("drape-red", Vec3::new(0.75, 0.08, 0.06)),
@@ -723,6 +726,7 @@ pub(crate) fn atrium() -> Scene {
         },
         emission: Vec3::ZERO,
         two_sided: true,
+        emission_map: None,
     });
     let (tapestry_width, tapestry_top) = (4.8, 9.6);
     // Local frame: width along +z, folds along x; turned so the width runs along +x and the

@@ -114,6 +114,7 @@ pub(crate) fn cornell_spheres() -> Scene {
         },
         emission: Vec3::ZERO,
         two_sided: true,
+        emission_map: None,
     });
     // Replace the floor's material with the checkerboard.
     if let Some(floor) = scene.meshes.iter_mut().find(|m| m.name == "floor") {
@@ -129,6 +130,7 @@ pub(crate) fn cornell_spheres() -> Scene {
         },
         emission: Vec3::ZERO,
         two_sided: true,
+        emission_map: None,
     });
     let glass = scene.add_material(Material {
         name: "glass".into(),
@@ -138,6 +140,7 @@ pub(crate) fn cornell_spheres() -> Scene {
         },
         emission: Vec3::ZERO,
         two_sided: true,
+        emission_map: None,
     });
     let r = 0.35;
     let mut metal = sphere(

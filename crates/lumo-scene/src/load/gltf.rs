@@ -651,6 +651,7 @@ impl GltfReader<'_, '_> {
             emission,
             // glTF's doubleSided is about culling; lumo's opaque glTF surfaces reflect on both sides.
             two_sided: true,
+            emission_map: None,
         });
         self.material_map.insert(mat.index(), index);
         Ok(index)

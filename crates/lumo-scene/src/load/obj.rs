@@ -540,6 +540,7 @@ fn read_mtl(
             bsdf,
             emission: m.ke.max(Vec3::ZERO),
             two_sided: true,
+            emission_map: None,
         });
         index.insert(m.name, materials.len() - 1);
     }

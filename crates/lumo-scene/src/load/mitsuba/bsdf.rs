@@ -357,7 +357,9 @@ impl<'a> Builder<'a, '_> {
             let a = self.texture_param(props, "alpha", Vec3::splat(0.1))?;
             (a.clone(), a, true)
         };
+        // A grey value exactly as written (luminance would round it); a colour's luminance.
         let number = |t: &Texture| match t {
+            Texture::Constant(c) if c.x == c.y && c.y == c.z => Some(c.x),
             Texture::Constant(c) => Some(lumo_image::luminance(c.to_array())),
             _ => None,
         };

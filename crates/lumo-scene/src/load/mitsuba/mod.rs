@@ -14,6 +14,7 @@ mod xml;
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use glam::Vec3;
 
@@ -84,7 +85,7 @@ fn convert(
     for (i, el) in props.nested() {
         if el.tag == "bsdf" {
             props.mark(i);
-            b.material(Some(el), Vec3::ZERO)?;
+            b.material(Some(el), Vec3::ZERO, None)?;
         }
     }
     for (i, el) in props.nested() {
@@ -156,7 +157,7 @@ pub(super) struct Builder<'a, 'd> {
     /// Converted BSDFs by element address (a BSDF referenced twice is converted once).
     bsdfs: HashMap<usize, (String, Bsdf)>,
     /// Material index by (BSDF element address or 0 for the default, emission bits).
-    materials: HashMap<(usize, [u32; 3]), usize>,
+    materials: HashMap<(usize, [u32; 3], usize), usize>,
     /// Converted textures by element address.
     textures: HashMap<usize, Texture>,
     /// Mesh indices of each converted shapegroup, by element address.
@@ -231,11 +232,18 @@ impl<'a> Builder<'a, '_> {
     }
 
     /// The material made of BSDF `bsdf` (Mitsuba's default when `None`: diffuse 0.5, or
-    /// black when `emission` is not zero) and `emission`.
-    fn material(&mut self, bsdf: Option<&'a Element>, emission: Vec3) -> Result<usize, LoadError> {
+    /// black when `emission` is not zero) and `emission` (per texel where `emission_map` is
+    /// given).
+    fn material(
+        &mut self,
+        bsdf: Option<&'a Element>,
+        emission: Vec3,
+        emission_map: Option<Arc<Texture>>,
+    ) -> Result<usize, LoadError> {
         let key = (
             bsdf.map_or(0, |e| e as *const Element as usize),
             emission.to_array().map(f32::to_bits),
+            emission_map.as_ref().map_or(0, |t| Arc::as_ptr(t) as usize),
         );
         if let Some(&m) = self.materials.get(&key) {
             return Ok(m);
@@ -265,6 +273,7 @@ impl<'a> Builder<'a, '_> {
             bsdf,
             emission,
             two_sided,
+            emission_map,
         });
         self.materials.insert(key, index);
         Ok(index)

@@ -8,7 +8,9 @@ use super::props::Props;
 use super::xml::Element;
 use super::Builder;
 use crate::load::{check::check_mesh, obj, ply, LoadError};
-use crate::{shapes, Analytic, AnalyticKind, Camera, EnvMap, FovAxis, Instance, Light, Mesh};
+use crate::{
+    shapes, Analytic, AnalyticKind, Camera, EnvMap, FovAxis, Instance, Light, Mesh, Texture,
+};
 
 /// Tessellation of the analytic shapes: only their proxy (bounds, triangle counts, viewers);
 /// the renderer intersects the exact shapes, as Mitsuba does.
@@ -366,7 +368,7 @@ impl<'a> Builder<'a, '_> {
         let kind = props.kind();
         let to_world = props.transform("to_world")?;
         let mut bsdf = None;
-        let mut emission = Vec3::ZERO;
+        let (mut emission, mut emission_map) = (Vec3::ZERO, None);
         for (i, c) in props.nested() {
             let r = self.resolve(c)?;
             match r.tag.as_str() {
@@ -376,12 +378,22 @@ impl<'a> Builder<'a, '_> {
                 }
                 "emitter" => {
                     props.mark(i);
-                    emission = self.area_emitter(r)?;
+                    (emission, emission_map) = self.area_emitter(r)?;
                 }
                 _ => {}
             }
         }
-        let material = self.material(bsdf, emission)?;
+        if emission_map.is_some() && matches!(kind, "sphere" | "disk" | "cylinder") {
+            emission_map = None;
+            self.diag.warn(
+                at.clone(),
+                format!(
+                    "a texture as the radiance of an area light on a {kind} is not supported \
+                     (only on meshes, rectangles and cubes); using its average {emission}"
+                ),
+            )?;
+        }
+        let material = self.material(bsdf, emission, emission_map)?;
         let mut mesh = match kind {
             "rectangle" => shapes::rectangle(&to_world, material),
             "cube" => shapes::cube(&to_world, material),
@@ -485,8 +497,9 @@ impl<'a> Builder<'a, '_> {
         Ok(Some(mesh))
     }
 
-    /// A nested `area` emitter: its radiance.
-    fn area_emitter(&mut self, el: &'a Element) -> Result<Vec3, LoadError> {
+    /// A nested `area` emitter: its radiance, and its texture where it is one (the radiance is
+    /// then the texture's average).
+    fn area_emitter(&mut self, el: &'a Element) -> Result<(Vec3, Option<Arc<Texture>>), LoadError> {
         let props = Props::new(el);
         if props.kind() != "area" {
             return Err(LoadError::invalid(
@@ -497,9 +510,12 @@ impl<'a> Builder<'a, '_> {
                 ),
             ));
         }
-        let radiance = self.color_param(&props, "radiance", Vec3::ONE)?;
+        let radiance = self.texture_param(&props, "radiance", Vec3::ONE)?;
         props.finish(self.diag)?;
-        Ok(radiance)
+        Ok(match radiance {
+            Texture::Constant(c) => (c, None),
+            t => (t.average(), Some(Arc::new(t))),
+        })
     }
 
     /// A top-level `<emitter>`.
