@@ -22,7 +22,7 @@ use crate::geometry::{
     square_to_uniform_sphere, Frame, UNIFORM_SPHERE_PDF,
 };
 use crate::integrator::PathSettings;
-use crate::lights::{SpotCone, TexturedEmission, NO_TEXTURE};
+use crate::lights::{triangle_radiance, SpotCone, TexturedEmission};
 use crate::render_scene::RenderScene;
 use crate::sampler::PixelSampler;
 
@@ -105,13 +105,7 @@ impl Emitters {
                     continue;
                 }
                 power.push(area * PI * luminance(material.emission.into()));
-                let texture = match &material.emission_map {
-                    Some(map) => {
-                        textured.push(TexturedEmission::new(map, mesh, t));
-                        textured.len() as u32 - 1
-                    }
-                    None => NO_TEXTURE,
-                };
+                let texture = TexturedEmission::register(&mut textured, material, mesh, t);
                 emitters.push(Emitter::Triangle {
                     p0: a,
                     e1: b - a,
@@ -335,10 +329,7 @@ pub fn trace_light_path(
             texture,
         } => {
             let b = square_to_triangle(u_pos);
-            let radiance = match emitters.textured.get(texture as usize) {
-                Some(t) => t.radiance(b),
-                None => radiance,
-            };
+            let radiance = triangle_radiance(&emitters.textured, texture, radiance, b);
             Some((p0 + e1 * b.x + e2 * b.y, normal, area, radiance))
         }
         Emitter::Shape { shape, radiance } => {

@@ -7,7 +7,7 @@ use std::sync::Arc;
 
 use glam::{Vec2, Vec3};
 use lumo_image::luminance;
-use lumo_scene::{EnvMap, Light, Mesh, Scene, Texture};
+use lumo_scene::{EnvMap, Light, Material, Mesh, Scene, Texture};
 
 use crate::analytic::Shape;
 use crate::distribution::{AliasTable, Distribution1d};
@@ -44,25 +44,41 @@ pub(crate) struct TexturedEmission {
 }
 
 impl TexturedEmission {
-    /// The record for triangle `t` of `mesh` under `texture`, with the uv a hit on it gets
-    /// (the mesh's own, or the barycentric coordinates where it has none).
-    pub(crate) fn new(texture: &Arc<Texture>, mesh: &Mesh, t: usize) -> Self {
-        let uv = if mesh.uvs.is_empty() {
-            [Vec2::ZERO, Vec2::X, Vec2::Y]
-        } else {
-            mesh.indices[t].map(|i| mesh.uvs[i as usize])
+    /// [`EmissiveTriangle::texture`] for triangle `t` of `mesh` under `material`: a new
+    /// record in `textured` if its radiance is a texture, else `NO_TEXTURE`. (Shared by the
+    /// light sampler and the light tracer, which collect the same triangles.)
+    pub(crate) fn register(
+        textured: &mut Vec<Self>,
+        material: &Material,
+        mesh: &Mesh,
+        t: usize,
+    ) -> u32 {
+        let Some(texture) = &material.emission_map else {
+            return NO_TEXTURE;
         };
-        Self {
+        textured.push(Self {
             texture: texture.clone(),
-            uv,
-        }
+            uv: mesh.triangle_uvs(t),
+        });
+        textured.len() as u32 - 1
     }
+}
 
-    /// Radiance at the point with weights `b` of the second and third corner.
-    #[inline]
-    pub(crate) fn radiance(&self, b: Vec2) -> Vec3 {
-        let [a, c, d] = self.uv;
-        self.texture.eval(a * (1.0 - b.x - b.y) + c * b.x + d * b.y)
+/// Radiance of a triangle whose record is `texture` (see [`TexturedEmission::register`]) at
+/// the point with weights `b` of its second and third corner; `constant` where it has none.
+#[inline(always)]
+pub(crate) fn triangle_radiance(
+    textured: &[TexturedEmission],
+    texture: u32,
+    constant: Vec3,
+    b: Vec2,
+) -> Vec3 {
+    match textured.get(texture as usize) {
+        Some(TexturedEmission {
+            texture,
+            uv: [a, c, d],
+        }) => texture.eval(*a * (1.0 - b.x - b.y) + *c * b.x + *d * b.y),
+        None => constant,
     }
 }
 
@@ -332,13 +348,7 @@ impl Lights {
                 let [a, b, c] = mesh.triangle(t).map(|p| inst.transform.transform_point3(p));
                 let cross = (b - a).cross(c - a);
                 let area = 0.5 * cross.length();
-                let texture = match &material.emission_map {
-                    Some(map) => {
-                        textured.push(TexturedEmission::new(map, mesh, t));
-                        textured.len() as u32 - 1
-                    }
-                    None => NO_TEXTURE,
-                };
+                let texture = TexturedEmission::register(&mut textured, material, mesh, t);
                 let tri = EmissiveTriangle {
                     p0: a,
                     e1: b - a,
@@ -487,15 +497,6 @@ impl Lights {
         self.choice.pmf(index) * dist2 / (tri.area * cos)
     }
 
-    /// Radiance of `tri` at the point with weights `b` of its second and third corner.
-    #[inline(always)]
-    fn triangle_radiance(&self, tri: &EmissiveTriangle, b: Vec2) -> Vec3 {
-        match self.textured.get(tri.texture as usize) {
-            Some(t) => t.radiance(b),
-            None => tri.radiance,
-        }
-    }
-
     /// Whether there are lights and all are emissive triangles: the lights the wavefront's
     /// vector bounce samples itself.
     pub(crate) fn triangles_only(&self) -> bool {
@@ -552,7 +553,8 @@ impl Lights {
                     wi,
                     distance,
                     point: q,
-                    weight: self.triangle_radiance(tri, b) * (den / num),
+                    weight: triangle_radiance(&self.textured, tri.texture, tri.radiance, b)
+                        * (den / num),
                     pdf: num / den,
                 }
             }

@@ -422,12 +422,8 @@ impl RenderScene {
         let idx = mesh.indices[s.triangle as usize].map(|i| i as usize);
         let [p0, p1, p2] = idx.map(|i| mesh.positions[i]);
         let (dp0, dp1) = (p1 - p0, p2 - p0);
-        let (duv0, duv1) = if mesh.uvs.is_empty() {
-            (Vec2::X, Vec2::Y)
-        } else {
-            let [t0, t1, t2] = idx.map(|i| mesh.uvs[i]);
-            (t1 - t0, t2 - t0)
-        };
+        let [t0, t1, t2] = mesh.triangle_uvs(s.triangle as usize);
+        let (duv0, duv1) = (t1 - t0, t2 - t0);
         let det = duv0.x * duv1.y - duv0.y * duv1.x;
         if det == 0.0 || !det.is_finite() {
             return None;

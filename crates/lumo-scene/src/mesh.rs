@@ -53,6 +53,17 @@ impl Mesh {
         self.indices.len()
     }
 
+    /// The texture coordinates of triangle `t`'s corners: the mesh's own, or (0, 0), (1, 0),
+    /// (0, 1) where it has none, so that a point's uv is its barycentric coordinates.
+    #[inline]
+    pub fn triangle_uvs(&self, t: usize) -> [Vec2; 3] {
+        if self.uvs.is_empty() {
+            [Vec2::ZERO, Vec2::X, Vec2::Y]
+        } else {
+            self.indices[t].map(|i| self.uvs[i as usize])
+        }
+    }
+
     /// The three corner positions of triangle `t`.
     #[inline]
     pub fn triangle(&self, t: usize) -> [Vec3; 3] {
