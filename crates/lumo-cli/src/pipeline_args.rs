@@ -2,7 +2,7 @@
 //! traced paths into the image, and its knobs.
 
 use anyhow::{anyhow, bail, Result};
-use lumo_render::{Pipeline, PipelineOptions};
+use lumo_pipeline::{Pipeline, PipelineError, PipelineOptions};
 
 /// Pipeline selection and parameters.
 #[derive(clap::Args, Debug, Clone)]
@@ -80,6 +80,17 @@ impl PipelineArgs {
             paths: self.paths,
             prefilter: self.prefilter,
         }
+    }
+}
+
+/// A pipeline's error in the command line's words: an out-of-range [`PipelineOptions`] field
+/// is named by the flag that set it (`guide_dims` → `--guide-dims`).
+pub fn describe_pipeline_error(e: PipelineError) -> anyhow::Error {
+    match e {
+        PipelineError::Option { option, value, fix } => {
+            anyhow!("--{} {value}: {fix}", option.replace('_', "-"))
+        }
+        other => other.into(),
     }
 }
 

@@ -6,7 +6,8 @@ use std::time::Instant;
 use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use lumo_image::{write_image, ImageFormat};
-use lumo_render::{run_pipeline, PathSettings, Pipeline, RenderScene, RenderSettings};
+use lumo_pipeline::{run_pipeline, Pipeline};
+use lumo_render::{PathSettings, RenderScene, RenderSettings};
 use lumo_scene::load::{FileSettings, LoadOptions};
 use lumo_scene::{builtin_scene, Scene, BUILTIN_SCENES};
 
@@ -292,15 +293,17 @@ pub fn run(args: RenderArgs) -> Result<()> {
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let start = Instant::now();
-    let out = pool.install(|| {
-        run_pipeline(
-            &rs,
-            pipeline,
-            &settings,
-            &args.pipeline.options(width, height),
-            &|f| bar.set_position((f * 1000.0) as u64),
-        )
-    })?;
+    let out = pool
+        .install(|| {
+            run_pipeline(
+                &rs,
+                pipeline,
+                &settings,
+                &args.pipeline.options(width, height),
+                &|f| bar.set_position((f * 1000.0) as u64),
+            )
+        })
+        .map_err(crate::pipeline_args::describe_pipeline_error)?;
     let secs = start.elapsed().as_secs_f64();
     bar.finish_and_clear();
     let stats = out.stats;

@@ -28,8 +28,9 @@ pub struct Frame {
     pub position: Image,
     /// First-hit distance from the camera, one channel (+Inf on a miss).
     pub depth: Image,
-    /// Variance of the pixel mean's luminance, one channel. With one sample per pixel it is
-    /// estimated from the 3×3 neighbourhood instead (a sample's variance cannot be known alone).
+    /// Variance of the pixel mean's luminance, one channel. With one sample per pixel the
+    /// renderer leaves 0 (a sample's variance cannot be known alone); lumo-pipeline's frames
+    /// estimate it from the 3×3 neighbourhood instead.
     pub variance: Image,
     /// Radiance emitted towards the camera by what the pixel-centre ray hits first (a light, or
     /// the environment where the ray escapes), RGB: the noise-free part of the image that a

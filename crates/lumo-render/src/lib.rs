@@ -22,7 +22,6 @@ pub mod integrator;
 pub mod light_tracer;
 pub mod lights;
 pub mod packet;
-pub mod pipeline;
 mod render;
 mod render_scene;
 pub mod sampler;
@@ -33,7 +32,6 @@ pub mod wavefront;
 
 pub use frame::{Frame, AOV_NAMES};
 pub use integrator::{trace_path, FirstHit, PathRadiance, PathSettings};
-pub use pipeline::{run_pipeline, Pipeline, PipelineOptions, PipelineOutput, Timings};
 pub use render::{
     frame_from_estimates, map_pixels, map_rows, render, render_pixel, render_pixel_one_ray,
     trace_sample, PixelEstimate, RenderSettings, RenderStats,

@@ -231,8 +231,5 @@ pub fn frame_from_estimates(w: usize, h: usize, spp: u32, estimates: &[PixelEsti
         frame.depth.pixel_mut(x, y)[0] = e.first_hit.depth;
         frame.variance.pixel_mut(x, y)[0] = e.luminance_variance / spp.max(1) as f32;
     }
-    if spp == 1 {
-        frame.variance = lumo_filter::spatial_variance(&frame.color);
-    }
     frame
 }

@@ -35,6 +35,25 @@ pub struct Scene {
 }
 
 impl Scene {
+    /// A scene with nothing in it but `camera`, named "scene", with small defaults (16×16
+    /// pixels, 16 samples, depth 8): the start of a scene built in code.
+    pub fn empty(camera: Camera) -> Scene {
+        Scene {
+            name: "scene".into(),
+            meshes: vec![],
+            instances: vec![],
+            materials: vec![],
+            lights: vec![],
+            camera,
+            defaults: RenderDefaults {
+                width: 16,
+                height: 16,
+                spp: 16,
+                max_depth: 8,
+            },
+        }
+    }
+
     /// Adds a mesh placed once with the identity transform; returns the mesh index.
     pub fn add_mesh(&mut self, mesh: Mesh) -> usize {
         self.meshes.push(mesh);

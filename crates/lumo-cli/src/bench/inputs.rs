@@ -5,7 +5,7 @@
 use std::path::PathBuf;
 
 use anyhow::{bail, Result};
-use lumo_render::{run_pipeline, Pipeline, PipelineOptions};
+use lumo_pipeline::{run_pipeline, Pipeline, PipelineOptions};
 
 use super::atomic::{check_dir_writable, write_image_atomic};
 use super::scenes::{load_all, settings};

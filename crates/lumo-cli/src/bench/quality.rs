@@ -9,7 +9,7 @@ use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use lumo_image::metrics::{compare, CompareSettings, Metrics};
 use lumo_image::Image;
-use lumo_render::{run_pipeline, Pipeline, PipelineOptions, Timings};
+use lumo_pipeline::{run_pipeline, Pipeline, PipelineOptions, Timings};
 
 use super::atomic::{check_dir_writable, write_bytes, write_image_atomic};
 use super::contact_sheet::{contact_sheet, crop_side, hardest_window, Row, Tile};

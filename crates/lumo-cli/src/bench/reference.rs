@@ -8,7 +8,7 @@ use std::time::Instant;
 use anyhow::{bail, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use lumo_image::Image;
-use lumo_render::{run_pipeline, Pipeline, PipelineOptions};
+use lumo_pipeline::{run_pipeline, Pipeline, PipelineOptions};
 
 use super::cache::{self, ReferenceKey};
 use super::scenes::{load_all, settings, BenchScene};

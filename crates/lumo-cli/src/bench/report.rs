@@ -5,7 +5,7 @@
 use std::fmt::Write as _;
 
 use lumo_image::metrics::{RELMSE_EPSILON, SMAPE_EPSILON, TONE_MAP_DESCRIPTION};
-use lumo_render::Pipeline;
+use lumo_pipeline::Pipeline;
 
 use super::quality::Scored;
 

@@ -9,7 +9,7 @@ use anyhow::{bail, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use lumo_filter::synthetic_frame;
 use lumo_filter::table2::{self, Table2Kind};
-use lumo_render::{run_pipeline, Pipeline, PipelineOptions, Timings};
+use lumo_pipeline::{run_pipeline, Pipeline, PipelineOptions, Timings};
 
 use super::atomic::{check_dir_writable, write_bytes};
 use super::scenes::{load_all, scene_names, settings};

@@ -3,7 +3,7 @@
 use std::fmt::Write as _;
 use std::time::Duration;
 
-use lumo_render::{Pipeline, Timings};
+use lumo_pipeline::{Pipeline, Timings};
 
 /// One Table 1 cell: a pipeline's median run.
 pub struct RenderRow {

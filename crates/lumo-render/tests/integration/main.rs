@@ -11,5 +11,4 @@ mod light_sampling;
 mod mitsuba_adapters;
 mod mitsuba_cornell;
 mod mitsuba_suite;
-mod pipelines;
 mod wavefront;

@@ -4,30 +4,17 @@
 pub mod chi2;
 
 use lumo_scene::shapes::{rectangle, sphere};
-use lumo_scene::{Camera, FovAxis, Mat4, Material, RenderDefaults, Scene, Vec3};
+use lumo_scene::{Camera, FovAxis, Mat4, Material, Scene, Vec3};
 
-/// An empty scene with a camera at `origin` looking at `target`.
+/// An empty scene with a camera at `origin` looking at `target` (60° horizontal field of view).
 pub fn empty_scene(origin: Vec3, target: Vec3) -> Scene {
-    Scene {
-        name: "test".into(),
-        meshes: vec![],
-        instances: vec![],
-        materials: vec![],
-        lights: vec![],
-        camera: Camera {
-            origin,
-            target,
-            up: Vec3::Y,
-            fov: 60.0,
-            fov_axis: FovAxis::X,
-        },
-        defaults: RenderDefaults {
-            width: 16,
-            height: 16,
-            spp: 16,
-            max_depth: 8,
-        },
-    }
+    Scene::empty(Camera {
+        origin,
+        target,
+        up: Vec3::Y,
+        fov: 60.0,
+        fov_axis: FovAxis::X,
+    })
 }
 
 /// The inside of a closed sphere of radius 1 with diffuse albedo `rho` emitting `le`.

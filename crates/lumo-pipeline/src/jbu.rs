@@ -16,9 +16,9 @@ use lumo_image::Image;
 
 use super::compose::{direct_only, trace_full};
 use super::{PipelineError, PipelineOptions, PipelineOutput, Timings};
-use crate::camera::CameraRays;
-use crate::render::{map_pixels, render_pixel};
-use crate::{RenderScene, RenderSettings};
+use lumo_render::camera::CameraRays;
+use lumo_render::{map_pixels, render_pixel};
+use lumo_render::{RenderScene, RenderSettings};
 
 pub(super) fn run(
     rs: &RenderScene,

@@ -3,15 +3,19 @@
 //! guided pipeline's lookup stays on the sample's surface, and results do not depend on the
 //! thread count.
 
-use crate::common;
-
 use lumo_image::Image;
-use lumo_render::{
-    run_pipeline, PathSettings, Pipeline, PipelineOptions, PipelineOutput, RenderScene,
-    RenderSettings,
-};
+use lumo_pipeline::{run_pipeline, Pipeline, PipelineOptions, PipelineOutput};
+use lumo_render::{PathSettings, RenderScene, RenderSettings};
 use lumo_scene::shapes::rectangle;
-use lumo_scene::{Light, Mat4, Material, Vec3};
+use lumo_scene::{Camera, FovAxis, Light, Mat4, Material, Scene, Vec3};
+
+/// The built-in Cornell box at 24×24 pixels.
+fn small_room() -> Scene {
+    let mut scene = lumo_scene::builtin_scene("cornell").expect("built-in cornell");
+    scene.defaults.width = 24;
+    scene.defaults.height = 24;
+    scene
+}
 
 fn settings(w: usize, h: usize, spp: u32, max_depth: u32) -> RenderSettings {
     RenderSettings {
@@ -53,7 +57,7 @@ fn mse(a: &Image, b: &Image) -> f64 {
 
 #[test]
 fn with_direct_light_only_filters_change_nothing() {
-    let rs = RenderScene::new(common::small_room()).expect("scene");
+    let rs = RenderScene::new(small_room()).expect("scene");
     let s = settings(32, 32, 4, 2);
     let o = small_options();
     let plain = run(&rs, Pipeline::None, &s, &o).image;
@@ -72,9 +76,13 @@ fn with_direct_light_only_filters_change_nothing() {
 /// view casts a hard shadow whose edge runs through the picture: a noise-free image (1 spp
 /// through pixel centres, direct light only) with one sharp edge.
 fn hard_shadow_scene() -> lumo_scene::Scene {
-    let mut scene = common::empty_scene(Vec3::new(0.0, 4.0, 0.0), Vec3::ZERO);
-    scene.camera.up = Vec3::Z;
-    scene.camera.fov = 40.0;
+    let mut scene = Scene::empty(Camera {
+        origin: Vec3::new(0.0, 4.0, 0.0),
+        target: Vec3::ZERO,
+        up: Vec3::Z,
+        fov: 40.0,
+        fov_axis: FovAxis::X,
+    });
     let floor = scene.add_material(Material::diffuse("floor", Vec3::splat(0.6)));
     let wall = scene.add_material(Material::diffuse("wall", Vec3::splat(0.2)));
     scene.add_mesh(rectangle(
@@ -134,7 +142,7 @@ fn atrous_keeps_a_hard_shadow_edge_sharp() {
 
 #[test]
 fn errors_fall_with_spp_and_sit_far_below_the_unfiltered_error() {
-    let rs = RenderScene::new(common::small_room()).expect("scene");
+    let rs = RenderScene::new(small_room()).expect("scene");
     let (w, h) = (48, 48);
     let o = small_options();
     let reference = run(&rs, Pipeline::None, &settings(w, h, 1024, 5), &o).image;
@@ -169,7 +177,7 @@ fn guided_lookup_stays_on_the_samples_surface() {
     // The Cornell boxes in front of the back wall give depth edges; samples near them must take
     // indirect light from a guide pixel on their own surface whenever one of the four
     // neighbouring guide pixels lies on it.
-    let rs = RenderScene::new(common::small_room()).expect("scene");
+    let rs = RenderScene::new(small_room()).expect("scene");
     let s = settings(64, 64, 8, 4);
     let out = run(&rs, Pipeline::Guided, &s, &small_options());
     let misses = out
@@ -192,7 +200,7 @@ fn guided_lookup_stays_on_the_samples_surface() {
 
 #[test]
 fn pipelines_are_bit_identical_on_one_and_two_threads() {
-    let rs = RenderScene::new(common::small_room()).expect("scene");
+    let rs = RenderScene::new(small_room()).expect("scene");
     let s = settings(24, 24, 2, 5);
     let o = small_options();
     for p in Pipeline::ALL {

@@ -7,10 +7,10 @@ use lumo_filter::Demodulated;
 use lumo_image::Image;
 
 use super::{PipelineOutput, Timings};
-use crate::camera::CameraRays;
-use crate::render::{frame_from_estimates, map_rows};
-use crate::wavefront::render_pixels;
-use crate::{Frame, PixelEstimate, RenderScene, RenderSettings, RenderStats};
+use lumo_render::camera::CameraRays;
+use lumo_render::wavefront::render_pixels;
+use lumo_render::{frame_from_estimates, map_rows};
+use lumo_render::{Frame, PixelEstimate, RenderScene, RenderSettings, RenderStats};
 
 /// Traces every pixel with `settings`, reporting progress as a fraction of rows.
 pub(super) fn trace_full(
@@ -24,12 +24,28 @@ pub(super) fn trace_full(
     let rows = |done: usize| progress(done as f32 / h.max(1) as f32);
     // Whole rows through the wavefront renderer: packets of many pixels' paths stay full.
     let estimates = map_rows(h, &rows, |y| render_pixels(rs, &camera, settings, y, 0..w));
-    let frame = frame_from_estimates(w, h, settings.spp, &estimates);
+    let frame = frame_with_variance(w, h, settings.spp, &estimates);
     let stats = RenderStats {
         samples: (w * h) as u64 * settings.spp as u64,
         rays: estimates.iter().map(|e| e.rays).sum(),
     };
     (estimates, frame, stats, t.elapsed())
+}
+
+/// [`frame_from_estimates`] with a variance plane filters can use at one sample per pixel: a
+/// single sample has no per-pixel variance (the renderer leaves 0), so it is estimated from
+/// 3×3 neighbourhoods instead, as SVGF does before it has history.
+pub(super) fn frame_with_variance(
+    w: usize,
+    h: usize,
+    spp: u32,
+    estimates: &[PixelEstimate],
+) -> Frame {
+    let mut frame = frame_from_estimates(w, h, spp, estimates);
+    if spp == 1 {
+        frame.variance = lumo_filter::spatial_variance(&frame.color);
+    }
+    frame
 }
 
 /// The `none` pipeline: the traced colour as it is.

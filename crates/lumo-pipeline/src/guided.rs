@@ -14,12 +14,12 @@ use lumo_filter::{
 };
 use lumo_image::Image;
 
-use super::compose::{depth_scale, direct_only, recompose};
+use super::compose::{depth_scale, direct_only, frame_with_variance, recompose};
 use super::{PipelineError, PipelineOptions, PipelineOutput, Timings};
-use crate::camera::CameraRays;
-use crate::render::{frame_from_estimates, map_pixels, map_rows, trace_sample};
-use crate::wavefront::render_pixels;
-use crate::{FirstHit, Frame, PixelEstimate, RenderScene, RenderSettings, RenderStats};
+use lumo_render::camera::CameraRays;
+use lumo_render::wavefront::render_pixels;
+use lumo_render::{map_pixels, map_rows, trace_sample};
+use lumo_render::{FirstHit, Frame, PixelEstimate, RenderScene, RenderSettings, RenderStats};
 
 /// A pixel's guide-ray estimate plus its extra direct-light samples.
 struct GuidedPixel {
@@ -47,7 +47,7 @@ pub(super) fn run(
         4 => GuideKind::NormalDepth,
         d => {
             return Err(PipelineError::Option {
-                option: "guide-dims",
+                option: "guide_dims",
                 value: d.to_string(),
                 fix: "use 1 (grey), 3 (normal) or 4 (normal + depth)",
             })
@@ -82,7 +82,7 @@ pub(super) fn run(
             .collect();
         GuidedPixel { guide, extra }
     });
-    let mut frame = frame_from_estimates(w, h, 1, &guides);
+    let mut frame = frame_with_variance(w, h, 1, &guides);
     let stats = RenderStats {
         samples: (w * h) as u64 * settings.spp.max(1) as u64,
         rays: guides.iter().map(|e| e.rays).sum::<u64>() + extra_rays(&pixels),

@@ -7,12 +7,12 @@ use std::time::Instant;
 use glam::Vec3;
 use lumo_filter::{atrous, spatial_variance, with_passthrough, AtrousParams, Features};
 
-use super::compose::trace_full;
+use super::compose::{frame_with_variance, trace_full};
 use super::{PipelineError, PipelineOptions, PipelineOutput, Timings};
-use crate::camera::CameraRays;
-use crate::render::{frame_from_estimates, map_pixels, map_rows, render_pixel};
-use crate::wavefront::render_pixels;
-use crate::{RenderScene, RenderSettings, RenderStats};
+use lumo_render::camera::CameraRays;
+use lumo_render::wavefront::render_pixels;
+use lumo_render::{map_pixels, map_rows, render_pixel};
+use lumo_render::{RenderScene, RenderSettings, RenderStats};
 
 pub(super) fn run(
     rs: &RenderScene,
@@ -108,8 +108,8 @@ fn trace_sparse(
     n: usize,
     progress: &(dyn Fn(f32) + Sync),
 ) -> (
-    Vec<crate::PixelEstimate>,
-    crate::Frame,
+    Vec<lumo_render::PixelEstimate>,
+    lumo_render::Frame,
     RenderStats,
     std::time::Duration,
 ) {
@@ -133,7 +133,7 @@ fn trace_sparse(
             render_pixel(rs, &camera, s, x, y)
         })
     };
-    let frame = frame_from_estimates(w, h, settings.spp, &estimates);
+    let frame = frame_with_variance(w, h, settings.spp, &estimates);
     let traced = w.div_ceil(n) * h.div_ceil(n);
     let stats = RenderStats {
         samples: (traced as u64) * settings.spp as u64 + (w * h - traced) as u64,

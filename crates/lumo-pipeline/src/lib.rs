@@ -1,6 +1,6 @@
 //! The papers' filtered global-illumination pipelines (papers/README §1–3): each decides what to
 //! trace, what to filter and how to put the image back together. Filters only ever see image
-//! planes (lumo-filter); tracing goes through [`map_pixels`](crate::render::map_pixels), the
+//! planes (lumo-filter); tracing goes through [`map_pixels`](lumo_render::map_pixels), the
 //! crate's one parallel loop.
 
 mod atrous;
@@ -16,7 +16,7 @@ use lumo_filter::FilterError;
 use lumo_image::Image;
 use thiserror::Error;
 
-use crate::{Frame, RenderScene, RenderSettings, RenderStats};
+use lumo_render::{Frame, RenderScene, RenderSettings, RenderStats};
 
 /// A way of turning traced paths into an image.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -151,10 +151,10 @@ pub enum PipelineError {
     /// A filter rejected its input or parameters.
     #[error(transparent)]
     Filter(#[from] FilterError),
-    /// An option out of range.
-    #[error("--{option} {value}: {fix}")]
+    /// A [`PipelineOptions`] field out of range.
+    #[error("pipeline option {option} = {value}: {fix}")]
     Option {
-        /// The option's command-line name.
+        /// The [`PipelineOptions`] field's name.
         option: &'static str,
         /// The value given.
         value: String,

@@ -8,7 +8,7 @@ use lumo_filter::{bilateral, demodulate, BilateralParams, Features};
 
 use super::compose::{recompose, trace_full};
 use super::{PipelineError, PipelineOutput, Timings};
-use crate::{RenderScene, RenderSettings};
+use lumo_render::{RenderScene, RenderSettings};
 
 pub(super) fn run(
     rs: &RenderScene,
