@@ -10,7 +10,7 @@ use lumo_filter::{atrous, spatial_variance, with_passthrough, AtrousParams, Feat
 use super::compose::{frame_with_variance, trace_full};
 use super::{PipelineError, PipelineOptions, PipelineOutput, Timings};
 use lumo_render::camera::CameraRays;
-use lumo_render::wavefront::render_pixels;
+use lumo_render::integrators::path::wavefront::render_pixels;
 use lumo_render::{map_pixels, map_rows, render_pixel};
 use lumo_render::{RenderScene, RenderSettings, RenderStats};
 

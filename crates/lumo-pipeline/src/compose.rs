@@ -8,7 +8,7 @@ use lumo_image::Image;
 
 use super::{PipelineOutput, Timings};
 use lumo_render::camera::CameraRays;
-use lumo_render::wavefront::render_pixels;
+use lumo_render::integrators::path::wavefront::render_pixels;
 use lumo_render::{frame_from_estimates, map_rows};
 use lumo_render::{Frame, PixelEstimate, RenderScene, RenderSettings, RenderStats};
 

@@ -17,7 +17,7 @@ use lumo_image::Image;
 use super::compose::{depth_scale, direct_only, frame_with_variance, recompose};
 use super::{PipelineError, PipelineOptions, PipelineOutput, Timings};
 use lumo_render::camera::CameraRays;
-use lumo_render::wavefront::render_pixels;
+use lumo_render::integrators::path::wavefront::render_pixels;
 use lumo_render::{map_pixels, map_rows, trace_sample};
 use lumo_render::{FirstHit, Frame, PixelEstimate, RenderScene, RenderSettings, RenderStats};
 

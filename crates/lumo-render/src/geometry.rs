@@ -5,7 +5,7 @@ use std::f32::consts::{FRAC_1_PI, PI, TAU};
 
 /// An orthonormal basis whose z axis is a given normal; BSDFs work in this frame.
 #[derive(Clone, Copy, Debug)]
-pub struct Frame {
+pub struct Basis {
     /// Tangent.
     pub s: Vec3,
     /// Bitangent.
@@ -14,14 +14,14 @@ pub struct Frame {
     pub n: Vec3,
 }
 
-impl Frame {
+impl Basis {
     /// A frame around unit vector `n` (Duff et al. 2017, branchless).
     #[inline]
     pub fn new(n: Vec3) -> Self {
         let sign = 1.0f32.copysign(n.z);
         let a = -1.0 / (sign + n.z);
         let b = n.x * n.y * a;
-        Frame {
+        Basis {
             s: Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
             t: Vec3::new(b, sign + n.y * n.y * a, -n.y),
             n,
@@ -175,7 +175,7 @@ mod tests {
             Vec3::X,
             Vec3::new(0.3, -0.5, 0.8).normalize(),
         ] {
-            let f = Frame::new(n);
+            let f = Basis::new(n);
             assert!(f.s.dot(f.t).abs() < 1e-5 && f.s.dot(f.n).abs() < 1e-5);
             assert!((f.s.length() - 1.0).abs() < 1e-5 && (f.t.length() - 1.0).abs() < 1e-5);
             let v = Vec3::new(0.1, 0.7, -0.2);

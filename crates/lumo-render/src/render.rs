@@ -8,11 +8,11 @@ use lumo_image::Image;
 use rayon::prelude::*;
 
 use crate::camera::CameraRays;
-use crate::frame::Frame;
-use crate::integrator::{trace_path, FirstHit, PathRadiance, PathSettings};
+use crate::film::Frame;
+use crate::integrators::path::wavefront::{estimate, render_pixels};
+use crate::integrators::path::{trace_path, FirstHit, PathRadiance, PathSettings};
 use crate::render_scene::RenderScene;
 use crate::sampler::PixelSampler;
-use crate::wavefront::{estimate, render_pixels};
 
 /// What to render.
 #[derive(Clone, Copy, Debug)]
@@ -106,7 +106,7 @@ pub(crate) fn camera_sample_with(
 
 /// Renders samples `0..spp` of pixel (x, y): a pure function of its arguments. The paths go
 /// through the wavefront renderer, sixteen rays per packet; rendering whole rows with
-/// [`render_pixels`](crate::wavefront::render_pixels) keeps the packets fuller.
+/// [`render_pixels`](crate::integrators::path::wavefront::render_pixels) keeps the packets fuller.
 pub fn render_pixel(
     rs: &RenderScene,
     camera: &CameraRays,

@@ -12,7 +12,7 @@
 use glam::{Vec2, Vec3};
 
 use crate::bsdf::{Bsdf, BsdfSample};
-use crate::geometry::Frame;
+use crate::geometry::Basis;
 
 /// A shading point's BSDF with the adapters of its material applied.
 #[derive(Clone, Copy, Debug)]
@@ -68,15 +68,15 @@ fn shadow_terminator(n: Vec3, w: Vec3) -> f32 {
 
 /// The orthonormal frame around perturbed normal `n` (unit, in the unperturbed frame), its
 /// tangent as close as possible to the unperturbed tangent, as Mitsuba's `normalmap`.
-pub fn perturbed_frame(n: Vec3) -> Frame {
+pub fn perturbed_frame(n: Vec3) -> Basis {
     match (Vec3::X - n * n.x).try_normalize() {
-        Some(s) => Frame {
+        Some(s) => Basis {
             s,
             t: n.cross(s),
             n,
         },
         // n along the tangent: any frame around it.
-        None => Frame::new(n),
+        None => Basis::new(n),
     }
 }
 
@@ -112,7 +112,7 @@ impl ShadingBsdf {
     /// The perturbed frame for viewer `wo` (on the front side, or any side for transmissive
     /// BSDFs): the normal mirrored about the unperturbed one if `wo` would see it from behind.
     #[inline]
-    fn frame(n: Vec3, wo: Vec3) -> Frame {
+    fn frame(n: Vec3, wo: Vec3) -> Basis {
         let n = if wo.z * wo.dot(n) <= 0.0 {
             Vec3::new(-n.x, -n.y, n.z)
         } else {
@@ -125,10 +125,7 @@ impl ShadingBsdf {
     /// seen from behind is mirrored through its plane, as Mitsuba's `twosided` does).
     #[inline]
     fn opaque(&self) -> bool {
-        !matches!(
-            self.bsdf,
-            Bsdf::Dielectric { .. } | Bsdf::ThinDielectric { .. }
-        )
+        !matches!(self.bsdf, Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_))
     }
 
     /// `wo`, `wi` (mirrored through the plane when an opaque BSDF is seen from behind) in the
@@ -136,7 +133,7 @@ impl ShadingBsdf {
     /// `wi` changes side between the two frames or the viewer is below an opaque perturbed
     /// surface. Shared by `eval` and `pdf` so the two agree on where the BSDF is zero.
     #[inline]
-    fn perturbed(&self, n: Vec3, wo: Vec3, wi: Vec3) -> Option<(Frame, Vec3, Vec3, Vec3)> {
+    fn perturbed(&self, n: Vec3, wo: Vec3, wi: Vec3) -> Option<(Basis, Vec3, Vec3, Vec3)> {
         let (wo, wi) = if self.opaque() && wo.z < 0.0 {
             (flip_z(wo), flip_z(wi))
         } else {
@@ -231,6 +228,7 @@ impl ShadingBsdf {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::bsdf::Diffuse;
 
     #[test]
     fn perturbed_frames_are_orthonormal() {
@@ -254,9 +252,9 @@ mod tests {
 
     #[test]
     fn unperturbed_normal_changes_nothing() {
-        let bsdf = Bsdf::Diffuse {
+        let bsdf = Bsdf::Diffuse(Diffuse {
             albedo: Vec3::splat(0.7),
-        };
+        });
         let plain = ShadingBsdf::from(bsdf);
         let mapped = ShadingBsdf::new(bsdf, Some(Vec3::Z), 1.0, false);
         let (wo, wi) = (
@@ -274,9 +272,9 @@ mod tests {
 
     #[test]
     fn mask_passes_through_with_one_minus_opacity() {
-        let bsdf = Bsdf::Diffuse {
+        let bsdf = Bsdf::Diffuse(Diffuse {
             albedo: Vec3::splat(0.5),
-        };
+        });
         let masked = ShadingBsdf::new(bsdf, None, 0.25, false);
         let wo = Vec3::new(0.2, 0.3, 0.9).normalize();
         let through = masked.sample(wo, 0.6, Vec2::splat(0.5)).unwrap();

@@ -4,7 +4,7 @@
 //! `LUMO_SIMD=avx2` (or `baseline`) in the environment caps it, so the narrower forms can be
 //! timed on a machine that has wider ones. Every form computes the same bits (tested), so the
 //! cap changes speed only. The 8-wide BVH itself needs AVX2 + FMA; `LUMO_BVH_WIDTH=4`
-//! ([`crate::blas`]) replaces it with the SSE form.
+//! ([`crate::accel::blas`]) replaces it with the SSE form.
 
 /// 2 = AVX-512 F/VL, 1 = AVX2, 0 = baseline x86-64 (always 0 on other architectures).
 pub(crate) fn simd_level() -> u8 {

@@ -93,9 +93,10 @@ impl Roughness {
     }
 }
 
-/// How a surface scatters light.
+/// How a surface scatters light, as a scene describes it (parameters may be textures); the
+/// renderer turns it into an evaluated `lumo_render::bsdf::Bsdf` at each hit.
 #[derive(Clone, Debug)]
-pub enum Bsdf {
+pub enum BsdfSpec {
     /// Lambertian reflection.
     Diffuse {
         /// Reflectance (albedo).
@@ -152,7 +153,7 @@ pub enum Bsdf {
         /// The normal map (linear values, as Mitsuba's `raw` bitmap).
         normals: Texture,
         /// The BSDF seen under the perturbed normal.
-        nested: Box<Bsdf>,
+        nested: Box<BsdfSpec>,
     },
     /// A BSDF whose shading normal is tilted by the gradient of a height texture (Mitsuba's
     /// `bumpmap`).
@@ -162,7 +163,7 @@ pub enum Bsdf {
         /// Multiplier of the height (Mitsuba's `scale`).
         scale: f32,
         /// The BSDF seen under the perturbed normal.
-        nested: Box<Bsdf>,
+        nested: Box<BsdfSpec>,
     },
     /// An opacity cut-out (Mitsuba's `mask`): the nested BSDF with probability `opacity`,
     /// otherwise the ray passes straight through.
@@ -170,7 +171,7 @@ pub enum Bsdf {
         /// Opacity in [0, 1] (its luminance for colour textures).
         opacity: Texture,
         /// The BSDF of the opaque part.
-        nested: Box<Bsdf>,
+        nested: Box<BsdfSpec>,
     },
 }
 
@@ -180,7 +181,7 @@ pub struct Material {
     /// Name, used in messages.
     pub name: String,
     /// Scattering.
-    pub bsdf: Bsdf,
+    pub bsdf: BsdfSpec,
     /// Emitted radiance (front side only); where `emission_map` is given, its average (what
     /// weighs this light against the others).
     pub emission: Vec3,
@@ -198,7 +199,7 @@ impl Material {
     pub fn diffuse(name: &str, rgb: Vec3) -> Self {
         Self {
             name: name.into(),
-            bsdf: Bsdf::Diffuse {
+            bsdf: BsdfSpec::Diffuse {
                 reflectance: Texture::Constant(rgb),
             },
             emission: Vec3::ZERO,

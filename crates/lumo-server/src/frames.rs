@@ -9,7 +9,7 @@ use lumo_filter::{
     DEFAULT_EPS_DEPTH, DEFAULT_EPS_NORMAL,
 };
 use lumo_image::{luminance, Image};
-use lumo_render::wavefront::render_pixels;
+use lumo_render::integrators::path::wavefront::render_pixels;
 use lumo_render::{camera::CameraRays, RenderScene, RenderSettings};
 use rayon::prelude::*;
 

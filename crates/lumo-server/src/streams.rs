@@ -9,7 +9,7 @@
 //! Sobol sequence, so a pixel's samples are stratified exactly as in `lumo render`.
 
 use glam::{Vec2, Vec3};
-use lumo_render::light_tracer::{trace_light_path, Emitters, FilmCamera};
+use lumo_render::integrators::light::{trace_light_path, Emitters, FilmCamera};
 use lumo_render::RenderScene;
 use lumo_render::{camera::CameraRays, sampler::PixelSampler, trace_path, PathSettings};
 

@@ -14,7 +14,7 @@ use std::sync::{Arc, Condvar, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use lumo_render::light_tracer::{Emitters, FilmCamera};
+use lumo_render::integrators::light::{Emitters, FilmCamera};
 use lumo_render::{camera::CameraRays, PathSettings, RenderScene};
 use lumo_scene::Camera;
 

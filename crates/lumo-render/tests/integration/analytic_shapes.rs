@@ -316,7 +316,7 @@ fn sphere_silhouette_matches_analytic_coverage_where_tessellation_does_not() {
 /// sampled by its visible cone, MIS with BSDF-sampled hits) estimate the same image mean.
 #[test]
 fn light_tracer_and_path_tracer_agree_on_analytic_lights() {
-    use lumo_render::light_tracer::{trace_light_path, Emitters, FilmCamera};
+    use lumo_render::integrators::light::{trace_light_path, Emitters, FilmCamera};
     use lumo_render::sampler::PixelSampler;
     let text = r#"<scene version="3.0.0">
   <sensor type="perspective">

@@ -5,7 +5,10 @@ use crate::common;
 
 use common::chi2::{self, dir};
 use glam::{Vec2, Vec3};
-use lumo_render::bsdf::{fresnel_diffuse_reflectance, Bsdf, Distribution, Microfacet, RoughCoat};
+use lumo_render::bsdf::{
+    fresnel_diffuse_reflectance, Bsdf, Conductor, Dielectric, Diffuse, Distribution, Microfacet,
+    Mirror, Plastic, RoughCoat,
+};
 use std::f32::consts::PI;
 
 /// xorshift64*: independent uniform numbers for the tests (not the renderer's Sobol points).
@@ -26,79 +29,79 @@ fn test_bsdfs() -> Vec<(&'static str, Bsdf)> {
     vec![
         (
             "diffuse",
-            Bsdf::Diffuse {
+            Bsdf::Diffuse(Diffuse {
                 albedo: Vec3::new(0.8, 0.5, 0.2),
-            },
+            }),
         ),
         (
             "conductor-0.2",
-            Bsdf::Conductor {
+            Bsdf::Conductor(Conductor {
                 eta: Vec3::new(0.2, 0.9, 1.1),
                 k: Vec3::new(3.9, 2.4, 1.6),
                 mf: Microfacet::ggx(0.2),
-            },
+            }),
         ),
         (
             "conductor-0.6",
-            Bsdf::Conductor {
+            Bsdf::Conductor(Conductor {
                 eta: Vec3::splat(1.5),
                 k: Vec3::splat(2.0),
                 mf: Microfacet::ggx(0.6),
-            },
+            }),
         ),
         (
             "conductor-beckmann-0.2",
-            Bsdf::Conductor {
+            Bsdf::Conductor(Conductor {
                 eta: Vec3::splat(1.5),
                 k: Vec3::splat(2.0),
                 mf: Microfacet::isotropic(Distribution::Beckmann, 0.2),
-            },
+            }),
         ),
         (
             "conductor-beckmann-0.7",
-            Bsdf::Conductor {
+            Bsdf::Conductor(Conductor {
                 eta: Vec3::splat(1.5),
                 k: Vec3::splat(2.0),
                 mf: Microfacet::isotropic(Distribution::Beckmann, 0.7),
-            },
+            }),
         ),
         (
             "conductor-beckmann-aniso",
-            Bsdf::Conductor {
+            Bsdf::Conductor(Conductor {
                 eta: Vec3::splat(1.5),
                 k: Vec3::splat(2.0),
                 mf: BECKMANN_ANISO,
-            },
+            }),
         ),
         (
             "conductor-ggx-aniso",
-            Bsdf::Conductor {
+            Bsdf::Conductor(Conductor {
                 eta: Vec3::splat(1.5),
                 k: Vec3::splat(2.0),
                 mf: GGX_ANISO,
-            },
+            }),
         ),
         (
             "plastic-smooth",
-            Bsdf::Plastic {
+            Bsdf::Plastic(Plastic {
                 diffuse: Vec3::new(0.5, 0.4, 0.3),
                 eta: 1.5,
                 mf: Microfacet::ggx(0.0),
                 fdr_int: fresnel_diffuse_reflectance(1.0 / 1.5),
                 coat: None,
                 nonlinear: false,
-            },
+            }),
         ),
         (
             "plastic-rough",
-            Bsdf::Plastic {
+            Bsdf::Plastic(Plastic {
                 diffuse: Vec3::new(0.5, 0.4, 0.3),
                 eta: 1.5,
                 mf: Microfacet::ggx(0.3),
                 fdr_int: fresnel_diffuse_reflectance(1.0 / 1.5),
                 coat: None,
                 nonlinear: false,
-            },
+            }),
         ),
         (
             "plastic-ggx-coat",
@@ -114,38 +117,38 @@ fn test_bsdfs() -> Vec<(&'static str, Bsdf)> {
         ),
         (
             "dielectric-rough-0.3",
-            Bsdf::Dielectric {
+            Bsdf::Dielectric(Dielectric {
                 eta: 1.5,
                 mf: Microfacet::ggx(0.3),
-            },
+            }),
         ),
         (
             "dielectric-rough-0.1",
-            Bsdf::Dielectric {
+            Bsdf::Dielectric(Dielectric {
                 eta: 1.33,
                 mf: Microfacet::ggx(0.1),
-            },
+            }),
         ),
         (
             "dielectric-beckmann-0.3",
-            Bsdf::Dielectric {
+            Bsdf::Dielectric(Dielectric {
                 eta: 1.5,
                 mf: Microfacet::isotropic(Distribution::Beckmann, 0.3),
-            },
+            }),
         ),
         (
             "dielectric-beckmann-aniso",
-            Bsdf::Dielectric {
+            Bsdf::Dielectric(Dielectric {
                 eta: 1.5,
                 mf: BECKMANN_ANISO,
-            },
+            }),
         ),
         (
             "dielectric-ggx-aniso",
-            Bsdf::Dielectric {
+            Bsdf::Dielectric(Dielectric {
                 eta: 1.33,
                 mf: GGX_ANISO,
-            },
+            }),
         ),
     ]
 }
@@ -166,14 +169,14 @@ const GGX_ANISO: Microfacet = Microfacet {
 fn rough_plastic(distribution: Distribution, alpha: f32, nonlinear: bool) -> Bsdf {
     let mf = Microfacet::isotropic(distribution, alpha);
     let coat = RoughCoat::shared(mf, 1.5);
-    Bsdf::Plastic {
+    Bsdf::Plastic(Plastic {
         diffuse: Vec3::new(0.5, 0.4, 0.3),
         eta: 1.5,
         mf,
         fdr_int: coat.internal_reflectance,
         coat: Some(coat),
         nonlinear,
-    }
+    })
 }
 
 /// Runs the χ² test of `bsdf`'s sampling for outgoing direction `wo`; returns the p-value.
@@ -208,7 +211,7 @@ fn chi2_sampling_matches_pdf() {
         for (k, wo) in wos.iter().enumerate() {
             for wo in [
                 *wo,
-                if matches!(bsdf, Bsdf::Dielectric { .. }) {
+                if matches!(bsdf, Bsdf::Dielectric(_)) {
                     -*wo
                 } else {
                     *wo
@@ -288,22 +291,25 @@ fn lossless_bsdfs_reflect_everything() {
     let cases = [
         (
             "mirror",
-            Bsdf::Mirror {
+            Bsdf::Mirror(Mirror {
                 reflectance: Vec3::ONE,
-            },
+            }),
         ),
         (
             "glass",
-            Bsdf::Dielectric {
+            Bsdf::Dielectric(Dielectric {
                 eta: 1.5,
                 mf: Microfacet::ggx(0.0),
-            },
+            }),
         ),
-        ("white diffuse", Bsdf::Diffuse { albedo: Vec3::ONE }),
+        (
+            "white diffuse",
+            Bsdf::Diffuse(Diffuse { albedo: Vec3::ONE }),
+        ),
     ];
     for (name, bsdf) in cases {
         for c in [1.0f32, 0.5, 0.1, -0.5, -0.9] {
-            if c < 0.0 && !matches!(bsdf, Bsdf::Dielectric { .. }) {
+            if c < 0.0 && !matches!(bsdf, Bsdf::Dielectric(_)) {
                 continue;
             }
             let a = albedo(&bsdf, dir(c, 1.0), 50_000, 11);
@@ -315,10 +321,10 @@ fn lossless_bsdfs_reflect_everything() {
     }
     // Rough glass loses only what the microfacet shadowing term removes: a few percent.
     let a = albedo(
-        &Bsdf::Dielectric {
+        &Bsdf::Dielectric(Dielectric {
             eta: 1.5,
             mf: Microfacet::ggx(0.1),
-        },
+        }),
         dir(0.8, 0.0),
         200_000,
         5,
@@ -346,10 +352,12 @@ fn microfacet_bsdfs_evaluate_as_mitsuba() {
         (mdir(0.15, 4.0), mdir(0.8, 0.9)),
         (mdir(0.6, 1.0), mdir(0.6, 1.0 + PI)),
     ];
-    let metal = |mf| Bsdf::Conductor {
-        eta: Vec3::splat(1.5),
-        k: Vec3::splat(2.0),
-        mf,
+    let metal = |mf| {
+        Bsdf::Conductor(Conductor {
+            eta: Vec3::splat(1.5),
+            k: Vec3::splat(2.0),
+            mf,
+        })
     };
     let cases: [(&str, Bsdf, [[f32; 3]; 4]); 6] = [
         (
@@ -425,10 +433,10 @@ fn microfacet_bsdfs_evaluate_as_mitsuba() {
     }
     // Rough dielectric, Beckmann α = 0.3, η = 1.5 / 1.000277 (Mitsuba's air): reflection and
     // transmission (the light below) for each pair.
-    let glass = Bsdf::Dielectric {
+    let glass = Bsdf::Dielectric(Dielectric {
         eta: 1.5 / 1.000_277,
         mf: Microfacet::isotropic(Distribution::Beckmann, 0.3),
-    };
+    });
     let expected = [
         1.2362185e-02,
         0.0,
@@ -467,11 +475,11 @@ fn lossless_rough_mirror_albedo_matches_its_integral() {
         BECKMANN_ANISO,
         GGX_ANISO,
     ] {
-        let bsdf = Bsdf::Conductor {
+        let bsdf = Bsdf::Conductor(Conductor {
             eta: Vec3::ONE,
             k: Vec3::splat(1e4),
             mf,
-        };
+        });
         for c in [0.9f32, 0.5, 0.2] {
             let wo = dir(c, 0.7);
             let sampled = albedo(&bsdf, wo, 400_000, 17).x;

@@ -14,7 +14,7 @@ use std::f32::consts::{FRAC_PI_2, PI};
 use std::path::Path;
 
 use glam::{Mat4, Vec3};
-use lumo_render::light_tracer::{trace_light_path, Emitters, FilmCamera};
+use lumo_render::integrators::light::{trace_light_path, Emitters, FilmCamera};
 use lumo_render::sampler::PixelSampler;
 use lumo_render::{render, trace_path, PathSettings, RenderScene, RenderSettings};
 use lumo_scene::shapes::rectangle;

@@ -6,7 +6,7 @@
 
 use std::path::Path;
 
-use lumo_render::light_tracer::{trace_light_path, Emitters, FilmCamera};
+use lumo_render::integrators::light::{trace_light_path, Emitters, FilmCamera};
 use lumo_render::sampler::PixelSampler;
 use lumo_render::{render, PathSettings, RenderScene, RenderSettings};
 use lumo_scene::load::{load_mitsuba_str, LoadOptions};

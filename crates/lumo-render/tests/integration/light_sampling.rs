@@ -257,7 +257,7 @@ fn empty_images_built_in_code_emit_and_reflect_nothing() {
     }));
     let textured = scene.add_material(Material {
         name: "empty texture".into(),
-        bsdf: lumo_scene::Bsdf::Diffuse {
+        bsdf: lumo_scene::BsdfSpec::Diffuse {
             reflectance: Texture::Bitmap {
                 image: empty,
                 uv_scale: Vec2::ONE,

@@ -7,7 +7,7 @@ use std::path::Path;
 
 use glam::{Vec2, Vec3};
 use lumo_image::Image;
-use lumo_render::bsdf::{fresnel_dielectric, thin_dielectric_reflectance, Bsdf};
+use lumo_render::bsdf::{fresnel_dielectric, thin_dielectric_reflectance, Bsdf, ThinDielectric};
 use lumo_render::{render, PathSettings, RenderScene, RenderSettings};
 use lumo_scene::load::{load_mitsuba_str, LoadOptions};
 
@@ -144,7 +144,7 @@ fn thin_dielectric_conserves_energy_and_samples_its_lobes_in_proportion() {
             );
             assert!((r + t - 1.0).abs() < 1e-4, "R + T = {}", r + t);
 
-            let bsdf = Bsdf::ThinDielectric { eta };
+            let bsdf = Bsdf::ThinDielectric(ThinDielectric { eta });
             let sin = (1.0 - cos * cos).sqrt();
             for wo in [Vec3::new(sin, 0.0, cos), Vec3::new(0.0, -sin, -cos)] {
                 // Sampling over a fine grid of lobe numbers: the reflected fraction is R',

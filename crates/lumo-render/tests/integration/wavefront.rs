@@ -3,7 +3,7 @@
 //! every built-in scene, at several spp (packets of one pixel's samples and of many pixels').
 
 use lumo_render::camera::CameraRays;
-use lumo_render::wavefront::render_pixels;
+use lumo_render::integrators::path::wavefront::render_pixels;
 use lumo_render::{render_pixel_one_ray, PathSettings, RenderScene, RenderSettings};
 
 #[test]

@@ -46,7 +46,7 @@ use glam::{Mat4, Vec2, Vec3};
 
 use crate::shapes::{aabox, cylinder, sphere};
 use crate::{
-    Bsdf, Camera, FovAxis, Instance, Light, Material, Mesh, RenderDefaults, Roughness, Scene,
+    BsdfSpec, Camera, FovAxis, Instance, Light, Material, Mesh, RenderDefaults, Roughness, Scene,
     Texture,
 };
 
@@ -438,7 +438,7 @@ pub(crate) fn atrium() -> Scene {
     // colour of what it bounced off; saturated drapes so there is colour to take on.
     let floor = scene.add_material(Material {
         name: "floor".into(),
-        bsdf: Bsdf::Diffuse {
+        bsdf: BsdfSpec::Diffuse {
             reflectance: Texture::Checkerboard {
                 color0: Vec3::new(0.80, 0.80, 0.78),
                 color1: Vec3::new(0.55, 0.55, 0.53),
@@ -455,7 +455,7 @@ pub(crate) fn atrium() -> Scene {
     let marble = diffuse(&mut scene, "column", Vec3::new(0.80, 0.80, 0.78));
     let rail = scene.add_material(Material {
         name: "green-marble".into(),
-        bsdf: Bsdf::Plastic {
+        bsdf: BsdfSpec::Plastic {
             diffuse: Texture::Constant(Vec3::new(0.10, 0.22, 0.16)),
             ior: 1.5,
             roughness: Roughness::ggx(0.15),
@@ -468,7 +468,7 @@ pub(crate) fn atrium() -> Scene {
     });
     let gold = scene.add_material(Material {
         name: "rough-gold".into(),
-        bsdf: Bsdf::Conductor {
+        bsdf: BsdfSpec::Conductor {
             eta: Vec3::new(0.143, 0.374, 1.442),
             k: Vec3::new(3.983, 2.385, 1.603),
             roughness: Roughness::ggx(0.3),
@@ -717,7 +717,7 @@ pub(crate) fn atrium() -> Scene {
     // exercises a texture on a curved, smooth-shaded mesh).
     let tapestry_material = scene.add_material(Material {
         name: "tapestry".into(),
-        bsdf: Bsdf::Diffuse {
+        bsdf: BsdfSpec::Diffuse {
             reflectance: Texture::Checkerboard {
                 color0: Vec3::new(0.08, 0.12, 0.50),
                 color1: Vec3::new(0.72, 0.56, 0.16),

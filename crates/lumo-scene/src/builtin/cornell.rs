@@ -4,7 +4,7 @@
 use glam::{Mat4, Vec3};
 
 use crate::shapes::{cube, rectangle, sphere};
-use crate::{Bsdf, Camera, FovAxis, Material, RenderDefaults, Roughness, Scene, Texture};
+use crate::{BsdfSpec, Camera, FovAxis, Material, RenderDefaults, Roughness, Scene, Texture};
 
 fn deg(a: f32) -> f32 {
     a.to_radians()
@@ -105,7 +105,7 @@ pub(crate) fn cornell_spheres() -> Scene {
     let (mut scene, _white) = cornell_shell("cornell-spheres", false);
     let checker = scene.add_material(Material {
         name: "checker".into(),
-        bsdf: Bsdf::Diffuse {
+        bsdf: BsdfSpec::Diffuse {
             reflectance: Texture::Checkerboard {
                 color0: Vec3::new(0.8, 0.8, 0.8),
                 color1: Vec3::new(0.2, 0.2, 0.25),
@@ -122,7 +122,7 @@ pub(crate) fn cornell_spheres() -> Scene {
     }
     let gold = scene.add_material(Material {
         name: "rough-gold".into(),
-        bsdf: Bsdf::Conductor {
+        bsdf: BsdfSpec::Conductor {
             // Au at R, G, B (650, 550, 450 nm), Johnson & Christy.
             eta: Vec3::new(0.143, 0.374, 1.442),
             k: Vec3::new(3.983, 2.385, 1.603),
@@ -134,7 +134,7 @@ pub(crate) fn cornell_spheres() -> Scene {
     });
     let glass = scene.add_material(Material {
         name: "glass".into(),
-        bsdf: Bsdf::Dielectric {
+        bsdf: BsdfSpec::Dielectric {
             ior: 1.5,
             roughness: Roughness::SMOOTH,
         },

@@ -21,7 +21,7 @@ use crate::animation::{
     NodeItem,
 };
 use crate::{
-    Bsdf, Camera, FovAxis, Instance, Light, Material, Mesh, Roughness, Scene, Texture,
+    BsdfSpec, Camera, FovAxis, Instance, Light, Material, Mesh, Roughness, Scene, Texture,
     TextureFilter, WrapMode,
 };
 
@@ -623,7 +623,7 @@ impl GltfReader<'_, '_> {
                     format!("metallic {metallic} rendered as fully metallic"),
                 )?;
             }
-            Bsdf::Conductor {
+            BsdfSpec::Conductor {
                 eta,
                 k,
                 roughness: Roughness::ggx(alpha),
@@ -636,7 +636,7 @@ impl GltfReader<'_, '_> {
                 )?;
             }
             // glTF's dielectric: a diffuse base under a specular layer with F0 = 0.04 (ior 1.5).
-            Bsdf::Plastic {
+            BsdfSpec::Plastic {
                 diffuse: base,
                 ior: 1.5,
                 roughness: Roughness::ggx(alpha),

@@ -9,7 +9,7 @@ use glam::{Vec2, Vec3};
 use super::check::check_mesh;
 use super::images::ImageCache;
 use super::{read_file, read_limited, Diagnostics, LoadError, Location, ReadError};
-use crate::{Bsdf, Material, Mesh, Roughness, Texture, TextureFilter, WrapMode};
+use crate::{BsdfSpec, Material, Mesh, Roughness, Texture, TextureFilter, WrapMode};
 
 /// Most bytes of MTL read for one OBJ file, all its `mtllib`s together. Material libraries
 /// are text of a few kilobytes; the bound stops a file that names a huge one.
@@ -502,19 +502,19 @@ fn read_mtl(
                     m.name, m.dissolve
                 ),
             )?;
-            Bsdf::Dielectric {
+            BsdfSpec::Dielectric {
                 ior: m.ni.unwrap_or(1.5),
                 roughness: Roughness::SMOOTH,
             }
         } else if m.ks.max_element() > 0.0 && diffuse.average().max_element() <= 0.0 {
             let (eta, k) = super::materials::metal_from_reflectance(m.ks);
-            Bsdf::Conductor {
+            BsdfSpec::Conductor {
                 eta,
                 k,
                 roughness: Roughness::ggx(phong_alpha(m.ns)),
             }
         } else if m.ks.max_element() > 0.0 {
-            Bsdf::Plastic {
+            BsdfSpec::Plastic {
                 diffuse,
                 ior: 1.5,
                 roughness: Roughness::ggx(phong_alpha(m.ns)),
@@ -522,7 +522,7 @@ fn read_mtl(
                 exact_rough_coat: false,
             }
         } else {
-            Bsdf::Diffuse {
+            BsdfSpec::Diffuse {
                 reflectance: diffuse,
             }
         };

@@ -4,7 +4,7 @@ use crate::common;
 
 use common::{load, scenes, temp_dir, write};
 use lumo_scene::load::{load_scene, LoadOptions};
-use lumo_scene::{Bsdf, FovAxis, Light, Vec3};
+use lumo_scene::{BsdfSpec, FovAxis, Light, Vec3};
 
 fn instance_origins(s: &lumo_scene::Scene) -> Vec<Vec3> {
     s.instances
@@ -76,11 +76,11 @@ fn hierarchy_camera_lights_and_materials() {
     }
     assert!(matches!(
         s.materials[s.meshes[0].material].bsdf,
-        Bsdf::Plastic { .. }
+        BsdfSpec::Plastic { .. }
     ));
     assert!(matches!(
         &s.materials[s.meshes[1].material].bsdf,
-        Bsdf::Conductor { roughness, .. } if (roughness.alpha_u - 0.16).abs() < 1e-6
+        BsdfSpec::Conductor { roughness, .. } if (roughness.alpha_u - 0.16).abs() < 1e-6
     ));
     let rig = loaded.animation.as_ref().expect("rig");
     assert_eq!(rig.animations.len(), 1);

@@ -206,7 +206,7 @@ fn negative_colours_in_mitsuba_xml_are_warned_about_and_read_as_zero() {
     }
     for m in &scene.scene.materials {
         assert!(m.emission.min_element() >= 0.0, "{:?}", m.emission);
-        if let lumo_scene::Bsdf::Diffuse {
+        if let lumo_scene::BsdfSpec::Diffuse {
             reflectance: Texture::Constant(c),
         } = &m.bsdf
         {
@@ -279,7 +279,7 @@ fn negative_gltf_colours_are_warned_about_and_read_as_zero() {
     );
     let m = &scene.scene.materials[scene.scene.meshes[0].material];
     assert!(m.emission.min_element() >= 0.0, "{:?}", m.emission);
-    let lumo_scene::Bsdf::Plastic {
+    let lumo_scene::BsdfSpec::Plastic {
         diffuse: Texture::Constant(c),
         ..
     } = &m.bsdf

@@ -3,7 +3,7 @@
 use crate::common;
 
 use common::{load, scenes, temp_dir, write};
-use lumo_scene::{Bsdf, Light, Texture, Vec2, Vec3};
+use lumo_scene::{BsdfSpec, Light, Texture, Vec2, Vec3};
 
 #[test]
 fn ply_encodings_agree_and_quads_are_triangulated() {
@@ -151,7 +151,7 @@ fn obj_with_mtl() {
     assert_eq!(painted.uvs.len(), painted.positions.len());
     assert_eq!(painted.normals.len(), painted.positions.len());
     match &s.materials[painted.material].bsdf {
-        Bsdf::Plastic {
+        BsdfSpec::Plastic {
             diffuse: Texture::Bitmap { image, .. },
             roughness,
             ..

@@ -4,7 +4,7 @@ use crate::common;
 
 use common::{load, load_strict, mitsuba, scenes, temp_dir, write};
 use lumo_scene::load::{load_scene, LoadError, LoadOptions};
-use lumo_scene::{Bsdf, Distribution, FovAxis, Light, Mat4, Roughness, Texture, Vec2, Vec3};
+use lumo_scene::{BsdfSpec, Distribution, FovAxis, Light, Mat4, Roughness, Texture, Vec2, Vec3};
 
 #[test]
 fn cornell_xml_is_the_builtin_cornell_exactly() {
@@ -80,7 +80,7 @@ fn include_relative_paths_textures_and_spectra() {
         .find(|m| m.name == "floor")
         .expect("floor material");
     match &floor.bsdf {
-        Bsdf::Diffuse {
+        BsdfSpec::Diffuse {
             reflectance: Texture::Transformed { texture, uv },
         } => {
             assert!(matches!(**texture, Texture::Bitmap { .. }));
@@ -96,7 +96,7 @@ fn include_relative_paths_textures_and_spectra() {
         .materials
         .iter()
         .find_map(|m| match &m.bsdf {
-            Bsdf::Diffuse {
+            BsdfSpec::Diffuse {
                 reflectance: Texture::Constant(c),
             } if c.x > c.z && m.name == "diffuse" => Some(*c),
             _ => None,
@@ -106,9 +106,9 @@ fn include_relative_paths_textures_and_spectra() {
     let gold = s
         .materials
         .iter()
-        .find(|m| matches!(&m.bsdf, Bsdf::Conductor { roughness, .. } if roughness.alpha_u == 0.2))
+        .find(|m| matches!(&m.bsdf, BsdfSpec::Conductor { roughness, .. } if roughness.alpha_u == 0.2))
         .expect("gold");
-    if let Bsdf::Conductor { eta, k, .. } = gold.bsdf {
+    if let BsdfSpec::Conductor { eta, k, .. } = gold.bsdf {
         assert!(
             (eta - Vec3::new(0.143036, 0.375307, 1.44205))
                 .abs()
@@ -198,13 +198,13 @@ fn material_presets_and_named_media() {
         ),
     );
     let s = load(&p).unwrap().scene;
-    let bsdfs: Vec<&Bsdf> = s
+    let bsdfs: Vec<&BsdfSpec> = s
         .meshes
         .iter()
         .map(|m| &s.materials[m.material].bsdf)
         .collect();
     match bsdfs[0] {
-        Bsdf::Conductor { eta, k, roughness } => {
+        BsdfSpec::Conductor { eta, k, roughness } => {
             assert_eq!(*eta, Vec3::new(0.155276, 0.116728, 0.138388));
             assert_eq!(*k, Vec3::new(4.82835, 3.12222, 2.1469));
             assert_eq!(*roughness, Roughness::SMOOTH);
@@ -212,11 +212,11 @@ fn material_presets_and_named_media() {
         other => panic!("{other:?}"),
     }
     match bsdfs[1] {
-        Bsdf::Dielectric { ior, .. } => assert!((ior - 1.333 / 1.00028).abs() < 1e-6),
+        BsdfSpec::Dielectric { ior, .. } => assert!((ior - 1.333 / 1.00028).abs() < 1e-6),
         other => panic!("{other:?}"),
     }
     match bsdfs[2] {
-        Bsdf::Plastic { ior, roughness, .. } => {
+        BsdfSpec::Plastic { ior, roughness, .. } => {
             assert!((ior - 1.6).abs() < 1e-6);
             assert_eq!(*roughness, Roughness::ggx(0.3));
         }
@@ -290,7 +290,7 @@ fn approximations_are_reported() {
     assert!(
         matches!(
             rough,
-            Bsdf::Conductor { roughness, .. } if *roughness == Roughness {
+            BsdfSpec::Conductor { roughness, .. } if *roughness == Roughness {
                 distribution: Distribution::Beckmann,
                 alpha_u: 0.1,
                 alpha_v: 0.1,
@@ -304,11 +304,11 @@ fn approximations_are_reported() {
     let s = &loaded.scene;
     assert!(matches!(
         s.materials[s.meshes[2].material].bsdf,
-        Bsdf::ThinDielectric { ior } if (ior - 1.5046 / 1.00028).abs() < 1e-6
+        BsdfSpec::ThinDielectric { ior } if (ior - 1.5046 / 1.00028).abs() < 1e-6
     ));
     assert!(matches!(
         &s.materials[s.meshes[0].material].bsdf,
-        Bsdf::Plastic { roughness, .. } if (roughness.alpha_u - 0.25).abs() < 1e-6
+        BsdfSpec::Plastic { roughness, .. } if (roughness.alpha_u - 0.25).abs() < 1e-6
     ));
 }
 
@@ -418,7 +418,7 @@ fn default_bsdf_is_grey_but_black_on_emitters() {
     );
     let s = load(&p).unwrap().scene;
     let reflectance = |mesh: usize| match &s.materials[s.meshes[mesh].material].bsdf {
-        Bsdf::Diffuse {
+        BsdfSpec::Diffuse {
             reflectance: Texture::Constant(c),
         } => *c,
         other => panic!("{other:?}"),
@@ -448,7 +448,7 @@ fn microfacet_distribution_and_anisotropic_alpha_are_kept() {
     let bsdf = |i: usize| &s.materials[s.meshes[i].material].bsdf;
     assert!(matches!(
         bsdf(0),
-        Bsdf::Conductor { roughness, .. } if *roughness == Roughness {
+        BsdfSpec::Conductor { roughness, .. } if *roughness == Roughness {
             distribution: Distribution::Ggx,
             alpha_u: 0.05,
             alpha_v: 0.35,
@@ -457,7 +457,7 @@ fn microfacet_distribution_and_anisotropic_alpha_are_kept() {
     ));
     assert!(matches!(
         bsdf(1),
-        Bsdf::Dielectric { roughness, .. } if *roughness == Roughness {
+        BsdfSpec::Dielectric { roughness, .. } if *roughness == Roughness {
             distribution: Distribution::Beckmann,
             alpha_u: 0.2,
             alpha_v: 0.2,
@@ -466,7 +466,7 @@ fn microfacet_distribution_and_anisotropic_alpha_are_kept() {
     ));
     assert!(matches!(
         bsdf(2),
-        Bsdf::Plastic { roughness, nonlinear: true, exact_rough_coat: true, .. }
+        BsdfSpec::Plastic { roughness, nonlinear: true, exact_rough_coat: true, .. }
             if roughness.distribution == Distribution::Beckmann && roughness.alpha_u == 0.1
     ));
     // What Mitsuba refuses, lumo refuses too, naming the fix.
@@ -516,9 +516,9 @@ fn textured_alpha_is_kept_per_texel_except_on_roughplastic() {
     let loaded = load(&p).unwrap();
     let s = &loaded.scene;
     let roughness = |i: usize| match &s.materials[s.meshes[i].material].bsdf {
-        Bsdf::Conductor { roughness, .. }
-        | Bsdf::Dielectric { roughness, .. }
-        | Bsdf::Plastic { roughness, .. } => roughness.clone(),
+        BsdfSpec::Conductor { roughness, .. }
+        | BsdfSpec::Dielectric { roughness, .. }
+        | BsdfSpec::Plastic { roughness, .. } => roughness.clone(),
         other => panic!("unexpected {other:?}"),
     };
     // Mitsuba's checkerboard: color0 where floor(2u) + floor(2v) is even.

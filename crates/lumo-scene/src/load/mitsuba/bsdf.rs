@@ -8,14 +8,14 @@ use super::props::Props;
 use super::xml::Element;
 use super::{presets, Builder};
 use crate::load::LoadError;
-use crate::{Bsdf, Distribution, Roughness, RoughnessMaps, Texture, TextureFilter, WrapMode};
+use crate::{BsdfSpec, Distribution, Roughness, RoughnessMaps, Texture, TextureFilter, WrapMode};
 
 /// Mitsuba's default exterior medium (air) for `int_ior / ext_ior`.
 const AIR: f32 = 1.00028;
 
 impl<'a> Builder<'a, '_> {
     /// Converts a `<bsdf>` (cached); returns (name, BSDF).
-    pub(super) fn bsdf(&mut self, el: &'a Element) -> Result<(String, Bsdf), LoadError> {
+    pub(super) fn bsdf(&mut self, el: &'a Element) -> Result<(String, BsdfSpec), LoadError> {
         let key = el as *const Element as usize;
         if let Some(b) = self.bsdfs.get(&key) {
             return Ok(b.clone());
@@ -50,12 +50,12 @@ impl<'a> Builder<'a, '_> {
         }
     }
 
-    fn convert_bsdf(&mut self, props: &Props<'a>) -> Result<Bsdf, LoadError> {
+    fn convert_bsdf(&mut self, props: &Props<'a>) -> Result<BsdfSpec, LoadError> {
         let el = props.el;
         let kind = props.kind();
         let at = el.at();
         Ok(match kind {
-            "diffuse" => Bsdf::Diffuse {
+            "diffuse" => BsdfSpec::Diffuse {
                 reflectance: self.texture_param(props, "reflectance", Vec3::splat(0.5))?,
             },
             "normalmap" | "bumpmap" | "mask" => self.wrapper(props)?,
@@ -113,7 +113,7 @@ impl<'a> Builder<'a, '_> {
                 } else {
                     Roughness::SMOOTH
                 };
-                Bsdf::Conductor { eta, k, roughness }
+                BsdfSpec::Conductor { eta, k, roughness }
             }
             "plastic" | "roughplastic" => {
                 let ior = self.ior(props)?;
@@ -143,7 +143,7 @@ impl<'a> Builder<'a, '_> {
                         "roughplastic does not support anisotropic roughness (alpha_u != alpha_v)",
                     ));
                 }
-                Bsdf::Plastic {
+                BsdfSpec::Plastic {
                     diffuse: self.texture_param(props, "diffuse_reflectance", Vec3::splat(0.5))?,
                     ior,
                     roughness,
@@ -155,7 +155,7 @@ impl<'a> Builder<'a, '_> {
                 let ior = self.ior(props)?;
                 self.unit_scale(props, "specular_reflectance")?;
                 self.unit_scale(props, "specular_transmittance")?;
-                Bsdf::ThinDielectric { ior }
+                BsdfSpec::ThinDielectric { ior }
             }
             "dielectric" | "roughdielectric" => {
                 let ior = self.ior(props)?;
@@ -166,7 +166,7 @@ impl<'a> Builder<'a, '_> {
                 } else {
                     Roughness::SMOOTH
                 };
-                Bsdf::Dielectric { ior, roughness }
+                BsdfSpec::Dielectric { ior, roughness }
             }
             "principled" => self.principled(props)?,
             _ => {
@@ -175,7 +175,7 @@ impl<'a> Builder<'a, '_> {
                     format!("bsdf {kind:?} is not supported; using a grey diffuse BSDF instead"),
                 )?;
                 mark_all(props);
-                Bsdf::Diffuse {
+                BsdfSpec::Diffuse {
                     reflectance: Texture::Constant(Vec3::splat(0.5)),
                 }
             }
@@ -183,7 +183,7 @@ impl<'a> Builder<'a, '_> {
     }
 
     /// `normalmap`, `bumpmap` and `mask`: a texture and exactly one nested BSDF.
-    fn wrapper(&mut self, props: &Props<'a>) -> Result<Bsdf, LoadError> {
+    fn wrapper(&mut self, props: &Props<'a>) -> Result<BsdfSpec, LoadError> {
         let kind = props.kind();
         let at = props.el.at();
         let mut nested = None;
@@ -219,7 +219,7 @@ impl<'a> Builder<'a, '_> {
                     ));
                 }
                 self.default_on_flags(props)?;
-                Bsdf::NormalMap {
+                BsdfSpec::NormalMap {
                     normals: self.texture_param(props, "normalmap", Vec3::new(0.5, 0.5, 1.0))?,
                     nested,
                 }
@@ -233,13 +233,13 @@ impl<'a> Builder<'a, '_> {
                 if !scale.is_finite() {
                     return Err(LoadError::invalid(at, "bumpmap scale is not finite"));
                 }
-                Bsdf::BumpMap {
+                BsdfSpec::BumpMap {
                     height,
                     scale,
                     nested,
                 }
             }
-            _ => Bsdf::Mask {
+            _ => BsdfSpec::Mask {
                 opacity: self.texture_param(props, "opacity", Vec3::splat(0.5))?,
                 nested,
             },
@@ -261,7 +261,7 @@ impl<'a> Builder<'a, '_> {
     }
 
     /// `principled` mapped to the closest lumo BSDF, naming what is lost.
-    fn principled(&mut self, props: &Props<'a>) -> Result<Bsdf, LoadError> {
+    fn principled(&mut self, props: &Props<'a>) -> Result<BsdfSpec, LoadError> {
         let base = self.texture_param(props, "base_color", Vec3::splat(0.5))?;
         let roughness = self.scalar_param(props, "roughness", 0.5)?;
         let metallic = self.scalar_param(props, "metallic", 0.0)?;
@@ -284,19 +284,19 @@ impl<'a> Builder<'a, '_> {
         props.accept(&lost);
         let bsdf = if spec_trans >= 0.5 {
             lost.push("base_color (glass is clear)");
-            Bsdf::Dielectric {
+            BsdfSpec::Dielectric {
                 ior: eta,
                 roughness: Roughness::ggx(alpha),
             }
         } else if metallic >= 0.5 {
             let (eta, k) = crate::load::materials::metal_from_reflectance(base.average());
-            Bsdf::Conductor {
+            BsdfSpec::Conductor {
                 eta,
                 k,
                 roughness: Roughness::ggx(alpha),
             }
         } else {
-            Bsdf::Plastic {
+            BsdfSpec::Plastic {
                 diffuse: base,
                 ior: eta,
                 roughness: Roughness::ggx(alpha),
@@ -305,8 +305,8 @@ impl<'a> Builder<'a, '_> {
             }
         };
         let what = match bsdf {
-            Bsdf::Dielectric { .. } => "a dielectric (spec_trans >= 0.5)",
-            Bsdf::Conductor { .. } => {
+            BsdfSpec::Dielectric { .. } => "a dielectric (spec_trans >= 0.5)",
+            BsdfSpec::Conductor { .. } => {
                 "a conductor with the base colour as its reflectance (metallic >= 0.5)"
             }
             _ => "a rough plastic with the base colour as its diffuse layer (metallic < 0.5)",

@@ -22,7 +22,7 @@ use self::props::Props;
 use self::xml::Element;
 use super::images::ImageCache;
 use super::{defaults, Diagnostics, FileSettings, LoadError, LoadOptions, Location};
-use crate::{Bsdf, Material, Scene, Texture};
+use crate::{BsdfSpec, Material, Scene, Texture};
 
 /// Deepest nesting of BSDFs, textures and integrators inside each other (counting `<ref>`s
 /// followed). Real scenes nest a handful; the bound turns a `<ref>` cycle into an error
@@ -155,7 +155,7 @@ pub(super) struct Builder<'a, 'd> {
     images: ImageCache,
     scene: Scene,
     /// Converted BSDFs by element address (a BSDF referenced twice is converted once).
-    bsdfs: HashMap<usize, (String, Bsdf)>,
+    bsdfs: HashMap<usize, (String, BsdfSpec)>,
     /// Material index by (BSDF element address or 0 for the default, emission bits).
     materials: HashMap<(usize, [u32; 3], usize), usize>,
     /// Converted textures by element address.
@@ -259,7 +259,7 @@ impl<'a> Builder<'a, '_> {
             // area light reflects nothing unless the file gives it a BSDF).
             None => (
                 "default".to_string(),
-                Bsdf::Diffuse {
+                BsdfSpec::Diffuse {
                     reflectance: Texture::Constant(if emission == Vec3::ZERO {
                         Vec3::splat(0.5)
                     } else {

@@ -1,5 +1,5 @@
-//! Traversal of the 8-wide BVH ([`crate::bvh_wide`]) by packets of 16 rays, for the wavefront
-//! integrator ([`crate::wavefront`]).
+//! Traversal of the 8-wide BVH ([`crate::accel::wide`]) by packets of 16 rays, for the wavefront
+//! integrator ([`crate::integrators::path::wavefront`]).
 //!
 //! Why: one ray at a time, a Cornell-box query tests one node and ~2.2 leaf packets at ~140
 //! cycles, most of it branches (which children were hit, in what order, which triangle is
@@ -8,12 +8,12 @@
 //! so the branches are paid once per packet. Rays are lanes; the node's children and the
 //! leaf's triangles are splatted one at a time.
 //!
-//! The arithmetic per lane is exactly the single-ray traversal's ([`crate::bvh8`]): the same
+//! The arithmetic per lane is exactly the single-ray traversal's ([`crate::accel::bvh8`]): the same
 //! slab distances, near-plane choice, 2-ulp widening and Möller–Trumbore variant with the
 //! same fused multiply-adds, and the same tie rule between equally distant triangles (the
 //! lower triangle index wins), so a packet finds bit for bit the hit each of its rays finds
 //! alone. The kernels are plain loops over lane arrays that the compiler vectorises under
-//! the enabled target features; the module is only used where [`crate::bvh8::Bvh8`] exists
+//! the enabled target features; the module is only used where [`crate::accel::bvh8::Bvh8`] exists
 //! (AVX2 + FMA).
 
 // Lane loops index several arrays in lockstep by lane: the form the vectoriser turns into one
@@ -22,8 +22,9 @@
 
 use glam::Vec3;
 
-use crate::bvh_stack::{sort_farthest_first, with_stack, TraversalStack, CULL_SLACK};
-use crate::bvh_wide::{Node, Packet, WideBvh, EMPTY, LEAF};
+use crate::accel::stack::{sort_farthest_first, with_stack, TraversalStack, CULL_SLACK};
+use crate::accel::wide::{WideBvh, EMPTY, LEAF};
+use kernels::{hit_box, hit_triangle, keep, Masks};
 
 /// Rays per packet.
 pub const LANES: usize = 16;
@@ -145,196 +146,6 @@ struct Entry {
     lanes: u32,
 }
 
-/// `x86 maxps` semantics (the second operand when either is NaN), as the single-ray code.
-#[inline(always)]
-fn vmax(a: f32, b: f32) -> f32 {
-    if a > b {
-        a
-    } else {
-        b
-    }
-}
-
-/// `x86 minps` semantics.
-#[inline(always)]
-fn vmin(a: f32, b: f32) -> f32 {
-    if a < b {
-        a
-    } else {
-        b
-    }
-}
-
-/// `b` where the mask is set, else `a`.
-#[inline(always)]
-fn pick(mask: u32, a: f32, b: f32) -> f32 {
-    f32::from_bits((a.to_bits() & !mask) | (b.to_bits() & mask))
-}
-
-/// Lane-mask operations, which the compiler does not form well from plain loops (a bool
-/// array became a chain of byte extracts): one implementation per instruction set, each with
-/// its compare-to-bitmask instructions.
-trait Masks {
-    /// Bit `i` set where `a[i] <= b[i]` (false if either is NaN).
-    ///
-    /// # Safety
-    /// The CPU must support the implementation's instruction set.
-    unsafe fn le(a: &Lanes, b: &Lanes) -> u32;
-    /// Bit `i` set where `a[i] < b[i]`.
-    ///
-    /// # Safety
-    /// As [`Masks::le`].
-    unsafe fn lt(a: &Lanes, b: &Lanes) -> u32;
-    /// Bit `i` set where `a[i] == b[i]`.
-    ///
-    /// # Safety
-    /// As [`Masks::le`].
-    unsafe fn eq(a: &Lanes, b: &Lanes) -> u32;
-    /// Bit `i` set where `a[i] < b[i]`, unsigned.
-    ///
-    /// # Safety
-    /// As [`Masks::le`].
-    unsafe fn lt_u32(a: &[u32; LANES], b: &[u32; LANES]) -> u32;
-    /// `a[i] = b[i]` in the lanes whose bit is set (any 32-bit lanes, as bits).
-    ///
-    /// # Safety
-    /// As [`Masks::le`].
-    #[inline(always)]
-    unsafe fn blend(mask: u32, a: &mut [u32; LANES], b: &[u32; LANES]) {
-        let m = expand(mask);
-        for i in 0..LANES {
-            a[i] = (a[i] & !m[i]) | (b[i] & m[i]);
-        }
-    }
-}
-
-/// The bits of a lane array, for [`Masks::blend`].
-#[inline(always)]
-fn bits_mut(x: &mut Lanes) -> &mut [u32; LANES] {
-    // SAFETY: f32 and u32 have the same size and alignment, and every bit pattern is valid
-    // for both.
-    unsafe { &mut *(x as *mut Lanes).cast::<[u32; LANES]>() }
-}
-
-/// The bits of a lane array.
-#[inline(always)]
-fn bits(x: &Lanes) -> &[u32; LANES] {
-    // SAFETY: as in `bits_mut`.
-    unsafe { &*(x as *const Lanes).cast::<[u32; LANES]>() }
-}
-
-/// All ones in the lanes whose bit is set.
-#[inline(always)]
-fn expand(bits: u32) -> [u32; LANES] {
-    let mut m = [0u32; LANES];
-    for (i, v) in m.iter_mut().enumerate() {
-        *v = ((bits >> i) & 1).wrapping_neg();
-    }
-    m
-}
-
-/// Slab test of every lane against child `c` of `node`: the lanes that enter the box within
-/// [tmin, tmax] and their entry distances.
-///
-/// # Safety
-/// The CPU must support `M`'s instruction set.
-#[inline(always)]
-unsafe fn hit_box<M: Masks>(
-    node: &Node<8>,
-    c: usize,
-    r: &Prepared,
-    tmax: &Lanes,
-    tnear: &mut Lanes,
-) -> u32 {
-    let p = &node.planes;
-    let (lx, hx, ly, hy, lz, hz) = (p[0][c], p[1][c], p[2][c], p[3][c], p[4][c], p[5][c]);
-    let mut tfar = [0.0f32; LANES];
-    for i in 0..LANES {
-        let ax = (lx - r.o[0][i]) * r.inv[0][i];
-        let bx = (hx - r.o[0][i]) * r.inv[0][i];
-        let ay = (ly - r.o[1][i]) * r.inv[1][i];
-        let by = (hy - r.o[1][i]) * r.inv[1][i];
-        let az = (lz - r.o[2][i]) * r.inv[2][i];
-        let bz = (hz - r.o[2][i]) * r.inv[2][i];
-        let (nx, fx) = (pick(r.neg[0][i], ax, bx), pick(r.neg[0][i], bx, ax));
-        let (ny, fy) = (pick(r.neg[1][i], ay, by), pick(r.neg[1][i], by, ay));
-        let (nz, fz) = (pick(r.neg[2][i], az, bz), pick(r.neg[2][i], bz, az));
-        tnear[i] = vmax(vmax(nx, ny), vmax(nz, r.tmin[i]));
-        tfar[i] = vmin(vmin(fx, fy), vmin(fz, tmax[i])) * 1.000_000_4;
-    }
-    // SAFETY: the caller runs with `M`'s instruction set.
-    unsafe { M::le(tnear, &tfar) }
-}
-
-/// Tests every lane against triangle `j` of `pk`: the lanes hit within [tmin, tmax], with
-/// (t, u, v) written for all lanes.
-///
-/// # Safety
-/// The CPU must support `M`'s instruction set and FMA (else `mul_add` is a library call).
-#[inline(always)]
-unsafe fn hit_triangle<M: Masks>(
-    pk: &Packet<8>,
-    j: usize,
-    r: &Prepared,
-    tmax: &Lanes,
-    tuv: &mut [Lanes; 3],
-) -> u32 {
-    let v0 = [pk.v0[0][j], pk.v0[1][j], pk.v0[2][j]];
-    let e1 = [pk.e1[0][j], pk.e1[1][j], pk.e1[2][j]];
-    let e2 = [pk.e2[0][j], pk.e2[1][j], pk.e2[2][j]];
-    let n = [pk.n[0][j], pk.n[1][j], pk.n[2][j]];
-    let mut w = [0.0f32; LANES];
-    for i in 0..LANES {
-        let (dx, dy, dz) = (r.d[0][i], r.d[1][i], r.d[2][i]);
-        let cx = v0[0] - r.o[0][i];
-        let cy = v0[1] - r.o[1][i];
-        let cz = v0[2] - r.o[2][i];
-        // r = d × c, each component one rounding of its product difference (fmsub).
-        let rx = dy.mul_add(cz, -(dz * cy));
-        let ry = dz.mul_add(cx, -(dx * cz));
-        let rz = dx.mul_add(cy, -(dy * cx));
-        let det = n[2].mul_add(dz, n[1].mul_add(dy, n[0] * dx));
-        let inv = 1.0 / det;
-        let u = e2[2].mul_add(rz, e2[1].mul_add(ry, e2[0] * rx)) * inv;
-        let v = e1[2].mul_add(rz, e1[1].mul_add(ry, e1[0] * rx)) * inv;
-        w[i] = (1.0 - u) - v;
-        tuv[0][i] = n[2].mul_add(cz, n[1].mul_add(cy, n[0] * cx)) * inv;
-        tuv[1][i] = u;
-        tuv[2][i] = v;
-    }
-    const ZERO: Lanes = [0.0; LANES];
-    // SAFETY: the caller runs with `M`'s instruction set.
-    unsafe {
-        M::le(&ZERO, &tuv[1])
-            & M::le(&ZERO, &tuv[2])
-            & M::le(&ZERO, &w)
-            & M::le(&r.tmin, &tuv[0])
-            & M::le(&tuv[0], tmax)
-    }
-}
-
-/// Keeps, in the lanes `hit`, triangle `id`'s hit where it is nearer than the best so far
-/// (or as near, with a lower index: the single-ray tie rule, [`crate::bvh_stack::keep_nearest`]).
-///
-/// # Safety
-/// The CPU must support `M`'s instruction set.
-#[inline(always)]
-unsafe fn keep<M: Masks>(hit: u32, id: u32, tuv: &[Lanes; 3], best: &mut PacketHits) {
-    let ids = [id; LANES];
-    // All in vector registers and mask bits: the merges of a leaf's triangles form a chain, so
-    // its latency is what a leaf costs.
-    // SAFETY: the caller runs with `M`'s instruction set.
-    unsafe {
-        let nearer = M::lt(&tuv[0], &best.t);
-        let tied = M::eq(&tuv[0], &best.t) & M::lt_u32(&ids, &best.id);
-        let take = hit & (nearer | tied);
-        M::blend(take, bits_mut(&mut best.t), bits(&tuv[0]));
-        M::blend(take, bits_mut(&mut best.u), bits(&tuv[1]));
-        M::blend(take, bits_mut(&mut best.v), bits(&tuv[2]));
-        M::blend(take, &mut best.id, &ids);
-    }
-}
-
 /// A subtree entered by at most this many rays of a packet is traversed by each of them alone
 /// (the single-ray 8-wide traversal): a packet's box test costs sixteen lanes whatever the
 /// number of rays still in it, so once rays diverge (secondary rays in a large scene) single
@@ -371,10 +182,12 @@ unsafe fn closest_alone(
         #[cfg(target_arch = "x86_64")]
         let hit = with_stack(tree.stack_need, |stack| {
             // SAFETY: per this function's contract.
-            unsafe { crate::bvh8::avx2::closest(tree, node, o, d, rays.tmin[i], best.t[i], stack) }
+            unsafe {
+                crate::accel::bvh8::avx2::closest(tree, node, o, d, rays.tmin[i], best.t[i], stack)
+            }
         });
         #[cfg(not(target_arch = "x86_64"))]
-        let hit: Option<crate::bvh_wide::TriHit> =
+        let hit: Option<crate::accel::wide::TriHit> =
             unreachable!("Bvh8 exists only on x86-64: {o}{d}{node}{tree:?}");
         if let Some(h) = hit {
             if h.t < best.t[i] || (h.t == best.t[i] && h.triangle < best.id[i]) {
@@ -403,7 +216,9 @@ unsafe fn any_alone(tree: &WideBvh<8>, node: u32, rays: &RayPacket, lanes: u32) 
         #[cfg(target_arch = "x86_64")]
         let hit = with_stack(tree.stack_need, |stack| {
             // SAFETY: per this function's contract.
-            unsafe { crate::bvh8::avx2::any(tree, node, o, d, rays.tmin[i], rays.tmax[i], stack) }
+            unsafe {
+                crate::accel::bvh8::avx2::any(tree, node, o, d, rays.tmin[i], rays.tmax[i], stack)
+            }
         });
         #[cfg(not(target_arch = "x86_64"))]
         let hit: bool = unreachable!("Bvh8 exists only on x86-64: {o}{d}{node}{tree:?}");
@@ -583,163 +398,8 @@ unsafe fn any_impl<M: Masks>(
 }
 
 #[cfg(target_arch = "x86_64")]
-mod dispatch {
-    use std::arch::x86_64::*;
-
-    use super::*;
-
-    /// AVX-512: one compare into a mask register.
-    pub(super) struct Avx512;
-
-    /// `cmp(a, b)` over all sixteen lanes into a mask register.
-    macro_rules! avx512_mask {
-        ($a:expr, $b:expr, $pred:ident) => {{
-            let (a, b): (&Lanes, &Lanes) = ($a, $b);
-            let (a, b) = (_mm512_loadu_ps(a.as_ptr()), _mm512_loadu_ps(b.as_ptr()));
-            u32::from(_mm512_cmp_ps_mask::<$pred>(a, b))
-        }};
-    }
-
-    impl Masks for Avx512 {
-        #[inline(always)]
-        unsafe fn le(a: &Lanes, b: &Lanes) -> u32 {
-            // SAFETY: AVX-512 F per the trait's contract; both arrays hold 16 floats.
-            unsafe { avx512_mask!(a, b, _CMP_LE_OQ) }
-        }
-        #[inline(always)]
-        unsafe fn lt(a: &Lanes, b: &Lanes) -> u32 {
-            // SAFETY: as in `le`.
-            unsafe { avx512_mask!(a, b, _CMP_LT_OQ) }
-        }
-        #[inline(always)]
-        unsafe fn eq(a: &Lanes, b: &Lanes) -> u32 {
-            // SAFETY: as in `le`.
-            unsafe { avx512_mask!(a, b, _CMP_EQ_OQ) }
-        }
-        #[inline(always)]
-        unsafe fn lt_u32(a: &[u32; LANES], b: &[u32; LANES]) -> u32 {
-            // SAFETY: as in `le`.
-            unsafe {
-                let a = _mm512_loadu_si512(a.as_ptr().cast());
-                let b = _mm512_loadu_si512(b.as_ptr().cast());
-                u32::from(_mm512_cmplt_epu32_mask(a, b))
-            }
-        }
-        #[inline(always)]
-        unsafe fn blend(mask: u32, a: &mut [u32; LANES], b: &[u32; LANES]) {
-            // SAFETY: as in `le`.
-            unsafe {
-                let va = _mm512_loadu_si512(a.as_ptr().cast());
-                let vb = _mm512_loadu_si512(b.as_ptr().cast());
-                let r = _mm512_mask_blend_epi32(mask as __mmask16, va, vb);
-                _mm512_storeu_si512(a.as_mut_ptr().cast(), r);
-            }
-        }
-    }
-
-    /// AVX2: two 8-lane compares and their sign masks.
-    pub(super) struct Avx2;
-
-    /// `movemask(cmp(a, b))` over both halves.
-    macro_rules! avx2_mask {
-        ($a:expr, $b:expr, $pred:ident) => {{
-            let (a, b): (&Lanes, &Lanes) = ($a, $b);
-            let lo =
-                _mm256_cmp_ps::<$pred>(_mm256_loadu_ps(a.as_ptr()), _mm256_loadu_ps(b.as_ptr()));
-            let hi = _mm256_cmp_ps::<$pred>(
-                _mm256_loadu_ps(a.as_ptr().add(8)),
-                _mm256_loadu_ps(b.as_ptr().add(8)),
-            );
-            (_mm256_movemask_ps(lo) as u32) | ((_mm256_movemask_ps(hi) as u32) << 8)
-        }};
-    }
-
-    impl Masks for Avx2 {
-        #[inline(always)]
-        unsafe fn le(a: &Lanes, b: &Lanes) -> u32 {
-            // SAFETY: AVX per the trait's contract; both arrays hold 16 floats.
-            unsafe { avx2_mask!(a, b, _CMP_LE_OQ) }
-        }
-        #[inline(always)]
-        unsafe fn lt(a: &Lanes, b: &Lanes) -> u32 {
-            // SAFETY: as in `le`.
-            unsafe { avx2_mask!(a, b, _CMP_LT_OQ) }
-        }
-        #[inline(always)]
-        unsafe fn eq(a: &Lanes, b: &Lanes) -> u32 {
-            // SAFETY: as in `le`.
-            unsafe { avx2_mask!(a, b, _CMP_EQ_OQ) }
-        }
-        #[inline(always)]
-        unsafe fn lt_u32(a: &[u32; LANES], b: &[u32; LANES]) -> u32 {
-            // SAFETY: as in `le`. Unsigned order is signed order with the top bits flipped.
-            unsafe {
-                let flip = _mm256_set1_epi32(i32::MIN);
-                let mut bits = 0;
-                for k in [0, 8] {
-                    let x = _mm256_xor_si256(_mm256_loadu_si256(a.as_ptr().add(k).cast()), flip);
-                    let y = _mm256_xor_si256(_mm256_loadu_si256(b.as_ptr().add(k).cast()), flip);
-                    let lt = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpgt_epi32(y, x)));
-                    bits |= (lt as u32) << k;
-                }
-                bits
-            }
-        }
-    }
-
-    /// # Safety
-    /// The CPU must support AVX-512 F/VL, AVX2 and FMA.
-    #[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
-    pub(super) unsafe fn closest_avx512(
-        tree: &WideBvh<8>,
-        rays: &RayPacket,
-        stack: TraversalStack<Entry>,
-    ) -> PacketHits {
-        // SAFETY: the features are enabled here.
-        unsafe { closest_impl::<Avx512>(tree, rays, stack) }
-    }
-
-    /// # Safety
-    /// The CPU must support AVX2 and FMA.
-    #[target_feature(enable = "avx2,fma")]
-    pub(super) unsafe fn closest_avx2(
-        tree: &WideBvh<8>,
-        rays: &RayPacket,
-        stack: TraversalStack<Entry>,
-    ) -> PacketHits {
-        // SAFETY: the features are enabled here.
-        unsafe { closest_impl::<Avx2>(tree, rays, stack) }
-    }
-
-    /// # Safety
-    /// The CPU must support AVX-512 F/VL, AVX2 and FMA.
-    #[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
-    pub(super) unsafe fn any_avx512(
-        tree: &WideBvh<8>,
-        rays: &RayPacket,
-        stack: TraversalStack<(u32, u32)>,
-    ) -> u32 {
-        // SAFETY: the features are enabled here.
-        unsafe { any_impl::<Avx512>(tree, rays, stack) }
-    }
-
-    /// # Safety
-    /// The CPU must support AVX2 and FMA.
-    #[target_feature(enable = "avx2,fma")]
-    pub(super) unsafe fn any_avx2(
-        tree: &WideBvh<8>,
-        rays: &RayPacket,
-        stack: TraversalStack<(u32, u32)>,
-    ) -> u32 {
-        // SAFETY: the features are enabled here.
-        unsafe { any_impl::<Avx2>(tree, rays, stack) }
-    }
-
-    /// Whether the AVX-512 kernels can run here (and `LUMO_SIMD` does not rule them out).
-    pub(super) fn has_avx512() -> bool {
-        crate::simd_level::simd_level() >= 2
-    }
-}
+mod dispatch;
+mod kernels;
 
 /// What a packet that hits nothing reports.
 fn no_hits(rays: &RayPacket) -> PacketHits {
@@ -751,7 +411,7 @@ fn no_hits(rays: &RayPacket) -> PacketHits {
     }
 }
 
-/// Nearest hits of the packet's rays in `tree`. Only called through [`crate::bvh8::Bvh8`],
+/// Nearest hits of the packet's rays in `tree`. Only called through [`crate::accel::bvh8::Bvh8`],
 /// which exists only on x86-64 where AVX2 and FMA were detected.
 pub(crate) fn closest(tree: &WideBvh<8>, rays: &RayPacket) -> PacketHits {
     closest_at(true, tree, rays)

@@ -4,6 +4,9 @@
 //! Depth follows Mitsuba: a path of `k` segments has depth `k`; `max_depth = 1` shows emitters
 //! only, `2` adds direct light, `3` one indirect bounce. "Direct" is everything of depth ≤ 2.
 
+pub(crate) mod vector_bounce;
+pub mod wavefront;
+
 use glam::{Vec2, Vec3};
 
 use crate::accel::Hit;
@@ -118,7 +121,7 @@ pub(crate) struct BounceNumbers {
 }
 
 /// One camera path between ray queries: the integrator as a state machine, so that the
-/// one-path loop ([`trace_path`]) and the wavefront renderer ([`crate::wavefront`]), which
+/// one-path loop ([`trace_path`]) and the wavefront renderer ([`crate::integrators::path::wavefront`]), which
 /// traces the rays of many paths together, run the same code and give the same result.
 #[derive(Clone, Copy, Debug)]
 pub struct PathState {

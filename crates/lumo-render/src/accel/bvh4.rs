@@ -1,6 +1,6 @@
-//! Traversal of the 4-wide BVH ([`crate::bvh_wide`]) one ray at a time with 4-lane SIMD
+//! Traversal of the 4-wide BVH ([`crate::accel::wide`]) one ray at a time with 4-lane SIMD
 //! (glam's `Vec4`: SSE2 on x86-64, NEON/scalar elsewhere): the portable traversal, used where
-//! the 8-wide AVX2 one ([`crate::bvh8`]) is not available.
+//! the 8-wide AVX2 one ([`crate::accel::bvh8`]) is not available.
 //!
 //! Why not obvhs's compressed CWBVH: its nodes are quantised for GPU memory bandwidth, so a
 //! scalar CPU traversal spends most of its time decoding child boxes and walking leaf
@@ -9,15 +9,15 @@
 
 use glam::{BVec4A, Vec3, Vec4};
 
-use crate::bvh_stack::{
+use crate::accel::stack::{
     descend_any, descend_nearest, keep_nearest, pop_closer, with_stack, TraversalStack, CULL_SLACK,
 };
-use crate::bvh_wide::{ray_slopes, TriHit, WideBvh, LEAF};
+use crate::accel::wide::{ray_slopes, TriHit, WideBvh, LEAF};
 
 /// The 4-wide BVH of one mesh.
 pub type Bvh4 = WideBvh<4>;
-type Node = crate::bvh_wide::Node<4>;
-type Packet = crate::bvh_wide::Packet<4>;
+type Node = crate::accel::wide::Node<4>;
+type Packet = crate::accel::wide::Packet<4>;
 
 /// A ray prepared for traversal: per-axis splats and the near-plane choice.
 struct RayData {

@@ -13,7 +13,7 @@ use std::f32::consts::{PI, TAU};
 use glam::{DVec3, Mat3, Mat4, Vec2, Vec3};
 use lumo_scene::{Analytic, AnalyticKind};
 
-use crate::geometry::{square_to_disk, square_to_uniform_sphere, Frame};
+use crate::geometry::{square_to_disk, square_to_uniform_sphere, Basis};
 
 /// An exact shape placed in the world.
 #[derive(Clone, Copy, Debug)]
@@ -225,7 +225,7 @@ impl Shape {
             let cos_alpha = sin2 / sin_max + cos_theta * (1.0 - sin2 / sin2_max).max(0.0).sqrt();
             let sin_alpha = (1.0 - cos_alpha * cos_alpha).max(0.0).sqrt();
             let phi = TAU * u.y;
-            let d = Frame::new(-dc * inv_dc)
+            let d = Basis::new(-dc * inv_dc)
                 .to_world(Vec3::new(
                     phi.cos() * sin_alpha,
                     phi.sin() * sin_alpha,

@@ -23,11 +23,11 @@ use std::f32::consts::{FRAC_1_PI, FRAC_PI_4};
 
 use glam::{Vec2, Vec3};
 
+use crate::accel::packet::LANES;
 use crate::accel::Hit;
-use crate::bsdf::Bsdf;
-use crate::geometry::{cos_sin_quarter, power_heuristic, shadow_segment, Frame};
-use crate::integrator::{PathSettings, PathState, ShadowRay};
-use crate::packet::LANES;
+use crate::bsdf::{Bsdf, Diffuse};
+use crate::geometry::{cos_sin_quarter, power_heuristic, shadow_segment, Basis};
+use crate::integrators::path::{PathSettings, PathState, ShadowRay};
 use crate::render_scene::{RenderScene, SimpleDiffuse, Surface};
 
 const N: usize = LANES;
@@ -210,7 +210,7 @@ fn bounce(
     }
 
     // Shading normal (RenderScene::surface: interpolated, normalised, on the side of the
-    // geometric normal), its frame (Frame::new) and the outgoing direction in it.
+    // geometric normal), its frame (Basis::new) and the outgoing direction in it.
     let mut ns: L3 = [[0.0; N]; 3];
     let (mut fs, mut ft, mut wo) = ([[0.0; N]; 3], [[0.0; N]; 3], [[0.0; N]; 3]);
     for i in 0..N {
@@ -277,14 +277,14 @@ fn bounce(
             let s = Surface {
                 p: Vec3::new(pos[0][i], pos[1][i], pos[2][i]),
                 ng: g,
-                frame: Frame::new(Vec3::new(ns[0][i], ns[1][i], ns[2][i])),
+                frame: Basis::new(Vec3::new(ns[0][i], ns[1][i], ns[2][i])),
                 uv: Vec2::new(hit.u, hit.v),
                 color: Vec3::ONE,
                 material: rs.scene.meshes[sd.mesh].material,
                 instance: hit.instance,
                 triangle: hit.triangle,
             };
-            let bsdf = Bsdf::Diffuse { albedo: sd.albedo };
+            let bsdf = Bsdf::Diffuse(Diffuse { albedo: sd.albedo });
             path.take_hit(rs, settings, &s, hit.t, &bsdf, le);
         }
     }
@@ -412,7 +412,7 @@ fn bounce(
         let pdf = z.max(0.0) * FRAC_1_PI;
         let wi = [sel(flip, -dx, dx), sel(flip, -dy, dy), sel(flip, -z, z)];
         let mut ok = alive[i] && woz != 0.0 && pdf > 0.0;
-        // Frame::to_world, then normalize.
+        // Basis::to_world, then normalize.
         let w = [
             fs[0][i] * wi[0] + ft[0][i] * wi[1] + ns[0][i] * wi[2],
             fs[1][i] * wi[0] + ft[1][i] * wi[1] + ns[1][i] * wi[2],

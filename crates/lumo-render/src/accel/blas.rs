@@ -1,5 +1,5 @@
 //! A mesh's wide BVH in the form this CPU traverses fastest: 8-wide with AVX2 + FMA
-//! ([`crate::bvh8`]), else 4-wide ([`crate::bvh4`]).
+//! ([`crate::accel::bvh8`]), else 4-wide ([`crate::accel::bvh4`]).
 //!
 //! `LUMO_BVH_WIDTH=4` in the environment forces the 4-wide form (for A/B measurements and to
 //! reproduce an image made on a CPU without AVX2: the two differ in the last bits of hit
@@ -10,9 +10,9 @@ use std::sync::OnceLock;
 use glam::Vec3;
 use obvhs::bvh2::Bvh2;
 
-use crate::bvh4::Bvh4;
-use crate::bvh8::Bvh8;
-use crate::bvh_wide::{TriHit, WideBvh};
+use crate::accel::bvh4::Bvh4;
+use crate::accel::bvh8::Bvh8;
+use crate::accel::wide::{TriHit, WideBvh};
 
 /// The wide BVH of one mesh.
 #[derive(Clone, Debug)]

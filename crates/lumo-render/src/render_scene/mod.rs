@@ -1,15 +1,18 @@
 //! A scene prepared for rendering: acceleration structure, light sampler and per-material
 //! constants, plus the surface-interaction reconstruction every integrator needs.
 
-use glam::{Mat3, Mat4, Vec2, Vec3};
-use lumo_scene::{Bsdf as SceneBsdf, Scene, SceneError, Texture};
+mod materials;
 
+use materials::{has_mask, innermost, microfacet};
+
+use glam::{Mat3, Mat4, Vec2, Vec3};
+use lumo_scene::{BsdfSpec, Scene, SceneError, Texture};
+
+use crate::accel::analytic::Shape;
 use crate::accel::{Accel, Hit};
-use crate::analytic::Shape;
-use crate::bsdf::{fresnel_diffuse_reflectance, Bsdf, Microfacet, RoughCoat, SMOOTH_ALPHA};
-use crate::geometry::Frame;
+use crate::bsdf::{fresnel_diffuse_reflectance, RoughCoat, SMOOTH_ALPHA};
+use crate::geometry::Basis;
 use crate::lights::Lights;
-use crate::shading::ShadingBsdf;
 
 /// Everything known about a ray's hit point.
 #[derive(Clone, Copy, Debug)]
@@ -19,7 +22,7 @@ pub struct Surface {
     /// Unit geometric normal (from the winding).
     pub ng: Vec3,
     /// Shading frame (interpolated normal, on the same side as `ng`).
-    pub frame: Frame,
+    pub frame: Basis,
     /// Texture coordinates.
     pub uv: Vec2,
     /// Interpolated vertex colour (white for meshes without colours); multiplies the diffuse
@@ -81,7 +84,7 @@ pub struct RenderScene {
     pub ray_epsilon: f32,
     /// Per instance, its reflectance and emission if it is a diffuse surface in world space
     /// (identity transform, no vertex colours, constant reflectance):
-    /// the case the wavefront's vector bounce ([`crate::simd_bounce`]) handles.
+    /// the case the wavefront's vector bounce ([`crate::integrators::path::vector_bounce`]) handles.
     simple_diffuse: Vec<Option<SimpleDiffuse>>,
 }
 
@@ -108,7 +111,7 @@ impl RenderScene {
             .materials
             .iter()
             .map(|m| match innermost(&m.bsdf) {
-                SceneBsdf::Plastic {
+                BsdfSpec::Plastic {
                     ior,
                     roughness,
                     exact_rough_coat: true,
@@ -125,8 +128,8 @@ impl RenderScene {
             .iter()
             .zip(&coats)
             .map(|(m, coat)| match (innermost(&m.bsdf), coat) {
-                (SceneBsdf::Plastic { .. }, Some(c)) => c.internal_reflectance,
-                (SceneBsdf::Plastic { ior, .. }, None) => fresnel_diffuse_reflectance(1.0 / ior),
+                (BsdfSpec::Plastic { .. }, Some(c)) => c.internal_reflectance,
+                (BsdfSpec::Plastic { ior, .. }, None) => fresnel_diffuse_reflectance(1.0 / ior),
                 _ => 0.0,
             })
             .collect();
@@ -134,9 +137,9 @@ impl RenderScene {
             .materials
             .iter()
             .map(|m| match innermost(&m.bsdf) {
-                SceneBsdf::Conductor { roughness, .. }
-                | SceneBsdf::Plastic { roughness, .. }
-                | SceneBsdf::Dielectric { roughness, .. } => roughness.is_anisotropic(),
+                BsdfSpec::Conductor { roughness, .. }
+                | BsdfSpec::Plastic { roughness, .. }
+                | BsdfSpec::Dielectric { roughness, .. } => roughness.is_anisotropic(),
                 _ => false,
             })
             .collect();
@@ -147,7 +150,7 @@ impl RenderScene {
                 !m.two_sided
                     && !matches!(
                         innermost(&m.bsdf),
-                        SceneBsdf::Dielectric { .. } | SceneBsdf::ThinDielectric { .. }
+                        BsdfSpec::Dielectric { .. } | BsdfSpec::ThinDielectric { .. }
                     )
             })
             .collect();
@@ -195,7 +198,7 @@ impl RenderScene {
                 let mesh = &scene.meshes[inst.mesh];
                 let material = &scene.materials[mesh.material];
                 match &material.bsdf {
-                    SceneBsdf::Diffuse {
+                    BsdfSpec::Diffuse {
                         reflectance: Texture::Constant(albedo),
                     } if inst.transform == Mat4::IDENTITY
                         && mesh.analytic.is_none()
@@ -300,7 +303,7 @@ impl RenderScene {
         let mut surface = Surface {
             p,
             ng,
-            frame: Frame::new(ns),
+            frame: Basis::new(ns),
             uv,
             color,
             material: mesh.material,
@@ -326,7 +329,7 @@ impl RenderScene {
         let mut surface = Surface {
             p: sp.p,
             ng: sp.n,
-            frame: Frame::new(sp.n),
+            frame: Basis::new(sp.n),
             uv: sp.uv,
             color: Vec3::ONE,
             material,
@@ -343,182 +346,6 @@ impl RenderScene {
     #[inline]
     pub(crate) fn shape(&self, instance: u32) -> Option<&Shape> {
         self.shapes.get(instance as usize)?.as_ref()
-    }
-
-    /// Mitsuba's shading frame at `s`: the tangent is ∂p/∂u made perpendicular to the normal
-    /// and the bitangent n × tangent, which orients anisotropic roughness (α_u along ∂p/∂u).
-    /// Falls back to the normal-only frame where the uv map is degenerate.
-    fn tangent_frame(&self, s: &Surface) -> Frame {
-        let n = s.frame.n;
-        match self
-            .dp_duv(s)
-            .and_then(|(dp_du, _)| (dp_du - n * n.dot(dp_du)).try_normalize())
-        {
-            Some(t) => Frame {
-                s: t,
-                t: n.cross(t),
-                n,
-            },
-            None => s.frame,
-        }
-    }
-
-    /// The BSDF of `surface` with textures evaluated and Mitsuba's adapters (normal and bump
-    /// maps, masks) applied.
-    #[inline]
-    pub fn bsdf(&self, surface: &Surface) -> ShadingBsdf {
-        let material = &self.scene.materials[surface.material];
-        let mut b = &material.bsdf;
-        if !is_adapter(b) {
-            return self.base_bsdf(b, surface).into();
-        }
-        let (mut normal, mut opacity) = (None, 1.0f32);
-        // Adapters nest; masks multiply, and the outermost normal or bump map shapes the frame
-        // (a map under another map is not composed with it).
-        loop {
-            b = match b {
-                SceneBsdf::Mask { opacity: t, nested } => {
-                    opacity *= t.eval_1(surface.uv).clamp(0.0, 1.0);
-                    nested
-                }
-                SceneBsdf::NormalMap { normals, nested } => {
-                    if normal.is_none() {
-                        normal = Some(self.normal_mapped(surface, normals));
-                    }
-                    nested
-                }
-                SceneBsdf::BumpMap {
-                    height,
-                    scale,
-                    nested,
-                } => {
-                    if normal.is_none() {
-                        normal = Some(self.bump_mapped(surface, height, *scale));
-                    }
-                    nested
-                }
-                _ => break,
-            };
-        }
-        ShadingBsdf::new(
-            self.base_bsdf(b, surface),
-            normal.flatten(),
-            opacity,
-            self.back_black[surface.material],
-        )
-    }
-
-    /// World-space ∂p/∂u and ∂p/∂v of the triangle under `s` from its texture coordinates (as
-    /// Mitsuba's meshes; lumo's barycentric uv where the mesh has none); `None` where the uv
-    /// map is degenerate.
-    fn dp_duv(&self, s: &Surface) -> Option<(Vec3, Vec3)> {
-        if let Some(shape) = self.shape(s.instance) {
-            let sp = shape.surface_at(s.p);
-            return Some((sp.dp_du, sp.dp_dv));
-        }
-        let inst = &self.scene.instances[s.instance as usize];
-        let place = &self.placements[s.instance as usize];
-        let mesh = &self.scene.meshes[inst.mesh];
-        let idx = mesh.indices[s.triangle as usize].map(|i| i as usize);
-        let [p0, p1, p2] = idx.map(|i| mesh.positions[i]);
-        let (dp0, dp1) = (p1 - p0, p2 - p0);
-        let [t0, t1, t2] = mesh.triangle_uvs(s.triangle as usize);
-        let (duv0, duv1) = (t1 - t0, t2 - t0);
-        let det = duv0.x * duv1.y - duv0.y * duv1.x;
-        if det == 0.0 || !det.is_finite() {
-            return None;
-        }
-        let dp_du = (dp0 * duv1.y - dp1 * duv0.y) / det;
-        let dp_dv = (dp1 * duv0.x - dp0 * duv1.x) / det;
-        Some(if place.identity {
-            (dp_du, dp_dv)
-        } else {
-            (
-                place.to_world.transform_vector3(dp_du),
-                place.to_world.transform_vector3(dp_dv),
-            )
-        })
-    }
-
-    /// The shading normal a tangent-space normal map gives `s`, in its shading frame: the
-    /// map's RGB in [0, 1] is (x, y, z) in [-1, 1] along the tangent (∂p/∂u made
-    /// perpendicular to the normal), the bitangent n × tangent and the normal, as Mitsuba 3
-    /// reads it. `None` for an exactly flat texel (no perturbation).
-    fn normal_mapped(&self, s: &Surface, normals: &Texture) -> Option<Vec3> {
-        let c = normals.eval(s.uv) * 2.0 - Vec3::ONE;
-        if c.x == 0.0 && c.y == 0.0 {
-            return None;
-        }
-        let n = s.frame.n;
-        let tangent = self
-            .dp_duv(s)
-            .and_then(|(dp_du, _)| (dp_du - n * n.dot(dp_du)).try_normalize())
-            .unwrap_or(s.frame.s);
-        let bitangent = n.cross(tangent);
-        let world = (tangent * c.x + bitangent * c.y + n * c.z).try_normalize()?;
-        s.frame.to_local(world).try_normalize()
-    }
-
-    /// The shading normal a height texture gives `s`, in its shading frame: the surface moved
-    /// along its normal by `scale`·height, differentiated along u and v (Mitsuba 3's
-    /// `bumpmap`), turned to the side of the geometric normal. `None` where the height is
-    /// flat.
-    fn bump_mapped(&self, s: &Surface, height: &Texture, scale: f32) -> Option<Vec3> {
-        let grad = height.eval_1_grad(s.uv) * scale;
-        if grad == Vec2::ZERO {
-            return None;
-        }
-        let (dp_du, dp_dv) = self.dp_duv(s)?;
-        let n = s.frame.n;
-        let du = dp_du + n * (grad.x - n.dot(dp_du));
-        let dv = dp_dv + n * (grad.y - n.dot(dp_dv));
-        let mut bumped = du.cross(dv).try_normalize()?;
-        if bumped.dot(s.ng) < 0.0 {
-            bumped = -bumped;
-        }
-        s.frame.to_local(bumped).try_normalize()
-    }
-
-    /// A scene BSDF without its adapters, with textures evaluated at `surface`.
-    #[inline]
-    fn base_bsdf(&self, bsdf: &SceneBsdf, surface: &Surface) -> Bsdf {
-        match bsdf {
-            SceneBsdf::Diffuse { reflectance } => Bsdf::Diffuse {
-                albedo: texture(reflectance, surface.uv) * surface.color,
-            },
-            SceneBsdf::Mirror { reflectance } => Bsdf::Mirror {
-                reflectance: *reflectance,
-            },
-            SceneBsdf::Conductor { eta, k, roughness } => Bsdf::Conductor {
-                eta: *eta,
-                k: *k,
-                mf: microfacet(roughness, Some(surface.uv)),
-            },
-            SceneBsdf::Plastic {
-                diffuse,
-                ior,
-                roughness,
-                nonlinear,
-                ..
-            } => Bsdf::Plastic {
-                diffuse: texture(diffuse, surface.uv) * surface.color,
-                eta: *ior,
-                mf: microfacet(roughness, Some(surface.uv)),
-                fdr_int: self.fdr_int[surface.material],
-                coat: self.coats[surface.material],
-                nonlinear: *nonlinear,
-            },
-            SceneBsdf::Dielectric { ior, roughness } => Bsdf::Dielectric {
-                eta: *ior,
-                mf: microfacet(roughness, Some(surface.uv)),
-            },
-            SceneBsdf::ThinDielectric { ior } => Bsdf::ThinDielectric { eta: *ior },
-            // Adapters are unwrapped by `bsdf`; one reached here (nested in a way it does not
-            // unwrap) stands for the BSDF it wraps.
-            SceneBsdf::NormalMap { nested, .. }
-            | SceneBsdf::BumpMap { nested, .. }
-            | SceneBsdf::Mask { nested, .. } => self.base_bsdf(nested, surface),
-        }
     }
 
     /// Whether material `material` is black from behind: a path that reaches its back side
@@ -546,72 +373,5 @@ impl RenderScene {
     pub fn offset(&self, s: &Surface, d: Vec3) -> Vec3 {
         let side = if s.ng.dot(d) >= 0.0 { 1.0 } else { -1.0 };
         s.p + s.ng * (side * self.ray_epsilon * (1.0 + s.p.abs().max_element()))
-    }
-}
-
-/// The render-side distribution of a scene roughness. Like Mitsuba, a rough surface keeps
-/// α ≥ 1e-4 on each axis (one axis at 0 would divide by zero); negative or NaN α is smooth.
-/// A per-texel α is read at `uv` (`None`: its average, for what is set up once per material).
-fn microfacet(r: &lumo_scene::Roughness, uv: Option<glam::Vec2>) -> Microfacet {
-    let clean = |a: f32| if a.is_finite() { a.max(0.0) } else { 0.0 };
-    let (au, av) = match uv {
-        Some(uv) => r.alpha_at(uv),
-        None => (r.alpha_u, r.alpha_v),
-    };
-    let (mut au, mut av) = (clean(au), clean(av));
-    if au.max(av) >= SMOOTH_ALPHA {
-        (au, av) = (au.max(1e-4), av.max(1e-4));
-    }
-    Microfacet {
-        distribution: r.distribution,
-        alpha_u: au,
-        alpha_v: av,
-    }
-}
-
-/// The BSDF under a material's adapters (normal and bump maps, masks).
-fn innermost(mut b: &SceneBsdf) -> &SceneBsdf {
-    while let Some(nested) = adapted(b) {
-        b = nested;
-    }
-    b
-}
-
-/// The BSDF an adapter wraps (`None` for a plain BSDF).
-fn adapted(b: &SceneBsdf) -> Option<&SceneBsdf> {
-    match b {
-        SceneBsdf::NormalMap { nested, .. }
-        | SceneBsdf::BumpMap { nested, .. }
-        | SceneBsdf::Mask { nested, .. } => Some(nested),
-        _ => None,
-    }
-}
-
-/// Whether `b` is an adapter.
-#[inline]
-fn is_adapter(b: &SceneBsdf) -> bool {
-    adapted(b).is_some()
-}
-
-/// Whether a mask is among the adapters of `b`.
-fn has_mask(mut b: &SceneBsdf) -> bool {
-    loop {
-        match b {
-            SceneBsdf::Mask { .. } => return true,
-            _ => match adapted(b) {
-                Some(nested) => b = nested,
-                None => return false,
-            },
-        }
-    }
-}
-
-/// `t` at `uv`, with the constant case (most materials) inline rather than a call into the
-/// scene crate.
-#[inline]
-fn texture(t: &Texture, uv: Vec2) -> Vec3 {
-    match t {
-        Texture::Constant(c) => *c,
-        _ => t.eval(uv),
     }
 }

@@ -1,4 +1,4 @@
-//! Traversal of the 8-wide BVH ([`crate::bvh_wide`]) one ray at a time with AVX2 + FMA,
+//! Traversal of the 8-wide BVH ([`crate::accel::wide`]) one ray at a time with AVX2 + FMA,
 //! chosen at run time where the CPU has them (the build stays baseline x86-64).
 //!
 //! Why: with 4-wide nodes and 4-triangle leaves a Cornell-box ray tested 3.2 nodes and 2.3
@@ -7,15 +7,15 @@
 //! encoding's three-operand form drops the register copies the SSE code needs; the measured
 //! effect is in docs/renderer.md.
 //!
-//! The triangle test is [`crate::bvh4`]'s, with the cross and dot products as fused
+//! The triangle test is [`crate::accel::bvh4`]'s, with the cross and dot products as fused
 //! multiply-adds: hits agree with the 4-wide traversal to rounding, not bit for bit.
 
 use glam::Vec3;
 
+use crate::accel::packet::{self, PacketHits, RayPacket};
 #[cfg(target_arch = "x86_64")]
-use crate::bvh_stack::with_stack;
-use crate::bvh_wide::{TriHit, WideBvh};
-use crate::packet::{self, PacketHits, RayPacket};
+use crate::accel::stack::with_stack;
+use crate::accel::wide::{TriHit, WideBvh};
 
 /// The 8-wide BVH of one mesh. Exists only where AVX2 and FMA were detected, which is what
 /// makes its safe methods sound.
@@ -107,10 +107,10 @@ pub(crate) mod avx2 {
 
     use glam::Vec3;
 
-    use crate::bvh_stack::{
+    use crate::accel::stack::{
         descend_any, descend_nearest, keep_nearest, pop_closer, TraversalStack, CULL_SLACK,
     };
-    use crate::bvh_wide::{ray_slopes, Node, Packet, TriHit, WideBvh, LEAF};
+    use crate::accel::wide::{ray_slopes, Node, Packet, TriHit, WideBvh, LEAF};
 
     /// A ray splatted over eight lanes, and its near-plane choice per axis.
     struct Ray8 {

@@ -15,13 +15,13 @@ use glam::{Vec2, Vec3};
 use lumo_image::luminance;
 use lumo_scene::{Camera, Light, Scene};
 
-use crate::analytic::Shape;
-use crate::distribution::Distribution1d;
+use crate::accel::analytic::Shape;
 use crate::geometry::{
     shadow_segment, square_to_cosine_hemisphere, square_to_disk, square_to_triangle,
-    square_to_uniform_sphere, Frame, UNIFORM_SPHERE_PDF,
+    square_to_uniform_sphere, Basis, UNIFORM_SPHERE_PDF,
 };
-use crate::integrator::PathSettings;
+use crate::integrators::path::PathSettings;
+use crate::lights::distribution::Distribution1d;
 use crate::lights::{triangle_radiance, SpotCone, TexturedEmission};
 use crate::render_scene::RenderScene;
 use crate::sampler::PixelSampler;
@@ -358,7 +358,7 @@ pub fn trace_light_path(
             });
             emit(seen, &mut stats);
             let local = square_to_cosine_hemisphere(u_dir);
-            let dir = Frame::new(normal).to_world(local).normalize();
+            let dir = Basis::new(normal).to_world(local).normalize();
             // Le·cos / (pdf_A · cos/π) = Le·π / pdf_A.
             (off(dir), dir, radiance * PI / pdf_area)
         }
@@ -381,7 +381,7 @@ pub fn trace_light_path(
             let sin = (1.0 - cos * cos).max(0.0).sqrt();
             let phi = 2.0 * PI * u_dir.y;
             let local = Vec3::new(sin * phi.cos(), sin * phi.sin(), cos);
-            let dir = Frame::new(axis).to_world(local).normalize();
+            let dir = Basis::new(axis).to_world(local).normalize();
             let falloff = cone.falloff(cos);
             let pdf_dir = 1.0 / (2.0 * PI * (1.0 - cos_outer));
             (position, dir, intensity * falloff / (pick * pdf_dir))
@@ -393,7 +393,7 @@ pub fn trace_light_path(
             // A disk covering the scene, perpendicular to the light, outside the scene.
             let r = emitters.scene_radius;
             let d = square_to_disk(u_pos) * r;
-            let f = Frame::new(direction);
+            let f = Basis::new(direction);
             let p = emitters.scene_center + f.to_world(Vec3::new(d.x, d.y, 0.0)) - direction * r;
             (p, direction, irradiance * (PI * r * r) / pick)
         }

@@ -1,5 +1,5 @@
 //! The data of a W-wide BVH over one mesh's triangles (W = 4 for the SSE traversal in
-//! [`crate::bvh4`], W = 8 for the AVX2 one in [`crate::bvh8`]), and its construction as a
+//! [`crate::accel::bvh4`], W = 8 for the AVX2 one in [`crate::accel::bvh8`]), and its construction as a
 //! collapse of obvhs's binary PLOC tree, which stays the source of truth for building and
 //! refitting.
 //!
@@ -54,7 +54,7 @@ pub struct TriHit {
     pub v: f32,
 }
 
-/// The W-wide BVH of one mesh (traversal: [`crate::bvh4`], [`crate::bvh8`]).
+/// The W-wide BVH of one mesh (traversal: [`crate::accel::bvh4`], [`crate::accel::bvh8`]).
 #[derive(Clone, Debug)]
 pub struct WideBvh<const W: usize> {
     pub(crate) nodes: Vec<Node<W>>,

@@ -4,7 +4,7 @@
 
 use std::mem::MaybeUninit;
 
-use crate::bvh_wide::TriHit;
+use crate::accel::wide::TriHit;
 
 /// Entries kept on the machine stack; deeper trees use a heap stack.
 const INLINE: usize = 64;
@@ -133,7 +133,7 @@ pub(crate) fn descend_any<const W: usize>(
 /// Closest-hit bookkeeping at a leaf whose lanes `bits` were hit at `tuv` = (t, u, v): keeps
 /// the nearest hit so far in `best` and shrinks `tmax` to it. Of equally distant triangles the
 /// one with the lower index wins, so the result does not depend on the order leaves are
-/// visited in (the packet traversal of [`crate::packet`] visits them in another).
+/// visited in (the packet traversal of [`crate::accel::packet`] visits them in another).
 #[inline(always)]
 pub(crate) fn keep_nearest<const W: usize>(
     mut bits: u32,

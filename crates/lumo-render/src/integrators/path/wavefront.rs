@@ -1,9 +1,9 @@
 //! The wavefront renderer: the paths of a run of pixels advance together, one bounce at a
-//! time, so their rays can be traced sixteen at a time ([`crate::packet`]).
+//! time, so their rays can be traced sixteen at a time ([`crate::accel::packet`]).
 //!
 //! Each bounce is three stages over the paths still alive: trace their rays in packets, let
 //! every path take its hit ([`PathState::advance`]: emission, light sample, BSDF sample; paths
-//! at simple diffuse surfaces sixteen at a time in [`crate::simd_bounce`]), then
+//! at simple diffuse surfaces sixteen at a time in [`crate::integrators::path::vector_bounce`]), then
 //! trace the shadow rays in packets and credit the unoccluded ones. Paths are packed densely
 //! each bounce (finished ones drop out), so packets stay full while paths end at different
 //! depths. A path's arithmetic is the one-ray-at-a-time integrator's and packet traversal finds
@@ -16,14 +16,14 @@ use std::ops::Range;
 use glam::DVec3;
 use lumo_image::luminance;
 
+use crate::accel::packet::{RayPacket, LANES};
 use crate::accel::Hit;
 use crate::camera::CameraRays;
-use crate::integrator::{FirstHit, PathRadiance, PathState, ShadowRay};
-use crate::packet::{RayPacket, LANES};
+use crate::integrators::path::vector_bounce::{self, diffuse_bounce, SimpleLane};
+use crate::integrators::path::{FirstHit, PathRadiance, PathState, ShadowRay};
 use crate::render::{camera_sample_with, PixelEstimate, RenderSettings};
 use crate::render_scene::RenderScene;
 use crate::sampler::{PixelSampler, RUN};
-use crate::simd_bounce::{self, diffuse_bounce, SimpleLane};
 
 /// Paths advanced together: enough to keep packets full as paths end, few enough that their
 /// states (~200 bytes each) stay in the first- and second-level caches.
@@ -113,7 +113,7 @@ impl Batch {
         self.shadows.clear();
         let mut hits: [Option<Hit>; LANES] = [None; LANES];
         // Paths at simple diffuse surfaces bounce sixteen at a time in vector registers.
-        let vector = simd_bounce::applies(rs, &settings.path);
+        let vector = vector_bounce::applies(rs, &settings.path);
         let active = std::mem::take(&mut self.active);
         for group in active.chunks(LANES) {
             let mut rays = RayPacket::default();

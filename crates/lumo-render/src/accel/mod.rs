@@ -1,5 +1,5 @@
 //! Ray queries over a two-level BVH: one wide SIMD BVH per mesh (8-wide with AVX2, else
-//! 4-wide: [`crate::blas`]), one binary BVH over instances. Both can be refitted when
+//! 4-wide: [`crate::accel::blas`]), one binary BVH over instances. Both can be refitted when
 //! vertices or instance transforms change.
 //!
 //! obvhs builds the per-mesh binary trees with PLOC + reinsertion rather than the binned SAH of
@@ -12,16 +12,25 @@ use obvhs::bvh2::Bvh2;
 use obvhs::ray::{Ray, RayHit};
 use obvhs::rt_triangle::RtTriangle;
 
-use crate::blas::WideBlas;
-use crate::bvh8::Bvh8;
-use crate::bvh_wide::{TriHit, EMPTY};
-use crate::packet::{RayPacket, LANES};
+use crate::accel::blas::WideBlas;
+use crate::accel::bvh8::Bvh8;
+use crate::accel::packet::{RayPacket, LANES};
+use crate::accel::wide::{TriHit, EMPTY};
 
 use lumo_scene::{AnalyticKind, Scene};
 
-use crate::analytic::{self, Shape};
+use analytic::Shape;
 
+pub(crate) mod analytic;
+pub(crate) mod blas;
+mod bvh4;
+pub(crate) mod bvh8;
+pub mod packet;
 mod robust;
+pub(crate) mod stack;
+#[cfg(test)]
+mod tests;
+pub(crate) mod wide;
 
 /// The nearest intersection of a ray with the scene.
 #[derive(Clone, Copy, Debug, Default)]

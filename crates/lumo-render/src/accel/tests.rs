@@ -9,8 +9,8 @@ use obvhs::ploc::{PlocBuilder, PlocSearchDistance, SortPrecision};
 use obvhs::ray::Ray;
 use obvhs::rt_triangle::RtTriangle;
 
-use crate::blas::WideBlas;
-use crate::bvh8::Bvh8;
+use crate::accel::blas::WideBlas;
+use crate::accel::bvh8::Bvh8;
 use crate::sampler::hash_u32;
 
 /// A deterministic number in [0, 1) from `i`.
@@ -237,7 +237,7 @@ fn deep_trees_use_the_heap_stack() {
 /// drops a lane too early, or ties resolve by visiting order.
 #[test]
 fn packets_find_the_single_ray_hits_bit_for_bit() {
-    use crate::packet::{RayPacket, LANES};
+    use crate::accel::packet::{RayPacket, LANES};
     if !Bvh8::available() {
         eprintln!("no AVX2 + FMA on this CPU: packet traversal is not used or tested here");
         return;
@@ -291,8 +291,8 @@ fn packets_find_the_single_ray_hits_bit_for_bit() {
         let got = bvh.intersect_packet(&rays);
         let occluded = bvh.occluded_packet(&rays);
         // The AVX2 kernels (what AVX2-only CPUs run) agree with the widest one here.
-        let got2 = crate::packet::closest_at(false, bvh.tree(), &rays);
-        let occluded2 = crate::packet::any_at(false, bvh.tree(), &rays);
+        let got2 = crate::accel::packet::closest_at(false, bvh.tree(), &rays);
+        let occluded2 = crate::accel::packet::any_at(false, bvh.tree(), &rays);
         assert_eq!(occluded2, occluded, "packet {p}: AVX2 any-hit kernel");
         for lane in 0..count {
             assert_eq!(

@@ -1,0 +1,129 @@
+//! Image-based environment light: a latitude-longitude map in Mitsuba's orientation, sampled by
+//! rows then columns in proportion to the interpolated radiance it reaches.
+
+use std::f32::consts::PI;
+
+use glam::{Vec2, Vec3};
+use lumo_image::luminance;
+use lumo_scene::EnvMap;
+
+use super::distribution::Distribution1d;
+
+/// An importance-sampled latitude-longitude environment.
+pub(super) struct EnvSampler {
+    pub(super) map: EnvMap,
+    rows: Distribution1d,
+    columns: Vec<Distribution1d>,
+}
+
+/// The world direction at map coordinates `uv`.
+fn lat_long_direction(map: &EnvMap, uv: Vec2) -> Vec3 {
+    // Mitsuba's envmap convention: u = atan2(x, -z)/2π, v = acos(y)/π in the map's own frame.
+    let (phi, theta) = (uv.x * 2.0 * PI, uv.y * PI);
+    let local = Vec3::new(
+        theta.sin() * phi.sin(),
+        theta.cos(),
+        -theta.sin() * phi.cos(),
+    );
+    map.to_world.transform_vector3(local).normalize()
+}
+
+/// The map coordinates of world direction `dir` (the inverse of [`lat_long_direction`]).
+fn lat_long_uv(map: &EnvMap, dir: Vec3) -> Vec2 {
+    let local = map.to_world.inverse().transform_vector3(dir).normalize();
+    let mut u = local.x.atan2(-local.z) / (2.0 * PI);
+    if u < 0.0 {
+        u += 1.0;
+    }
+    Vec2::new(u, local.y.clamp(-1.0, 1.0).acos() / PI)
+}
+
+impl EnvSampler {
+    pub(super) fn new(map: &EnvMap) -> Self {
+        let img = &map.image;
+        let (w, h) = (img.width, img.height);
+        let mut row_weights = Vec::with_capacity(h);
+        let mut columns = Vec::with_capacity(h);
+        let lum = |x: usize, y: usize| luminance(img.rgb(x % w, y)).max(0.0);
+        for y in 0..h {
+            let sin_theta = ((y as f32 + 0.5) / h as f32 * PI).sin();
+            // Cell (x, y) of the sampling grid is lit by every texel its bilinear lookup
+            // ([`EnvSampler::radiance`]) can reach: columns x−1..=x+1, and the rows that
+            // v·(h−1) spans over the cell. Their largest luminance keeps the density positive
+            // wherever the interpolated radiance is.
+            let (r0, r1) = (
+                (y * (h - 1)) / h,
+                ((y + 1) * (h - 1)).div_ceil(h).min(h - 1),
+            );
+            let weights: Vec<f32> = (0..w)
+                .map(|x| {
+                    let mut m = 0.0f32;
+                    for r in r0..=r1 {
+                        for c in [x + w - 1, x, x + 1] {
+                            m = m.max(lum(c, r));
+                        }
+                    }
+                    m * sin_theta
+                })
+                .collect();
+            let d = Distribution1d::new(&weights);
+            row_weights.push(weights.iter().sum::<f32>());
+            columns.push(d);
+        }
+        EnvSampler {
+            map: map.clone(),
+            rows: Distribution1d::new(&row_weights),
+            columns,
+        }
+    }
+
+    /// The map's radiance towards `-dir`, interpolated as Mitsuba 3's `envmap` does: bilinear
+    /// between texel centres along u (wrapping around), between rows placed from pole to pole
+    /// (row 0 at v = 0, row h−1 at v = 1) along v.
+    pub(super) fn radiance(&self, dir: Vec3) -> Vec3 {
+        let uv = lat_long_uv(&self.map, dir);
+        let img = &self.map.image;
+        let (w, h) = (img.width, img.height);
+        if w == 0 || h == 0 {
+            return Vec3::ZERO;
+        }
+        let fx = uv.x * w as f32 - 0.5;
+        let x0 = fx.floor();
+        let tx = fx - x0;
+        let c0 = (x0 as i64).rem_euclid(w as i64) as usize;
+        let c1 = (c0 + 1) % w;
+        let (r0, r1, ty) = if h < 2 {
+            (0, 0, 0.0)
+        } else {
+            let fy = (uv.y * (h - 1) as f32).clamp(0.0, (h - 1) as f32);
+            let r0 = (fy as usize).min(h - 2);
+            (r0, r0 + 1, fy - r0 as f32)
+        };
+        let px = |x: usize, y: usize| Vec3::from(img.rgb(x, y));
+        let top = px(c0, r0) * (1.0 - tx) + px(c1, r0) * tx;
+        let bottom = px(c0, r1) * (1.0 - tx) + px(c1, r1) * tx;
+        (top * (1.0 - ty) + bottom * ty) * self.map.scale
+    }
+
+    pub(super) fn pdf(&self, dir: Vec3) -> f32 {
+        let uv = lat_long_uv(&self.map, dir);
+        let (w, h) = (self.map.image.width, self.map.image.height);
+        let x = ((uv.x * w as f32) as usize).min(w - 1);
+        let y = ((uv.y * h as f32) as usize).min(h - 1);
+        let sin_theta = (uv.y * PI).sin();
+        if sin_theta <= 0.0 {
+            return 0.0;
+        }
+        let p = self.rows.pmf(y) * self.columns[y].pmf(x);
+        p * (w * h) as f32 / (2.0 * PI * PI * sin_theta)
+    }
+
+    pub(super) fn sample(&self, u: Vec2) -> (Vec3, f32) {
+        let (y, uy) = self.rows.sample(u.y);
+        let (x, ux) = self.columns[y].sample(u.x);
+        let (w, h) = (self.map.image.width, self.map.image.height);
+        let uv = Vec2::new((x as f32 + ux) / w as f32, (y as f32 + uy) / h as f32);
+        let dir = lat_long_direction(&self.map, uv);
+        (dir, self.pdf(dir))
+    }
+}

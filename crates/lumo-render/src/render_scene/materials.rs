@@ -1,0 +1,258 @@
+//! A hit's material as the integrators see it: the scene's BSDF description with textures
+//! evaluated at the hit, Mitsuba's adapters applied (normal and bump maps, masks) and the
+//! shading frame oriented by the surface's ∂p/∂u.
+
+use glam::{Vec2, Vec3};
+use lumo_scene::{BsdfSpec, Texture};
+
+use super::{RenderScene, Surface};
+use crate::bsdf::{
+    Bsdf, Conductor, Dielectric, Diffuse, Microfacet, Mirror, Plastic, ThinDielectric, SMOOTH_ALPHA,
+};
+use crate::geometry::Basis;
+use crate::shading::ShadingBsdf;
+
+impl RenderScene {
+    /// Mitsuba's shading frame at `s`: the tangent is ∂p/∂u made perpendicular to the normal
+    /// and the bitangent n × tangent, which orients anisotropic roughness (α_u along ∂p/∂u).
+    /// Falls back to the normal-only frame where the uv map is degenerate.
+    pub(super) fn tangent_frame(&self, s: &Surface) -> Basis {
+        let n = s.frame.n;
+        match self
+            .dp_duv(s)
+            .and_then(|(dp_du, _)| (dp_du - n * n.dot(dp_du)).try_normalize())
+        {
+            Some(t) => Basis {
+                s: t,
+                t: n.cross(t),
+                n,
+            },
+            None => s.frame,
+        }
+    }
+
+    /// The BSDF of `surface` with textures evaluated and Mitsuba's adapters (normal and bump
+    /// maps, masks) applied.
+    #[inline]
+    pub fn bsdf(&self, surface: &Surface) -> ShadingBsdf {
+        let material = &self.scene.materials[surface.material];
+        let mut b = &material.bsdf;
+        if !is_adapter(b) {
+            return self.base_bsdf(b, surface).into();
+        }
+        let (mut normal, mut opacity) = (None, 1.0f32);
+        // Adapters nest; masks multiply, and the outermost normal or bump map shapes the frame
+        // (a map under another map is not composed with it).
+        loop {
+            b = match b {
+                BsdfSpec::Mask { opacity: t, nested } => {
+                    opacity *= t.eval_1(surface.uv).clamp(0.0, 1.0);
+                    nested
+                }
+                BsdfSpec::NormalMap { normals, nested } => {
+                    if normal.is_none() {
+                        normal = Some(self.normal_mapped(surface, normals));
+                    }
+                    nested
+                }
+                BsdfSpec::BumpMap {
+                    height,
+                    scale,
+                    nested,
+                } => {
+                    if normal.is_none() {
+                        normal = Some(self.bump_mapped(surface, height, *scale));
+                    }
+                    nested
+                }
+                _ => break,
+            };
+        }
+        ShadingBsdf::new(
+            self.base_bsdf(b, surface),
+            normal.flatten(),
+            opacity,
+            self.back_black[surface.material],
+        )
+    }
+
+    /// World-space ∂p/∂u and ∂p/∂v of the triangle under `s` from its texture coordinates (as
+    /// Mitsuba's meshes; lumo's barycentric uv where the mesh has none); `None` where the uv
+    /// map is degenerate.
+    pub(super) fn dp_duv(&self, s: &Surface) -> Option<(Vec3, Vec3)> {
+        if let Some(shape) = self.shape(s.instance) {
+            let sp = shape.surface_at(s.p);
+            return Some((sp.dp_du, sp.dp_dv));
+        }
+        let inst = &self.scene.instances[s.instance as usize];
+        let place = &self.placements[s.instance as usize];
+        let mesh = &self.scene.meshes[inst.mesh];
+        let idx = mesh.indices[s.triangle as usize].map(|i| i as usize);
+        let [p0, p1, p2] = idx.map(|i| mesh.positions[i]);
+        let (dp0, dp1) = (p1 - p0, p2 - p0);
+        let [t0, t1, t2] = mesh.triangle_uvs(s.triangle as usize);
+        let (duv0, duv1) = (t1 - t0, t2 - t0);
+        let det = duv0.x * duv1.y - duv0.y * duv1.x;
+        if det == 0.0 || !det.is_finite() {
+            return None;
+        }
+        let dp_du = (dp0 * duv1.y - dp1 * duv0.y) / det;
+        let dp_dv = (dp1 * duv0.x - dp0 * duv1.x) / det;
+        Some(if place.identity {
+            (dp_du, dp_dv)
+        } else {
+            (
+                place.to_world.transform_vector3(dp_du),
+                place.to_world.transform_vector3(dp_dv),
+            )
+        })
+    }
+
+    /// The shading normal a tangent-space normal map gives `s`, in its shading frame: the
+    /// map's RGB in [0, 1] is (x, y, z) in [-1, 1] along the tangent (∂p/∂u made
+    /// perpendicular to the normal), the bitangent n × tangent and the normal, as Mitsuba 3
+    /// reads it. `None` for an exactly flat texel (no perturbation).
+    pub(super) fn normal_mapped(&self, s: &Surface, normals: &Texture) -> Option<Vec3> {
+        let c = normals.eval(s.uv) * 2.0 - Vec3::ONE;
+        if c.x == 0.0 && c.y == 0.0 {
+            return None;
+        }
+        let n = s.frame.n;
+        let tangent = self
+            .dp_duv(s)
+            .and_then(|(dp_du, _)| (dp_du - n * n.dot(dp_du)).try_normalize())
+            .unwrap_or(s.frame.s);
+        let bitangent = n.cross(tangent);
+        let world = (tangent * c.x + bitangent * c.y + n * c.z).try_normalize()?;
+        s.frame.to_local(world).try_normalize()
+    }
+
+    /// The shading normal a height texture gives `s`, in its shading frame: the surface moved
+    /// along its normal by `scale`·height, differentiated along u and v (Mitsuba 3's
+    /// `bumpmap`), turned to the side of the geometric normal. `None` where the height is
+    /// flat.
+    pub(super) fn bump_mapped(&self, s: &Surface, height: &Texture, scale: f32) -> Option<Vec3> {
+        let grad = height.eval_1_grad(s.uv) * scale;
+        if grad == Vec2::ZERO {
+            return None;
+        }
+        let (dp_du, dp_dv) = self.dp_duv(s)?;
+        let n = s.frame.n;
+        let du = dp_du + n * (grad.x - n.dot(dp_du));
+        let dv = dp_dv + n * (grad.y - n.dot(dp_dv));
+        let mut bumped = du.cross(dv).try_normalize()?;
+        if bumped.dot(s.ng) < 0.0 {
+            bumped = -bumped;
+        }
+        s.frame.to_local(bumped).try_normalize()
+    }
+
+    /// A scene BSDF without its adapters, with textures evaluated at `surface`.
+    #[inline]
+    pub(super) fn base_bsdf(&self, bsdf: &BsdfSpec, surface: &Surface) -> Bsdf {
+        match bsdf {
+            BsdfSpec::Diffuse { reflectance } => Bsdf::Diffuse(Diffuse {
+                albedo: texture(reflectance, surface.uv) * surface.color,
+            }),
+            BsdfSpec::Mirror { reflectance } => Bsdf::Mirror(Mirror {
+                reflectance: *reflectance,
+            }),
+            BsdfSpec::Conductor { eta, k, roughness } => Bsdf::Conductor(Conductor {
+                eta: *eta,
+                k: *k,
+                mf: microfacet(roughness, Some(surface.uv)),
+            }),
+            BsdfSpec::Plastic {
+                diffuse,
+                ior,
+                roughness,
+                nonlinear,
+                ..
+            } => Bsdf::Plastic(Plastic {
+                diffuse: texture(diffuse, surface.uv) * surface.color,
+                eta: *ior,
+                mf: microfacet(roughness, Some(surface.uv)),
+                fdr_int: self.fdr_int[surface.material],
+                coat: self.coats[surface.material],
+                nonlinear: *nonlinear,
+            }),
+            BsdfSpec::Dielectric { ior, roughness } => Bsdf::Dielectric(Dielectric {
+                eta: *ior,
+                mf: microfacet(roughness, Some(surface.uv)),
+            }),
+            BsdfSpec::ThinDielectric { ior } => Bsdf::ThinDielectric(ThinDielectric { eta: *ior }),
+            // Adapters are unwrapped by `bsdf`; one reached here (nested in a way it does not
+            // unwrap) stands for the BSDF it wraps.
+            BsdfSpec::NormalMap { nested, .. }
+            | BsdfSpec::BumpMap { nested, .. }
+            | BsdfSpec::Mask { nested, .. } => self.base_bsdf(nested, surface),
+        }
+    }
+}
+
+/// The render-side distribution of a scene roughness. Like Mitsuba, a rough surface keeps
+/// α ≥ 1e-4 on each axis (one axis at 0 would divide by zero); negative or NaN α is smooth.
+/// A per-texel α is read at `uv` (`None`: its average, for what is set up once per material).
+pub(super) fn microfacet(r: &lumo_scene::Roughness, uv: Option<glam::Vec2>) -> Microfacet {
+    let clean = |a: f32| if a.is_finite() { a.max(0.0) } else { 0.0 };
+    let (au, av) = match uv {
+        Some(uv) => r.alpha_at(uv),
+        None => (r.alpha_u, r.alpha_v),
+    };
+    let (mut au, mut av) = (clean(au), clean(av));
+    if au.max(av) >= SMOOTH_ALPHA {
+        (au, av) = (au.max(1e-4), av.max(1e-4));
+    }
+    Microfacet {
+        distribution: r.distribution,
+        alpha_u: au,
+        alpha_v: av,
+    }
+}
+
+/// The BSDF under a material's adapters (normal and bump maps, masks).
+pub(super) fn innermost(mut b: &BsdfSpec) -> &BsdfSpec {
+    while let Some(nested) = adapted(b) {
+        b = nested;
+    }
+    b
+}
+
+/// The BSDF an adapter wraps (`None` for a plain BSDF).
+pub(super) fn adapted(b: &BsdfSpec) -> Option<&BsdfSpec> {
+    match b {
+        BsdfSpec::NormalMap { nested, .. }
+        | BsdfSpec::BumpMap { nested, .. }
+        | BsdfSpec::Mask { nested, .. } => Some(nested),
+        _ => None,
+    }
+}
+
+/// Whether `b` is an adapter.
+#[inline]
+pub(super) fn is_adapter(b: &BsdfSpec) -> bool {
+    adapted(b).is_some()
+}
+
+/// Whether a mask is among the adapters of `b`.
+pub(super) fn has_mask(mut b: &BsdfSpec) -> bool {
+    loop {
+        match b {
+            BsdfSpec::Mask { .. } => return true,
+            _ => match adapted(b) {
+                Some(nested) => b = nested,
+                None => return false,
+            },
+        }
+    }
+}
+
+/// `t` at `uv`, with the constant case (most materials) inline rather than a call into the
+/// scene crate.
+#[inline]
+pub(super) fn texture(t: &Texture, uv: Vec2) -> Vec3 {
+    match t {
+        Texture::Constant(c) => *c,
+        _ => t.eval(uv),
+    }
+}
