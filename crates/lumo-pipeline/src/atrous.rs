@@ -9,7 +9,7 @@ use lumo_filter::{atrous, spatial_variance, with_passthrough, AtrousParams, Feat
 
 use super::compose::{frame_with_variance, trace_full};
 use super::{PipelineError, PipelineOptions, PipelineOutput, Timings};
-use lumo_render::camera::CameraRays;
+use lumo_render::camera::PinholeCamera;
 use lumo_render::integrators::path::wavefront::render_pixels;
 use lumo_render::{map_pixels, map_rows, render_pixel};
 use lumo_render::{RenderScene, RenderSettings, RenderStats};
@@ -115,7 +115,7 @@ fn trace_sparse(
 ) {
     let t = Instant::now();
     let (w, h) = (settings.width, settings.height);
-    let camera = CameraRays::new(&rs.scene.camera, w, h);
+    let camera = PinholeCamera::new(&rs.scene.camera, w, h);
     let mut gbuffer_only = *settings;
     gbuffer_only.spp = 1;
     gbuffer_only.path.max_depth = 1;

@@ -7,7 +7,7 @@ use lumo_filter::Demodulated;
 use lumo_image::Image;
 
 use super::{PipelineOutput, Timings};
-use lumo_render::camera::CameraRays;
+use lumo_render::camera::PinholeCamera;
 use lumo_render::integrators::path::wavefront::render_pixels;
 use lumo_render::{frame_from_estimates, map_rows};
 use lumo_render::{Frame, PixelEstimate, RenderScene, RenderSettings, RenderStats};
@@ -20,7 +20,7 @@ pub(super) fn trace_full(
 ) -> (Vec<PixelEstimate>, Frame, RenderStats, Duration) {
     let t = Instant::now();
     let (w, h) = (settings.width, settings.height);
-    let camera = CameraRays::new(&rs.scene.camera, w, h);
+    let camera = PinholeCamera::new(&rs.scene.camera, w, h);
     let rows = |done: usize| progress(done as f32 / h.max(1) as f32);
     // Whole rows through the wavefront renderer: packets of many pixels' paths stay full.
     let estimates = map_rows(h, &rows, |y| render_pixels(rs, &camera, settings, y, 0..w));

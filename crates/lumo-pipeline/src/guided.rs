@@ -16,7 +16,7 @@ use lumo_image::Image;
 
 use super::compose::{depth_scale, direct_only, frame_with_variance, recompose};
 use super::{PipelineError, PipelineOptions, PipelineOutput, Timings};
-use lumo_render::camera::CameraRays;
+use lumo_render::camera::PinholeCamera;
 use lumo_render::integrators::path::wavefront::render_pixels;
 use lumo_render::{map_pixels, map_rows, trace_sample};
 use lumo_render::{FirstHit, Frame, PixelEstimate, RenderScene, RenderSettings, RenderStats};
@@ -55,7 +55,7 @@ pub(super) fn run(
     };
     let t = Instant::now();
     let (w, h) = (settings.width, settings.height);
-    let camera = CameraRays::new(&rs.scene.camera, w, h);
+    let camera = PinholeCamera::new(&rs.scene.camera, w, h);
     let mut guide_settings = *settings;
     guide_settings.spp = 1;
     let direct_settings = direct_only(settings);
@@ -146,7 +146,8 @@ pub(super) fn run(
         });
         let data = composed.iter().flat_map(|v| v.0.to_array()).collect();
         let misses = composed.iter().flat_map(|v| v.1).collect();
-        lookup_misses = Some(Image::from_vec(w, h, 2, misses));
+        // A third, empty channel so the plane is an RGB image every output format takes.
+        lookup_misses = Some(Image::from_vec(w, h, 2, misses).to_channels(3));
         Image::from_vec(w, h, 3, data)
     };
     // The traced frame's direct plane holds all samples' direct light.
@@ -185,7 +186,8 @@ pub(super) fn run(
 /// lookup failures the geometry-aware lookup exists to avoid. "Same surface" means: normals
 /// within ~25° and the guide point within 1 % of the sample's depth of the sample's tangent
 /// plane; two misses are the same (background). Counted per pixel in the `lookup_misses`
-/// plane (channel 0: the lookup used; channel 1: the sample's own pixel, for comparison).
+/// plane (channel 0: the lookup used; channel 1: the sample's own pixel, for comparison;
+/// channel 2: 0).
 fn surface_miss(frame: &Frame, hit: &FirstHit, g: usize, sx: f32, sy: f32) -> bool {
     let same = |i: usize| {
         let d = frame.depth.data[i];

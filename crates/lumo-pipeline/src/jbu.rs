@@ -16,7 +16,7 @@ use lumo_image::Image;
 
 use super::compose::{direct_only, trace_full};
 use super::{PipelineError, PipelineOptions, PipelineOutput, Timings};
-use lumo_render::camera::CameraRays;
+use lumo_render::camera::PinholeCamera;
 use lumo_render::{map_pixels, render_pixel};
 use lumo_render::{RenderScene, RenderSettings};
 
@@ -49,7 +49,7 @@ pub(super) fn run(
     // Pass 2: indirect light at the centre pixel of every block.
     let t = Instant::now();
     let (lw, lh) = (w.div_ceil(k), h.div_ceil(k));
-    let camera = CameraRays::new(&rs.scene.camera, w, h);
+    let camera = PinholeCamera::new(&rs.scene.camera, w, h);
     let mut grid_settings = *settings;
     grid_settings.spp = options.paths;
     let rows = |done: usize| progress(0.5 + 0.5 * done as f32 / lh.max(1) as f32);

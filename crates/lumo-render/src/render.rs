@@ -7,7 +7,7 @@ use glam::{Vec2, Vec3};
 use lumo_image::Image;
 use rayon::prelude::*;
 
-use crate::camera::CameraRays;
+use crate::camera::PinholeCamera;
 use crate::film::Frame;
 use crate::integrators::path::wavefront::{estimate, render_pixels};
 use crate::integrators::path::{trace_path, FirstHit, PathRadiance, PathSettings};
@@ -58,7 +58,7 @@ pub struct PixelEstimate {
 /// path's radiance and the sample's offset inside the pixel. `first` receives the first hit.
 pub fn trace_sample(
     rs: &RenderScene,
-    camera: &CameraRays,
+    camera: &PinholeCamera,
     settings: &RenderSettings,
     (x, y): (usize, usize),
     index: u32,
@@ -81,7 +81,7 @@ pub fn trace_sample(
 /// paper's guide ray, §3.2), the others through a jittered point.
 #[inline]
 pub(crate) fn camera_sample(
-    camera: &CameraRays,
+    camera: &PinholeCamera,
     (x, y): (usize, usize),
     index: u32,
     seed: u32,
@@ -93,7 +93,7 @@ pub(crate) fn camera_sample(
 /// [`camera_sample`] for a sampler already made (by [`PixelSampler::run`]).
 #[inline]
 pub(crate) fn camera_sample_with(
-    camera: &CameraRays,
+    camera: &PinholeCamera,
     (x, y): (usize, usize),
     index: u32,
     mut sampler: PixelSampler,
@@ -109,7 +109,7 @@ pub(crate) fn camera_sample_with(
 /// [`render_pixels`](crate::integrators::path::wavefront::render_pixels) keeps the packets fuller.
 pub fn render_pixel(
     rs: &RenderScene,
-    camera: &CameraRays,
+    camera: &PinholeCamera,
     settings: &RenderSettings,
     x: usize,
     y: usize,
@@ -123,7 +123,7 @@ pub fn render_pixel(
 /// wavefront renderer is tested against, bit for bit.
 pub fn render_pixel_one_ray(
     rs: &RenderScene,
-    camera: &CameraRays,
+    camera: &PinholeCamera,
     settings: &RenderSettings,
     x: usize,
     y: usize,
@@ -192,7 +192,7 @@ pub fn render(
     progress: &(dyn Fn(usize) + Sync),
 ) -> (Frame, RenderStats) {
     let (w, h) = (settings.width, settings.height);
-    let camera = CameraRays::new(&rs.scene.camera, w, h);
+    let camera = PinholeCamera::new(&rs.scene.camera, w, h);
     let estimates = map_rows(h, progress, |y| {
         render_pixels(rs, &camera, settings, y, 0..w)
     });

@@ -11,7 +11,7 @@
 
 use glam::{Vec2, Vec3};
 
-use crate::bsdf::{Bsdf, BsdfSample};
+use crate::bsdf::{Bsdf, BsdfSample, TransportMode};
 use crate::geometry::Basis;
 
 /// A shading point's BSDF with the adapters of its material applied.
@@ -181,7 +181,19 @@ impl ShadingBsdf {
         pdf * self.opacity
     }
 
-    /// Samples `wi` given `wo`, a lobe-selection number and a 2-D point.
+    /// [`ShadingBsdf::sample`] for a path carrying `mode` (light paths: importance).
+    #[inline]
+    pub fn sample_mode(
+        &self,
+        mode: TransportMode,
+        wo: Vec3,
+        u_lobe: f32,
+        u: Vec2,
+    ) -> Option<BsdfSample> {
+        self.sample(wo, u_lobe, u).map(|s| s.in_mode(mode))
+    }
+
+    /// Samples `wi` given `wo`, a lobe-selection number and a 2-D point (radiance transport).
     pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
         let mut u_lobe = u_lobe;
         if self.opacity < 1.0 {

@@ -10,7 +10,7 @@ use lumo_filter::{
 };
 use lumo_image::{luminance, Image};
 use lumo_render::integrators::path::wavefront::render_pixels;
-use lumo_render::{camera::CameraRays, RenderScene, RenderSettings};
+use lumo_render::{camera::PinholeCamera, RenderScene, RenderSettings};
 use rayon::prelude::*;
 
 use crate::protocol::Mode;
@@ -21,7 +21,7 @@ use crate::worker::{FilteredFrame, Job};
 pub struct FrameAccumulator {
     width: usize,
     height: usize,
-    rays: CameraRays,
+    rays: PinholeCamera,
     settings: RenderSettings,
     frames: u32,
     /// Sum of colours, 3 per pixel.
@@ -44,7 +44,7 @@ impl FrameAccumulator {
         Self {
             width: w,
             height: h,
-            rays: CameraRays::new(&job.camera, w, h),
+            rays: PinholeCamera::new(&job.camera, w, h),
             settings: RenderSettings {
                 width: w,
                 height: h,

@@ -9,9 +9,9 @@
 //! Sobol sequence, so a pixel's samples are stratified exactly as in `lumo render`.
 
 use glam::{Vec2, Vec3};
-use lumo_render::integrators::light::{trace_light_path, Emitters, FilmCamera};
+use lumo_render::integrators::light::trace_light_path;
 use lumo_render::RenderScene;
-use lumo_render::{camera::CameraRays, sampler::PixelSampler, trace_path, PathSettings};
+use lumo_render::{camera::PinholeCamera, sampler::PixelSampler, trace_path, PathSettings};
 
 /// One sample of either stream.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -84,12 +84,8 @@ impl ScreenOrder {
 pub struct StreamContext<'a> {
     /// Scene.
     pub rs: &'a RenderScene,
-    /// Emitters for the light tracer.
-    pub emitters: &'a Emitters,
-    /// Camera rays for the path tracer.
-    pub rays: CameraRays,
-    /// Camera model for the light tracer.
-    pub film: FilmCamera,
+    /// The camera: rays for the path tracer, projection for the light tracer.
+    pub camera: PinholeCamera,
     /// Pixel order.
     pub order: ScreenOrder,
     /// Image size.
@@ -114,10 +110,10 @@ impl StreamContext<'_> {
         let mut sampler = PixelSampler::new(x, y, pass, self.seed);
         let jitter = sampler.next_2d();
         let film = Vec2::new(x as f32, y as f32) + jitter;
-        let dir = self.rays.direction(film);
+        let dir = self.camera.direction(film);
         let r = trace_path(
             self.rs,
-            self.rays.origin(),
+            self.camera.origin(),
             dir,
             &mut sampler,
             &self.path,
@@ -139,21 +135,14 @@ impl StreamContext<'_> {
     pub fn light_path(&self, m: u64, out: &mut Vec<Sample>) -> u32 {
         let block = (m >> 16) as u32;
         let mut sampler = PixelSampler::new(LIGHT_SEQUENCE, block, (m & 0xffff) as u32, self.seed);
-        let stats = trace_light_path(
-            self.rs,
-            self.emitters,
-            &self.film,
-            &mut sampler,
-            &self.path,
-            &mut |s| {
-                let [x, y, z] = rgb_to_xyz(s.value * self.scale);
-                let uv = s.film / self.size;
-                out.push(Sample {
-                    uv: [uv.x, uv.y],
-                    xyzw: [x, y, z, 1.0],
-                });
-            },
-        );
+        let stats = trace_light_path(self.rs, &self.camera, &mut sampler, &self.path, &mut |s| {
+            let [x, y, z] = rgb_to_xyz(s.value * self.scale);
+            let uv = s.film / self.size;
+            out.push(Sample {
+                uv: [uv.x, uv.y],
+                xyzw: [x, y, z, 1.0],
+            });
+        });
         stats.rays
     }
 }

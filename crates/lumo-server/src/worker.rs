@@ -14,8 +14,7 @@ use std::sync::{Arc, Condvar, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use lumo_render::integrators::light::{Emitters, FilmCamera};
-use lumo_render::{camera::CameraRays, PathSettings, RenderScene};
+use lumo_render::{camera::PinholeCamera, PathSettings, RenderScene};
 use lumo_scene::Camera;
 
 use crate::frames::FrameAccumulator;
@@ -177,12 +176,11 @@ impl RenderWorker {
             idle: Condvar::new(),
             on_finish,
         });
-        let emitters = Arc::new(Emitters::new(&rs.scene));
         let (tx, rx) = mpsc::channel();
         let sh = shared.clone();
         let thread = std::thread::Builder::new()
             .name("lumo-worker".into())
-            .spawn(move || command_loop(rx, sh, pool, rs, emitters))?;
+            .spawn(move || command_loop(rx, sh, pool, rs))?;
         Ok(Self {
             shared,
             commands: tx,
@@ -276,7 +274,6 @@ fn command_loop(
     shared: Arc<Shared>,
     pool: rayon::ThreadPool,
     rs: Arc<RenderScene>,
-    emitters: Arc<Emitters>,
 ) {
     while let Ok(cmd) = rx.recv() {
         match cmd {
@@ -299,7 +296,7 @@ fn command_loop(
                     });
                     continue;
                 }
-                start(&shared, &pool, rs.clone(), emitters.clone(), epoch, *job);
+                start(&shared, &pool, rs.clone(), epoch, *job);
             }
         }
     }
@@ -344,7 +341,6 @@ fn start(
     shared: &Arc<Shared>,
     pool: &rayon::ThreadPool,
     rs: Arc<RenderScene>,
-    emitters: Arc<Emitters>,
     epoch: u64,
     job: Job,
 ) {
@@ -360,10 +356,9 @@ fn start(
     *lock(&shared.active) = threads;
     if run.job.mode == Mode::Progressive {
         for _ in 0..threads {
-            let (shared, run, rs, emitters) =
-                (shared.clone(), run.clone(), rs.clone(), emitters.clone());
+            let (shared, run, rs) = (shared.clone(), run.clone(), rs.clone());
             pool.spawn(move || {
-                let finished = sample_loop(&shared, &run, &rs, &emitters);
+                let finished = sample_loop(&shared, &run, &rs);
                 thread_done(&shared, &run, finished);
             });
         }
@@ -399,13 +394,11 @@ fn thread_done(shared: &Shared, run: &Run, finished_budget: bool) {
 }
 
 /// Renders batches until aborted or out of budget; true when the budget ran out.
-fn sample_loop(shared: &Shared, run: &Run, rs: &RenderScene, emitters: &Emitters) -> bool {
+fn sample_loop(shared: &Shared, run: &Run, rs: &RenderScene) -> bool {
     let job = &run.job;
     let ctx = StreamContext {
         rs,
-        emitters,
-        rays: CameraRays::new(&job.camera, job.width, job.height),
-        film: FilmCamera::new(&job.camera, job.width, job.height),
+        camera: PinholeCamera::new(&job.camera, job.width, job.height),
         order: ScreenOrder::new(job.width as u32, job.height as u32),
         size: glam::Vec2::new(job.width as f32, job.height as f32),
         path: job.path,
@@ -418,8 +411,8 @@ fn sample_loop(shared: &Shared, run: &Run, rs: &RenderScene, emitters: &Emitters
     };
     let (do_camera, do_light) = match job.integrator {
         Integrator::Path => (true, false),
-        Integrator::Light => (false, !emitters.is_empty()),
-        Integrator::Both => (true, !emitters.is_empty()),
+        Integrator::Light => (false, !rs.lights.emits_no_particles()),
+        Integrator::Both => (true, !rs.lights.emits_no_particles()),
     };
     let per_batch = do_camera as u64 * CAMERA_BATCH + do_light as u64 * LIGHT_BATCH;
     let mut camera = Vec::with_capacity(CAMERA_BATCH as usize);

@@ -172,6 +172,26 @@ fn errors_fall_with_spp_and_sit_far_below_the_unfiltered_error() {
     }
 }
 
+/// `lumo render --aovs` writes every plane a pipeline reports; each must be an image the
+/// output formats take (the guided pipeline's 2-channel lookup plane once failed as EXR).
+#[test]
+fn every_reported_plane_writes_as_exr_and_pfm() {
+    let rs = RenderScene::new(small_room()).expect("scene");
+    let dir = std::env::temp_dir().join(format!("lumo-planes-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    for p in Pipeline::ALL {
+        let out = run(&rs, p, &settings(16, 16, 2, 3), &small_options());
+        for (name, plane) in &out.planes {
+            for ext in ["exr", "pfm"] {
+                let path = dir.join(format!("{p}-{name}.{ext}"));
+                lumo_image::write_image(&path, plane)
+                    .unwrap_or_else(|e| panic!("{p}: plane {name} as {ext}: {e}"));
+            }
+        }
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 #[test]
 fn guided_lookup_stays_on_the_samples_surface() {
     // The Cornell boxes in front of the back wall give depth edges; samples near them must take
@@ -187,7 +207,8 @@ fn guided_lookup_stays_on_the_samples_surface() {
         .map(|(_, img)| img)
         .expect("guided pipeline reports lookup misses at spp > 1");
     let (mut chosen, mut own) = (0.0, 0.0);
-    for p in misses.data.chunks_exact(2) {
+    assert_eq!(misses.channels, 3, "an RGB plane, writable as EXR/PFM/PNG");
+    for p in misses.data.chunks_exact(3) {
         chosen += p[0];
         own += p[1];
     }

@@ -64,6 +64,29 @@ pub struct BsdfSample {
     pub eta: f32,
 }
 
+/// What a path carries, which decides how refraction scales it (Veach 1997, §5.2): radiance is
+/// compressed into the smaller solid angle of the denser medium (× 1/η² crossing into it),
+/// importance is not. Camera paths carry radiance; light paths carry importance.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TransportMode {
+    /// A path from the camera: the BSDF weights as sampled.
+    Radiance,
+    /// A path from a light: the adjoint BSDF, without the radiance scaling of refraction.
+    Importance,
+}
+
+impl BsdfSample {
+    /// The sample as a path carrying `mode` sees it: for [`TransportMode::Importance`] the
+    /// 1/η² radiance scaling of a refraction (in `weight`) is taken out again.
+    #[inline]
+    pub fn in_mode(mut self, mode: TransportMode) -> Self {
+        if mode == TransportMode::Importance && self.eta != 1.0 {
+            self.weight *= self.eta * self.eta;
+        }
+        self
+    }
+}
+
 /// The mirror direction of `wo` about the normal, as a delta sample.
 #[inline]
 fn mirror_sample(wo: Vec3, weight: Vec3, pdf: f32) -> BsdfSample {

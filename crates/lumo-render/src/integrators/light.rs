@@ -5,230 +5,18 @@
 //!
 //! The estimator uses the path tracer's shading-normal convention (Veach's adjoint
 //! correction: on arrival `|ns·wl| / |ng·wl|`, on departure `|ng·w| / |ns·w|`), so on any
-//! scene both integrators converge to the same image. Environment and constant lights are not
-//! emitted (a particle from infinity needs a scene-sized disk per direction); they stay the path
-//! tracer's job.
-
-use std::f32::consts::PI;
+//! scene both integrators converge to the same image. Paths start from the scene's shared
+//! lights ([`crate::lights::Lights::sample_emission`]), which do not emit from environment and
+//! constant lights; those stay the path tracer's job.
 
 use glam::{Vec2, Vec3};
-use lumo_image::luminance;
-use lumo_scene::{Camera, Light, Scene};
 
-use crate::accel::analytic::Shape;
-use crate::geometry::{
-    shadow_segment, square_to_cosine_hemisphere, square_to_disk, square_to_triangle,
-    square_to_uniform_sphere, Basis, UNIFORM_SPHERE_PDF,
-};
+use crate::bsdf::TransportMode;
+use crate::camera::PinholeCamera;
+use crate::geometry::shadow_segment;
 use crate::integrators::path::PathSettings;
-use crate::lights::distribution::Distribution1d;
-use crate::lights::{triangle_radiance, SpotCone, TexturedEmission};
 use crate::render_scene::RenderScene;
 use crate::sampler::PixelSampler;
-
-/// Something that emits particles.
-#[derive(Clone, Copy, Debug)]
-enum Emitter {
-    /// One-sided emissive triangle.
-    Triangle {
-        p0: Vec3,
-        e1: Vec3,
-        e2: Vec3,
-        normal: Vec3,
-        area: f32,
-        radiance: Vec3,
-        /// Index into the textured emission records, or `NO_TEXTURE`.
-        texture: u32,
-    },
-    /// One-sided emissive exact sphere, disk or cylinder, sampled uniformly by area.
-    Shape {
-        shape: Shape,
-        radiance: Vec3,
-    },
-    Point {
-        position: Vec3,
-        intensity: Vec3,
-    },
-    Spot {
-        position: Vec3,
-        axis: Vec3,
-        intensity: Vec3,
-        cone: SpotCone,
-    },
-    Directional {
-        direction: Vec3,
-        irradiance: Vec3,
-    },
-}
-
-/// The scene's emitters with a power-proportional choice among them.
-pub struct Emitters {
-    emitters: Vec<Emitter>,
-    /// Radiance textures of textured emissive triangles (`Emitter::Triangle::texture`).
-    textured: Vec<TexturedEmission>,
-    choice: Distribution1d,
-    scene_center: Vec3,
-    scene_radius: f32,
-}
-
-impl Emitters {
-    /// Collects emissive triangles, point, spot and directional lights of `scene`.
-    pub fn new(scene: &Scene) -> Self {
-        let (lo, hi) = scene.bounds();
-        let scene_center = (lo + hi) * 0.5;
-        let scene_radius = ((hi - lo).length() * 0.5).max(1e-3);
-        let mut emitters = Vec::new();
-        let mut textured = Vec::new();
-        let mut power = Vec::new();
-        for inst in &scene.instances {
-            let mesh = &scene.meshes[inst.mesh];
-            let material = &scene.materials[mesh.material];
-            if !material.is_emissive() {
-                continue;
-            }
-            if let Some(a) = &mesh.analytic {
-                let shape = Shape::new(a, inst.transform);
-                if shape.area > 0.0 && shape.area.is_finite() {
-                    power.push(shape.area * PI * luminance(material.emission.into()));
-                    emitters.push(Emitter::Shape {
-                        shape,
-                        radiance: material.emission,
-                    });
-                }
-                continue;
-            }
-            for t in 0..mesh.triangle_count() {
-                let [a, b, c] = mesh.triangle(t).map(|p| inst.transform.transform_point3(p));
-                let cross = (b - a).cross(c - a);
-                let area = 0.5 * cross.length();
-                if area <= 0.0 {
-                    continue;
-                }
-                power.push(area * PI * luminance(material.emission.into()));
-                let texture = TexturedEmission::register(&mut textured, material, mesh, t);
-                emitters.push(Emitter::Triangle {
-                    p0: a,
-                    e1: b - a,
-                    e2: c - a,
-                    normal: cross / (2.0 * area),
-                    area,
-                    radiance: material.emission,
-                    texture,
-                });
-            }
-        }
-        for light in &scene.lights {
-            match light {
-                Light::Point {
-                    position,
-                    intensity,
-                } => {
-                    power.push(4.0 * PI * luminance((*intensity).into()));
-                    emitters.push(Emitter::Point {
-                        position: *position,
-                        intensity: *intensity,
-                    });
-                }
-                Light::Spot {
-                    position,
-                    direction,
-                    intensity,
-                    beam_width,
-                    cutoff,
-                } => {
-                    // The same cone and power as the path tracer's light choice.
-                    let cone = SpotCone::new(*beam_width, *cutoff);
-                    power.push(cone.solid_angle() * luminance((*intensity).into()));
-                    emitters.push(Emitter::Spot {
-                        position: *position,
-                        axis: direction.normalize(),
-                        intensity: *intensity,
-                        cone,
-                    });
-                }
-                Light::Directional {
-                    direction,
-                    irradiance,
-                } => {
-                    power.push(PI * scene_radius * scene_radius * luminance((*irradiance).into()));
-                    emitters.push(Emitter::Directional {
-                        direction: direction.normalize(),
-                        irradiance: *irradiance,
-                    });
-                }
-                Light::Constant { .. } | Light::Environment(_) => {}
-            }
-        }
-        Self {
-            choice: Distribution1d::new(&power),
-            emitters,
-            textured,
-            scene_center,
-            scene_radius,
-        }
-    }
-
-    /// True when the scene has nothing the light tracer can emit from.
-    pub fn is_empty(&self) -> bool {
-        self.emitters.is_empty()
-            || self.choice.total().partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
-    }
-}
-
-/// The pinhole camera as the light tracer needs it: projection of world points to the film
-/// and the importance normalisation.
-#[derive(Clone, Copy, Debug)]
-pub struct FilmCamera {
-    origin: Vec3,
-    forward: Vec3,
-    right: Vec3,
-    up: Vec3,
-    /// Half-extents of the image plane at distance 1.
-    half: Vec2,
-    size: Vec2,
-    /// Pixels per unit film area: the importance of one pixel is `pixels / (A cos⁴θ)`.
-    pixel_importance: f32,
-}
-
-impl FilmCamera {
-    /// The camera for a `width`×`height` film.
-    pub fn new(camera: &Camera, width: usize, height: usize) -> Self {
-        let (right, up, forward) = camera.basis();
-        let (hw, hh) = camera.half_extent(width, height);
-        let area = 4.0 * hw * hh;
-        Self {
-            origin: camera.origin,
-            forward,
-            right,
-            up,
-            half: Vec2::new(hw, hh),
-            size: Vec2::new(width as f32, height as f32),
-            pixel_importance: (width * height) as f32 / area,
-        }
-    }
-
-    /// Eye position.
-    pub fn origin(&self) -> Vec3 {
-        self.origin
-    }
-
-    /// Film position (pixels, x right, y down) of world point `p` and the cosine between the
-    /// view axis and the direction to `p`, if `p` is in front and inside the film.
-    fn project(&self, p: Vec3) -> Option<(Vec2, f32)> {
-        let d = p - self.origin;
-        let z = d.dot(self.forward);
-        if z <= 0.0 {
-            return None;
-        }
-        let sx = d.dot(self.right) / (z * self.half.x);
-        let sy = d.dot(self.up) / (z * self.half.y);
-        if !(-1.0..1.0).contains(&sx) || !(-1.0..1.0).contains(&sy) {
-            return None;
-        }
-        let film = Vec2::new((sx + 1.0) * 0.5, (1.0 - sy) * 0.5) * self.size;
-        Some((film, z / d.length()))
-    }
-}
 
 /// One connection of a light-path vertex to the camera.
 #[derive(Clone, Copy, Debug)]
@@ -254,14 +42,14 @@ pub struct LightPathStats {
 /// the camera into the vertex's scattered (or emitted) value before the geometric term.
 fn connect(
     rs: &RenderScene,
-    camera: &FilmCamera,
+    camera: &PinholeCamera,
     p: Vec3,
     ng: Vec3,
     origin_off: impl Fn(Vec3) -> Vec3,
     value: impl Fn(Vec3) -> Vec3,
 ) -> Option<(LightSplat, u32)> {
-    let (film, cos_cam) = camera.project(p)?;
-    let to_cam = camera.origin - p;
+    let (film, cos_cam) = camera.project_point(p)?;
+    let to_cam = camera.origin() - p;
     let dist2 = to_cam.length_squared();
     let wc = to_cam / dist2.sqrt();
     let v = value(wc);
@@ -269,7 +57,7 @@ fn connect(
         return None;
     }
     let o = origin_off(wc);
-    let (dir, tmax) = shadow_segment(o.into(), camera.origin.into(), wc.into(), rs.ray_epsilon);
+    let (dir, tmax) = shadow_segment(o.into(), camera.origin().into(), wc.into(), rs.ray_epsilon);
     if rs.accel.occluded(o, dir.into(), 0.0, tmax) {
         return Some((
             LightSplat {
@@ -280,7 +68,7 @@ fn connect(
         ));
     }
     // G(c, x)·We: |cos_x| |cos_c| / d² · pixels / (A cos⁴θ_c).
-    let importance = ng.dot(wc).abs() * camera.pixel_importance / (dist2 * cos_cam.powi(3));
+    let importance = ng.dot(wc).abs() * camera.pixel_importance() / (dist2 * cos_cam.powi(3));
     let value = v * importance;
     value.is_finite().then_some((LightSplat { film, value }, 1))
 }
@@ -289,8 +77,7 @@ fn connect(
 /// sees the camera (including the point on the light itself).
 pub fn trace_light_path(
     rs: &RenderScene,
-    emitters: &Emitters,
-    camera: &FilmCamera,
+    camera: &PinholeCamera,
     sampler: &mut PixelSampler,
     settings: &PathSettings,
     splat: &mut impl FnMut(LightSplat),
@@ -299,14 +86,9 @@ pub fn trace_light_path(
     let u_choice = sampler.next_1d();
     let u_pos = sampler.next_2d();
     let u_dir = sampler.next_2d();
-    if emitters.is_empty() {
+    let Some(e) = rs.lights.sample_emission(u_choice, u_pos, u_dir) else {
         return stats;
-    }
-    let (index, _) = emitters.choice.sample(u_choice);
-    let pick = emitters.choice.pmf(index);
-    if pick <= 0.0 {
-        return stats;
-    }
+    };
     let mut emit = |s: Option<(LightSplat, u32)>, stats: &mut LightPathStats| {
         if let Some((sp, rays)) = s {
             stats.rays += rays;
@@ -316,88 +98,25 @@ pub fn trace_light_path(
             }
         }
     };
-    // The first ray: origin, direction and throughput (radiance × cos / densities).
-    // A point on an area emitter: position, normal, area and radiance.
-    let area_point = match emitters.emitters[index] {
-        Emitter::Triangle {
-            p0,
-            e1,
-            e2,
-            normal,
-            area,
-            radiance,
-            texture,
-        } => {
-            let b = square_to_triangle(u_pos);
-            let radiance = triangle_radiance(&emitters.textured, texture, radiance, b);
-            Some((p0 + e1 * b.x + e2 * b.y, normal, area, radiance))
-        }
-        Emitter::Shape { shape, radiance } => {
-            let sp = shape.sample_area(u_pos);
-            Some((sp.p, sp.n, shape.area, radiance))
-        }
-        _ => None,
-    };
-    let (mut origin, mut dir, mut throughput) = match emitters.emitters[index] {
-        Emitter::Triangle { .. } | Emitter::Shape { .. } => {
-            let Some((p, normal, area, radiance)) = area_point else {
-                return stats;
-            };
-            let pdf_area = pick / area;
-            let off = |d: Vec3| {
-                let side = if normal.dot(d) >= 0.0 { 1.0 } else { -1.0 };
-                p + normal * (side * rs.ray_epsilon * (1.0 + p.abs().max_element()))
-            };
-            // The light itself seen by the camera (depth 1).
-            let seen = connect(rs, camera, p, normal, off, |wc| {
-                if normal.dot(wc) > 0.0 {
-                    radiance / pdf_area
-                } else {
-                    Vec3::ZERO
-                }
-            });
-            emit(seen, &mut stats);
-            let local = square_to_cosine_hemisphere(u_dir);
-            let dir = Basis::new(normal).to_world(local).normalize();
-            // Le·cos / (pdf_A · cos/π) = Le·π / pdf_A.
-            (off(dir), dir, radiance * PI / pdf_area)
-        }
-        Emitter::Point {
-            position,
-            intensity,
-        } => {
-            let dir = square_to_uniform_sphere(u_dir);
-            (position, dir, intensity / (pick * UNIFORM_SPHERE_PDF))
-        }
-        Emitter::Spot {
-            position,
-            axis,
-            intensity,
-            cone,
-        } => {
-            // Uniform in the cutoff cone, weighted by the falloff.
-            let cos_outer = cone.cos_cutoff();
-            let cos = 1.0 - u_dir.x * (1.0 - cos_outer);
-            let sin = (1.0 - cos * cos).max(0.0).sqrt();
-            let phi = 2.0 * PI * u_dir.y;
-            let local = Vec3::new(sin * phi.cos(), sin * phi.sin(), cos);
-            let dir = Basis::new(axis).to_world(local).normalize();
-            let falloff = cone.falloff(cos);
-            let pdf_dir = 1.0 / (2.0 * PI * (1.0 - cos_outer));
-            (position, dir, intensity * falloff / (pick * pdf_dir))
-        }
-        Emitter::Directional {
-            direction,
-            irradiance,
-        } => {
-            // A disk covering the scene, perpendicular to the light, outside the scene.
-            let r = emitters.scene_radius;
-            let d = square_to_disk(u_pos) * r;
-            let f = Basis::new(direction);
-            let p = emitters.scene_center + f.to_world(Vec3::new(d.x, d.y, 0.0)) - direction * r;
-            (p, direction, irradiance * (PI * r * r) / pick)
-        }
-    };
+    let mut origin = e.p;
+    if let Some(normal) = e.normal {
+        let p = e.p;
+        let off = |d: Vec3| {
+            let side = if normal.dot(d) >= 0.0 { 1.0 } else { -1.0 };
+            p + normal * (side * rs.ray_epsilon * (1.0 + p.abs().max_element()))
+        };
+        // The light itself seen by the camera (depth 1).
+        let seen = connect(rs, camera, p, normal, off, |wc| {
+            if normal.dot(wc) > 0.0 {
+                e.radiance_over_pdf
+            } else {
+                Vec3::ZERO
+            }
+        });
+        emit(seen, &mut stats);
+        origin = off(e.dir);
+    }
+    let (mut dir, mut throughput) = (e.dir, e.weight);
     // Depth of the path camera ← x_k ← … ← light when connecting at the k-th scene vertex.
     let mut depth = 2u32;
     loop {
@@ -440,9 +159,10 @@ pub fn trace_light_path(
         let u_lobe = sampler.next_1d();
         let u_bsdf = sampler.next_2d();
         let u_rr = sampler.next_1d();
-        // Sampling "wi" with the light side as "wo" picks the particle's next direction;
-        // the BSDFs are reciprocal, so the weight is the same f·|cos|/pdf.
-        let Some(bs) = bsdf.sample(wl_local, u_lobe, u_bsdf) else {
+        // Sampling "wi" with the light side as "wo" picks the particle's next direction; the
+        // BSDFs are reciprocal except for refraction's radiance scaling, which importance
+        // does not carry.
+        let Some(bs) = bsdf.sample_mode(TransportMode::Importance, wl_local, u_lobe, u_bsdf) else {
             break;
         };
         let new_dir = s.frame.to_world(bs.wi).normalize();
@@ -474,6 +194,7 @@ pub fn trace_light_path(
 mod tests {
     use super::*;
     use crate::{render, RenderSettings};
+    use lumo_image::luminance;
     use lumo_scene::builtin_scene;
 
     /// Light-traces `paths` paths into a `w`×`h` image (pixel = Σ splats / paths).
@@ -484,12 +205,11 @@ mod tests {
         paths: u32,
         settings: &PathSettings,
     ) -> Vec<Vec3> {
-        let emitters = Emitters::new(&rs.scene);
-        let camera = FilmCamera::new(&rs.scene.camera, w, h);
+        let camera = PinholeCamera::new(&rs.scene.camera, w, h);
         let mut img = vec![Vec3::ZERO; w * h];
         for i in 0..paths {
             let mut sampler = PixelSampler::new(i >> 16, 7, i & 0xffff, 3);
-            trace_light_path(rs, &emitters, &camera, &mut sampler, settings, &mut |s| {
+            trace_light_path(rs, &camera, &mut sampler, settings, &mut |s| {
                 let (x, y) = (s.film.x as usize, s.film.y as usize);
                 if x < w && y < h {
                     img[y * w + x] += s.value;
@@ -548,15 +268,13 @@ mod tests {
     #[test]
     fn splats_stay_on_the_film_and_empty_scenes_emit_nothing() {
         let rs = RenderScene::new(builtin_scene("cornell").expect("builtin")).expect("scene");
-        let emitters = Emitters::new(&rs.scene);
-        assert!(!emitters.is_empty());
-        let camera = FilmCamera::new(&rs.scene.camera, 20, 10);
+        assert!(!rs.lights.emits_no_particles());
+        let camera = PinholeCamera::new(&rs.scene.camera, 20, 10);
         let mut n = 0;
         for i in 0..2000 {
             let mut sampler = PixelSampler::new(0, 0, i, 0);
             let st = trace_light_path(
                 &rs,
-                &emitters,
                 &camera,
                 &mut sampler,
                 &PathSettings::default(),
@@ -574,6 +292,7 @@ mod tests {
         for m in &mut dark.materials {
             m.emission = Vec3::ZERO;
         }
-        assert!(Emitters::new(&dark).is_empty());
+        let dark = RenderScene::new(dark).expect("scene");
+        assert!(dark.lights.emits_no_particles());
     }
 }

@@ -2,6 +2,7 @@
 //! constant and image-based environment lights, chosen in proportion to an estimate of power.
 
 pub mod distribution;
+mod emission;
 mod environment;
 
 use std::f32::consts::PI;
@@ -15,6 +16,7 @@ use lumo_scene::{Light, Material, Mesh, Scene, Texture};
 use crate::accel::analytic::Shape;
 use crate::geometry::{square_to_triangle, square_to_uniform_sphere, UNIFORM_SPHERE_PDF};
 use crate::lights::distribution::{AliasTable, Distribution1d};
+pub use emission::EmissionSample;
 use environment::EnvSampler;
 
 /// An emissive triangle in world space.
@@ -191,6 +193,9 @@ pub struct Lights {
     choice: Distribution1d,
     /// The same choice, sampled in constant time.
     alias: AliasTable,
+    /// The choice among lights that emit particles (not the environment), by the same power;
+    /// `None` when there are none.
+    emission_choice: Option<Distribution1d>,
     /// For each instance, the index of its first emissive triangle in `lights`, if emissive.
     instance_offset: Vec<Option<u32>>,
     /// Radiance textures of textured emissive triangles ([`EmissiveTriangle::texture`]).
@@ -316,8 +321,24 @@ impl Lights {
             lights.push(LightKind::Environment);
         }
         let choice = Distribution1d::new(&power);
+        let emits = |l: &LightKind| match l {
+            LightKind::Triangle(tri) => tri.area > 0.0,
+            LightKind::Shape { shape, .. } => shape.area > 0.0 && shape.area.is_finite(),
+            LightKind::Environment => false,
+            _ => true,
+        };
+        let emission_power: Vec<f32> = lights
+            .iter()
+            .zip(&power)
+            .map(|(l, &w)| if emits(l) { w } else { 0.0 })
+            .collect();
+        let emission_choice = lights
+            .iter()
+            .any(emits)
+            .then(|| Distribution1d::new(&emission_power));
         Lights {
             alias: AliasTable::new(&choice),
+            emission_choice,
             choice,
             lights,
             instance_offset,

@@ -5,7 +5,7 @@
 use std::path::Path;
 
 use glam::{Vec2, Vec3};
-use lumo_render::camera::CameraRays;
+use lumo_render::camera::PinholeCamera;
 use lumo_render::{render, PathSettings, RenderScene, RenderSettings};
 use lumo_scene::load::{load_mitsuba_str, LoadOptions};
 
@@ -240,7 +240,7 @@ fn sphere_silhouette_matches_analytic_coverage_where_tessellation_does_not() {
     );
     let loaded = load_mitsuba_str(&text, Path::new("test.xml"), &LoadOptions::default()).unwrap();
     let (w, h) = (32usize, 32usize);
-    let camera = CameraRays::new(&loaded.scene.camera, w, h);
+    let camera = PinholeCamera::new(&loaded.scene.camera, w, h);
     // Coverage by the exact sphere: 16×16 sub-pixel rays tested in f64.
     let mut expected = vec![0.0f64; w * h];
     let n = 16;
@@ -316,7 +316,8 @@ fn sphere_silhouette_matches_analytic_coverage_where_tessellation_does_not() {
 /// sampled by its visible cone, MIS with BSDF-sampled hits) estimate the same image mean.
 #[test]
 fn light_tracer_and_path_tracer_agree_on_analytic_lights() {
-    use lumo_render::integrators::light::{trace_light_path, Emitters, FilmCamera};
+    use lumo_render::camera::PinholeCamera;
+    use lumo_render::integrators::light::trace_light_path;
     use lumo_render::sampler::PixelSampler;
     let text = r#"<scene version="3.0.0">
   <sensor type="perspective">
@@ -353,22 +354,14 @@ fn light_tracer_and_path_tracer_agree_on_analytic_lights() {
         },
     };
     let path_mean = render(&rs, &settings, &|_| {}).0.color.channel_means()[0];
-    let emitters = Emitters::new(&scene);
-    let film = FilmCamera::new(&scene.camera, w, h);
+    let film = PinholeCamera::new(&scene.camera, w, h);
     let mut total = 0.0f64;
     let paths = 400_000u32;
     for m in 0..paths {
         let mut sampler = PixelSampler::new(1 << 20, m >> 16, m & 0xffff, 9);
-        trace_light_path(
-            &rs,
-            &emitters,
-            &film,
-            &mut sampler,
-            &settings.path,
-            &mut |s| {
-                total += s.value.x as f64;
-            },
-        );
+        trace_light_path(&rs, &film, &mut sampler, &settings.path, &mut |s| {
+            total += s.value.x as f64;
+        });
     }
     let light_mean = total / paths as f64 / (w * h) as f64;
     assert!(

@@ -14,7 +14,8 @@ use std::f32::consts::{FRAC_PI_2, PI};
 use std::path::Path;
 
 use glam::{Mat4, Vec3};
-use lumo_render::integrators::light::{trace_light_path, Emitters, FilmCamera};
+use lumo_render::camera::PinholeCamera;
+use lumo_render::integrators::light::trace_light_path;
 use lumo_render::sampler::PixelSampler;
 use lumo_render::{render, trace_path, PathSettings, RenderScene, RenderSettings};
 use lumo_scene::shapes::rectangle;
@@ -252,8 +253,7 @@ fn light_tracer_sees_the_grazing_ceiling_as_mitsuba_does() {
 /// Mean RGB over the image of `paths` light-traced paths.
 fn light_traced_mean(scene: &Scene, rs: &RenderScene, max_depth: u32, paths: u32) -> [f64; 3] {
     let (w, h) = (scene.defaults.width, scene.defaults.height);
-    let emitters = Emitters::new(scene);
-    let film = FilmCamera::new(&scene.camera, w, h);
+    let film = PinholeCamera::new(&scene.camera, w, h);
     let settings = PathSettings {
         max_depth,
         ..Default::default()
@@ -261,7 +261,7 @@ fn light_traced_mean(scene: &Scene, rs: &RenderScene, max_depth: u32, paths: u32
     let mut total = [0.0f64; 3];
     for m in 0..paths {
         let mut sampler = PixelSampler::new(1 << 20, m >> 16, m & 0xffff, 9);
-        trace_light_path(rs, &emitters, &film, &mut sampler, &settings, &mut |s| {
+        trace_light_path(rs, &film, &mut sampler, &settings, &mut |s| {
             for (t, v) in total.iter_mut().zip(s.value.to_array()) {
                 *t += v as f64;
             }

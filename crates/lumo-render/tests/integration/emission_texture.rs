@@ -6,7 +6,8 @@
 
 use std::path::Path;
 
-use lumo_render::integrators::light::{trace_light_path, Emitters, FilmCamera};
+use lumo_render::camera::PinholeCamera;
+use lumo_render::integrators::light::trace_light_path;
 use lumo_render::sampler::PixelSampler;
 use lumo_render::{render, PathSettings, RenderScene, RenderSettings};
 use lumo_scene::load::{load_mitsuba_str, LoadOptions};
@@ -62,25 +63,17 @@ fn light_tracer_and_path_tracer_agree_on_a_textured_area_light() {
             }
         }
     }
-    let emitters = Emitters::new(&scene);
-    let film = FilmCamera::new(&scene.camera, w, h);
+    let film = PinholeCamera::new(&scene.camera, w, h);
     let mut light = [[0.0f64; 3]; 2];
     let paths = 400_000u32;
     for m in 0..paths {
         let mut sampler = PixelSampler::new(1 << 20, m >> 16, m & 0xffff, 11);
-        trace_light_path(
-            &rs,
-            &emitters,
-            &film,
-            &mut sampler,
-            &settings.path,
-            &mut |s| {
-                let half = usize::from(s.film.x >= (w / 2) as f32);
-                for (t, v) in light[half].iter_mut().zip(s.value.to_array()) {
-                    *t += v as f64 / paths as f64;
-                }
-            },
-        );
+        trace_light_path(&rs, &film, &mut sampler, &settings.path, &mut |s| {
+            let half = usize::from(s.film.x >= (w / 2) as f32);
+            for (t, v) in light[half].iter_mut().zip(s.value.to_array()) {
+                *t += v as f64 / paths as f64;
+            }
+        });
     }
     for half in 0..2 {
         for c in [0, 2] {

@@ -4,7 +4,7 @@
 use crate::common;
 
 use glam::{Vec2, Vec3};
-use lumo_render::camera::CameraRays;
+use lumo_render::camera::PinholeCamera;
 use lumo_render::sampler::PixelSampler;
 use lumo_render::{render, trace_path, PathSettings, RenderScene, RenderSettings};
 
@@ -92,7 +92,7 @@ fn direct_light_from_area_light_matches_lamberts_formula() {
     let expected = 0.5 / std::f32::consts::PI * e;
     // Shoot rays straight down at the origin from above the light's plane? No: from a point
     // beside the light, aimed at the origin, so the first hit is the floor at the origin.
-    let cam = CameraRays::new(&scene.camera, 64, 64);
+    let cam = PinholeCamera::new(&scene.camera, 64, 64);
     let origin = cam.origin();
     let dir = (Vec3::ZERO - origin).normalize();
     for (name, nee, bsdf_emission) in [
@@ -196,7 +196,7 @@ fn gbuffer_comes_from_the_pixel_centre_ray() {
     let scene = common::small_room();
     let rs = RenderScene::new(scene.clone()).unwrap();
     let (frame, _) = render(&rs, &settings(&scene, 2, 2), &|_| {});
-    let cam = CameraRays::new(&scene.camera, frame.width(), frame.height());
+    let cam = PinholeCamera::new(&scene.camera, frame.width(), frame.height());
     let (x, y) = (12usize, 20usize);
     let dir = cam.direction(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
     let hit = rs

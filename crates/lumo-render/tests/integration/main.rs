@@ -11,4 +11,5 @@ mod light_sampling;
 mod mitsuba_adapters;
 mod mitsuba_cornell;
 mod mitsuba_suite;
+mod transport_modes;
 mod wavefront;

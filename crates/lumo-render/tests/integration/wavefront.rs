@@ -2,7 +2,7 @@
 //! integrator: every pixel's estimate, G-buffer record and ray count must agree bit for bit on
 //! every built-in scene, at several spp (packets of one pixel's samples and of many pixels').
 
-use lumo_render::camera::CameraRays;
+use lumo_render::camera::PinholeCamera;
 use lumo_render::integrators::path::wavefront::render_pixels;
 use lumo_render::{render_pixel_one_ray, PathSettings, RenderScene, RenderSettings};
 
@@ -62,7 +62,7 @@ fn wavefront_equals_one_ray_at_a_time_on_every_builtin_scene() {
                     ..Default::default()
                 },
             };
-            let camera = CameraRays::new(&rs.scene.camera, settings.width, settings.height);
+            let camera = PinholeCamera::new(&rs.scene.camera, settings.width, settings.height);
             let mut nonzero = 0;
             for y in 0..settings.height {
                 let row = render_pixels(&rs, &camera, &settings, y, 0..settings.width);

@@ -484,7 +484,7 @@ fn bounce(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::camera::CameraRays;
+    use crate::camera::PinholeCamera;
     use crate::sampler::PixelSampler;
 
     /// Everything a bounce leaves in a path and its shadow ray, as bits.
@@ -533,7 +533,7 @@ mod tests {
 
     fn check_level(rs: &RenderScene, settings: &PathSettings, level: u8) {
         let (rs, settings) = (rs, *settings);
-        let camera = CameraRays::new(&rs.scene.camera, 32, 32);
+        let camera = PinholeCamera::new(&rs.scene.camera, 32, 32);
         let mut checked = [0usize; 7];
         for y in 0..32u32 {
             // Sixteen paths of one row, walked together bounce by bounce.

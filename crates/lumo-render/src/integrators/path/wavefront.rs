@@ -18,7 +18,7 @@ use lumo_image::luminance;
 
 use crate::accel::packet::{RayPacket, LANES};
 use crate::accel::Hit;
-use crate::camera::CameraRays;
+use crate::camera::PinholeCamera;
 use crate::integrators::path::vector_bounce::{self, diffuse_bounce, SimpleLane};
 use crate::integrators::path::{FirstHit, PathRadiance, PathState, ShadowRay};
 use crate::render::{camera_sample_with, PixelEstimate, RenderSettings};
@@ -37,7 +37,7 @@ const MIN_VECTOR_LANES: usize = 4;
 /// estimate as [`crate::render_pixel`] (which calls this for one pixel).
 pub fn render_pixels(
     rs: &RenderScene,
-    camera: &CameraRays,
+    camera: &PinholeCamera,
     settings: &RenderSettings,
     y: usize,
     xs: Range<usize>,
@@ -75,7 +75,7 @@ impl Batch {
     fn run(
         &mut self,
         rs: &RenderScene,
-        camera: &CameraRays,
+        camera: &PinholeCamera,
         settings: &RenderSettings,
         y: usize,
         xs: Range<usize>,

@@ -1,0 +1,144 @@
+//! The lights as sources of particles: a light chosen in proportion to its power among those
+//! that can emit from inside the scene, a point on it and a direction leaving it. The light
+//! tracer starts its paths here (and bidirectional methods their light subpaths); next-event
+//! estimation samples the same lights from a shading point ([`Lights::sample`]).
+//!
+//! Environment and constant lights do not emit particles: a particle from infinity needs a
+//! scene-sized disk per direction, and they stay the path tracer's job.
+
+use std::f32::consts::PI;
+
+use glam::{Vec2, Vec3};
+
+use super::{triangle_radiance, LightKind, Lights};
+use crate::geometry::{
+    square_to_cosine_hemisphere, square_to_disk, square_to_triangle, square_to_uniform_sphere,
+    Basis, UNIFORM_SPHERE_PDF,
+};
+
+/// A particle leaving a light.
+#[derive(Clone, Copy, Debug)]
+pub struct EmissionSample {
+    /// Where it starts: a point on an area light, a point or spot light's position, or a point
+    /// on a scene-sized disk outside the scene for a directional light.
+    pub p: Vec3,
+    /// The area light's unit normal at `p` (it emits on this side); `None` for point, spot and
+    /// directional lights, which a camera cannot see directly.
+    pub normal: Option<Vec3>,
+    /// An area light's radiance at `p`, divided by the density of choosing `p` (light choice ×
+    /// 1/area): the light point's own contribution towards any direction on its front side.
+    pub radiance_over_pdf: Vec3,
+    /// Unit direction of travel.
+    pub dir: Vec3,
+    /// Emitted radiance (or intensity, irradiance) × cosine over the full sampling density of
+    /// (`p`, `dir`): the particle's initial throughput.
+    pub weight: Vec3,
+}
+
+impl Lights {
+    /// True when no light can emit particles (none at all, or environment lights only).
+    pub fn emits_no_particles(&self) -> bool {
+        self.emission_choice.is_none()
+    }
+
+    /// A particle from a light chosen for `u_choice` in proportion to power, starting at a
+    /// point chosen by `u_pos` (area lights; the disk of directional lights) in a direction
+    /// chosen by `u_dir`: cosine-weighted for area lights, uniform for point lights, uniform in
+    /// the cutoff cone for spot lights.
+    pub fn sample_emission(
+        &self,
+        u_choice: f32,
+        u_pos: Vec2,
+        u_dir: Vec2,
+    ) -> Option<EmissionSample> {
+        let choice = self.emission_choice.as_ref()?;
+        let (index, _) = choice.sample(u_choice);
+        let pick = choice.pmf(index);
+        if pick <= 0.0 {
+            return None;
+        }
+        let area_point = match &self.lights[index] {
+            LightKind::Triangle(tri) => {
+                let b = square_to_triangle(u_pos);
+                let radiance = triangle_radiance(&self.textured, tri.texture, tri.radiance, b);
+                Some((
+                    tri.p0 + tri.e1 * b.x + tri.e2 * b.y,
+                    tri.normal,
+                    tri.area,
+                    radiance,
+                ))
+            }
+            LightKind::Shape { shape, radiance } => {
+                let sp = shape.sample_area(u_pos);
+                Some((sp.p, sp.n, shape.area, *radiance))
+            }
+            _ => None,
+        };
+        let sample = match &self.lights[index] {
+            LightKind::Triangle(_) | LightKind::Shape { .. } => {
+                let (p, normal, area, radiance) = area_point?;
+                let pdf_area = pick / area;
+                let local = square_to_cosine_hemisphere(u_dir);
+                let dir = Basis::new(normal).to_world(local).normalize();
+                EmissionSample {
+                    p,
+                    normal: Some(normal),
+                    radiance_over_pdf: radiance / pdf_area,
+                    dir,
+                    // Le·cos / (pdf_A · cos/π) = Le·π / pdf_A.
+                    weight: radiance * PI / pdf_area,
+                }
+            }
+            LightKind::Point {
+                position,
+                intensity,
+            } => EmissionSample {
+                p: *position,
+                normal: None,
+                radiance_over_pdf: Vec3::ZERO,
+                dir: square_to_uniform_sphere(u_dir),
+                weight: *intensity / (pick * UNIFORM_SPHERE_PDF),
+            },
+            LightKind::Spot {
+                position,
+                axis,
+                intensity,
+                cone,
+            } => {
+                // Uniform in the cutoff cone, weighted by the falloff.
+                let cos_outer = cone.cos_cutoff();
+                let cos = 1.0 - u_dir.x * (1.0 - cos_outer);
+                let sin = (1.0 - cos * cos).max(0.0).sqrt();
+                let phi = 2.0 * PI * u_dir.y;
+                let local = Vec3::new(sin * phi.cos(), sin * phi.sin(), cos);
+                let falloff = cone.falloff(cos);
+                let pdf_dir = 1.0 / (2.0 * PI * (1.0 - cos_outer));
+                EmissionSample {
+                    p: *position,
+                    normal: None,
+                    radiance_over_pdf: Vec3::ZERO,
+                    dir: Basis::new(*axis).to_world(local).normalize(),
+                    weight: *intensity * falloff / (pick * pdf_dir),
+                }
+            }
+            LightKind::Directional {
+                direction,
+                irradiance,
+            } => {
+                // A disk covering the scene, perpendicular to the light, outside the scene.
+                let r = self.scene_radius;
+                let d = square_to_disk(u_pos) * r;
+                let f = Basis::new(*direction);
+                EmissionSample {
+                    p: self.scene_center + f.to_world(Vec3::new(d.x, d.y, 0.0)) - *direction * r,
+                    normal: None,
+                    radiance_over_pdf: Vec3::ZERO,
+                    dir: *direction,
+                    weight: *irradiance * (PI * r * r) / pick,
+                }
+            }
+            LightKind::Environment => return None,
+        };
+        Some(sample)
+    }
+}
