@@ -142,3 +142,67 @@ impl Lights {
         Some(sample)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use lumo_scene::shapes::rectangle;
+    use lumo_scene::{Camera, FovAxis, Light, Mat4, Material, Scene};
+
+    /// The particles' weights average to the lights' total power (∫∫ Le cos dA dω = π A Le for
+    /// an area light, 4π I for a point light, I ∫ falloff dω for a spot, E π r² for a directional
+    /// light over the scene's disk), and environment lights emit none.
+    #[test]
+    fn emission_weights_average_to_the_total_power() {
+        let mut scene = Scene::empty(Camera {
+            origin: Vec3::new(0.0, 0.0, 5.0),
+            target: Vec3::ZERO,
+            up: Vec3::Y,
+            fov: 40.0,
+            fov_axis: FovAxis::X,
+        });
+        let m = scene
+            .add_material(Material::diffuse("light", Vec3::ZERO).with_emission(Vec3::splat(3.0)));
+        // A 2 × 1 rectangle (Mitsuba's rectangle spans [-1, 1]²).
+        scene.add_mesh(rectangle(&Mat4::from_scale(Vec3::new(1.0, 0.5, 1.0)), m));
+        scene.lights.push(Light::Point {
+            position: Vec3::new(0.0, 1.0, 0.0),
+            intensity: Vec3::splat(5.0),
+        });
+        scene.lights.push(Light::Spot {
+            position: Vec3::new(1.0, 1.0, 0.0),
+            direction: Vec3::new(0.0, -1.0, 0.0),
+            intensity: Vec3::splat(7.0),
+            beam_width: 20.0,
+            cutoff: 35.0,
+        });
+        scene.lights.push(Light::Constant {
+            radiance: Vec3::splat(1.0),
+        });
+        let lights = Lights::new(&scene);
+        let spot = crate::lights::SpotCone::new(20.0, 35.0).solid_angle() * 7.0;
+        let expected = PI * 2.0 * 3.0 + 4.0 * PI * 5.0 + spot;
+        let n = 1 << 18;
+        let mut sum = 0.0f64;
+        for i in 0..n {
+            let mut sampler = crate::sampler::PixelSampler::new(0, 0, i, 9);
+            let (u_choice, u_pos, u_dir) =
+                (sampler.next_1d(), sampler.next_2d(), sampler.next_2d());
+            let e = lights
+                .sample_emission(u_choice, u_pos, u_dir)
+                .expect("an emitting light is always chosen");
+            assert!(e.weight.is_finite() && e.dir.is_normalized());
+            sum += e.weight.x as f64;
+        }
+        let mean = sum / n as f64;
+        assert!(
+            (mean / expected as f64 - 1.0).abs() < 0.01,
+            "mean weight {mean} vs total power {expected}"
+        );
+        let mut sky = Scene::empty(scene.camera);
+        sky.lights.push(Light::Constant {
+            radiance: Vec3::ONE,
+        });
+        assert!(Lights::new(&sky).emits_no_particles());
+    }
+}
