@@ -1,5 +1,7 @@
 //! Primitive meshes with Mitsuba's conventions, so scenes written for Mitsuba map exactly.
 
+use std::f32::consts::TAU;
+
 use glam::{Mat4, Vec2, Vec3};
 
 use crate::Mesh;
@@ -160,6 +162,152 @@ pub fn disk(to_world: &Mat4, material: usize, segments: u32) -> Mesh {
 pub fn aabox(lo: Vec3, hi: Vec3, material: usize) -> Mesh {
     let m = Mat4::from_translation((lo + hi) * 0.5) * Mat4::from_scale((hi - lo) * 0.5);
     cube(&m, material)
+}
+
+// ---- Builders for procedural meshes (the atrium's) ----------------------------------------
+
+/// A (cols × rows)-quad grid with vertex `f(i, j)`, i across, j along; the front faces
+/// (∂i × ∂j). With `wrap`, column `cols` is column 0 (closed surfaces of revolution). Smooth
+/// normals and uv = (i/cols, j/rows).
+pub(crate) fn grid(cols: u32, rows: u32, wrap: bool, f: impl Fn(u32, u32) -> Vec3) -> Mesh {
+    let width = if wrap { cols } else { cols + 1 };
+    let mut positions = Vec::with_capacity((width * (rows + 1)) as usize);
+    let mut uvs = Vec::with_capacity(positions.capacity());
+    for j in 0..=rows {
+        for i in 0..width {
+            positions.push(f(i, j));
+            uvs.push(Vec2::new(i as f32 / cols as f32, j as f32 / rows as f32));
+        }
+    }
+    let index = |i: u32, j: u32| j * width + if wrap { i % cols } else { i };
+    let mut indices = Vec::with_capacity((2 * cols * rows) as usize);
+    for j in 0..rows {
+        for i in 0..cols {
+            let (a, b, c, d) = (
+                index(i, j),
+                index(i + 1, j),
+                index(i + 1, j + 1),
+                index(i, j + 1),
+            );
+            indices.push([a, b, c]);
+            indices.push([c, d, a]);
+        }
+    }
+    let normals = smooth_normals(&positions, &indices);
+    Mesh {
+        name: "grid".into(),
+        positions,
+        normals,
+        uvs,
+        indices,
+        material: 0,
+        colors: Vec::new(),
+        analytic: None,
+    }
+}
+
+/// Area-weighted vertex normals.
+pub(crate) fn smooth_normals(positions: &[Vec3], indices: &[[u32; 3]]) -> Vec<Vec3> {
+    let mut normals = vec![Vec3::ZERO; positions.len()];
+    for t in indices {
+        let [a, b, c] = t.map(|i| positions[i as usize]);
+        let n = (b - a).cross(c - a);
+        for &i in t {
+            normals[i as usize] += n;
+        }
+    }
+    normals
+        .into_iter()
+        .map(|n| n.normalize_or(Vec3::Y))
+        .collect()
+}
+
+/// A surface of revolution about +y through the (radius, height) points of `profile`, which
+/// runs bottom to top so the faces point away from the axis (and up where it turns inwards).
+pub(crate) fn lathe(profile: &[Vec2], segments: u32) -> Mesh {
+    grid(segments, profile.len() as u32 - 1, true, |i, j| {
+        let phi = i as f32 / segments as f32 * TAU;
+        let p = profile[j as usize];
+        Vec3::new(p.x * phi.cos(), p.y, -p.x * phi.sin())
+    })
+}
+
+/// `n + 1` points of a circular arc in the (radius, height) plane, angles in radians.
+pub(crate) fn arc(center: Vec2, radius: f32, from: f32, to: f32, n: u32) -> Vec<Vec2> {
+    (0..=n)
+        .map(|k| {
+            let a = from + (to - from) * k as f32 / n as f32;
+            center + radius * Vec2::new(a.cos(), a.sin())
+        })
+        .collect()
+}
+
+/// Appends the quad `q` (a planar convex polygon, either winding) facing `facing`.
+pub(crate) fn push_quad(mesh: &mut Mesh, q: [Vec3; 4], facing: Vec3) {
+    let n = (q[2] - q[0]).cross(q[3] - q[1]);
+    let base = mesh.positions.len() as u32;
+    mesh.positions.extend_from_slice(&q);
+    if n.dot(facing) >= 0.0 {
+        mesh.indices.push([base, base + 1, base + 2]);
+        mesh.indices.push([base, base + 2, base + 3]);
+    } else {
+        mesh.indices.push([base, base + 2, base + 1]);
+        mesh.indices.push([base, base + 3, base + 2]);
+    }
+}
+
+/// An axis-aligned rectangle between `lo` and `hi` (equal along the axis of `facing`),
+/// facing `facing`, with uv = world coordinates in its plane (so textures tile per metre).
+pub(crate) fn panel(lo: Vec3, hi: Vec3, facing: Vec3, material: usize) -> Mesh {
+    let axis = facing.abs().max_position();
+    let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+    let corner = |a: f32, b: f32| {
+        let mut p = lo;
+        p[u] = a;
+        p[v] = b;
+        p
+    };
+    let q = [
+        corner(lo[u], lo[v]),
+        corner(hi[u], lo[v]),
+        corner(hi[u], hi[v]),
+        corner(lo[u], hi[v]),
+    ];
+    let mut mesh = Mesh {
+        name: "panel".into(),
+        material,
+        ..Default::default()
+    };
+    push_quad(&mut mesh, q, facing);
+    let n = facing.normalize();
+    mesh.normals = vec![n; 4];
+    mesh.uvs = q.iter().map(|p| Vec2::new(p[u], p[v])).collect();
+    mesh
+}
+
+/// Concatenates meshes (all with or all without normals and uvs) into one named mesh.
+pub(crate) fn merge(name: &str, material: usize, parts: impl IntoIterator<Item = Mesh>) -> Mesh {
+    let mut mesh = Mesh {
+        name: name.into(),
+        material,
+        ..Default::default()
+    };
+    for part in parts {
+        mesh.append(&part);
+    }
+    mesh.name = name.into();
+    mesh.material = material;
+    mesh
+}
+
+/// `mesh` and its mirror image in the x = 0 plane (both colonnades from one side's parts).
+pub(crate) fn with_mirror(mesh: Mesh) -> Mesh {
+    let mirrored = mesh
+        .clone()
+        .transformed(&Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)));
+    let mut both = mesh;
+    both.append(&mirrored);
+    both
 }
 
 #[cfg(test)]

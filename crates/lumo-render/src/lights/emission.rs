@@ -35,7 +35,47 @@ pub struct EmissionSample {
     pub weight: Vec3,
 }
 
+/// The densities with which [`Lights::sample_emission`] starts a particle at a point of an
+/// area light and sends it in a direction: what bidirectional methods need for a camera path
+/// that hits a light.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EmissionPdf {
+    /// Density of the point per unit area, including the choice of the light.
+    pub area: f32,
+    /// Density of the direction per unit solid angle (cosine-weighted about the normal).
+    pub solid_angle: f32,
+}
+
 impl Lights {
+    /// The densities with which [`Lights::sample_emission`] would leave point `p` (normal `n`)
+    /// of emissive triangle `triangle` of instance `instance` (or of its exact shape) in
+    /// direction `dir`; `None` where that light emits no particles or not towards `dir`.
+    pub fn emission_pdf(
+        &self,
+        instance: u32,
+        triangle: u32,
+        n: Vec3,
+        dir: Vec3,
+    ) -> Option<EmissionPdf> {
+        let choice = self.emission_choice.as_ref()?;
+        let offset = (*self.instance_offset.get(instance as usize)?)?;
+        let index = match self.lights.get(offset as usize)? {
+            LightKind::Shape { .. } => offset as usize,
+            _ => (offset + triangle) as usize,
+        };
+        let area = match self.lights.get(index)? {
+            LightKind::Triangle(tri) => tri.area,
+            LightKind::Shape { shape, .. } => shape.area,
+            _ => return None,
+        };
+        let cos = n.dot(dir);
+        let pick = choice.pmf(index);
+        (cos > 0.0 && area > 0.0 && pick > 0.0).then(|| EmissionPdf {
+            area: pick / area,
+            solid_angle: cos / PI,
+        })
+    }
+
     /// True when no light can emit particles (none at all, or environment lights only).
     pub fn emits_no_particles(&self) -> bool {
         self.emission_choice.is_none()
@@ -199,6 +239,29 @@ mod tests {
             (mean / expected as f64 - 1.0).abs() < 0.01,
             "mean weight {mean} vs total power {expected}"
         );
+        // The densities of area-light particles agree with their weights: Le·cos / (pdf_A·pdf_ω).
+        for i in 0..64 {
+            let mut sampler = crate::sampler::PixelSampler::new(1, 0, i, 9);
+            let (u_choice, u_pos, u_dir) =
+                (sampler.next_1d(), sampler.next_2d(), sampler.next_2d());
+            let e = lights.sample_emission(u_choice, u_pos, u_dir).unwrap();
+            let Some(n) = e.normal else { continue };
+            // The rectangle's two triangles have the same area and power, so the same pdf.
+            let tri = 0;
+            let pdf = lights
+                .emission_pdf(0, tri, n, e.dir)
+                .expect("the light emits");
+            let weight = 3.0 * n.dot(e.dir) / (pdf.area * pdf.solid_angle);
+            assert!(
+                (weight / e.weight.x - 1.0).abs() < 1e-4,
+                "{weight} vs {}",
+                e.weight.x
+            );
+            assert!(
+                lights.emission_pdf(0, tri, n, -e.dir).is_none(),
+                "nothing leaves the back"
+            );
+        }
         let mut sky = Scene::empty(scene.camera);
         sky.lights.push(Light::Constant {
             radiance: Vec3::ONE,

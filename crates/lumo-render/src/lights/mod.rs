@@ -16,7 +16,7 @@ use lumo_scene::{Light, Material, Mesh, Scene, Texture};
 use crate::accel::analytic::Shape;
 use crate::geometry::{square_to_triangle, square_to_uniform_sphere, UNIFORM_SPHERE_PDF};
 use crate::lights::distribution::{AliasTable, Distribution1d};
-pub use emission::EmissionSample;
+pub use emission::{EmissionPdf, EmissionSample};
 use environment::EnvSampler;
 
 /// An emissive triangle in world space.

@@ -1,0 +1,202 @@
+//! glTF materials (metallic-roughness, emissive strength, texture transforms) as lumo's.
+
+use super::*;
+
+impl GltfReader<'_, '_> {
+    /// `v` with negative components read as 0, with a warning at `label`: a colour (base
+    /// colour, emission) cannot be negative, and glTF allows only [0, 1] there.
+    pub(super) fn non_negative(
+        &mut self,
+        label: &str,
+        what: &str,
+        v: Vec3,
+    ) -> Result<Vec3, LoadError> {
+        if v.min_element() < 0.0 {
+            self.diag.warn(
+                self.at(label.to_string()),
+                format!(
+                    "{what} {v} has a negative value; a colour cannot be negative, so it is read \
+                     as 0"
+                ),
+            )?;
+        }
+        Ok(v.max(Vec3::ZERO))
+    }
+
+    /// The lumo material for a glTF material (metallic-roughness model).
+    pub(super) fn material(&mut self, mat: gltf::Material) -> Result<usize, LoadError> {
+        if let Some(&m) = self.material_map.get(&mat.index()) {
+            return Ok(m);
+        }
+        let label = match mat.index() {
+            Some(i) => format!("material {i}"),
+            None => "default material".into(),
+        };
+        let pbr = mat.pbr_metallic_roughness();
+        let factor = Vec4::from(pbr.base_color_factor()).truncate();
+        let factor = self.non_negative(&label, "baseColorFactor", factor)?;
+        let base = match pbr.base_color_texture() {
+            Some(info) => self.texture(&info, false, factor)?,
+            None => Texture::Constant(factor),
+        };
+        let mut metallic = pbr.metallic_factor();
+        let mut roughness = pbr.roughness_factor();
+        if let Some(info) = pbr.metallic_roughness_texture() {
+            // lumo's roughness and metalness are per material: use the texture's mean.
+            let mean = self.texture(&info, true, Vec3::ONE)?.average();
+            roughness *= mean.y;
+            metallic *= mean.z;
+            self.diag.warn(
+                self.at(label.clone()),
+                format!(
+                    "metallicRoughnessTexture replaced by its mean (roughness {roughness:.3}, \
+                     metallic {metallic:.3}); lumo has no per-texel roughness"
+                ),
+            )?;
+        }
+        if mat.normal_texture().is_some() || mat.occlusion_texture().is_some() {
+            self.diag.warn(
+                self.at(label.clone()),
+                "normal and occlusion textures are not supported; ignored",
+            )?;
+        }
+        if mat.alpha_mode() != gltf::material::AlphaMode::Opaque {
+            self.diag.warn(
+                self.at(label.clone()),
+                format!("alphaMode {:?} is rendered opaque", mat.alpha_mode()),
+            )?;
+        }
+        let emission = Vec3::from(mat.emissive_factor()) * mat.emissive_strength().unwrap_or(1.0);
+        let mut emission = self.non_negative(
+            &label,
+            "emissiveFactor × KHR_materials_emissive_strength",
+            emission,
+        )?;
+        if let Some(info) = mat.emissive_texture() {
+            let mean = self.texture(&info, false, Vec3::ONE)?.average();
+            emission *= mean;
+            if emission.max_element() > 0.0 {
+                self.diag.warn(
+                    self.at(label.clone()),
+                    "emissiveTexture replaced by its mean (lumo emission is uniform per material)",
+                )?;
+            }
+        }
+        let alpha = roughness * roughness;
+        let bsdf = if metallic >= 0.5 {
+            let (eta, k) = metal_from_reflectance(base.average());
+            if metallic < 1.0 {
+                self.diag.warn(
+                    self.at(label.clone()),
+                    format!("metallic {metallic} rendered as fully metallic"),
+                )?;
+            }
+            BsdfSpec::Conductor {
+                eta,
+                k,
+                roughness: Roughness::ggx(alpha),
+            }
+        } else {
+            if metallic > 0.0 {
+                self.diag.warn(
+                    self.at(label.clone()),
+                    format!("metallic {metallic} rendered as dielectric"),
+                )?;
+            }
+            // glTF's dielectric: a diffuse base under a specular layer with F0 = 0.04 (ior 1.5).
+            BsdfSpec::Plastic {
+                diffuse: base,
+                ior: 1.5,
+                roughness: Roughness::ggx(alpha),
+                nonlinear: false,
+                exact_rough_coat: false,
+            }
+        };
+        let name = mat.name().map_or(label, str::to_string);
+        let index = self.scene.add_material(Material {
+            name,
+            bsdf,
+            emission,
+            // glTF's doubleSided is about culling; lumo's opaque glTF surfaces reflect on both sides.
+            two_sided: true,
+            emission_map: None,
+        });
+        self.material_map.insert(mat.index(), index);
+        Ok(index)
+    }
+
+    /// A texture reference with its `KHR_texture_transform`; `tint` multiplies the pixels.
+    pub(super) fn texture(
+        &mut self,
+        info: &gltf::texture::Info,
+        raw: bool,
+        tint: Vec3,
+    ) -> Result<Texture, LoadError> {
+        let image = info.texture().source();
+        let at = self.at(format!("image {}", image.index()));
+        if info.tex_coord() != 0 {
+            self.diag
+                .warn(at.clone(), "only TEXCOORD_0 is supported; using it")?;
+        }
+        let decoded = match self.images.get(&(image.index(), raw)) {
+            Some(img) => img.clone(),
+            None => {
+                let bytes = match image.source() {
+                    gltf::image::Source::View { view, .. } => {
+                        let buf = self
+                            .buffers
+                            .get(view.buffer().index())
+                            .map(Vec::as_slice)
+                            .unwrap_or(&[]);
+                        buf.get(view.offset()..view.offset() + view.length())
+                            .ok_or_else(|| {
+                                LoadError::invalid(at.clone(), "image buffer view is out of range")
+                            })?
+                            .to_vec()
+                    }
+                    gltf::image::Source::Uri { uri, .. } => uri_bytes(self.path, uri, &at)?,
+                };
+                let img =
+                    decode_image(&bytes, raw).map_err(|e| LoadError::invalid(at.clone(), e))?;
+                // glTF puts v = 0 at the image's top row, lumo at its bottom row.
+                let img = Arc::new(flip_rows(img));
+                self.images.insert((image.index(), raw), img.clone());
+                img
+            }
+        };
+        let image = if tint == Vec3::ONE {
+            decoded
+        } else {
+            let mut img = (*decoded).to_channels(3);
+            for px in img.data.chunks_exact_mut(3) {
+                px[0] *= tint.x;
+                px[1] *= tint.y;
+                px[2] *= tint.z;
+            }
+            Arc::new(img)
+        };
+        // glTF samplers' filters are not read yet: nearest, as lumo has always looked them up.
+        let texture = Texture::Bitmap {
+            image,
+            uv_scale: Vec2::ONE,
+            filter: TextureFilter::Nearest,
+            wrap: WrapMode::Repeat,
+        };
+        Ok(match info.texture_transform() {
+            None => texture,
+            Some(t) => {
+                let (s, c) = t.rotation().sin_cos();
+                // uv' = T(offset) · R(rotation) · S(scale) · uv, as the extension defines.
+                let rot = Mat2::from_cols(Vec2::new(c, -s), Vec2::new(s, c));
+                let m = Affine2::from_mat2_translation(
+                    rot * Mat2::from_diagonal(Vec2::from(t.scale())),
+                    Vec2::from(t.offset()),
+                );
+                Texture::Transformed {
+                    texture: Arc::new(texture),
+                    uv: m,
+                }
+            }
+        })
+    }
+}
