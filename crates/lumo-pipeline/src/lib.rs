@@ -3,6 +3,8 @@
 //! planes (lumo-filter); tracing goes through [`map_pixels`](lumo_render::map_pixels), the
 //! crate's one parallel loop.
 
+#![forbid(unsafe_code)]
+
 mod atrous;
 mod bilateral;
 mod compose;
