@@ -55,33 +55,63 @@ pub(crate) fn cos_sin_quarter(phi: f32) -> (f32, f32) {
 /// Uniform point on the unit disk (concentric mapping, low distortion for Sobol points).
 #[inline]
 pub fn square_to_disk(u: Vec2) -> Vec2 {
-    let o = 2.0 * u - Vec2::ONE;
-    if o.x == 0.0 && o.y == 0.0 {
-        return Vec2::ZERO;
-    }
-    if o.x.abs() > o.y.abs() {
-        // θ = π/4 · (y/x) ∈ [−π/4, π/4].
-        let (c, s) = cos_sin_quarter(std::f32::consts::FRAC_PI_4 * (o.y / o.x));
-        Vec2::new(o.x * c, o.x * s)
+    let (x, y) = disk_map(u.x, u.y);
+    Vec2::new(x, y)
+}
+
+/// The concentric square-to-disk map on plain numbers, written with selects rather than
+/// branches: the one formula both [`square_to_disk`] and the vector bounce's lane loops use
+/// (where the compiler turns it into vector instructions).
+#[inline(always)]
+pub(crate) fn disk_map(u0: f32, u1: f32) -> (f32, f32) {
+    let (ox, oy) = (2.0 * u0 - 1.0, 2.0 * u1 - 1.0);
+    let centre = ox == 0.0 && oy == 0.0;
+    let major_x = ox.abs() > oy.abs();
+    // Major x: θ = π/4 · (y/x). Major y: θ = π/2 − φ with φ = π/4 · (x/y), so cos θ = sin φ
+    // and sin θ = cos φ. (At the centre the quotient is NaN; the select discards it.)
+    let phi = std::f32::consts::FRAC_PI_4 * if major_x { oy / ox } else { ox / oy };
+    let (c, s) = cos_sin_quarter(phi);
+    let dx = if centre {
+        0.0
+    } else if major_x {
+        ox * c
     } else {
-        // θ = π/2 − φ with φ = π/4 · (x/y): cos θ = sin φ, sin θ = cos φ.
-        let (c, s) = cos_sin_quarter(std::f32::consts::FRAC_PI_4 * (o.x / o.y));
-        Vec2::new(o.y * s, o.y * c)
-    }
+        oy * s
+    };
+    let dy = if centre {
+        0.0
+    } else if major_x {
+        ox * s
+    } else {
+        oy * c
+    };
+    (dx, dy)
+}
+
+/// The height over the unit disk's point (`x`, `y`) of the hemisphere above it: the z of
+/// [`square_to_cosine_hemisphere`].
+#[inline(always)]
+pub(crate) fn hemisphere_z(x: f32, y: f32) -> f32 {
+    (1.0 - (x * x + y * y)).max(0.0).sqrt()
 }
 
 /// Cosine-weighted direction on the +z hemisphere; pdf = cosθ/π.
 #[inline]
 pub fn square_to_cosine_hemisphere(u: Vec2) -> Vec3 {
-    let d = square_to_disk(u);
-    let z = (1.0 - d.length_squared()).max(0.0).sqrt();
-    Vec3::new(d.x, d.y, z)
+    let (x, y) = disk_map(u.x, u.y);
+    Vec3::new(x, y, hemisphere_z(x, y))
 }
 
 /// Density of [`square_to_cosine_hemisphere`].
 #[inline]
 pub fn cosine_hemisphere_pdf(v: Vec3) -> f32 {
-    v.z.max(0.0) * FRAC_1_PI
+    cosine_pdf(v.z)
+}
+
+/// [`cosine_hemisphere_pdf`] of a direction with z component `cos`.
+#[inline(always)]
+pub(crate) fn cosine_pdf(cos: f32) -> f32 {
+    cos.max(0.0) * FRAC_1_PI
 }
 
 /// Uniform direction on the unit sphere; pdf = 1/(4π).
@@ -99,14 +129,32 @@ pub const UNIFORM_SPHERE_PDF: f32 = 1.0 / (4.0 * PI);
 /// Uniform barycentrics (b1, b2) on a triangle (Heitz's low-distortion square-to-triangle map).
 #[inline]
 pub fn square_to_triangle(u: Vec2) -> Vec2 {
-    let (mut b0, mut b1) = (u.x / 2.0, u.y / 2.0);
+    let (b1, b2) = triangle_map(u.x, u.y);
+    Vec2::new(b1, b2)
+}
+
+/// [`square_to_triangle`] on plain numbers with selects: the one formula the scalar code and
+/// the vector bounce's lane loops share.
+#[inline(always)]
+pub(crate) fn triangle_map(u0: f32, u1: f32) -> (f32, f32) {
+    let (b0, b1) = (u0 / 2.0, u1 / 2.0);
     let offset = b1 - b0;
-    if offset > 0.0 {
-        b1 += offset;
-    } else {
-        b0 -= offset;
-    }
-    Vec2::new(b1, 1.0 - b0 - b1)
+    let up = offset > 0.0;
+    let b1 = if up { b1 + offset } else { b1 };
+    let b0 = if up { b0 } else { b0 - offset };
+    (b1, 1.0 - b0 - b1)
+}
+
+/// `p` moved off a surface with unit geometric normal `ng` to the side of direction `d`, by
+/// `eps` relative to the point's magnitude: the one ray-origin rule of every integrator (the
+/// scalar code through [`crate::RenderScene::offset`], the lane loops directly).
+#[inline(always)]
+pub(crate) fn offset_point(p: [f32; 3], ng: [f32; 3], d: [f32; 3], eps: f32) -> [f32; 3] {
+    let along = (ng[0] * d[0]) + (ng[1] * d[1]) + (ng[2] * d[2]);
+    let side = if along >= 0.0 { 1.0 } else { -1.0 };
+    let m = p[0].abs().max(p[1].abs().max(p[2].abs()));
+    let k = side * eps * (1.0 + m);
+    [p[0] + ng[0] * k, p[1] + ng[1] * k, p[2] + ng[2] * k]
 }
 
 /// Mirror reflection of `v` about `n` (both pointing away from the surface).

@@ -13,7 +13,7 @@ use glam::{Vec2, Vec3};
 
 use crate::bsdf::TransportMode;
 use crate::camera::PinholeCamera;
-use crate::geometry::shadow_segment;
+use crate::geometry::{offset_point, shadow_segment};
 use crate::integrators::path::PathSettings;
 use crate::render_scene::RenderScene;
 use crate::sampler::PixelSampler;
@@ -101,10 +101,7 @@ pub fn trace_light_path(
     let mut origin = e.p;
     if let Some(normal) = e.normal {
         let p = e.p;
-        let off = |d: Vec3| {
-            let side = if normal.dot(d) >= 0.0 { 1.0 } else { -1.0 };
-            p + normal * (side * rs.ray_epsilon * (1.0 + p.abs().max_element()))
-        };
+        let off = |d: Vec3| offset_point(p.into(), normal.into(), d.into(), rs.ray_epsilon).into();
         // The light itself seen by the camera (depth 1).
         let seen = connect(rs, camera, p, normal, off, |wc| {
             if normal.dot(wc) > 0.0 {

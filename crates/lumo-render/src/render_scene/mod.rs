@@ -11,6 +11,7 @@ use lumo_scene::{BsdfSpec, Scene, SceneError, Texture};
 use crate::accel::analytic::Shape;
 use crate::accel::{Accel, Hit};
 use crate::bsdf::{fresnel_diffuse_reflectance, RoughCoat, SMOOTH_ALPHA};
+use crate::geometry::offset_point;
 use crate::geometry::Basis;
 use crate::lights::Lights;
 
@@ -371,7 +372,6 @@ impl RenderScene {
     /// A ray origin just off the surface on the side of direction `d`.
     #[inline]
     pub fn offset(&self, s: &Surface, d: Vec3) -> Vec3 {
-        let side = if s.ng.dot(d) >= 0.0 { 1.0 } else { -1.0 };
-        s.p + s.ng * (side * self.ray_epsilon * (1.0 + s.p.abs().max_element()))
+        offset_point(s.p.into(), s.ng.into(), d.into(), self.ray_epsilon).into()
     }
 }

@@ -19,14 +19,15 @@
 // vector operation per statement.
 #![allow(clippy::needless_range_loop)]
 
-use std::f32::consts::{FRAC_1_PI, FRAC_PI_4};
-
 use glam::{Vec2, Vec3};
 
 use crate::accel::packet::LANES;
 use crate::accel::Hit;
 use crate::bsdf::{Bsdf, Diffuse};
-use crate::geometry::{cos_sin_quarter, power_heuristic, shadow_segment, Basis};
+use crate::geometry::{
+    cosine_pdf, disk_map, hemisphere_z, offset_point, power_heuristic, shadow_segment,
+    triangle_map, Basis,
+};
 use crate::integrators::path::{PathSettings, PathState, ShadowRay};
 use crate::render_scene::{RenderScene, SimpleDiffuse, Surface};
 
@@ -63,16 +64,6 @@ fn sel(c: bool, x: f32, y: f32) -> f32 {
     } else {
         y
     }
-}
-
-/// `p` moved off the surface with unit normal `ng` to the side of `d` (as
-/// [`RenderScene::offset`]).
-#[inline(always)]
-fn offset(p: [f32; 3], ng: [f32; 3], d: [f32; 3], eps: f32) -> [f32; 3] {
-    let side = sel(dot(ng, d) >= 0.0, 1.0, -1.0);
-    let m = p[0].abs().max(p[1].abs().max(p[2].abs()));
-    let k = side * eps * (1.0 + m);
-    [p[0] + ng[0] * k, p[1] + ng[1] * k, p[2] + ng[2] * k]
 }
 
 /// Advances the paths `lanes` (at most [`LANES`], every hit on a simple diffuse instance,
@@ -331,13 +322,7 @@ fn bounce(
     let (mut sh_o, mut sh_d, mut sh_c) = ([[0.0f32; N]; 3], [[0.0f32; N]; 3], [[0.0f32; N]; 3]);
     let mut sh_tmax = [0.0f32; N];
     for i in 0..N {
-        // square_to_triangle
-        let (mut b0, mut b1) = (u_light2[0][i] / 2.0, u_light2[1][i] / 2.0);
-        let off = b1 - b0;
-        let pos_off = off > 0.0;
-        b1 = sel(pos_off, b1 + off, b1);
-        b0 = sel(pos_off, b0, b0 - off);
-        let (bx, by) = (b1, 1.0 - b0 - b1);
+        let (bx, by) = triangle_map(u_light2[0][i], u_light2[1][i]);
         let p = at(&pos, i);
         let q = [
             lp0[0][i] + le1[0][i] * bx + le2[0][i] * by,
@@ -370,14 +355,14 @@ fn bounce(
         let woz = sel(flip, -wo[2][i], wo[2][i]);
         let wiz = sel(flip, -wil[2], wil[2]);
         let front = !(woz <= 0.0 || wiz <= 0.0);
-        let cos_pdf = wiz.max(0.0) * FRAC_1_PI;
+        let cos_pdf = cosine_pdf(wiz);
         let f = [
             sel(front, albedo[0][i] * cos_pdf, 0.0),
             sel(front, albedo[1][i] * cos_pdf, 0.0),
             sel(front, albedo[2][i] * cos_pdf, 0.0),
         ];
         ok &= !(f[0] == 0.0 && f[1] == 0.0 && f[2] == 0.0);
-        let so = offset(p, at(&ng, i), wi, eps);
+        let so = offset_point(p, at(&ng, i), wi, eps);
         let (sdir, tmax) = shadow_segment(so, q, wi, eps);
         // Bsdf::pdf: 0 when the viewer is below the (oriented) surface.
         let bsdf_pdf = sel(woz <= 0.0, 0.0, cos_pdf);
@@ -400,16 +385,9 @@ fn bounce(
     for i in 0..N {
         let flip = wo[2][i] < 0.0;
         let woz = sel(flip, -wo[2][i], wo[2][i]);
-        let ox = 2.0 * u_dir[0][i] - 1.0;
-        let oy = 2.0 * u_dir[1][i] - 1.0;
-        let centre = ox == 0.0 && oy == 0.0;
-        let major_x = ox.abs() > oy.abs();
-        let phi = FRAC_PI_4 * sel(major_x, oy / ox, ox / oy);
-        let (c, s) = cos_sin_quarter(phi);
-        let dx = sel(centre, 0.0, sel(major_x, ox * c, oy * s));
-        let dy = sel(centre, 0.0, sel(major_x, ox * s, oy * c));
-        let z = (1.0 - (dx * dx + dy * dy)).max(0.0).sqrt();
-        let pdf = z.max(0.0) * FRAC_1_PI;
+        let (dx, dy) = disk_map(u_dir[0][i], u_dir[1][i]);
+        let z = hemisphere_z(dx, dy);
+        let pdf = cosine_pdf(z);
         let wi = [sel(flip, -dx, dx), sel(flip, -dy, dy), sel(flip, -z, z)];
         let mut ok = alive[i] && woz != 0.0 && pdf > 0.0;
         // Basis::to_world, then normalize.
@@ -430,7 +408,7 @@ fn bounce(
             thr[2][i] * albedo[2][i],
         ];
         let p = at(&pos, i);
-        let no = offset(p, g, nd, eps);
+        let no = offset_point(p, g, nd, eps);
         // Russian roulette (the scalar code's depth test is per lane here).
         let max = {
             let m = |a: f32, b: f32| if a > b { a } else { b };
