@@ -4,9 +4,9 @@
 use lumo_image::Image;
 use rayon::prelude::*;
 
-use crate::error::param;
-use crate::fastmath::exp_neg;
-use crate::gbuffer::{Features, Filtered, Prepared};
+use crate::common::error::param;
+use crate::common::fastmath::exp_neg;
+use crate::common::gbuffer::{Features, Filtered, Prepared};
 use crate::FilterError;
 
 /// Parameters of [`bilateral`]. A range σ of `None` switches that term off; `Some(f32::INFINITY)`

@@ -5,13 +5,13 @@ use lumo_image::Image;
 use rayon::prelude::*;
 
 use crate::bilateral::{bilateral, BilateralParams};
-use crate::error::param;
-use crate::fastmath::exp_neg;
-use crate::gbuffer::{
+use crate::common::error::param;
+use crate::common::fastmath::exp_neg;
+use crate::common::gbuffer::{
     background_mask, check_color, check_features, missing_pixels, plane0, planes3, Features,
     Filtered,
 };
-use crate::outliers::remove_outliers;
+use crate::common::outliers::remove_outliers;
 use crate::FilterError;
 
 /// Parameters of [`jbu`].

@@ -18,11 +18,11 @@ use rayon::prelude::*;
 
 pub use motion::{motion_vectors, pinhole_view_projection, project_to_pixel};
 
-use crate::albedo::albedo_divisor;
 use crate::atrous::{AtrousFilter, AtrousParams};
-use crate::error::param;
-use crate::gbuffer::{check_color, check_size, missing_pixels, Features, Filtered};
-use crate::passthrough::passed;
+use crate::common::albedo::albedo_divisor;
+use crate::common::error::param;
+use crate::common::gbuffer::{check_color, check_size, missing_pixels, Features, Filtered};
+use crate::common::passthrough::passed;
 use crate::FilterError;
 use reproject::{History, Sample};
 

@@ -1,16 +1,26 @@
 //! Guided image filter (He et al. 2010) with a geometry guide (Bauszat et al. 2011; papers/README
 //! §2), and the fast guided filter (He & Sun 2015) as an option.
+//!
+//! Files: this one (guide building, parameters, the public entry point, the sub-sampled
+//! variant), stream.rs (the exact filter streamed row by row), cholesky.rs (its small window
+//! solves) and lookup.rs (the paper's geometry-aware lookup, used by the guided pipeline).
+
+mod cholesky;
+mod lookup;
+mod stream;
 
 use lumo_image::Image;
 use rayon::prelude::*;
 
-use crate::boxsum::box_mean;
-use crate::error::param;
-use crate::gbuffer::{
+use crate::common::boxsum::box_mean;
+use crate::common::error::param;
+use crate::common::gbuffer::{
     background_mask, check_color, check_features, check_size, flush, plane0, Features, Filtered,
 };
-use crate::guided_stream::{stream, Problem};
 use crate::FilterError;
+use stream::{stream, Problem};
+
+pub use lookup::{most_similar, most_similar_in_grid, neighbour_cells};
 
 /// Largest supported guide dimension.
 pub const MAX_GUIDE_DIMS: usize = 8;
