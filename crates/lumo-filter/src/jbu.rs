@@ -12,6 +12,7 @@ use crate::common::gbuffer::{
     Filtered,
 };
 use crate::common::outliers::remove_outliers;
+use crate::denoiser::{Denoiser, FilterInput, FilterKind};
 use crate::FilterError;
 
 /// Parameters of [`jbu`].
@@ -45,6 +46,26 @@ impl Default for JbuParams {
             outlier_sigma: Some(2.0),
             prefilter: false,
         }
+    }
+}
+
+/// Joint bilateral upsampling behind the [`Denoiser`] interface: the input's colour is the
+/// low-resolution buffer (⌈W/k⌉×⌈H/k⌉), its features the full-resolution depth and / or
+/// normal planes (at least one is needed).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct JbuDenoiser {
+    /// The upsampling's parameters.
+    pub params: JbuParams,
+}
+
+impl Denoiser for JbuDenoiser {
+    fn name(&self) -> &'static str {
+        FilterKind::Jbu.name()
+    }
+
+    /// [`jbu`] of the input's colour to its features' resolution.
+    fn denoise(&mut self, input: &FilterInput) -> Result<Filtered, FilterError> {
+        jbu(input.color, &input.features, &self.params)
     }
 }
 

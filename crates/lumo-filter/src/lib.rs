@@ -13,12 +13,17 @@
 //!   the one stateful filter: reprojected, accumulated history + the variance-guided À-Trous;
 //!   [`motion_vectors`] computes its motion vectors for a static scene and a moving camera.
 //!
+//! Every filter is also a [`Denoiser`] (one interface: a [`FilterInput`] in, [`Filtered`] out,
+//! parameters held by the denoiser, one [`FilterError`]), and [`FILTERS`] lists them all: the
+//! one list that the command line and the benchmarks use.
+//!
 //! Colour images have 3 channels. Non-finite colour pixels are treated as missing (weight 0);
 //! results are always finite and report how many pixels were missing.
 //! See docs/filters.md for parameters, defaults and how they were chosen.
 //!
 //! Layout: one folder or file per filter (`atrous/`, `guided/`, `bilateral.rs`, `jbu.rs`,
-//! `temporal/`), what they share in `common/`, benchmark inputs in `bench/`. This file only
+//! `temporal/`), the interface and the list in `denoiser.rs`, what the filters share in
+//! `common/`, benchmark inputs in `bench/`. This file only
 //! declares the modules and re-exports their public items.
 // Every unsafe block (the SIMD kernels) says why it is sound.
 #![deny(clippy::undocumented_unsafe_blocks)]
@@ -34,17 +39,18 @@ mod common;
 mod atrous;
 mod bench;
 mod bilateral;
+mod denoiser;
 mod guided;
 mod jbu;
 mod temporal;
 
 pub use atrous::{
-    atrous, AtrousFilter, AtrousParams, B3, DEFAULT_SIGMA_LUMINANCE, DEFAULT_SIGMA_NORMAL,
-    DEFAULT_SIGMA_POSITION,
+    atrous, AtrousDenoiser, AtrousFilter, AtrousParams, B3, DEFAULT_SIGMA_LUMINANCE,
+    DEFAULT_SIGMA_NORMAL, DEFAULT_SIGMA_POSITION,
 };
 pub use bench::synthetic::{synthetic_frame, SyntheticFrame};
 pub use bench::{synthetic, table2};
-pub use bilateral::{bilateral, BilateralParams};
+pub use bilateral::{bilateral, BilateralDenoiser, BilateralParams};
 pub use common::albedo::{demodulate, with_demodulation, Demodulated, ALBEDO_EPS};
 pub use common::boxsum::box_mean;
 pub use common::error::FilterError;
@@ -53,11 +59,13 @@ pub use common::gbuffer::{missing_pixels, Features, Filtered};
 pub use common::noise::spatial_variance;
 pub use common::outliers::remove_outliers;
 pub use common::passthrough::with_passthrough;
+pub use denoiser::{Denoiser, FilterInfo, FilterInput, FilterKind, Shape, FILTERS};
 pub use guided::{
     build_guide, guided, most_similar, most_similar_in_grid, neighbour_cells, DepthNorm, Guide,
-    GuideKind, GuidedParams, DEFAULT_EPS_DEPTH, DEFAULT_EPS_NORMAL, DEFAULT_RADIUS, MAX_GUIDE_DIMS,
+    GuideKind, GuidedDenoiser, GuidedParams, DEFAULT_EPS_DEPTH, DEFAULT_EPS_NORMAL, DEFAULT_RADIUS,
+    MAX_GUIDE_DIMS,
 };
-pub use jbu::{jbu, JbuParams};
+pub use jbu::{jbu, JbuDenoiser, JbuParams};
 pub use temporal::{
     motion_vectors, pinhole_view_projection, project_to_pixel, TemporalFilter, TemporalFrame,
     TemporalParams, DEFAULT_ALPHA, DEFAULT_TEMPORAL_SIGMA_LUMINANCE,

@@ -31,6 +31,7 @@ pub use params::{
 };
 
 use crate::common::gbuffer::{Features, Filtered};
+use crate::denoiser::{Denoiser, FilterInput, FilterKind};
 use crate::FilterError;
 use fill::{fill_all, fill_block};
 use input::{feature_count, input_stats, FillScales, Input};
@@ -107,6 +108,7 @@ impl AtrousFilter {
     /// [`Self::filter`] that also returns the first level's output (what SVGF feeds back as
     /// the next frame's colour history), with the same remodulation as the final output.
     /// Always runs level by level (the pipeline never materialises a level).
+    /// `pub(crate)`: the temporal filter's, which feeds that level back as its history.
     pub(crate) fn filter_keeping_first_level(
         &mut self,
         color: &Image,
@@ -131,6 +133,38 @@ impl AtrousFilter {
             Some(&mut first),
         );
         Ok((Filtered { image, missing }, first))
+    }
+}
+
+/// The À-Trous filter behind the [`Denoiser`] interface: its parameters and its working
+/// memory (an [`AtrousFilter`], kept between frames). Reads the colour and whichever of
+/// normal, position, albedo and variance its parameters use.
+#[derive(Debug, Default)]
+pub struct AtrousDenoiser {
+    /// The parameters of every call.
+    pub params: AtrousParams,
+    filter: AtrousFilter,
+}
+
+impl AtrousDenoiser {
+    /// A denoiser with these parameters.
+    pub fn new(params: AtrousParams) -> Self {
+        Self {
+            params,
+            filter: AtrousFilter::new(),
+        }
+    }
+}
+
+impl Denoiser for AtrousDenoiser {
+    fn name(&self) -> &'static str {
+        FilterKind::Atrous.name()
+    }
+
+    /// [`AtrousFilter::filter`] on the input's colour and features.
+    fn denoise(&mut self, input: &FilterInput) -> Result<Filtered, FilterError> {
+        self.filter
+            .filter(input.color, &input.features, &self.params)
     }
 }
 

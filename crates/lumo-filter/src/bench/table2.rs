@@ -1,55 +1,67 @@
 //! The filter configurations of the papers' Table 2 (filter time per resolution × settings),
-//! run on a [`SyntheticFrame`]: one list for `cargo bench -p lumo-filter` and `lumo bench
-//! speed`, so both time exactly the same work.
-
-use std::sync::Mutex;
+//! run on a [`SyntheticFrame`] through the [`Denoiser`] interface: one list for
+//! `cargo bench -p lumo-filter` and `lumo bench speed`, so both time exactly the same work.
 
 use crate::{
-    bilateral, build_guide, guided, AtrousFilter, AtrousParams, BilateralParams, DepthNorm,
-    Features, FilterError, GuideKind, GuidedParams, SyntheticFrame,
+    AtrousDenoiser, AtrousParams, BilateralDenoiser, BilateralParams, Denoiser, Features,
+    FilterError, FilterInput, FilterKind, GuideKind, GuidedDenoiser, GuidedParams, SyntheticFrame,
 };
-
-/// What a configuration filters with; callers format their own labels from it.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Table2Kind {
-    /// À-Trous with a fixed colour σ and `weights` edge-stopping weights (0 none, 1 colour,
-    /// 2 + normal, 3 + position).
-    Atrous {
-        /// À-Trous levels.
-        iterations: usize,
-        /// Edge-stopping weights, 0–3.
-        weights: usize,
-    },
-    /// À-Trous with lumo's defaults: variance-guided colour weight, normal and position.
-    AtrousDefault,
-    /// Guided filter, r = 24, ε = 0.003, guide of `dims` dimensions, coefficients sub-sampled by
-    /// `fast` (1 = exact); the time includes building the guide.
-    Guided {
-        /// Guide dimensions: 1, 3 or 4.
-        dims: usize,
-        /// Fast guided filter sub-sampling.
-        fast: usize,
-    },
-    /// Cross bilateral filter with normal and depth range terms, σ_s = r/2.
-    Bilateral {
-        /// Window radius.
-        radius: usize,
-    },
-}
 
 /// Names of the À-Trous weight counts 0–3.
 pub const ATROUS_WEIGHT_NAMES: [&str; 4] =
     ["none", "colour", "colour+normal", "colour+normal+position"];
 
-/// Runs one configuration on a frame (the result is discarded).
-pub type Table2Run = Box<dyn Fn(&SyntheticFrame) -> Result<(), FilterError> + Sync>;
-
-/// One Table 2 configuration.
+/// One Table 2 configuration: a denoiser with fixed parameters and the planes of the frame
+/// it is given.
 pub struct Table2Config {
-    /// What it runs.
-    pub kind: Table2Kind,
-    /// Runs it.
-    pub run: Table2Run,
+    /// Which filter (its name and title come from [`crate::FILTERS`]).
+    pub filter: FilterKind,
+    /// The settings in words, e.g. "5 it, colour+normal" or "4 dims, r=24, fast s=4".
+    pub label: String,
+    /// Whether `lumo bench speed` lists it: it leaves out the unweighted À-Trous rows (a
+    /// plain B3 convolution, in the papers' table for comparison only).
+    pub speed_table: bool,
+    /// The denoiser, reused between runs: warm, as a renderer filtering frame after frame
+    /// (the À-Trous keeps its working memory).
+    denoiser: Box<dyn Denoiser>,
+    /// The planes of the frame it reads.
+    planes: fn(&SyntheticFrame) -> Features<'_>,
+}
+
+impl Table2Config {
+    /// Filters the frame's noisy image once (the result is discarded).
+    pub fn run(&mut self, frame: &SyntheticFrame) -> Result<(), FilterError> {
+        let input = FilterInput::new(&frame.noisy, (self.planes)(frame));
+        std::hint::black_box(self.denoiser.denoise(&input)?);
+        Ok(())
+    }
+}
+
+/// Normal, position and depth: the À-Trous edge-stopping planes.
+fn geometry(fr: &SyntheticFrame) -> Features<'_> {
+    Features {
+        normal: Some(&fr.normal),
+        position: Some(&fr.position),
+        depth: Some(&fr.depth),
+        ..Features::default()
+    }
+}
+
+/// The geometry planes and the variance: lumo's default À-Trous.
+fn geometry_variance(fr: &SyntheticFrame) -> Features<'_> {
+    Features {
+        variance: Some(&fr.variance),
+        ..geometry(fr)
+    }
+}
+
+/// Normal and depth: the guide and the bilateral range terms.
+fn normal_depth(fr: &SyntheticFrame) -> Features<'_> {
+    Features {
+        normal: Some(&fr.normal),
+        depth: Some(&fr.depth),
+        ..Features::default()
+    }
 }
 
 /// Every configuration, in table order: À-Trous at 1, 5 and 10 iterations with 0–3 weights,
@@ -67,86 +79,63 @@ pub fn table2_configs() -> Vec<Table2Config> {
                 sigma_position: (weights >= 3).then_some(0.1),
                 ..AtrousParams::default()
             };
-            // One filter per configuration, reused between runs: warm, as a renderer
-            // filtering frame after frame (and as the peers are timed).
-            let filter = Mutex::new(AtrousFilter::new());
             v.push(Table2Config {
-                kind: Table2Kind::Atrous {
-                    iterations,
-                    weights,
-                },
-                run: Box::new(move |fr| {
-                    let f = Features {
-                        normal: Some(&fr.normal),
-                        position: Some(&fr.position),
-                        depth: Some(&fr.depth),
-                        ..Features::default()
-                    };
-                    let mut filter = filter.lock().unwrap_or_else(|e| e.into_inner());
-                    std::hint::black_box(filter.filter(&fr.noisy, &f, &p)?);
-                    Ok(())
-                }),
+                filter: FilterKind::Atrous,
+                label: format!("{iterations} it, {}", ATROUS_WEIGHT_NAMES[weights]),
+                speed_table: weights > 0,
+                denoiser: Box::new(AtrousDenoiser::new(p)),
+                planes: geometry,
             });
         }
     }
-    let filter = Mutex::new(AtrousFilter::new());
     v.push(Table2Config {
-        kind: Table2Kind::AtrousDefault,
-        run: Box::new(move |fr| {
-            let f = Features {
-                normal: Some(&fr.normal),
-                position: Some(&fr.position),
-                depth: Some(&fr.depth),
-                variance: Some(&fr.variance),
-                ..Features::default()
-            };
-            let mut filter = filter.lock().unwrap_or_else(|e| e.into_inner());
-            std::hint::black_box(filter.filter(&fr.noisy, &f, &AtrousParams::default())?);
-            Ok(())
-        }),
+        filter: FilterKind::Atrous,
+        label: "5 it, variance-guided + normal + position (lumo's default)".to_string(),
+        speed_table: true,
+        denoiser: Box::new(AtrousDenoiser::new(AtrousParams::default())),
+        planes: geometry_variance,
     });
-    for (kind, dims) in [
-        (GuideKind::Grey, 1),
-        (GuideKind::Normal, 3),
-        (GuideKind::NormalDepth, 4),
-    ] {
+    for guide in [GuideKind::Grey, GuideKind::Normal, GuideKind::NormalDepth] {
         for fast in [1usize, 4] {
+            let mode = if fast == 1 {
+                "exact".to_string()
+            } else {
+                format!("fast s={fast}")
+            };
             v.push(Table2Config {
-                kind: Table2Kind::Guided { dims, fast },
-                run: Box::new(move |fr| {
-                    let f = Features {
-                        normal: Some(&fr.normal),
-                        depth: Some(&fr.depth),
-                        ..Features::default()
-                    };
-                    let g = build_guide(kind, &f, DepthNorm::Range, 0.003, 0.003)?;
-                    let p = GuidedParams {
+                filter: FilterKind::Guided,
+                label: format!("{} dims, r=24, {mode}", guide.dims()),
+                speed_table: true,
+                // The time includes building the guide, as in the papers.
+                denoiser: Box::new(GuidedDenoiser {
+                    guide,
+                    eps_normal: 0.003,
+                    eps_depth: 0.003,
+                    params: GuidedParams {
                         radius: 24,
                         fast_subsample: fast,
-                    };
-                    std::hint::black_box(guided(&fr.noisy, &g, &p)?);
-                    Ok(())
+                    },
+                    ..GuidedDenoiser::default()
                 }),
+                planes: normal_depth,
             });
         }
     }
     for radius in [16usize, 24, 32] {
-        let p = BilateralParams {
+        let params = BilateralParams {
             radius,
             sigma_spatial: radius as f32 / 2.0,
             ..BilateralParams::default()
         };
         v.push(Table2Config {
-            kind: Table2Kind::Bilateral { radius },
-            run: Box::new(move |fr| {
-                let f = Features {
-                    normal: Some(&fr.normal),
-                    depth: Some(&fr.depth),
-                    ..Features::default()
-                };
-                std::hint::black_box(bilateral(&fr.noisy, &f, &p)?);
-                Ok(())
+            filter: FilterKind::Bilateral,
+            label: format!("r={radius}, normal + depth"),
+            speed_table: true,
+            denoiser: Box::new(BilateralDenoiser {
+                params,
+                demodulate: false,
             }),
+            planes: normal_depth,
         });
     }
     v

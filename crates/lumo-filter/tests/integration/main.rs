@@ -5,6 +5,7 @@
 
 mod atrous;
 mod bilateral;
+mod denoiser;
 mod guided;
 mod invariants;
 mod jbu;
