@@ -23,8 +23,8 @@
 //!
 //! Layout: one folder or file per filter (`atrous/`, `guided/`, `bilateral.rs`, `jbu.rs`,
 //! `temporal/`), the interface and the list in `denoiser.rs`, what the filters share in
-//! `common/`, benchmark inputs in `bench/`. This file only
-//! declares the modules and re-exports their public items.
+//! `common/`, benchmark inputs in `bench/`. This file only declares the modules and
+//! re-exports their public items.
 // Every unsafe block (the SIMD kernels) says why it is sound.
 #![deny(clippy::undocumented_unsafe_blocks)]
 // Index loops over several parallel planes read more clearly than zips of six iterators.

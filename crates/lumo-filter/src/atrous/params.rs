@@ -10,8 +10,8 @@ use crate::FilterError;
 /// The B3 spline taps (1/16, 1/4, 3/8, 1/4, 1/16); the 5×5 kernel is their outer product.
 pub const B3: [f32; 5] = [1.0 / 16.0, 1.0 / 4.0, 3.0 / 8.0, 1.0 / 4.0, 1.0 / 16.0];
 
-/// Parameters of [`atrous`]. A `None` sigma switches that edge weight off (the paper's Table 2
-/// times 0–3 weights).
+/// Parameters of [`atrous`](crate::atrous()). A `None` sigma switches that edge weight off
+/// (the paper's Table 2 times 0–3 weights).
 #[derive(Clone, Debug, PartialEq)]
 pub struct AtrousParams {
     /// Number of à-trous levels; level i uses taps 2^i pixels apart (5 → 125 px footprint).
