@@ -5,22 +5,24 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{bail, Context};
+use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use lumo_filter::{
-    bilateral, build_guide, guided, missing_pixels, with_demodulation, with_passthrough,
-    AtrousFilter, AtrousParams, BilateralParams, DepthNorm, Features, Filtered, GuideKind,
-    GuidedParams,
+    missing_pixels, with_passthrough, AtrousDenoiser, AtrousParams, BilateralDenoiser,
+    BilateralParams, Denoiser, DepthNorm, Features, FilterInput, FilterKind, Filtered, GuideKind,
+    GuidedDenoiser, GuidedParams, Shape, FILTERS,
 };
 use lumo_image::{read_image, write_image, Image};
 
-/// Which filter to run.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum FilterKind {
-    /// Edge-avoiding À-Trous wavelet filter (fast; normal + position + colour weights).
-    Atrous,
-    /// Guided image filter with a normal (+ depth) guide (cost independent of radius).
-    Guided,
-    /// Brute-force cross bilateral filter (slow quality reference).
-    Bilateral,
+/// `--filter`: the filters of `lumo_filter::FILTERS` that filter one image on its own, with
+/// their names and descriptions from that list (the one list of filters).
+fn filter_parser() -> impl TypedValueParser<Value = FilterKind> {
+    let values = FILTERS
+        .iter()
+        .filter(|f| f.shape == Shape::Image)
+        .map(|f| PossibleValue::new(f.name).help(f.description));
+    PossibleValuesParser::new(values).map(|name| {
+        FilterKind::from_name(&name).expect("every possible value is a name from FILTERS")
+    })
 }
 
 /// Where the À-Trous colour weight gets its noise estimate.
@@ -69,7 +71,7 @@ pub struct DenoiseArgs {
     #[arg(long)]
     pub input_dir: Option<PathBuf>,
     /// The filter.
-    #[arg(long, value_enum, default_value = "atrous")]
+    #[arg(long, value_parser = filter_parser(), default_value = "atrous")]
     pub filter: FilterKind,
     /// Output image: .exr / .pfm (float32) or .png (sRGB, clamped).
     #[arg(short = 'o', long)]
@@ -262,48 +264,42 @@ fn emitting(emission: &Image) -> Vec<bool> {
         .collect()
 }
 
-/// Filters `color` once. `atrous_filter` keeps the À-Trous filter's working memory between
-/// `--repeat` runs (as a renderer filtering frame after frame would).
-fn run_filter(
-    a: &DenoiseArgs,
-    inp: &Inputs,
-    color: &Image,
-    atrous_filter: &mut AtrousFilter,
-) -> anyhow::Result<Filtered> {
-    let source = if a.no_variance {
+/// Where the noise estimate comes from, after `--no-variance`.
+fn variance_source(a: &DenoiseArgs) -> VarianceSource {
+    if a.no_variance {
         VarianceSource::None
     } else {
         a.variance_source
-    };
-    let spatial;
-    let variance = match source {
-        VarianceSource::None => None,
-        VarianceSource::Plane => Some(plane(&inp.variance).ok_or_else(|| {
-            anyhow::anyhow!(
-                "--variance-source plane needs a variance plane: --variance FILE (or \
-                 variance.exr in --input-dir)"
-            )
-        })?),
-        // Only À-Trous reads a noise estimate; the guided and bilateral filters would compute
-        // it for nothing (a fifth of a 512² guided run's instructions).
-        VarianceSource::Spatial if a.filter != FilterKind::Atrous => None,
-        VarianceSource::Spatial => {
-            spatial = lumo_filter::spatial_variance(color);
-            Some(&spatial)
-        }
-    };
-    let features = Features {
-        normal: plane(&inp.normal),
-        position: plane(&inp.position),
-        depth: plane(&inp.depth),
-        albedo: plane(&inp.albedo),
-        variance,
-    };
+    }
+}
+
+/// Whether the filter is given a variance plane: only À-Trous reads a noise estimate; the
+/// guided and bilateral filters would compute the spatial one for nothing (a fifth of a 512²
+/// guided run's instructions).
+fn gets_variance(a: &DenoiseArgs) -> bool {
+    match variance_source(a) {
+        VarianceSource::None => false,
+        VarianceSource::Plane => true,
+        VarianceSource::Spatial => a.filter == FilterKind::Atrous,
+    }
+}
+
+/// The denoiser `--filter` names, with its parameters from the flags and from which planes
+/// were given. Errors name the flags to fix.
+fn configure(a: &DenoiseArgs, inp: &Inputs) -> anyhow::Result<Box<dyn Denoiser>> {
+    if variance_source(a) == VarianceSource::Plane && inp.variance.is_none() {
+        bail!(
+            "--variance-source plane needs a variance plane: --variance FILE (or variance.exr \
+             in --input-dir)"
+        );
+    }
+    let has_variance = gets_variance(a);
+    let (normal, position, depth) = (plane(&inp.normal), plane(&inp.position), plane(&inp.depth));
     if a.demodulate && inp.albedo.is_none() {
         bail!("--demodulate needs an albedo plane: --albedo FILE (or albedo.exr in --input-dir)");
     }
     let demod = inp.albedo.is_some() && !a.no_demodulate;
-    let filtered = match a.filter {
+    Ok(match a.filter {
         FilterKind::Atrous => {
             let needs = |flag: &str, has: bool, feat: &str| -> anyhow::Result<()> {
                 if !has {
@@ -317,12 +313,12 @@ fn run_filter(
             let sn = sigma(a.sigma_normal, None)?;
             let sx = sigma(a.sigma_position, None)?;
             if let Some(_s) = sn {
-                needs("sigma-normal", features.normal.is_some(), "normal")?;
+                needs("sigma-normal", normal.is_some(), "normal")?;
             }
             if let Some(_s) = sx {
-                needs("sigma-position", features.position.is_some(), "position")?;
+                needs("sigma-position", position.is_some(), "position")?;
             }
-            if features.normal.is_none() && features.position.is_none() {
+            if normal.is_none() && position.is_none() {
                 eprintln!(
                     "warning: no --normal or --position: À-Trous is steered by colour only and will \
                      blur geometry edges"
@@ -330,38 +326,31 @@ fn run_filter(
             }
             // --sigma-color sets σ_l when a variance plane steers the colour weight, else the
             // fixed colour σ.
-            let var_default = match source {
+            let var_default = match variance_source(a) {
                 VarianceSource::Plane => Some(defaults::ATROUS_SIGMA_COLOR_PLANE),
                 _ => Some(defaults::ATROUS_SIGMA_COLOR_SPATIAL),
             };
-            let (sc, sl) = if variance.is_some() {
+            let (sc, sl) = if has_variance {
                 (None, sigma(a.sigma_color, var_default)?)
             } else {
                 (sigma(a.sigma_color, defaults::ATROUS_SIGMA_COLOR)?, None)
             };
-            let p = AtrousParams {
+            Box::new(AtrousDenoiser::new(AtrousParams {
                 iterations: a.iterations.unwrap_or(5),
                 sigma_color: sc,
                 sigma_luminance: sl,
-                sigma_normal: features
-                    .normal
-                    .and(sn.or(Some(defaults::ATROUS_SIGMA_NORMAL))),
-                sigma_position: features
-                    .position
-                    .and(sx.or(Some(defaults::ATROUS_SIGMA_POSITION))),
+                sigma_normal: normal.and(sn.or(Some(defaults::ATROUS_SIGMA_NORMAL))),
+                sigma_position: position.and(sx.or(Some(defaults::ATROUS_SIGMA_POSITION))),
                 sparse: a.subsample,
                 demodulate: demod,
-                use_variance: variance.is_some(),
-            };
-            atrous_filter.filter(color, &features, &p)?
+                use_variance: has_variance,
+            }))
         }
         FilterKind::Guided => {
             if a.subsample != 1 {
                 bail!("--subsample (sparse input) is only supported by --filter atrous");
             }
-            let dims = a
-                .guide_dims
-                .unwrap_or(if features.depth.is_some() { 4 } else { 3 });
+            let dims = a.guide_dims.unwrap_or(if depth.is_some() { 4 } else { 3 });
             let kind = match dims {
                 1 => GuideKind::Grey,
                 3 => GuideKind::Normal,
@@ -371,10 +360,10 @@ fn run_filter(
                 }
             };
             let mut missing = Vec::new();
-            if features.normal.is_none() {
+            if normal.is_none() {
                 missing.push("--normal FILE (normal.exr)");
             }
-            if kind == GuideKind::NormalDepth && features.depth.is_none() {
+            if kind == GuideKind::NormalDepth && depth.is_none() {
                 missing.push("--depth FILE (depth.exr)");
             }
             if !missing.is_empty() {
@@ -383,56 +372,78 @@ fn run_filter(
                     missing.join(" and ")
                 );
             }
-            let norm = match a.depth_scale {
+            let depth_norm = match a.depth_scale {
                 Some(s) if s > 0.0 && s.is_finite() => DepthNorm::Scale(s),
                 Some(s) => bail!("--depth-scale {s} must be > 0"),
                 None => DepthNorm::Range,
             };
-            let guide = build_guide(
-                kind,
-                &features,
-                norm,
-                a.eps_normal.unwrap_or(defaults::EPS),
-                a.eps_depth.unwrap_or(defaults::EPS),
-            )?;
-            let p = GuidedParams {
-                radius: a.radius.unwrap_or(defaults::GUIDED_RADIUS),
-                fast_subsample: a.fast_subsample,
-            };
-            match (demod, features.albedo) {
-                (true, Some(alb)) => with_demodulation(color, alb, |c| guided(c, &guide, &p))?,
-                _ => guided(color, &guide, &p)?,
-            }
+            Box::new(GuidedDenoiser {
+                guide: kind,
+                depth_norm,
+                eps_normal: a.eps_normal.unwrap_or(defaults::EPS),
+                eps_depth: a.eps_depth.unwrap_or(defaults::EPS),
+                params: GuidedParams {
+                    radius: a.radius.unwrap_or(defaults::GUIDED_RADIUS),
+                    fast_subsample: a.fast_subsample,
+                },
+                demodulate: demod,
+            })
         }
         FilterKind::Bilateral => {
             if a.subsample != 1 {
                 bail!("--subsample (sparse input) is only supported by --filter atrous");
             }
-            if features.normal.is_none() && features.depth.is_none() && features.position.is_none()
-            {
+            if normal.is_none() && depth.is_none() && position.is_none() {
                 bail!(
                     "the cross bilateral filter needs at least one of --normal, --depth, --position \
                      (normal.exr, depth.exr, position.exr)"
                 );
             }
             let radius = a.radius.unwrap_or(defaults::BILATERAL_RADIUS);
-            let p = BilateralParams {
-                radius,
-                sigma_spatial: a.sigma_spatial.unwrap_or((radius as f32 / 2.0).max(0.5)),
-                sigma_normal: sigma(a.sigma_normal, Some(defaults::BILATERAL_SIGMA_NORMAL))?,
-                sigma_depth: sigma(a.sigma_depth, Some(defaults::BILATERAL_SIGMA_DEPTH))?,
-                sigma_position: sigma(a.sigma_position, None)?,
-                sigma_color: sigma(a.sigma_color, None)?,
-            };
-            match (demod, features.albedo) {
-                (true, Some(alb)) => {
-                    with_demodulation(color, alb, |c| bilateral(c, &features, &p))?
-                }
-                _ => bilateral(color, &features, &p)?,
-            }
+            Box::new(BilateralDenoiser {
+                params: BilateralParams {
+                    radius,
+                    sigma_spatial: a.sigma_spatial.unwrap_or((radius as f32 / 2.0).max(0.5)),
+                    sigma_normal: sigma(a.sigma_normal, Some(defaults::BILATERAL_SIGMA_NORMAL))?,
+                    sigma_depth: sigma(a.sigma_depth, Some(defaults::BILATERAL_SIGMA_DEPTH))?,
+                    sigma_position: sigma(a.sigma_position, None)?,
+                    sigma_color: sigma(a.sigma_color, None)?,
+                },
+                demodulate: demod,
+            })
         }
+        // A filter with no flags of its own runs with the library's defaults, so a filter
+        // added to `lumo_filter::FILTERS` needs nothing here. (`filter_parser` offers only
+        // filters of one full-resolution image: not JBU or the temporal filter.)
+        _ => (a.filter.info().new)(),
+    })
+}
+
+/// Filters `color` once with `denoiser` (which keeps its working memory between `--repeat`
+/// runs, as a renderer filtering frame after frame would).
+fn run_filter(
+    a: &DenoiseArgs,
+    inp: &Inputs,
+    color: &Image,
+    denoiser: &mut dyn Denoiser,
+) -> anyhow::Result<Filtered> {
+    let spatial;
+    let variance = match variance_source(a) {
+        _ if !gets_variance(a) => None,
+        VarianceSource::Spatial => {
+            spatial = lumo_filter::spatial_variance(color);
+            Some(&spatial)
+        }
+        _ => plane(&inp.variance),
     };
-    Ok(filtered)
+    let features = Features {
+        normal: plane(&inp.normal),
+        position: plane(&inp.position),
+        depth: plane(&inp.depth),
+        albedo: plane(&inp.albedo),
+        variance,
+    };
+    Ok(denoiser.denoise(&FilterInput::new(color, features))?)
 }
 
 /// Runs `lumo denoise`.
@@ -465,17 +476,17 @@ pub fn run(args: DenoiseArgs) -> anyhow::Result<()> {
     // Emitted light seen directly is noise-free and far brighter than what surrounds it: it is
     // kept out of the filter (missing for its neighbours) and put back unchanged.
     let emitters = inputs.emission.as_ref().map(|(_, e)| emitting(e));
+    let mut denoiser = configure(&args, &inputs)?;
     let mut times = Vec::new();
     let mut filtered = None;
-    let mut atrous_filter = AtrousFilter::new();
     for _ in 0..args.repeat {
         let t1 = Instant::now();
         let color = &inputs.color.1;
         filtered = Some(match &emitters {
             Some(em) => with_passthrough(color, em, |c| {
-                run_filter(&args, &inputs, c, &mut atrous_filter)
+                run_filter(&args, &inputs, c, denoiser.as_mut())
             })?,
-            None => run_filter(&args, &inputs, color, &mut atrous_filter)?,
+            None => run_filter(&args, &inputs, color, denoiser.as_mut())?,
         });
         times.push(t1.elapsed());
     }
@@ -498,4 +509,35 @@ pub fn run(args: DenoiseArgs) -> anyhow::Result<()> {
         println!("write {:.3} ms", ms(t_write));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use std::ffi::OsStr;
+
+    use super::*;
+
+    /// `--filter` offers exactly the one-image filters of `lumo_filter::FILTERS` (the values it
+    /// always had), and each value parses to the filter of that name.
+    #[test]
+    fn filter_values_come_from_the_list_and_round_trip() {
+        let cmd = clap::Command::new("denoise");
+        let parser = filter_parser();
+        let offered: Vec<String> = parser
+            .possible_values()
+            .expect("a list of values")
+            .map(|v| v.get_name().to_string())
+            .collect();
+        assert_eq!(offered, ["atrous", "guided", "bilateral"]);
+        for info in FILTERS {
+            let got = parser.parse_ref(&cmd, None, OsStr::new(info.name));
+            if info.shape == Shape::Image {
+                assert_eq!(got.unwrap(), info.kind);
+                assert_eq!(info.kind.name(), info.name);
+            } else {
+                assert!(got.is_err(), "{} is not a filter of one image", info.name);
+            }
+        }
+        assert!(parser.parse_ref(&cmd, None, OsStr::new("none")).is_err());
+    }
 }

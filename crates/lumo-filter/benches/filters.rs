@@ -5,8 +5,8 @@
 
 use std::time::Instant;
 
-use lumo_filter::table2::{self, Table2Kind};
-use lumo_filter::{synthetic_frame, SyntheticFrame};
+use lumo_filter::table2;
+use lumo_filter::{synthetic_frame, FilterKind, SyntheticFrame};
 
 const RESOLUTIONS: [(usize, usize); 3] = [(512, 512), (1024, 1024), (1920, 1080)];
 
@@ -49,49 +49,19 @@ fn main() {
     println!();
     println!("| filter | configuration | 512×512 ms | 1024×1024 ms | 1920×1080 ms |");
     println!("|---|---|---|---|---|");
-    let row = |name: &str, cfg: &str, f: &dyn Fn(&SyntheticFrame)| {
+    let row = |name: &str, cfg: &str, f: &mut dyn FnMut(&SyntheticFrame)| {
         let cells: Vec<String> = frames.iter().map(|fr| cell(time(|| f(fr)))).collect();
         println!("| {name} | {cfg} | {} |", cells.join(" | "));
     };
-    for c in table2::table2_configs() {
-        let (group, name, cfg) = match c.kind {
-            Table2Kind::Atrous {
-                iterations,
-                weights,
-            } => (
-                "atrous",
-                "À-Trous",
-                format!(
-                    "{iterations} it, {weights} weights ({})",
-                    table2::ATROUS_WEIGHT_NAMES[weights]
-                ),
-            ),
-            Table2Kind::AtrousDefault => (
-                "atrous",
-                "À-Trous",
-                "5 it, variance-guided + normal + position".to_string(),
-            ),
-            Table2Kind::Guided { dims, fast } => {
-                let mode = if fast == 1 {
-                    "exact".to_string()
-                } else {
-                    format!("fast s={fast}")
-                };
-                (
-                    "guided",
-                    "guided",
-                    format!("{dims} dims, r=24, {mode} (incl. guide build)"),
-                )
-            }
-            Table2Kind::Bilateral { radius } => (
-                "bilateral",
-                "cross bilateral",
-                format!("r={radius}, normal + depth"),
-            ),
+    for mut c in table2::table2_configs() {
+        let info = c.filter.info();
+        let cfg = match c.filter {
+            FilterKind::Guided => format!("{} (incl. guide build)", c.label),
+            _ => c.label.clone(),
         };
-        if wants(group) {
-            row(name, &cfg, &|fr| {
-                (c.run)(fr).expect("filter on a synthetic frame")
+        if wants(info.name) {
+            row(info.title, &cfg, &mut |fr| {
+                c.run(fr).expect("filter on a synthetic frame")
             });
         }
     }

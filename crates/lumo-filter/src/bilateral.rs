@@ -4,9 +4,11 @@
 use lumo_image::Image;
 use rayon::prelude::*;
 
-use crate::error::param;
-use crate::fastmath::exp_neg;
-use crate::gbuffer::{Features, Filtered, Prepared};
+use crate::common::albedo::with_demodulation;
+use crate::common::error::param;
+use crate::common::fastmath::exp_neg;
+use crate::common::gbuffer::{Features, Filtered, Prepared};
+use crate::denoiser::{require, Denoiser, FilterInput, FilterKind};
 use crate::FilterError;
 
 /// Parameters of [`bilateral`]. A range σ of `None` switches that term off; `Some(f32::INFINITY)`
@@ -76,6 +78,36 @@ pub fn bilateral(
         image,
         missing: prep.missing,
     })
+}
+
+/// The cross bilateral filter behind the [`Denoiser`] interface. Reads the colour and
+/// whichever of normal, depth and position are given (with none it is a Gaussian blur), and
+/// the albedo when demodulating.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct BilateralDenoiser {
+    /// The filter's parameters.
+    pub params: BilateralParams,
+    /// Filter colour / albedo and multiply back ([`with_demodulation`]; needs an albedo).
+    pub demodulate: bool,
+}
+
+impl Denoiser for BilateralDenoiser {
+    fn name(&self) -> &'static str {
+        FilterKind::Bilateral.name()
+    }
+
+    /// [`bilateral`] on the input, demodulated when asked.
+    fn denoise(&mut self, input: &FilterInput) -> Result<Filtered, FilterError> {
+        let features = &input.features;
+        if self.demodulate {
+            let albedo = require(features.albedo, "albedo demodulation", "an albedo plane")?;
+            with_demodulation(input.color, albedo, |c| {
+                bilateral(c, features, &self.params)
+            })
+        } else {
+            bilateral(input.color, features, &self.params)
+        }
+    }
 }
 
 fn inv_sq(s: Option<f32>) -> f32 {

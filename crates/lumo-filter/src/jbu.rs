@@ -5,13 +5,14 @@ use lumo_image::Image;
 use rayon::prelude::*;
 
 use crate::bilateral::{bilateral, BilateralParams};
-use crate::error::param;
-use crate::fastmath::exp_neg;
-use crate::gbuffer::{
+use crate::common::error::param;
+use crate::common::fastmath::exp_neg;
+use crate::common::gbuffer::{
     background_mask, check_color, check_features, missing_pixels, plane0, planes3, Features,
     Filtered,
 };
-use crate::outliers::remove_outliers;
+use crate::common::outliers::remove_outliers;
+use crate::denoiser::{Denoiser, FilterInput, FilterKind};
 use crate::FilterError;
 
 /// Parameters of [`jbu`].
@@ -45,6 +46,26 @@ impl Default for JbuParams {
             outlier_sigma: Some(2.0),
             prefilter: false,
         }
+    }
+}
+
+/// Joint bilateral upsampling behind the [`Denoiser`] interface: the input's colour is the
+/// low-resolution buffer (⌈W/k⌉×⌈H/k⌉), its features the full-resolution depth and / or
+/// normal planes (at least one is needed).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct JbuDenoiser {
+    /// The upsampling's parameters.
+    pub params: JbuParams,
+}
+
+impl Denoiser for JbuDenoiser {
+    fn name(&self) -> &'static str {
+        FilterKind::Jbu.name()
+    }
+
+    /// [`jbu`] of the input's colour to its features' resolution.
+    fn denoise(&mut self, input: &FilterInput) -> Result<Filtered, FilterError> {
+        jbu(input.color, &input.features, &self.params)
     }
 }
 

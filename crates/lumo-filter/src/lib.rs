@@ -13,9 +13,18 @@
 //!   the one stateful filter: reprojected, accumulated history + the variance-guided À-Trous;
 //!   [`motion_vectors`] computes its motion vectors for a static scene and a moving camera.
 //!
+//! Every filter is also a [`Denoiser`] (one interface: a [`FilterInput`] in, [`Filtered`] out,
+//! parameters held by the denoiser, one [`FilterError`]), and [`FILTERS`] lists them all: the
+//! one list that the command line and the benchmarks use.
+//!
 //! Colour images have 3 channels. Non-finite colour pixels are treated as missing (weight 0);
 //! results are always finite and report how many pixels were missing.
 //! See docs/filters.md for parameters, defaults and how they were chosen.
+//!
+//! Layout: one folder or file per filter (`atrous/`, `guided/`, `bilateral.rs`, `jbu.rs`,
+//! `temporal/`), the interface and the list in `denoiser.rs`, what the filters share in
+//! `common/`, benchmark inputs in `bench/`. This file only declares the modules and
+//! re-exports their public items.
 // Every unsafe block (the SIMD kernels) says why it is sound.
 #![deny(clippy::undocumented_unsafe_blocks)]
 // Index loops over several parallel planes read more clearly than zips of six iterators.
@@ -23,57 +32,40 @@
 // `!(x > 0.0)` is deliberate: it rejects NaN as well as non-positive values.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-// First: the macro it defines is used by the modules below.
+// First: the `multiversion!` macro defined in it is used by the filters.
 #[macro_use]
-mod multiversion;
+mod common;
 
-mod albedo;
 mod atrous;
-mod atrous_fused;
-mod atrous_input;
-mod atrous_kernel;
-mod atrous_layout;
-mod atrous_pairs;
-mod atrous_pipeline;
-#[cfg(test)]
-mod atrous_tests;
+mod bench;
 mod bilateral;
-mod boxsum;
-mod cholesky;
-mod error;
-mod fastmath;
-mod gbuffer;
+mod denoiser;
 mod guided;
-mod guided_stream;
 mod jbu;
-mod lookup;
-mod noise;
-mod outliers;
-mod passthrough;
-pub mod synthetic;
-pub use synthetic::{synthetic_frame, SyntheticFrame};
-pub mod table2;
 mod temporal;
 
-pub use albedo::{demodulate, with_demodulation, Demodulated, ALBEDO_EPS};
 pub use atrous::{
-    atrous, AtrousFilter, AtrousParams, B3, DEFAULT_SIGMA_LUMINANCE, DEFAULT_SIGMA_NORMAL,
-    DEFAULT_SIGMA_POSITION,
+    atrous, AtrousDenoiser, AtrousFilter, AtrousParams, B3, DEFAULT_SIGMA_LUMINANCE,
+    DEFAULT_SIGMA_NORMAL, DEFAULT_SIGMA_POSITION,
 };
-pub use bilateral::{bilateral, BilateralParams};
-pub use boxsum::box_mean;
-pub use error::FilterError;
-pub use fastmath::exp_neg;
-pub use gbuffer::{missing_pixels, Features, Filtered};
+pub use bench::synthetic::{synthetic_frame, SyntheticFrame};
+pub use bench::{synthetic, table2};
+pub use bilateral::{bilateral, BilateralDenoiser, BilateralParams};
+pub use common::albedo::{demodulate, with_demodulation, Demodulated, ALBEDO_EPS};
+pub use common::boxsum::box_mean;
+pub use common::error::FilterError;
+pub use common::fastmath::exp_neg;
+pub use common::gbuffer::{missing_pixels, Features, Filtered};
+pub use common::noise::spatial_variance;
+pub use common::outliers::remove_outliers;
+pub use common::passthrough::with_passthrough;
+pub use denoiser::{Denoiser, FilterInfo, FilterInput, FilterKind, Shape, FILTERS};
 pub use guided::{
-    build_guide, guided, DepthNorm, Guide, GuideKind, GuidedParams, DEFAULT_EPS_DEPTH,
-    DEFAULT_EPS_NORMAL, DEFAULT_RADIUS, MAX_GUIDE_DIMS,
+    build_guide, guided, most_similar, most_similar_in_grid, neighbour_cells, DepthNorm, Guide,
+    GuideKind, GuidedDenoiser, GuidedParams, DEFAULT_EPS_DEPTH, DEFAULT_EPS_NORMAL, DEFAULT_RADIUS,
+    MAX_GUIDE_DIMS,
 };
-pub use jbu::{jbu, JbuParams};
-pub use lookup::{most_similar, most_similar_in_grid, neighbour_cells};
-pub use noise::spatial_variance;
-pub use outliers::remove_outliers;
-pub use passthrough::with_passthrough;
+pub use jbu::{jbu, JbuDenoiser, JbuParams};
 pub use temporal::{
     motion_vectors, pinhole_view_projection, project_to_pixel, TemporalFilter, TemporalFrame,
     TemporalParams, DEFAULT_ALPHA, DEFAULT_TEMPORAL_SIGMA_LUMINANCE,

@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 use anyhow::{bail, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use lumo_filter::synthetic_frame;
-use lumo_filter::table2::{self, Table2Kind};
+use lumo_filter::table2::{self, Table2Config};
 use lumo_pipeline::{run_pipeline, Pipeline, PipelineOptions, Timings};
 
 use super::atomic::{check_dir_writable, write_bytes};
@@ -88,7 +88,7 @@ pub fn run(args: SpeedArgs) -> Result<()> {
     } else {
         load_all(&names, &pool)?
     };
-    let configs = if args.no_filters {
+    let mut configs = if args.no_filters {
         vec![]
     } else {
         filter_configs()
@@ -131,18 +131,19 @@ pub fn run(args: SpeedArgs) -> Result<()> {
     let mut filter_rows = Vec::new();
     for &(w, h) in &args.filter_sizes {
         let frame = synthetic_frame(w, h, 1, 7);
-        for c in &configs {
-            bar.set_message(format!("{w}x{h} {} {}", c.filter, c.label));
+        for c in &mut configs {
+            let title = c.filter.info().title;
+            bar.set_message(format!("{w}x{h} {title} {}", c.label));
             let (t, runs) = measure(&args, || {
                 let t = Instant::now();
-                pool.install(|| (c.run)(&frame))?;
+                pool.install(|| c.run(&frame))?;
                 Ok(Timings {
                     filter: t.elapsed(),
                     ..Timings::default()
                 })
             })?;
             filter_rows.push(FilterRow {
-                filter: c.filter,
+                filter: title,
                 config: c.label.clone(),
                 size: (w, h),
                 time: t.filter,
@@ -205,49 +206,12 @@ fn cap(d: Duration) -> usize {
     table2::timed_runs_cap(d.as_secs_f64() * 1e3)
 }
 
-/// One Table 2 row of `speed.md`.
-struct FilterConfig {
-    filter: &'static str,
-    label: String,
-    run: table2::Table2Run,
-}
-
-/// The configurations of `lumo_filter::table2` (shared with `cargo bench -p lumo-filter`),
-/// without the unweighted À-Trous rows, labelled for speed.md.
-fn filter_configs() -> Vec<FilterConfig> {
+/// The configurations of `lumo_filter::table2` (shared with `cargo bench -p lumo-filter`)
+/// that speed.md lists: all but the unweighted À-Trous rows. Each is labelled by its filter's
+/// title in `lumo_filter::FILTERS` and its own label.
+fn filter_configs() -> Vec<Table2Config> {
     table2::table2_configs()
         .into_iter()
-        .filter_map(|c| {
-            let (filter, label) = match c.kind {
-                Table2Kind::Atrous { weights: 0, .. } => return None,
-                Table2Kind::Atrous {
-                    iterations,
-                    weights,
-                } => (
-                    "À-Trous",
-                    format!("{iterations} it, {}", table2::ATROUS_WEIGHT_NAMES[weights]),
-                ),
-                Table2Kind::AtrousDefault => (
-                    "À-Trous",
-                    "5 it, variance-guided + normal + position (lumo's default)".to_string(),
-                ),
-                Table2Kind::Guided { dims, fast } => {
-                    let mode = if fast == 1 {
-                        "exact".to_string()
-                    } else {
-                        format!("fast s={fast}")
-                    };
-                    ("guided", format!("{dims} dims, r=24, {mode}"))
-                }
-                Table2Kind::Bilateral { radius } => {
-                    ("cross bilateral", format!("r={radius}, normal + depth"))
-                }
-            };
-            Some(FilterConfig {
-                filter,
-                label,
-                run: c.run,
-            })
-        })
+        .filter(|c| c.speed_table)
         .collect()
 }

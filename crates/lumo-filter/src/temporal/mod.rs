@@ -18,11 +18,12 @@ use rayon::prelude::*;
 
 pub use motion::{motion_vectors, pinhole_view_projection, project_to_pixel};
 
-use crate::albedo::albedo_divisor;
 use crate::atrous::{AtrousFilter, AtrousParams};
-use crate::error::param;
-use crate::gbuffer::{check_color, check_size, missing_pixels, Features, Filtered};
-use crate::passthrough::passed;
+use crate::common::albedo::albedo_divisor;
+use crate::common::error::param;
+use crate::common::gbuffer::{check_color, check_size, missing_pixels, Features, Filtered};
+use crate::common::passthrough::passed;
+use crate::denoiser::{require, Denoiser, FilterInput, FilterKind};
 use crate::FilterError;
 use reproject::{History, Sample};
 
@@ -433,5 +434,34 @@ fn divisor(albedo: Option<&Image>, i: usize) -> Option<[f32; 3]> {
     match albedo {
         Some(a) => albedo_divisor(a, i),
         None => Some([1.0; 3]),
+    }
+}
+
+/// The temporal filter is a [`Denoiser`] itself: its state (the history) is what `&mut self`
+/// is for. A frame's input: colour, normal and depth (needed), albedo and position (used if
+/// given), motion vectors and ids ([`FilterInput::motion`], [`FilterInput::ids`]).
+impl Denoiser for TemporalFilter {
+    fn name(&self) -> &'static str {
+        FilterKind::Temporal.name()
+    }
+
+    /// [`TemporalFilter::filter`] of the input as one [`TemporalFrame`].
+    fn denoise(&mut self, input: &FilterInput) -> Result<Filtered, FilterError> {
+        let f = &input.features;
+        let frame = TemporalFrame {
+            color: input.color,
+            albedo: f.albedo,
+            normal: require(f.normal, "the temporal filter", "a normal plane")?,
+            depth: require(f.depth, "the temporal filter", "a depth plane")?,
+            position: f.position,
+            ids: input.ids,
+            motion: input.motion,
+        };
+        self.filter(&frame)
+    }
+
+    /// [`TemporalFilter::reset`].
+    fn reset(&mut self) {
+        TemporalFilter::reset(self);
     }
 }

@@ -4,11 +4,11 @@
 use lumo_image::{luminance, Image};
 
 use super::{divisor, TemporalFrame, TemporalParams};
-use crate::gbuffer::{is_background, Features};
+use crate::common::gbuffer::{is_background, Features};
 
 /// What reprojection compares between a pixel and a history tap.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub(crate) struct Surface {
+pub(super) struct Surface {
     /// Camera distance; 0 on background.
     pub depth: f32,
     /// Unit normal (0 where not finite).
@@ -41,7 +41,7 @@ impl Surface {
 
 /// One pixel of the current frame.
 #[derive(Clone, Copy, Debug, Default)]
-pub(crate) struct Sample {
+pub(super) struct Sample {
     /// The albedo the colour is divided by; `None`: passed through (no usable albedo).
     pub divisor: Option<[f32; 3]>,
     /// Colour / albedo (0 where not `valid`).
@@ -102,7 +102,7 @@ impl Sample {
 
 /// The state kept between frames.
 #[derive(Debug)]
-pub(crate) struct History {
+pub(super) struct History {
     pub w: usize,
     pub h: usize,
     /// Colour / albedo: the first À-Trous level's output (3 channels).
@@ -117,7 +117,7 @@ pub(crate) struct History {
 
 /// One pixel after reprojection and accumulation.
 #[derive(Clone, Copy, Debug, Default)]
-pub(crate) struct Accumulated {
+pub(super) struct Accumulated {
     /// Accumulated colour / albedo (meaningful where `len` > 0).
     pub color: [f32; 3],
     pub moments: [f32; 2],
@@ -196,7 +196,7 @@ fn reproject(
 }
 
 /// Reprojects and blends pixel (x, y).
-pub(crate) fn accumulate(
+pub(super) fn accumulate(
     p: &TemporalParams,
     hist: Option<&History>,
     frame: &TemporalFrame,
@@ -242,7 +242,7 @@ pub(crate) fn accumulate(
 /// The luminance variance of colour / albedo at pixel (x, y): from the accumulated moments
 /// once the history is long enough, else from their mean over the window of consistent
 /// pixels, boosted by `variance_history / len` (SVGF).
-pub(crate) fn variance(
+pub(super) fn variance(
     p: &TemporalParams,
     samples: &[Sample],
     acc: &[Accumulated],

@@ -5,7 +5,7 @@ use glam::Vec3;
 use lumo_image::Image;
 
 use super::*;
-use crate::synthetic::{splitmix, synthetic_frame};
+use crate::bench::synthetic::{splitmix, synthetic_frame};
 use crate::{atrous, spatial_variance, AtrousParams};
 
 /// A flat G-buffer: every pixel faces the camera at depth 2, positions on the plane z = −2.

@@ -184,7 +184,7 @@ mod tests {
     #[test]
     fn row_passes_match_the_per_pixel_reference_bit_for_bit() {
         let mut seed = 3u64;
-        let mut rnd = || crate::synthetic::splitmix(&mut seed);
+        let mut rnd = || crate::bench::synthetic::splitmix(&mut seed);
         for (w, h, c) in [
             (1, 1, 3),
             (2, 5, 3),

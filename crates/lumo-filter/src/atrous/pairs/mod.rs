@@ -19,7 +19,7 @@
 //! (row y − 2s, then y − s, then y itself), so results are deterministic.
 //!
 //! The row kernel exists three times: portable (baseline x86-64, other targets) in this file,
-//! and with explicit AVX2 and AVX-512 intrinsics in atrous_pairs_simd.rs.
+//! and with explicit AVX2 and AVX-512 intrinsics in pairs/simd.rs.
 //!
 //! The colour coefficient of a pair is the centre's σ factor times the neighbour's validity:
 //! from a valid pixel's side it equals the per-tap path's (an invalid neighbour gets weight 0
@@ -30,27 +30,26 @@ use std::cell::RefCell;
 
 use rayon::prelude::*;
 
-use crate::atrous::B3;
-use crate::atrous_kernel::{
+use crate::atrous::kernel::{
     normalise, AuxBlock, Isa, Level, SrcBlock, CM_FIXED, CM_NONE, CM_VARIANCE, K, KA,
 };
-use crate::atrous_layout::{flat_rows, Aligned, CW, M, QW};
-use crate::fastmath::{exp2_cut, mul_add, EXP_CUTOFF};
+use crate::atrous::layout::{flat_rows, Aligned, CW, M, QW};
+use crate::atrous::B3;
+use crate::common::fastmath::{exp2_cut, mul_add, EXP_CUTOFF};
 
-#[path = "atrous_pairs_simd.rs"]
 mod simd;
 
 /// Largest tap spacing of the pair path: a strip sweeps pixels up to 2·step into its
 /// neighbours (for their scatter) and reads taps 2·step beyond those, 4·step ≤ M.
-pub(crate) const MAX_PAIR_STEP: usize = M / 4;
+pub(in crate::atrous) const MAX_PAIR_STEP: usize = M / 4;
 
 /// Column alignment of the swept range: the widest vector (16 floats).
-pub(crate) const CHUNK: usize = 16;
+pub(in crate::atrous) const CHUNK: usize = 16;
 
 /// Accumulator planes per row: r, g, b, weight.
-pub(crate) const AN: usize = 4;
+pub(in crate::atrous) const AN: usize = 4;
 /// One accumulator row: r, g, b and weight sums, [`QW`] columns each.
-pub(crate) type Acc = [f32; AN * QW];
+pub(in crate::atrous) type Acc = [f32; AN * QW];
 
 /// Source planes: colour from 0, validity.
 const V: usize = 3;
@@ -58,7 +57,7 @@ const V: usize = 3;
 const F: usize = 2;
 
 /// (dx, dy) in steps of the 12 taps after the centre in row-major order; dy picks the row.
-pub(crate) const PAIRS: [(isize, usize); 12] = [
+pub(in crate::atrous) const PAIRS: [(isize, usize); 12] = [
     (1, 0),
     (2, 0),
     (-2, 1),
@@ -78,7 +77,7 @@ const CENTRE: f32 = B3[2] * B3[2];
 
 /// Whether a level (its step, variance carrying, colour mode and feature count) can take
 /// the pair path.
-pub(crate) fn supports(step: usize, var: bool, cm: u8, nf: usize) -> bool {
+pub(in crate::atrous) fn supports(step: usize, var: bool, cm: u8, nf: usize) -> bool {
     step <= MAX_PAIR_STEP && !var && cm != CM_VARIANCE && matches!(nf, 1 | 3 | 4 | 6)
 }
 
@@ -99,7 +98,7 @@ struct Scratch {
 }
 
 /// One level over the whole image into `dst` (K planes per block; margins left 0).
-pub(crate) fn level(l: &Level, dst: &mut [f32]) {
+pub(in crate::atrous) fn level(l: &Level, dst: &mut [f32]) {
     let lay = l.lay;
     let block = K * QW;
     // Bands tall enough that the 2·step rows swept twice stay a small part of the work
@@ -125,7 +124,7 @@ pub(crate) fn level(l: &Level, dst: &mut [f32]) {
 /// Which of a row's pair groups (dy = 0, 1, 2 steps) scatter into the rows below
 /// (`scatter[dy]`), and the row's constants.
 #[derive(Clone, Copy)]
-pub(crate) struct RowJob {
+pub(in crate::atrous) struct RowJob {
     pub scatter: [bool; 3],
     pub j_lo: usize,
     pub j_hi: usize,
@@ -252,12 +251,12 @@ fn band(l: &Level, c: usize, a: usize, b: usize, out: &mut [f32], scratch: &mut 
 }
 
 /// The block read for rows below the image.
-pub(crate) static ZERO_SRC: Aligned<SrcBlock> = Aligned([0.0; K * QW]);
+pub(in crate::atrous) static ZERO_SRC: Aligned<SrcBlock> = Aligned([0.0; K * QW]);
 /// The aux block read for rows below the image.
-pub(crate) static ZERO_AUX: Aligned<AuxBlock> = Aligned([0.0; KA * QW]);
+pub(in crate::atrous) static ZERO_AUX: Aligned<AuxBlock> = Aligned([0.0; KA * QW]);
 
 /// The source and aux blocks of a row and of the rows one and two steps below it.
-pub(crate) struct Rows<'a> {
+pub(in crate::atrous) struct Rows<'a> {
     pub p: &'a SrcBlock,
     pub pa: &'a AuxBlock,
     pub q1: &'a SrcBlock,
@@ -268,7 +267,7 @@ pub(crate) struct Rows<'a> {
 
 /// The accumulator rows of a row and of the rows one and two steps below it, and the
 /// row's pair weights.
-pub(crate) struct Accs<'a> {
+pub(in crate::atrous) struct Accs<'a> {
     pub a0: &'a mut Acc,
     pub a1: &'a mut Acc,
     pub a2: &'a mut Acc,
@@ -276,7 +275,7 @@ pub(crate) struct Accs<'a> {
 }
 
 /// Dispatch of one row on the level's feature count, colour mode and instruction set.
-pub(crate) fn row(l: &Level, r: &Rows, acc: &mut Accs, job: RowJob) {
+pub(in crate::atrous) fn row(l: &Level, r: &Rows, acc: &mut Accs, job: RowJob) {
     macro_rules! go {
         ($nf:literal, $cm:expr) => {
             match l.isa {

@@ -3,7 +3,7 @@
 //! colour term plus the squared distance of feature coordinates that were scaled so that e is
 //! already in log2 units.
 //!
-//! Two paths compute the same thing: the fused one (atrous_fused.rs) for levels whose taps
+//! Two paths compute the same thing: the fused one (fused.rs) for levels whose taps
 //! stay within the block margins, and the per-tap one here for wider levels (6th and later).
 //! Both are compiled twice: for baseline x86-64 (SSE2) and, chosen at run time, with AVX2 +
 //! FMA. The FMA copy rounds each fused multiply-add once instead of twice, so its results
@@ -11,29 +11,29 @@
 //! deterministic and independent of the thread count (blocks are computed independently, with
 //! no reductions across lanes or threads).
 
-use crate::atrous::B3;
-use crate::atrous_fused::{block_fused, MAX_STEP};
-use crate::atrous_layout::{Layout, M, QW};
-use crate::fastmath::{exp2_cut, mul_add, EXP_CUTOFF};
+use super::fused::{block_fused, MAX_STEP};
+use super::layout::{Layout, M, QW};
+use super::B3;
+use crate::common::fastmath::{exp2_cut, mul_add, EXP_CUTOFF};
 
 /// Source planes per block: r, g, b, validity, variance.
-pub(crate) const K: usize = 5;
+pub(super) const K: usize = 5;
 /// Largest number of feature coordinates: normal xyz, position xyz (the background flag is
 /// folded into the position when there is one, see atrous.rs).
-pub(crate) const MAX_NF: usize = 6;
+pub(super) const MAX_NF: usize = 6;
 /// Aux planes per block: colour factor, luminance, then up to [`MAX_NF`] features.
-pub(crate) const KA: usize = 2 + MAX_NF;
+pub(super) const KA: usize = 2 + MAX_NF;
 
 /// Colour-weight modes: none.
-pub(crate) const CM_NONE: u8 = 0;
+pub(super) const CM_NONE: u8 = 0;
 /// Fixed colour σ: squared RGB distance.
-pub(crate) const CM_FIXED: u8 = 1;
+pub(super) const CM_FIXED: u8 = 1;
 /// Variance-guided: absolute luminance distance.
-pub(crate) const CM_VARIANCE: u8 = 2;
+pub(super) const CM_VARIANCE: u8 = 2;
 
 /// Instruction set the kernel runs with.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum Isa {
+pub(super) enum Isa {
     /// Baseline (SSE2 on x86-64).
     Baseline,
     /// AVX2 + FMA (x86-64 only, detected at run time).
@@ -45,7 +45,7 @@ pub(crate) enum Isa {
 
 /// Which kernel path a level takes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum Path {
+pub(super) enum Path {
     /// The fastest one the levels allow: the level pipeline, else pairs, else fused, else
     /// per tap.
     Auto,
@@ -83,7 +83,7 @@ impl Isa {
 }
 
 /// Per-level constants and buffers shared by all blocks.
-pub(crate) struct Level<'a> {
+pub(super) struct Level<'a> {
     pub lay: Layout,
     pub step: usize,
     /// K planes per block (r, g, b, validity, variance).
@@ -106,9 +106,9 @@ pub(crate) struct Level<'a> {
 }
 
 /// A block of the source buffer: K planes of QW floats.
-pub(crate) type SrcBlock = [f32; K * QW];
+pub(super) type SrcBlock = [f32; K * QW];
 /// A block of the aux buffer: KA planes of QW floats.
-pub(crate) type AuxBlock = [f32; KA * QW];
+pub(super) type AuxBlock = [f32; KA * QW];
 
 impl Level<'_> {
     /// The source block of strip `c`, row `y`.
@@ -128,13 +128,13 @@ impl Level<'_> {
 
 /// Log2 of the B3 weight of tap (kx, ky) and the exponent below which its weight is 0 (the
 /// paper's weights below e^-20 — their denormal products would slow everything down).
-pub(crate) fn tap_consts(kx: usize, ky: usize) -> (f32, f32) {
+pub(super) fn tap_consts(kx: usize, ky: usize) -> (f32, f32) {
     let c0 = (B3[ky] * B3[kx]).log2();
     (c0, c0 + EXP_CUTOFF * std::f32::consts::LOG2_E)
 }
 
 /// Block `b` of one level into `dst` (K planes, the block's margins are left 0).
-pub(crate) fn block(l: &Level, b: usize, dst: &mut [f32]) {
+pub(super) fn block(l: &Level, b: usize, dst: &mut [f32]) {
     let fused = l.path != Path::Taps && l.step <= MAX_STEP;
     macro_rules! go {
         ($nf:literal, $cm:expr, $var:literal) => {
@@ -171,7 +171,7 @@ multiversion! {
     /// `acc` holds 5 accumulator planes `stride` apart from column `a0`; the results go to
     /// columns `d0..d0 + len` of the block `dst`. In the AVX-512 or AVX2 copy where the CPU
     /// has one (the baseline's 4-wide loop was ~7 % of a 512² filter).
-    pub(crate) fn normalise<const VAR: bool>(
+    pub(super) fn normalise<const VAR: bool>(
         acc: &[f32],
         stride: usize,
         a0: usize,

@@ -11,18 +11,18 @@
 use rayon::prelude::*;
 
 /// Columns per strip.
-pub(crate) const CW: usize = 512;
+pub(super) const CW: usize = 512;
 /// Margin columns on each side of a strip: the fused path reads taps up to 2·32 columns
 /// away, the pair path sweeps 2·16 columns into a neighbour and reads 2·16 beyond, and the
-/// level pipeline (atrous_pipeline.rs) reads up to 64 columns beyond the strip at every level,
+/// level pipeline (pipeline.rs) reads up to 64 columns beyond the strip at every level,
 /// from sweeps rounded out to whole 16-column vectors (80 = 64 + 16).
-pub(crate) const M: usize = 80;
+pub(super) const M: usize = 80;
 /// Floats per sub-row: margin, strip, margin.
-pub(crate) const QW: usize = CW + 2 * M;
+pub(super) const QW: usize = CW + 2 * M;
 
 /// Block geometry of one image.
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct Layout {
+pub(super) struct Layout {
     pub w: usize,
     pub h: usize,
     /// Number of strips.
@@ -118,13 +118,13 @@ impl Layout {
 /// being a full `sw` columns wide: `left`'s right margin from `right`'s first M strip columns,
 /// `right`'s left margin from `left`'s last M. Only strip columns are read, only margins
 /// written.
-pub(crate) fn exchange_margins(left: &mut [f32], right: &mut [f32], sw: usize) {
+pub(super) fn exchange_margins(left: &mut [f32], right: &mut [f32], sw: usize) {
     left[M + sw..2 * M + sw].copy_from_slice(&right[M..2 * M]);
     right[..M].copy_from_slice(&left[sw..sw + M]);
 }
 
 /// Floats per cache line.
-pub(crate) const LINE_FLOATS: usize = 16;
+pub(super) const LINE_FLOATS: usize = 16;
 
 /// A value aligned to a cache line. Block rows stored in one start every plane's sub-row on
 /// a 64-byte boundary (`QW` floats are a whole number of lines), so the kernels' 16-float
@@ -132,12 +132,12 @@ pub(crate) const LINE_FLOATS: usize = 16;
 /// `malloc` placed 16 bytes past a page boundary.
 #[derive(Clone, Copy)]
 #[repr(C, align(64))]
-pub(crate) struct Aligned<T>(pub T);
+pub(super) struct Aligned<T>(pub T);
 
 const _: () = assert!(QW.is_multiple_of(LINE_FLOATS) && 4 * LINE_FLOATS == 64);
 
 /// Rows of [`QW`] floats, each on a cache line boundary, as one flat slice of floats.
-pub(crate) fn flat_rows(rows: &mut [Aligned<[f32; QW]>]) -> &mut [f32] {
+pub(super) fn flat_rows(rows: &mut [Aligned<[f32; QW]>]) -> &mut [f32] {
     const { assert!(std::mem::size_of::<Aligned<[f32; QW]>>() == QW * 4) };
     // SAFETY: `Aligned<[f32; QW]>` is `repr(C)` with no padding (size checked above), so the
     // rows are `rows.len() · QW` contiguous, initialised floats, borrowed mutably here.
@@ -146,7 +146,7 @@ pub(crate) fn flat_rows(rows: &mut [Aligned<[f32; QW]>]) -> &mut [f32] {
 
 /// A float buffer shared between parallel tasks that each write their own disjoint floats
 /// (`fill_margins`' row tasks; the level pipeline's output rows).
-pub(crate) struct SharedBuf(pub(crate) *mut f32);
+pub(super) struct SharedBuf(pub(super) *mut f32);
 // SAFETY: every user hands out disjoint floats to its tasks (see `fill_margins` and
 // `AtrousFilter::levels`).
 unsafe impl Sync for SharedBuf {}

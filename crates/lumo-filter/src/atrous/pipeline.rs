@@ -1,5 +1,5 @@
 //! The À-Trous levels run as one pipeline per group of strips and band of rows, when every level takes
-//! the symmetric-pair path (atrous_pairs.rs): level k sweeps its rows 2·step_k behind level
+//! the symmetric-pair path (pairs/): level k sweeps its rows 2·step_k behind level
 //! k − 1, reading level k − 1's output from a ring of 2·step_k + 1 rows instead of a
 //! full-image buffer.
 //!
@@ -24,23 +24,23 @@ use std::cell::RefCell;
 
 use rayon::prelude::*;
 
-use crate::atrous_kernel::{normalise, AuxBlock, Level, SrcBlock, K, KA};
-use crate::atrous_layout::{exchange_margins, flat_rows, Aligned, Layout, M, QW};
-use crate::atrous_pairs::{self, Acc, Accs, RowJob, Rows, AN, CHUNK, PAIRS, ZERO_AUX, ZERO_SRC};
+use super::kernel::{normalise, AuxBlock, Level, SrcBlock, K, KA};
+use super::layout::{exchange_margins, flat_rows, Aligned, Layout, M, QW};
+use super::pairs::{self, Acc, Accs, RowJob, Rows, AN, CHUNK, PAIRS, ZERO_AUX, ZERO_SRC};
 
 /// Most levels a pipeline runs (steps 1..16: the pair path's limit).
-pub(crate) const MAX_LEVELS: usize = 5;
+pub(super) const MAX_LEVELS: usize = 5;
 
 /// Converts the inputs of block (strip, row) into a source block (K planes) and an aux
 /// block (KA planes).
-pub(crate) type Fill<'a> = dyn Fn(usize, usize, &mut [f32], &mut [f32]) + Sync + 'a;
+pub(super) type Fill<'a> = dyn Fn(usize, usize, &mut [f32], &mut [f32]) + Sync + 'a;
 
 /// Takes the finished block (strip, row) of the last level.
-pub(crate) type Emit<'a> = dyn Fn(usize, usize, &[f32]) + Sync + 'a;
+pub(super) type Emit<'a> = dyn Fn(usize, usize, &[f32]) + Sync + 'a;
 
 /// What differs between the levels of a pipeline.
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct Stage {
+pub(super) struct Stage {
     pub step: usize,
     pub cm: u8,
     pub color_scale: f32,
@@ -49,12 +49,12 @@ pub(crate) struct Stage {
 
 /// Whether `stages` can run as a pipeline on layout `lay`: every level a pair level, and
 /// every strip's halo columns (rounded out to whole vectors) inside its block.
-pub(crate) fn supports(stages: &[Stage], nf: usize, lay: Layout) -> bool {
+pub(super) fn supports(stages: &[Stage], nf: usize, lay: Layout) -> bool {
     !stages.is_empty()
         && stages.len() <= MAX_LEVELS
         && stages
             .iter()
-            .all(|s| atrous_pairs::supports(s.step, false, s.cm, nf))
+            .all(|s| pairs::supports(s.step, false, s.cm, nf))
         && (0..lay.nch).all(|c| columns(lay, c, c..c + 1, stages).is_some())
 }
 
@@ -65,7 +65,7 @@ pub(crate) fn supports(stages: &[Stage], nf: usize, lay: Layout) -> bool {
 /// cost more than the halo (512², two threads, two bands: 37 → 28 ms), while shorter bands
 /// (512×64: 32-row bands for a 62-row halo) were faster level by level
 /// (docs/filter-benchmarks.md).
-pub(crate) fn pays_off(lay: Layout, stages: &[Stage]) -> bool {
+pub(super) fn pays_off(lay: Layout, stages: &[Stage]) -> bool {
     let (band_rows, groups) = auto_split(lay);
     groups >= rayon::current_num_threads().max(1) || band_rows >= halo_rows(stages)
 }
@@ -159,7 +159,7 @@ thread_local! {
 struct Scratch {
     /// Per strip of the task's group, its rings.
     strips: Vec<Rings>,
-    /// One row of the 12 pair weights (see atrous_pairs.rs).
+    /// One row of the 12 pair weights (see pairs/).
     weights: Vec<Aligned<[f32; QW]>>,
 }
 
@@ -211,7 +211,7 @@ impl Rings {
 /// so that inside the group no strip recomputes its neighbours' columns (1080p, two threads,
 /// two groups of two 480-column strips: 60 of the first level's 600 swept columns per side
 /// are halo instead of 60 of every 480-column strip's).
-pub(crate) fn run(
+pub(super) fn run(
     l: &Level,
     stages: &[Stage],
     split: Option<(usize, usize)>,
@@ -287,7 +287,7 @@ impl Task<'_> {
         for r in &mut rings[..m] {
             r.grow(stages, fr);
         }
-        // Zeroed once; only ever overwritten with weights in [0, 1] (see atrous_pairs.rs).
+        // Zeroed once; only ever overwritten with weights in [0, 1] (see pairs/).
         if weights.len() < PAIRS.len() {
             weights.resize(PAIRS.len(), Aligned([0.0; QW]));
         }
@@ -402,7 +402,7 @@ impl Task<'_> {
                     a2: &mut a2.0,
                     w: flat_rows(weights),
                 };
-                atrous_pairs::row(&levels[k], &r, &mut accs, job);
+                pairs::row(&levels[k], &r, &mut accs, job);
                 if !kept(y) {
                     continue;
                 }

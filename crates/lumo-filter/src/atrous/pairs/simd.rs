@@ -18,13 +18,13 @@ use std::arch::x86_64::*;
 #[cfg(target_arch = "x86_64")]
 use super::{Accs, RowJob, Rows, CENTRE, F, MAX_PAIR_STEP, PAIRS, V};
 #[cfg(target_arch = "x86_64")]
+use crate::atrous::kernel::CM_FIXED;
+#[cfg(target_arch = "x86_64")]
+use crate::atrous::layout::QW;
+#[cfg(target_arch = "x86_64")]
 use crate::atrous::B3;
 #[cfg(target_arch = "x86_64")]
-use crate::atrous_kernel::CM_FIXED;
-#[cfg(target_arch = "x86_64")]
-use crate::atrous_layout::QW;
-#[cfg(target_arch = "x86_64")]
-use crate::fastmath::{exp2_cut_avx2_xn, exp2_cut_avx512_xn, EXP_CUTOFF};
+use crate::common::fastmath::{exp2_cut_avx2_xn, exp2_cut_avx512_xn, EXP_CUTOFF};
 
 /// One row of the pair path (the sweep, then the scatter of the mirrored halves), for one
 /// instruction set.

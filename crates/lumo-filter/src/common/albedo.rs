@@ -3,8 +3,8 @@
 
 use lumo_image::{luminance, Image};
 
-use crate::gbuffer::{check_color, check_size, missing_pixels, Filtered};
-use crate::passthrough::passed;
+use crate::common::gbuffer::{check_color, check_size, missing_pixels, Filtered};
+use crate::common::passthrough::passed;
 use crate::FilterError;
 
 /// Albedo below this (in every channel) cannot be divided by safely: such pixels (black

@@ -12,7 +12,7 @@
 
 use rayon::prelude::*;
 
-use crate::cholesky::{solve_lanes, L};
+use super::cholesky::{solve_lanes, L};
 
 /// Largest number of product channels (D = 8: 8 + 36 + 3 + 24), padded to whole chunks.
 const MAX_K1: usize = 72;
@@ -54,7 +54,7 @@ fn counts(n: usize, r: usize) -> Vec<f64> {
 }
 
 /// Inputs of one guided-filter solve: `d`-channel guide and 3-channel input, both pixel-major.
-pub(crate) struct Problem<'a> {
+pub(super) struct Problem<'a> {
     pub guide: &'a [f32],
     pub p: &'a [f32],
     pub eps: &'a [f32],
@@ -66,7 +66,7 @@ pub(crate) struct Problem<'a> {
 /// Computes, for every row y, the window-averaged coefficients [a_0 (D), a_1 (D), a_2 (D),
 /// b (3)] of each pixel and hands them to `emit(y, coefficients, out_row)`, where `out_row` is
 /// row y of `out` (`row_len` values per row).
-pub(crate) fn stream<const D: usize, F>(pb: &Problem, out: &mut [f32], row_len: usize, emit: F)
+pub(super) fn stream<const D: usize, F>(pb: &Problem, out: &mut [f32], row_len: usize, emit: F)
 where
     F: Fn(usize, &[f32], &mut [f32]) + Sync,
 {

@@ -2,7 +2,7 @@
 
 use lumo_image::{luminance, Image};
 
-use crate::gbuffer::check_color;
+use crate::common::gbuffer::check_color;
 use crate::FilterError;
 
 /// Scales pixels whose luminance is more than `k_sigma` standard deviations from the mean of
@@ -14,7 +14,7 @@ use crate::FilterError;
 pub fn remove_outliers(img: &Image, k_sigma: f32) -> Result<(Image, usize), FilterError> {
     check_color("low-res buffer", img)?;
     if !(k_sigma > 0.0) {
-        return Err(crate::error::param(
+        return Err(crate::common::error::param(
             "outlier k_sigma",
             format!("{k_sigma} (must be > 0)"),
         ));

@@ -1,7 +1,7 @@
 //! Small symmetric positive definite solves (the guided filter's d×d window systems).
 
 /// Systems solved together, one per lane.
-pub(crate) const L: usize = 16;
+pub(super) const L: usize = 16;
 
 /// Solves `A x_c = b_c` for the 3 right-hand sides `b` with `A` symmetric positive definite
 /// (D×D), for L independent systems at once, stored lane-last (`a[i][j][lane]`) so that every
@@ -9,7 +9,7 @@ pub(crate) const L: usize = 16;
 /// colour channels. Pivots are floored at a tiny positive value, so a matrix that rounding
 /// made slightly indefinite still gives a finite answer instead of NaN.
 #[inline(always)]
-pub(crate) fn solve_lanes<const D: usize>(
+pub(super) fn solve_lanes<const D: usize>(
     a: &[[[f32; L]; D]; D],
     b: &[[[f32; L]; D]; 3],
 ) -> [[[f32; L]; D]; 3] {

@@ -1,78 +1,45 @@
 //! Edge-avoiding À-Trous wavelet filter (Dammertz et al. 2010; papers/README §1), with the
 //! variance-guided colour weight of SVGF as an option.
+//!
+//! The files of this folder, in the order a call runs through them: params.rs (parameters
+//! and checks), input.rs (per-pixel input rules and the statistics pass), fill.rs (the working
+//! layout filled from the images, with lanes.rs for the vectorised runs), layout.rs (that
+//! layout), then per level kernel.rs (per tap) / fused.rs (first five levels) / pairs/ (the
+//! symmetric-pair path) or pipeline.rs (all levels at once, row by row), and output.rs (the
+//! result written back). Everything but the public API below is `pub(super)`.
+
+mod fill;
+mod fused;
+mod input;
+#[cfg(test)]
+mod input_tests;
+mod kernel;
+mod lanes;
+mod layout;
+mod output;
+mod pairs;
+mod params;
+mod pipeline;
+#[cfg(test)]
+mod tests;
 
 use lumo_image::Image;
 use rayon::prelude::*;
 
-use crate::atrous_input::{
-    feature_count, fill_all, fill_block, input_stats, output, output_row, FillScales, Input,
+pub use params::{
+    AtrousParams, B3, DEFAULT_SIGMA_LUMINANCE, DEFAULT_SIGMA_NORMAL, DEFAULT_SIGMA_POSITION,
 };
-use crate::atrous_kernel::{self, Isa, Level, Path, CM_FIXED, CM_NONE, CM_VARIANCE, K, KA};
-use crate::atrous_layout::{Layout, SharedBuf, CW, LINE_FLOATS, M, QW};
-use crate::atrous_pairs;
-use crate::atrous_pipeline::{self, Stage};
-use crate::error::param;
-use crate::gbuffer::{check_color, check_features, Features, Filtered};
+
+use crate::common::gbuffer::{Features, Filtered};
+use crate::denoiser::{Denoiser, FilterInput, FilterKind};
 use crate::FilterError;
-
-/// The B3 spline taps (1/16, 1/4, 3/8, 1/4, 1/16); the 5×5 kernel is their outer product.
-pub const B3: [f32; 5] = [1.0 / 16.0, 1.0 / 4.0, 3.0 / 8.0, 1.0 / 4.0, 1.0 / 16.0];
-
-/// Parameters of [`atrous`]. A `None` sigma switches that edge weight off (the paper's Table 2
-/// times 0–3 weights).
-#[derive(Clone, Debug, PartialEq)]
-pub struct AtrousParams {
-    /// Number of à-trous levels; level i uses taps 2^i pixels apart (5 → 125 px footprint).
-    pub iterations: usize,
-    /// Colour σ when no variance plane is used: in units of the image's mean luminance, halved
-    /// every iteration (paper). Off by default: on 1–4 spp heavy-tailed noise it keeps
-    /// fireflies and dark speckles apart from their neighbours (see docs/filters.md).
-    pub sigma_color: Option<f32>,
-    /// Variance-guided colour σ (SVGF's σ_l), used instead of `sigma_color` when
-    /// `features.variance` is given and `use_variance` is set: the luminance distance is divided
-    /// by σ_l·sqrt(3×3 Gaussian of the variance) + ε. Not halved: the variance itself shrinks as
-    /// it is filtered (with squared weights).
-    pub sigma_luminance: Option<f32>,
-    /// Normal σ (normals in [-1,1]); the distance is divided by stepwidth² as in the paper.
-    pub sigma_normal: Option<f32>,
-    /// Position σ in units of the scene's extent (diagonal of the positions' bounding box).
-    pub sigma_position: Option<f32>,
-    /// Sparse input: only pixels with x % n == 0 and y % n == 0 are valid (n = 1, 2 or 4); the
-    /// rest is in-painted, and the colour weight is skipped for the first log2(n) iterations.
-    pub sparse: usize,
-    /// Filter colour / albedo and multiply back (needs `features.albedo`).
-    pub demodulate: bool,
-    /// Use `features.variance` (if given) to steer the colour weight, as SVGF does.
-    pub use_variance: bool,
-}
-
-impl Default for AtrousParams {
-    /// Defaults chosen by the sweep in docs/filters.md.
-    fn default() -> Self {
-        Self {
-            iterations: 5,
-            sigma_color: None,
-            sigma_luminance: Some(DEFAULT_SIGMA_LUMINANCE),
-            sigma_normal: Some(DEFAULT_SIGMA_NORMAL),
-            sigma_position: Some(DEFAULT_SIGMA_POSITION),
-            sparse: 1,
-            demodulate: false,
-            use_variance: true,
-        }
-    }
-}
-
-/// Default variance-guided σ_l (multiplies the local luminance standard deviation): the best
-/// value with `spatial_variance` on real 1- and 4-spp renders (docs/filters.md, "Validation on
-/// the renderer"); the synthetic sweep had picked 64.
-pub const DEFAULT_SIGMA_LUMINANCE: f32 = 16.0;
-/// Default normal σ, see docs/filters.md.
-pub const DEFAULT_SIGMA_NORMAL: f32 = 0.3;
-/// Default position σ (fraction of the scene extent), see docs/filters.md.
-pub const DEFAULT_SIGMA_POSITION: f32 = 0.1;
-
-/// Keeps variance-guided weights finite where the variance is 0 (relative to mean luminance).
-pub(crate) const VARIANCE_EPS: f32 = 1e-6;
+use fill::{fill_all, fill_block};
+use input::{feature_count, input_stats, FillScales, Input};
+use kernel::{Isa, Level, Path, CM_FIXED, CM_NONE, CM_VARIANCE, K, KA};
+use layout::{Layout, SharedBuf, CW, LINE_FLOATS, M, QW};
+use output::{output, output_row};
+use params::{validate, VARIANCE_EPS};
+use pipeline::Stage;
 
 thread_local! {
     /// Each worker's output row for the level pipeline's `emit` (zeroed once, not per row).
@@ -118,7 +85,7 @@ impl AtrousFilter {
     }
 
     /// [`Self::filter`] with a chosen instruction set and kernel path (tests compare them).
-    pub(crate) fn run(
+    fn run(
         &mut self,
         color: &Image,
         features: &Features,
@@ -141,6 +108,7 @@ impl AtrousFilter {
     /// [`Self::filter`] that also returns the first level's output (what SVGF feeds back as
     /// the next frame's colour history), with the same remodulation as the final output.
     /// Always runs level by level (the pipeline never materialises a level).
+    /// `pub(crate)`: the temporal filter's, which feeds that level back as its history.
     pub(crate) fn filter_keeping_first_level(
         &mut self,
         color: &Image,
@@ -168,59 +136,42 @@ impl AtrousFilter {
     }
 }
 
-/// Checks the images and parameters of one call.
-fn validate(color: &Image, features: &Features, params: &AtrousParams) -> Result<(), FilterError> {
-    check_color("color", color)?;
-    check_features(features, color.width, color.height)?;
-    if params.iterations == 0 || params.iterations > 16 {
-        return Err(param(
-            "iterations",
-            format!("{} (use 1..=16)", params.iterations),
-        ));
-    }
-    if ![1, 2, 4].contains(&params.sparse) {
-        return Err(param(
-            "sparse",
-            format!("{} (use 1, 2 or 4)", params.sparse),
-        ));
-    }
-    for (name, s) in [
-        ("sigma_color", params.sigma_color),
-        ("sigma_luminance", params.sigma_luminance),
-        ("sigma_normal", params.sigma_normal),
-        ("sigma_position", params.sigma_position),
-    ] {
-        if let Some(s) = s {
-            if !(s > 0.0) {
-                return Err(param(name, format!("{s} (must be > 0, or off)")));
-            }
+/// The À-Trous filter behind the [`Denoiser`] interface: its parameters and its working
+/// memory (an [`AtrousFilter`], kept between frames). Reads the colour and whichever of
+/// normal, position, albedo and variance its parameters use.
+#[derive(Debug, Default)]
+pub struct AtrousDenoiser {
+    /// The parameters of every call.
+    pub params: AtrousParams,
+    filter: AtrousFilter,
+}
+
+impl AtrousDenoiser {
+    /// A denoiser with these parameters.
+    pub fn new(params: AtrousParams) -> Self {
+        Self {
+            params,
+            filter: AtrousFilter::new(),
         }
     }
-    if params.sigma_normal.is_some() && features.normal.is_none() {
-        return Err(FilterError::MissingFeature {
-            filter: "the À-Trous normal weight",
-            needs: "a normal plane".into(),
-        });
+}
+
+impl Denoiser for AtrousDenoiser {
+    fn name(&self) -> &'static str {
+        FilterKind::Atrous.name()
     }
-    if params.sigma_position.is_some() && features.position.is_none() {
-        return Err(FilterError::MissingFeature {
-            filter: "the À-Trous position weight",
-            needs: "a position plane".into(),
-        });
+
+    /// [`AtrousFilter::filter`] on the input's colour and features.
+    fn denoise(&mut self, input: &FilterInput) -> Result<Filtered, FilterError> {
+        self.filter
+            .filter(input.color, &input.features, &self.params)
     }
-    if params.demodulate && features.albedo.is_none() {
-        return Err(FilterError::MissingFeature {
-            filter: "albedo demodulation",
-            needs: "an albedo plane".into(),
-        });
-    }
-    Ok(())
 }
 
 /// Scale of the background coordinate (used when there is no position plane to fold it
 /// into): a background/geometry pair is 64² log2 units apart, far below the weight cutoff, so
 /// the two never mix (the paper's shader does the same with a separate test).
-pub(crate) const BACKGROUND_SCALE: f32 = 64.0;
+const BACKGROUND_SCALE: f32 = 64.0;
 
 /// How far (in scaled units, per coordinate) background pixels are put beyond the farthest
 /// geometry when the background flag is folded into the position: 3·8² log2 units, below the
@@ -357,7 +308,7 @@ impl AtrousFilter {
             };
             (cm, color_scale)
         };
-        // All levels pair levels: run them as one pipeline (see atrous_pipeline.rs). The
+        // All levels pair levels: run them as one pipeline (see pipeline.rs). The
         // normal planes stay at level 0's scale; each level's factor is 1/step².
         let stages: Vec<Stage> = (0..params.iterations)
             .map(|it| {
@@ -373,12 +324,12 @@ impl AtrousFilter {
             .collect();
         let piped = match path {
             _ if first.is_some() => None,
-            Path::Auto if atrous_pipeline::pays_off(lay, &stages) => Some(None),
+            Path::Auto if pipeline::pays_off(lay, &stages) => Some(None),
             Path::Bands(rows, groups) => Some(Some((rows, groups))),
             _ => None,
         };
         if let Some(split) = piped {
-            if !var_mode && atrous_pipeline::supports(&stages, nf, lay) {
+            if !var_mode && pipeline::supports(&stages, nf, lay) {
                 // The pipeline reads the inputs row by row and writes the output image row
                 // by row itself: no full-image working buffers.
                 let level = Level {
@@ -422,7 +373,7 @@ impl AtrousFilter {
                     });
                     written.fetch_add(3 * len, std::sync::atomic::Ordering::Relaxed);
                 };
-                atrous_pipeline::run(&level, &stages, split, &fill, &emit);
+                pipeline::run(&level, &stages, split, &fill, &emit);
                 // Every (strip, row) was emitted once: the strips tile each row.
                 assert_eq!(
                     written.into_inner(),
@@ -467,7 +418,7 @@ impl AtrousFilter {
                 eps: VARIANCE_EPS * ml,
             };
             let pairs = matches!(path, Path::Auto | Path::Pairs | Path::Bands(..))
-                && atrous_pairs::supports(step, var_mode, cm, nf);
+                && pairs::supports(step, var_mode, cm, nf);
             // The normal coordinates' scale relative to level 0 should be 1/step. The pair
             // path applies the factor to the squared distance instead of rescaling the
             // planes; before another path, the planes are rescaled (by powers of 2: exact).
@@ -495,11 +446,11 @@ impl AtrousFilter {
                 path,
             };
             if pairs {
-                atrous_pairs::level(&level, dst);
+                pairs::level(&level, dst);
             } else {
                 dst.par_chunks_mut(K * QW)
                     .enumerate()
-                    .for_each(|(b, blk)| atrous_kernel::block(&level, b, blk));
+                    .for_each(|(b, blk)| kernel::block(&level, b, blk));
             }
             // The variance plane only matters where it is carried.
             lay.fill_margins(dst, K, if var_mode { K } else { K - 1 });
@@ -525,7 +476,7 @@ multiversion! {
     /// adds its terms in the same order as that function did (kept in the tests as the
     /// reference), and a term beyond the image adds an exact 0, so the result is the same bit
     /// for bit.
-    pub(crate) fn inverse_sigma_row(
+    fn inverse_sigma_row(
         src: &[f32],
         lay: Layout,
         c: usize,

@@ -3,11 +3,11 @@
 
 use lumo_image::{luminance, Image};
 
-use crate::atrous::{inverse_sigma_row, AtrousFilter, AtrousParams, B3, VARIANCE_EPS};
-use crate::atrous_kernel::{Isa, Path, K};
-use crate::atrous_layout::{Layout, M, QW};
-use crate::gbuffer::{Features, Prepared};
-use crate::synthetic::synthetic_frame;
+use super::kernel::{Isa, Path, K};
+use super::layout::{Layout, M, QW};
+use super::{inverse_sigma_row, AtrousFilter, AtrousParams, B3, VARIANCE_EPS};
+use crate::bench::synthetic::synthetic_frame;
+use crate::common::gbuffer::{Features, Prepared};
 
 /// Direct evaluation, pixel by pixel and tap by tap in f64, of the documented weights:
 /// h·exp(−e)·valid_q, zero across background/geometry and for e > 20, with e the sum of the
@@ -415,7 +415,7 @@ fn row_wise_inverse_sigma_equals_the_per_pixel_one() {
             for y in 0..h {
                 let b = lay.block(c, y, K) + 4 * QW;
                 for v in &mut src[b + M..b + M + len] {
-                    *v = crate::synthetic::splitmix(&mut seed) * 3.0;
+                    *v = crate::bench::synthetic::splitmix(&mut seed) * 3.0;
                 }
             }
         }

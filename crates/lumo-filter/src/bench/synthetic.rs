@@ -9,7 +9,7 @@
 use lumo_image::{luminance, Image};
 use rayon::prelude::*;
 
-use crate::boxsum::box_mean;
+use crate::common::boxsum::box_mean;
 
 /// A synthetic frame: noise-free reference, noisy estimate and its G-buffer.
 #[derive(Clone, Debug)]

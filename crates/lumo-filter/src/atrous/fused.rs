@@ -1,20 +1,18 @@
 //! The À-Trous kernel's fast path for levels with taps at most [`MAX_STEP`] pixels apart (the
 //! first five levels): all five taps of a kernel row are evaluated in one pass over the block,
 //! with the accumulators in registers, every plane at a constant displacement and no column
-//! clipping (the block margins cover the taps; see atrous_layout.rs).
+//! clipping (the block margins cover the taps; see layout.rs).
 //!
 //! The per-pixel operations and their order are exactly those of the per-tap path (a tap
 //! outside the image adds an exact zero instead of being skipped), so both paths give
 //! bit-identical results.
 
-use crate::atrous_kernel::{
-    normalise, tap_consts, AuxBlock, Isa, Level, SrcBlock, CM_FIXED, CM_VARIANCE,
-};
-use crate::atrous_layout::{CW, M, QW};
-use crate::fastmath::{exp2_cut, mul_add};
+use super::kernel::{normalise, tap_consts, AuxBlock, Isa, Level, SrcBlock, CM_FIXED, CM_VARIANCE};
+use super::layout::{CW, M, QW};
+use crate::common::fastmath::{exp2_cut, mul_add};
 
 /// Largest tap spacing of the fused path: five taps span ±2·MAX_STEP = ±M columns.
-pub(crate) const MAX_STEP: usize = M / 2;
+pub(super) const MAX_STEP: usize = M / 2;
 
 /// Planes of a block of the source buffer.
 const R: usize = 0;
@@ -28,7 +26,7 @@ const F: usize = 2;
 const AN: usize = 5;
 
 /// Block `b` of a level with `step <= MAX_STEP` into `dst` (K planes).
-pub(crate) fn block_fused<const NF: usize, const CM: u8, const VAR: bool>(
+pub(super) fn block_fused<const NF: usize, const CM: u8, const VAR: bool>(
     l: &Level,
     b: usize,
     dst: &mut [f32],

@@ -3,7 +3,7 @@
 
 use lumo_image::Image;
 
-use crate::gbuffer::{missing_pixels, Filtered};
+use crate::common::gbuffer::{missing_pixels, Filtered};
 
 /// The colour of a pass-through channel value: itself, or 0 where it is not finite.
 pub(crate) fn passed(v: f32) -> f32 {

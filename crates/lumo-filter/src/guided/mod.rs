@@ -1,16 +1,28 @@
 //! Guided image filter (He et al. 2010) with a geometry guide (Bauszat et al. 2011; papers/README
 //! §2), and the fast guided filter (He & Sun 2015) as an option.
+//!
+//! Files: this one (guide building, parameters, the public entry point, the sub-sampled
+//! variant), stream.rs (the exact filter streamed row by row), cholesky.rs (its small window
+//! solves) and lookup.rs (the paper's geometry-aware lookup, used by the guided pipeline).
+
+mod cholesky;
+mod lookup;
+mod stream;
 
 use lumo_image::Image;
 use rayon::prelude::*;
 
-use crate::boxsum::box_mean;
-use crate::error::param;
-use crate::gbuffer::{
+use crate::common::albedo::with_demodulation;
+use crate::common::boxsum::box_mean;
+use crate::common::error::param;
+use crate::common::gbuffer::{
     background_mask, check_color, check_features, check_size, flush, plane0, Features, Filtered,
 };
-use crate::guided_stream::{stream, Problem};
+use crate::denoiser::{require, Denoiser, FilterInput, FilterKind};
 use crate::FilterError;
+use stream::{stream, Problem};
+
+pub use lookup::{most_similar, most_similar_in_grid, neighbour_cells};
 
 /// Largest supported guide dimension.
 pub const MAX_GUIDE_DIMS: usize = 8;
@@ -218,6 +230,68 @@ impl Default for GuidedParams {
         Self {
             radius: DEFAULT_RADIUS,
             fast_subsample: 1,
+        }
+    }
+}
+
+/// The guided filter behind the [`Denoiser`] interface: builds the guide from the input's
+/// normal (and depth) planes on every call, as [`build_guide`], then runs [`guided`]. Needs a
+/// normal plane, and a depth plane for [`GuideKind::NormalDepth`]; the albedo when
+/// demodulating.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GuidedDenoiser {
+    /// Which guide to build.
+    pub guide: GuideKind,
+    /// How depth is mapped to the guide's [0, 1].
+    pub depth_norm: DepthNorm,
+    /// ε on the guide's normal dimensions.
+    pub eps_normal: f32,
+    /// ε on its depth dimension.
+    pub eps_depth: f32,
+    /// The filter's parameters.
+    pub params: GuidedParams,
+    /// Filter colour / albedo and multiply back ([`with_demodulation`]; needs an albedo).
+    pub demodulate: bool,
+}
+
+impl Default for GuidedDenoiser {
+    /// The 4-dimensional guide (normal + depth, depth over its range) with the defaults of
+    /// docs/filters.md.
+    fn default() -> Self {
+        Self {
+            guide: GuideKind::NormalDepth,
+            depth_norm: DepthNorm::Range,
+            eps_normal: DEFAULT_EPS_NORMAL,
+            eps_depth: DEFAULT_EPS_DEPTH,
+            params: GuidedParams::default(),
+            demodulate: false,
+        }
+    }
+}
+
+impl Denoiser for GuidedDenoiser {
+    fn name(&self) -> &'static str {
+        FilterKind::Guided.name()
+    }
+
+    /// [`build_guide`] from the input's features, then [`guided`], demodulated when asked.
+    fn denoise(&mut self, input: &FilterInput) -> Result<Filtered, FilterError> {
+        let guide = build_guide(
+            self.guide,
+            &input.features,
+            self.depth_norm,
+            self.eps_normal,
+            self.eps_depth,
+        )?;
+        if self.demodulate {
+            let albedo = require(
+                input.features.albedo,
+                "albedo demodulation",
+                "an albedo plane",
+            )?;
+            with_demodulation(input.color, albedo, |c| guided(c, &guide, &self.params))
+        } else {
+            guided(input.color, &guide, &self.params)
         }
     }
 }

@@ -1,0 +1,332 @@
+//! Invariants every filter keeps: constants stay constant, guide edges stay sharp, broken
+//! inputs give finite outputs or typed errors, and noise goes down on the synthetic scene.
+
+use lumo_filter::*;
+use lumo_image::Image;
+
+use crate::support::*;
+
+#[test]
+fn constant_image_stays_constant_under_every_filter() {
+    let (w, h) = (40, 32);
+    let s = split(w, h);
+    let f = features(&s);
+    let c = Image::from_vec(w, h, 3, [0.25f32, 0.5, 2.0].repeat(w * h));
+    let mut outs = vec![
+        atrous(&c, &f, &AtrousParams::default()).unwrap().image,
+        atrous(
+            &c,
+            &f,
+            &AtrousParams {
+                demodulate: true,
+                sparse: 2,
+                ..AtrousParams::default()
+            },
+        )
+        .unwrap()
+        .image,
+        bilateral(&c, &f, &BilateralParams::default())
+            .unwrap()
+            .image,
+    ];
+    let var = Image::new(w, h, 1, 0.1);
+    let fv = Features {
+        variance: Some(&var),
+        ..f
+    };
+    outs.push(atrous(&c, &fv, &AtrousParams::default()).unwrap().image);
+    for g in all_guides(&s) {
+        for sub in [1, 2, 3] {
+            let p = GuidedParams {
+                radius: 4,
+                fast_subsample: sub,
+            };
+            outs.push(guided(&c, &g, &p).unwrap().image);
+        }
+    }
+    for (i, o) in outs.iter().enumerate() {
+        let d = max_abs_diff(o, &c);
+        assert!(d < 1e-4, "filter #{i}: max deviation {d}");
+    }
+}
+
+#[test]
+fn piecewise_constant_image_is_not_blurred_across_guide_edges() {
+    let (w, h) = (48, 24);
+    let s = split(w, h);
+    let c = edge_color(w, h);
+    // Geometry only, so no filter can lean on colour: the geometry must keep the edge.
+    // (À-Trous divides the normal distance by stepwidth², so at coarse levels it relies on
+    // positions, as in the paper.)
+    let f = Features {
+        normal: Some(&s.normal),
+        depth: Some(&s.depth),
+        ..Features::default()
+    };
+    let fp = Features {
+        position: Some(&s.position),
+        ..f
+    };
+    let a = atrous(
+        &c,
+        &fp,
+        &AtrousParams {
+            sigma_color: None,
+            sigma_luminance: None,
+            ..AtrousParams::default()
+        },
+    )
+    .unwrap()
+    .image;
+    assert!(
+        max_abs_diff(&a, &c) < 1e-3,
+        "atrous {}",
+        max_abs_diff(&a, &c)
+    );
+    let b = bilateral(
+        &c,
+        &f,
+        &BilateralParams {
+            radius: 6,
+            sigma_spatial: 3.0,
+            sigma_normal: Some(0.1),
+            sigma_depth: None,
+            sigma_position: None,
+            sigma_color: None,
+        },
+    )
+    .unwrap()
+    .image;
+    assert!(
+        max_abs_diff(&b, &c) < 1e-3,
+        "bilateral {}",
+        max_abs_diff(&b, &c)
+    );
+    let g = build_guide(GuideKind::NormalDepth, &f, DepthNorm::Range, 1e-4, 1e-4).unwrap();
+    let q = guided(
+        &c,
+        &g,
+        &GuidedParams {
+            radius: 4,
+            fast_subsample: 1,
+        },
+    )
+    .unwrap()
+    .image;
+    assert!(
+        max_abs_diff(&q, &c) < 8e-3,
+        "guided {}",
+        max_abs_diff(&q, &c)
+    );
+    // The same image through a guide without the edge (all normals equal) must blur: this is
+    // what makes the assertions above meaningful.
+    let flat = Image::from_vec(w, h, 3, [0.0f32, 0.0, 1.0].repeat(w * h));
+    let ff = Features {
+        normal: Some(&flat),
+        ..Features::default()
+    };
+    let g = build_guide(GuideKind::Normal, &ff, DepthNorm::Range, 1e-4, 1e-4).unwrap();
+    let blurred = guided(
+        &c,
+        &g,
+        &GuidedParams {
+            radius: 4,
+            fast_subsample: 1,
+        },
+    )
+    .unwrap();
+    assert!(max_abs_diff(&blurred.image, &c) > 0.1);
+}
+
+#[test]
+fn nan_inputs_give_finite_outputs() {
+    let (w, h) = (40, 30);
+    let s = split(w, h);
+    let f = features(&s);
+    let mut c = noise_image(w, h, 3, 1);
+    for (i, v) in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY]
+        .into_iter()
+        .enumerate()
+    {
+        c.pixel_mut(5 + i, 7)[1] = v;
+    }
+    // A whole missing block bigger than one à-trous level.
+    for y in 10..14 {
+        for x in 20..24 {
+            c.pixel_mut(x, y)[0] = f32::NAN;
+        }
+    }
+    let expect_missing = 3 + 16;
+    let var = Image::new(w, h, 1, f32::NAN);
+    let fv = Features {
+        variance: Some(&var),
+        ..f
+    };
+    let mut results = vec![
+        atrous(&c, &f, &AtrousParams::default()).unwrap(),
+        atrous(
+            &c,
+            &fv,
+            &AtrousParams {
+                demodulate: true,
+                ..AtrousParams::default()
+            },
+        )
+        .unwrap(),
+        bilateral(
+            &c,
+            &f,
+            &BilateralParams {
+                sigma_color: Some(1.0),
+                ..BilateralParams::default()
+            },
+        )
+        .unwrap(),
+    ];
+    for g in all_guides(&s) {
+        results.push(
+            guided(
+                &c,
+                &g,
+                &GuidedParams {
+                    radius: 3,
+                    fast_subsample: 1,
+                },
+            )
+            .unwrap(),
+        );
+        results.push(
+            guided(
+                &c,
+                &g,
+                &GuidedParams {
+                    radius: 6,
+                    fast_subsample: 2,
+                },
+            )
+            .unwrap(),
+        );
+    }
+    let mut low = noise_image(5, 4, 3, 2);
+    low.pixel_mut(1, 1)[0] = f32::NAN;
+    let jf = Features {
+        normal: Some(&s.normal),
+        depth: Some(&s.depth),
+        ..Features::default()
+    };
+    let j = jbu(
+        &low,
+        &jf,
+        &JbuParams {
+            factor: 8,
+            prefilter: true,
+            ..JbuParams::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(j.missing, 1);
+    assert_eq!(j.image.non_finite_count(), 0);
+    for (i, r) in results.iter().enumerate() {
+        assert_eq!(r.image.non_finite_count(), 0, "filter #{i}");
+        assert_eq!(r.missing, expect_missing, "filter #{i}");
+        // Missing pixels are filled from their (uniform-noise) neighbourhood.
+        let v = r.image.pixel(21, 11);
+        assert!(
+            v.iter().all(|v| (-0.01..=1.01).contains(v)),
+            "filter #{i}: {v:?}"
+        );
+    }
+}
+
+#[test]
+fn every_filter_reduces_error_on_the_synthetic_scene() {
+    let frame = synthetic_frame(96, 72, 1, 42);
+    let f = Features {
+        normal: Some(&frame.normal),
+        position: Some(&frame.position),
+        depth: Some(&frame.depth),
+        albedo: Some(&frame.albedo),
+        variance: None,
+    };
+    let before = mse(&frame.noisy, &frame.reference);
+    let g = build_guide(GuideKind::NormalDepth, &f, DepthNorm::Range, 0.01, 0.01).unwrap();
+    let outs = [
+        (
+            "atrous",
+            atrous(
+                &frame.noisy,
+                &f,
+                &AtrousParams {
+                    demodulate: true,
+                    ..AtrousParams::default()
+                },
+            )
+            .unwrap(),
+        ),
+        (
+            "guided",
+            with_demodulation(&frame.noisy, &frame.albedo, |c| {
+                guided(c, &g, &GuidedParams::default())
+            })
+            .unwrap(),
+        ),
+        (
+            "bilateral",
+            with_demodulation(&frame.noisy, &frame.albedo, |c| {
+                bilateral(c, &f, &BilateralParams::default())
+            })
+            .unwrap(),
+        ),
+    ];
+    for (name, o) in outs {
+        let after = mse(&o.image, &frame.reference);
+        assert!(after < before / 5.0, "{name}: {before} -> {after}");
+    }
+}
+
+#[test]
+fn bad_inputs_are_typed_errors() {
+    let c = Image::new(8, 8, 3, 1.0);
+    let small = Image::new(4, 8, 3, 0.0);
+    let f = Features {
+        normal: Some(&small),
+        ..Features::default()
+    };
+    let e = atrous(&c, &f, &AtrousParams::default()).unwrap_err();
+    assert!(
+        matches!(e, FilterError::SizeMismatch { name: "normal", .. }),
+        "{e}"
+    );
+    assert!(
+        e.to_string().contains("4x8") && e.to_string().contains("8x8"),
+        "{e}"
+    );
+    let e = build_guide(
+        GuideKind::Normal,
+        &Features::default(),
+        DepthNorm::Range,
+        0.01,
+        0.01,
+    )
+    .unwrap_err();
+    assert!(matches!(e, FilterError::MissingFeature { .. }), "{e}");
+    let e = atrous(
+        &c,
+        &Features::default(),
+        &AtrousParams {
+            demodulate: true,
+            sigma_normal: None,
+            sigma_position: None,
+            ..AtrousParams::default()
+        },
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("albedo"), "{e}");
+    let e = atrous(
+        &Image::new(8, 8, 2, 0.0),
+        &Features::default(),
+        &AtrousParams::default(),
+    )
+    .unwrap_err();
+    assert!(matches!(e, FilterError::Channels { .. }));
+}
