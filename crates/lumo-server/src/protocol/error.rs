@@ -7,7 +7,7 @@ wire_enum! {
     /// Error codes carried by [`kind::ERROR`].
     pub enum ErrorCode: u16, "errorCode" {
         /// Shorter or longer than its type requires.
-        Malformed = 1, "malformed", "malformed (wrong length)";
+        Malformed = 1, "malformed", "malformed, wrong length";
         /// Type byte not defined.
         UnknownType = 2, "unknownType", "unknown type";
         /// Version byte is not [`super::VERSION`].
@@ -52,8 +52,8 @@ impl ProtocolError {
     }
 }
 
-const CODE: Field = Field::one("code", 4, FieldType::Enum(&ErrorCode::WIRE), "code (below)");
-const LENGTH: Field = Field::one("length", 6, FieldType::U16, "n, text length (≤ 400)");
+const CODE: Field = Field::one("code", 4, FieldType::Enum(&ErrorCode::WIRE), "error code");
+const LENGTH: Field = Field::one("length", 6, FieldType::U16, "text length in bytes (≤ 400)");
 const MESSAGE: Field = Field::tail(
     "message",
     8,

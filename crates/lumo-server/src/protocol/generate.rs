@@ -134,19 +134,33 @@ fn md_type(f: &Field) -> String {
     }
 }
 
-/// The field column: name and meaning, with an enumeration's codes.
+/// The field column: name and meaning (when it says more than the name), with an
+/// enumeration's codes.
 fn md_field(f: &Field) -> String {
-    let mut s = format!("`{}`: {}", f.name, f.doc);
+    let mut s = format!("`{}`", f.name);
+    let mut meaning = if f.doc == f.name {
+        String::new()
+    } else {
+        f.doc.to_string()
+    };
     if let FieldType::Enum(e) = f.ty {
         let codes: Vec<String> = e
             .variants
             .iter()
             .map(|v| format!("{} {}", v.code, v.label))
             .collect();
-        let _ = write!(s, ": {}", codes.join(", "));
+        let codes = codes.join(", ");
+        meaning = if meaning.is_empty() {
+            codes
+        } else {
+            format!("{meaning} ({codes})")
+        };
     }
     if let FieldType::Record(r) = f.ty {
-        let _ = write!(s, " ({} below)", r.name);
+        meaning = format!("{} records (below)", r.name);
+    }
+    if !meaning.is_empty() {
+        let _ = write!(s, ": {meaning}");
     }
     s
 }

@@ -15,9 +15,9 @@ const INTEGRATOR: Field = Field::one(
     "integrator",
     18,
     FieldType::Enum(&Integrator::WIRE),
-    "integrator",
+    "current integrator",
 );
-const MODE: Field = Field::one("mode", 19, FieldType::Enum(&Mode::WIRE), "mode");
+const MODE: Field = Field::one("mode", 19, FieldType::Enum(&Mode::WIRE), "current mode");
 const SAMPLE_BYTES: Field = Field::one(
     "sampleBytes",
     20,
@@ -29,7 +29,7 @@ const NAME_LENGTH: Field = Field::one(
     "nameLength",
     66,
     FieldType::U16,
-    "n, scene name length (≤ 200)",
+    "scene name length in bytes (≤ 200)",
 );
 const NAME: Field = Field::tail(
     "name",

@@ -29,7 +29,7 @@ const XYZW: Field = Field::fixed(
 pub const SAMPLE: Layout = Layout::record("SAMPLE", &[UV, XYZW]);
 
 const EPOCH: Field = Field::one("epoch", 4, FieldType::U32, "epoch");
-const STREAM: Field = Field::one("stream", 8, FieldType::Enum(&Stream::WIRE), "stream");
+const STREAM: Field = Field::one("stream", 8, FieldType::Enum(&Stream::WIRE), "sample stream");
 const RESERVED: Field = Field::fixed("reserved", 9, FieldType::Reserved, 3, "reserved");
 const COUNT: Field = Field::one("count", 12, FieldType::U32, "count");
 const LIGHT_PATHS: Field = Field::one(
