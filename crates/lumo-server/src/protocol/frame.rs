@@ -99,11 +99,12 @@ impl Frame {
         };
         let n = frame.width as usize * frame.height as usize;
         let bytes = r.tail(n * 4 * PIXELS.ty.bytes(), "frame size")?;
+        let half = |h: &[u8]| f16::from_bits(u16::from_le_bytes([h[0], h[1]])).to_f32();
         let pixels = bytes
-            .chunks_exact(8)
+            .chunks_exact(4 * PIXELS.ty.bytes())
             .map(|p| {
-                [0, 1, 2, 3]
-                    .map(|i| f16::from_bits(u16::from_le_bytes([p[2 * i], p[2 * i + 1]])).to_f32())
+                let mut c = p.chunks_exact(PIXELS.ty.bytes()).map(half);
+                [0; 4].map(|_| c.next().unwrap_or(0.0))
             })
             .collect();
         Ok((frame, pixels))

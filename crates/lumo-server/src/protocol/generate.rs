@@ -1,7 +1,7 @@
 //! Writes the field tables out for the other two readers of the protocol: the ES module
 //! `web/protocol_layout.js`, from which `web/protocol.js` takes every offset and code, and
 //! the message tables of docs/protocol.md (between `<!-- layout NAME -->` and
-//! `<!-- /layout -->`). The integration test `protocol_layout` fails when either committed
+//! `<!-- /layout -->`; `NAME` is a message, a record or `TYPES`, the list of message types). The integration test `protocol_layout` fails when either committed
 //! file differs from these; `LUMO_BLESS=1` rewrites them.
 
 use std::fmt::Write;
@@ -195,6 +195,19 @@ pub fn markdown(l: &Layout) -> String {
     out
 }
 
+/// The table of message types (the `TYPES` block of docs/protocol.md).
+pub fn markdown_types() -> String {
+    let mut out = String::from("| type | name | direction |\n| --- | --- | --- |\n");
+    for m in MESSAGES {
+        let direction = match m.direction {
+            Direction::ToViewer => "server → viewer",
+            Direction::Both => "both",
+        };
+        let _ = writeln!(out, "| {:#04x} | {} | {direction} |", m.kind, m.name);
+    }
+    out
+}
+
 /// `doc` with every generated block replaced by what the tables say now; an error names a
 /// message or record without a block, or a block of an unknown name.
 pub fn update_markdown(doc: &str) -> Result<String, String> {
@@ -208,23 +221,28 @@ pub fn update_markdown(doc: &str) -> Result<String, String> {
         let after = &rest[start + OPEN.len()..];
         let name_end = after.find(" -->").ok_or("unterminated layout marker")?;
         let name = &after[..name_end];
-        let layout = all
-            .iter()
-            .find(|l| l.name == name)
-            .ok_or_else(|| format!("docs name an unknown layout {name}"))?;
+        let table = if name == "TYPES" {
+            markdown_types()
+        } else {
+            let layout = all
+                .iter()
+                .find(|l| l.name == name)
+                .ok_or_else(|| format!("docs name an unknown layout {name}"))?;
+            markdown(layout)
+        };
         let body = &after[name_end + 4..];
         let end = body
             .find(CLOSE)
             .ok_or_else(|| format!("layout {name} has no {CLOSE}"))?;
         out.push_str(&rest[..start]);
-        let _ = write!(out, "{OPEN}{name} -->\n{}{CLOSE}", markdown(layout));
+        let _ = write!(out, "{OPEN}{name} -->\n{table}{CLOSE}");
         rest = &body[end + CLOSE.len()..];
         seen.push(name.to_string());
     }
     out.push_str(rest);
-    for l in all {
-        if !seen.iter().any(|s| s == l.name) {
-            return Err(format!("docs have no block `{OPEN}{} -->`", l.name));
+    for name in all.iter().map(|l| l.name).chain(["TYPES"]) {
+        if !seen.iter().any(|s| s == name) {
+            return Err(format!("docs have no block `{OPEN}{name} -->`"));
         }
     }
     Ok(out)

@@ -205,11 +205,6 @@ impl Layout {
             .last()
             .filter(|f| matches!(f.count, Count::Product(..)))
     }
-
-    /// The field called `name` (for tests and generators).
-    pub fn field(&self, name: &str) -> Option<&'static Field> {
-        self.fields.iter().find(|f| f.name == name)
-    }
 }
 
 const fn fixed_end(fields: &[Field], start: usize) -> usize {

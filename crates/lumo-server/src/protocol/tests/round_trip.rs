@@ -371,3 +371,26 @@ fn generators_describe_every_table() {
     }
     let _: &Layout = &Hello::LAYOUT;
 }
+
+/// The docs check replaces stale blocks and names a missing or unknown one, so a message
+/// added without its docs block fails the `protocol_layout` test.
+#[test]
+fn docs_blocks_are_regenerated_and_missing_ones_named() {
+    let names: Vec<&str> = RECORDS
+        .iter()
+        .chain(MESSAGES)
+        .map(|l| l.name)
+        .chain(["TYPES"])
+        .collect();
+    let block = |n: &str| format!("<!-- layout {n} -->\nstale\n<!-- /layout -->\n");
+    let doc: String = names.iter().map(|n| block(n)).collect();
+    let fresh = generate::update_markdown(&doc).unwrap();
+    assert!(!fresh.contains("stale"));
+    assert!(fresh.contains(&generate::markdown(&Hello::LAYOUT)));
+    assert!(fresh.contains(&generate::markdown_types()));
+    assert_eq!(generate::update_markdown(&fresh), Ok(fresh.clone()));
+    let without_frame = doc.replace(&block("FRAME"), "");
+    assert!(generate::update_markdown(&without_frame).is_err_and(|e| e.contains("FRAME")));
+    let unknown = format!("{doc}{}", block("NOPE"));
+    assert!(generate::update_markdown(&unknown).is_err_and(|e| e.contains("NOPE")));
+}
