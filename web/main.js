@@ -2,7 +2,7 @@
 // repaint, (swap), fetch new samples — whatever the server's speed.
 
 import {
-  camerasInFlightAfterError, decode, encodeCamera, encodeParams, KIND,
+  camerasInFlightAfterError, decode, encodeCamera, encodeParams, KIND, STREAM,
 } from './protocol.js';
 import { floatFormats, loadText, program } from './gl.js';
 import { SampleStream } from './stream.js';
@@ -228,7 +228,7 @@ function frame(now) {
     if (m.kind === KIND.FRAME) {
       display.uploadFrame(m);
     } else {
-      (m.stream === 0 ? camera : light).splat(m);
+      (m.stream === STREAM.camera ? camera : light).splat(m);
       left -= m.count;
       queuedSamples -= m.count;
     }

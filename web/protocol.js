@@ -1,20 +1,47 @@
-// The binary protocol of docs/protocol.md (mirror of crates/lumo-server/src/protocol.rs).
-// Every message: [type u8][version u8][reserved u16], then a little-endian payload.
+// The binary protocol of docs/protocol.md. Every message: [type u8][version u8][reserved u16],
+// then a little-endian payload. Every offset, type and code comes from protocol_layout.js,
+// which a Rust test generates from the message tables in crates/lumo-server/src/protocol/;
+// this file holds no byte offsets of its own (web/tests/protocol.test.mjs checks that).
 
-export const VERSION = 1;
-export const SAMPLE_BYTES = 12;
-export const BATCH_HEADER = 20;
-export const FRAME_HEADER = 20;
+import { ENUMS, HEADER_BYTES, MESSAGES, RECORDS, VERSION } from './protocol_layout.js';
 
-export const KIND = {
-  HELLO: 0x01, CAMERA: 0x02, PARAMS: 0x03, SAMPLES: 0x10, FRAME: 0x11,
-  STATS: 0x12, FINISH: 0x13, ERROR: 0x7f,
+export { ENUMS, MESSAGES, RECORDS, VERSION };
+
+const HEADER = RECORDS.HEADER.fields;
+// The packed sample: the viewer hands the bytes to the GPU as vertex attributes.
+export const SAMPLE = RECORDS.SAMPLE;
+export const SAMPLE_BYTES = SAMPLE.bytes;
+// Bytes before the samples of a SAMPLES message and before the pixels of a FRAME.
+export const BATCH_HEADER = MESSAGES.SAMPLES.fields.samples.offset;
+export const FRAME_HEADER = MESSAGES.FRAME.fields.pixels.offset;
+
+export const KIND = Object.fromEntries(Object.entries(MESSAGES).map(([n, m]) => [n, m.kind]));
+const NAME_OF_KIND = Object.fromEntries(Object.entries(MESSAGES).map(([n, m]) => [m.kind, n]));
+
+// An enumeration's codes by name, and its names by code.
+const codes = (e) => Object.fromEntries(ENUMS[e].values.map((v) => [v.name, v.code]));
+const names = (e) => {
+  const out = [];
+  for (const v of ENUMS[e].values) out[v.code] = v.name;
+  return out;
 };
+export const INTEGRATORS = names('integrator');
+export const MODES = names('mode');
+export const STREAM = codes('stream');
+export const ERROR_CODE = codes('errorCode');
 
-// ERROR codes with which the server refuses a CAMERA: malformed (1), invalid value (4), too
-// large (5). The server answers every CAMERA a viewer sends, in order, with a CAMERA (taken)
-// or an ERROR (refused); the viewer's PARAMS come from its own menus and are always valid.
-export const CAMERA_REFUSAL_CODES = new Set([1, 4, 5]);
+function codeOf(e, name) {
+  const code = codes(e)[name];
+  if (code === undefined) throw new Error(`unknown ${e} ${name}`);
+  return code;
+}
+
+// ERROR codes with which the server refuses a CAMERA: malformed, invalid value, too large.
+// The server answers every CAMERA a viewer sends, in order, with a CAMERA (taken) or an ERROR
+// (refused); the viewer's PARAMS come from its own menus and are always valid.
+export const CAMERA_REFUSAL_CODES = new Set([
+  ERROR_CODE.malformed, ERROR_CODE.invalidValue, ERROR_CODE.tooLarge,
+]);
 
 // The viewer's count of CAMERA messages in flight after an ERROR with `code`: one fewer when
 // the error refuses a camera and one is in flight. Without this, a refused camera stayed in
@@ -23,87 +50,103 @@ export function camerasInFlightAfterError(inflight, code) {
   return inflight > 0 && CAMERA_REFUSAL_CODES.has(code) ? inflight - 1 : inflight;
 }
 
-export const INTEGRATORS = ['path', 'light', 'both'];
-export const MODES = ['progressive', 'atrous', 'guided'];
+// DataView accessors per layout type (an enumeration's by its width).
+const ACCESS = {
+  u8: 'Uint8', bool: 'Uint8', u16: 'Uint16', unorm16: 'Uint16', u32: 'Uint32',
+  u64: 'BigUint64', f32: 'Float32',
+};
+const access = (f) => (f.type === 'enum' ? ACCESS[`u${8 * f.bytes}`] : ACCESS[f.type]);
 
-function readCamera(dv, o) {
-  const f = (i) => dv.getFloat32(o + 4 + 4 * i, true);
-  return {
-    epoch: dv.getUint32(o, true),
-    camera: {
-      origin: [f(0), f(1), f(2)], target: [f(3), f(4), f(5)], up: [f(6), f(7), f(8)], fov: f(9),
-    },
-  };
+function get(dv, f, i = 0) {
+  const v = dv[`get${access(f)}`](f.offset + i * f.bytes, true);
+  if (f.type === 'u64') return Number(v);
+  return f.type === 'bool' ? v !== 0 : v;
 }
+
+function set(dv, f, v, i = 0) {
+  const x = f.type === 'u64' ? BigInt(v) : f.type === 'bool' ? Number(Boolean(v)) : v;
+  dv[`set${access(f)}`](f.offset + i * f.bytes, x, true);
+}
+
+// Every fixed field of message `m` except reserved bytes: numbers (enumeration codes stay
+// numbers), arrays for fields of several elements.
+function fields(dv, m) {
+  const out = {};
+  for (const [name, f] of Object.entries(m.fields)) {
+    if (f.type === 'reserved' || typeof f.count !== 'number') continue;
+    out[name] = f.count === 1 ? get(dv, f)
+      : Array.from({ length: f.count }, (_, i) => get(dv, f, i));
+  }
+  return out;
+}
+
+// Elements of the variable tail `name`, from the fields its count names.
+function tailCount(m, name, values) {
+  const { factor, fields: by } = m.fields[name].count;
+  return by.reduce((n, f) => n * values[f], factor);
+}
+
+function text(buf, m, name, values) {
+  const f = m.fields[name];
+  return new TextDecoder().decode(new Uint8Array(buf, f.offset, tailCount(m, name, values) * f.bytes));
+}
+
+const camera = (f) => ({ origin: f.origin, target: f.target, up: f.up, fov: f.fov });
 
 // Decodes a server message (an ArrayBuffer). Sample and frame payloads stay in the buffer:
 // the viewer uploads them to the GPU as they are.
 export function decode(buf) {
   const dv = new DataView(buf);
-  if (buf.byteLength < 4) throw new Error('short message');
-  const kind = dv.getUint8(0);
-  if (dv.getUint8(1) !== VERSION) throw new Error(`protocol version ${dv.getUint8(1)}`);
+  if (buf.byteLength < HEADER_BYTES) throw new Error('short message');
+  const kind = get(dv, HEADER.kind);
+  const version = get(dv, HEADER.version);
+  if (version !== VERSION) throw new Error(`protocol version ${version}`);
+  const name = NAME_OF_KIND[kind];
+  if (name === undefined) throw new Error(`unknown message type ${kind}`);
+  const m = MESSAGES[name];
+  if (buf.byteLength < m.bytes) throw new Error(`short ${name} message`);
+  const f = fields(dv, m);
   switch (kind) {
     case KIND.HELLO: {
-      // Offset 20 holds the bytes per sample (12), checked below.
-      const cam = readCamera(dv, 22);
-      const nameLen = dv.getUint16(66, true);
-      const name = new TextDecoder().decode(new Uint8Array(buf, 68, nameLen));
-      if (dv.getUint16(20, true) !== SAMPLE_BYTES) throw new Error('unexpected sample size');
+      if (f.sampleBytes !== SAMPLE_BYTES) throw new Error('unexpected sample size');
       return {
-        kind, width: dv.getUint32(4, true), height: dv.getUint32(8, true),
-        triangles: dv.getUint32(12, true), threads: dv.getUint16(16, true),
-        integrator: INTEGRATORS[dv.getUint8(18)], mode: MODES[dv.getUint8(19)],
-        epoch: cam.epoch, camera: cam.camera, name,
+        kind, width: f.width, height: f.height, triangles: f.triangles, threads: f.threads,
+        integrator: INTEGRATORS[f.integrator], mode: MODES[f.mode],
+        epoch: f.epoch, camera: camera(f), name: text(buf, m, 'name', f),
       };
     }
-    case KIND.CAMERA: return { kind, ...readCamera(dv, 4) };
+    case KIND.CAMERA: return { kind, epoch: f.epoch, camera: camera(f) };
     case KIND.PARAMS:
-      return { kind, integrator: INTEGRATORS[dv.getUint8(4)], mode: MODES[dv.getUint8(5)] };
-    case KIND.SAMPLES:
-      return {
-        kind, epoch: dv.getUint32(4, true), stream: dv.getUint8(8),
-        count: dv.getUint32(12, true), lightPaths: dv.getUint32(16, true), buffer: buf,
-      };
-    case KIND.FRAME:
-      return {
-        kind, epoch: dv.getUint32(4, true), width: dv.getUint16(8, true),
-        height: dv.getUint16(10, true), mode: MODES[dv.getUint8(12)],
-        frames: dv.getUint32(16, true), buffer: buf,
-      };
-    case KIND.STATS:
-      return {
-        kind, epoch: dv.getUint32(4, true), viewers: dv.getUint32(8, true),
-        samples: Number(dv.getBigUint64(12, true)), lightPaths: Number(dv.getBigUint64(20, true)),
-        rate: dv.getFloat32(28, true), dropped: dv.getUint32(32, true),
-      };
-    case KIND.FINISH:
-      return {
-        kind, epoch: dv.getUint32(4, true), aborted: dv.getUint8(8) !== 0,
-        samples: Number(dv.getBigUint64(12, true)), seconds: dv.getFloat32(28, true),
-      };
-    case KIND.ERROR: {
-      const len = dv.getUint16(6, true);
-      return {
-        kind, code: dv.getUint16(4, true),
-        message: new TextDecoder().decode(new Uint8Array(buf, 8, len)),
-      };
-    }
-    default: throw new Error(`unknown message type ${kind}`);
+      return { kind, integrator: INTEGRATORS[f.integrator], mode: MODES[f.mode] };
+    case KIND.SAMPLES: return { kind, ...f, buffer: buf };
+    case KIND.FRAME: return { kind, ...f, mode: MODES[f.mode], buffer: buf };
+    case KIND.STATS: return { kind, ...f };
+    case KIND.FINISH: return { kind, ...f };
+    case KIND.ERROR: return { kind, code: f.code, message: text(buf, m, 'message', f) };
+    default: throw new Error(`message type ${kind} has no decoder`);
   }
 }
 
-export function encodeCamera(c) {
-  const dv = new DataView(new ArrayBuffer(48));
-  dv.setUint8(0, KIND.CAMERA);
-  dv.setUint8(1, VERSION);
-  const v = [...c.origin, ...c.target, ...c.up, c.fov];
-  v.forEach((x, i) => dv.setFloat32(8 + 4 * i, x, true));
+// A message of layout `m` with the given field values (reserved bytes and the epoch of
+// viewer messages stay 0).
+function encode(m, values) {
+  const dv = new DataView(new ArrayBuffer(m.bytes));
+  set(dv, HEADER.kind, m.kind);
+  set(dv, HEADER.version, VERSION);
+  for (const [name, v] of Object.entries(values)) {
+    const f = m.fields[name];
+    if (Array.isArray(v)) v.forEach((x, i) => set(dv, f, x, i));
+    else set(dv, f, v);
+  }
   return dv.buffer;
 }
 
+export function encodeCamera(c) {
+  return encode(MESSAGES.CAMERA, { origin: c.origin, target: c.target, up: c.up, fov: c.fov });
+}
+
 export function encodeParams(integrator, mode) {
-  const b = new Uint8Array([KIND.PARAMS, VERSION, 0, 0,
-    INTEGRATORS.indexOf(integrator), MODES.indexOf(mode), 0, 0]);
-  return b.buffer;
+  return encode(MESSAGES.PARAMS, {
+    integrator: codeOf('integrator', integrator), mode: codeOf('mode', mode),
+  });
 }

@@ -2,7 +2,7 @@
 // MIP chains. Samples are splatted additively in two passes (colour, then variance against
 // the updated mean), then the MIP levels are rebuilt.
 
-import { BATCH_HEADER, SAMPLE_BYTES } from './protocol.js';
+import { BATCH_HEADER, SAMPLE, SAMPLE_BYTES } from './protocol.js';
 import { clearTexture, levelTexture } from './gl.js';
 
 export class SampleStream {
@@ -17,10 +17,12 @@ export class SampleStream {
     this.vbo = gl.createBuffer();
     gl.bindVertexArray(this.vao);
     gl.bindBuffer(gl.ARRAY_BUFFER, this.vbo);
+    // The sample record's fields are the vertex attributes: uv as normalised u16, XYZW halves.
+    const { uv, xyzw } = SAMPLE.fields;
     gl.enableVertexAttribArray(0);
-    gl.vertexAttribPointer(0, 2, gl.UNSIGNED_SHORT, true, SAMPLE_BYTES, 0);
+    gl.vertexAttribPointer(0, uv.count, gl.UNSIGNED_SHORT, true, SAMPLE_BYTES, uv.offset);
     gl.enableVertexAttribArray(1);
-    gl.vertexAttribPointer(1, 4, gl.HALF_FLOAT, false, SAMPLE_BYTES, 4);
+    gl.vertexAttribPointer(1, xyzw.count, gl.HALF_FLOAT, false, SAMPLE_BYTES, xyzw.offset);
     gl.bindVertexArray(null);
     this.reset();
   }

@@ -1,6 +1,14 @@
 // Controls (B, C, G, Vm and glare never restart rendering; integrator and mode do) and the
 // overlay.
 
+import { ENUMS } from './protocol.js';
+
+// Fills a menu with an enumeration of the protocol (values the wire names, labels for people),
+// so a mode or integrator added on the server appears here without editing the page.
+function fill(select, e) {
+  for (const v of ENUMS[e].values) select.add(new Option(v.label, v.name));
+}
+
 export function controls(onDisplay, onParams, onNavigation) {
   const params = { B: 1.5, C: 1.0, G: 2.2, Vm: 0.0, glare: 0.0 };
   const bind = (id, key, fmt) => {
@@ -23,6 +31,8 @@ export function controls(onDisplay, onParams, onNavigation) {
   bind('glare', 'glare', (v) => v);
   const integrator = document.getElementById('integrator');
   const mode = document.getElementById('mode');
+  fill(integrator, 'integrator');
+  fill(mode, 'mode');
   const send = () => onParams(integrator.value, mode.value);
   integrator.addEventListener('change', send);
   mode.addEventListener('change', send);

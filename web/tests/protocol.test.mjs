@@ -3,13 +3,14 @@
 
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { readFileSync } from 'node:fs';
+import { readdirSync, readFileSync } from 'node:fs';
 
-// web/ has no package.json, so node would read protocol.js as CommonJS; load it as a module.
-const src = readFileSync(new URL('../protocol.js', import.meta.url), 'utf8');
-const P = await import(`data:text/javascript;base64,${Buffer.from(src).toString('base64')}`);
+// web/package.json marks web/*.js as ES modules, so node imports them as the browser does.
+import * as P from '../protocol.js';
 
 // An ERROR message as the server encodes it (docs/protocol.md): header, code, length, text.
+// The offsets are written out here on purpose: they are the documented format, which the
+// generated layout must agree with.
 function errorMessage(code, text) {
   const bytes = new TextEncoder().encode(text);
   const buf = new ArrayBuffer(8 + bytes.length);
@@ -21,6 +22,51 @@ function errorMessage(code, text) {
   new Uint8Array(buf, 8).set(bytes);
   return buf;
 }
+
+const WEB = new URL('../', import.meta.url);
+const webModules = readdirSync(WEB).filter((f) => f.endsWith('.js') && f !== 'protocol_layout.js');
+
+test('no viewer module holds a literal byte offset: they all come from protocol_layout.js', () => {
+  // A DataView access, a typed-array view or a vertex attribute at a numeric offset.
+  const literal = [
+    /\b(get|set)(U?Int|Float|BigU?Int)\d+\(\s*\d/,
+    /new (Uint8|Uint16|Float32)Array\(\s*[\w.]+\s*,\s*\d/,
+    /vertexAttribPointer\([^)]*,\s*\d+\s*\)/,
+  ];
+  for (const f of webModules) {
+    const src = readFileSync(new URL(f, WEB), 'utf8');
+    src.split('\n').forEach((line, i) => {
+      for (const re of literal) assert.ok(!re.test(line), `${f}:${i + 1}: ${line.trim()}`);
+    });
+  }
+  assert.ok(webModules.includes('protocol.js') && webModules.includes('stream.js'));
+});
+
+test('the enumerations come from the layout, in wire-code order', () => {
+  assert.deepEqual(P.MODES, P.ENUMS.mode.values.map((v) => v.name));
+  assert.deepEqual(P.INTEGRATORS, P.ENUMS.integrator.values.map((v) => v.name));
+  P.ENUMS.mode.values.forEach((v, i) => assert.equal(v.code, i));
+  assert.deepEqual(P.STREAM, { camera: 0, light: 1 });
+  assert.deepEqual([...P.CAMERA_REFUSAL_CODES], [1, 4, 5]);
+  assert.throws(() => P.encodeParams('path', 'no-such-mode'), /unknown mode/);
+});
+
+test('the documented sizes match the layout', () => {
+  assert.equal(P.SAMPLE_BYTES, 12);
+  assert.equal(P.BATCH_HEADER, 20);
+  assert.equal(P.FRAME_HEADER, 20);
+  assert.deepEqual(
+    Object.fromEntries(Object.entries(P.MESSAGES).map(([n, m]) => [n, m.bytes])),
+    { HELLO: 68, CAMERA: 48, PARAMS: 8, SAMPLES: 20, FRAME: 20, STATS: 36, FINISH: 32, ERROR: 8 },
+  );
+});
+
+test('truncated messages throw, never decode to garbage', () => {
+  const full = errorMessage(4, 'x');
+  for (let n = 0; n < 8; n++) assert.throws(() => P.decode(full.slice(0, n)));
+  assert.throws(() => P.decode(new Uint8Array([0x55, 1, 0, 0]).buffer), /unknown message type/);
+  assert.throws(() => P.decode(new Uint8Array([0x12, 2, 0, 0]).buffer), /protocol version/);
+});
 
 test('a refused CAMERA is no longer in flight, so samples are drawn again', () => {
   const msg = P.decode(errorMessage(4, 'camera origin coordinate 1e30 is beyond ±1e18'));

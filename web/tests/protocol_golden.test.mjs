@@ -6,9 +6,8 @@ import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { readFileSync, readdirSync } from 'node:fs';
 
-// web/ has no package.json, so node would read protocol.js as CommonJS; load it as a module.
-const src = readFileSync(new URL('../protocol.js', import.meta.url), 'utf8');
-const P = await import(`data:text/javascript;base64,${Buffer.from(src).toString('base64')}`);
+// web/package.json marks web/*.js as ES modules, so node imports them as the browser does.
+import * as P from '../protocol.js';
 
 const DIR = new URL('../../tests/data/protocol/', import.meta.url);
 const bytes = (name) => {
@@ -36,6 +35,58 @@ for (const name of SERVER) {
     }
   });
 }
+
+// Which bytes the decoder reads: DataView's getters, wrapped for the next test.
+function offsetsRead(buf) {
+  const seen = new Set();
+  const saved = {};
+  for (const name of Object.getOwnPropertyNames(DataView.prototype)) {
+    if (!name.startsWith('get') || name === 'getBuffer') continue;
+    saved[name] = DataView.prototype[name];
+    DataView.prototype[name] = function (offset, ...rest) {
+      seen.add(offset);
+      return saved[name].call(this, offset, ...rest);
+    };
+  }
+  try {
+    P.decode(buf);
+  } finally {
+    Object.assign(DataView.prototype, saved);
+  }
+  return seen;
+}
+
+test('every field of the layout is read from the golden files, and their sizes agree', () => {
+  const covered = new Set();
+  for (const name of SERVER) {
+    const buf = bytes(name);
+    const kind = new Uint8Array(buf)[0];
+    const [type, m] = Object.entries(P.MESSAGES).find(([, l]) => l.kind === kind);
+    const seen = offsetsRead(buf);
+    const dv = new DataView(buf);
+    let tail = 0;
+    for (const [field, f] of Object.entries(m.fields)) {
+      if (f.type === 'reserved') continue;
+      if (typeof f.count === 'number') {
+        for (let i = 0; i < f.count; i++) {
+          assert.ok(seen.has(f.offset + i * f.bytes), `${type}.${field}[${i}] never read`);
+        }
+      } else {
+        // The variable tail: its size follows from the fields it names.
+        const n = f.count.fields.reduce((p, c) => {
+          const g = m.fields[c];
+          return p * dv[g.bytes === 4 ? 'getUint32' : 'getUint16'](g.offset, true);
+        }, f.count.factor);
+        tail = n * f.bytes;
+      }
+      covered.add(`${type}.${field}`);
+    }
+    assert.equal(buf.byteLength, m.bytes + tail, `${name}.bin size`);
+  }
+  const all = Object.entries(P.MESSAGES).flatMap(([t, m]) => Object.entries(m.fields)
+    .filter(([, f]) => f.type !== 'reserved').map(([n]) => `${t}.${n}`));
+  assert.deepEqual(all.filter((f) => !covered.has(f)), []);
+});
 
 test('encodes a CAMERA exactly as the server decodes it', () => {
   const camera = expected('client_camera');

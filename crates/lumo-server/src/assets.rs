@@ -30,6 +30,7 @@ pub const ASSETS: &[Asset] = &[
     web!("style.css", "text/css; charset=utf-8"),
     web!("main.js", JS),
     web!("protocol.js", JS),
+    web!("protocol_layout.js", JS),
     web!("gl.js", JS),
     web!("stream.js", JS),
     web!("display.js", JS),

@@ -27,7 +27,7 @@ use crate::assets;
 use crate::conn::{ConnHandle, GuardedListener};
 use crate::hub::Hub;
 use crate::outbox::{Kind, Next as Queued, Outgoing, CLOSE_POLICY, CLOSE_TRY_LATER};
-use crate::protocol::{self, ClientMessage, ErrorCode, ProtocolError};
+use crate::protocol::{self, ClientMessage, ErrorCode, Params, ProtocolError};
 
 /// Largest WebSocket message or frame accepted at all; larger ones close the connection in
 /// the WebSocket layer. Between [`protocol::MAX_CLIENT_MESSAGE`] and this, the viewer gets an
@@ -198,7 +198,7 @@ async fn ws_handler(
 fn error_reply(e: &ProtocolError) -> Outgoing {
     Outgoing {
         kind: Kind::Error,
-        bytes: Bytes::from(protocol::encode_error(e)),
+        bytes: Bytes::from(e.write()),
     }
 }
 
@@ -318,7 +318,7 @@ async fn connection(socket: WebSocket, hub: Arc<Hub>) {
                     hub.set_camera(id, c);
                     None
                 }
-                Ok(ClientMessage::Params { integrator, mode }) => {
+                Ok(ClientMessage::Params(Params { integrator, mode })) => {
                     hub.set_params(integrator, mode);
                     None
                 }

@@ -16,7 +16,10 @@ use lumo_render::RenderScene;
 use lumo_scene::{Camera, FovAxis};
 
 use crate::outbox::{Kind, Outbox, Outgoing, QueueReport, Slot};
-use crate::protocol::{self, Finish, Hello, Integrator, Mode, Stats, Stream, WireCamera};
+use crate::protocol::{
+    CameraUpdate, Finish, Frame, Hello, Integrator, Mode, Params, SampleBatch, Stats, Stream,
+    WireCamera,
+};
 use crate::worker::{FinishEvent, Job, QueryBuffer, RenderWorker};
 use crate::ServerConfig;
 
@@ -177,7 +180,7 @@ impl Hub {
             camera: to_wire(&st.job.camera),
             name: self.name.clone(),
         };
-        outbox.push(control(protocol::encode_hello(&hello)));
+        outbox.push(control(hello.write()));
         st.viewers.push(Viewer {
             id,
             outbox: outbox.clone(),
@@ -274,10 +277,20 @@ impl Hub {
             v.outbox.purge_except(epoch);
         }
         if std::mem::take(&mut st.params_changed) {
-            let params = protocol::encode_params(st.job.integrator, st.job.mode);
+            let params = Params {
+                integrator: st.job.integrator,
+                mode: st.job.mode,
+            }
+            .write();
             broadcast(st, &latest(Slot::Params, params));
         }
-        let camera = Bytes::from(protocol::encode_camera(epoch, &to_wire(&st.job.camera)));
+        let camera = Bytes::from(
+            CameraUpdate {
+                epoch,
+                camera: to_wire(&st.job.camera),
+            }
+            .write(),
+        );
         for v in &mut st.viewers {
             if v.owed == 0 {
                 v.outbox.push(Outgoing {
@@ -349,25 +362,26 @@ impl Hub {
                 );
             }
             if let Some(f) = &buf.frame {
-                let msg = protocol::encode_frame(
+                let msg = Frame {
                     epoch,
-                    f.width as u16,
-                    f.height as u16,
-                    f.mode,
-                    f.frames,
-                    &f.xyz,
-                );
+                    width: f.width as u16,
+                    height: f.height as u16,
+                    mode: f.mode,
+                    frames: f.frames,
+                }
+                .write(&f.xyz);
                 broadcast(&st, &data(epoch, msg));
             }
         }
         for e in std::mem::take(&mut *lock(&self.finished)) {
-            let msg = protocol::encode_finish(&Finish {
+            let msg = Finish {
                 epoch: e.epoch as u32,
                 aborted: e.aborted,
                 samples: e.samples,
                 light_paths: e.light_paths,
                 seconds: e.elapsed.as_secs_f32(),
-            });
+            }
+            .write();
             broadcast(&st, &latest(Slot::Finish, msg));
         }
         let dt = last_stats.elapsed();
@@ -392,7 +406,7 @@ impl Hub {
                 };
                 v.outbox.push(Outgoing {
                     kind: Kind::Stats,
-                    bytes: Bytes::from(protocol::encode_stats(&s)),
+                    bytes: Bytes::from(s.write()),
                 });
             }
         }
@@ -432,11 +446,12 @@ fn broadcast(st: &HubState, msg: &Outgoing) {
 }
 
 fn batch(epoch: u32, stream: Stream, samples: &[crate::streams::Sample], paths: u32) -> Vec<u8> {
-    let mut b = protocol::begin_batch(epoch, stream, samples.len() as u32, paths);
-    for s in samples {
-        protocol::push_sample(&mut b, s.uv, s.xyzw);
+    SampleBatch {
+        epoch,
+        stream,
+        light_paths: paths,
     }
-    b
+    .write(samples)
 }
 
 /// The scene camera's field of view measured along the image's shorter side.

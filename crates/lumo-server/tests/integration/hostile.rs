@@ -192,7 +192,17 @@ async fn viewers_over_their_budget_are_closed() {
     let mut sent = 0;
     while hub.viewer_count() > 0 && Instant::now() < deadline && sent < 50_000 {
         cam.origin.x += 1e-3;
-        sent += flood(&mut asker, protocol::encode_camera(0, &cam), 1, deadline).await;
+        sent += flood(
+            &mut asker,
+            protocol::CameraUpdate {
+                epoch: 0,
+                camera: cam,
+            }
+            .write(),
+            1,
+            deadline,
+        )
+        .await;
         if sent % 64 == 0 {
             tokio::time::sleep(Duration::from_millis(2)).await;
         }
@@ -242,7 +252,14 @@ async fn a_camera_flood_does_not_starve_other_viewers() {
         let mut sent = 0usize;
         while Instant::now() < deadline && sent < 1_000_000 {
             cam.origin.y = 0.5 + (sent % 100) as f32 * 1e-3;
-            let msg = Message::Binary(protocol::encode_camera(0, &cam).into());
+            let msg = Message::Binary(
+                protocol::CameraUpdate {
+                    epoch: 0,
+                    camera: cam,
+                }
+                .write()
+                .into(),
+            );
             let left = deadline.saturating_duration_since(Instant::now());
             match tokio::time::timeout(left, tx.send(msg)).await {
                 Ok(Ok(())) => sent += 1,
@@ -296,7 +313,11 @@ async fn a_flooding_viewer_is_read_at_the_message_rate() {
     // Valid cameras, so every one that is read asks for a restart.
     let sent = flood(
         &mut flooder,
-        protocol::encode_camera(0, &cam),
+        protocol::CameraUpdate {
+            epoch: 0,
+            camera: cam,
+        }
+        .write(),
         100_000,
         t0 + Duration::from_secs(2),
     )
@@ -490,7 +511,7 @@ async fn rendering_pauses_without_viewers_and_resumes_on_connect() {
         let mut ws = connect(addr).await;
         hello(&mut ws).await;
         assert!(!hub.is_paused());
-        until(&mut ws, |m| matches!(m, ServerMessage::Samples { .. })).await;
+        until(&mut ws, |m| matches!(m, ServerMessage::Samples(..))).await;
         ws.close(None).await.expect("close");
         drop(ws);
         eventually(
@@ -530,11 +551,20 @@ async fn overflowing_cameras_are_refused_and_far_eyes_within_range_render() {
             ..cam(Vec3::Z, Vec3::ZERO)
         },
     ] {
-        ws.send(Message::Binary(protocol::encode_camera(0, &bad).into()))
-            .await
-            .expect("send");
-        let ServerMessage::Error(code, text) =
-            until(&mut ws, |m| matches!(m, ServerMessage::Error(..))).await
+        ws.send(Message::Binary(
+            protocol::CameraUpdate {
+                epoch: 0,
+                camera: bad,
+            }
+            .write()
+            .into(),
+        ))
+        .await
+        .expect("send");
+        let ServerMessage::Error(protocol::ErrorReply {
+            code,
+            message: text,
+        }) = until(&mut ws, |m| matches!(m, ServerMessage::Error(..))).await
         else {
             unreachable!()
         };
@@ -543,19 +573,26 @@ async fn overflowing_cameras_are_refused_and_far_eyes_within_range_render() {
         assert!(!text.contains("parallel"), "{text}");
     }
     let far = cam(Vec3::new(0.0, 0.5, 1e15), Vec3::new(0.0, 0.5, 0.0));
-    ws.send(Message::Binary(protocol::encode_camera(0, &far).into()))
-        .await
-        .expect("send");
-    let ServerMessage::Camera(epoch, c) =
+    ws.send(Message::Binary(
+        protocol::CameraUpdate {
+            epoch: 0,
+            camera: far,
+        }
+        .write()
+        .into(),
+    ))
+    .await
+    .expect("send");
+    let ServerMessage::Camera(protocol::CameraUpdate { epoch, camera: c }) =
         until(&mut ws, |m| matches!(m, ServerMessage::Camera(..))).await
     else {
         unreachable!()
     };
     assert!(epoch > h.epoch);
     assert_eq!(c, far);
-    let ServerMessage::Samples { samples, .. } = until(
+    let ServerMessage::Samples(_, samples) = until(
         &mut ws,
-        |m| matches!(m, ServerMessage::Samples { epoch: e, .. } if *e == epoch),
+        |m| matches!(m, ServerMessage::Samples(b, _) if b.epoch == epoch),
     )
     .await
     else {

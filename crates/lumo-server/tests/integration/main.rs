@@ -2,5 +2,6 @@
 //! crate again: minutes of a fresh build). Each module is one topic.
 mod hostile;
 mod protocol_golden;
+mod protocol_layout;
 mod server;
 mod worker;

@@ -6,17 +6,18 @@
 //! the format on one side only fails one of the two.
 //!
 //! After an intended format change: `LUMO_BLESS=1 cargo test -p lumo-server --test
-//! protocol_golden` rewrites the files (then update docs/protocol.md and web/protocol.js).
+//! protocol_golden` rewrites the files (the field tables in crates/lumo-server/src/protocol/ drive web/protocol.js and the docs'
+//! tables through `protocol_layout`).
 
 use std::path::PathBuf;
 
 use glam::Vec3;
 use lumo_server::protocol::client::{decode_server, ServerMessage};
 use lumo_server::protocol::{
-    begin_batch, decode_client, encode_camera, encode_error, encode_finish, encode_frame,
-    encode_hello, encode_params, encode_stats, push_sample, ClientMessage, ErrorCode, Finish,
-    Hello, Integrator, Mode, ProtocolError, Stats, Stream, WireCamera,
+    decode_client, CameraUpdate, ClientMessage, ErrorCode, ErrorReply, Finish, Frame, Hello,
+    Integrator, Mode, Params, ProtocolError, SampleBatch, Stats, Stream, WireCamera,
 };
+use lumo_server::streams::Sample;
 
 fn dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/protocol")
@@ -86,7 +87,7 @@ fn server_messages_match_their_golden_files_and_decode() {
         camera: camera(),
         name: "cornell".into(),
     };
-    let bytes = encode_hello(&hello);
+    let bytes = hello.write();
     assert_eq!(
         decode_server(&bytes),
         Ok(ServerMessage::Hello(hello.clone()))
@@ -100,11 +101,12 @@ fn server_messages_match_their_golden_files_and_decode() {
         ),
     );
 
-    let bytes = encode_camera(9, &camera());
-    assert_eq!(
-        decode_server(&bytes),
-        Ok(ServerMessage::Camera(9, camera()))
-    );
+    let update = CameraUpdate {
+        epoch: 9,
+        camera: camera(),
+    };
+    let bytes = update.write();
+    assert_eq!(decode_server(&bytes), Ok(ServerMessage::Camera(update)));
     golden(
         "camera",
         &bytes,
@@ -114,27 +116,40 @@ fn server_messages_match_their_golden_files_and_decode() {
         ),
     );
 
-    let bytes = encode_params(Integrator::Both, Mode::Atrous);
-    assert_eq!(
-        decode_server(&bytes),
-        Ok(ServerMessage::Params(Integrator::Both, Mode::Atrous))
-    );
+    let params = Params {
+        integrator: Integrator::Both,
+        mode: Mode::Atrous,
+    };
+    let bytes = params.write();
+    assert_eq!(decode_server(&bytes), Ok(ServerMessage::Params(params)));
     golden(
         "params",
         &bytes,
         r#"{"kind": 3, "integrator": "both", "mode": "atrous"}"#,
     );
 
-    let mut bytes = begin_batch(11, Stream::Light, 2, 5);
-    push_sample(&mut bytes, [0.25, 0.75], [1.0, 0.5, 0.25, 1.0]);
-    push_sample(&mut bytes, [1.0, 0.0], [2.0, 3.0, 4.0, 0.5]);
+    let batch = SampleBatch {
+        epoch: 11,
+        stream: Stream::Light,
+        light_paths: 5,
+    };
+    let samples = [
+        Sample {
+            uv: [0.25, 0.75],
+            xyzw: [1.0, 0.5, 0.25, 1.0],
+        },
+        Sample {
+            uv: [1.0, 0.0],
+            xyzw: [2.0, 3.0, 4.0, 0.5],
+        },
+    ];
+    let bytes = batch.write(&samples);
     match decode_server(&bytes) {
-        Ok(ServerMessage::Samples {
-            epoch: 11,
-            stream: Stream::Light,
-            light_paths: 5,
-            samples,
-        }) => assert_eq!(samples.len(), 2),
+        Ok(ServerMessage::Samples(b, s)) => {
+            assert_eq!(b, batch);
+            assert_eq!(s[1], samples[1]);
+            assert!((s[0].uv[0] - 0.25).abs() < 1e-4 && s[0].xyzw == samples[0].xyzw);
+        }
         other => panic!("samples decoded as {other:?}"),
     }
     golden(
@@ -143,16 +158,20 @@ fn server_messages_match_their_golden_files_and_decode() {
         r#"{"kind": 16, "epoch": 11, "stream": 1, "count": 2, "lightPaths": 5}"#,
     );
 
-    let bytes = encode_frame(12, 2, 1, Mode::Guided, 30, &[0.5, 1.0, 2.0, 4.0, 8.0, 16.0]);
+    let frame = Frame {
+        epoch: 12,
+        width: 2,
+        height: 1,
+        mode: Mode::Guided,
+        frames: 30,
+    };
+    let bytes = frame.write(&[0.5, 1.0, 2.0, 4.0, 8.0, 16.0]);
     assert_eq!(
         decode_server(&bytes),
-        Ok(ServerMessage::Frame {
-            epoch: 12,
-            width: 2,
-            height: 1,
-            mode: Mode::Guided,
-            frames: 30
-        })
+        Ok(ServerMessage::Frame(
+            frame,
+            vec![[0.5, 1.0, 2.0, 1.0], [4.0, 8.0, 16.0, 1.0]]
+        ))
     );
     golden(
         "frame",
@@ -168,7 +187,7 @@ fn server_messages_match_their_golden_files_and_decode() {
         rate: 1.5e6,
         dropped: 4,
     };
-    let bytes = encode_stats(&stats);
+    let bytes = stats.write();
     assert_eq!(decode_server(&bytes), Ok(ServerMessage::Stats(stats)));
     golden(
         "stats",
@@ -183,7 +202,7 @@ fn server_messages_match_their_golden_files_and_decode() {
         light_paths: 0,
         seconds: 2.5,
     };
-    let bytes = encode_finish(&finish);
+    let bytes = finish.write();
     assert_eq!(decode_server(&bytes), Ok(ServerMessage::Finish(finish)));
     golden(
         "finish",
@@ -195,13 +214,13 @@ fn server_messages_match_their_golden_files_and_decode() {
         code: ErrorCode::InvalidValue,
         message: "camera fov 0 is outside (0, 180)".into(),
     };
-    let bytes = encode_error(&err);
+    let bytes = err.write();
     assert_eq!(
         decode_server(&bytes),
-        Ok(ServerMessage::Error(
-            4,
-            "camera fov 0 is outside (0, 180)".into()
-        ))
+        Ok(ServerMessage::Error(ErrorReply {
+            code: 4,
+            message: "camera fov 0 is outside (0, 180)".into()
+        }))
     );
     golden(
         "error",
@@ -233,10 +252,10 @@ fn client_messages_match_their_golden_files_and_decode() {
     let bytes = vec![0x03, 1, 0, 0, 2, 1, 0, 0];
     assert_eq!(
         decode_client(&bytes),
-        Ok(ClientMessage::Params {
+        Ok(ClientMessage::Params(Params {
             integrator: Integrator::Both,
             mode: Mode::Atrous
-        })
+        }))
     );
     golden(
         "client_params",

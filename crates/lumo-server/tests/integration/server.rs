@@ -89,12 +89,8 @@ async fn hello_samples_and_camera_restart_reach_every_viewer() {
         (32, 32, "cornell")
     );
     assert_eq!(hello.integrator, Integrator::Path);
-    let ServerMessage::Samples {
-        epoch,
-        stream,
-        samples,
-        ..
-    } = until(&mut a, |m| matches!(m, ServerMessage::Samples { .. })).await
+    let ServerMessage::Samples(protocol::SampleBatch { epoch, stream, .. }, samples) =
+        until(&mut a, |m| matches!(m, ServerMessage::Samples(..))).await
     else {
         unreachable!()
     };
@@ -106,17 +102,27 @@ async fn hello_samples_and_camera_restart_reach_every_viewer() {
         origin: hello.camera.origin + glam::Vec3::new(0.3, 0.2, 0.0),
         ..hello.camera
     };
-    send(&mut b, protocol::encode_camera(0, &moved)).await;
+    send(
+        &mut b,
+        protocol::CameraUpdate {
+            epoch: 0,
+            camera: moved,
+        }
+        .write(),
+    )
+    .await;
     for ws in [&mut a, &mut b] {
-        let ServerMessage::Camera(e, c) =
-            until(ws, |m| matches!(m, ServerMessage::Camera(..))).await
+        let ServerMessage::Camera(protocol::CameraUpdate {
+            epoch: e,
+            camera: c,
+        }) = until(ws, |m| matches!(m, ServerMessage::Camera(..))).await
         else {
             unreachable!()
         };
         assert!(e > hello.epoch);
         assert_eq!(c, moved);
-        let ServerMessage::Samples { epoch, .. } =
-            until(ws, |m| matches!(m, ServerMessage::Samples { .. })).await
+        let ServerMessage::Samples(protocol::SampleBatch { epoch, .. }, _) =
+            until(ws, |m| matches!(m, ServerMessage::Samples(..))).await
         else {
             unreachable!()
         };
@@ -125,24 +131,37 @@ async fn hello_samples_and_camera_restart_reach_every_viewer() {
     // Parameters: the light tracer's stream carries the light-path count.
     send(
         &mut a,
-        protocol::encode_params(Integrator::Light, Mode::Progressive),
+        protocol::Params {
+            integrator: Integrator::Light,
+            mode: Mode::Progressive,
+        }
+        .write(),
     )
     .await;
     assert_eq!(
         until(&mut a, |m| matches!(m, ServerMessage::Params(..))).await,
-        ServerMessage::Params(Integrator::Light, Mode::Progressive)
+        ServerMessage::Params(protocol::Params {
+            integrator: Integrator::Light,
+            mode: Mode::Progressive,
+        })
     );
-    let ServerMessage::Samples {
-        stream,
-        light_paths,
-        ..
-    } = until(&mut a, |m| {
+    let ServerMessage::Samples(
+        protocol::SampleBatch {
+            stream,
+            light_paths,
+            ..
+        },
+        _,
+    ) = until(&mut a, |m| {
         matches!(
             m,
-            ServerMessage::Samples {
-                stream: Stream::Light,
-                ..
-            }
+            ServerMessage::Samples(
+                protocol::SampleBatch {
+                    stream: Stream::Light,
+                    ..
+                },
+                _
+            )
         )
     })
     .await
@@ -176,25 +195,37 @@ async fn malformed_messages_get_errors_and_the_connection_stays_up() {
         (vec![protocol::kind::STATS, protocol::VERSION, 0, 0], 7),
     ] {
         send(&mut ws, bad).await;
-        let ServerMessage::Error(c, text) = until(&mut ws, is_error).await else {
+        let ServerMessage::Error(protocol::ErrorReply {
+            code: c,
+            message: text,
+        }) = until(&mut ws, is_error).await
+        else {
             unreachable!()
         };
         assert_eq!(c, code, "{text}");
     }
     ws.send(Message::Text("hello?".into())).await.expect("send");
-    let ServerMessage::Error(c, _) = until(&mut ws, is_error).await else {
+    let ServerMessage::Error(protocol::ErrorReply { code: c, .. }) = until(&mut ws, is_error).await
+    else {
         unreachable!()
     };
     assert_eq!(c, 6);
     // Still connected and served.
     send(
         &mut ws,
-        protocol::encode_params(Integrator::Both, Mode::Progressive),
+        protocol::Params {
+            integrator: Integrator::Both,
+            mode: Mode::Progressive,
+        }
+        .write(),
     )
     .await;
     assert_eq!(
         until(&mut ws, |m| matches!(m, ServerMessage::Params(..))).await,
-        ServerMessage::Params(Integrator::Both, Mode::Progressive)
+        ServerMessage::Params(protocol::Params {
+            integrator: Integrator::Both,
+            mode: Mode::Progressive,
+        })
     );
 }
 
@@ -214,7 +245,7 @@ async fn stalled_and_vanished_viewers_do_not_stall_the_renderer_or_others() {
     let mut dropped_for_reader = 0;
     while t0.elapsed() < Duration::from_secs(3) {
         match next(&mut reader).await {
-            ServerMessage::Samples { samples, .. } => {
+            ServerMessage::Samples(_, samples) => {
                 received += samples.len();
                 last_samples_at = Instant::now();
             }
