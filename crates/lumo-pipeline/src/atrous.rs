@@ -5,7 +5,10 @@
 use std::time::Instant;
 
 use glam::Vec3;
-use lumo_filter::{atrous, spatial_variance, with_passthrough, AtrousParams, Features};
+use lumo_filter::{
+    spatial_variance, with_passthrough, AtrousDenoiser, AtrousParams, Denoiser, Features,
+    FilterInput,
+};
 
 use super::compose::{frame_with_variance, trace_full};
 use super::{PipelineError, PipelineOptions, PipelineOutput, Timings};
@@ -60,21 +63,21 @@ pub(super) fn run(
         albedo: Some(&frame.albedo),
         variance: Some(variance),
     };
-    let params = AtrousParams {
+    let mut denoiser = AtrousDenoiser::new(AtrousParams {
         sparse: n,
         demodulate: true,
         ..AtrousParams::default()
-    };
+    });
     let filtered = with_passthrough(&frame.color, &emitter, |c| {
         if n == 1 {
-            return atrous(c, &features, &params);
+            return denoiser.denoise(&FilterInput::new(c, features));
         }
         // Only the traced pixels carry colour; the filter in-paints the others.
         let mut sparse = c.clone();
         for i in (0..w * h).filter(|&i| !traced(i)) {
             sparse.data[i * 3..i * 3 + 3].fill(f32::NAN);
         }
-        atrous(&sparse, &features, &params)
+        denoiser.denoise(&FilterInput::new(&sparse, features))
     })?;
     let filter = t.elapsed();
     let t = Instant::now();

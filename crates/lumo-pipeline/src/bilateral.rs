@@ -4,7 +4,7 @@
 
 use std::time::Instant;
 
-use lumo_filter::{bilateral, demodulate, BilateralParams, Features};
+use lumo_filter::{demodulate, BilateralDenoiser, Denoiser, Features, FilterInput};
 
 use super::compose::{recompose, trace_full};
 use super::{PipelineError, PipelineOutput, Timings};
@@ -23,7 +23,8 @@ pub(super) fn run(
         depth: Some(&frame.depth),
         ..Features::default()
     };
-    let filtered = bilateral(&demod.illumination, &features, &BilateralParams::default())?;
+    let filtered =
+        BilateralDenoiser::default().denoise(&FilterInput::new(&demod.illumination, features))?;
     let filter = t.elapsed();
     let t = Instant::now();
     let image = recompose(&frame.direct, &frame.indirect, &demod, &filtered.image);

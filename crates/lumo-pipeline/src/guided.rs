@@ -9,8 +9,8 @@ use std::time::Instant;
 
 use glam::{Vec2, Vec3};
 use lumo_filter::{
-    build_guide, demodulate, guided, most_similar_in_grid, neighbour_cells, DepthNorm, Features,
-    GuideKind, GuidedParams, DEFAULT_EPS_DEPTH, DEFAULT_EPS_NORMAL,
+    demodulate, most_similar_in_grid, neighbour_cells, Denoiser, DepthNorm, Features, FilterInput,
+    GuideKind, GuidedDenoiser, GuidedParams, DEFAULT_EPS_DEPTH, DEFAULT_EPS_NORMAL,
 };
 use lumo_image::Image;
 
@@ -96,18 +96,20 @@ pub(super) fn run(
         depth: Some(&frame.depth),
         ..Features::default()
     };
-    let guide = build_guide(
-        kind,
-        &features,
-        DepthNorm::Scale(depth_scale(rs)),
-        DEFAULT_EPS_NORMAL,
-        DEFAULT_EPS_DEPTH,
-    )?;
-    let params = GuidedParams {
-        radius: options.radius,
-        fast_subsample: 1,
+    let mut denoiser = GuidedDenoiser {
+        guide: kind,
+        depth_norm: DepthNorm::Scale(depth_scale(rs)),
+        eps_normal: DEFAULT_EPS_NORMAL,
+        eps_depth: DEFAULT_EPS_DEPTH,
+        params: GuidedParams {
+            radius: options.radius,
+            fast_subsample: 1,
+        },
+        demodulate: false,
     };
-    let filtered = guided(&demod.illumination, &guide, &params)?.image;
+    let filtered = denoiser
+        .denoise(&FilterInput::new(&demod.illumination, features))?
+        .image;
     let filter = t.elapsed();
 
     let t = Instant::now();

@@ -11,7 +11,7 @@
 use std::time::Instant;
 
 use glam::Vec3;
-use lumo_filter::{jbu, Features, JbuParams, ALBEDO_EPS};
+use lumo_filter::{Denoiser, Features, FilterInput, JbuDenoiser, JbuParams, ALBEDO_EPS};
 use lumo_image::Image;
 
 use super::compose::{direct_only, trace_full};
@@ -88,12 +88,14 @@ pub(super) fn run(
         depth: Some(&frame.depth),
         ..Features::default()
     };
-    let params = JbuParams {
-        factor: k,
-        prefilter: options.prefilter,
-        ..JbuParams::default()
+    let mut upsampler = JbuDenoiser {
+        params: JbuParams {
+            factor: k,
+            prefilter: options.prefilter,
+            ..JbuParams::default()
+        },
     };
-    let up = jbu(&low, &features, &params)?.image;
+    let up = upsampler.denoise(&FilterInput::new(&low, features))?.image;
     let filter = t.elapsed();
 
     let t = Instant::now();

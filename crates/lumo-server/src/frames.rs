@@ -4,10 +4,7 @@
 //! frame. The viewer shows these frames through the same tone mapping as the streams.
 
 use glam::Vec3;
-use lumo_filter::{
-    build_guide, guided, AtrousFilter, AtrousParams, DepthNorm, Features, GuideKind, GuidedParams,
-    DEFAULT_EPS_DEPTH, DEFAULT_EPS_NORMAL,
-};
+use lumo_filter::{AtrousDenoiser, AtrousParams, Denoiser, Features, FilterInput, GuidedDenoiser};
 use lumo_image::{luminance, Image};
 use lumo_render::integrators::path::wavefront::render_pixels;
 use lumo_render::{camera::PinholeCamera, RenderScene, RenderSettings};
@@ -33,8 +30,10 @@ pub struct FrameAccumulator {
     normal: Image,
     position: Image,
     depth: Image,
-    /// À-Trous working memory, kept from frame to frame.
-    atrous: AtrousFilter,
+    /// The À-Trous filter; it keeps its working memory from frame to frame.
+    atrous: AtrousDenoiser,
+    /// The guided filter (4-dimensional guide: normal and depth over its range).
+    guided: GuidedDenoiser,
 }
 
 impl FrameAccumulator {
@@ -60,7 +59,8 @@ impl FrameAccumulator {
             normal: Image::new(w, h, 3, 0.0),
             position: Image::new(w, h, 3, 0.0),
             depth: Image::new(w, h, 1, 0.0),
-            atrous: AtrousFilter::new(),
+            atrous: AtrousDenoiser::new(AtrousParams::default()),
+            guided: GuidedDenoiser::default(),
         }
     }
 
@@ -151,21 +151,12 @@ impl FrameAccumulator {
         let image = match mode {
             Mode::Progressive => color,
             Mode::Atrous => {
-                self.atrous
-                    .filter(&color, &features, &AtrousParams::default())
-                    .ok()?
-                    .image
+                let input = FilterInput::new(&color, features);
+                self.atrous.denoise(&input).ok()?.image
             }
             Mode::Guided => {
-                let guide = build_guide(
-                    GuideKind::NormalDepth,
-                    &features,
-                    DepthNorm::Range,
-                    DEFAULT_EPS_NORMAL,
-                    DEFAULT_EPS_DEPTH,
-                )
-                .ok()?;
-                guided(&color, &guide, &GuidedParams::default()).ok()?.image
+                let input = FilterInput::new(&color, features);
+                self.guided.denoise(&input).ok()?.image
             }
         };
         let xyz = image
