@@ -32,8 +32,10 @@
 // `!(x > 0.0)` is deliberate: it rejects NaN as well as non-positive values.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-// First: the `multiversion!` macro defined in it is used by the filters.
+// lumo-simd's `multiversion!` macro, used by the filters' loops.
 #[macro_use]
+extern crate lumo_simd;
+
 mod common;
 
 mod atrous;

@@ -15,7 +15,6 @@ mod render;
 mod render_scene;
 pub mod sampler;
 pub mod shading;
-mod simd_level;
 
 pub use film::{Frame, AOV_NAMES};
 pub use integrators::path::{trace_path, FirstHit, PathRadiance, PathSettings};

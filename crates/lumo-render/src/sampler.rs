@@ -4,6 +4,7 @@
 use std::sync::OnceLock;
 
 use glam::Vec2;
+use lumo_simd::Isa;
 use sobol_burley::parts;
 
 /// Number of leading 4-D dimension sets drawn from the Owen-scrambled Sobol sequence; later
@@ -190,8 +191,8 @@ fn sobol_4d(index: u32, set: u32, seed: u32) -> [f32; 4] {
     let sobol = sobol_bits(index, set, seed);
     // Then the crate's last step: Owen-scramble each dimension with its own hash.
     #[cfg(target_arch = "x86_64")]
-    if crate::simd_level::simd_level() >= 1 {
-        // SAFETY: level 1 and above have AVX2.
+    if Isa::detect() >= Isa::Avx2 {
+        // SAFETY: AVX2 was detected.
         return unsafe { scramble_avx2(sobol, set, seed) };
     }
     scramble(sobol, set, seed)
@@ -257,10 +258,10 @@ fn sobol_run(
     #[cfg(target_arch = "x86_64")]
     // SAFETY: each form runs only where its features were detected.
     unsafe {
-        match crate::simd_level::simd_level() {
-            2 => return sobol_run_avx512(samples, seed, out),
-            1 => return sobol_run_avx2(samples, seed, out),
-            _ => {}
+        match Isa::detect() {
+            Isa::Avx512 => return sobol_run_avx512(samples, seed, out),
+            Isa::Avx2 => return sobol_run_avx2(samples, seed, out),
+            Isa::Baseline => {}
         }
     }
     sobol_run_lanes(samples, seed, out)
@@ -388,12 +389,12 @@ mod tests {
             let mut v: Vec<(&str, Form)> = vec![("baseline", |a, b, o| sobol_run_lanes(a, b, o))];
             #[cfg(target_arch = "x86_64")]
             {
-                let level = crate::simd_level::simd_level();
-                if level >= 1 {
+                let level = Isa::detect();
+                if level >= Isa::Avx2 {
                     // SAFETY: AVX2 detected.
                     v.push(("avx2", |a, b, o| unsafe { sobol_run_avx2(a, b, o) }));
                 }
-                if level >= 2 {
+                if level >= Isa::Avx512 {
                     // SAFETY: AVX-512 detected.
                     v.push(("avx512", |a, b, o| unsafe { sobol_run_avx512(a, b, o) }));
                 }

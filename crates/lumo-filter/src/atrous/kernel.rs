@@ -31,17 +31,9 @@ pub(super) const CM_FIXED: u8 = 1;
 /// Variance-guided: absolute luminance distance.
 pub(super) const CM_VARIANCE: u8 = 2;
 
-/// Instruction set the kernel runs with.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(super) enum Isa {
-    /// Baseline (SSE2 on x86-64).
-    Baseline,
-    /// AVX2 + FMA (x86-64 only, detected at run time).
-    Avx2,
-    /// AVX-512F/VL + FMA (x86-64 only, detected at run time): the pair and fused paths use
-    /// 16-float vectors, the per-tap path its AVX2 copy.
-    Avx512,
-}
+/// Instruction set the kernel runs with (AVX-512 runs the pair and fused paths with 16-float
+/// vectors and the per-tap path in its AVX2 copy).
+pub(super) use lumo_simd::Isa;
 
 /// Which kernel path a level takes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -61,25 +53,6 @@ pub(super) enum Path {
     Fused,
     /// Per tap only.
     Taps,
-}
-
-impl Isa {
-    /// The best instruction set this CPU supports.
-    pub fn detect() -> Isa {
-        #[cfg(target_arch = "x86_64")]
-        {
-            if std::is_x86_feature_detected!("avx512f")
-                && std::is_x86_feature_detected!("avx512vl")
-                && std::is_x86_feature_detected!("fma")
-            {
-                return Isa::Avx512;
-            }
-            if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
-                return Isa::Avx2;
-            }
-        }
-        Isa::Baseline
-    }
 }
 
 /// Per-level constants and buffers shared by all blocks.

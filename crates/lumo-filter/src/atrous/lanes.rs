@@ -27,7 +27,7 @@ pub(super) fn albedo_row(a: Option<&Image>, i0: usize, n: usize) -> &[f32] {
 /// Lanes of the input conversion loops: runs of interleaved pixels are first copied into
 /// this many lanes per channel, so that the arithmetic after it vectorises (on the
 /// interleaved data the compiler kept it scalar: ~13 % of a 512² filter).
-pub(super) const LANES: usize = 16;
+pub(super) use lumo_simd::LANES;
 
 /// Pixels `t0 .. t0 + n` (n ≤ [`LANES`]) of interleaved `data` with `C` channels into the first
 /// `n` of three lanes per channel: lane k from channel k, or from channel 0 when `C` is 1

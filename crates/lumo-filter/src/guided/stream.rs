@@ -129,16 +129,9 @@ struct Band<'a, const D: usize> {
     prod: Vec<f32>,
 }
 
-/// Whether the AVX2 copy of the band code can run here.
+/// Whether the AVX2 copy of the band code can run here (and `LUMO_SIMD` allows it).
 fn has_avx2() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::is_x86_feature_detected!("avx2")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
+    lumo_simd::Isa::detect() >= lumo_simd::Isa::Avx2
 }
 
 impl<'a, const D: usize> Band<'a, D> {

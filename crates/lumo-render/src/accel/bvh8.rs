@@ -27,14 +27,9 @@ pub struct Bvh8 {
 impl Bvh8 {
     /// Whether this CPU can traverse an 8-wide BVH.
     pub fn available() -> bool {
-        #[cfg(target_arch = "x86_64")]
-        {
-            std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma")
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            false
-        }
+        // The hardware, not the `LUMO_SIMD` cap: the cap changes speed only, and
+        // `LUMO_BVH_WIDTH=4` is what chooses the 4-wide tree.
+        lumo_simd::Isa::hardware() >= lumo_simd::Isa::Avx2
     }
 
     /// Wraps `tree` if this CPU has AVX2 and FMA.

@@ -153,5 +153,5 @@ pub(super) unsafe fn any_avx2(
 
 /// Whether the AVX-512 kernels can run here (and `LUMO_SIMD` does not rule them out).
 pub(super) fn has_avx512() -> bool {
-    crate::simd_level::simd_level() >= 2
+    lumo_simd::Isa::detect() == lumo_simd::Isa::Avx512
 }

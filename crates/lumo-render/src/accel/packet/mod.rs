@@ -27,10 +27,10 @@ use crate::accel::wide::{WideBvh, EMPTY, LEAF};
 use kernels::{hit_box, hit_triangle, keep, Masks};
 
 /// Rays per packet.
-pub const LANES: usize = 16;
+pub use lumo_simd::LANES;
 
 /// One f32 per lane, aligned for full-width vector loads.
-type Lanes = [f32; LANES];
+use lumo_simd::Lanes;
 
 /// Up to [`LANES`] rays, structure of arrays. Lanes past `count` are ignored.
 #[derive(Clone, Copy, Debug)]

@@ -20,6 +20,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use glam::{Vec2, Vec3};
+use lumo_simd::Isa;
 
 use crate::accel::packet::LANES;
 use crate::accel::Hit;
@@ -77,20 +78,12 @@ pub(crate) fn diffuse_bounce(
     shadows: &mut Vec<(u32, ShadowRay)>,
     next: &mut Vec<u32>,
 ) {
-    diffuse_bounce_at(
-        crate::simd_level::simd_level(),
-        rs,
-        settings,
-        paths,
-        lanes,
-        shadows,
-        next,
-    )
+    diffuse_bounce_at(Isa::detect(), rs, settings, paths, lanes, shadows, next)
 }
 
 /// [`diffuse_bounce`] compiled for `level` (at most what this CPU runs; tests run each).
 fn diffuse_bounce_at(
-    level: u8,
+    level: Isa,
     rs: &RenderScene,
     settings: &PathSettings,
     paths: &mut [PathState],
@@ -101,10 +94,10 @@ fn diffuse_bounce_at(
     #[cfg(target_arch = "x86_64")]
     // SAFETY: each variant runs only at or below the detected level.
     unsafe {
-        match level.min(crate::simd_level::simd_level()) {
-            2 => return bounce_avx512(rs, settings, paths, lanes, shadows, next),
-            1 => return bounce_avx2(rs, settings, paths, lanes, shadows, next),
-            _ => {}
+        match level.min(Isa::detect()) {
+            Isa::Avx512 => return bounce_avx512(rs, settings, paths, lanes, shadows, next),
+            Isa::Avx2 => return bounce_avx2(rs, settings, paths, lanes, shadows, next),
+            Isa::Baseline => {}
         }
     }
     let _ = level;
@@ -504,12 +497,12 @@ mod tests {
         };
         assert!(applies(&rs, &settings));
         // Every compiled form this CPU runs: AVX-512, AVX2, baseline.
-        for level in 0..=crate::simd_level::simd_level() {
+        for level in Isa::detect().up_to() {
             check_level(&rs, &settings, level);
         }
     }
 
-    fn check_level(rs: &RenderScene, settings: &PathSettings, level: u8) {
+    fn check_level(rs: &RenderScene, settings: &PathSettings, level: Isa) {
         let (rs, settings) = (rs, *settings);
         let camera = PinholeCamera::new(&rs.scene.camera, 32, 32);
         let mut checked = [0usize; 7];
@@ -561,9 +554,9 @@ mod tests {
                     assert_eq!(
                         got.is_some(),
                         shadow.is_some(),
-                        "level {level} row {y} path {p}"
+                        "level {level:?} row {y} path {p}"
                     );
-                    assert_eq!(next.contains(&p), on, "level {level} row {y} path {p}");
+                    assert_eq!(next.contains(&p), on, "level {level:?} row {y} path {p}");
                     if on {
                         assert_eq!(
                             bits(&paths[p as usize], got),
@@ -585,7 +578,7 @@ mod tests {
         }
         assert!(
             checked[1] > 400 && checked[3] > 100 && checked[6] > 20,
-            "level {level}: bounces checked per depth: {checked:?}"
+            "level {level:?}: bounces checked per depth: {checked:?}"
         );
     }
 }

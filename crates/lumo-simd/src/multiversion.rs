@@ -7,9 +7,13 @@
 //! (no fused multiply-adds are formed), so their results are identical bit for bit.
 
 /// Defines `fn $name(args) -> ret { body }` as a dispatcher that runs the body in its AVX-512
-/// (F + VL) copy, its AVX2 copy or the baseline one, whichever is the best the CPU supports.
+/// (F + VL) copy, its AVX2 copy or the baseline one, whichever is the widest [`Isa::detect`]
+/// allows (the CPU's best, capped by `LUMO_SIMD`).
+///
+/// [`Isa::detect`]: crate::Isa::detect
 /// The body itself becomes `$imp`, an `#[inline(always)]` function with the same signature,
 /// compiled into each copy (and callable directly: the tests compare it with the dispatcher).
+#[macro_export]
 macro_rules! multiversion {
     (
         $(#[$meta:meta])*
@@ -45,15 +49,12 @@ macro_rules! multiversion {
                 unsafe fn avx2 $(<$(const $g: $gt),*>)? ($($arg: $ty),*) $(-> $ret)? {
                     $imp $(::<$($g),*>)? ($($arg),*)
                 }
-                if std::is_x86_feature_detected!("avx512f")
-                    && std::is_x86_feature_detected!("avx512vl")
-                {
-                    // SAFETY: both features were detected just above.
-                    return unsafe { avx512 $(::<$($g),*>)? ($($arg),*) };
-                }
-                if std::is_x86_feature_detected!("avx2") {
-                    // SAFETY: AVX2 was detected just above.
-                    return unsafe { avx2 $(::<$($g),*>)? ($($arg),*) };
+                match $crate::Isa::detect() {
+                    // SAFETY: Isa::detect reports AVX-512 only where F, VL and AVX2 exist.
+                    $crate::Isa::Avx512 => return unsafe { avx512 $(::<$($g),*>)? ($($arg),*) },
+                    // SAFETY: Isa::detect reports AVX2 only where it exists.
+                    $crate::Isa::Avx2 => return unsafe { avx2 $(::<$($g),*>)? ($($arg),*) },
+                    $crate::Isa::Baseline => {}
                 }
             }
             $imp $(::<$($g),*>)? ($($arg),*)

@@ -55,7 +55,7 @@ const C4: f32 = 0.009_582_787;
 /// `FMA`: evaluate the polynomial with fused multiply-adds (only where the CPU has them: on
 /// other targets `mul_add` is a slow library call); results then differ in the last bits.
 #[inline(always)]
-pub(crate) fn exp2_cut<const FMA: bool>(t: f32, cut: f32) -> f32 {
+pub fn exp2_cut<const FMA: bool>(t: f32, cut: f32) -> f32 {
     // `t > cut` (not `max`) so that NaN also lands on the cutoff: one `maxps`, no NaN fix-up.
     let tc = if t > cut { t } else { cut };
     const MAGIC: f32 = 12_582_912.0;
@@ -82,10 +82,14 @@ use std::arch::x86_64::*;
 /// array (measured 83 % of the À-Trous time on an AVX2-only CPU). Why several: each step is
 /// done for all `N` before the next, so `N` independent dependency chains interleave
 /// (the polynomial alone is four dependent fused multiply-adds).
+///
+/// # Safety
+/// Callable only where AVX2 and FMA exist (from code compiled with them, or after detecting
+/// them, e.g. [`crate::Isa::detect`] `>= Isa::Avx2`).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 #[inline]
-pub(crate) fn exp2_cut_avx2_xn<const N: usize>(t: [__m256; N], cut: [__m256; N]) -> [__m256; N] {
+pub fn exp2_cut_avx2_xn<const N: usize>(t: [__m256; N], cut: [__m256; N]) -> [__m256; N] {
     let tc: [__m256; N] = std::array::from_fn(|i| _mm256_max_ps(t[i], cut[i]));
     // Round to nearest even, as the scalar version's magic-number addition does, in one
     // instruction instead of two dependent ones.
@@ -108,10 +112,13 @@ pub(crate) fn exp2_cut_avx2_xn<const N: usize>(t: [__m256; N], cut: [__m256; N])
 /// instructions: the same polynomial on the same reduced argument, 6 instructions fewer than
 /// the portable bit manipulation; exactly 0 below `cut` and for NaN, equal to the scalar one
 /// within 1e-6. Interleaved as [`exp2_cut_avx2_xn`].
+///
+/// # Safety
+/// Callable only where AVX-512 F exists (from code compiled with it, or after detecting it).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
 #[inline]
-pub(crate) fn exp2_cut_avx512_xn<const N: usize>(t: [__m512; N], cut: [__m512; N]) -> [__m512; N] {
+pub fn exp2_cut_avx512_xn<const N: usize>(t: [__m512; N], cut: [__m512; N]) -> [__m512; N] {
     let keep: [__mmask16; N] =
         std::array::from_fn(|i| _mm512_cmp_ps_mask::<_CMP_GE_OQ>(t[i], cut[i]));
     let r = t.map(|x| _mm512_roundscale_ps::<{ _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC }>(x));
@@ -126,7 +133,7 @@ pub(crate) fn exp2_cut_avx512_xn<const N: usize>(t: [__m512; N], cut: [__m512; N
 
 /// `a·b + c`, fused (one rounding) when `FMA`, else two roundings.
 #[inline(always)]
-pub(crate) fn mul_add<const FMA: bool>(a: f32, b: f32, c: f32) -> f32 {
+pub fn mul_add<const FMA: bool>(a: f32, b: f32, c: f32) -> f32 {
     if FMA {
         a.mul_add(b, c)
     } else {
