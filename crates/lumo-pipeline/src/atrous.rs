@@ -4,7 +4,6 @@
 
 use std::time::Instant;
 
-use glam::Vec3;
 use lumo_filter::{
     spatial_variance, with_passthrough, AtrousDenoiser, AtrousParams, Denoiser, Features,
     FilterInput,
@@ -43,7 +42,7 @@ pub(super) fn run(
     let traced = |i: usize| (i % w).is_multiple_of(n) && (i / w).is_multiple_of(n);
     let emitter: Vec<bool> = estimates
         .iter()
-        .map(|e| e.first_hit.emitted != Vec3::ZERO && e.first_hit.albedo != Vec3::ZERO)
+        .map(|e| e.first_hit.is_visible_emitter())
         .collect();
     // The colour weight is steered by a spatial estimate of the noise in the mean image (see
     // `lumo_filter::spatial_variance`) at every spp: per-pixel variances of a few samples are zero

@@ -1,10 +1,16 @@
 //! Filtered-frame mode: instead of sample streams the server renders whole 1-spp frames,
 //! keeps their running mean, per-pixel luminance variance and the first frame's G-buffer, and
-//! sends the mean filtered by a lumo-filter pipeline (À-Trous or the guided filter) after every
+//! sends the mean filtered by a lumo-filter denoiser (À-Trous or the guided filter) after every
 //! frame. The viewer shows these frames through the same tone mapping as the streams.
+//!
+//! As `lumo render`'s pipelines do, the filters see the colour divided by the albedo (textures
+//! are multiplied back after filtering, not blurred) and never see emitters the camera looks
+//! at (their radiance would bloom over their neighbours).
 
 use glam::Vec3;
-use lumo_filter::{AtrousDenoiser, AtrousParams, Denoiser, Features, FilterInput, GuidedDenoiser};
+use lumo_filter::{
+    with_passthrough, AtrousDenoiser, AtrousParams, Denoiser, Features, FilterInput, GuidedDenoiser,
+};
 use lumo_image::{luminance, Image};
 use lumo_render::integrators::path::wavefront::render_pixels;
 use lumo_render::{camera::PinholeCamera, RenderScene, RenderSettings};
@@ -30,6 +36,8 @@ pub struct FrameAccumulator {
     normal: Image,
     position: Image,
     depth: Image,
+    /// Pixels showing an emitter (first frame), kept out of the filters.
+    emitter: Vec<bool>,
     /// The À-Trous filter; it keeps its working memory from frame to frame.
     atrous: AtrousDenoiser,
     /// The guided filter (4-dimensional guide: normal and depth over its range).
@@ -59,8 +67,15 @@ impl FrameAccumulator {
             normal: Image::new(w, h, 3, 0.0),
             position: Image::new(w, h, 3, 0.0),
             depth: Image::new(w, h, 1, 0.0),
-            atrous: AtrousDenoiser::new(AtrousParams::default()),
-            guided: GuidedDenoiser::default(),
+            emitter: vec![false; w * h],
+            atrous: AtrousDenoiser::new(AtrousParams {
+                demodulate: true,
+                ..AtrousParams::default()
+            }),
+            guided: GuidedDenoiser {
+                demodulate: true,
+                ..GuidedDenoiser::default()
+            },
         }
     }
 
@@ -116,6 +131,7 @@ impl FrameAccumulator {
                         .pixel_mut(x, y)
                         .copy_from_slice(&f.position.to_array());
                     self.depth.pixel_mut(x, y)[0] = f.depth;
+                    self.emitter[i] = f.is_visible_emitter();
                 }
             }
         }
@@ -151,12 +167,20 @@ impl FrameAccumulator {
         let image = match mode {
             Mode::Progressive => color,
             Mode::Atrous => {
-                let input = FilterInput::new(&color, features);
-                self.atrous.denoise(&input).ok()?.image
+                let atrous = &mut self.atrous;
+                with_passthrough(&color, &self.emitter, |c| {
+                    atrous.denoise(&FilterInput::new(c, features))
+                })
+                .ok()?
+                .image
             }
             Mode::Guided => {
-                let input = FilterInput::new(&color, features);
-                self.guided.denoise(&input).ok()?.image
+                let guided = &mut self.guided;
+                with_passthrough(&color, &self.emitter, |c| {
+                    guided.denoise(&FilterInput::new(c, features))
+                })
+                .ok()?
+                .image
             }
         };
         let xyz = image
@@ -171,5 +195,89 @@ impl FrameAccumulator {
             frames: self.frames,
             mode,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::protocol::Integrator;
+    use lumo_render::PathSettings;
+
+    /// Four frames of the Cornell box with spheres (a checkerboard floor, a light in the
+    /// ceiling) at 48×48, and the mean frame in every mode.
+    fn frames() -> (FrameAccumulator, [Vec<f32>; 3]) {
+        let scene = lumo_scene::builtin_scene("cornell-spheres").expect("built-in");
+        let job = Job {
+            camera: scene.camera.clone(),
+            width: 48,
+            height: 48,
+            integrator: Integrator::Path,
+            mode: Mode::Guided,
+            path: PathSettings {
+                max_depth: 4,
+                ..PathSettings::default()
+            },
+            seed: 1,
+            max_batches: None,
+            max_rate: None,
+        };
+        let rs = RenderScene::new(scene).expect("scene");
+        let mut acc = FrameAccumulator::new(&job);
+        for i in 0..4 {
+            acc.add_frame(&rs, i, &|| false).expect("not aborted");
+        }
+        let mut xyz = |m| acc.filtered(m).expect("a frame").xyz;
+        let out = [
+            xyz(Mode::Progressive),
+            xyz(Mode::Atrous),
+            xyz(Mode::Guided),
+        ];
+        (acc, out)
+    }
+
+    /// The filtered frames keep the light the camera sees exactly as traced (no bloom) and
+    /// keep the floor's checkerboard (the filters see colour / albedo): before, the guided
+    /// frames blurred the checkers into one grey and spread the light.
+    #[test]
+    fn filtered_frames_keep_lights_and_textures() {
+        let (acc, [mean, atrous, guided]) = frames();
+        let n = acc.width * acc.height;
+        let lights: Vec<usize> = (0..n).filter(|&i| acc.emitter[i]).collect();
+        assert!(!lights.is_empty(), "the camera sees the ceiling light");
+        for &i in &lights {
+            for img in [&atrous, &guided] {
+                assert_eq!(img[i * 3..i * 3 + 3], mean[i * 3..i * 3 + 3], "light pixel {i}");
+            }
+        }
+        // Floor pixels (normal up), split into dark and light checkers by albedo.
+        let floor: Vec<usize> = (0..n)
+            .filter(|&i| acc.normal.data[i * 3 + 1] > 0.9 && !acc.emitter[i])
+            .collect();
+        let albedo = |i: usize| acc.albedo.data[i * 3 + 1];
+        let split = floor.iter().map(|&i| albedo(i)).sum::<f32>() / floor.len() as f32;
+        let ratio = |value: &dyn Fn(usize) -> f32| {
+            let (mut dark, mut light, mut nd, mut nl) = (0.0, 0.0, 0.0, 0.0);
+            for &i in &floor {
+                if albedo(i) < split {
+                    dark += value(i);
+                    nd += 1.0;
+                } else {
+                    light += value(i);
+                    nl += 1.0;
+                }
+            }
+            (dark / nd) / (light / nl)
+        };
+        let texture = ratio(&albedo);
+        assert!(texture < 0.7, "the floor is a checkerboard (albedo ratio {texture})");
+        for (name, img) in [("atrous", &atrous), ("guided", &guided)] {
+            // XYZ's Y is luminance.
+            let filtered = ratio(&|i| img[i * 3 + 1]);
+            assert!(
+                filtered < 0.5 * (texture + 1.0),
+                "{name}: dark/light checker luminance {filtered} (albedo ratio {texture})"
+            );
+        }
     }
 }

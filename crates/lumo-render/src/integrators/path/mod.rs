@@ -58,6 +58,15 @@ pub struct FirstHit {
     pub emitted: Vec3,
 }
 
+impl FirstHit {
+    /// Whether the pixel shows an emitter whose radiance a filter must not spread: it emits
+    /// towards the camera and has an albedo (where the albedo is zero, demodulation already
+    /// passes the pixel through). The rule of every filtered pipeline and the server's frames.
+    pub fn is_visible_emitter(&self) -> bool {
+        self.emitted != Vec3::ZERO && self.albedo != Vec3::ZERO
+    }
+}
+
 /// Radiance carried by one camera path, split by depth.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct PathRadiance {
