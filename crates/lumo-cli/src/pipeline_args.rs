@@ -10,9 +10,9 @@ pub struct PipelineArgs {
     /// How traced paths become the image: atrous (À-Trous on the demodulated image; the
     /// default, see docs/pipelines.md), none (plain path tracing), guided (guided filter on
     /// indirect light), jbu (sparse indirect + joint bilateral upsampling), bilateral
-    /// (cross-bilateral reference).
-    #[arg(long, default_value = "atrous", value_parser = parse_pipeline)]
-    pub pipeline: Pipeline,
+    /// (cross-bilateral reference) [default: atrous; none with --integrator light].
+    #[arg(long, value_parser = parse_pipeline)]
+    pub pipeline: Option<Pipeline>,
     /// atrous: trace every n-th pixel in x and y only (1, 2 or 4) and in-paint the rest.
     #[arg(long, default_value_t = 1)]
     pub subsample: usize,
@@ -45,6 +45,11 @@ pub const MAX_PATHS: u32 = 1 << 20;
 pub const FILTERED_DEFAULT_SPP: u32 = 4;
 
 impl PipelineArgs {
+    /// The pipeline asked for, or the default (À-Trous).
+    pub fn pipeline(&self) -> Pipeline {
+        self.pipeline.unwrap_or(Pipeline::Atrous)
+    }
+
     /// Checks the options, naming each as the command line spells it (the filters' own
     /// errors use their internal names).
     pub fn check(&self) -> Result<()> {

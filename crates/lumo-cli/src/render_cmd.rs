@@ -7,9 +7,19 @@ use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use lumo_image::{write_image, ImageFormat};
 use lumo_pipeline::{run_pipeline, Pipeline};
-use lumo_render::{PathSettings, RenderScene, RenderSettings};
+use lumo_render::{render_light, PathSettings, RenderScene, RenderSettings};
 use lumo_scene::load::{FileSettings, LoadOptions};
 use lumo_scene::{builtin_scene, Scene, BUILTIN_SCENES};
+
+/// The light-transport algorithm of `lumo render`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RenderIntegrator {
+    /// Path tracing from the camera with next-event estimation (every pipeline, AOVs).
+    Path,
+    /// Particle tracing from the lights, each vertex splatted onto the film (no pipeline, no
+    /// AOVs; environment lights emit nothing).
+    Light,
+}
 
 /// Arguments of `lumo render`.
 #[derive(clap::Args, Debug)]
@@ -61,6 +71,10 @@ pub struct RenderArgs {
     /// variance) as EXR files into this directory.
     #[arg(long)]
     pub aovs: Option<PathBuf>,
+    /// Light transport: path (from the camera) or light (from the lights, splatted onto the
+    /// film; renders without a pipeline or AOVs, and environment lights emit nothing).
+    #[arg(long, value_enum, default_value_t = RenderIntegrator::Path)]
+    pub integrator: RenderIntegrator,
     /// The filtered-GI pipeline and its options.
     #[command(flatten)]
     pub pipeline: crate::pipeline_args::PipelineArgs,
@@ -200,6 +214,16 @@ pub fn run(args: RenderArgs) -> Result<()> {
         }
         return Ok(());
     }
+    let pipeline = match (args.integrator, args.pipeline.pipeline) {
+        (RenderIntegrator::Light, Some(p)) if p != Pipeline::None => bail!(
+            "--integrator light renders without a filtering pipeline: drop --pipeline {p} (or use --pipeline none)"
+        ),
+        (RenderIntegrator::Light, _) => Pipeline::None,
+        (RenderIntegrator::Path, _) => args.pipeline.pipeline(),
+    };
+    if args.integrator == RenderIntegrator::Light && args.aovs.is_some() {
+        bail!("--aovs: the light tracer makes no G-buffer; use --integrator path for AOV planes");
+    }
     let options = LoadOptions {
         defines: args.defines.clone(),
         strict: args.strict,
@@ -244,7 +268,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         spp: args
             .spp
             .or(file.spp)
-            .unwrap_or(if args.pipeline.pipeline == Pipeline::None {
+            .unwrap_or(if pipeline == Pipeline::None {
                 scene.defaults.spp
             } else {
                 crate::pipeline_args::FILTERED_DEFAULT_SPP
@@ -266,12 +290,12 @@ pub fn run(args: RenderArgs) -> Result<()> {
         );
     }
     args.pipeline.check()?;
-    let per_pixel = render_bytes_per_pixel(args.pipeline.pipeline);
+    let per_pixel = render_bytes_per_pixel(pipeline);
     crate::cli_common::check_memory(
         (width as u64 * height as u64).saturating_mul(per_pixel),
         &format!(
             "a {width}x{height} render with --pipeline {} (about {per_pixel} bytes per pixel)",
-            args.pipeline.pipeline
+            pipeline
         ),
         "use a smaller --size",
     )?;
@@ -281,9 +305,15 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let name = scene.name.clone();
     let build_start = Instant::now();
     let rs = pool.install(|| RenderScene::new(scene))?;
-    let pipeline = args.pipeline.pipeline;
+    let method = match args.integrator {
+        RenderIntegrator::Path => format!("pipeline {pipeline}"),
+        RenderIntegrator::Light => format!(
+            "light tracer ({} light paths)",
+            settings.spp as u64 * (width * height) as u64
+        ),
+    };
     eprintln!(
-        "{name}: {tris} triangles (BVH {:.0} ms), {width}x{height}, {} spp, max depth {}, pipeline {pipeline}, {threads} threads",
+        "{name}: {tris} triangles (BVH {:.0} ms), {width}x{height}, {} spp, max depth {}, {method}, {threads} threads",
         build_start.elapsed().as_secs_f64() * 1e3,
         settings.spp,
         settings.path.max_depth
@@ -293,6 +323,26 @@ pub fn run(args: RenderArgs) -> Result<()> {
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let start = Instant::now();
+    if args.integrator == RenderIntegrator::Light {
+        if rs.lights.emits_no_particles() {
+            bail!("{name}: --integrator light: no light emits particles (environment lights do not); use --integrator path");
+        }
+        let (image, stats) = pool
+            .install(|| render_light(&rs, &settings, &|f| bar.set_position((f * 1000.0) as u64)));
+        let secs = start.elapsed().as_secs_f64();
+        bar.finish_and_clear();
+        for o in &outputs {
+            write_image(o, &image)?;
+        }
+        let written: Vec<String> = outputs.iter().map(|p| p.display().to_string()).collect();
+        println!(
+            "done in {secs:.2} s · {}light paths/s · {}rays/s → {}",
+            si(stats.samples as f64 / secs),
+            si(stats.rays as f64 / secs),
+            written.join(", ")
+        );
+        return Ok(());
+    }
     let out = pool
         .install(|| {
             run_pipeline(

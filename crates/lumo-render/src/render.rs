@@ -233,3 +233,78 @@ pub fn frame_from_estimates(w: usize, h: usize, spp: u32, estimates: &[PixelEsti
     }
     frame
 }
+
+/// The light tracer's paths use this sampler "x" so their numbers never coincide with a
+/// pixel's (camera samples use x < 2^20).
+pub const LIGHT_STREAM_X: u32 = 1 << 20;
+
+/// Light-traces an image: `width × height × spp` light paths (the same work as `spp` camera
+/// samples per pixel), each vertex splatted onto the film, `pixel = Σ splats / paths`.
+/// Environment lights emit no particles (see [`crate::lights::Lights::sample_emission`]).
+///
+/// Paths run in fixed blocks, a few blocks at a time in parallel, and the blocks' images are
+/// added in block order: the image is the same bits on any number of threads. `progress`
+/// receives the fraction of paths traced.
+pub fn render_light(
+    rs: &RenderScene,
+    settings: &RenderSettings,
+    progress: &(dyn Fn(f32) + Sync),
+) -> (Image, RenderStats) {
+    use crate::integrators::light::trace_light_path;
+    let (w, h) = (settings.width, settings.height);
+    let camera = PinholeCamera::new(&rs.scene.camera, w, h);
+    let paths = (w * h) as u64 * settings.spp as u64;
+    // A block's image costs w·h additions to merge: blocks of at least w·h paths keep that
+    // below one addition per path.
+    let block = ((w * h) as u64).max(1 << 14);
+    let blocks = paths.div_ceil(block);
+    // Blocks in flight at once (each holds an image).
+    const WAVE: u64 = 8;
+    let mut film = vec![[0.0f64; 3]; w * h];
+    let mut rays = 0u64;
+    for first in (0..blocks).step_by(WAVE as usize) {
+        let wave: Vec<(Vec<Vec3>, u64)> = (first..(first + WAVE).min(blocks))
+            .into_par_iter()
+            .map(|b| {
+                let mut img = vec![Vec3::ZERO; w * h];
+                let mut rays = 0u64;
+                for m in b * block..((b + 1) * block).min(paths) {
+                    let mut sampler = PixelSampler::new(
+                        LIGHT_STREAM_X,
+                        (m >> 16) as u32,
+                        (m & 0xffff) as u32,
+                        settings.seed,
+                    );
+                    let stats =
+                        trace_light_path(rs, &camera, &mut sampler, &settings.path, &mut |s| {
+                            let (x, y) = (s.film.x as usize, s.film.y as usize);
+                            if x < w && y < h {
+                                img[y * w + x] += s.value;
+                            }
+                        });
+                    rays += stats.rays as u64;
+                }
+                (img, rays)
+            })
+            .collect();
+        for (img, r) in wave {
+            for (f, v) in film.iter_mut().zip(img) {
+                for (c, x) in f.iter_mut().zip(v.to_array()) {
+                    *c += x as f64;
+                }
+            }
+            rays += r;
+        }
+        progress(((first + WAVE).min(blocks)) as f32 / blocks.max(1) as f32);
+    }
+    let scale = 1.0 / paths.max(1) as f64;
+    let data = film
+        .iter()
+        .flat_map(|p| p.map(|c| (c * scale) as f32))
+        .collect();
+    let stats = RenderStats {
+        samples: paths,
+        rays,
+    };
+    (Image::from_vec(w, h, 3, data), stats)
+}

@@ -228,11 +228,7 @@ mod tests {
             acc.add_frame(&rs, i, &|| false).expect("not aborted");
         }
         let mut xyz = |m| acc.filtered(m).expect("a frame").xyz;
-        let out = [
-            xyz(Mode::Progressive),
-            xyz(Mode::Atrous),
-            xyz(Mode::Guided),
-        ];
+        let out = [xyz(Mode::Progressive), xyz(Mode::Atrous), xyz(Mode::Guided)];
         (acc, out)
     }
 
@@ -247,7 +243,11 @@ mod tests {
         assert!(!lights.is_empty(), "the camera sees the ceiling light");
         for &i in &lights {
             for img in [&atrous, &guided] {
-                assert_eq!(img[i * 3..i * 3 + 3], mean[i * 3..i * 3 + 3], "light pixel {i}");
+                assert_eq!(
+                    img[i * 3..i * 3 + 3],
+                    mean[i * 3..i * 3 + 3],
+                    "light pixel {i}"
+                );
             }
         }
         // Floor pixels (normal up), split into dark and light checkers by albedo.
@@ -270,7 +270,10 @@ mod tests {
             (dark / nd) / (light / nl)
         };
         let texture = ratio(&albedo);
-        assert!(texture < 0.7, "the floor is a checkerboard (albedo ratio {texture})");
+        assert!(
+            texture < 0.7,
+            "the floor is a checkerboard (albedo ratio {texture})"
+        );
         for (name, img) in [("atrous", &atrous), ("guided", &guided)] {
             // XYZ's Y is luminance.
             let filtered = ratio(&|i| img[i * 3 + 1]);

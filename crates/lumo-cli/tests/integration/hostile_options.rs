@@ -270,3 +270,62 @@ fn copies_of_one_triangle_build_their_bvh_quickly() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(took < Duration::from_secs(30), "took {took:?}");
 }
+
+/// `--integrator light` renders an image; with a filtering pipeline or AOVs (which the light
+/// tracer cannot make) it is refused up front, naming the option.
+#[test]
+fn the_light_integrator_renders_and_refuses_what_it_cannot_do() {
+    let dir = temp_dir("light");
+    let (o, _) = lumo_in(
+        &dir,
+        &[
+            "render",
+            "--integrator",
+            "light",
+            "--size",
+            "16x16",
+            "--spp",
+            "2",
+            "-o",
+            "l.exr",
+        ],
+        None,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let img = lumo_image::read_image(&dir.join("l.exr")).expect("an EXR");
+    assert!(img.data.iter().all(|v| v.is_finite()) && img.data.iter().any(|&v| v > 0.0));
+    let (o, _) = lumo_in(
+        &dir,
+        &[
+            "render",
+            "--integrator",
+            "light",
+            "--pipeline",
+            "guided",
+            "-o",
+            "g.exr",
+        ],
+        None,
+    );
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("--pipeline guided"), "{}", stderr(&o));
+    let (o, _) = lumo_in(
+        &dir,
+        &[
+            "render",
+            "--integrator",
+            "light",
+            "--aovs",
+            "a",
+            "-o",
+            "a.exr",
+        ],
+        None,
+    );
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("--aovs"), "{}", stderr(&o));
+    assert!(
+        !dir.join("a").exists(),
+        "refused before creating the AOV directory"
+    );
+}

@@ -7,6 +7,7 @@ mod common;
 mod direct_light_geometry;
 mod emission_texture;
 mod integrator;
+mod light_render;
 mod light_sampling;
 mod mitsuba_adapters;
 mod mitsuba_cornell;
