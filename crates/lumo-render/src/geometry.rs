@@ -157,6 +157,14 @@ pub(crate) fn offset_point(p: [f32; 3], ng: [f32; 3], d: [f32; 3], eps: f32) -> 
     [p[0] + ng[0] * k, p[1] + ng[1] * k, p[2] + ng[2] * k]
 }
 
+/// Russian roulette's survival probability for a path whose throughput's largest component is
+/// `max`, with `eta_scale` undoing refraction's radiance scaling (1 for light paths): capped
+/// at 0.95 so that no path is immortal. The one rule of every integrator and the lane loops.
+#[inline(always)]
+pub(crate) fn survival_probability(max: f32, eta_scale: f32) -> f32 {
+    (max * eta_scale).min(0.95)
+}
+
 /// Mirror reflection of `v` about `n` (both pointing away from the surface).
 #[inline]
 pub fn reflect(v: Vec3, n: Vec3) -> Vec3 {

@@ -13,7 +13,7 @@ use glam::{Vec2, Vec3};
 
 use crate::bsdf::TransportMode;
 use crate::camera::PinholeCamera;
-use crate::geometry::{offset_point, shadow_segment};
+use crate::geometry::{offset_point, shadow_segment, survival_probability};
 use crate::integrators::path::PathSettings;
 use crate::render_scene::RenderScene;
 use crate::sampler::PixelSampler;
@@ -176,7 +176,7 @@ pub fn trace_light_path(
         origin = rs.offset(&s, new_dir);
         dir = new_dir;
         if depth >= settings.rr_depth {
-            let q = throughput.max_element().min(0.95);
+            let q = survival_probability(throughput.max_element(), 1.0);
             if u_rr >= q {
                 break;
             }

@@ -11,7 +11,7 @@ use glam::{Vec2, Vec3};
 
 use crate::accel::Hit;
 use crate::bsdf::Bsdf;
-use crate::geometry::{power_heuristic, shadow_segment};
+use crate::geometry::{power_heuristic, shadow_segment, survival_probability};
 use crate::lights::LightSample;
 use crate::render_scene::RenderScene;
 use crate::render_scene::Surface;
@@ -385,7 +385,7 @@ impl PathState {
         if self.depth >= settings.rr_depth {
             // Roulette on throughput without the 1/η² radiance scaling (as Mitsuba does), so
             // paths inside glass are not killed for a change of units.
-            let q = (self.throughput.max_element() * self.eta_scale).min(0.95);
+            let q = survival_probability(self.throughput.max_element(), self.eta_scale);
             if u.roulette >= q {
                 return false;
             }

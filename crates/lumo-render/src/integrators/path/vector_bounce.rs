@@ -27,7 +27,7 @@ use crate::accel::Hit;
 use crate::bsdf::{Bsdf, Diffuse};
 use crate::geometry::{
     cosine_pdf, disk_map, hemisphere_z, offset_point, power_heuristic, shadow_segment,
-    triangle_map, Basis,
+    survival_probability, triangle_map, Basis,
 };
 use crate::integrators::path::{PathSettings, PathState, ShadowRay};
 use crate::render_scene::{RenderScene, SimpleDiffuse, Surface};
@@ -407,7 +407,7 @@ fn bounce(
             let m = |a: f32, b: f32| if a > b { a } else { b };
             m(th[0], m(th[1], th[2]))
         };
-        let q = (max * eta_scale[i]).min(0.95);
+        let q = survival_probability(max, eta_scale[i]);
         let roulette = depth[i] >= settings.rr_depth;
         ok &= !(roulette && u_rr[i] >= q);
         for a in 0..3 {
