@@ -33,17 +33,25 @@ pub struct EmissionSample {
     /// Emitted radiance (or intensity, irradiance) × cosine over the full sampling density of
     /// (`p`, `dir`): the particle's initial throughput.
     pub weight: Vec3,
+    /// The densities of `p` and `dir` (for multiple importance sampling of light subpaths).
+    pub pdf: EmissionPdf,
 }
 
-/// The densities with which [`Lights::sample_emission`] starts a particle at a point of an
-/// area light and sends it in a direction: what bidirectional methods need for a camera path
-/// that hits a light.
+/// The densities with which [`Lights::sample_emission`] starts a particle at a point and
+/// sends it in a direction: what bidirectional methods need to weigh light subpaths (and, from
+/// [`Lights::emission_pdf`], a camera path that hits an area light).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct EmissionPdf {
-    /// Density of the point per unit area, including the choice of the light.
+    /// Density of the point per unit area, including the choice of the light; for a point or
+    /// spot light (a delta position) the probability of choosing it.
     pub area: f32,
-    /// Density of the direction per unit solid angle (cosine-weighted about the normal).
+    /// Density of the direction per unit solid angle: cosine-weighted for area lights, uniform
+    /// over the sphere or the spot's cone; 1 for a directional light (a delta direction).
     pub solid_angle: f32,
+    /// The position is a Dirac delta (point and spot lights).
+    pub delta_position: bool,
+    /// The direction is a Dirac delta (directional lights).
+    pub delta_direction: bool,
 }
 
 impl Lights {
@@ -73,6 +81,8 @@ impl Lights {
         (cos > 0.0 && area > 0.0 && pick > 0.0).then(|| EmissionPdf {
             area: pick / area,
             solid_angle: cos / PI,
+            delta_position: false,
+            delta_direction: false,
         })
     }
 
@@ -127,6 +137,12 @@ impl Lights {
                     dir,
                     // Le·cos / (pdf_A · cos/π) = Le·π / pdf_A.
                     weight: radiance * PI / pdf_area,
+                    pdf: EmissionPdf {
+                        area: pdf_area,
+                        solid_angle: local.z.max(0.0) / PI,
+                        delta_position: false,
+                        delta_direction: false,
+                    },
                 }
             }
             LightKind::Point {
@@ -138,6 +154,12 @@ impl Lights {
                 radiance_over_pdf: Vec3::ZERO,
                 dir: square_to_uniform_sphere(u_dir),
                 weight: *intensity / (pick * UNIFORM_SPHERE_PDF),
+                pdf: EmissionPdf {
+                    area: pick,
+                    solid_angle: UNIFORM_SPHERE_PDF,
+                    delta_position: true,
+                    delta_direction: false,
+                },
             },
             LightKind::Spot {
                 position,
@@ -159,6 +181,12 @@ impl Lights {
                     radiance_over_pdf: Vec3::ZERO,
                     dir: Basis::new(*axis).to_world(local).normalize(),
                     weight: *intensity * falloff / (pick * pdf_dir),
+                    pdf: EmissionPdf {
+                        area: pick,
+                        solid_angle: pdf_dir,
+                        delta_position: true,
+                        delta_direction: false,
+                    },
                 }
             }
             LightKind::Directional {
@@ -175,6 +203,12 @@ impl Lights {
                     radiance_over_pdf: Vec3::ZERO,
                     dir: *direction,
                     weight: *irradiance * (PI * r * r) / pick,
+                    pdf: EmissionPdf {
+                        area: pick / (PI * r * r),
+                        solid_angle: 1.0,
+                        delta_position: false,
+                        delta_direction: true,
+                    },
                 }
             }
             LightKind::Environment => return None,
@@ -233,6 +267,20 @@ mod tests {
                 .expect("an emitting light is always chosen");
             assert!(e.weight.is_finite() && e.dir.is_normalized());
             sum += e.weight.x as f64;
+            // The weight is what the light emits along `dir` over the two densities.
+            let emitted = match e.normal {
+                Some(n) => 3.0 * n.dot(e.dir),
+                None if e.p.x == 0.0 => 5.0,
+                None => {
+                    let cone = crate::lights::SpotCone::new(20.0, 35.0);
+                    7.0 * cone.falloff(-e.dir.y)
+                }
+            };
+            let w = emitted / (e.pdf.area * e.pdf.solid_angle);
+            // (Absolute near a spot's cutoff, where the falloff is steep in the cosine.)
+            let tolerance = 1e-3 * (1.0 + e.weight.x.abs());
+            assert!((w - e.weight.x).abs() < tolerance, "{w} vs {}", e.weight.x);
+            assert_eq!(e.pdf.delta_position, e.normal.is_none());
         }
         let mean = sum / n as f64;
         assert!(
