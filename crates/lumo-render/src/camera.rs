@@ -95,4 +95,69 @@ impl PinholeCamera {
     pub fn pixel_importance(&self) -> f32 {
         self.pixel_importance
     }
+
+    /// Solid-angle density with which [`PinholeCamera::direction`] at a uniformly random film
+    /// position leaves the eye in unit direction `dir`: `1 / (A cos³θ)` with A the film's
+    /// area at distance 1 and θ the angle to the view axis; 0 outside the film. (A pinhole's
+    /// position is a delta: its density is 1.) Bidirectional methods weigh camera subpaths
+    /// with it.
+    pub fn direction_pdf(&self, dir: Vec3) -> f32 {
+        let cos = dir.dot(self.forward);
+        if cos <= 0.0 {
+            return 0.0;
+        }
+        let sx = dir.dot(self.right) / (cos * self.half.x);
+        let sy = dir.dot(self.up) / (cos * self.half.y);
+        if !(-1.0..1.0).contains(&sx) || !(-1.0..1.0).contains(&sy) {
+            return 0.0;
+        }
+        let area = 4.0 * self.half.x * self.half.y;
+        1.0 / (area * cos * cos * cos)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use lumo_scene::FovAxis;
+
+    fn camera() -> PinholeCamera {
+        let c = Camera {
+            origin: Vec3::new(0.3, 0.2, 4.0),
+            target: Vec3::new(-0.5, 0.1, 0.0),
+            up: Vec3::Y,
+            fov: 50.0,
+            fov_axis: FovAxis::X,
+        };
+        PinholeCamera::new(&c, 40, 30)
+    }
+
+    /// The direction density integrates to 1 over the sphere (Monte Carlo with uniform
+    /// directions) and projection inverts ray generation.
+    #[test]
+    fn direction_density_integrates_to_one_and_projection_inverts_rays() {
+        let cam = camera();
+        let n = 400_000u32;
+        let mut sum = 0.0f64;
+        for i in 0..n {
+            let mut s = crate::sampler::PixelSampler::new(0, 0, i, 4);
+            let d = crate::geometry::square_to_uniform_sphere(s.next_2d());
+            sum += cam.direction_pdf(d) as f64 / crate::geometry::UNIFORM_SPHERE_PDF as f64;
+        }
+        let integral = sum / n as f64;
+        assert!((integral - 1.0).abs() < 0.02, "∫ pdf dω = {integral}");
+        for film in [
+            Vec2::new(0.5, 0.5),
+            Vec2::new(12.3, 20.7),
+            Vec2::new(39.5, 1.0),
+        ] {
+            let dir = cam.direction(film);
+            let back = cam.project(dir).expect("in front");
+            assert!((back - film).length() < 1e-3, "{film} -> {back}");
+            let (point, _) = cam
+                .project_point(cam.origin() + dir * 3.0)
+                .expect("on the film");
+            assert!((point - film).length() < 1e-3, "{film} -> {point}");
+        }
+    }
 }
