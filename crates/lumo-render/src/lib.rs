@@ -1,6 +1,8 @@
-//! lumo's path tracer: a two-level BVH over obvhs, stateless Owen-scrambled Sobol sampling,
-//! physically based BSDFs and lights, a unidirectional path tracer with next-event estimation
-//! and MIS, and a film that keeps direct and indirect light and a G-buffer apart.
+//! lumo's renderer: a two-level BVH over obvhs, stateless Owen-scrambled Sobol sampling,
+//! physically based BSDFs (one file per material) and lights that sample both ways (towards a
+//! surface point and as particle sources), a pinhole camera with ray generation and
+//! importance, the integrators (a path tracer with next-event estimation and MIS, a light
+//! tracer), and a film that keeps direct and indirect light and a G-buffer apart.
 // Every unsafe block (the SIMD kernels) says why it is sound.
 #![deny(clippy::undocumented_unsafe_blocks)]
 

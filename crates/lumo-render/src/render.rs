@@ -234,17 +234,18 @@ pub fn frame_from_estimates(w: usize, h: usize, spp: u32, estimates: &[PixelEsti
     frame
 }
 
-/// The light tracer's paths use this sampler "x" so their numbers never coincide with a
-/// pixel's (camera samples use x < 2^20).
-pub const LIGHT_STREAM_X: u32 = 1 << 20;
+/// The sampler's "pixel x" of light path `m` (with y = m >> 16, index = m & 0xffff): far from
+/// any image's pixels, so light paths never reuse a camera sample's numbers. `lumo render
+/// --integrator light` and the server's light stream draw the same numbers for path `m`.
+pub const LIGHT_STREAM_X: u32 = 0x4c49_4748;
 
 /// Light-traces an image: `width × height × spp` light paths (the same work as `spp` camera
 /// samples per pixel), each vertex splatted onto the film, `pixel = Σ splats / paths`.
 /// Environment lights emit no particles (see [`crate::lights::Lights::sample_emission`]).
 ///
-/// Paths run in fixed blocks, a few blocks at a time in parallel, and the blocks' images are
-/// added in block order: the image is the same bits on any number of threads. `progress`
-/// receives the fraction of paths traced.
+/// Paths run in fixed blocks (at most 64, fixed by the image size and spp), as many blocks at
+/// a time as there are threads, and the blocks' images are added in block order: the image is
+/// the same bits on any number of threads. `progress` receives the fraction of paths traced.
 pub fn render_light(
     rs: &RenderScene,
     settings: &RenderSettings,
@@ -254,16 +255,16 @@ pub fn render_light(
     let (w, h) = (settings.width, settings.height);
     let camera = PinholeCamera::new(&rs.scene.camera, w, h);
     let paths = (w * h) as u64 * settings.spp as u64;
-    // A block's image costs w·h additions to merge: blocks of at least w·h paths keep that
-    // below one addition per path.
-    let block = ((w * h) as u64).max(1 << 14);
+    // At most 64 blocks, so merging their images costs at most 64 additions per pixel, next
+    // to paths that cost thousands of instructions; the block count depends on the work only.
+    let block = paths.div_ceil(64).max(1 << 14);
     let blocks = paths.div_ceil(block);
-    // Blocks in flight at once (each holds an image).
-    const WAVE: u64 = 8;
+    // Blocks in flight at once (each holds an image); changes speed, not the result.
+    let wave = rayon::current_num_threads().max(1) as u64;
     let mut film = vec![[0.0f64; 3]; w * h];
     let mut rays = 0u64;
-    for first in (0..blocks).step_by(WAVE as usize) {
-        let wave: Vec<(Vec<Vec3>, u64)> = (first..(first + WAVE).min(blocks))
+    for first in (0..blocks).step_by(wave as usize) {
+        let images: Vec<(Vec<Vec3>, u64)> = (first..(first + wave).min(blocks))
             .into_par_iter()
             .map(|b| {
                 let mut img = vec![Vec3::ZERO; w * h];
@@ -287,7 +288,7 @@ pub fn render_light(
                 (img, rays)
             })
             .collect();
-        for (img, r) in wave {
+        for (img, r) in images {
             for (f, v) in film.iter_mut().zip(img) {
                 for (c, x) in f.iter_mut().zip(v.to_array()) {
                     *c += x as f64;
@@ -295,7 +296,7 @@ pub fn render_light(
             }
             rays += r;
         }
-        progress(((first + WAVE).min(blocks)) as f32 / blocks.max(1) as f32);
+        progress(((first + wave).min(blocks)) as f32 / blocks.max(1) as f32);
     }
     let scale = 1.0 / paths.max(1) as f64;
     let data = film

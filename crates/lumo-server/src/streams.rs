@@ -11,6 +11,7 @@
 use glam::{Vec2, Vec3};
 use lumo_render::integrators::light::trace_light_path;
 use lumo_render::RenderScene;
+use lumo_render::LIGHT_STREAM_X;
 use lumo_render::{camera::PinholeCamera, sampler::PixelSampler, trace_path, PathSettings};
 
 /// One sample of either stream.
@@ -98,9 +99,6 @@ pub struct StreamContext<'a> {
     pub scale: f32,
 }
 
-/// Dimension-0 "pixel" coordinate that keeps light paths apart from camera samples.
-const LIGHT_SEQUENCE: u32 = 0x4c49_4748;
-
 impl StreamContext<'_> {
     /// Camera sample `n`, or None when its index falls outside a non-square image.
     pub fn camera_sample(&self, n: u64) -> Option<(Sample, u32)> {
@@ -134,7 +132,7 @@ impl StreamContext<'_> {
     /// Light path `m`: pushes its splats (W = 1: each counts once in the splat density).
     pub fn light_path(&self, m: u64, out: &mut Vec<Sample>) -> u32 {
         let block = (m >> 16) as u32;
-        let mut sampler = PixelSampler::new(LIGHT_SEQUENCE, block, (m & 0xffff) as u32, self.seed);
+        let mut sampler = PixelSampler::new(LIGHT_STREAM_X, block, (m & 0xffff) as u32, self.seed);
         let stats = trace_light_path(self.rs, &self.camera, &mut sampler, &self.path, &mut |s| {
             let [x, y, z] = rgb_to_xyz(s.value * self.scale);
             let uv = s.film / self.size;

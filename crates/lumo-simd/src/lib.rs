@@ -4,7 +4,8 @@
 //! - [`Isa`]: which instruction set the hot loops may use, detected once, capped by the
 //!   `LUMO_SIMD` environment variable (`avx2`, `baseline`) so narrower forms can be timed on
 //!   machines with wider ones. Every form computes the same bits (each crate tests its kernels
-//!   against the baseline), so the cap changes speed only.
+//!   against the baseline), so the cap changes speed only — except the À-Trous kernels' FMA
+//!   forms, which differ from the baseline in the last bits (docs/filters.md).
 //! - [`multiversion!`]: one function body compiled for AVX-512, AVX2 and baseline x86-64,
 //!   dispatched on [`Isa::detect`].
 //! - [`LANES`] / [`Lanes`]: the 16-float lane array the packet, vector-bounce and filter

@@ -403,7 +403,7 @@ fn motion_vectors_of_a_sideways_camera_step() {
     let mut position = Image::new(w, h, 3, 0.0);
     for y in 0..h {
         for x in 0..w {
-            // The pixel centre's ray (lumo's CameraRays) hits the plane z = −2.
+            // The pixel centre's ray (lumo's PinholeCamera) hits the plane z = −2.
             let sx = ((x as f32 + 0.5) / w as f32 * 2.0 - 1.0) * half[0];
             let sy = (1.0 - (y as f32 + 0.5) / h as f32 * 2.0) * half[1];
             let p = Vec3::new(sx, sy, -1.0) * 2.0;

@@ -1,11 +1,12 @@
 //! The light-transport algorithms: each reads the render scene (geometry, lights, materials,
-//! camera) and returns estimates; none owns a thread pool ([`crate::render`] and the callers'
-//! row loops are where parallelism lives).
+//! camera) and returns estimates; none owns a thread pool (`render.rs`, with [`crate::render()`]
+//! and [`crate::render_light`], and the callers' row loops are where parallelism lives).
 //!
 //! - [`path`]: unidirectional path tracing with next-event estimation and MIS, in a scalar form
 //!   ([`path::trace_path`]), a wavefront form over ray packets ([`path::wavefront`]) and a
 //!   vectorised diffuse bounce; all three give the same image.
-//! - [`light`]: particle (light) tracing, splatting onto the film: the server's light stream.
+//! - [`light`]: particle (light) tracing, splatting onto the film: the server's light stream
+//!   and `lumo render --integrator light`.
 
 pub mod light;
 pub mod path;

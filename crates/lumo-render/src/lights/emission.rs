@@ -55,9 +55,11 @@ pub struct EmissionPdf {
 }
 
 impl Lights {
-    /// The densities with which [`Lights::sample_emission`] would leave point `p` (normal `n`)
-    /// of emissive triangle `triangle` of instance `instance` (or of its exact shape) in
-    /// direction `dir`; `None` where that light emits no particles or not towards `dir`.
+    /// The densities with which [`Lights::sample_emission`] would leave a point of emissive
+    /// triangle `triangle` of instance `instance` (or of its exact shape) in direction `dir`;
+    /// `n` is the light's own geometric normal there (a `Surface::ng` on its front side, not a
+    /// shading normal), and `triangle` must be one of that instance's triangles. `None` where
+    /// that light emits no particles or not towards `dir`.
     pub fn emission_pdf(
         &self,
         instance: u32,
@@ -313,6 +315,12 @@ mod tests {
         let mut sky = Scene::empty(scene.camera);
         sky.lights.push(Light::Constant {
             radiance: Vec3::ONE,
+        });
+        assert!(Lights::new(&sky).emits_no_particles());
+        // A light of zero power emits nothing either (no uniform choice among dark lights).
+        sky.lights.push(Light::Point {
+            position: Vec3::ZERO,
+            intensity: Vec3::ZERO,
         });
         assert!(Lights::new(&sky).emits_no_particles());
     }

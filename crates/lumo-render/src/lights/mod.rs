@@ -332,9 +332,11 @@ impl Lights {
             .zip(&power)
             .map(|(l, &w)| if emits(l) { w } else { 0.0 })
             .collect();
-        let emission_choice = lights
+        // Only lights with power emit: with none (all black, or environment only) the light
+        // tracer has nothing to start from, rather than a uniform choice of dark lights.
+        let emission_choice = emission_power
             .iter()
-            .any(emits)
+            .any(|&w| w.is_finite() && w > 0.0)
             .then(|| Distribution1d::new(&emission_power));
         Lights {
             alias: AliasTable::new(&choice),
