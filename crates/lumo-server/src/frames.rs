@@ -12,7 +12,7 @@ use lumo_filter::{
     with_passthrough, AtrousDenoiser, AtrousParams, Denoiser, Features, FilterInput, GuidedDenoiser,
 };
 use lumo_image::{luminance, Image};
-use lumo_render::integrators::path::wavefront::render_pixels;
+use lumo_render::integrators::path::wavefront::render_pixels_from;
 use lumo_render::{camera::PinholeCamera, RenderScene, RenderSettings};
 use rayon::prelude::*;
 
@@ -88,11 +88,10 @@ impl FrameAccumulator {
         abort: &(dyn Fn() -> bool + Sync),
     ) -> Option<u64> {
         let (w, h) = (self.width, self.height);
-        let settings = RenderSettings {
-            // A new seed per frame decorrelates the frames' noise.
-            seed: self.settings.seed ^ index.wrapping_mul(0x9e37_79b9),
-            ..self.settings
-        };
+        // Frame `index` is sample `index` of every pixel's one sequence: frame 0 goes through the
+        // pixel centres (the G-buffer), later frames are jittered, so n frames make exactly the
+        // n-sample image (antialiased), not n copies of the pixel-centre one.
+        let settings = self.settings;
         let rays = &self.rays;
         let rows: Option<Vec<Vec<_>>> = (0..h)
             .into_par_iter()
@@ -101,7 +100,7 @@ impl FrameAccumulator {
                     return None;
                 }
                 // A whole row through the wavefront renderer (fuller ray packets).
-                Some(render_pixels(rs, rays, &settings, y, 0..w))
+                Some(render_pixels_from(rs, rays, &settings, index, y, 0..w))
             })
             .collect();
         let rows = rows?;
@@ -230,6 +229,53 @@ mod tests {
         let mut xyz = |m| acc.filtered(m).expect("a frame").xyz;
         let out = [xyz(Mode::Progressive), xyz(Mode::Atrous), xyz(Mode::Guided)];
         (acc, out)
+    }
+
+    /// Eight progressive frames are the eight-sample render (samples 0..8 of one sequence, so
+    /// edges are antialiased): before, every frame went through the pixel centres.
+    #[test]
+    fn frames_accumulate_one_sample_sequence() {
+        let scene = lumo_scene::builtin_scene("cornell").expect("built-in");
+        let path = PathSettings {
+            max_depth: 3,
+            ..PathSettings::default()
+        };
+        let job = Job {
+            camera: scene.camera.clone(),
+            width: 24,
+            height: 24,
+            integrator: Integrator::Path,
+            mode: Mode::Progressive,
+            path,
+            seed: 3,
+            max_batches: None,
+            max_rate: None,
+        };
+        let rs = RenderScene::new(scene).expect("scene");
+        let mut acc = FrameAccumulator::new(&job);
+        for i in 0..8 {
+            acc.add_frame(&rs, i, &|| false).expect("not aborted");
+        }
+        let frames = acc.filtered(Mode::Progressive).expect("a frame").xyz;
+        let settings = RenderSettings {
+            width: 24,
+            height: 24,
+            spp: 8,
+            seed: 3,
+            path,
+        };
+        let image = lumo_render::render(&rs, &settings, &|_| {}).0.color;
+        for (i, p) in image.data.chunks_exact(3).enumerate() {
+            let want = rgb_to_xyz(Vec3::new(p[0], p[1], p[2]));
+            for c in 0..3 {
+                let got = frames[i * 3 + c];
+                assert!(
+                    (got - want[c]).abs() <= 1e-4 * (1.0 + want[c].abs()),
+                    "pixel {i} channel {c}: frames {got} vs render {}",
+                    want[c]
+                );
+            }
+        }
     }
 
     /// The filtered frames keep the light the camera sees exactly as traced (no bloom) and

@@ -42,6 +42,21 @@ pub fn render_pixels(
     y: usize,
     xs: Range<usize>,
 ) -> Vec<PixelEstimate> {
+    render_pixels_from(rs, camera, settings, 0, y, xs)
+}
+
+/// [`render_pixels`] for samples `first..first + spp`: a progressive renderer adds sample
+/// after sample of one sequence (sample 0 goes through the pixel centre and alone records the
+/// first hit; later ones are jittered), so `n` calls of one sample each give the image of one
+/// `n`-sample render.
+pub fn render_pixels_from(
+    rs: &RenderScene,
+    camera: &PinholeCamera,
+    settings: &RenderSettings,
+    first: u32,
+    y: usize,
+    xs: Range<usize>,
+) -> Vec<PixelEstimate> {
     let spp = settings.spp as usize;
     let per_batch = (BATCH_PATHS / spp.max(1)).max(1);
     let mut out = Vec::with_capacity(xs.len());
@@ -49,7 +64,7 @@ pub fn render_pixels(
     let mut x0 = xs.start;
     while x0 < xs.end {
         let x1 = (x0 + per_batch).min(xs.end);
-        batch.run(rs, camera, settings, y, x0..x1);
+        batch.run(rs, camera, settings, first, y, x0..x1);
         for paths in batch.paths.chunks(spp.max(1)) {
             let first_hit = paths.first().map(|p| p.first_hit).unwrap_or_default();
             out.push(estimate(paths.iter().map(|p| p.radiance), first_hit, spp));
@@ -71,19 +86,20 @@ struct Batch {
 }
 
 impl Batch {
-    /// Traces all samples of pixels `xs` of row `y` to the end of their paths.
+    /// Traces samples `first..first + spp` of pixels `xs` of row `y` to the end of their paths.
     fn run(
         &mut self,
         rs: &RenderScene,
         camera: &PinholeCamera,
         settings: &RenderSettings,
+        first: u32,
         y: usize,
         xs: Range<usize>,
     ) {
         self.paths.clear();
         self.samples.clear();
         for x in xs {
-            for index in 0..settings.spp {
+            for index in first..first + settings.spp {
                 self.samples.push((x as u32, y as u32, index));
             }
         }
