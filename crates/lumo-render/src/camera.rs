@@ -75,17 +75,22 @@ impl PinholeCamera {
     /// view axis and the direction to `p`, if `p` is in front and inside the film.
     pub fn project_point(&self, p: Vec3) -> Option<(Vec2, f32)> {
         let d = p - self.origin;
+        let (sx, sy, z) = self.on_film(d)?;
+        let film = Vec2::new((sx + 1.0) * 0.5, (1.0 - sy) * 0.5) * self.size;
+        Some((film, z / d.length()))
+    }
+
+    /// Where offset `d` from the eye crosses the film at distance 1, in [-1, 1)² (x right,
+    /// y up), and its depth along the view axis; `None` behind the eye or off the film.
+    fn on_film(&self, d: Vec3) -> Option<(f32, f32, f32)> {
         let z = d.dot(self.forward);
         if z <= 0.0 {
             return None;
         }
         let sx = d.dot(self.right) / (z * self.half.x);
         let sy = d.dot(self.up) / (z * self.half.y);
-        if !(-1.0..1.0).contains(&sx) || !(-1.0..1.0).contains(&sy) {
-            return None;
-        }
-        let film = Vec2::new((sx + 1.0) * 0.5, (1.0 - sy) * 0.5) * self.size;
-        Some((film, z / d.length()))
+        let inside = (-1.0..1.0).contains(&sx) && (-1.0..1.0).contains(&sy);
+        inside.then_some((sx, sy, z))
     }
 
     /// Pixels per unit film area at distance 1. The importance a pixel-sized filter gives a
@@ -102,15 +107,9 @@ impl PinholeCamera {
     /// position is a delta: its density is 1.) Bidirectional methods weigh camera subpaths
     /// with it.
     pub fn direction_pdf(&self, dir: Vec3) -> f32 {
-        let cos = dir.dot(self.forward);
-        if cos <= 0.0 {
+        let Some((_, _, cos)) = self.on_film(dir) else {
             return 0.0;
-        }
-        let sx = dir.dot(self.right) / (cos * self.half.x);
-        let sy = dir.dot(self.up) / (cos * self.half.y);
-        if !(-1.0..1.0).contains(&sx) || !(-1.0..1.0).contains(&sy) {
-            return 0.0;
-        }
+        };
         let area = 4.0 * self.half.x * self.half.y;
         1.0 / (area * cos * cos * cos)
     }

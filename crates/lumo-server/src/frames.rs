@@ -163,37 +163,32 @@ impl FrameAccumulator {
             albedo: Some(&self.albedo),
             variance: variance.as_ref(),
         };
-        let image = match mode {
-            Mode::Progressive => color,
-            Mode::Atrous => {
-                let atrous = &mut self.atrous;
-                with_passthrough(&color, &self.emitter, |c| {
-                    atrous.denoise(&FilterInput::new(c, features))
-                })
-                .ok()?
-                .image
-            }
-            Mode::Guided => {
-                let guided = &mut self.guided;
-                with_passthrough(&color, &self.emitter, |c| {
-                    guided.denoise(&FilterInput::new(c, features))
-                })
-                .ok()?
-                .image
-            }
+        let denoiser: &mut dyn Denoiser = match mode {
+            Mode::Progressive => return Some(self.to_xyz(color.data, mode)),
+            Mode::Atrous => &mut self.atrous,
+            Mode::Guided => &mut self.guided,
         };
-        let xyz = image
-            .data
+        let image = with_passthrough(&color, &self.emitter, |c| {
+            denoiser.denoise(&FilterInput::new(c, features))
+        })
+        .ok()?
+        .image;
+        Some(self.to_xyz(image.data, mode))
+    }
+
+    /// A frame of linear-RGB pixels as the XYZ frame the viewer is sent.
+    fn to_xyz(&self, rgb: Vec<f32>, mode: Mode) -> FilteredFrame {
+        let xyz = rgb
             .chunks_exact(3)
             .flat_map(|p| rgb_to_xyz(Vec3::new(p[0], p[1], p[2])))
             .collect();
-        Some(FilteredFrame {
-            width: w,
-            height: h,
+        FilteredFrame {
+            width: self.width,
+            height: self.height,
             xyz,
             frames: self.frames,
             mode,
-        })
+        }
     }
 }
 

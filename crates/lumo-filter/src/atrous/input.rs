@@ -16,6 +16,7 @@ use rayon::prelude::*;
 use super::fill::background_row;
 use super::lanes::color_stats;
 use super::layout::{Layout, CW};
+use super::params::AtrousParams;
 use crate::common::albedo::{albedo_divisor, illumination_variance};
 use crate::common::gbuffer::{flush, Features};
 
@@ -27,6 +28,19 @@ pub(super) struct Input<'a> {
     pub demodulate: bool,
     /// Use `features.variance` (SVGF's variance-guided colour weight).
     pub use_variance: bool,
+}
+
+impl<'a> Input<'a> {
+    /// The input of one call: demodulation as `params` asks, the variance-guided weight only
+    /// where a variance plane is given.
+    pub(super) fn new(color: &'a Image, features: &'a Features<'a>, params: &AtrousParams) -> Self {
+        Self {
+            color,
+            features,
+            demodulate: params.demodulate,
+            use_variance: params.use_variance && features.variance.is_some(),
+        }
+    }
 }
 
 /// One input pixel as the filter sees it.

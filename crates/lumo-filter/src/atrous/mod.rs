@@ -94,12 +94,7 @@ impl AtrousFilter {
         path: Path,
     ) -> Result<Filtered, FilterError> {
         validate(color, features, params)?;
-        let inp = Input {
-            color,
-            features,
-            demodulate: params.demodulate,
-            use_variance: params.use_variance && features.variance.is_some(),
-        };
+        let inp = Input::new(color, features, params);
         let lay = Layout::new(color.width, color.height);
         let (image, missing) = self.levels(&inp, lay, params, isa, path, None);
         Ok(Filtered { image, missing })
@@ -116,12 +111,7 @@ impl AtrousFilter {
         params: &AtrousParams,
     ) -> Result<(Filtered, Image), FilterError> {
         validate(color, features, params)?;
-        let inp = Input {
-            color,
-            features,
-            demodulate: params.demodulate,
-            use_variance: params.use_variance && features.variance.is_some(),
-        };
+        let inp = Input::new(color, features, params);
         let lay = Layout::new(color.width, color.height);
         let mut first = Image::new(0, 0, 3, 0.0);
         let (image, missing) = self.levels(

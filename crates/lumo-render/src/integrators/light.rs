@@ -105,7 +105,7 @@ pub fn trace_light_path(
         // The light itself seen by the camera (depth 1).
         let seen = connect(rs, camera, p, normal, off, |wc| {
             if normal.dot(wc) > 0.0 {
-                e.radiance_over_pdf
+                e.radiance / e.pdf.area
             } else {
                 Vec3::ZERO
             }

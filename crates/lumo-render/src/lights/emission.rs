@@ -25,9 +25,9 @@ pub struct EmissionSample {
     /// The area light's unit normal at `p` (it emits on this side); `None` for point, spot and
     /// directional lights, which a camera cannot see directly.
     pub normal: Option<Vec3>,
-    /// An area light's radiance at `p`, divided by the density of choosing `p` (light choice ×
-    /// 1/area): the light point's own contribution towards any direction on its front side.
-    pub radiance_over_pdf: Vec3,
+    /// An area light's radiance at `p` (towards any direction on its front side); zero for
+    /// point, spot and directional lights.
+    pub radiance: Vec3,
     /// Unit direction of travel.
     pub dir: Vec3,
     /// Emitted radiance (or intensity, irradiance) × cosine over the full sampling density of
@@ -135,7 +135,7 @@ impl Lights {
                 EmissionSample {
                     p,
                     normal: Some(normal),
-                    radiance_over_pdf: radiance / pdf_area,
+                    radiance,
                     dir,
                     // Le·cos / (pdf_A · cos/π) = Le·π / pdf_A.
                     weight: radiance * PI / pdf_area,
@@ -153,7 +153,7 @@ impl Lights {
             } => EmissionSample {
                 p: *position,
                 normal: None,
-                radiance_over_pdf: Vec3::ZERO,
+                radiance: Vec3::ZERO,
                 dir: square_to_uniform_sphere(u_dir),
                 weight: *intensity / (pick * UNIFORM_SPHERE_PDF),
                 pdf: EmissionPdf {
@@ -180,7 +180,7 @@ impl Lights {
                 EmissionSample {
                     p: *position,
                     normal: None,
-                    radiance_over_pdf: Vec3::ZERO,
+                    radiance: Vec3::ZERO,
                     dir: Basis::new(*axis).to_world(local).normalize(),
                     weight: *intensity * falloff / (pick * pdf_dir),
                     pdf: EmissionPdf {
@@ -202,7 +202,7 @@ impl Lights {
                 EmissionSample {
                     p: self.scene_center + f.to_world(Vec3::new(d.x, d.y, 0.0)) - *direction * r,
                     normal: None,
-                    radiance_over_pdf: Vec3::ZERO,
+                    radiance: Vec3::ZERO,
                     dir: *direction,
                     weight: *irradiance * (PI * r * r) / pick,
                     pdf: EmissionPdf {
