@@ -21,7 +21,7 @@ pub mod shading;
 pub use film::{Frame, AOV_NAMES};
 pub use integrators::path::{trace_path, FirstHit, PathRadiance, PathSettings};
 pub use render::{
-    frame_from_estimates, map_pixels, map_rows, render, render_light, render_pixel,
+    frame_from_estimates, map_pixels, map_rows, render, render_bdpt, render_light, render_pixel,
     render_pixel_one_ray, trace_sample, PixelEstimate, RenderSettings, RenderStats, LIGHT_STREAM_X,
 };
 pub use render_scene::{RenderScene, Surface};

@@ -309,3 +309,94 @@ pub fn render_light(
     };
     (Image::from_vec(w, h, 3, data), stats)
 }
+
+/// Renders with bidirectional path tracing: `spp` samples per pixel, each a camera and a
+/// light subpath joined by every strategy ([`crate::integrators::bdpt`]). The returned
+/// image is each pixel's sample mean plus the light vertices splatted into it divided by
+/// the number of samples of the whole image.
+///
+/// Rows run in fixed blocks (at most 64), as many at a time as there are threads; each block
+/// splats into its own image and the images are added in block order, so the result is the
+/// same bits on any number of threads. `progress` receives the fraction of rows done.
+pub fn render_bdpt(
+    rs: &RenderScene,
+    settings: &RenderSettings,
+    bdpt: &crate::integrators::bdpt::BdptSettings,
+    progress: &(dyn Fn(f32) + Sync),
+) -> (Image, RenderStats) {
+    use crate::integrators::bdpt::{samplers, trace_bdpt_sample, BdptScratch};
+    let (w, h) = (settings.width, settings.height);
+    let camera = PinholeCamera::new(&rs.scene.camera, w, h);
+    let rows_per_block = h.div_ceil(64).max(1);
+    let blocks = h.div_ceil(rows_per_block);
+    let wave = rayon::current_num_threads().max(1);
+    let mut pixels = vec![Vec3::ZERO; w * h];
+    let mut splats = vec![[0.0f64; 3]; w * h];
+    let mut rays = 0u64;
+    for first in (0..blocks).step_by(wave) {
+        let results: Vec<(Vec<Vec3>, Vec<Vec3>, u64)> = (first..(first + wave).min(blocks))
+            .into_par_iter()
+            .map(|b| {
+                let rows = b * rows_per_block..((b + 1) * rows_per_block).min(h);
+                let mut own = Vec::with_capacity(rows.len() * w);
+                let mut film = vec![Vec3::ZERO; w * h];
+                let mut scratch = BdptScratch::default();
+                let mut rays = 0u64;
+                for y in rows {
+                    for x in 0..w {
+                        let mut sum = Vec3::ZERO;
+                        for i in 0..settings.spp {
+                            let (mut cs, mut ls) = samplers(x as u32, y as u32, i, settings.seed);
+                            let jitter = cs.next_2d();
+                            let at = Vec2::new(x as f32, y as f32) + jitter;
+                            let r = trace_bdpt_sample(
+                                rs,
+                                &camera,
+                                at,
+                                &mut cs,
+                                &mut ls,
+                                bdpt,
+                                &mut scratch,
+                                &mut |s| {
+                                    let (sx, sy) = (s.film.x as usize, s.film.y as usize);
+                                    if sx < w && sy < h {
+                                        film[sy * w + sx] += s.value;
+                                    }
+                                },
+                            );
+                            sum += r.direct + r.indirect;
+                            rays += r.rays as u64;
+                        }
+                        own.push(sum / settings.spp.max(1) as f32);
+                    }
+                }
+                (own, film, rays)
+            })
+            .collect();
+        for (k, (own, film, r)) in results.into_iter().enumerate() {
+            let start = (first + k) * rows_per_block * w;
+            pixels[start..start + own.len()].copy_from_slice(&own);
+            for (acc, v) in splats.iter_mut().zip(film) {
+                for (c, x) in acc.iter_mut().zip(v.to_array()) {
+                    *c += x as f64;
+                }
+            }
+            rays += r;
+        }
+        progress(((first + wave).min(blocks)) as f32 / blocks.max(1) as f32);
+    }
+    let samples = (w * h) as u64 * settings.spp as u64;
+    let scale = 1.0 / samples.max(1) as f64;
+    let data = pixels
+        .iter()
+        .zip(&splats)
+        .flat_map(|(p, s)| {
+            let a = p.to_array();
+            [0, 1, 2].map(|c| (a[c] as f64 + s[c] * scale) as f32)
+        })
+        .collect();
+    (
+        Image::from_vec(w, h, 3, data),
+        RenderStats { samples, rays },
+    )
+}

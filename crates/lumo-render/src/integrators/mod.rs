@@ -5,8 +5,11 @@
 //! - [`path`]: unidirectional path tracing with next-event estimation and MIS, in a scalar form
 //!   ([`path::trace_path`]), a wavefront form over ray packets ([`path::wavefront`]) and a
 //!   vectorised diffuse bounce; all three give the same image.
+//! - [`bdpt`]: bidirectional path tracing: camera and light subpaths joined by every
+//!   strategy, weighted by multiple importance sampling (`lumo render --integrator bdpt`).
 //! - [`light`]: particle (light) tracing, splatting onto the film: the server's light stream
 //!   and `lumo render --integrator light`.
 
+pub mod bdpt;
 pub mod light;
 pub mod path;

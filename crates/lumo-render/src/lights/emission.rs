@@ -35,6 +35,8 @@ pub struct EmissionSample {
     pub weight: Vec3,
     /// The densities of `p` and `dir` (for multiple importance sampling of light subpaths).
     pub pdf: EmissionPdf,
+    /// Which light emitted it (for [`Lights::emission_pdf_of`]).
+    pub light: u32,
 }
 
 /// The densities with which [`Lights::sample_emission`] starts a particle at a point and
@@ -67,24 +69,56 @@ impl Lights {
         n: Vec3,
         dir: Vec3,
     ) -> Option<EmissionPdf> {
-        let choice = self.emission_choice.as_ref()?;
+        self.emission_pdf_of(self.light_index(instance, triangle)?, n, dir)
+    }
+
+    /// The index (as in [`EmissionSample::light`] and [`super::LightSample::light`]) of the
+    /// light that emissive triangle `triangle` of instance `instance` belongs to.
+    pub fn light_index(&self, instance: u32, triangle: u32) -> Option<u32> {
         let offset = (*self.instance_offset.get(instance as usize)?)?;
-        let index = match self.lights.get(offset as usize)? {
-            LightKind::Shape { .. } => offset as usize,
-            _ => (offset + triangle) as usize,
-        };
-        let area = match self.lights.get(index)? {
-            LightKind::Triangle(tri) => tri.area,
-            LightKind::Shape { shape, .. } => shape.area,
-            _ => return None,
-        };
-        let cos = n.dot(dir);
+        match self.lights.get(offset as usize)? {
+            LightKind::Shape { .. } => Some(offset),
+            _ => Some(offset + triangle),
+        }
+    }
+
+    /// The densities with which [`Lights::sample_emission`] would start a particle on light
+    /// `light` (at a point with normal `n`, for area lights) travelling in direction `dir`.
+    /// For a directional light `area` is the density on its scene-sized disk and `dir` is not
+    /// checked (the direction is a delta). `None` for lights that emit no particles
+    /// (environment lights, zero power) and directions they do not emit in.
+    pub fn emission_pdf_of(&self, light: u32, n: Vec3, dir: Vec3) -> Option<EmissionPdf> {
+        let choice = self.emission_choice.as_ref()?;
+        let index = light as usize;
         let pick = choice.pmf(index);
-        (cos > 0.0 && area > 0.0 && pick > 0.0).then(|| EmissionPdf {
-            area: pick / area,
-            solid_angle: cos / PI,
-            delta_position: false,
-            delta_direction: false,
+        if pick <= 0.0 {
+            return None;
+        }
+        let (area, solid_angle, delta_position, delta_direction) = match self.lights.get(index)? {
+            LightKind::Triangle(tri) => (pick / tri.area, n.dot(dir) / PI, false, false),
+            LightKind::Shape { shape, .. } => (pick / shape.area, n.dot(dir) / PI, false, false),
+            LightKind::Point { .. } => (pick, UNIFORM_SPHERE_PDF, true, false),
+            LightKind::Spot { axis, cone, .. } => {
+                let cos_outer = cone.cos_cutoff();
+                let inside = axis.dot(dir) >= cos_outer;
+                let pdf = if inside {
+                    1.0 / (2.0 * PI * (1.0 - cos_outer))
+                } else {
+                    0.0
+                };
+                (pick, pdf, true, false)
+            }
+            LightKind::Directional { .. } => {
+                let r = self.scene_radius;
+                (pick / (PI * r * r), 1.0, false, true)
+            }
+            LightKind::Environment => return None,
+        };
+        (area > 0.0 && area.is_finite() && solid_angle > 0.0).then_some(EmissionPdf {
+            area,
+            solid_angle,
+            delta_position,
+            delta_direction,
         })
     }
 
@@ -126,6 +160,7 @@ impl Lights {
             }
             _ => None,
         };
+        let light = index as u32;
         let sample = match &self.lights[index] {
             LightKind::Triangle(_) | LightKind::Shape { .. } => {
                 let (p, normal, area, radiance) = area_point?;
@@ -133,6 +168,7 @@ impl Lights {
                 let local = square_to_cosine_hemisphere(u_dir);
                 let dir = Basis::new(normal).to_world(local).normalize();
                 EmissionSample {
+                    light,
                     p,
                     normal: Some(normal),
                     radiance,
@@ -151,6 +187,7 @@ impl Lights {
                 position,
                 intensity,
             } => EmissionSample {
+                light,
                 p: *position,
                 normal: None,
                 radiance: Vec3::ZERO,
@@ -178,6 +215,7 @@ impl Lights {
                 let falloff = cone.falloff(cos);
                 let pdf_dir = 1.0 / (2.0 * PI * (1.0 - cos_outer));
                 EmissionSample {
+                    light,
                     p: *position,
                     normal: None,
                     radiance: Vec3::ZERO,
@@ -200,6 +238,7 @@ impl Lights {
                 let d = square_to_disk(u_pos) * r;
                 let f = Basis::new(*direction);
                 EmissionSample {
+                    light,
                     p: self.scene_center + f.to_world(Vec3::new(d.x, d.y, 0.0)) - *direction * r,
                     normal: None,
                     radiance: Vec3::ZERO,

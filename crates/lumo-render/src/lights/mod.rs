@@ -185,6 +185,11 @@ pub struct LightSample {
     pub weight: Vec3,
     /// Solid-angle density including the light choice (0 for delta lights).
     pub pdf: f32,
+    /// Which light was sampled (for [`Lights::emission_pdf_of`]: bidirectional methods weigh
+    /// a light sample as the light subpath that could have started there).
+    pub light: u32,
+    /// The area light's unit normal at `point` (zero for other lights).
+    pub normal: Vec3,
 }
 
 /// All lights of a scene with a power-proportional choice among them.
@@ -366,6 +371,14 @@ impl Lights {
         matches!(self.lights.last(), Some(LightKind::Environment)).then(|| self.lights.len() - 1)
     }
 
+    /// Whether light `light` (a [`LightSample::light`]) is the environment.
+    pub fn is_environment(&self, light: u32) -> bool {
+        matches!(
+            self.lights.get(light as usize),
+            Some(LightKind::Environment)
+        )
+    }
+
     /// Density with which [`Lights::sample`] would pick escaping direction `dir`.
     pub fn environment_pdf(&self, dir: Vec3) -> f32 {
         let Some(i) = self.env_index() else {
@@ -424,7 +437,7 @@ impl Lights {
     #[inline(always)]
     pub(crate) fn choose_triangle(&self, u_choice: f32) -> Option<(f32, &EmissiveTriangle)> {
         match self.choose(u_choice)? {
-            (pick, LightKind::Triangle(tri)) => Some((pick, tri)),
+            (_, pick, LightKind::Triangle(tri)) => Some((pick, tri)),
             _ => None,
         }
     }
@@ -432,18 +445,19 @@ impl Lights {
     /// The light chosen for `u_choice` in proportion to power, with its probability; `None`
     /// without lights or where the chosen one cannot be picked.
     #[inline(always)]
-    fn choose(&self, u_choice: f32) -> Option<(f32, &LightKind)> {
+    fn choose(&self, u_choice: f32) -> Option<(usize, f32, &LightKind)> {
         if self.lights.is_empty() {
             return None;
         }
         let index = self.alias.sample(u_choice);
         let pick = self.choice.pmf(index);
-        (pick > 0.0).then(|| (pick, &self.lights[index]))
+        (pick > 0.0).then(|| (index, pick, &self.lights[index]))
     }
 
     /// Picks a light and a point on it as seen from `p`.
     pub fn sample(&self, p: Vec3, u_choice: f32, u: Vec2) -> Option<LightSample> {
-        let (pick, light) = self.choose(u_choice)?;
+        let (index, pick, light) = self.choose(u_choice)?;
+        let light_index = index as u32;
         let sample = match light {
             LightKind::Triangle(tri) => {
                 let b = square_to_triangle(u);
@@ -460,6 +474,8 @@ impl Lights {
                 // (the chain of sqrt and divides was this function's critical path).
                 let (num, den) = (pick * dist2, tri.area * cos);
                 LightSample {
+                    light: light_index,
+                    normal: tri.normal,
                     wi,
                     distance,
                     point: q,
@@ -478,6 +494,8 @@ impl Lights {
                 }
                 let pdf = pick * pdf;
                 LightSample {
+                    light: light_index,
+                    normal: sp.n,
                     wi,
                     distance,
                     point: sp.p,
@@ -493,6 +511,8 @@ impl Lights {
                 let dist2 = d.length_squared();
                 let distance = dist2.sqrt();
                 LightSample {
+                    light: light_index,
+                    normal: Vec3::ZERO,
                     wi: d / distance,
                     distance,
                     point: *position,
@@ -515,6 +535,8 @@ impl Lights {
                     return None;
                 }
                 LightSample {
+                    light: light_index,
+                    normal: Vec3::ZERO,
                     wi,
                     distance,
                     point: *position,
@@ -526,6 +548,8 @@ impl Lights {
                 direction,
                 irradiance,
             } => LightSample {
+                light: light_index,
+                normal: Vec3::ZERO,
                 wi: -*direction,
                 distance: f32::INFINITY,
                 point: Vec3::ZERO,
@@ -553,6 +577,8 @@ impl Lights {
                     return None;
                 }
                 LightSample {
+                    light: light_index,
+                    normal: Vec3::ZERO,
                     wi,
                     distance: f32::INFINITY,
                     point: Vec3::ZERO,

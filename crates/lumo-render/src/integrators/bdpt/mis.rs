@@ -1,0 +1,100 @@
+//! Multiple importance weights of bidirectional strategies with the power heuristic (β = 2),
+//! in Veach's ratio form: walking from the connection edge towards either end, each step
+//! multiplies the density ratio of the strategy one vertex further along by
+//! `(pdf_rev / pdf_fwd)²` of the vertex it moves across, so a weight costs O(s + t) without
+//! re-evaluating any strategy's full density.
+
+use super::vertex::{Context, Vertex};
+
+/// The two subpaths of strategy (s, t), as connected: for `s = 1` the light vertex is the
+/// one next-event estimation chose. The four reverse densities next to the connection edge
+/// are recomputed from them; the others are the subpaths' own.
+pub(super) struct Connection<'a> {
+    /// Light vertices `0..s` (for `s = 1`, the light point next-event estimation chose).
+    pub light: &'a [Vertex],
+    /// Camera vertices `0..t`.
+    pub camera: &'a [Vertex],
+}
+
+/// The ratio of a vertex's reverse to forward density; 0 where the forward density is 0
+/// (a vertex no strategy could have made that way).
+#[inline]
+fn ratio(rev: f32, fwd: f32) -> f32 {
+    if fwd > 0.0 && rev.is_finite() {
+        let r = rev / fwd;
+        r * r
+    } else {
+        0.0
+    }
+}
+
+/// The power-heuristic weight of strategy (s, t) = (`c.light.len()`, `c.camera.len()`) for
+/// the path its vertices form. Pure function of the vertices.
+pub(super) fn weight(ctx: &Context, c: &Connection) -> f32 {
+    let (light, camera) = (c.light, c.camera);
+    let (s, t) = (light.len(), camera.len());
+    let pt = &camera[t - 1];
+    let qs = s.checked_sub(1).map(|i| &light[i]);
+    // Reverse densities of the vertices next to the connection.
+    let pt_rev = match qs {
+        Some(q) => q.pdf(ctx, s.checked_sub(2).map(|i| &light[i]), pt),
+        None => t
+            .checked_sub(2)
+            .map_or(0.0, |i| pt.light_origin_pdf(ctx, &camera[i])),
+    };
+    let pt_minus_rev = t.checked_sub(2).map_or(0.0, |i| match qs {
+        Some(q) => pt.pdf(ctx, Some(q), &camera[i]),
+        None => pt.light_direction_pdf(ctx, &camera[i]),
+    });
+    let qs_rev = qs.map_or(0.0, |q| {
+        pt.pdf(ctx, t.checked_sub(2).map(|i| &camera[i]), q)
+    });
+    let qs_minus_rev = match (qs, s.checked_sub(2)) {
+        (Some(q), Some(i)) => q.pdf(ctx, Some(pt), &light[i]),
+        _ => 0.0,
+    };
+    let mut sum = 0.0f32;
+    // Strategies with fewer camera vertices.
+    let mut r = 1.0f32;
+    for i in (1..t).rev() {
+        let rev = if i == t - 1 {
+            pt_rev
+        } else if i == t - 2 {
+            pt_minus_rev
+        } else {
+            camera[i].pdf_rev
+        };
+        r *= ratio(rev, camera[i].pdf_fwd);
+        let delta_here = i != t - 1 && camera[i].delta;
+        if !delta_here && !camera[i - 1].delta {
+            sum += r;
+        }
+    }
+    // Strategies with fewer light vertices.
+    let mut r = 1.0f32;
+    for i in (0..s).rev() {
+        let rev = if i == s - 1 {
+            qs_rev
+        } else if i == s - 2 {
+            qs_minus_rev
+        } else {
+            light[i].pdf_rev
+        };
+        r *= ratio(rev, light[i].pdf_fwd);
+        let delta_here = i != s - 1 && light[i].delta;
+        let delta_before = if i > 0 {
+            light[i - 1].delta
+        } else {
+            light[0].is_delta_light()
+        };
+        if !delta_here && !delta_before {
+            sum += r;
+        }
+    }
+    let w = 1.0 / (1.0 + sum);
+    if w.is_finite() {
+        w
+    } else {
+        0.0
+    }
+}

@@ -1,0 +1,128 @@
+//! Bidirectional path tracing (Veach 1997, ch. 10): for every camera sample a camera subpath
+//! and a light subpath are traced, and every prefix pair (s light vertices, t camera
+//! vertices) is joined into a complete path — the camera path reaching a light (s = 0),
+//! next-event estimation (s = 1), a light vertex seen through the pinhole (t = 1, splatted
+//! onto the film like the light tracer's connections) and a shadow ray between two scene
+//! vertices. Multiple importance sampling with the power heuristic weighs the strategies
+//! of each path ([`mis`]), computed with the ratio recursion over the vertices' forward and
+//! reverse densities.
+//!
+//! Conventions shared with the path and light tracers: depth (`s + t − 1` segments) as in
+//! Mitsuba, Russian roulette from `rr_depth` on both subpaths, the light tracer's adjoint
+//! shading-normal correction and importance transport through refraction on the light
+//! subpath. Light subpaths start from [`crate::lights::Lights::sample_emission`]; the
+//! environment emits no particles, so paths that end there are weighed between s = 0 and
+//! s = 1 only, exactly as the path tracer weighs them.
+
+mod connect;
+mod mis;
+mod subpath;
+#[cfg(test)]
+mod tests;
+mod vertex;
+
+use glam::Vec2;
+
+use crate::camera::PinholeCamera;
+use crate::integrators::light::LightSplat;
+use crate::integrators::path::{PathRadiance, PathSettings};
+use crate::render_scene::RenderScene;
+use crate::sampler::PixelSampler;
+use connect::{connect, Contribution};
+use subpath::{camera_subpath, light_subpath};
+use vertex::{Context, Vertex};
+
+/// Bidirectional path tracing parameters.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct BdptSettings {
+    /// Depth limit, Russian roulette (`nee` and `bsdf_emission` are not used: every strategy
+    /// runs).
+    pub path: PathSettings,
+    /// Run only strategy (s, t), unweighted: an estimator of the paths of depth `s + t − 1`
+    /// on its own (for tests and pictures of single strategies).
+    pub only: Option<(usize, usize)>,
+}
+
+/// Reused vertex storage of one thread's samples.
+#[derive(Default)]
+pub struct BdptScratch {
+    camera: Vec<Vertex>,
+    light: Vec<Vertex>,
+}
+
+/// The sampler seed offset of light subpaths: camera sample `i` of pixel (x, y) draws its
+/// light subpath from the same pixel and index under this seed, an independent sequence.
+pub const LIGHT_SUBPATH_SEED: u32 = 0x6264_7074;
+
+/// The two samplers of camera sample `index` of pixel (x, y): the camera subpath's and the
+/// light subpath's.
+pub fn samplers(x: u32, y: u32, index: u32, seed: u32) -> (PixelSampler, PixelSampler) {
+    (
+        PixelSampler::new(x, y, index, seed),
+        PixelSampler::new(x, y, index, seed ^ LIGHT_SUBPATH_SEED),
+    )
+}
+
+/// One bidirectional sample through film position `film` (pixels): returns the radiance of
+/// the strategies that land in the sample's own pixel (split by depth like the path
+/// tracer's) and calls `splat` for the light vertices seen by the camera (t = 1), which land
+/// anywhere: a pixel's value is its samples' mean plus the splats in it divided by the total
+/// number of samples (the light tracer's normalisation).
+#[allow(clippy::too_many_arguments)]
+pub fn trace_bdpt_sample(
+    rs: &RenderScene,
+    camera: &PinholeCamera,
+    film: Vec2,
+    camera_sampler: &mut PixelSampler,
+    light_sampler: &mut PixelSampler,
+    settings: &BdptSettings,
+    scratch: &mut BdptScratch,
+    splat: &mut impl FnMut(LightSplat),
+) -> PathRadiance {
+    let ctx = Context { rs, camera };
+    let max_depth = settings.path.max_depth.max(1) as usize;
+    let mut radiance = PathRadiance::default();
+    let rays = camera_subpath(
+        &ctx,
+        film,
+        camera_sampler,
+        &settings.path,
+        max_depth.saturating_add(1),
+        &mut scratch.camera,
+    );
+    radiance.rays += rays;
+    let rays = light_subpath(
+        &ctx,
+        light_sampler,
+        &settings.path,
+        max_depth,
+        &mut scratch.light,
+    );
+    radiance.rays += rays;
+    let (cam, light) = (&scratch.camera, &scratch.light);
+    for t in 1..=cam.len() {
+        for s in 0..=light.len().max(1) {
+            let depth = s + t - 1;
+            if s + t < 2 || depth > max_depth {
+                continue;
+            }
+            if settings.only.is_some_and(|only| only != (s, t)) {
+                continue;
+            }
+            // s = 1 with t ≥ 2 samples its own light point (next-event estimation).
+            if s > light.len() && !(s == 1 && t >= 2) {
+                continue;
+            }
+            let (c, rays) = connect(&ctx, light, cam, (s, t), settings.only.is_some());
+            radiance.rays += rays;
+            match c {
+                Some(Contribution::Pixel(v)) => radiance.add(depth as u32, v),
+                Some(Contribution::Splat(film, value)) if value.is_finite() => {
+                    splat(LightSplat { film, value })
+                }
+                _ => {}
+            }
+        }
+    }
+    radiance
+}

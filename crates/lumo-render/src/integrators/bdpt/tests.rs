@@ -1,0 +1,287 @@
+use glam::{Mat4, Vec2, Vec3};
+use lumo_image::luminance;
+use lumo_scene::shapes::{cube, rectangle};
+use lumo_scene::{builtin_scene, Camera, FovAxis, Light, Material, Scene};
+
+use super::mis::{weight, Connection};
+use super::subpath::camera_subpath;
+use super::vertex::{light_vertex, Context, Kind, Vertex};
+use super::*;
+use crate::{render, render_bdpt, RenderSettings};
+
+/// Mean luminance over `b`×`b` blocks of an RGB image.
+fn blocks(img: &lumo_image::Image, b: usize) -> Vec<f32> {
+    let (w, h) = (img.width, img.height);
+    let mut out = vec![0.0; (w / b) * (h / b)];
+    for y in 0..h {
+        for x in 0..w {
+            let p = img.pixel(x, y);
+            out[(y / b) * (w / b) + x / b] += luminance([p[0], p[1], p[2]]) / (b * b) as f32;
+        }
+    }
+    out
+}
+
+fn mean(v: &[f32]) -> f32 {
+    v.iter().sum::<f32>() / v.len() as f32
+}
+
+fn settings(w: usize, spp: u32, max_depth: u32) -> RenderSettings {
+    RenderSettings {
+        width: w,
+        height: w,
+        spp,
+        seed: 3,
+        path: PathSettings {
+            max_depth,
+            ..Default::default()
+        },
+    }
+}
+
+fn path_traced(rs: &RenderScene, s: &RenderSettings) -> lumo_image::Image {
+    render(rs, s, &|_| {}).0.color
+}
+
+fn bdpt(rs: &RenderScene, s: &RenderSettings, only: Option<(usize, usize)>) -> lumo_image::Image {
+    let b = BdptSettings { path: s.path, only };
+    render_bdpt(rs, s, &b, &|_| {}).0
+}
+
+/// The full-path densities of a camera path x_0 … x_n ending on an area light, in both
+/// directions, and the weights of all its strategies computed by brute force: the power
+/// heuristic over the products of the densities. The ratio recursion must give the same
+/// weights, and they sum to 1.
+#[test]
+fn mis_weights_match_brute_force_and_sum_to_one() {
+    let rs = RenderScene::new(builtin_scene("cornell").expect("builtin")).expect("scene");
+    let camera = PinholeCamera::new(&rs.scene.camera, 16, 16);
+    let ctx = Context {
+        rs: &rs,
+        camera: &camera,
+    };
+    let mut checked = 0;
+    let mut path = Vec::new();
+    for i in 0..4000u32 {
+        let mut sampler = PixelSampler::new(i % 16, (i / 16) % 16, i, 5);
+        let film = Vec2::new((i % 16) as f32 + 0.5, ((i / 16) % 16) as f32 + 0.5);
+        let settings = PathSettings {
+            max_depth: 6,
+            rr_depth: 100,
+            ..Default::default()
+        };
+        camera_subpath(&ctx, film, &mut sampler, &settings, 7, &mut path);
+        // The first vertex (beyond the first hit) on the light: a path of n + 1 vertices.
+        let Some(n) = (2..path.len()).find(|&k| path[k].le != Vec3::ZERO) else {
+            continue;
+        };
+        let x = &path[..=n];
+        if x.iter().any(|v| v.delta) {
+            continue;
+        }
+        let Kind::Surface {
+            s: light_surface, ..
+        } = x[n].kind
+        else {
+            continue;
+        };
+        let index = rs
+            .lights
+            .light_index(light_surface.instance, light_surface.triangle)
+            .expect("an emissive triangle");
+        // The light subpath's view of the same vertices: x_n as a light vertex, the others
+        // with their outgoing direction towards the light side.
+        let towards = (x[n - 1].p - x[n].p).normalize();
+        let l0 = light_vertex(&rs.lights, index, x[n].p, x[n].ng, towards, None);
+        let as_light = |k: usize| -> Vertex {
+            if k == n {
+                return l0;
+            }
+            let mut v = x[k];
+            if let Kind::Surface { ref mut wo, .. } = v.kind {
+                *wo = (x[k + 1].p - x[k].p).normalize();
+            }
+            v
+        };
+        let light_side: Vec<Vertex> = (0..=n).map(as_light).collect();
+        // Densities: camera side from x_{k-1} (given x_{k-2}), light side from x_{k+1}.
+        let mut p_cam = vec![1.0f32; n + 1];
+        for k in 1..=n {
+            p_cam[k] = x[k - 1].pdf(&ctx, k.checked_sub(2).map(|j| &x[j]), &x[k]);
+        }
+        let mut p_light = vec![0.0f32; n + 1];
+        p_light[n] = l0.pdf_fwd;
+        for k in (1..n).rev() {
+            let from = &light_side[k + 1];
+            let prev = (k + 2 <= n).then(|| &light_side[k + 2]);
+            p_light[k] = from.pdf(&ctx, prev, &light_side[k]);
+        }
+        // Strategies (s, t) with s + t = n + 1 and t ≥ 1.
+        let total = n + 1;
+        let density = |t: usize| -> f64 {
+            (0..t).map(|k| p_cam[k] as f64).product::<f64>()
+                * (t..total).map(|k| p_light[k] as f64).product::<f64>()
+        };
+        let sum_sq: f64 = (1..=total).map(|t| density(t).powi(2)).sum();
+        let mut sum_w = 0.0;
+        for t in 1..=total {
+            let s = total - t;
+            let mut cam: Vec<Vertex> = x[..t].to_vec();
+            for k in 0..t {
+                cam[k].pdf_fwd = p_cam[k];
+                cam[k].pdf_rev = p_light[k];
+            }
+            let mut light: Vec<Vertex> = (0..s).map(|j| light_side[n - j]).collect();
+            for (j, v) in light.iter_mut().enumerate() {
+                v.pdf_fwd = p_light[n - j];
+                v.pdf_rev = p_cam[n - j];
+            }
+            let w = weight(
+                &ctx,
+                &Connection {
+                    light: &light,
+                    camera: &cam,
+                },
+            );
+            let expected = density(t).powi(2) / sum_sq;
+            assert!(
+                (w as f64 - expected).abs() < 1e-3 * (1.0 + expected),
+                "path of {total} vertices, strategy ({s}, {t}): ratio form {w}, brute force {expected}"
+            );
+            sum_w += w as f64;
+        }
+        assert!((sum_w - 1.0).abs() < 1e-3, "weights sum to {sum_w}");
+        checked += 1;
+        if checked >= 40 {
+            break;
+        }
+    }
+    assert!(checked >= 20, "only {checked} paths reached the light");
+}
+
+/// Each strategy alone, unweighted, estimates the paths of its depth: its image matches the
+/// path tracer's image of exactly that depth (depth ≤ k minus depth ≤ k − 1).
+#[test]
+fn every_strategy_alone_is_unbiased() {
+    let rs = RenderScene::new(builtin_scene("cornell").expect("builtin")).expect("scene");
+    let w = 16;
+    let mut reference = Vec::new();
+    for depth in 1..=3 {
+        let img = path_traced(&rs, &settings(w, 1024, depth));
+        reference.push(mean(&blocks(&img, w)));
+    }
+    for (depth, strategies) in [
+        (2usize, vec![(0usize, 3usize), (1, 2), (2, 1)]),
+        (3, vec![(0, 4), (1, 3), (2, 2), (3, 1)]),
+    ] {
+        let expected = reference[depth - 1] - reference[depth - 2];
+        for (s, t) in strategies {
+            // Hitting the small light by BSDF sampling alone (s = 0) is the noisiest.
+            let spp = if s == 0 { 2048 } else { 256 };
+            let img = bdpt(&rs, &settings(w, spp, depth as u32), Some((s, t)));
+            let got = mean(&blocks(&img, w));
+            let tol = if s == 0 { 0.05 } else { 0.03 };
+            assert!(
+                (got - expected).abs() < tol * expected,
+                "strategy ({s}, {t}) of depth {depth}: {got}, path tracer {expected}"
+            );
+        }
+    }
+}
+
+/// Weighted together, the strategies converge to the path tracer's image: the Cornell box
+/// with a glass and a rough gold sphere.
+#[test]
+fn converges_to_the_path_tracer() {
+    let rs = RenderScene::new(builtin_scene("cornell-spheres").expect("builtin")).expect("scene");
+    let w = 32;
+    let s = settings(w, 256, 6);
+    let (pt, bd) = (
+        blocks(&path_traced(&rs, &s), 8),
+        blocks(&bdpt(&rs, &s, None), 8),
+    );
+    let (a, b) = (mean(&pt), mean(&bd));
+    assert!((a - b).abs() < 0.01 * a, "image means: path {a}, bdpt {b}");
+    for (i, (x, y)) in pt.iter().zip(&bd).enumerate() {
+        assert!(
+            (x - y).abs() < 0.08 * x.max(0.05),
+            "block {i}: path {x}, bdpt {y}"
+        );
+    }
+}
+
+/// A floor and a box lit by a point light, a spot light, a directional light and a constant
+/// environment: the delta lights and the environment through every strategy that can reach
+/// them.
+fn mixed_lights_scene() -> Scene {
+    let mut scene = Scene::empty(Camera {
+        origin: Vec3::new(0.0, 2.0, 5.0),
+        target: Vec3::new(0.0, 0.3, 0.0),
+        up: Vec3::Y,
+        fov: 45.0,
+        fov_axis: FovAxis::X,
+    });
+    let grey = scene.add_material(Material::diffuse("grey", Vec3::splat(0.6)));
+    let red = scene.add_material(Material::diffuse("red", Vec3::new(0.7, 0.2, 0.2)));
+    let floor =
+        Mat4::from_rotation_x(-std::f32::consts::FRAC_PI_2) * Mat4::from_scale(Vec3::splat(3.0));
+    scene.add_mesh(rectangle(&floor, grey));
+    scene.add_mesh(cube(
+        &(Mat4::from_translation(Vec3::new(0.3, 0.5, 0.0)) * Mat4::from_scale(Vec3::splat(0.5))),
+        red,
+    ));
+    scene.lights.push(Light::Point {
+        position: Vec3::new(-1.0, 2.0, 1.0),
+        intensity: Vec3::splat(4.0),
+    });
+    scene.lights.push(Light::Spot {
+        position: Vec3::new(1.5, 2.5, 1.0),
+        direction: Vec3::new(-0.5, -1.0, -0.3),
+        intensity: Vec3::splat(10.0),
+        beam_width: 20.0,
+        cutoff: 30.0,
+    });
+    scene.lights.push(Light::Directional {
+        direction: Vec3::new(0.3, -1.0, -0.4),
+        irradiance: Vec3::splat(0.8),
+    });
+    scene.lights.push(Light::Constant {
+        radiance: Vec3::splat(0.2),
+    });
+    scene
+}
+
+#[test]
+fn delta_lights_and_the_environment_match_the_path_tracer() {
+    let rs = RenderScene::new(mixed_lights_scene()).expect("scene");
+    let w = 32;
+    let s = settings(w, 128, 4);
+    let (pt, bd) = (
+        blocks(&path_traced(&rs, &s), 8),
+        blocks(&bdpt(&rs, &s, None), 8),
+    );
+    let (a, b) = (mean(&pt), mean(&bd));
+    assert!((a - b).abs() < 0.01 * a, "image means: path {a}, bdpt {b}");
+    for (i, (x, y)) in pt.iter().zip(&bd).enumerate() {
+        assert!(
+            (x - y).abs() < 0.06 * x.max(0.05),
+            "block {i}: path {x}, bdpt {y}"
+        );
+    }
+}
+
+/// The image is the same bits on one thread and on two.
+#[test]
+fn same_bits_on_any_thread_count() {
+    let rs = RenderScene::new(builtin_scene("cornell").expect("builtin")).expect("scene");
+    let s = settings(24, 4, 5);
+    let run = |threads| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("pool")
+            .install(|| bdpt(&rs, &s, None))
+    };
+    let (a, b) = (run(1), run(2));
+    assert_eq!(a.data, b.data);
+}

@@ -1,0 +1,287 @@
+//! The vertices of camera and light subpaths and the densities between them.
+//!
+//! Every vertex keeps two densities in the measure of its own position (area; solid angle
+//! for a camera path that escaped to the environment): `pdf_fwd`, with which its own subpath
+//! generated it from the vertex before, and `pdf_rev`, with which the opposite subpath would
+//! have generated it from the vertex after. Their ratios are all the multiple importance
+//! weights need ([`super::mis`]). A density through a Dirac lobe is stored as 1: it
+//! appears once as a forward and once as a reverse density in every ratio chain that passes
+//! the specular vertex, so the placeholders cancel (strategies that would have to connect at
+//! such a vertex are excluded by the `delta` flags instead).
+
+use glam::{Vec2, Vec3};
+
+use crate::camera::PinholeCamera;
+use crate::lights::Lights;
+use crate::render_scene::{RenderScene, Surface};
+use crate::shading::ShadingBsdf;
+
+/// What a vertex is.
+#[derive(Clone, Copy, Debug)]
+pub(super) enum Kind {
+    /// The pinhole: the camera subpath's first vertex.
+    Camera,
+    /// A light subpath's first vertex, or a light point chosen by next-event estimation.
+    Light {
+        /// Index of the light ([`Lights::emission_pdf_of`]).
+        light: u32,
+        /// A point or spot light (its position is a Dirac delta).
+        delta_position: bool,
+        /// A directional light (its direction is a Dirac delta; the vertex sits on a
+        /// scene-sized disk outside the scene).
+        directional: bool,
+    },
+    /// A camera ray that left the scene: the environment seen in direction `dir`.
+    Environment {
+        /// Unit direction of the escaping ray.
+        dir: Vec3,
+    },
+    /// A scattering point on a surface.
+    Surface {
+        /// The surface.
+        s: Surface,
+        /// Its BSDF.
+        bsdf: ShadingBsdf,
+        /// Unit direction (world) back towards the previous vertex of its own subpath.
+        wo: Vec3,
+        /// A one-sided material seen from behind: black both ways, no connections.
+        black: bool,
+    },
+}
+
+/// One vertex of a subpath.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Vertex {
+    /// What it is.
+    pub kind: Kind,
+    /// Position (the light's position for point and spot lights; unused for the environment).
+    pub p: Vec3,
+    /// Unit geometric normal of surfaces and area lights (zero for the others).
+    pub ng: Vec3,
+    /// Throughput of the subpath up to (not including) this vertex's own scattering: for a
+    /// camera subpath the radiance weight, for a light subpath the particle's power weight.
+    pub beta: Vec3,
+    /// Emitted radiance towards the previous vertex (camera subpaths: surfaces that emit and
+    /// the environment; the light's radiance for an area light's own vertex).
+    pub le: Vec3,
+    /// Density with which its own subpath generated it.
+    pub pdf_fwd: f32,
+    /// Density with which the opposite subpath would generate it.
+    pub pdf_rev: f32,
+    /// Its own subpath left it through a Dirac lobe.
+    pub delta: bool,
+    /// Random numbers for next-event estimation from this vertex (camera subpaths), drawn
+    /// with the vertex so that the sample stream does not depend on which strategies run.
+    pub u_light: (f32, Vec2),
+}
+
+impl Vertex {
+    /// A vertex with no densities yet.
+    pub fn new(kind: Kind, p: Vec3, ng: Vec3, beta: Vec3) -> Self {
+        Vertex {
+            kind,
+            p,
+            ng,
+            beta,
+            le: Vec3::ZERO,
+            pdf_fwd: 0.0,
+            pdf_rev: 0.0,
+            delta: false,
+            u_light: (0.0, Vec2::ZERO),
+        }
+    }
+
+    /// Whether a strategy may connect to this vertex with a deterministic segment: surfaces
+    /// with a non-Dirac lobe, area lights, point and spot lights, the camera.
+    pub fn is_connectible(&self) -> bool {
+        match self.kind {
+            Kind::Camera => true,
+            Kind::Light { directional, .. } => !directional,
+            Kind::Environment { .. } => false,
+            Kind::Surface { bsdf, black, .. } => !black && !bsdf.is_delta(),
+        }
+    }
+
+    /// A light whose position or direction is a Dirac delta (no camera path can hit it).
+    pub fn is_delta_light(&self) -> bool {
+        match self.kind {
+            Kind::Light {
+                delta_position,
+                directional,
+                ..
+            } => delta_position || directional,
+            _ => false,
+        }
+    }
+
+    /// The cosine that turns a solid-angle density arriving along `w` into an area density
+    /// here: the geometric normal's for surfaces and area lights, 1 for points.
+    fn arrival_cos(&self, w: Vec3) -> f32 {
+        if self.ng == Vec3::ZERO {
+            1.0
+        } else {
+            self.ng.dot(w).abs()
+        }
+    }
+
+    /// The solid-angle density `pdf` of leaving `self` towards `to`, as an area density at
+    /// `to` (left as is for the environment, whose vertices live in solid angle).
+    pub fn area_density(&self, pdf: f32, to: &Vertex) -> f32 {
+        if let Kind::Environment { .. } = to.kind {
+            return pdf;
+        }
+        let d = to.p - self.p;
+        let dist2 = d.length_squared();
+        if dist2 == 0.0 {
+            return 0.0;
+        }
+        pdf * to.arrival_cos(d / dist2.sqrt()) / dist2
+    }
+
+    /// Density (in `to`'s measure) with which `self`, reached from `prev` in its own
+    /// subpath, would generate `to` next. Subpath origins take `prev = None`.
+    pub fn pdf(&self, ctx: &Context, prev: Option<&Vertex>, to: &Vertex) -> f32 {
+        let w = match to.kind {
+            Kind::Environment { dir } => dir,
+            _ => (to.p - self.p).normalize_or_zero(),
+        };
+        match self.kind {
+            Kind::Camera => self.area_density(ctx.camera.direction_pdf(w), to),
+            Kind::Light {
+                light, directional, ..
+            } => {
+                if let Kind::Environment { .. } = to.kind {
+                    return 0.0;
+                }
+                if directional {
+                    // Parallel rays from a disk of the scene's size: the density on the disk
+                    // (the choice of the light is the light vertex's own density).
+                    let r = ctx.rs.lights.scene_radius();
+                    return to.arrival_cos(w) / (std::f32::consts::PI * r * r);
+                }
+                ctx.rs
+                    .lights
+                    .emission_pdf_of(light, self.ng, w)
+                    .map_or(0.0, |e| self.area_density(e.solid_angle, to))
+            }
+            // Light does not leave the environment towards the scene (it emits no particles).
+            Kind::Environment { .. } => 0.0,
+            Kind::Surface { s, bsdf, .. } => {
+                let Some(prev) = prev else { return 0.0 };
+                let w_prev = match prev.kind {
+                    Kind::Environment { dir } => dir,
+                    _ => (prev.p - self.p).normalize_or_zero(),
+                };
+                let pdf = bsdf.pdf(s.frame.to_local(w_prev), s.frame.to_local(w));
+                self.area_density(pdf, to)
+            }
+        }
+    }
+
+    /// Density (area; solid angle for the environment) with which a light subpath would start
+    /// at this vertex of a camera subpath: next-event estimation's density for the
+    /// environment (the only strategy that samples it), the particle density of an area light.
+    pub fn light_origin_pdf(&self, ctx: &Context, towards: &Vertex) -> f32 {
+        match self.kind {
+            Kind::Environment { dir } => ctx.rs.lights.environment_pdf(dir),
+            Kind::Surface { s, .. } => {
+                let w = (towards.p - self.p).normalize_or_zero();
+                ctx.rs
+                    .lights
+                    .emission_pdf(s.instance, s.triangle, s.ng, w)
+                    .map_or(0.0, |e| e.area)
+            }
+            _ => 0.0,
+        }
+    }
+
+    /// Density with which this vertex of a camera subpath, seen as the origin of a light
+    /// subpath, would emit towards `to` (in `to`'s measure).
+    pub fn light_direction_pdf(&self, ctx: &Context, to: &Vertex) -> f32 {
+        match self.kind {
+            Kind::Surface { s, .. } => {
+                let w = (to.p - self.p).normalize_or_zero();
+                ctx.rs
+                    .lights
+                    .emission_pdf(s.instance, s.triangle, s.ng, w)
+                    .map_or(0.0, |e| self.area_density(e.solid_angle, to))
+            }
+            _ => 0.0,
+        }
+    }
+
+    /// What scattering at this vertex contributes to a connection towards `w` (world, unit):
+    /// for a camera subpath's vertex `f(wo, w)·|cos_ns w|`; for a light subpath's vertex the
+    /// adjoint `f(w, wl)` with Veach's shading-normal correction and the geometric cosine
+    /// `|ng·w|`, so that both sides multiply into `value / distance²`.
+    pub fn scatter_towards(&self, w: Vec3, light_side: bool) -> Vec3 {
+        let Kind::Surface { s, bsdf, wo, black } = self.kind else {
+            return Vec3::ZERO;
+        };
+        if black {
+            return Vec3::ZERO;
+        }
+        let (wo_l, w_l) = (s.frame.to_local(wo), s.frame.to_local(w));
+        if !light_side {
+            return bsdf.eval(wo_l, w_l);
+        }
+        // eval includes |cos| on the light side (wo here); divide it out, then apply the
+        // arrival half of the correction (|ns·wl| / |ng·wl|) and the geometric cosine of the
+        // departure.
+        let (cos_ng_l, cos_ng_w) = (s.ng.dot(wo).abs(), s.ng.dot(w).abs());
+        if wo_l.z == 0.0 || cos_ng_l == 0.0 {
+            return Vec3::ZERO;
+        }
+        bsdf.eval(w_l, wo_l) / cos_ng_l * cos_ng_w
+    }
+}
+
+/// What the densities need besides the vertices.
+pub(super) struct Context<'a> {
+    /// The scene (lights, materials).
+    pub rs: &'a RenderScene,
+    /// The camera (its direction density).
+    pub camera: &'a PinholeCamera,
+}
+
+/// The light vertex that next-event estimation chose, in the form the weights need: its
+/// density is the particle density of [`Lights::sample_emission`] (the environment's, which
+/// emits no particles, next-event estimation's own), so every strategy of a path is weighed
+/// with one consistent set of densities.
+pub(super) fn light_vertex(
+    lights: &Lights,
+    light: u32,
+    point: Vec3,
+    normal: Vec3,
+    towards: Vec3,
+    environment: Option<Vec3>,
+) -> Vertex {
+    if let Some(dir) = environment {
+        let mut v = Vertex::new(Kind::Environment { dir }, point, Vec3::ZERO, Vec3::ONE);
+        v.pdf_fwd = lights.environment_pdf(dir);
+        return v;
+    }
+    let e = lights.emission_pdf_of(light, normal, towards);
+    let (delta_position, directional) =
+        e.map_or((false, false), |e| (e.delta_position, e.delta_direction));
+    let mut v = Vertex::new(
+        Kind::Light {
+            light,
+            delta_position,
+            directional,
+        },
+        point,
+        normal,
+        Vec3::ONE,
+    );
+    v.pdf_fwd = match e {
+        // The choice of a directional light; its disk's density is the next vertex's.
+        Some(e) if directional => {
+            let r = lights.scene_radius();
+            e.area * std::f32::consts::PI * r * r
+        }
+        Some(e) => e.area,
+        None => 0.0,
+    };
+    v
+}
