@@ -4,10 +4,12 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
+use clap::ValueEnum;
 use indicatif::{ProgressBar, ProgressStyle};
 use lumo_image::{write_image, ImageFormat};
 use lumo_pipeline::{run_pipeline, Pipeline};
-use lumo_render::{render_light, PathSettings, RenderScene, RenderSettings};
+use lumo_render::integrators::bdpt::BdptSettings;
+use lumo_render::{render_bdpt, render_light, PathSettings, RenderScene, RenderSettings};
 use lumo_scene::load::{FileSettings, LoadOptions};
 use lumo_scene::{builtin_scene, Scene, BUILTIN_SCENES};
 
@@ -19,6 +21,16 @@ pub enum RenderIntegrator {
     /// Particle tracing from the lights, each vertex splatted onto the film (no pipeline, no
     /// AOVs; environment lights emit nothing).
     Light,
+    /// Bidirectional path tracing: camera and light subpaths joined by every strategy with
+    /// multiple importance sampling (no pipeline, no AOVs).
+    Bdpt,
+}
+
+impl RenderIntegrator {
+    /// Integrators that write the image without a filtering pipeline or a G-buffer.
+    fn unfiltered(self) -> bool {
+        self != RenderIntegrator::Path
+    }
 }
 
 /// Arguments of `lumo render`.
@@ -71,8 +83,9 @@ pub struct RenderArgs {
     /// variance) as EXR files into this directory.
     #[arg(long)]
     pub aovs: Option<PathBuf>,
-    /// Light transport: path (from the camera) or light (from the lights, splatted onto the
-    /// film; renders without a pipeline or AOVs, and environment lights emit nothing).
+    /// Light transport: path (from the camera), light (from the lights, splatted onto the
+    /// film; environment lights emit nothing) or bdpt (bidirectional); light and bdpt render
+    /// without a pipeline or AOVs.
     #[arg(long, value_enum, default_value_t = RenderIntegrator::Path)]
     pub integrator: RenderIntegrator,
     /// The filtered-GI pipeline and its options.
@@ -214,15 +227,19 @@ pub fn run(args: RenderArgs) -> Result<()> {
         }
         return Ok(());
     }
+    let integrator = args
+        .integrator
+        .to_possible_value()
+        .map_or_else(String::new, |v| v.get_name().to_owned());
     let pipeline = match (args.integrator, args.pipeline.pipeline) {
-        (RenderIntegrator::Light, Some(p)) if p != Pipeline::None => bail!(
-            "--integrator light renders without a filtering pipeline: drop --pipeline {p} (or use --pipeline none)"
+        (i, Some(p)) if i.unfiltered() && p != Pipeline::None => bail!(
+            "--integrator {integrator} renders without a filtering pipeline: drop --pipeline {p} (or use --pipeline none)"
         ),
-        (RenderIntegrator::Light, _) => Pipeline::None,
-        (RenderIntegrator::Path, _) => args.pipeline.pipeline(),
+        (i, _) if i.unfiltered() => Pipeline::None,
+        _ => args.pipeline.pipeline(),
     };
-    if args.integrator == RenderIntegrator::Light && args.aovs.is_some() {
-        bail!("--aovs: the light tracer makes no G-buffer; use --integrator path for AOV planes");
+    if args.integrator.unfiltered() && args.aovs.is_some() {
+        bail!("--aovs: --integrator {integrator} makes no G-buffer; use --integrator path for AOV planes");
     }
     let options = LoadOptions {
         defines: args.defines.clone(),
@@ -311,6 +328,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
             "light tracer ({} light paths)",
             settings.spp as u64 * (width * height) as u64
         ),
+        RenderIntegrator::Bdpt => "bidirectional path tracer".to_owned(),
     };
     eprintln!(
         "{name}: {tris} triangles (BVH {:.0} ms), {width}x{height}, {} spp, max depth {}, {method}, {threads} threads",
@@ -323,12 +341,28 @@ pub fn run(args: RenderArgs) -> Result<()> {
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let start = Instant::now();
-    if args.integrator == RenderIntegrator::Light {
-        if rs.lights.emits_no_particles() {
-            bail!("{name}: --integrator light: no light emits particles (environment lights do not); use --integrator path");
-        }
-        let (image, stats) = pool
-            .install(|| render_light(&rs, &settings, &|f| bar.set_position((f * 1000.0) as u64)));
+    if args.integrator.unfiltered() {
+        let progress = |f: f32| bar.set_position((f * 1000.0) as u64);
+        let (image, stats, unit) = match args.integrator {
+            RenderIntegrator::Light => {
+                if rs.lights.emits_no_particles() {
+                    bail!("{name}: --integrator light: no light emits particles (environment lights do not); use --integrator path");
+                }
+                let (image, stats) = pool.install(|| render_light(&rs, &settings, &progress));
+                (image, stats, "light paths")
+            }
+            _ => {
+                if rs.lights.emits_no_particles() {
+                    eprintln!("warning: {name}: no light emits particles (environment lights do not): --integrator bdpt runs as a path tracer here");
+                }
+                let bdpt = BdptSettings {
+                    path: settings.path,
+                    only: None,
+                };
+                let (image, stats) = pool.install(|| render_bdpt(&rs, &settings, &bdpt, &progress));
+                (image, stats, "samples")
+            }
+        };
         let secs = start.elapsed().as_secs_f64();
         bar.finish_and_clear();
         for o in &outputs {
@@ -336,7 +370,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         }
         let written: Vec<String> = outputs.iter().map(|p| p.display().to_string()).collect();
         println!(
-            "done in {secs:.2} s · {}light paths/s · {}rays/s → {}",
+            "done in {secs:.2} s · {}{unit}/s · {}rays/s → {}",
             si(stats.samples as f64 / secs),
             si(stats.rays as f64 / secs),
             written.join(", ")

@@ -25,7 +25,8 @@ pub struct ServeArgs {
     /// Render threads [default: all cores].
     #[arg(long)]
     pub threads: Option<usize>,
-    /// Sample streams: path (camera stream), light (light stream), both (each weighted ½).
+    /// Sample streams: path (camera stream), light (light stream), both (each weighted ½),
+    /// bdpt (bidirectional: both streams).
     #[arg(long, value_enum, default_value_t = IntegratorArg::Path)]
     pub integrator: IntegratorArg,
     /// Image size as WIDTHxHEIGHT [default: the scene's].
@@ -52,6 +53,9 @@ pub enum IntegratorArg {
     Light,
     /// Both.
     Both,
+    /// Bidirectional path tracer (camera-side strategies on the camera stream, light
+    /// vertices seen by the camera on the light stream).
+    Bdpt,
 }
 
 /// Runs `lumo serve` until interrupted.
@@ -75,6 +79,7 @@ pub fn run(args: ServeArgs) -> Result<()> {
         IntegratorArg::Path => Integrator::Path,
         IntegratorArg::Light => Integrator::Light,
         IntegratorArg::Both => Integrator::Both,
+        IntegratorArg::Bdpt => Integrator::Bdpt,
     };
     config.path = PathSettings {
         max_depth: args.max_depth.unwrap_or(scene.defaults.max_depth),

@@ -9,6 +9,7 @@
 //! Sobol sequence, so a pixel's samples are stratified exactly as in `lumo render`.
 
 use glam::{Vec2, Vec3};
+use lumo_render::integrators::bdpt::{samplers, trace_bdpt_sample, BdptScratch, BdptSettings};
 use lumo_render::integrators::light::trace_light_path;
 use lumo_render::RenderScene;
 use lumo_render::LIGHT_STREAM_X;
@@ -97,6 +98,8 @@ pub struct StreamContext<'a> {
     pub seed: u32,
     /// Factor on every value (½ when both streams estimate the same image).
     pub scale: f32,
+    /// Vertex storage reused by bidirectional samples.
+    pub scratch: std::cell::Cell<BdptScratch>,
 }
 
 impl StreamContext<'_> {
@@ -119,6 +122,51 @@ impl StreamContext<'_> {
         );
         let c = (r.direct + r.indirect) * self.scale;
         let [x_, y_, z_] = rgb_to_xyz(c);
+        let uv = film / self.size;
+        Some((
+            Sample {
+                uv: [uv.x, uv.y],
+                xyzw: [x_, y_, z_, 1.0],
+            },
+            r.rays,
+        ))
+    }
+
+    /// Bidirectional sample `n` (in the camera stream's order): its pixel's strategies as a
+    /// camera sample, its light vertices seen by the camera pushed to `light` (the sample's
+    /// light subpath counts as one light path), or None when `n` falls outside a non-square
+    /// image.
+    pub fn bdpt_sample(&self, n: u64, light: &mut Vec<Sample>) -> Option<(Sample, u32)> {
+        let period = self.order.period();
+        let (x, y) = self.order.pixel(n % period)?;
+        let pass = (n / period).min(u32::MAX as u64) as u32;
+        let (mut cs, mut ls) = samplers(x, y, pass, self.seed);
+        let jitter = cs.next_2d();
+        let film = Vec2::new(x as f32, y as f32) + jitter;
+        let settings = BdptSettings {
+            path: self.path,
+            only: None,
+        };
+        let mut scratch = self.scratch.take();
+        let r = trace_bdpt_sample(
+            self.rs,
+            &self.camera,
+            film,
+            &mut cs,
+            &mut ls,
+            &settings,
+            &mut scratch,
+            &mut |s| {
+                let [x, y, z] = rgb_to_xyz(s.value * self.scale);
+                let uv = s.film / self.size;
+                light.push(Sample {
+                    uv: [uv.x, uv.y],
+                    xyzw: [x, y, z, 1.0],
+                });
+            },
+        );
+        self.scratch.set(scratch);
+        let [x_, y_, z_] = rgb_to_xyz((r.direct + r.indirect) * self.scale);
         let uv = film / self.size;
         Some((
             Sample {
@@ -167,6 +215,66 @@ mod tests {
             .flat_map(|x| (0..4).map(move |y| (x * 8, y * 8)))
             .collect();
         assert_eq!(pts, lattice);
+    }
+
+    /// The viewer's reconstruction of the bidirectional streams (camera samples averaged per
+    /// pixel, light splats summed and divided by the number of samples) estimates the same
+    /// image as the path tracer.
+    #[test]
+    fn bidirectional_streams_add_up_to_the_path_tracers_image() {
+        use lumo_render::{render, RenderSettings};
+        let rs = RenderScene::new(lumo_scene::builtin_scene("cornell").expect("builtin"))
+            .expect("scene");
+        let (w, h) = (16usize, 16usize);
+        let path = PathSettings {
+            max_depth: 5,
+            ..Default::default()
+        };
+        let ctx = StreamContext {
+            rs: &rs,
+            camera: PinholeCamera::new(&rs.scene.camera, w, h),
+            order: ScreenOrder::new(w as u32, h as u32),
+            size: Vec2::new(w as f32, h as f32),
+            path,
+            seed: 2,
+            scale: 1.0,
+            scratch: Default::default(),
+        };
+        let (mut camera, mut counts) = (vec![0.0f64; w * h], vec![0u32; w * h]);
+        let mut light = Vec::new();
+        let mut paths = 0u64;
+        for n in 0..ctx.order.period() * 256 {
+            if let Some((s, _)) = ctx.bdpt_sample(n, &mut light) {
+                let (x, y) = ((s.uv[0] * w as f32) as usize, (s.uv[1] * h as f32) as usize);
+                camera[y * w + x] += s.xyzw[1] as f64;
+                counts[y * w + x] += 1;
+                paths += 1;
+            }
+        }
+        let splats: f64 = light.iter().map(|s| s.xyzw[1] as f64).sum();
+        let streamed = camera
+            .iter()
+            .zip(&counts)
+            .map(|(c, &k)| c / k.max(1) as f64)
+            .sum::<f64>()
+            / (w * h) as f64
+            + splats / paths as f64 / (w * h) as f64;
+        let settings = RenderSettings {
+            width: w,
+            height: h,
+            spp: 256,
+            seed: 2,
+            path,
+        };
+        let frame = render(&rs, &settings, &|_| {}).0;
+        let reference = (0..w * h)
+            .map(|i| rgb_to_xyz(Vec3::from(frame.color.rgb(i % w, i / w)))[1] as f64)
+            .sum::<f64>()
+            / (w * h) as f64;
+        assert!(
+            !light.is_empty() && (streamed / reference - 1.0).abs() < 0.02,
+            "streams {streamed}, path tracer {reference}"
+        );
     }
 
     #[test]

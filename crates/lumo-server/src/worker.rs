@@ -408,9 +408,11 @@ fn sample_loop(shared: &Shared, run: &Run, rs: &RenderScene) -> bool {
         } else {
             1.0
         },
+        scratch: Default::default(),
     };
+    let bdpt = job.integrator == Integrator::Bdpt;
     let (do_camera, do_light) = match job.integrator {
-        Integrator::Path => (true, false),
+        Integrator::Path | Integrator::Bdpt => (true, false),
         Integrator::Light => (false, !rs.lights.emits_no_particles()),
         Integrator::Both => (true, !rs.lights.emits_no_particles()),
     };
@@ -437,7 +439,16 @@ fn sample_loop(shared: &Shared, run: &Run, rs: &RenderScene) -> bool {
                 if run.aborted(shared) {
                     return false;
                 }
-                if let Some((s, r)) = ctx.camera_sample(n) {
+                let sample = if bdpt {
+                    let s = ctx.bdpt_sample(n, &mut light);
+                    // Each bidirectional sample's light subpath is one light path of the
+                    // light stream's normalisation.
+                    paths += s.is_some() as u64;
+                    s
+                } else {
+                    ctx.camera_sample(n)
+                };
+                if let Some((s, r)) = sample {
                     camera.push(s);
                     rays += r as u64;
                 }

@@ -13,6 +13,9 @@ wire_enum! {
         Light = 1, "light", "light";
         /// Both, each weighted ½ so their sum estimates the image once.
         Both = 2, "both", "both";
+        /// Bidirectional path tracing: camera-side strategies on the camera stream, light
+        /// vertices seen by the camera (t = 1) on the light stream, one light path per sample.
+        Bdpt = 3, "bdpt", "bidirectional";
     }
 }
 

@@ -206,8 +206,7 @@ fn random_walk(
             1.0
         } else {
             let pdf = bsdf.pdf(bs.wi, wo_local);
-            let here = path[cur];
-            here.area_density(pdf, &path[prev])
+            path[cur].area_density(pdf, &path[prev])
         };
         pdf_dir = if bs.delta { 1.0 } else { bs.pdf };
         origin = rs.offset(&s, new_dir);
