@@ -10,6 +10,7 @@ mod cache;
 mod contact_sheet;
 mod font;
 mod inputs;
+mod integrators;
 mod quality;
 mod reference;
 mod render;
@@ -39,6 +40,8 @@ enum BenchWhat {
     Reference(reference::ReferenceArgs),
     /// Write the noisy frame and AOVs that `quality` scores as `none`, as PFM (for peers).
     Inputs(inputs::InputsArgs),
+    /// The integrators (path, light, bdpt) at equal time: relMSE after each time budget.
+    Integrators(integrators::IntegratorsArgs),
 }
 
 /// Runs `lumo bench`.
@@ -49,6 +52,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
         BenchWhat::Speed(a) => speed::run(a),
         BenchWhat::Reference(a) => reference::run(a),
         BenchWhat::Inputs(a) => inputs::run(a),
+        BenchWhat::Integrators(a) => integrators::run(a),
     }
 }
 
