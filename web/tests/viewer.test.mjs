@@ -3,7 +3,9 @@
 //
 // LUMO_BIN: the lumo binary (default: ../../target/release/lumo).
 // LUMO_FIG3_DIR: if set, also writes the paper's Fig. 3 series (1/30 s, 1/3 s, 3 s, 30 s) as
-// PNG screenshots of a 256×256 render into this directory.
+// PNG screenshots of a 256×256 render into this directory; LUMO_FIG3_INTEGRATOR (path, bdpt,
+// …) and LUMO_FIG3_SCENE choose what is served (files named viewer-INTEGRATOR-SCENE-TIME.png
+// unless both are the defaults, path and cornell).
 
 import { test, before, after, afterEach } from 'node:test';
 import assert from 'node:assert/strict';
@@ -29,9 +31,9 @@ const pages = [];
 let browser;
 
 // Starts `lumo serve` on a free port; resolves with the URL it prints.
-function serve(args) {
+function serve(args, scene = 'cornell') {
   return new Promise((resolveUrl, reject) => {
-    const p = spawn(LUMO, ['serve', 'cornell', '--port', '0', ...args], {
+    const p = spawn(LUMO, ['serve', scene, '--port', '0', ...args], {
       stdio: ['ignore', 'pipe', 'inherit'],
     });
     servers.push(p);
@@ -229,6 +231,21 @@ test('the page keeps drawing while the server is throttled, light stream shows u
   await page.close();
 });
 
+test('the integrator menu switches to bidirectional: both streams, a lit image', async () => {
+  const url = await serve(['--size', '64x64', '--threads', '1']);
+  const { page, errors } = await open(url);
+  await page.waitForFunction(() => window.lumo.counts().cameraSamples > 0, null, { timeout: 20000 });
+  const before = await counts(page);
+  await page.selectOption('#integrator', 'bdpt');
+  await page.waitForFunction((e) => {
+    const c = window.lumo.counts();
+    return c.epoch > e && c.lightPaths > 0 && c.lightSamples > 0 && c.cameraSamples > 0;
+  }, before.epoch, { timeout: WAIT_MS });
+  assert.ok(mean(await pixels(page)) > 5, 'image is black');
+  assert.deepEqual(errors, []);
+  await page.close();
+});
+
 test('filtered-frame mode shows À-Trous frames', async () => {
   const url = await serve(['--size', '64x64', '--threads', '1']);
   const { page, errors } = await open(url);
@@ -249,14 +266,18 @@ test('filtered-frame mode shows À-Trous frames', async () => {
 test('Fig. 3 screenshots (only with LUMO_FIG3_DIR)', { skip: !process.env.LUMO_FIG3_DIR }, async () => {
   const out = resolve(process.env.LUMO_FIG3_DIR);
   mkdirSync(out, { recursive: true });
-  const url = await serve(['--size', '256x256']);
+  const integrator = process.env.LUMO_FIG3_INTEGRATOR || 'path';
+  const scene = process.env.LUMO_FIG3_SCENE || 'cornell';
+  const url = await serve(['--size', '256x256', '--integrator', integrator], scene);
   const { page } = await open(url);
+  const label = scene.replace(/^.*\//, '').replace(/\.[a-z]+$/, '');
+  const prefix = integrator === 'path' && scene === 'cornell' ? 'viewer' : `viewer-${integrator}-${label}`;
   // Start the clock at the first sample, as the paper does.
   await page.waitForFunction(() => window.lumo.counts().cameraSamples > 0, null, { timeout: 20000 });
   const t0 = Date.now();
   for (const [name, t] of [['1-30s', 1 / 30], ['1-3s', 1 / 3], ['3s', 3], ['30s', 30]]) {
     await sleep(Math.max(0, t0 + t * 1000 - Date.now()));
-    await page.locator('#view').screenshot({ path: join(out, `viewer-${name}.png`) });
+    await page.locator('#view').screenshot({ path: join(out, `${prefix}-${name}.png`) });
   }
   await page.close();
 });
