@@ -50,19 +50,35 @@ fn bdpt(rs: &RenderScene, s: &RenderSettings, only: Option<(usize, usize)>) -> l
 
 /// The full-path densities of a camera path x_0 … x_n ending on an area light, in both
 /// directions, and the weights of all its strategies computed by brute force: the power
-/// heuristic over the products of the densities. The ratio recursion must give the same
-/// weights, and they sum to 1.
+/// heuristic over the products of the densities of the strategies that can make the path
+/// (no connection at a specular vertex; a density through a specular vertex counts 1). The
+/// ratio recursion must give the same weights, and they sum to 1. Paths through the glass
+/// sphere of `cornell-spheres` test the specular rules.
 #[test]
 fn mis_weights_match_brute_force_and_sum_to_one() {
-    let rs = RenderScene::new(builtin_scene("cornell").expect("builtin")).expect("scene");
+    for (scene, wanted) in [("cornell", 40), ("cornell-spheres", 40)] {
+        let (checked, specular) = check_weights_on(scene, wanted);
+        assert!(
+            checked >= wanted / 2,
+            "{scene}: only {checked} paths reached the light"
+        );
+        if scene == "cornell-spheres" {
+            assert!(specular >= 5, "only {specular} paths through the glass");
+        }
+    }
+}
+
+/// Checks up to `wanted` paths of `scene`; returns how many, and how many had a specular vertex.
+fn check_weights_on(scene: &str, wanted: usize) -> (usize, usize) {
+    let rs = RenderScene::new(builtin_scene(scene).expect("builtin")).expect("scene");
     let camera = PinholeCamera::new(&rs.scene.camera, 16, 16);
     let ctx = Context {
         rs: &rs,
         camera: &camera,
     };
-    let mut checked = 0;
+    let (mut checked, mut specular) = (0, 0);
     let mut path = Vec::new();
-    for i in 0..4000u32 {
+    for i in 0..20000u32 {
         let mut sampler = PixelSampler::new(i % 16, (i / 16) % 16, i, 5);
         let film = Vec2::new((i % 16) as f32 + 0.5, ((i / 16) % 16) as f32 + 0.5);
         let settings = PathSettings {
@@ -76,7 +92,9 @@ fn mis_weights_match_brute_force_and_sum_to_one() {
             continue;
         };
         let x = &path[..=n];
-        if x.iter().any(|v| v.delta) {
+        let delta = |k: usize| k != 0 && k != n && x[k].delta;
+        let through_glass = (1..n).any(delta);
+        if scene == "cornell-spheres" && !through_glass && checked >= wanted / 2 {
             continue;
         }
         let Kind::Surface {
@@ -107,24 +125,37 @@ fn mis_weights_match_brute_force_and_sum_to_one() {
         // Densities: camera side from x_{k-1} (given x_{k-2}), light side from x_{k+1}.
         let mut p_cam = vec![1.0f32; n + 1];
         for k in 1..=n {
-            p_cam[k] = x[k - 1].pdf(&ctx, k.checked_sub(2).map(|j| &x[j]), &x[k]);
+            p_cam[k] = if delta(k - 1) {
+                1.0
+            } else {
+                x[k - 1].pdf(&ctx, k.checked_sub(2).map(|j| &x[j]), &x[k])
+            };
         }
         let mut p_light = vec![0.0f32; n + 1];
         p_light[n] = l0.pdf_fwd;
         for k in (1..n).rev() {
             let from = &light_side[k + 1];
             let prev = (k + 2 <= n).then(|| &light_side[k + 2]);
-            p_light[k] = from.pdf(&ctx, prev, &light_side[k]);
+            p_light[k] = if delta(k + 1) {
+                1.0
+            } else {
+                from.pdf(&ctx, prev, &light_side[k])
+            };
         }
-        // Strategies (s, t) with s + t = n + 1 and t ≥ 1.
+        // Strategies (s, t) with s + t = n + 1 and t ≥ 1; those that connect at a specular
+        // vertex cannot make the path.
         let total = n + 1;
+        let possible = |t: usize| t == total || (!delta(t - 1) && !delta(t));
         let density = |t: usize| -> f64 {
             (0..t).map(|k| p_cam[k] as f64).product::<f64>()
                 * (t..total).map(|k| p_light[k] as f64).product::<f64>()
         };
-        let sum_sq: f64 = (1..=total).map(|t| density(t).powi(2)).sum();
+        let sum_sq: f64 = (1..=total)
+            .filter(|&t| possible(t))
+            .map(|t| density(t).powi(2))
+            .sum();
         let mut sum_w = 0.0;
-        for t in 1..=total {
+        for t in (1..=total).filter(|&t| possible(t)) {
             let s = total - t;
             let mut cam: Vec<Vertex> = x[..t].to_vec();
             for k in 0..t {
@@ -146,17 +177,21 @@ fn mis_weights_match_brute_force_and_sum_to_one() {
             let expected = density(t).powi(2) / sum_sq;
             assert!(
                 (w as f64 - expected).abs() < 1e-3 * (1.0 + expected),
-                "path of {total} vertices, strategy ({s}, {t}): ratio form {w}, brute force {expected}"
+                "{scene}: path of {total} vertices, strategy ({s}, {t}): ratio form {w}, brute force {expected}"
             );
             sum_w += w as f64;
         }
-        assert!((sum_w - 1.0).abs() < 1e-3, "weights sum to {sum_w}");
+        assert!(
+            (sum_w - 1.0).abs() < 1e-3,
+            "{scene}: weights sum to {sum_w}"
+        );
         checked += 1;
-        if checked >= 40 {
+        specular += through_glass as usize;
+        if checked >= wanted {
             break;
         }
     }
-    assert!(checked >= 20, "only {checked} paths reached the light");
+    (checked, specular)
 }
 
 /// Each strategy alone, unweighted, estimates the paths of its depth: its image matches the
