@@ -6,10 +6,17 @@
 //! As `lumo render`'s pipelines do, the filters see the colour divided by the albedo (textures
 //! are multiplied back after filtering, not blurred) and never see emitters the camera looks
 //! at (their radiance would bloom over their neighbours).
+//!
+//! In À-Trous mode a camera move does not throw the picture away: the first
+//! [`TEMPORAL_FRAMES`] frames after every restart go through the temporal filter (SVGF), whose
+//! history outlives the restart ([`TemporalHistory`]) and is reprojected with the motion of the
+//! camera; after that the running mean of the still camera's frames takes over and converges
+//! as before.
 
-use glam::Vec3;
+use glam::{Mat4, Vec3};
 use lumo_filter::{
-    with_passthrough, AtrousDenoiser, AtrousParams, Denoiser, Features, FilterInput, GuidedDenoiser,
+    motion_vectors, pinhole_view_projection, with_passthrough, AtrousDenoiser, AtrousParams,
+    Denoiser, Features, FilterInput, GuidedDenoiser, TemporalFilter, TemporalFrame, TemporalParams,
 };
 use lumo_image::{luminance, Image};
 use lumo_render::integrators::path::wavefront::render_pixels_from;
@@ -20,6 +27,30 @@ use crate::protocol::Mode;
 use crate::streams::rgb_to_xyz;
 use crate::worker::{FilteredFrame, Job};
 
+/// Frames after a restart (a camera move) shown through the temporal filter before the running
+/// mean of the still camera's frames takes over: SVGF's history reaches its steady blend weight
+/// (α = 0.2) after about 1/α frames, and by then the mean of as many frames, spatially
+/// filtered, is as clean and keeps converging.
+pub const TEMPORAL_FRAMES: u32 = 8;
+
+/// The temporal filter with what it needs from the last frame it saw: kept by the worker across
+/// restarts, so the history survives camera moves.
+pub struct TemporalHistory {
+    filter: TemporalFilter,
+    /// View-projection of the camera of the last frame fed (for the motion vectors).
+    view_proj: Option<Mat4>,
+}
+
+impl TemporalHistory {
+    /// An empty history with SVGF's parameters.
+    pub fn new() -> Option<Self> {
+        Some(Self {
+            filter: TemporalFilter::new(TemporalParams::default()).ok()?,
+            view_proj: None,
+        })
+    }
+}
+
 /// Running statistics of the 1-spp frames of one render.
 pub struct FrameAccumulator {
     width: usize,
@@ -29,6 +60,10 @@ pub struct FrameAccumulator {
     frames: u32,
     /// Sum of colours, 3 per pixel.
     sum: Vec<Vec3>,
+    /// The last frame's colours (what the temporal filter is fed).
+    last: Vec<Vec3>,
+    /// The camera's view-projection (for motion vectors).
+    view_proj: Mat4,
     /// Welford mean and M2 of luminance per pixel.
     lum_mean: Vec<f32>,
     lum_m2: Vec<f32>,
@@ -61,6 +96,12 @@ impl FrameAccumulator {
             },
             frames: 0,
             sum: vec![Vec3::ZERO; w * h],
+            last: vec![Vec3::ZERO; w * h],
+            view_proj: {
+                let c = &job.camera;
+                let (hw, hh) = c.half_extent(w, h);
+                pinhole_view_projection(c.origin, c.target, c.up, [hw, hh])
+            },
             lum_mean: vec![0.0; w * h],
             lum_m2: vec![0.0; w * h],
             albedo: Image::new(w, h, 3, 0.0),
@@ -114,6 +155,7 @@ impl FrameAccumulator {
                 let c = e.direct + e.indirect;
                 traced += e.rays;
                 self.sum[i] += c;
+                self.last[i] = c;
                 let l = luminance(c.into());
                 let d = l - self.lum_mean[i];
                 self.lum_mean[i] += d / n;
@@ -176,6 +218,39 @@ impl FrameAccumulator {
         Some(self.to_xyz(image.data, mode))
     }
 
+    /// The last frame through the temporal filter, its history reprojected from the camera of
+    /// the frame `history` saw before (this render's, or the one before a camera move).
+    pub fn filtered_temporal(&mut self, history: &mut TemporalHistory) -> Option<FilteredFrame> {
+        if self.frames == 0 {
+            return None;
+        }
+        let (w, h) = (self.width, self.height);
+        let color = Image::from_vec(
+            w,
+            h,
+            3,
+            self.last.iter().flat_map(|c| c.to_array()).collect(),
+        );
+        let motion = history
+            .view_proj
+            .map(|prev| motion_vectors(&prev, &self.view_proj, &self.position));
+        let image = with_passthrough(&color, &self.emitter, |c| {
+            history.filter.filter(&TemporalFrame {
+                color: c,
+                albedo: Some(&self.albedo),
+                normal: &self.normal,
+                depth: &self.depth,
+                position: Some(&self.position),
+                ids: None,
+                motion: motion.as_ref(),
+            })
+        })
+        .ok()?
+        .image;
+        history.view_proj = Some(self.view_proj);
+        Some(self.to_xyz(image.data, Mode::Atrous))
+    }
+
     /// A frame of linear-RGB pixels as the XYZ frame the viewer is sent.
     fn to_xyz(&self, rgb: Vec<f32>, mode: Mode) -> FilteredFrame {
         let xyz = rgb
@@ -224,6 +299,66 @@ mod tests {
         let mut xyz = |m| acc.filtered(m).expect("a frame").xyz;
         let out = [xyz(Mode::Progressive), xyz(Mode::Atrous), xyz(Mode::Guided)];
         (acc, out)
+    }
+
+    /// After a camera move, the first À-Trous frame with the temporal history carried over is
+    /// closer to the converged image (filtered alike) than the same frame filtered alone (the
+    /// history was reprojected, not thrown away), and it is not the stale picture either.
+    #[test]
+    fn a_camera_move_keeps_the_temporal_history() {
+        let scene = lumo_scene::builtin_scene("cornell").expect("built-in");
+        let job = |camera: lumo_scene::Camera| Job {
+            camera,
+            width: 48,
+            height: 48,
+            integrator: Integrator::Path,
+            mode: Mode::Atrous,
+            path: PathSettings {
+                max_depth: 4,
+                ..PathSettings::default()
+            },
+            seed: 4,
+            max_batches: None,
+            max_rate: None,
+        };
+        let first = scene.camera.clone();
+        let mut moved = first.clone();
+        moved.origin += glam::Vec3::new(0.25, 0.1, 0.0);
+        let rs = RenderScene::new(scene).expect("scene");
+        let mut history = TemporalHistory::new().expect("default parameters");
+        let mut still = FrameAccumulator::new(&job(first));
+        for i in 0..TEMPORAL_FRAMES {
+            still.add_frame(&rs, i, &|| false).expect("not aborted");
+            still.filtered_temporal(&mut history).expect("a frame");
+        }
+        let stale = still.filtered_temporal(&mut history).expect("a frame").xyz;
+        let mut after = FrameAccumulator::new(&job(moved.clone()));
+        after.add_frame(&rs, 0, &|| false).expect("not aborted");
+        let spatial = after.filtered(Mode::Atrous).expect("a frame").xyz;
+        let temporal = after.filtered_temporal(&mut history).expect("a frame").xyz;
+        let mut reference = FrameAccumulator::new(&job(moved));
+        for i in 0..128 {
+            reference.add_frame(&rs, i, &|| false).expect("not aborted");
+        }
+        // The converged image through the same spatial filter: what is left of a difference
+        // is noise and misplaced history, not the filter's own blur.
+        let reference = reference.filtered(Mode::Atrous).expect("a frame").xyz;
+        // Over the filtered pixels: emitters pass through unfiltered in every mode.
+        let mse = |a: &[f32]| {
+            let (mut sum, mut n) = (0.0f64, 0usize);
+            for (i, _) in after.emitter.iter().enumerate().filter(|(_, &e)| !e) {
+                for c in 3 * i..3 * i + 3 {
+                    sum += ((a[c] - reference[c]) as f64).powi(2);
+                    n += 1;
+                }
+            }
+            sum / n as f64
+        };
+        let (t, sp, st) = (mse(&temporal), mse(&spatial), mse(&stale));
+        assert!(
+            t < 0.7 * sp && t < 0.7 * st,
+            "MSE after the move: temporal {t}, spatial only {sp}, stale picture {st}"
+        );
     }
 
     /// Eight progressive frames are the eight-sample render (samples 0..8 of one sequence, so

@@ -17,7 +17,7 @@ use std::time::{Duration, Instant};
 use lumo_render::{camera::PinholeCamera, PathSettings, RenderScene};
 use lumo_scene::Camera;
 
-use crate::frames::FrameAccumulator;
+use crate::frames::{FrameAccumulator, TemporalHistory, TEMPORAL_FRAMES};
 use crate::protocol::{Integrator, Mode};
 use crate::streams::{Sample, ScreenOrder, StreamContext};
 
@@ -141,6 +141,9 @@ struct Shared {
     active: Mutex<usize>,
     idle: Condvar,
     on_finish: FinishHandler,
+    /// The À-Trous frame mode's temporal filter; it outlives renders so a camera move keeps
+    /// the picture (None if it could not be made).
+    temporal: Mutex<Option<TemporalHistory>>,
 }
 
 #[derive(Default)]
@@ -175,6 +178,7 @@ impl RenderWorker {
             active: Mutex::new(0),
             idle: Condvar::new(),
             on_finish,
+            temporal: Mutex::new(TemporalHistory::new()),
         });
         let (tx, rx) = mpsc::channel();
         let sh = shared.clone();
@@ -498,7 +502,12 @@ fn frame_loop(shared: &Shared, run: &Run, rs: &RenderScene) -> bool {
         let Some(rays) = acc.add_frame(rs, frame as u32, &abort) else {
             return false;
         };
-        let Some(filtered) = acc.filtered(job.mode) else {
+        let temporal = job.mode == Mode::Atrous && acc.frames() <= TEMPORAL_FRAMES;
+        let filtered = match lock(&shared.temporal).as_mut() {
+            Some(history) if temporal => acc.filtered_temporal(history),
+            _ => acc.filtered(job.mode),
+        };
+        let Some(filtered) = filtered else {
             return false;
         };
         frame += 1;
