@@ -231,6 +231,46 @@ test('the page keeps drawing while the server is throttled, light stream shows u
   await page.close();
 });
 
+// Mean |difference| of horizontally adjacent pixels (RGB): high for one-sample noise.
+function roughness(img) {
+  let sum = 0;
+  let n = 0;
+  for (let y = 0; y < img.height; y++) {
+    for (let x = 1; x < img.width; x++) {
+      for (let c = 0; c < 3; c++) {
+        const i = (y * img.width + x) * 4 + c;
+        sum += Math.abs(img.data[i] - img.data[i - 4]);
+        n++;
+      }
+    }
+  }
+  return sum / n;
+}
+
+test('dragging the camera in À-Trous mode keeps a filtered picture', async () => {
+  const url = await serve(['--size', '64x64', '--threads', '1']);
+  const { page, errors } = await open(url);
+  await page.selectOption('#mode', 'atrous');
+  await page.waitForFunction(() => window.lumo.counts().frameCount > 12, null, { timeout: WAIT_MS });
+  const still = await pixels(page);
+  const before = await counts(page);
+  const box = await page.locator('#view').boundingBox();
+  await page.mouse.move(box.x + box.width / 2, box.y + box.height / 2);
+  await page.mouse.down();
+  await page.mouse.move(box.x + box.width / 2 + 20, box.y + box.height / 2, { steps: 2 });
+  await page.mouse.up();
+  await page.waitForFunction((e) => window.lumo.counts().epoch > e, before.epoch, { timeout: WAIT_MS });
+  const moved = await counts(page);
+  await page.waitForFunction((f) => window.lumo.counts().frameCount > f, moved.frameCount, { timeout: WAIT_MS });
+  const after = await pixels(page);
+  const [r0, r1] = [roughness(still), roughness(after)];
+  console.log(`À-Trous frames: roughness ${r0.toFixed(1)} still, ${r1.toFixed(1)} right after a drag`);
+  assert.ok(mean(after) > 20, 'the picture went blank after the drag');
+  assert.ok(r1 < 2 * r0 + 4, `one-sample noise after the drag: roughness ${r1} against ${r0}`);
+  assert.deepEqual(errors, []);
+  await page.close();
+});
+
 test('the integrator menu switches to bidirectional: both streams, a lit image', async () => {
   const url = await serve(['--size', '64x64', '--threads', '1']);
   const { page, errors } = await open(url);
