@@ -13,7 +13,7 @@ use anyhow::{bail, Context, Result};
 use lumo_image::metrics::relmse;
 use lumo_image::Image;
 use lumo_render::integrators::bdpt::BdptSettings;
-use lumo_render::{render, render_bdpt, render_light, RenderScene, RenderSettings};
+use lumo_render::{render, render_bdpt, render_light, RenderScene, RenderSettings, RenderStats};
 
 use super::scenes::{load_all, scene_names, settings, BenchScene};
 use super::{atomic, machine_description};
@@ -64,27 +64,52 @@ pub struct IntegratorsArgs {
     threads: Option<usize>,
 }
 
+impl BenchIntegrator {
+    /// The name on the command line and in tables.
+    pub fn name(self) -> &'static str {
+        match self {
+            BenchIntegrator::Path => "path",
+            BenchIntegrator::Light => "light",
+            BenchIntegrator::Bdpt => "bdpt",
+        }
+    }
+}
+
 /// Renders `scene` with `integrator` at `spp` samples (light paths per pixel for the light
-/// tracer); returns the image and the seconds it took.
-fn render_with(
+/// tracer); returns the image with its work counters, and the seconds it took.
+pub fn render_image(
     integrator: BenchIntegrator,
     rs: &RenderScene,
     s: &RenderSettings,
     pool: &rayon::ThreadPool,
-) -> (Image, f64) {
+) -> (Image, RenderStats, f64) {
     let t = Instant::now();
-    let image = pool.install(|| match integrator {
-        BenchIntegrator::Path => render(rs, s, &|_| {}).0.color,
-        BenchIntegrator::Light => render_light(rs, s, &|_| {}).0,
+    let (image, stats) = pool.install(|| match integrator {
+        BenchIntegrator::Path => {
+            let (frame, stats) = render(rs, s, &|_| {});
+            (frame.color, stats)
+        }
+        BenchIntegrator::Light => render_light(rs, s, &|_| {}),
         BenchIntegrator::Bdpt => {
             let b = BdptSettings {
                 path: s.path,
                 only: None,
             };
-            render_bdpt(rs, s, &b, &|_| {}).0
+            render_bdpt(rs, s, &b, &|_| {})
         }
     });
-    (image, t.elapsed().as_secs_f64())
+    (image, stats, t.elapsed().as_secs_f64())
+}
+
+/// [`render_image`] for timing: the work counters and the seconds.
+pub fn render_with(
+    integrator: BenchIntegrator,
+    rs: &RenderScene,
+    s: &RenderSettings,
+    pool: &rayon::ThreadPool,
+) -> (RenderStats, f64) {
+    let (_, stats, secs) = render_image(integrator, rs, s, pool);
+    (stats, secs)
 }
 
 /// The sample count that makes one image take about `budget` seconds, from a 1-spp timing.
@@ -133,7 +158,7 @@ fn reference(
         t1 * spp as f64
     );
     let s = RenderSettings { spp, ..base };
-    let (img, _) = render_with(BenchIntegrator::Bdpt, &scene.rs, &s, pool);
+    let (img, _, _) = render_image(BenchIntegrator::Bdpt, &scene.rs, &s, pool);
     atomic::write_image_atomic(&path, &img)
         .with_context(|| format!("cannot cache the reference {}", path.display()))?;
     Ok(img)
@@ -191,20 +216,18 @@ pub fn run(args: IntegratorsArgs) -> Result<()> {
             for &budget in &args.budgets {
                 let spp = calibrated_spp(t1, budget);
                 let s = RenderSettings { spp, ..base };
-                let (img, secs) = render_with(integrator, &scene.rs, &s, &pool);
+                let (img, _, secs) = render_image(integrator, &scene.rs, &s, &pool);
                 let err = relmse(&reference, &img)?;
                 let region = match &args.region {
                     Some(r) => format!(" {:.5} |", relmse(&crop(&reference, r), &crop(&img, r))?),
                     None => String::new(),
                 };
                 let line = format!(
-                    "| {} | {integrator:?} | {:.2}× | {budget} | {spp} | {secs:.2} | {err:.5} |{region}\n",
+                    "| {} | {} | {:.2}× | {budget} | {spp} | {secs:.2} | {err:.5} |{region}\n",
                     scene.name,
+                    integrator.name(),
                     t1 / cost
-                )
-                .replace("Path |", "path |")
-                .replace("Light |", "light |")
-                .replace("Bdpt |", "bdpt |");
+                );
                 eprint!("{line}");
                 table.push_str(&line);
             }

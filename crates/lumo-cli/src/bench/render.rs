@@ -1,10 +1,14 @@
-//! `lumo bench render`: samples/s and rays/s of the path tracer on every built-in scene.
+//! `lumo bench render`: samples/s and rays/s of the integrators (the path tracer by default)
+//! on every built-in scene, with each integrator's cost per sample relative to the path
+//! tracer's when it is measured too.
 
 use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::Result;
-use lumo_render::{render, PathSettings, RenderScene, RenderSettings};
+use lumo_render::{PathSettings, RenderScene, RenderSettings};
+
+use super::integrators::{render_with, BenchIntegrator};
 
 use super::{machine_description, median};
 use crate::render_cmd::{parse_size, si};
@@ -29,6 +33,9 @@ pub struct RenderBenchArgs {
     /// Worker threads [default: all cores].
     #[arg(long)]
     threads: Option<usize>,
+    /// Integrators to measure, comma-separated (samples are light paths for `light`).
+    #[arg(long, value_enum, value_delimiter = ',', default_value = "path")]
+    integrators: Vec<BenchIntegrator>,
     /// Also write the Markdown table to this file.
     #[arg(long)]
     markdown: Option<PathBuf>,
@@ -49,8 +56,8 @@ fn run_render(args: RenderBenchArgs) -> Result<()> {
     let (w, h) = args.size;
     let mut table = format!(
         "Machine: {}. {w}x{h}, {} spp, max depth {}, median of {} runs.\n\n\
-         | scene | triangles | BVH build ms | samples/s | rays/s | rays/sample |\n\
-         |---|---:|---:|---:|---:|---:|\n",
+         | scene | integrator | triangles | BVH build ms | samples/s | rays/s | rays/sample | time/sample vs path |\n\
+         |---|---|---:|---:|---:|---:|---:|---:|\n",
         machine_description(threads),
         args.spp,
         args.max_depth,
@@ -72,23 +79,34 @@ fn run_render(args: RenderBenchArgs) -> Result<()> {
                 ..Default::default()
             },
         };
-        let (mut sps, mut rps) = (vec![], vec![]);
-        let mut rays_per_sample = 0.0;
-        for _ in 0..args.repeats.max(1) {
-            let t = Instant::now();
-            let (_, stats) = pool.install(|| render(&rs, &settings, &|_| {}));
-            let s = t.elapsed().as_secs_f64();
-            sps.push(stats.samples as f64 / s);
-            rps.push(stats.rays as f64 / s);
-            rays_per_sample = stats.rays as f64 / stats.samples as f64;
+        let mut path_rate = None;
+        for &integrator in &args.integrators {
+            if integrator == BenchIntegrator::Light && rs.lights.emits_no_particles() {
+                eprintln!("{name}: light tracer skipped (no light emits particles)");
+                continue;
+            }
+            let (mut sps, mut rps) = (vec![], vec![]);
+            let mut rays_per_sample = 0.0;
+            for _ in 0..args.repeats.max(1) {
+                let (stats, s) = render_with(integrator, &rs, &settings, &pool);
+                sps.push(stats.samples as f64 / s);
+                rps.push(stats.rays as f64 / s);
+                rays_per_sample = stats.rays as f64 / stats.samples.max(1) as f64;
+            }
+            let rate = median(sps);
+            if integrator == BenchIntegrator::Path {
+                path_rate = Some(rate);
+            }
+            let relative = path_rate.map_or("–".to_string(), |p| format!("{:.2}×", p / rate));
+            let line = format!(
+                "| {name} | {} | {tris} | {build_ms:.1} | {}samples/s | {}rays/s | {rays_per_sample:.2} | {relative} |\n",
+                integrator.name(),
+                si(rate),
+                si(median(rps))
+            );
+            eprint!("{line}");
+            table.push_str(&line);
         }
-        let line = format!(
-            "| {name} | {tris} | {build_ms:.1} | {}samples/s | {}rays/s | {rays_per_sample:.2} |\n",
-            si(median(sps)),
-            si(median(rps))
-        );
-        eprint!("{line}");
-        table.push_str(&line);
     }
     println!("\n{table}");
     if let Some(path) = &args.markdown {
