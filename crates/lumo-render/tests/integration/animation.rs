@@ -131,3 +131,100 @@ fn invalid_updates_are_errors() {
     let e = rs.update(&[999]).unwrap_err().to_string();
     assert!(e.contains("999"), "{e}");
 }
+
+/// The atrium with its placed instances (columns and drapes) moved: every instance with a
+/// transform turns a little about its own vertical axis and rises.
+fn sway(scene: &mut Scene, angle: f32) {
+    for inst in &mut scene.instances {
+        if inst.transform != Mat4::IDENTITY {
+            let p = inst.transform.transform_point3(Vec3::ZERO);
+            inst.transform = Mat4::from_translation(p + Vec3::new(0.0, 0.05 * angle, 0.0))
+                * Mat4::from_rotation_y(angle)
+                * Mat4::from_translation(-p)
+                * inst.transform;
+        }
+    }
+}
+
+#[test]
+fn atrium_with_moving_instances_renders_like_a_fresh_build() {
+    let mut scene = lumo_scene::builtin_scene("atrium").unwrap();
+    scene.defaults.width = 20;
+    scene.defaults.height = 16;
+    let mut rs = RenderScene::new(scene).unwrap();
+    sway(&mut rs.scene, 0.3);
+    assert_eq!(rs.update(&[]).unwrap(), SceneUpdate::Refitted);
+    let fresh = RenderScene::new(rs.scene.clone()).unwrap();
+    let s = settings(&rs.scene);
+    let (a, _) = render(&rs, &s, &|_| {});
+    let (b, _) = render(&fresh, &s, &|_| {});
+    let bits = |f: &lumo_render::Frame| -> Vec<u32> {
+        [&f.color, &f.depth, &f.normal]
+            .iter()
+            .flat_map(|i| i.data.iter().map(|v| v.to_bits()))
+            .collect()
+    };
+    assert_eq!(bits(&a), bits(&b));
+}
+
+/// Median time of `f` over `n` runs, in milliseconds.
+fn median_ms(n: usize, mut f: impl FnMut()) -> f64 {
+    let mut t: Vec<f64> = (0..n)
+        .map(|_| {
+            let start = std::time::Instant::now();
+            f();
+            start.elapsed().as_secs_f64() * 1e3
+        })
+        .collect();
+    t.sort_by(f64::total_cmp);
+    t[n / 2]
+}
+
+/// The update-versus-build table of docs/animation.md: run with
+/// `cargo test --release -p lumo-render --test integration update_timings -- --ignored --nocapture`.
+#[test]
+#[ignore = "timing; prints the table of docs/animation.md"]
+fn update_timings() {
+    let scene = lumo_scene::builtin_scene("atrium").unwrap();
+    let tris = scene.triangle_count();
+    let placed = scene
+        .instances
+        .iter()
+        .filter(|i| i.transform != Mat4::IDENTITY)
+        .count();
+    let build = median_ms(5, || {
+        RenderScene::new(scene.clone()).unwrap();
+    });
+    let mut rs = RenderScene::new(scene).unwrap();
+    let mut angle = 0.0;
+    let replace = median_ms(21, || {
+        angle += 0.01;
+        sway(&mut rs.scene, angle);
+        assert_eq!(rs.update(&[]).unwrap(), SceneUpdate::Refitted);
+    });
+    // Vertex motion: the largest mesh placed with the identity transform deforms in place
+    // (it lives in the merged BVH of identity instances, which is refitted whole).
+    let mesh = (0..rs.scene.meshes.len())
+        .filter(|&m| {
+            rs.scene
+                .instances
+                .iter()
+                .any(|i| i.mesh == m && i.transform == Mat4::IDENTITY)
+        })
+        .max_by_key(|&m| rs.scene.meshes[m].indices.len())
+        .unwrap();
+    let mesh_tris = rs.scene.meshes[mesh].indices.len();
+    let refit = median_ms(11, || {
+        for p in &mut rs.scene.meshes[mesh].positions {
+            p.y += 0.001 * p.x.sin();
+        }
+        assert_eq!(rs.update(&[mesh]).unwrap(), SceneUpdate::Refitted);
+    });
+    println!("| scene | what moves | update (ms) | full build (ms) |");
+    println!("|---|---|---:|---:|");
+    println!("| atrium ({tris} triangles) | its {placed} placed instances (columns, drapes) | {replace:.2} | {build:.1} |");
+    println!(
+        "| atrium | the vertices of {:?} ({mesh_tris} triangles, in the merged BVH) | {refit:.1} | {build:.1} |",
+        rs.scene.meshes[mesh].name
+    );
+}
