@@ -294,8 +294,12 @@ impl Sequence {
         } else {
             String::new()
         };
+        let unit = match job.args.integrator {
+            crate::render_cmd::RenderIntegrator::Path => "samples",
+            crate::render_cmd::RenderIntegrator::Light => "light paths",
+        };
         println!(
-            "done: {count} frame{} in {secs:.2} s ({:.3} s/frame) · {motion} · {}samples/s · \
+            "done: {count} frame{} in {secs:.2} s ({:.3} s/frame) · {motion} · {}{unit}/s · \
              {}rays/s → {names}{also}",
             if count == 1 { "" } else { "s" },
             secs / count as f64,
