@@ -144,6 +144,10 @@ impl Sequence {
     ) -> Result<Sequence> {
         let fps = args.fps.unwrap_or(DEFAULT_FPS);
         let is_gltf = rig.is_some();
+        // A glTF camera (animated scene or not) has no look-at target: see the orbit below.
+        let gltf_camera = rig
+            .as_ref()
+            .is_some_and(|r| r.items.iter().any(|(_, i)| *i == NodeItem::Camera));
         let rig = rig.filter(AnimatedScene::is_animated);
         let range = format!("--frames {}..{}", frames.first, frames.last);
         if rig.is_none() && args.orbit.is_none() {
@@ -174,9 +178,6 @@ impl Sequence {
         let orbit = args.orbit.map(|deg| {
             // A glTF camera has no look-at target (the loader puts one a unit ahead): turn about
             // the point of its view axis nearest the scene's centre instead.
-            let gltf_camera = rig
-                .as_ref()
-                .is_some_and(|r| r.items.iter().any(|(_, i)| *i == NodeItem::Camera));
             let c = &scene.camera;
             let pivot = if gltf_camera {
                 let (lo, hi) = scene.bounds();
@@ -313,6 +314,45 @@ impl Sequence {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use clap::Parser;
+
+    /// `lumo render` arguments as the command line gives them.
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        render: RenderArgs,
+    }
+
+    fn plan(args: &[&str], drop_clips: bool) -> (Sequence, Scene) {
+        let cli = Cli::try_parse_from(std::iter::once("lumo").chain(args.iter().copied())).unwrap();
+        let options = lumo_scene::load::LoadOptions::default();
+        let (mut scene, _, mut rig) =
+            crate::render_cmd::load_scene_animated(&cli.render.scene, &options).unwrap();
+        if drop_clips {
+            if let Some(r) = &mut rig {
+                r.animations.clear();
+            }
+        }
+        let frames = cli.render.frames.unwrap();
+        let seq = Sequence::plan(&cli.render, frames, &mut scene, rig).unwrap();
+        (seq, scene)
+    }
+
+    #[test]
+    fn a_gltf_camera_orbits_the_scene_not_a_point_a_unit_ahead() {
+        let file = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/animated.gltf");
+        // With and without clips: camera 0 is at (0, 3, 8) looking at about (0, 0.8, 0).
+        for drop_clips in [false, true] {
+            let (seq, scene) = plan(&[file, "--frames", "0..3", "--orbit", "90"], drop_clips);
+            let (_, pivot) = seq.orbit.unwrap();
+            assert!((pivot - scene.camera.origin).length() > 5.0, "{pivot}");
+            assert!(pivot.x.abs() < 1e-3 && pivot.z.abs() < 1.5, "{pivot}");
+            assert_eq!(seq.rig.is_some(), !drop_clips);
+        }
+        // A built-in camera turns about its target.
+        let (seq, scene) = plan(&["cornell", "--frames", "0..3", "--orbit", "90"], false);
+        assert_eq!(seq.orbit.unwrap().1, scene.camera.target);
+    }
 
     #[test]
     fn frame_ranges_parse_inclusive() {
