@@ -143,3 +143,12 @@ fn bad_sequence_options_name_the_flag_and_render_nothing() {
         "nothing written"
     );
 }
+
+#[test]
+fn serve_animate_needs_an_animated_scene() {
+    let dir = temp_dir("serve");
+    let o = lumo(&dir, &["serve", "cornell", "--animate", "--port", "0"]);
+    let e = text(&o);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(e.contains("--animate") && e.contains("no animation"), "{e}");
+}
