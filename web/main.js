@@ -2,7 +2,7 @@
 // repaint, (swap), fetch new samples — whatever the server's speed.
 
 import {
-  camerasInFlightAfterError, decode, encodeCamera, encodeParams, KIND, STREAM,
+  camerasInFlightAfterError, decode, encodeAnimate, encodeCamera, encodeParams, KIND, STREAM,
 } from './protocol.js';
 import { floatFormats, loadText, program } from './gl.js';
 import { SampleStream } from './stream.js';
@@ -111,6 +111,9 @@ const ui = controls(
     if (ws.readyState === WebSocket.OPEN) ws.send(encodeParams(integrator, mode));
   },
   (m) => { nav.mode = m; },
+  (playing) => {
+    if (ws.readyState === WebSocket.OPEN) ws.send(encodeAnimate(playing));
+  },
 );
 
 ws.onmessage = async (ev) => {
@@ -154,6 +157,11 @@ ws.onmessage = async (ev) => {
       state.integrator = msg.integrator;
       state.mode = msg.mode;
       ui.setParams(msg.integrator, msg.mode);
+      break;
+    case KIND.ANIMATE:
+      // Each animation frame arrives as a new epoch (CAMERA); this only tracks play/pause.
+      state.animation = msg;
+      ui.setAnimation(msg.playing);
       break;
     case KIND.SAMPLES:
     case KIND.FRAME:

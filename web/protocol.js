@@ -150,3 +150,8 @@ export function encodeParams(integrator, mode) {
     integrator: codeOf('integrator', integrator), mode: codeOf('mode', mode),
   });
 }
+
+// Play (true) or pause (false) the animation of `lumo serve --animate`.
+export function encodeAnimate(playing) {
+  return encode(MESSAGES.ANIMATE, { playing });
+}

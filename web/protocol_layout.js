@@ -111,6 +111,17 @@ export const MESSAGES = {
       reserved: { offset: 6, type: 'reserved', bytes: 1, count: 2 },
     },
   },
+  ANIMATE: {
+    kind: 0x04,
+    direction: 'both',
+    bytes: 16,
+    fields: {
+      playing: { offset: 4, type: 'bool', bytes: 1, count: 1 },
+      reserved: { offset: 5, type: 'reserved', bytes: 1, count: 3 },
+      time: { offset: 8, type: 'f32', bytes: 4, count: 1 },
+      duration: { offset: 12, type: 'f32', bytes: 4, count: 1 },
+    },
+  },
   SAMPLES: {
     kind: 0x10,
     direction: 'toViewer',

@@ -9,7 +9,7 @@ function fill(select, e) {
   for (const v of ENUMS[e].values) select.add(new Option(v.label, v.name));
 }
 
-export function controls(onDisplay, onParams, onNavigation) {
+export function controls(onDisplay, onParams, onNavigation, onPlay) {
   const params = { B: 1.5, C: 1.0, G: 2.2, Vm: 0.0, glare: 0.0 };
   const bind = (id, key, fmt) => {
     const el = document.getElementById(id);
@@ -38,9 +38,14 @@ export function controls(onDisplay, onParams, onNavigation) {
   mode.addEventListener('change', send);
   const nav = document.getElementById('navigation');
   nav.addEventListener('change', () => onNavigation(nav.value));
+  // Shown once the server says the scene is animated (ANIMATE); the label names the action.
+  const play = document.getElementById('play');
+  let playing = false;
+  play.addEventListener('click', () => onPlay(!playing));
   return {
     params,
     setParams(i, m) { integrator.value = i; mode.value = m; },
+    setAnimation(p) { playing = p; play.hidden = false; play.textContent = p ? 'pause' : 'play'; },
   };
 }
 

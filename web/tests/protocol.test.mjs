@@ -57,7 +57,7 @@ test('the documented sizes match the layout', () => {
   assert.equal(P.FRAME_HEADER, 20);
   assert.deepEqual(
     Object.fromEntries(Object.entries(P.MESSAGES).map(([n, m]) => [n, m.bytes])),
-    { HELLO: 68, CAMERA: 48, PARAMS: 8, SAMPLES: 20, FRAME: 20, STATS: 36, FINISH: 32, ERROR: 8 },
+    { HELLO: 68, CAMERA: 48, PARAMS: 8, ANIMATE: 16, SAMPLES: 20, FRAME: 20, STATS: 36, FINISH: 32, ERROR: 8 },
   );
 });
 

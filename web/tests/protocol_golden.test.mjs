@@ -93,6 +93,11 @@ test('encodes a CAMERA exactly as the server decodes it', () => {
   assert.deepEqual(new Uint8Array(P.encodeCamera(camera)), new Uint8Array(bytes('client_camera')));
 });
 
+test('encodes ANIMATE exactly as the server decodes it', () => {
+  const { playing } = expected('client_animate');
+  assert.deepEqual(new Uint8Array(P.encodeAnimate(playing)), new Uint8Array(bytes('client_animate')));
+});
+
 test('encodes PARAMS exactly as the server decodes them', () => {
   const { integrator, mode } = expected('client_params');
   assert.deepEqual(

@@ -30,7 +30,7 @@ const servers = [];
 const pages = [];
 let browser;
 
-// Starts `lumo serve` on a free port; resolves with the URL it prints.
+// Starts `lumo serve SCENE` on a free port; resolves with the URL it prints.
 function serve(args, scene = 'cornell') {
   return new Promise((resolveUrl, reject) => {
     const p = spawn(LUMO, ['serve', scene, '--port', '0', ...args], {
@@ -299,6 +299,29 @@ test('filtered-frame mode shows À-Trous frames', async () => {
   const c = await counts(page);
   assert.match(c.overlay, /atrous/);
   assert.ok(mean(await pixels(page)) > 20, 'filtered frame is black');
+  assert.deepEqual(errors, []);
+  await page.close();
+});
+
+test('an animated scene plays as new epochs; the button pauses and resumes it', async () => {
+  const scene = resolve(here, '../../scenes/animated.gltf');
+  const url = await serve(['--size', '64x48', '--threads', '1', '--animate'], scene);
+  const { page, errors } = await open(url);
+  // The button appears once the server's ANIMATE arrives; playing, it offers to pause.
+  await page.waitForSelector('#play:not([hidden])', { timeout: WAIT_MS });
+  assert.equal(await page.textContent('#play'), 'pause');
+  const e0 = (await counts(page)).epoch;
+  await page.waitForFunction((e) => window.lumo.counts().epoch > e + 3, e0, { timeout: WAIT_MS });
+  await page.click('#play');
+  await page.waitForFunction(() => document.getElementById('play').textContent === 'play', null, { timeout: WAIT_MS });
+  await sleep(500);
+  const e1 = (await counts(page)).epoch;
+  await sleep(1500);
+  assert.equal((await counts(page)).epoch, e1, 'paused: no new epochs, the frame converges');
+  await page.waitForFunction(() => window.lumo.counts().cameraSamples > 64 * 48, null, { timeout: WAIT_MS });
+  await page.click('#play');
+  await page.waitForFunction((e) => window.lumo.counts().epoch > e + 3, e1, { timeout: WAIT_MS });
+  assert.equal(await page.textContent('#play'), 'pause');
   assert.deepEqual(errors, []);
   await page.close();
 });

@@ -7,6 +7,7 @@ mod compare_cmd;
 mod denoise;
 mod pipeline_args;
 mod render_cmd;
+mod sequence;
 mod serve_cmd;
 
 use clap::{Parser, Subcommand};

@@ -6,12 +6,14 @@ use std::time::Instant;
 use anyhow::{bail, Context, Result};
 use clap::ValueEnum;
 use indicatif::{ProgressBar, ProgressStyle};
-use lumo_image::{write_image, ImageFormat};
+use lumo_image::{write_image, Image, ImageFormat};
 use lumo_pipeline::{run_pipeline, Pipeline};
 use lumo_render::integrators::bdpt::BdptSettings;
-use lumo_render::{render_bdpt, render_light, PathSettings, RenderScene, RenderSettings};
+use lumo_render::{
+    render_bdpt, render_light, Frame, PathSettings, RenderScene, RenderSettings, RenderStats,
+};
 use lumo_scene::load::{FileSettings, LoadOptions};
-use lumo_scene::{builtin_scene, Scene, BUILTIN_SCENES};
+use lumo_scene::{builtin_scene, AnimatedScene, Scene, BUILTIN_SCENES};
 
 /// The light-transport algorithm of `lumo render`.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -30,6 +32,14 @@ impl RenderIntegrator {
     /// Integrators that write the image without a filtering pipeline or a G-buffer.
     fn unfiltered(self) -> bool {
         self != RenderIntegrator::Path
+    }
+
+    /// What its throughput counts, for the closing line.
+    pub fn sample_unit(self) -> &'static str {
+        match self {
+            RenderIntegrator::Path | RenderIntegrator::Bdpt => "samples",
+            RenderIntegrator::Light => "light paths",
+        }
     }
 }
 
@@ -52,6 +62,19 @@ pub struct RenderArgs {
     /// glTF: pose the animated nodes at time T seconds [default: the rest pose].
     #[arg(long, value_name = "T")]
     pub time: Option<f32>,
+    /// Render frames A to B (both included) as a numbered sequence, OUT_0000.exr …: an animated
+    /// glTF scene is posed at t = frame / --fps; with --orbit the camera turns (see
+    /// docs/animation.md).
+    #[arg(long, value_name = "A..B", value_parser = crate::sequence::parse_frames, conflicts_with = "time")]
+    pub frames: Option<crate::sequence::FrameRange>,
+    /// Frames per second of --frames: frame n shows the animation at n / F seconds [default: 24].
+    #[arg(long, value_name = "F", value_parser = crate::sequence::parse_fps, requires = "frames")]
+    pub fps: Option<f32>,
+    /// Turn the camera by DEGREES about the scene's look-at target over the --frames range
+    /// (frame i of n at DEGREES·i/n, so 360 loops seamlessly): a camera-motion sequence for
+    /// any scene.
+    #[arg(long, value_name = "DEGREES", value_parser = crate::sequence::parse_orbit, requires = "frames", allow_hyphen_values = true)]
+    pub orbit: Option<f32>,
     /// List the built-in scenes and exit.
     #[arg(long)]
     pub list: bool,
@@ -144,6 +167,16 @@ pub fn load_scene(name: &str) -> Result<Scene> {
 /// Loads a built-in scene by name or a scene file (.xml, .gltf, .glb, .obj, .ply), printing
 /// the loader's warnings to stderr; returns the scene and the render settings the file asks for.
 pub fn load_scene_with(name: &str, options: &LoadOptions) -> Result<(Scene, FileSettings)> {
+    let (scene, settings, _) = load_scene_animated(name, options)?;
+    Ok((scene, settings))
+}
+
+/// [`load_scene_with`], also returning the scene's node animation (glTF files; `None` for
+/// the built-ins and other formats).
+pub fn load_scene_animated(
+    name: &str,
+    options: &LoadOptions,
+) -> Result<(Scene, FileSettings, Option<AnimatedScene>)> {
     let path = Path::new(name);
     if path.extension().is_some() || name.contains('/') {
         if !path.exists() {
@@ -156,7 +189,7 @@ pub fn load_scene_with(name: &str, options: &LoadOptions) -> Result<(Scene, File
         for w in &loaded.warnings {
             eprintln!("{w}");
         }
-        return Ok((loaded.scene, loaded.settings));
+        return Ok((loaded.scene, loaded.settings, loaded.animation));
     }
     let scene = builtin_scene(name)?;
     // The file loader warns about these for non-glTF files; built-ins have one camera and
@@ -169,7 +202,7 @@ pub fn load_scene_with(name: &str, options: &LoadOptions) -> Result<(Scene, File
     if options.time.is_some() {
         eprintln!("warning: --time applies to animated glTF scenes; the built-in {name} is static, ignored");
     }
-    Ok((scene, FileSettings::default()))
+    Ok((scene, FileSettings::default(), None))
 }
 
 fn builtin_names() -> String {
@@ -247,7 +280,14 @@ pub fn run(args: RenderArgs) -> Result<()> {
         camera: args.camera,
         time: args.time,
     };
-    let (scene, file) = load_scene_with(&args.scene, &options)?;
+    let (mut scene, file, rig) = load_scene_animated(&args.scene, &options)?;
+    // With --frames, what moves (checked before anything is written or rendered).
+    let sequence = match args.frames {
+        Some(frames) => Some(crate::sequence::Sequence::plan(
+            &args, frames, &mut scene, rig,
+        )?),
+        None => None,
+    };
     let outputs: Vec<PathBuf> = match &args.output {
         Some(p) => vec![p.clone()],
         None => vec![
@@ -257,6 +297,10 @@ pub fn run(args: RenderArgs) -> Result<()> {
     };
     for o in &outputs {
         check_writable(o)?;
+        if let Some(seq) = &sequence {
+            // The numbered name must be writable too (a long name may not be).
+            check_writable(&seq.frame_path(o, seq.frames.first))?;
+        }
     }
     // Every output location is checked before the render, which may take hours.
     if let Some(dir) = &args.aovs {
@@ -320,8 +364,12 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let threads = pool.current_num_threads();
     let tris = scene.triangle_count();
     let name = scene.name.clone();
-    let build_start = Instant::now();
-    let rs = pool.install(|| RenderScene::new(scene))?;
+    // Timed inside the pool, like a sequence's per-frame updates (see sequence.rs).
+    let (rs, build) = pool.install(|| {
+        let build_start = Instant::now();
+        (RenderScene::new(scene), build_start.elapsed())
+    });
+    let rs = rs?;
     let method = match args.integrator {
         RenderIntegrator::Path => format!("pipeline {pipeline}"),
         RenderIntegrator::Light => format!(
@@ -332,82 +380,45 @@ pub fn run(args: RenderArgs) -> Result<()> {
     };
     eprintln!(
         "{name}: {tris} triangles (BVH {:.0} ms), {width}x{height}, {} spp, max depth {}, {method}, {threads} threads",
-        build_start.elapsed().as_secs_f64() * 1e3,
+        build.as_secs_f64() * 1e3,
         settings.spp,
         settings.path.max_depth
     );
+    if args.integrator == RenderIntegrator::Bdpt && rs.lights.emits_no_particles() {
+        eprintln!("warning: {name}: no light emits particles (environment lights do not): --integrator bdpt runs as a path tracer here");
+    }
+    let job = Job {
+        args: &args,
+        pipeline,
+        settings,
+        pool: &pool,
+        outputs,
+    };
+    if let Some(seq) = sequence {
+        return seq.run(&job, rs, build);
+    }
     let bar = ProgressBar::new(1000).with_style(
         ProgressStyle::with_template("{bar:40} {percent:>3}%  {elapsed} (eta {eta})")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let start = Instant::now();
-    if args.integrator.unfiltered() {
-        let progress = |f: f32| bar.set_position((f * 1000.0) as u64);
-        let (image, stats, unit) = match args.integrator {
-            RenderIntegrator::Light => {
-                if rs.lights.emits_no_particles() {
-                    bail!("{name}: --integrator light: no light emits particles (environment lights do not); use --integrator path");
-                }
-                let (image, stats) = pool.install(|| render_light(&rs, &settings, &progress));
-                (image, stats, "light paths")
-            }
-            _ => {
-                if rs.lights.emits_no_particles() {
-                    eprintln!("warning: {name}: no light emits particles (environment lights do not): --integrator bdpt runs as a path tracer here");
-                }
-                let bdpt = BdptSettings {
-                    path: settings.path,
-                    only: None,
-                };
-                let (image, stats) = pool.install(|| render_bdpt(&rs, &settings, &bdpt, &progress));
-                (image, stats, "samples")
-            }
-        };
-        let secs = start.elapsed().as_secs_f64();
-        bar.finish_and_clear();
-        for o in &outputs {
-            write_image(o, &image)?;
-        }
-        let written: Vec<String> = outputs.iter().map(|p| p.display().to_string()).collect();
-        println!(
-            "done in {secs:.2} s · {}{unit}/s · {}rays/s → {}",
-            si(stats.samples as f64 / secs),
-            si(stats.rays as f64 / secs),
-            written.join(", ")
-        );
-        return Ok(());
-    }
-    let out = pool
-        .install(|| {
-            run_pipeline(
-                &rs,
-                pipeline,
-                &settings,
-                &args.pipeline.options(width, height),
-                &|f| bar.set_position((f * 1000.0) as u64),
-            )
-        })
-        .map_err(crate::pipeline_args::describe_pipeline_error)?;
+    let out = job.render(&rs, &|f| bar.set_position((f * 1000.0) as u64))?;
     let secs = start.elapsed().as_secs_f64();
     bar.finish_and_clear();
-    let stats = out.stats;
-    for o in &outputs {
-        write_image(o, &out.image)?;
+    job.write(&out, &job.outputs, args.aovs.as_deref())?;
+    if let Some(timings) = &out.timings {
+        eprintln!("pipeline {pipeline}: {timings}");
     }
-    if let Some(dir) = &args.aovs {
-        out.frame.write_aovs(dir)?;
-        for (name, plane) in &out.planes {
-            write_image(&dir.join(format!("{name}.exr")), plane)?;
-        }
-    }
-    if pipeline != Pipeline::None {
-        eprintln!("pipeline {pipeline}: {}", out.timings);
-    }
-    let written: Vec<String> = outputs.iter().map(|p| p.display().to_string()).collect();
+    let written: Vec<String> = job
+        .outputs
+        .iter()
+        .map(|p| p.display().to_string())
+        .collect();
+    let unit = args.integrator.sample_unit();
     println!(
-        "done in {secs:.2} s · {}samples/s · {}rays/s → {}{}",
-        si(stats.samples as f64 / secs),
-        si(stats.rays as f64 / secs),
+        "done in {secs:.2} s · {}{unit}/s · {}rays/s → {}{}",
+        si(out.stats.samples as f64 / secs),
+        si(out.stats.rays as f64 / secs),
         written.join(", "),
         args.aovs
             .as_ref()
@@ -415,4 +426,101 @@ pub fn run(args: RenderArgs) -> Result<()> {
             .unwrap_or_default()
     );
     Ok(())
+}
+
+/// What every frame of one `lumo render` shares: the options, the pool and the outputs.
+pub struct Job<'a> {
+    /// The command line.
+    pub args: &'a RenderArgs,
+    /// The pipeline (`None` for the light tracer).
+    pub pipeline: Pipeline,
+    /// Resolution, samples, seed and path settings.
+    pub settings: RenderSettings,
+    /// The worker threads.
+    pub pool: &'a rayon::ThreadPool,
+    /// The image files (for a sequence: the names the frame numbers are added to).
+    pub outputs: Vec<PathBuf>,
+}
+
+/// One rendered image with what goes beside it.
+pub struct Rendered {
+    /// The final image.
+    pub image: Image,
+    /// Work counters.
+    pub stats: RenderStats,
+    /// The path tracer's frame and the pipeline's intermediate planes (for --aovs).
+    pub aovs: Option<(Frame, Vec<(&'static str, Image)>)>,
+    /// The pipeline's time per stage, formatted.
+    pub timings: Option<String>,
+}
+
+impl Job<'_> {
+    /// Renders `rs` with the job's integrator and pipeline; `progress` gets 0..1.
+    pub fn render(&self, rs: &RenderScene, progress: &(dyn Fn(f32) + Sync)) -> Result<Rendered> {
+        let settings = &self.settings;
+        if self.args.integrator == RenderIntegrator::Light {
+            if rs.lights.emits_no_particles() {
+                bail!(
+                    "{}: --integrator light: no light emits particles (environment lights do not); use --integrator path",
+                    rs.scene.name
+                );
+            }
+            let (image, stats) = self.pool.install(|| render_light(rs, settings, progress));
+            return Ok(Rendered {
+                image,
+                stats,
+                aovs: None,
+                timings: None,
+            });
+        }
+        if self.args.integrator == RenderIntegrator::Bdpt {
+            let bdpt = BdptSettings {
+                path: settings.path,
+                only: None,
+            };
+            let (image, stats) = self
+                .pool
+                .install(|| render_bdpt(rs, settings, &bdpt, progress));
+            return Ok(Rendered {
+                image,
+                stats,
+                aovs: None,
+                timings: None,
+            });
+        }
+        let out = self
+            .pool
+            .install(|| {
+                run_pipeline(
+                    rs,
+                    self.pipeline,
+                    settings,
+                    &self.args.pipeline.options(settings.width, settings.height),
+                    progress,
+                )
+            })
+            .map_err(crate::pipeline_args::describe_pipeline_error)?;
+        Ok(Rendered {
+            image: out.image,
+            stats: out.stats,
+            timings: (self.pipeline != Pipeline::None).then(|| out.timings.to_string()),
+            aovs: Some((out.frame, out.planes)),
+        })
+    }
+
+    /// Writes the image to `outputs` and, with `aovs`, the AOV planes into that directory.
+    pub fn write(&self, out: &Rendered, outputs: &[PathBuf], aovs: Option<&Path>) -> Result<()> {
+        for o in outputs {
+            write_image(o, &out.image)?;
+        }
+        if let (Some(dir), Some((frame, planes))) = (aovs, &out.aovs) {
+            std::fs::create_dir_all(dir)
+                .with_context(|| format!("--aovs: cannot create {}", dir.display()))?;
+            frame.write_aovs(dir)?;
+            for (name, plane) in planes {
+                write_image(&dir.join(format!("{name}.exr")), plane)?;
+            }
+        }
+        Ok(())
+    }
 }

@@ -8,7 +8,7 @@ use anyhow::{bail, Context, Result};
 use lumo_render::{PathSettings, RenderScene};
 use lumo_server::{Hub, Integrator, ServerConfig};
 
-use crate::render_cmd::{load_scene, parse_size};
+use crate::render_cmd::{load_scene_animated, parse_size};
 
 /// Arguments of `lumo serve`.
 #[derive(clap::Args, Debug)]
@@ -42,6 +42,11 @@ pub struct ServeArgs {
     /// to see how the viewer behaves with a slow server.
     #[arg(long)]
     pub max_rate: Option<f64>,
+    /// Play the scene's glTF animation: the server poses the scene by wall-clock time (looping
+    /// over the clips) and restarts rendering at every displayed frame; the viewer's play/pause
+    /// button freezes it, and a frozen frame converges as a still does (docs/animation.md).
+    #[arg(long)]
+    pub animate: bool,
 }
 
 /// `--integrator` values.
@@ -66,7 +71,20 @@ pub fn run(args: ServeArgs) -> Result<()> {
             bail!("--max-rate must be a positive number of samples per second");
         }
     }
-    let scene = load_scene(&args.scene)?;
+    let (mut scene, _, rig) = load_scene_animated(&args.scene, &Default::default())?;
+    let rig = match (args.animate, rig) {
+        (false, _) => None,
+        (true, Some(rig)) if rig.is_animated() => {
+            // The first frame is t = 0, posed before the build.
+            rig.pose(&mut scene, Some(0.0));
+            Some(rig)
+        }
+        (true, _) => bail!(
+            "--animate: scene {:?} has no animation (only glTF files with animation clips \
+             have one, e.g. scenes/animated.gltf); drop --animate",
+            scene.name
+        ),
+    };
     let (width, height) = args
         .size
         .unwrap_or((scene.defaults.width, scene.defaults.height));
@@ -87,6 +105,7 @@ pub fn run(args: ServeArgs) -> Result<()> {
     };
     config.seed = args.seed;
     config.max_rate = args.max_rate;
+    config.animation = rig;
     let name = scene.name.clone();
     let tris = scene.triangle_count();
     let start = Instant::now();

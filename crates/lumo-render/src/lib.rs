@@ -24,4 +24,4 @@ pub use render::{
     frame_from_estimates, map_pixels, map_rows, render, render_bdpt, render_light, render_pixel,
     render_pixel_one_ray, trace_sample, PixelEstimate, RenderSettings, RenderStats, LIGHT_STREAM_X,
 };
-pub use render_scene::{RenderScene, Surface};
+pub use render_scene::{RenderScene, SceneUpdate, Surface};

@@ -100,6 +100,48 @@ pub struct AnimatedScene {
 }
 
 impl AnimatedScene {
+    /// Time of the last key of any clip, in seconds (0 without clips).
+    pub fn duration(&self) -> f32 {
+        self.animations
+            .iter()
+            .map(Animation::duration)
+            .fold(0.0, f32::max)
+    }
+
+    /// Whether any clip drives a node: posing at different times can move something.
+    pub fn is_animated(&self) -> bool {
+        self.animations
+            .iter()
+            .flat_map(|a| &a.channels)
+            .any(|c| c.node < self.nodes.len() && !c.times.is_empty())
+    }
+
+    /// Whether posing moves `item` (a clip drives its node or one of the node's ancestors).
+    pub fn moves(&self, item: NodeItem) -> bool {
+        let driven: Vec<usize> = self
+            .animations
+            .iter()
+            .flat_map(|a| &a.channels)
+            .filter(|c| !c.times.is_empty())
+            .map(|c| c.node)
+            .collect();
+        self.items
+            .iter()
+            .filter(|(_, i)| *i == item)
+            .any(|&(node, _)| {
+                // Parents come before children, so the walk up ends; the bound guards bad input.
+                let mut n = Some(node);
+                for _ in 0..=self.nodes.len() {
+                    let Some(k) = n else { break };
+                    if driven.contains(&k) {
+                        return true;
+                    }
+                    n = self.nodes.get(k).and_then(|x| x.parent).filter(|&p| p < k);
+                }
+                false
+            })
+    }
+
     /// World matrix of every node with all clips applied at time `t` (rest pose for `None`).
     pub fn world_matrices(&self, t: Option<f32>) -> Vec<Mat4> {
         let mut local: Vec<(Vec3, Quat, Vec3)> = self

@@ -1,4 +1,4 @@
-use glam::Vec3;
+use glam::{Quat, Vec3};
 
 /// Which image axis the field of view spans (Mitsuba's `fov_axis`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -39,6 +39,23 @@ impl Camera {
         (right, up, forward)
     }
 
+    /// The camera turned by `degrees` about the vertical line through `pivot` (the line along
+    /// its up hint): eye and target both turn, so a camera looking at `pivot` keeps looking at
+    /// it. Positive angles turn counter-clockwise seen from above (right-handed about `up`).
+    /// An up hint of zero length leaves the camera as it is.
+    pub fn orbited(&self, pivot: Vec3, degrees: f32) -> Camera {
+        let axis = self.up.normalize_or_zero();
+        if axis == Vec3::ZERO || !degrees.is_finite() {
+            return self.clone();
+        }
+        let turn = Quat::from_axis_angle(axis, degrees.to_radians());
+        Camera {
+            origin: pivot + turn * (self.origin - pivot),
+            target: pivot + turn * (self.target - pivot),
+            ..self.clone()
+        }
+    }
+
     /// Half-extents of the image plane at distance 1 for a `width`×`height` image.
     pub fn half_extent(&self, width: usize, height: usize) -> (f32, f32) {
         let (w, h) = (width as f32, height as f32);
@@ -51,5 +68,31 @@ impl Camera {
             FovAxis::Diagonal => (w * w + h * h).sqrt(),
         };
         (t * w / axis_len, t * h / axis_len)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn orbit_turns_about_the_pivot_and_keeps_looking_at_it() {
+        let c = Camera {
+            origin: Vec3::new(0.0, 1.0, 4.0),
+            target: Vec3::new(0.0, 1.0, 0.0),
+            up: Vec3::Y,
+            fov: 40.0,
+            fov_axis: FovAxis::X,
+        };
+        let o = c.orbited(c.target, 90.0);
+        // A quarter turn about +y takes +z to +x.
+        assert!(
+            (o.origin - Vec3::new(4.0, 1.0, 0.0)).length() < 1e-5,
+            "{}",
+            o.origin
+        );
+        assert_eq!(o.target, c.target);
+        let full = c.orbited(c.target, 360.0);
+        assert!((full.origin - c.origin).length() < 1e-5);
     }
 }

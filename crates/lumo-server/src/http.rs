@@ -322,6 +322,7 @@ async fn connection(socket: WebSocket, hub: Arc<Hub>) {
                     hub.set_params(integrator, mode);
                     None
                 }
+                Ok(ClientMessage::Animate(a)) => hub.set_playing(a.playing).err(),
                 Err(e) => Some(e),
             },
             Some(Ok(Message::Text(_))) => Some(ProtocolError {

@@ -17,8 +17,8 @@ use lumo_scene::{Camera, FovAxis};
 
 use crate::outbox::{Kind, Outbox, Outgoing, QueueReport, Slot};
 use crate::protocol::{
-    CameraUpdate, Finish, Frame, Hello, Integrator, Mode, Params, SampleBatch, Stats, Stream,
-    WireCamera,
+    Animate, CameraUpdate, ErrorCode, Finish, Frame, Hello, Integrator, Mode, Params,
+    ProtocolError, SampleBatch, Stats, Stream, WireCamera,
 };
 use crate::worker::{FinishEvent, Job, QueryBuffer, RenderWorker};
 use crate::ServerConfig;
@@ -67,6 +67,53 @@ struct HubState {
     last_restart: Instant,
     /// Rendering is stopped because nobody watches.
     paused: bool,
+    /// The animation's clock (`lumo serve --animate`); `None` for a static scene.
+    clock: Option<Clock>,
+}
+
+/// The animation's clock: wall-clock time while playing, frozen while paused, looping over
+/// the clips' duration.
+#[derive(Clone, Copy, Debug)]
+struct Clock {
+    playing: bool,
+    /// Animation time at `since`.
+    at: f32,
+    since: Instant,
+    /// Length of the clips; 0 holds time at 0.
+    duration: f32,
+}
+
+impl Clock {
+    /// Animation time now.
+    fn now(&self) -> f32 {
+        let t = if self.playing {
+            self.at + self.since.elapsed().as_secs_f32()
+        } else {
+            self.at
+        };
+        if self.duration > 0.0 {
+            t % self.duration
+        } else {
+            0.0
+        }
+    }
+
+    /// The ANIMATE message of this state.
+    fn message(&self) -> Animate {
+        Animate {
+            playing: self.playing,
+            time: self.now(),
+            duration: self.duration,
+        }
+    }
+}
+
+/// Starts `job` on `worker`, posed at the clock's time when the scene is animated.
+fn start(worker: &RenderWorker, job: Job, clock: Option<&Clock>) -> u64 {
+    match clock {
+        Some(c) => worker.render_posed(job, c.now()),
+        None => worker.render(job),
+    }
 }
 
 fn to_wire(c: &Camera) -> WireCamera {
@@ -105,17 +152,25 @@ impl Hub {
         // The finish handler runs on a render thread: it only records the event.
         let finished: Arc<Mutex<Vec<FinishEvent>>> = Arc::default();
         let f2 = finished.clone();
-        let worker = RenderWorker::new(
+        // An animation plays from t = 0 at start.
+        let clock = config.animation.as_ref().map(|rig| Clock {
+            playing: true,
+            at: 0.0,
+            since: Instant::now(),
+            duration: rig.duration(),
+        });
+        let worker = RenderWorker::with_animation(
             Arc::new(rs),
             config.threads,
             Box::new(move |e| lock(&f2).push(e)),
+            config.animation.clone(),
         )?;
         // Nobody watches yet: render only once a viewer connects, unless told to keep going.
         let paused = config.limits.pause_when_idle;
         let epoch = if paused {
             worker.abort()
         } else {
-            worker.render(job.clone())
+            start(&worker, job.clone(), clock.as_ref())
         };
         let hub = Arc::new(Self {
             worker,
@@ -131,6 +186,7 @@ impl Hub {
                 params_changed: false,
                 last_restart: Instant::now(),
                 paused,
+                clock,
             }),
             next_id: AtomicU64::new(1),
             finished,
@@ -166,7 +222,7 @@ impl Hub {
             st.job = st.next.clone();
             st.pending = false;
             st.params_changed = false;
-            st.epoch = self.worker.render(st.job.clone());
+            st.epoch = start(&self.worker, st.job.clone(), st.clock.as_ref());
             st.last_restart = Instant::now();
         }
         let hello = Hello {
@@ -181,6 +237,9 @@ impl Hub {
             name: self.name.clone(),
         };
         outbox.push(control(hello.write()));
+        if let Some(c) = &st.clock {
+            outbox.push(control(c.message().write()));
+        }
         st.viewers.push(Viewer {
             id,
             outbox: outbox.clone(),
@@ -255,6 +314,33 @@ impl Hub {
         self.maybe_restart(&mut st);
     }
 
+    /// A viewer plays or pauses the animation: the clock runs or freezes, every viewer is
+    /// told, and the render restarts at the clock's time. Refused for a static scene.
+    pub fn set_playing(&self, playing: bool) -> Result<(), ProtocolError> {
+        let mut st = lock(&self.state);
+        let Some(c) = &mut st.clock else {
+            return Err(ProtocolError::new(
+                ErrorCode::InvalidValue,
+                "ANIMATE: the scene is not animated (start lumo serve with --animate and an animated glTF scene)",
+            ));
+        };
+        if c.playing != playing {
+            c.at = c.now();
+            c.since = Instant::now();
+            c.playing = playing;
+        }
+        let msg = c.message().write();
+        broadcast(&st, &control(msg));
+        st.pending = true;
+        self.maybe_restart(&mut st);
+        Ok(())
+    }
+
+    /// The animation's state, if the scene is animated.
+    pub fn animation(&self) -> Option<Animate> {
+        lock(&self.state).clock.map(|c| c.message())
+    }
+
     fn maybe_restart(&self, st: &mut HubState) {
         if st.pending
             && !st.paused
@@ -269,7 +355,7 @@ impl Hub {
     /// one) for the others.
     fn restart(&self, st: &mut HubState) {
         st.job = st.next.clone();
-        st.epoch = self.worker.render(st.job.clone());
+        st.epoch = start(&self.worker, st.job.clone(), st.clock.as_ref());
         st.last_restart = Instant::now();
         st.pending = false;
         let epoch = st.epoch as u32;
@@ -325,6 +411,10 @@ impl Hub {
 
     fn pump_once(&self, buf: &mut QueryBuffer, last_stats: &mut Instant, last: &mut (u64, u64)) {
         let mut st = lock(&self.state);
+        // A playing animation shows a new pose every tick: a restart (new epoch) per frame.
+        if st.clock.is_some_and(|c| c.playing) {
+            st.pending = true;
+        }
         // Changes merged because they came too fast start here, at most one pump tick late.
         self.maybe_restart(&mut st);
         let st = st;

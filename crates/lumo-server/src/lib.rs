@@ -51,6 +51,10 @@ pub struct ServerConfig {
     pub viewer_queue_bytes: usize,
     /// What one client may cost the server.
     pub limits: Limits,
+    /// The scene's node animation (`lumo serve --animate`): the server poses the scene by
+    /// wall-clock time and restarts rendering at every pump tick while it plays; `None`
+    /// renders the scene as loaded.
+    pub animation: Option<lumo_scene::AnimatedScene>,
 }
 
 /// Bounds on what a client may make the server spend (docs/protocol.md, "Limits and safety").
@@ -126,6 +130,7 @@ impl ServerConfig {
             max_rate: None,
             viewer_queue_bytes: 8 << 20,
             limits: Limits::default(),
+            animation: None,
         }
     }
 }

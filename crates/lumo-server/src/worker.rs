@@ -15,7 +15,7 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use lumo_render::{camera::PinholeCamera, PathSettings, RenderScene};
-use lumo_scene::Camera;
+use lumo_scene::{AnimatedScene, Camera};
 
 use crate::frames::{FrameAccumulator, TemporalHistory, TEMPORAL_FRAMES};
 use crate::protocol::{Integrator, Mode};
@@ -125,7 +125,8 @@ pub struct WorkerStats {
 }
 
 enum Command {
-    Render(u64, Box<Job>),
+    /// Render a job, first posing the animation at the given time if there is one.
+    Render(u64, Box<Job>, Option<f32>),
     Abort,
     Term,
 }
@@ -144,6 +145,8 @@ struct Shared {
     /// The À-Trous frame mode's temporal filter; it outlives renders so a camera move keeps
     /// the picture (None if it could not be made).
     temporal: Mutex<Option<TemporalHistory>>,
+    /// Bits of the animation time the scene was last posed at (`u64::MAX`: never posed).
+    posed_at: AtomicU64,
 }
 
 #[derive(Default)]
@@ -167,6 +170,18 @@ impl RenderWorker {
         threads: usize,
         on_finish: FinishHandler,
     ) -> anyhow::Result<Self> {
+        Self::with_animation(rs, threads, on_finish, None)
+    }
+
+    /// [`RenderWorker::new`] for an animated scene: [`RenderWorker::render_posed`] poses
+    /// `rig` before a render. `rs` must not be shared elsewhere (the worker updates it in
+    /// place between renders, when no render thread holds it).
+    pub fn with_animation(
+        rs: Arc<RenderScene>,
+        threads: usize,
+        on_finish: FinishHandler,
+        rig: Option<AnimatedScene>,
+    ) -> anyhow::Result<Self> {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .thread_name(|i| format!("lumo-render-{i}"))
@@ -179,12 +194,13 @@ impl RenderWorker {
             idle: Condvar::new(),
             on_finish,
             temporal: Mutex::new(TemporalHistory::new()),
+            posed_at: AtomicU64::new(u64::MAX),
         });
         let (tx, rx) = mpsc::channel();
         let sh = shared.clone();
         let thread = std::thread::Builder::new()
             .name("lumo-worker".into())
-            .spawn(move || command_loop(rx, sh, pool, rs))?;
+            .spawn(move || command_loop(rx, sh, pool, rs, rig))?;
         Ok(Self {
             shared,
             commands: tx,
@@ -200,10 +216,23 @@ impl RenderWorker {
 
     /// Aborts whatever runs and starts `job`; returns its epoch.
     pub fn render(&self, job: Job) -> u64 {
+        self.start_render(job, None)
+    }
+
+    /// Aborts whatever runs, poses the animation at `time` seconds (after the previous
+    /// render's threads let go of the scene) and starts `job`; returns its epoch. Without an
+    /// animation this is [`RenderWorker::render`].
+    pub fn render_posed(&self, job: Job, time: f32) -> u64 {
+        self.start_render(job, Some(time))
+    }
+
+    fn start_render(&self, job: Job, time: Option<f32>) -> u64 {
         let epoch = self.shared.epoch.fetch_add(1, Ordering::SeqCst) + 1;
         self.reset_pending(epoch);
         // A closed channel means term ran; the epoch bump already stopped everything.
-        let _ = self.commands.send(Command::Render(epoch, Box::new(job)));
+        let _ = self
+            .commands
+            .send(Command::Render(epoch, Box::new(job), time));
         epoch
     }
 
@@ -236,6 +265,13 @@ impl RenderWorker {
         out.light_paths = std::mem::take(&mut b.light_paths);
         out.frame = b.frame.take();
         p.stats
+    }
+
+    /// The animation time, in seconds, the scene was last posed at by
+    /// [`RenderWorker::render_posed`] (`None` before the first pose or without animation).
+    pub fn posed_at(&self) -> Option<f32> {
+        let bits = self.shared.posed_at.load(Ordering::SeqCst);
+        (bits != u64::MAX).then(|| f32::from_bits(bits as u32))
     }
 
     /// Counters of the current render.
@@ -277,8 +313,11 @@ fn command_loop(
     rx: mpsc::Receiver<Command>,
     shared: Arc<Shared>,
     pool: rayon::ThreadPool,
-    rs: Arc<RenderScene>,
+    mut rs: Arc<RenderScene>,
+    rig: Option<AnimatedScene>,
 ) {
+    // The pose `rs` is at, so an unchanged time costs nothing.
+    let mut posed: Option<f32> = None;
     while let Ok(cmd) = rx.recv() {
         match cmd {
             Command::Term => {
@@ -286,9 +325,18 @@ fn command_loop(
                 break;
             }
             Command::Abort => wait_idle(&shared),
-            Command::Render(epoch, job) => {
+            Command::Render(epoch, job, time) => {
                 // One render at a time: the previous one saw the epoch bump and is stopping.
                 wait_idle(&shared);
+                if let (Some(rig), Some(t)) = (&rig, time) {
+                    if posed != Some(t) {
+                        // In the pool: a rebuild (rare) builds in parallel on its threads.
+                        if pool.install(|| pose(&mut rs, rig, t)) {
+                            shared.posed_at.store(t.to_bits() as u64, Ordering::SeqCst);
+                        }
+                        posed = Some(t);
+                    }
+                }
                 if shared.epoch.load(Ordering::SeqCst) != epoch {
                     (shared.on_finish)(FinishEvent {
                         epoch,
@@ -304,6 +352,40 @@ fn command_loop(
             }
         }
     }
+}
+
+/// Poses `rig` at `t` in `rs`, in place: the render threads dropped their references before
+/// saying they were done ([`start`]), so the worker holds the only one.
+/// Returns whether the scene is now at `t`.
+fn pose(rs: &mut Arc<RenderScene>, rig: &AnimatedScene, t: f32) -> bool {
+    match Arc::get_mut(rs) {
+        Some(scene) => match pose_or_keep(scene, rig, t) {
+            Ok(()) => true,
+            Err(e) => {
+                eprintln!("warning: animation at t = {t} s cannot be rendered ({e}); the scene stays at its last pose");
+                false
+            }
+        },
+        None => {
+            eprintln!("warning: the scene is shared; animation frame at t = {t} s skipped");
+            false
+        }
+    }
+}
+
+/// [`RenderScene::pose`], restoring the previous instance transforms and lights when the pose
+/// is invalid (a singular transform in a clip), so the scene stays consistent.
+fn pose_or_keep(
+    scene: &mut RenderScene,
+    rig: &AnimatedScene,
+    t: f32,
+) -> Result<(), lumo_scene::SceneError> {
+    let before = (scene.scene.instances.clone(), scene.scene.lights.clone());
+    if let Err(e) = scene.pose(rig, t) {
+        (scene.scene.instances, scene.scene.lights) = before;
+        return Err(e);
+    }
+    Ok(())
 }
 
 /// Progress of one render, shared by its pool threads.
@@ -363,6 +445,8 @@ fn start(
             let (shared, run, rs) = (shared.clone(), run.clone(), rs.clone());
             pool.spawn(move || {
                 let finished = sample_loop(&shared, &run, &rs);
+                // Let go of the scene before saying so: the worker may then update it.
+                drop(rs);
                 thread_done(&shared, &run, finished);
             });
         }
@@ -373,6 +457,7 @@ fn start(
         let (shared, run) = (shared.clone(), run.clone());
         pool.spawn(move || {
             let finished = frame_loop(&shared, &run, &rs);
+            drop(rs);
             thread_done(&shared, &run, finished);
         });
     }

@@ -5,3 +5,4 @@ mod compare_cli;
 mod denoise_cli;
 mod hostile_options;
 mod scene_files;
+mod sequence_cli;

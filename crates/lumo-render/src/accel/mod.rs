@@ -47,6 +47,16 @@ pub struct Hit {
     pub v: f32,
 }
 
+/// How [`Accel::refit_instances`] or [`Accel::refit_meshes`] brought the trees up to date.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AccelUpdate {
+    /// Boxes refitted and instances re-placed; no tree was rebuilt.
+    Refitted,
+    /// Rebuilt from scratch: an instance joined or left the identity transform, so the
+    /// merged BVH of identity instances changed its triangles.
+    Rebuilt,
+}
+
 /// The BVH of one mesh, in object space.
 struct MeshBvh {
     /// Binary tree kept for refitting; its leaves hold one triangle each.
@@ -260,27 +270,39 @@ impl Accel {
     /// Updates the trees after `scene.meshes[mesh]` moved its vertices (same triangles): the
     /// mesh's BVH and, if it is placed with the identity transform, the merged static BVH are
     /// refitted, then the instance tree.
-    pub fn refit_mesh(&mut self, scene: &Scene, mesh: usize) {
-        if let Some(Some(m)) = self.meshes.get_mut(mesh) {
-            m.refit(&scene.meshes[mesh].positions, &scene.meshes[mesh].indices);
+    pub fn refit_mesh(&mut self, scene: &Scene, mesh: usize) -> AccelUpdate {
+        self.refit_meshes(scene, &[mesh])
+    }
+
+    /// [`Accel::refit_mesh`] for several meshes at once: the merged static BVH and the
+    /// instance tree are refitted once, not once per mesh. Indices out of range are ignored.
+    pub fn refit_meshes(&mut self, scene: &Scene, meshes: &[usize]) -> AccelUpdate {
+        let mut in_static = false;
+        for &mesh in meshes {
+            let Some(m) = scene.meshes.get(mesh) else {
+                continue;
+            };
+            if let Some(Some(bvh)) = self.meshes.get_mut(mesh) {
+                bvh.refit(&m.positions, &m.indices);
+            }
+            in_static |= scene
+                .instances
+                .iter()
+                .any(|i| i.mesh == mesh && i.transform == Mat4::IDENTITY);
         }
-        let in_static = scene
-            .instances
-            .iter()
-            .any(|i| i.mesh == mesh && i.transform == Mat4::IDENTITY);
         if in_static {
             let (positions, indices, _) = gather_static(scene);
             if let Some((bvh, _)) = &mut self.static_bvh {
                 bvh.refit(&positions, &indices);
             }
         }
-        self.refit_instances(scene);
+        self.refit_instances(scene)
     }
 
     /// Updates the instance tree after instance transforms changed (no rebuild). An instance
     /// that leaves or joins the identity transform changes the merged static BVH, which
-    /// needs a rebuild: that case rebuilds everything.
-    pub fn refit_instances(&mut self, scene: &Scene) {
+    /// needs a rebuild: that case rebuilds everything (and says so).
+    pub fn refit_instances(&mut self, scene: &Scene) -> AccelUpdate {
         let static_count = scene
             .instances
             .iter()
@@ -304,7 +326,7 @@ impl Accel {
         });
         if moved_static || static_count != was_static {
             *self = Accel::build(scene);
-            return;
+            return AccelUpdate::Rebuilt;
         }
         for p in &mut self.placements {
             match p.target {
@@ -324,6 +346,7 @@ impl Accel {
         }
         let boxes = self.placement_boxes(scene);
         robust::refit_leaves(&mut self.tlas, |p| boxes[p]);
+        AccelUpdate::Refitted
     }
 
     /// The ray `origin + t·dir` in placement `p`'s object space.

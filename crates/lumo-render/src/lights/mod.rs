@@ -206,6 +206,9 @@ pub struct Lights {
     /// Radiance textures of textured emissive triangles ([`EmissiveTriangle::texture`]).
     textured: Vec<TexturedEmission>,
     env: Option<EnvSampler>,
+    /// Mean radiance of the environment image times its scale (zero without one): part of
+    /// its power estimate, kept so [`Lights::update`] need not rescan the image.
+    env_mean: Vec3,
     constant: Vec3,
     scene_radius: f32,
     scene_center: Vec3,
@@ -214,6 +217,20 @@ pub struct Lights {
 impl Lights {
     /// Collects the scene's lights. Emissive triangles come from materials with emission.
     pub fn new(scene: &Scene) -> Self {
+        Self::build(scene, None)
+    }
+
+    /// Re-collects the lights after instances, vertices or punctual lights moved (a new pose of
+    /// an animation). The environment's sampler and mean are kept rather than rebuilt from its
+    /// image, so the scene's environment light must be the one this was built with; the result
+    /// equals [`Lights::new`] of the changed scene.
+    pub fn update(&mut self, scene: &Scene) {
+        let env = self.env.take().map(|e| (e, self.env_mean));
+        *self = Self::build(scene, env);
+    }
+
+    /// [`Lights::new`], reusing `reuse` (a sampler and its mean) for the environment image.
+    fn build(scene: &Scene, mut reuse: Option<(EnvSampler, Vec3)>) -> Self {
         let (lo, hi) = scene.bounds();
         let scene_center = (lo + hi) * 0.5;
         let scene_radius = ((hi - lo).length() * 0.5).max(1e-3);
@@ -309,19 +326,23 @@ impl Lights {
                 // An empty image emits nothing (the loaders refuse one; a scene built in code
                 // must not panic).
                 Light::Environment(map) if map.image.width == 0 || map.image.height == 0 => {}
-                Light::Environment(map) => env = Some(EnvSampler::new(map)),
+                Light::Environment(map) => {
+                    env = Some(reuse.take().unwrap_or_else(|| {
+                        let sampler = EnvSampler::new(map);
+                        let m = map.image.to_channels(3).channel_means();
+                        let mean = Vec3::new(m[0] as f32, m[1] as f32, m[2] as f32) * map.scale;
+                        (sampler, mean)
+                    }))
+                }
             }
         }
+        let (env, env_mean) = match env {
+            Some((e, mean)) => (Some(e), mean),
+            None => (None, Vec3::ZERO),
+        };
         // One entry samples the whole environment (constant and/or image).
         if env.is_some() || constant.max_element() > 0.0 {
-            let mean = env
-                .as_ref()
-                .map(|e| {
-                    let m = e.map.image.to_channels(3).channel_means();
-                    Vec3::new(m[0] as f32, m[1] as f32, m[2] as f32) * e.map.scale
-                })
-                .unwrap_or(Vec3::ZERO)
-                + constant;
+            let mean = env_mean + constant;
             power.push(disk * PI * luminance(mean.into()));
             lights.push(LightKind::Environment);
         }
@@ -351,6 +372,7 @@ impl Lights {
             instance_offset,
             textured,
             env,
+            env_mean,
             constant,
             scene_radius,
             scene_center,

@@ -6,10 +6,10 @@ mod materials;
 use materials::{has_mask, innermost, microfacet};
 
 use glam::{Mat3, Mat4, Vec2, Vec3};
-use lumo_scene::{BsdfSpec, Scene, SceneError, Texture};
+use lumo_scene::{AnimatedScene, BsdfSpec, Mesh, Scene, SceneError, Texture};
 
 use crate::accel::analytic::Shape;
-use crate::accel::{Accel, Hit};
+use crate::accel::{Accel, AccelUpdate, Hit};
 use crate::bsdf::{fresnel_diffuse_reflectance, RoughCoat, SMOOTH_ALPHA};
 use crate::geometry::offset_point;
 use crate::geometry::Basis;
@@ -87,6 +87,8 @@ pub struct RenderScene {
     /// (identity transform, no vertex colours, constant reflectance):
     /// the case the wavefront's vector bounce ([`crate::integrators::path::vector_bounce`]) handles.
     simple_diffuse: Vec<Option<SimpleDiffuse>>,
+    /// What the scene looked like when built, to tell an update apart from a new scene.
+    structure: Structure,
 }
 
 /// A constant-reflectance diffuse instance in world space.
@@ -100,6 +102,120 @@ pub(crate) struct SimpleDiffuse {
     pub emission: Vec3,
     /// Black from behind (see [`RenderScene::one_sided`]).
     pub one_sided: bool,
+}
+
+/// Per-instance tables of [`RenderScene`] that depend on the instance transforms: what
+/// surface reconstruction needs of each transform, the exact shapes, and the simple diffuse
+/// instances. One function for [`RenderScene::new`] and [`RenderScene::update`], so an updated
+/// scene holds exactly what a fresh one would.
+type InstanceTables = (
+    Vec<InstancePlacement>,
+    Vec<Option<Shape>>,
+    Vec<Option<SimpleDiffuse>>,
+);
+
+fn instance_tables(scene: &Scene) -> InstanceTables {
+    let placements = scene
+        .instances
+        .iter()
+        .map(|inst| InstancePlacement {
+            identity: inst.transform == Mat4::IDENTITY,
+            to_world: inst.transform,
+            normal_to_world: Mat3::from_mat4(inst.transform).inverse().transpose(),
+            analytic: scene.meshes[inst.mesh].analytic.is_some(),
+        })
+        .collect();
+    let shapes = scene
+        .instances
+        .iter()
+        .map(|inst| {
+            let a = scene.meshes[inst.mesh].analytic.as_ref()?;
+            Some(Shape::new(a, inst.transform))
+        })
+        .collect();
+    let simple_diffuse = scene
+        .instances
+        .iter()
+        .map(|inst| {
+            let mesh = &scene.meshes[inst.mesh];
+            let material = &scene.materials[mesh.material];
+            match &material.bsdf {
+                BsdfSpec::Diffuse {
+                    reflectance: Texture::Constant(albedo),
+                } if inst.transform == Mat4::IDENTITY
+                    && mesh.analytic.is_none()
+                    && albedo.is_finite()
+                    && mesh.colors.is_empty()
+                    && material.emission_map.is_none() =>
+                {
+                    Some(SimpleDiffuse {
+                        mesh: inst.mesh,
+                        albedo: *albedo,
+                        emission: material.emission,
+                        one_sided: !material.two_sided,
+                    })
+                }
+                _ => None,
+            }
+        })
+        .collect();
+    (placements, shapes, simple_diffuse)
+}
+
+/// Each triangle's unit geometric normal in object space (zero if degenerate).
+fn unit_normals(m: &Mesh) -> Vec<Vec3> {
+    m.indices
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| m.positions[i as usize]);
+            (b - a).cross(c - a).normalize_or_zero()
+        })
+        .collect()
+}
+
+/// The parts of a scene that [`RenderScene::update`] cannot change in place: how many meshes,
+/// vertices, triangles and instances there are, which mesh each instance places, whether it
+/// is an exact shape, and the materials.
+#[derive(Clone, Debug, PartialEq)]
+struct Structure {
+    meshes: Vec<(usize, usize, usize, bool)>,
+    instances: Vec<usize>,
+    materials: usize,
+}
+
+impl Structure {
+    fn of(scene: &Scene) -> Self {
+        Structure {
+            meshes: scene
+                .meshes
+                .iter()
+                .map(|m| {
+                    (
+                        m.positions.len(),
+                        m.indices.len(),
+                        m.material,
+                        m.analytic.is_some(),
+                    )
+                })
+                .collect(),
+            instances: scene.instances.iter().map(|i| i.mesh).collect(),
+            materials: scene.materials.len(),
+        }
+    }
+}
+
+/// How [`RenderScene::update`] brought a render scene up to date.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SceneUpdate {
+    /// The BVH was refitted (moved vertices) and its instances re-placed (moved
+    /// instances); lights and per-instance tables recomputed.
+    Refitted,
+    /// The BVH had to be rebuilt (an instance joined or left the identity transform, which
+    /// changes the merged BVH of identity instances; see [`crate::accel::AccelUpdate`]).
+    RebuiltAccel,
+    /// Everything was rebuilt as by [`RenderScene::new`]: meshes, instances or materials
+    /// changed in number or kind.
+    Rebuilt,
 }
 
 impl RenderScene {
@@ -161,64 +277,10 @@ impl RenderScene {
             .zip(&back_black)
             .map(|(m, &black)| black && !has_mask(&m.bsdf))
             .collect();
-        let placements = scene
-            .instances
-            .iter()
-            .map(|inst| InstancePlacement {
-                identity: inst.transform == Mat4::IDENTITY,
-                to_world: inst.transform,
-                normal_to_world: Mat3::from_mat4(inst.transform).inverse().transpose(),
-                analytic: scene.meshes[inst.mesh].analytic.is_some(),
-            })
-            .collect();
-        let shapes = scene
-            .instances
-            .iter()
-            .map(|inst| {
-                let a = scene.meshes[inst.mesh].analytic.as_ref()?;
-                Some(Shape::new(a, inst.transform))
-            })
-            .collect();
-        let unit_normals = scene
-            .meshes
-            .iter()
-            .map(|m| {
-                m.indices
-                    .iter()
-                    .map(|t| {
-                        let [a, b, c] = t.map(|i| m.positions[i as usize]);
-                        (b - a).cross(c - a).normalize_or_zero()
-                    })
-                    .collect()
-            })
-            .collect();
-        let simple_diffuse = scene
-            .instances
-            .iter()
-            .map(|inst| {
-                let mesh = &scene.meshes[inst.mesh];
-                let material = &scene.materials[mesh.material];
-                match &material.bsdf {
-                    BsdfSpec::Diffuse {
-                        reflectance: Texture::Constant(albedo),
-                    } if inst.transform == Mat4::IDENTITY
-                        && mesh.analytic.is_none()
-                        && albedo.is_finite()
-                        && mesh.colors.is_empty()
-                        && material.emission_map.is_none() =>
-                    {
-                        Some(SimpleDiffuse {
-                            mesh: inst.mesh,
-                            albedo: *albedo,
-                            emission: material.emission,
-                            one_sided: !material.two_sided,
-                        })
-                    }
-                    _ => None,
-                }
-            })
-            .collect();
+        let (placements, shapes, simple_diffuse) = instance_tables(&scene);
+        let unit_normals = scene.meshes.iter().map(unit_normals).collect();
         Ok(Self {
+            structure: Structure::of(&scene),
             simple_diffuse,
             // Relative to the coordinate magnitude (see `offset`): float error in the hit
             // point grows with it.
@@ -235,6 +297,78 @@ impl RenderScene {
             shapes,
             unit_normals,
         })
+    }
+
+    /// Brings the render scene up to date after `self.scene` changed its instance transforms,
+    /// the vertex positions of `moved_meshes` (same triangles), its punctual lights or its
+    /// camera, as posing an animation does: the two-level BVH is refitted and its instances
+    /// re-placed rather than rebuilt, and the lights (emissive geometry that moved) and
+    /// per-instance tables are recomputed. The result renders what [`RenderScene::new`] of the
+    /// changed scene renders (the ray hits are the same; only the trees' shapes differ).
+    ///
+    /// If meshes, instances or materials changed in number or kind, everything is rebuilt.
+    /// The environment light must not change (its sampler is kept). On an invalid change (a
+    /// transform that is singular or not finite, a vertex that is not finite) the error is
+    /// returned and the render scene must not be used until a valid update.
+    pub fn update(&mut self, moved_meshes: &[usize]) -> Result<SceneUpdate, SceneError> {
+        if Structure::of(&self.scene) != self.structure {
+            // A clone, so that on an error `self` still holds the changed scene.
+            *self = Self::new(self.scene.clone())?;
+            return Ok(SceneUpdate::Rebuilt);
+        }
+        self.check_update(moved_meshes)?;
+        let accel = if moved_meshes.is_empty() {
+            self.accel.refit_instances(&self.scene)
+        } else {
+            self.accel.refit_meshes(&self.scene, moved_meshes)
+        };
+        for &m in moved_meshes {
+            self.unit_normals[m] = unit_normals(&self.scene.meshes[m]);
+        }
+        (self.placements, self.shapes, self.simple_diffuse) = instance_tables(&self.scene);
+        self.lights.update(&self.scene);
+        Ok(match accel {
+            AccelUpdate::Refitted => SceneUpdate::Refitted,
+            AccelUpdate::Rebuilt => SceneUpdate::RebuiltAccel,
+        })
+    }
+
+    /// Poses `rig` (the scene's node animation) at time `t` seconds and updates the render
+    /// scene to match ([`RenderScene::update`]): instances, punctual lights and a keyframed
+    /// camera move.
+    pub fn pose(&mut self, rig: &AnimatedScene, t: f32) -> Result<SceneUpdate, SceneError> {
+        rig.pose(&mut self.scene, Some(t));
+        self.update(&[])
+    }
+
+    /// What [`Scene::validate`] would say of the parts an update changes: the transforms and
+    /// the moved meshes' positions. Checks only those, so an update stays cheaper than a
+    /// build.
+    fn check_update(&self, moved_meshes: &[usize]) -> Result<(), SceneError> {
+        for (ii, inst) in self.scene.instances.iter().enumerate() {
+            if !inst.transform.is_finite() || inst.transform.determinant() == 0.0 {
+                return Err(SceneError::Invalid(format!(
+                    "instance {ii}: transform is singular or not finite"
+                )));
+            }
+        }
+        for &m in moved_meshes {
+            let Some(mesh) = self.scene.meshes.get(m) else {
+                return Err(SceneError::Invalid(format!(
+                    "moved mesh {m}: the scene has {} meshes",
+                    self.scene.meshes.len()
+                )));
+            };
+            if let Some(i) = mesh.positions.iter().position(|p| !p.is_finite()) {
+                return Err(SceneError::NonFinite {
+                    mesh: mesh.name.clone(),
+                    attribute: "position",
+                    index: i,
+                    value: format!("{:?}", mesh.positions[i]),
+                });
+            }
+        }
+        Ok(())
     }
 
     /// The instance's reflectance and emission if it is a simple diffuse surface (see the

@@ -4,7 +4,7 @@
 use crate::common;
 
 use glam::{Mat4, Vec3};
-use lumo_render::accel::Accel;
+use lumo_render::accel::{Accel, AccelUpdate};
 use lumo_scene::shapes::{cube, sphere};
 use lumo_scene::{Material, Scene};
 
@@ -112,11 +112,11 @@ fn refit_after_instance_motion_matches_rebuild() {
         * Mat4::from_rotation_y(0.7)
         * Mat4::from_scale(Vec3::splat(0.6));
     scene.instances[2].transform = Mat4::from_translation(Vec3::new(1.0, 1.0, -1.0));
-    accel.refit_instances(&scene);
+    assert_eq!(accel.refit_instances(&scene), AccelUpdate::Refitted);
     check_against_brute_force(&scene, &accel);
     // The sphere was static (identity transform, merged BVH); moving it must still work.
     scene.instances[0].transform = Mat4::from_translation(Vec3::new(0.0, -0.5, 0.5));
-    accel.refit_instances(&scene);
+    assert_eq!(accel.refit_instances(&scene), AccelUpdate::Rebuilt);
     check_against_brute_force(&scene, &accel);
 }
 
@@ -128,6 +128,6 @@ fn refit_after_vertex_motion_matches_rebuild() {
         // Inflate and shear the sphere.
         *p = Vec3::new(p.x * 1.3 + 0.2 * p.y, p.y * 0.8, p.z * 1.1);
     }
-    accel.refit_mesh(&scene, 0);
+    assert_eq!(accel.refit_mesh(&scene, 0), AccelUpdate::Refitted);
     check_against_brute_force(&scene, &accel);
 }

@@ -2,6 +2,7 @@
 //! crate again: minutes of a fresh build). Each module is one topic.
 mod accel;
 mod analytic_shapes;
+mod animation;
 mod bsdf_sampling;
 mod common;
 mod direct_light_geometry;

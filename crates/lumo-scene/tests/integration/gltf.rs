@@ -185,3 +185,75 @@ fn bad_gltf_is_a_clear_error() {
         .to_string();
     assert!(e.contains("missing.bin"), "{e}");
 }
+
+/// scenes/animated.gltf (scripts/make_animated_scene.py): instances, the area light's
+/// instance, the point light and the keyframed camera at keyframe times.
+#[test]
+fn animated_scene_poses_at_keyframes() {
+    use lumo_scene::animation::NodeItem;
+    let loaded = load(&scenes().join("animated.gltf")).unwrap();
+    assert!(loaded.warnings.is_empty(), "{:?}", loaded.warnings);
+    let rig = loaded.animation.expect("rig");
+    assert!(rig.is_animated());
+    assert_eq!(rig.duration(), 2.0);
+    // Camera 0 stands still; the instances (ball, cube, panel) and the lamp move.
+    assert!(!rig.moves(NodeItem::Camera));
+    assert!(rig.moves(NodeItem::Instance(1)) && rig.moves(NodeItem::Light(0)));
+    assert!(!rig.moves(NodeItem::Instance(0)), "the floor is static");
+    let mut scene = loaded.scene;
+    let close = |a: Vec3, b: Vec3| (a - b).length() < 1e-5;
+    // Instances in file order: floor, ball, cube (child of the turntable), panel.
+    for (t, ball, cube, panel) in [
+        (
+            0.5,
+            Vec3::new(-1.0, 1.6, 1.0),
+            Vec3::new(0.75, 0.6, -1.0),
+            Vec3::new(-1.0, 3.1, 0.25),
+        ),
+        (
+            1.0,
+            Vec3::new(0.0, 0.4, 1.0),
+            Vec3::new(0.0, 0.6, -1.0),
+            Vec3::new(0.0, 3.2, 0.5),
+        ),
+        (
+            2.0,
+            Vec3::new(2.0, 0.4, 1.0),
+            Vec3::new(-1.5, 0.6, -1.0),
+            Vec3::new(2.0, 3.0, 0.0),
+        ),
+    ] {
+        rig.pose(&mut scene, Some(t));
+        let o = instance_origins(&scene);
+        assert!(close(o[1], ball), "t={t}: ball at {}", o[1]);
+        assert!(close(o[2], cube), "t={t}: cube at {}", o[2]);
+        assert!(close(o[3], panel), "t={t}: panel at {}", o[3]);
+        assert_eq!(o[0], Vec3::ZERO);
+    }
+    // At t = 1 the cube has turned half a turn about y: its local +x points to world −x.
+    rig.pose(&mut scene, Some(1.0));
+    let x = scene.instances[2].transform.transform_vector3(Vec3::X);
+    assert!(close(x, -Vec3::X), "{x}");
+    // The lamp circles once in two seconds: half way round at t = 1.
+    match scene.lights[0] {
+        Light::Point { position, .. } => {
+            assert!(close(position, Vec3::new(-2.5, 2.5, 0.0)), "{position}")
+        }
+        ref other => panic!("{other:?}"),
+    }
+    // Camera 1 is keyframed: it dollies from z = 10 to z = 6.
+    let options = LoadOptions {
+        camera: Some(1),
+        ..Default::default()
+    };
+    let loaded = load_scene(&scenes().join("animated.gltf"), &options).unwrap();
+    let rig = loaded.animation.expect("rig");
+    assert!(rig.moves(NodeItem::Camera));
+    let mut scene = loaded.scene;
+    rig.pose(&mut scene, Some(1.0));
+    assert!(
+        close(scene.camera.origin, Vec3::new(0.0, 3.0, 8.0)),
+        "{}",
+        scene.camera.origin
+    );
+}

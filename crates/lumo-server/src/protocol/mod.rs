@@ -11,6 +11,7 @@
 //! the message tables of docs/protocol.md ([`generate`]; a test fails when either file
 //! differs from what the tables say).
 
+mod animate;
 mod camera;
 mod enums;
 mod error;
@@ -25,6 +26,7 @@ mod stats;
 #[cfg(test)]
 mod tests;
 
+pub use animate::Animate;
 pub use camera::{CameraUpdate, WireCamera};
 pub use enums::{Integrator, Mode, Stream};
 pub use error::{ErrorCode, ErrorReply, ProtocolError};
@@ -68,6 +70,8 @@ pub mod kind {
     pub const CAMERA: u8 = 0x02;
     /// Both ways: integrator and display mode.
     pub const PARAMS: u8 = 0x03;
+    /// Both ways: play or pause the animation (`lumo serve --animate`).
+    pub const ANIMATE: u8 = 0x04;
     /// Server → viewer: packed samples of one stream.
     pub const SAMPLES: u8 = 0x10;
     /// Server → viewer: a whole filtered frame.
@@ -85,6 +89,7 @@ pub const MESSAGES: &[&Layout] = &[
     &Hello::LAYOUT,
     &CameraUpdate::LAYOUT,
     &Params::LAYOUT,
+    &Animate::LAYOUT,
     &SampleBatch::LAYOUT,
     &Frame::LAYOUT,
     &Stats::LAYOUT,
@@ -151,7 +156,15 @@ macro_rules! reads {
         }
     )+};
 }
-reads!(Hello, CameraUpdate, Params, Stats, Finish, ErrorReply);
+reads!(
+    Hello,
+    CameraUpdate,
+    Params,
+    Animate,
+    Stats,
+    Finish,
+    ErrorReply
+);
 
 /// `s` cut to at most `max` bytes at a character boundary.
 fn truncate_utf8(s: &str, max: usize) -> &str {
@@ -172,6 +185,8 @@ pub enum ClientMessage {
     Camera(WireCamera),
     /// New integrator / mode: restarts rendering.
     Params(Params),
+    /// Play or pause the animation (its time and duration fields are ignored).
+    Animate(Animate),
 }
 
 /// Decodes a viewer's message; every failure is an error to send back, never a panic.
@@ -193,6 +208,7 @@ pub fn decode_client(msg: &[u8]) -> Result<ClientMessage, ProtocolError> {
             Ok(ClientMessage::Camera(update.camera))
         }
         kind::PARAMS => Params::read(msg).map(ClientMessage::Params),
+        kind::ANIMATE => Animate::read(msg).map(ClientMessage::Animate),
         k if MESSAGES
             .iter()
             .any(|m| m.kind == k && m.direction == Direction::ToViewer) =>
@@ -223,6 +239,8 @@ pub mod client {
         Camera(CameraUpdate),
         /// Parameters.
         Params(Params),
+        /// Animation state.
+        Animate(Animate),
         /// A sample batch and its unpacked samples.
         Samples(SampleBatch, Vec<Sample>),
         /// A filtered frame and its RGBA pixels.
@@ -242,6 +260,7 @@ pub mod client {
             kind::HELLO => Hello::read(msg).map(M::Hello),
             kind::CAMERA => CameraUpdate::read(msg).map(M::Camera),
             kind::PARAMS => Params::read(msg).map(M::Params),
+            kind::ANIMATE => Animate::read(msg).map(M::Animate),
             kind::SAMPLES => SampleBatch::read(msg).map(|(b, s)| M::Samples(b, s)),
             kind::FRAME => Frame::read(msg).map(|(f, p)| M::Frame(f, p)),
             kind::STATS => Stats::read(msg).map(M::Stats),

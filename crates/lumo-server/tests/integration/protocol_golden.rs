@@ -14,8 +14,8 @@ use std::path::PathBuf;
 use glam::Vec3;
 use lumo_server::protocol::client::{decode_server, ServerMessage};
 use lumo_server::protocol::{
-    decode_client, CameraUpdate, ClientMessage, ErrorCode, ErrorReply, Finish, Frame, Hello,
-    Integrator, Mode, Params, ProtocolError, SampleBatch, Stats, Stream, WireCamera,
+    decode_client, Animate, CameraUpdate, ClientMessage, ErrorCode, ErrorReply, Finish, Frame,
+    Hello, Integrator, Mode, Params, ProtocolError, SampleBatch, Stats, Stream, WireCamera,
 };
 use lumo_server::streams::Sample;
 
@@ -126,6 +126,19 @@ fn server_messages_match_their_golden_files_and_decode() {
         "params",
         &bytes,
         r#"{"kind": 3, "integrator": "both", "mode": "atrous"}"#,
+    );
+
+    let animate = Animate {
+        playing: true,
+        time: 1.25,
+        duration: 2.0,
+    };
+    let bytes = animate.write();
+    assert_eq!(decode_server(&bytes), Ok(ServerMessage::Animate(animate)));
+    golden(
+        "animate",
+        &bytes,
+        r#"{"kind": 4, "playing": true, "time": 1.25, "duration": 2}"#,
     );
 
     let batch = SampleBatch {
@@ -262,4 +275,17 @@ fn client_messages_match_their_golden_files_and_decode() {
         &bytes,
         r#"{"integrator": "both", "mode": "atrous"}"#,
     );
+
+    // ANIMATE from a viewer: the header, playing, 3 reserved bytes, time and duration (0).
+    let mut bytes = vec![0x04, 1, 0, 0, 0, 0, 0, 0];
+    bytes.extend_from_slice(&[0; 8]);
+    assert_eq!(
+        decode_client(&bytes),
+        Ok(ClientMessage::Animate(Animate {
+            playing: false,
+            time: 0.0,
+            duration: 0.0
+        }))
+    );
+    golden("client_animate", &bytes, r#"{"playing": false}"#);
 }

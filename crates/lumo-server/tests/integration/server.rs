@@ -304,3 +304,92 @@ async fn serves_the_viewer_to_local_hosts_only() {
         .expect("request");
     assert!(connect_async(req).await.is_err());
 }
+
+/// `lumo serve --animate`: the scene plays as one epoch per pump tick, posed in place by the
+/// worker; ANIMATE pauses (the pose freezes, epochs stop) and resumes it for every viewer.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_animated_scene_plays_as_new_epochs_and_pauses() {
+    use lumo_server::protocol::Animate;
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/animated.gltf");
+    let loaded = lumo_scene::load::load_scene(&path, &Default::default()).expect("load");
+    let rs = RenderScene::new(loaded.scene).expect("scene");
+    let mut config = ServerConfig::new(16, 16);
+    config.threads = 2;
+    config.animation = loaded.animation;
+    let hub = Hub::new(rs, config).expect("hub");
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0")
+        .await
+        .expect("bind");
+    let addr = listener.local_addr().expect("addr");
+    tokio::spawn(lumo_server::serve(listener, hub.clone()));
+    let mut ws = connect(addr).await;
+    let mut other = connect(addr).await;
+    let playing = |want: bool| move |m: &ServerMessage| matches!(m, ServerMessage::Animate(a) if a.playing == want);
+    match until(&mut ws, playing(true)).await {
+        ServerMessage::Animate(a) => assert_eq!(a.duration, 2.0),
+        m => panic!("{m:?}"),
+    }
+    let sleep = |ms| tokio::time::sleep(Duration::from_millis(ms));
+    let (e0, t0) = (hub.epoch(), hub.worker().posed_at());
+    sleep(300).await;
+    assert!(
+        hub.epoch() >= e0 + 5,
+        "{e0} → {}: a new epoch per frame",
+        hub.epoch()
+    );
+    assert_ne!(hub.worker().posed_at(), t0, "the worker poses the scene");
+    let pause = Animate {
+        playing: false,
+        time: 0.0,
+        duration: 0.0,
+    };
+    send(&mut ws, pause.write()).await;
+    until(&mut ws, playing(false)).await;
+    until(&mut other, playing(false)).await;
+    sleep(100).await;
+    let (e1, t1) = (hub.epoch(), hub.worker().posed_at());
+    sleep(300).await;
+    assert_eq!(hub.epoch(), e1, "paused: the frame converges, no restarts");
+    assert_eq!(hub.worker().posed_at(), t1);
+    assert_eq!(
+        t1,
+        hub.animation().map(|a| a.time),
+        "the worker shows the frozen time"
+    );
+    send(
+        &mut other,
+        Animate {
+            playing: true,
+            ..pause
+        }
+        .write(),
+    )
+    .await;
+    until(&mut ws, playing(true)).await;
+    sleep(300).await;
+    assert!(hub.epoch() >= e1 + 5, "playing again");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn animate_on_a_static_scene_is_refused() {
+    let (addr, _hub) = start(16, 1 << 20).await;
+    let mut ws = connect(addr).await;
+    let msg = lumo_server::protocol::Animate {
+        playing: true,
+        time: 0.0,
+        duration: 0.0,
+    };
+    send(&mut ws, msg.write()).await;
+    match until(&mut ws, |m| matches!(m, ServerMessage::Error(_))).await {
+        ServerMessage::Error(e) => assert!(e.message.contains("not animated"), "{e:?}"),
+        m => panic!("{m:?}"),
+    }
+    // An invalid playing value is refused too.
+    let mut bytes = msg.write();
+    bytes[4] = 7;
+    send(&mut ws, bytes).await;
+    match until(&mut ws, |m| matches!(m, ServerMessage::Error(_))).await {
+        ServerMessage::Error(e) => assert!(e.message.contains("playing 7"), "{e:?}"),
+        m => panic!("{m:?}"),
+    }
+}

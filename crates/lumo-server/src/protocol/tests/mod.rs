@@ -60,6 +60,12 @@ pub(super) fn one_of_each() -> Vec<Vec<u8>> {
             mode: Mode::Atrous,
         }
         .write(),
+        Animate {
+            playing: true,
+            time: 0.5,
+            duration: 2.0,
+        }
+        .write(),
         SampleBatch {
             epoch: 9,
             stream: Stream::Light,

@@ -52,6 +52,7 @@ fn field_tables_tile_their_messages() {
         kind::HELLO,
         kind::CAMERA,
         kind::PARAMS,
+        kind::ANIMATE,
         kind::SAMPLES,
         kind::FRAME,
         kind::STATS,
@@ -105,6 +106,38 @@ fn round_trip_hello(h: &Hello) -> Hello {
         panic!("hello did not decode");
     };
     back
+}
+
+#[test]
+fn animate_round_trips_and_refuses_bad_values() {
+    for playing in [false, true] {
+        let a = Animate {
+            playing,
+            time: 1.75,
+            duration: 2.0,
+        };
+        assert_eq!(Animate::read(&a.write()), Ok(a));
+        assert_eq!(decode_client(&a.write()), Ok(ClientMessage::Animate(a)));
+    }
+    let mut bad = Animate {
+        playing: true,
+        time: f32::NAN,
+        duration: 2.0,
+    }
+    .write();
+    assert_eq!(
+        decode_client(&bad).map_err(|e| e.code),
+        Err(ErrorCode::InvalidValue)
+    );
+    bad[4] = 2;
+    assert_eq!(
+        decode_client(&bad).map_err(|e| e.code),
+        Err(ErrorCode::InvalidValue)
+    );
+    assert_eq!(
+        decode_client(&bad[..12]).map_err(|e| e.code),
+        Err(ErrorCode::Malformed)
+    );
 }
 
 #[test]

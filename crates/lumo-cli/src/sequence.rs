@@ -1,0 +1,403 @@
+//! `lumo render --frames A..B`: a numbered image sequence. Each frame poses the animated glTF
+//! scene at t = frame / fps and updates the render scene in place (BVH refit and re-placed
+//! instances, lights recomputed: `RenderScene::pose`) rather than rebuilding it, and/or turns
+//! the camera (`--orbit`). See docs/animation.md.
+
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use anyhow::{bail, Context, Result};
+use glam::Vec3;
+use indicatif::{ProgressBar, ProgressStyle};
+use lumo_render::{RenderScene, SceneUpdate};
+use lumo_scene::animation::NodeItem;
+use lumo_scene::{AnimatedScene, Camera, Scene};
+
+use crate::render_cmd::{si, Job, RenderArgs};
+
+/// Highest frame number `--frames` accepts: a million frames is over eleven hours of film at
+/// 24 fps; a larger number is a typo.
+pub const MAX_FRAME: u32 = 999_999;
+
+/// Frame rate of `--frames` without `--fps`: film's.
+pub const DEFAULT_FPS: f32 = 24.0;
+
+/// Fewest digits in a frame file's number (`out_0007.exr`); more when the last frame needs them.
+const MIN_DIGITS: usize = 4;
+
+/// The frames of `--frames A..B`: `first` to `last`, both included.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FrameRange {
+    /// The first frame.
+    pub first: u32,
+    /// The last frame (at least `first`).
+    pub last: u32,
+}
+
+impl FrameRange {
+    /// How many frames.
+    pub fn count(&self) -> u32 {
+        self.last - self.first + 1
+    }
+}
+
+/// Parses `--frames`: `A..B` (both included, like a frame range in an animation program),
+/// `A..=B` (the same) or a single frame `N`.
+pub fn parse_frames(s: &str) -> Result<FrameRange, String> {
+    let example = "expected A..B with whole frame numbers from 0 to 999999, e.g. 0..47 \
+                   (frames 0 to 47, both included)";
+    let number = |t: &str| -> Result<u32, String> {
+        let t = t.trim();
+        let n: u64 = t
+            .parse()
+            .map_err(|_| format!("{t:?} is not a frame number; {example}"))?;
+        u32::try_from(n)
+            .ok()
+            .filter(|&n| n <= MAX_FRAME)
+            .ok_or_else(|| format!("frame {n} is past the last frame number {MAX_FRAME}"))
+    };
+    let (first, last) = match s.split_once("..") {
+        Some((a, b)) => (number(a)?, number(b.strip_prefix('=').unwrap_or(b))?),
+        None => {
+            let n = number(s)?;
+            (n, n)
+        }
+    };
+    if last < first {
+        return Err(format!(
+            "the last frame {last} comes before the first {first}; write the range first to \
+             last, e.g. {last}..{first}"
+        ));
+    }
+    Ok(FrameRange { first, last })
+}
+
+/// Parses `--fps`: a positive, finite frame rate of at most 10,000.
+pub fn parse_fps(s: &str) -> Result<f32, String> {
+    let fps: f32 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("{s:?} is not a number; give frames per second, e.g. 24 or 29.97"))?;
+    if !(fps > 0.0 && fps <= 10_000.0) {
+        return Err(format!(
+            "{fps} frames per second: the rate must be above 0 and at most 10000, e.g. 24"
+        ));
+    }
+    Ok(fps)
+}
+
+/// Parses `--orbit`: a finite angle in degrees (negative turns the other way).
+pub fn parse_orbit(s: &str) -> Result<f32, String> {
+    let deg: f32 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("{s:?} is not an angle; give degrees, e.g. 360 for a full turn"))?;
+    if !deg.is_finite() || deg.abs() > 36_000.0 {
+        return Err(format!(
+            "{s}: give an angle in degrees within ±36000, e.g. 360 for a full turn"
+        ));
+    }
+    Ok(deg)
+}
+
+/// The file of frame `frame` for output `base`: the frame number, zero-padded to `digits`,
+/// joins the file stem with an underscore (`out.exr` → `out_0007.exr`).
+pub fn frame_file(base: &Path, frame: u32, digits: usize) -> PathBuf {
+    let stem = base
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let name = match base.extension() {
+        Some(ext) => format!("{stem}_{frame:0digits$}.{}", ext.to_string_lossy()),
+        None => format!("{stem}_{frame:0digits$}"),
+    };
+    base.with_file_name(name)
+}
+
+/// Digits of frame numbers in file names: at least [`MIN_DIGITS`], more if `last` needs them.
+pub fn frame_digits(last: u32) -> usize {
+    last.to_string().len().max(MIN_DIGITS)
+}
+
+/// A planned `--frames` run: what moves and how.
+pub struct Sequence {
+    /// The frames.
+    pub frames: FrameRange,
+    /// Frames per second.
+    pub fps: f32,
+    /// The scene's animation, when it has one.
+    rig: Option<AnimatedScene>,
+    /// `--orbit`: total angle and the point turned about.
+    orbit: Option<(f32, Vec3)>,
+    /// The camera before any orbit (at the first frame's pose).
+    camera: Camera,
+}
+
+impl Sequence {
+    /// Checks the sequence options against the scene and poses `scene` at the first frame.
+    /// Refuses a sequence in which nothing would move.
+    pub fn plan(
+        args: &RenderArgs,
+        frames: FrameRange,
+        scene: &mut Scene,
+        rig: Option<AnimatedScene>,
+    ) -> Result<Sequence> {
+        let fps = args.fps.unwrap_or(DEFAULT_FPS);
+        let is_gltf = rig.is_some();
+        // A glTF camera (animated scene or not) has no look-at target: see the orbit below.
+        let gltf_camera = rig
+            .as_ref()
+            .is_some_and(|r| r.items.iter().any(|(_, i)| *i == NodeItem::Camera));
+        let rig = rig.filter(AnimatedScene::is_animated);
+        let range = format!("--frames {}..{}", frames.first, frames.last);
+        if rig.is_none() && args.orbit.is_none() {
+            let why = if is_gltf {
+                "the glTF file has no animation clips"
+            } else if Path::new(&args.scene).extension().is_some() || args.scene.contains('/') {
+                "only glTF files carry animation"
+            } else {
+                "built-in scenes are static"
+            };
+            bail!(
+                "{range}: scene {:?} has no animation ({why}), so every frame would be the same; \
+                 add --orbit DEGREES to turn the camera about the scene (e.g. --orbit 360), or \
+                 drop --frames to render a still",
+                scene.name
+            );
+        }
+        if let Some(rig) = &rig {
+            if args.orbit.is_some() && rig.moves(NodeItem::Camera) {
+                bail!(
+                    "--orbit: the glTF camera{} is keyframed and moves by itself; drop --orbit, or \
+                     choose a camera that stands still with --camera N",
+                    args.camera.map(|c| format!(" {c}")).unwrap_or_default()
+                );
+            }
+            rig.pose(scene, Some(frames.first as f32 / fps));
+        }
+        let orbit = args.orbit.map(|deg| {
+            // A glTF camera has no look-at target (the loader puts one a unit ahead): turn about
+            // the point of its view axis nearest the scene's centre instead.
+            let c = &scene.camera;
+            let pivot = if gltf_camera {
+                let (lo, hi) = scene.bounds();
+                let dir = (c.target - c.origin).normalize_or_zero();
+                c.origin + dir * ((lo + hi) * 0.5 - c.origin).dot(dir).max(0.0)
+            } else {
+                c.target
+            };
+            (deg, pivot)
+        });
+        Ok(Sequence {
+            frames,
+            fps,
+            rig,
+            orbit,
+            camera: scene.camera.clone(),
+        })
+    }
+
+    /// The file of `frame` for output `base`.
+    pub fn frame_path(&self, base: &Path, frame: u32) -> PathBuf {
+        frame_file(base, frame, frame_digits(self.frames.last))
+    }
+
+    /// Renders every frame of the sequence; `rs` is built at the first frame's pose, which
+    /// took `build`.
+    pub fn run(self, job: &Job, mut rs: RenderScene, build: Duration) -> Result<()> {
+        let count = self.frames.count();
+        let bar = ProgressBar::new(count as u64 * 1000).with_style(
+            ProgressStyle::with_template(
+                "{bar:40} {percent:>3}%  frame {msg}  {elapsed} (eta {eta})",
+            )
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
+        let start = Instant::now();
+        let mut update = Duration::ZERO;
+        let (mut refits, mut rebuilds) = (0u32, 0u32);
+        let (mut samples, mut rays) = (0u64, 0u64);
+        for (i, frame) in (self.frames.first..=self.frames.last).enumerate() {
+            bar.set_message(format!("{frame} ({}/{count})", i + 1));
+            let t = frame as f32 / self.fps;
+            if let (Some(rig), true) = (&self.rig, i > 0) {
+                // Timed inside the pool: handing the call to a sleeping worker thread takes
+                // longer than the update itself (a few µs vs about 2 ms measured).
+                let (kind, took) = job.pool.install(|| {
+                    let posing = Instant::now();
+                    (rs.pose(rig, t), posing.elapsed())
+                });
+                let kind =
+                    kind.with_context(|| format!("frame {frame} (t = {t} s): posing the scene"))?;
+                update += took;
+                match kind {
+                    SceneUpdate::Refitted => refits += 1,
+                    SceneUpdate::RebuiltAccel | SceneUpdate::Rebuilt => rebuilds += 1,
+                }
+            }
+            if let Some((deg, pivot)) = self.orbit {
+                rs.scene.camera = self.camera.orbited(pivot, deg * i as f32 / count as f32);
+            }
+            let base = i as u64 * 1000;
+            let out = job.render(&rs, &|f| bar.set_position(base + (f * 1000.0) as u64))?;
+            samples += out.stats.samples;
+            rays += out.stats.rays;
+            let files: Vec<PathBuf> = job
+                .outputs
+                .iter()
+                .map(|o| self.frame_path(o, frame))
+                .collect();
+            let aovs = job
+                .args
+                .aovs
+                .as_ref()
+                .map(|d| d.join(format!("{frame:0w$}", w = frame_digits(self.frames.last))));
+            job.write(&out, &files, aovs.as_deref())
+                .with_context(|| format!("frame {frame}"))?;
+        }
+        let secs = start.elapsed().as_secs_f64();
+        bar.finish_and_clear();
+        let updates = refits + rebuilds;
+        let motion = match (&self.rig, self.orbit) {
+            (Some(_), _) if updates > 0 => format!(
+                "scene update {:.2} ms/frame ({refits} refit{}, {rebuilds} BVH rebuild{}; a full \
+                 build took {:.1} ms)",
+                update.as_secs_f64() * 1e3 / updates as f64,
+                if refits == 1 { "" } else { "s" },
+                if rebuilds == 1 { "" } else { "s" },
+                build.as_secs_f64() * 1e3
+            ),
+            (Some(_), _) => "one frame: no scene update".to_string(),
+            (None, _) => "camera orbit: no scene update".to_string(),
+        };
+        let first = job
+            .outputs
+            .first()
+            .map(|o| self.frame_path(o, self.frames.first));
+        let last = job
+            .outputs
+            .first()
+            .map(|o| self.frame_path(o, self.frames.last));
+        let names = match (first, last) {
+            (Some(a), Some(b)) if count > 1 => format!("{} … {}", a.display(), b.display()),
+            (Some(a), _) => a.display().to_string(),
+            _ => String::new(),
+        };
+        let also = if job.outputs.len() > 1 {
+            format!(
+                " (and {})",
+                job.outputs[1..]
+                    .iter()
+                    .map(|o| self.frame_path(o, self.frames.first).display().to_string())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+                    + " …"
+            )
+        } else {
+            String::new()
+        };
+        let unit = job.args.integrator.sample_unit();
+        println!(
+            "done: {count} frame{} in {secs:.2} s ({:.3} s/frame) · {motion} · {}{unit}/s · \
+             {}rays/s → {names}{also}",
+            if count == 1 { "" } else { "s" },
+            secs / count as f64,
+            si(samples as f64 / secs),
+            si(rays as f64 / secs),
+        );
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    /// `lumo render` arguments as the command line gives them.
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        render: RenderArgs,
+    }
+
+    fn plan(args: &[&str], drop_clips: bool) -> (Sequence, Scene) {
+        let cli = Cli::try_parse_from(std::iter::once("lumo").chain(args.iter().copied())).unwrap();
+        let options = lumo_scene::load::LoadOptions::default();
+        let (mut scene, _, mut rig) =
+            crate::render_cmd::load_scene_animated(&cli.render.scene, &options).unwrap();
+        if drop_clips {
+            if let Some(r) = &mut rig {
+                r.animations.clear();
+            }
+        }
+        let frames = cli.render.frames.unwrap();
+        let seq = Sequence::plan(&cli.render, frames, &mut scene, rig).unwrap();
+        (seq, scene)
+    }
+
+    #[test]
+    fn a_gltf_camera_orbits_the_scene_not_a_point_a_unit_ahead() {
+        let file = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/animated.gltf");
+        // With and without clips: camera 0 is at (0, 3, 8) looking at about (0, 0.8, 0).
+        for drop_clips in [false, true] {
+            let (seq, scene) = plan(&[file, "--frames", "0..3", "--orbit", "90"], drop_clips);
+            let (_, pivot) = seq.orbit.unwrap();
+            assert!((pivot - scene.camera.origin).length() > 5.0, "{pivot}");
+            assert!(pivot.x.abs() < 1e-3 && pivot.z.abs() < 1.5, "{pivot}");
+            assert_eq!(seq.rig.is_some(), !drop_clips);
+        }
+        // A built-in camera turns about its target.
+        let (seq, scene) = plan(&["cornell", "--frames", "0..3", "--orbit", "90"], false);
+        assert_eq!(seq.orbit.unwrap().1, scene.camera.target);
+    }
+
+    #[test]
+    fn frame_ranges_parse_inclusive() {
+        let r = parse_frames("0..47").unwrap();
+        assert_eq!((r.first, r.last, r.count()), (0, 47, 48));
+        assert_eq!(parse_frames("5..=5").unwrap().count(), 1);
+        assert_eq!(
+            parse_frames("12").unwrap(),
+            FrameRange {
+                first: 12,
+                last: 12
+            }
+        );
+        assert_eq!(parse_frames(" 3 .. 4 ").unwrap().count(), 2);
+    }
+
+    #[test]
+    fn bad_frame_ranges_say_what_to_write() {
+        let e = parse_frames("10..2").unwrap_err();
+        assert!(e.contains("comes before") && e.contains("2..10"), "{e}");
+        for bad in ["a..b", "1..x", "-1..3", "1.5..3", "", "..", "1...3"] {
+            let e = parse_frames(bad).unwrap_err();
+            assert!(
+                e.contains("not a frame number") && e.contains("0..47"),
+                "{bad}: {e}"
+            );
+        }
+        let e = parse_frames("0..5000000000").unwrap_err();
+        assert!(e.contains("999999"), "{e}");
+    }
+
+    #[test]
+    fn fps_and_orbit_must_be_usable_numbers() {
+        assert_eq!(parse_fps("29.97").unwrap(), 29.97);
+        for bad in ["0", "-24", "nan", "inf", "1e9"] {
+            assert!(parse_fps(bad).unwrap_err().contains("above 0"), "{bad}");
+        }
+        assert!(parse_fps("fast").unwrap_err().contains("not a number"));
+        assert_eq!(parse_orbit("-90").unwrap(), -90.0);
+        assert!(parse_orbit("inf").is_err() && parse_orbit("left").is_err());
+    }
+
+    #[test]
+    fn frame_files_are_numbered_after_the_stem() {
+        let p = |base: &str, f, last| frame_file(Path::new(base), f, frame_digits(last));
+        assert_eq!(p("out.exr", 7, 47), PathBuf::from("out_0007.exr"));
+        assert_eq!(p("dir/shot.png", 0, 9), PathBuf::from("dir/shot_0000.png"));
+        assert_eq!(p("a.b.pfm", 12345, 12345), PathBuf::from("a.b_12345.pfm"));
+        assert_eq!(p("noext", 3, 3), PathBuf::from("noext_0003"));
+    }
+}

@@ -1,0 +1,154 @@
+//! `lumo render --frames`: numbered files, a posed-and-updated frame equal to a still rendered
+//! at the same time, camera orbits, and bad sequence options refused naming the flag.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn temp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("lumo-sequence-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn animated() -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../scenes/animated.gltf")
+        .display()
+        .to_string()
+}
+
+fn lumo(dir: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_lumo"))
+        .args(args)
+        .current_dir(dir)
+        .env_remove("LUMO_MEMORY_LIMIT")
+        .output()
+        .expect("run lumo")
+}
+
+fn text(o: &Output) -> String {
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
+}
+
+const TINY: [&str; 6] = ["--size", "16x12", "--spp", "1", "--pipeline", "none"];
+
+#[test]
+fn a_sequence_frame_equals_a_still_at_the_same_time() {
+    let dir = temp_dir("still");
+    let scene = animated();
+    // fps 1: frame 1 is the pose at t = 1 s, reached by updating the frame-0 render scene.
+    let mut args = vec![
+        "render", &scene, "--frames", "0..1", "--fps", "1", "-o", "seq.exr",
+    ];
+    args.extend(TINY);
+    let o = lumo(&dir, &args);
+    assert!(o.status.success(), "{}", text(&o));
+    let out = text(&o);
+    assert!(out.contains("2 frames") && out.contains("1 refit"), "{out}");
+    let mut args = vec!["render", &scene, "--time", "1", "-o", "still.exr"];
+    args.extend(TINY);
+    let o = lumo(&dir, &args);
+    assert!(o.status.success(), "{}", text(&o));
+    let read = |n: &str| std::fs::read(dir.join(n)).unwrap();
+    assert_eq!(read("seq_0001.exr"), read("still.exr"));
+    assert_ne!(
+        read("seq_0000.exr"),
+        read("seq_0001.exr"),
+        "the scene moves"
+    );
+}
+
+#[test]
+fn orbit_numbers_every_output_and_the_aovs() {
+    let dir = temp_dir("orbit");
+    let mut args = vec![
+        "render", "cornell", "--frames", "8..10", "--orbit", "-30", "--aovs", "aovs",
+    ];
+    args.extend(TINY);
+    let o = lumo(&dir, &args);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(text(&o).contains("camera orbit"), "{}", text(&o));
+    for f in 8..=10 {
+        for ext in ["exr", "png"] {
+            assert!(
+                dir.join(format!("cornell_{f:04}.{ext}")).is_file(),
+                "frame {f} {ext}"
+            );
+        }
+        assert!(
+            dir.join(format!("aovs/{f:04}/normal.exr")).is_file(),
+            "aovs of {f}"
+        );
+    }
+    assert!(!dir.join("cornell_0011.png").exists());
+    let read = |n: &str| std::fs::read(dir.join(n)).unwrap();
+    assert_ne!(
+        read("cornell_0008.exr"),
+        read("cornell_0009.exr"),
+        "the camera turns"
+    );
+}
+
+#[test]
+fn bad_sequence_options_name_the_flag_and_render_nothing() {
+    let dir = temp_dir("bad");
+    let scene = animated();
+    let cases: &[(&[&str], &[&str])] = &[
+        (
+            &["cornell", "--frames", "9..3"],
+            &["--frames", "comes before", "3..9"],
+        ),
+        (
+            &["cornell", "--frames", "x..3"],
+            &["--frames", "not a frame number"],
+        ),
+        (
+            &["cornell", "--frames", "0..3", "--fps", "0"],
+            &["--fps", "above 0"],
+        ),
+        (
+            &["cornell", "--frames", "0..3"],
+            &["--frames 0..3", "no animation", "--orbit"],
+        ),
+        (
+            &[&scene, "--camera", "1", "--frames", "0..3", "--orbit", "90"],
+            &["--orbit", "keyframed"],
+        ),
+        (&["cornell", "--orbit", "90"], &["--frames"]),
+        (
+            &[&scene, "--frames", "0..3", "--time", "1"],
+            &["--frames", "--time"],
+        ),
+    ];
+    for (extra, wanted) in cases {
+        let mut args = vec!["render"];
+        args.extend_from_slice(extra);
+        args.extend(["-o", "x.png"]);
+        let o = lumo(&dir, &args);
+        let e = text(&o);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {e}");
+        assert!(!e.contains("panicked"), "{e}");
+        for w in *wanted {
+            assert!(e.contains(w), "{args:?}: {w:?} not in {e}");
+        }
+    }
+    assert_eq!(
+        std::fs::read_dir(&dir).unwrap().count(),
+        0,
+        "nothing written"
+    );
+}
+
+#[test]
+fn serve_animate_needs_an_animated_scene() {
+    let dir = temp_dir("serve");
+    let o = lumo(&dir, &["serve", "cornell", "--animate", "--port", "0"]);
+    let e = text(&o);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(e.contains("--animate") && e.contains("no animation"), "{e}");
+}
