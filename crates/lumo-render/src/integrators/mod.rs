@@ -7,6 +7,9 @@
 //!   vectorised diffuse bounce; all three give the same image.
 //! - [`light`]: particle (light) tracing, splatting onto the film: the server's light stream
 //!   and `lumo render --integrator light`.
+//! - [`photon`]: one-pass progressive photon mapping (`lumo render --integrator ppm`, the
+//!   server's `ppm`): photon batches grow a shared kd-tree while camera samples gather from it.
 
 pub mod light;
 pub mod path;
+pub mod photon;
