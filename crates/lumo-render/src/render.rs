@@ -355,12 +355,8 @@ pub fn render_ppm(
     use std::time::Instant;
     let (w, h) = (settings.width, settings.height);
     let camera = PinholeCamera::new(&rs.scene.camera, w, h);
-    let per_pass = if ppm.photons_per_pass == 0 {
-        (w * h) as u64
-    } else {
-        ppm.photons_per_pass
-    };
-    let schedule = ppm.schedule(rs);
+    let per_pass = ppm.paths_per_pass((w * h) as u64);
+    let schedule = ppm.schedule(rs, per_pass);
     let map = ppm.new_map(rs);
     let mut film = vec![[0.0f64; 3]; w * h];
     let mut stats = PpmStats::default();

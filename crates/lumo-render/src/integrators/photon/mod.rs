@@ -38,11 +38,18 @@ pub struct PpmSettings {
     pub photons_per_pass: u64,
     /// Most photons the map keeps (memory bound; see [`map`]).
     pub max_photons: usize,
-    /// Gather radius of the first pass as a fraction of the scene's bounding-box diagonal.
+    /// Gather radius of the first pass as a fraction of the scene's bounding-box diagonal,
+    /// for [`REFERENCE_PATHS`] photon paths per pass; other pass sizes scale it by
+    /// `sqrt(REFERENCE_PATHS / photons_per_pass)`, which keeps the photons a gather finds (and
+    /// so its cost and noise) independent of the image size.
     pub radius: f32,
     /// α of the radius schedule.
     pub alpha: f32,
 }
+
+/// Photon paths per pass at which [`PpmSettings::radius`] holds as given: a 512×512 image's
+/// pixels.
+pub const REFERENCE_PATHS: u64 = 1 << 18;
 
 /// Default `max_photons`: 4 Mi photons, about 290 MB with the tree ([`KdTree::BYTES_PER_PHOTON`]).
 pub const DEFAULT_MAX_PHOTONS: usize = 1 << 22;
@@ -52,18 +59,28 @@ impl Default for PpmSettings {
         PpmSettings {
             photons_per_pass: 0,
             max_photons: DEFAULT_MAX_PHOTONS,
-            radius: 0.01,
+            radius: 0.0025,
             alpha: 2.0 / 3.0,
         }
     }
 }
 
 impl PpmSettings {
-    /// The radius schedule for `rs`'s scene.
-    pub fn schedule(&self, rs: &RenderScene) -> RadiusSchedule {
+    /// Photon paths per pass for an image of `pixels` pixels.
+    pub fn paths_per_pass(&self, pixels: u64) -> u64 {
+        if self.photons_per_pass == 0 {
+            pixels.max(1)
+        } else {
+            self.photons_per_pass
+        }
+    }
+
+    /// The radius schedule for `rs`'s scene with `paths_per_pass` photon paths per pass.
+    pub fn schedule(&self, rs: &RenderScene, paths_per_pass: u64) -> RadiusSchedule {
         let (lo, hi) = rs.scene.bounds();
+        let scale = (REFERENCE_PATHS as f64 / paths_per_pass.max(1) as f64).sqrt() as f32;
         RadiusSchedule {
-            initial: self.radius * (hi - lo).length().max(1e-6),
+            initial: self.radius * scale * (hi - lo).length().max(1e-6),
             alpha: self.alpha,
         }
     }

@@ -24,7 +24,7 @@ fn cornell() -> RenderScene {
 
 /// PPM converges to the path tracer: on the Cornell box at 32×32, the image means agree
 /// within 2 % and every 8×8 block mean within 6 % (of the block, or of 0.05 for dark ones).
-/// Radius 2 % of the diagonal at pass 0 and 96 passes of 4 photon paths per pixel: the
+/// Radius 2 % of the diagonal at pass 0 (the default setting at this pass size) and 96 passes of 4 photon paths per pixel: the
 /// remaining bias (light smeared over r ≈ 1 % of the box at the end) is below the noise.
 #[test]
 fn cornell_matches_the_path_tracer() {
@@ -44,7 +44,8 @@ fn cornell_matches_the_path_tracer() {
     let (pt, _) = render(&rs, &reference, &|_| {});
     let ppm = PpmSettings {
         photons_per_pass: 4 * (w * h) as u64,
-        radius: 0.02,
+        // 2 % of the diagonal at 4096 paths per pass.
+        radius: 0.0025,
         ..Default::default()
     };
     let settings = RenderSettings {
@@ -94,7 +95,6 @@ fn photons_carry_the_indirect_light() {
     };
     let with = PpmSettings {
         photons_per_pass: 4096,
-        radius: 0.03,
         ..Default::default()
     };
     let without = PpmSettings {
