@@ -17,6 +17,7 @@ export const ENUMS = {
       { code: 0, name: 'path', label: 'path' },
       { code: 1, name: 'light', label: 'light' },
       { code: 2, name: 'both', label: 'both' },
+      { code: 4, name: 'ppm', label: 'photon mapping' },
     ],
   },
   mode: {

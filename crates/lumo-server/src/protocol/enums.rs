@@ -13,6 +13,9 @@ wire_enum! {
         Light = 1, "light", "light";
         /// Both, each weighted ½ so their sum estimates the image once.
         Both = 2, "both", "both";
+        /// One-pass progressive photon mapping: camera stream only, gathering from a photon
+        /// map that photon batches grow in proportion to the samples.
+        Ppm = 4, "ppm", "photon mapping";
     }
 }
 
