@@ -266,3 +266,41 @@ fn the_ppm_stream_grows_its_map_with_the_samples_and_matches_the_path_tracer() {
         "stream means: path {pt}, ppm {ppm}"
     );
 }
+
+/// Measures the photon map's lock in the server (docs/integrators.md): photon mapping at
+/// 128×128 on the Cornell box for 3 s on two threads, then the lock's counters. Run with
+/// `cargo test --release -p lumo-server --test integration ppm_lock_contention -- --ignored
+/// --nocapture`.
+#[test]
+#[ignore = "a 3-second measurement"]
+fn ppm_lock_contention() {
+    let rs = scene("cornell");
+    let (w, _rx) = worker(rs.clone(), 2);
+    w.render(Job {
+        integrator: Integrator::Ppm,
+        ..job(&rs, 128)
+    });
+    let mut buf = QueryBuffer::default();
+    let t = Instant::now();
+    while t.elapsed() < Duration::from_secs(3) {
+        std::thread::sleep(Duration::from_millis(50));
+        w.query(&mut buf);
+    }
+    let s = w.stats();
+    let secs = t.elapsed().as_secs_f64();
+    let l = s.lock;
+    eprintln!(
+        "{:.0} samples/s, {:.0} photon paths/s; reads {} (waited {}, {:.2} ms in all), \
+         writes {} (waited {}, {:.2} ms in all; held {:.2} ms in all) over {secs:.2} s",
+        s.samples as f64 / secs,
+        s.photon_paths as f64 / secs,
+        l.reads,
+        l.read_waits,
+        l.read_wait_ns as f64 * 1e-6,
+        l.writes,
+        l.write_waits,
+        l.write_wait_ns as f64 * 1e-6,
+        l.write_hold_ns as f64 * 1e-6,
+    );
+    assert!(l.reads > 0 && l.writes > 0);
+}
