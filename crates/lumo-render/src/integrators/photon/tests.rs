@@ -134,6 +134,9 @@ fn same_image_on_one_and_two_threads() {
     let (a, sa) = run(1);
     let (b, sb) = run(2);
     assert!(sa.generations > 0, "the capacity was never reached");
+    // Insertions and gathers run in separate phases: the lock never waits.
+    assert_eq!((sa.lock.read_waits, sa.lock.write_waits), (0, 0));
+    assert_eq!((sb.lock.read_waits, sb.lock.write_waits), (0, 0));
     assert_eq!((sa.photons_stored, sa.rays), (sb.photons_stored, sb.rays));
     let bits = |i: &lumo_image::Image| i.data.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
     assert!(
