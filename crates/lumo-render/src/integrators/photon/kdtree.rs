@@ -6,7 +6,8 @@
 //!
 //! Leaves keep their photons as a singly linked list threaded through the photon array
 //! (`next`), so a node is 16 bytes and a photon pays 4 bytes for its place in the tree: no
-//! per-leaf allocation.
+//! per-leaf allocation. Positions and links live apart from the rest of a photon (16 bytes
+//! against 40), so a range query's walk touches only them until a photon is inside.
 
 use glam::Vec3;
 
@@ -37,6 +38,23 @@ pub struct Photon {
     pub power: Vec3,
     /// Segments of its light path (2: light → first bounce → here).
     pub depth: u32,
+}
+
+/// A photon's position and its leaf link: what a range query reads for every candidate.
+#[derive(Clone, Copy, Debug)]
+struct Point {
+    p: Vec3,
+    /// Next photon in the same leaf.
+    next: u32,
+}
+
+/// The rest of a photon, read only for those within the query's radius.
+#[derive(Clone, Copy, Debug)]
+struct Payload {
+    wi: Vec3,
+    ng: Vec3,
+    power: Vec3,
+    depth: u32,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -70,9 +88,9 @@ pub struct KdTree {
     lo: Vec3,
     hi: Vec3,
     nodes: Vec<Node>,
-    photons: Vec<Photon>,
-    /// Next photon in the same leaf (parallel to `photons`).
-    next: Vec<u32>,
+    points: Vec<Point>,
+    /// Parallel to `points`.
+    payload: Vec<Payload>,
 }
 
 impl KdTree {
@@ -83,8 +101,8 @@ impl KdTree {
             lo,
             hi,
             nodes: vec![Node::leaf()],
-            photons: Vec::new(),
-            next: Vec::new(),
+            points: Vec::new(),
+            payload: Vec::new(),
         }
     }
 
@@ -95,12 +113,12 @@ impl KdTree {
 
     /// Photons stored.
     pub fn len(&self) -> usize {
-        self.photons.len()
+        self.points.len()
     }
 
     /// True when no photon is stored.
     pub fn is_empty(&self) -> bool {
-        self.photons.is_empty()
+        self.points.is_empty()
     }
 
     /// Nodes (inner and leaves).
@@ -110,23 +128,23 @@ impl KdTree {
 
     /// Bytes the tree uses per stored photon, nodes included (for memory bounds).
     pub const BYTES_PER_PHOTON: usize =
-        std::mem::size_of::<Photon>() + 4 + std::mem::size_of::<Node>();
+        std::mem::size_of::<Point>() + std::mem::size_of::<Payload>() + std::mem::size_of::<Node>();
 
     /// Removes every photon, keeping the allocations.
     pub fn clear(&mut self) {
         self.nodes.clear();
         self.nodes.push(Node::leaf());
-        self.photons.clear();
-        self.next.clear();
+        self.points.clear();
+        self.payload.clear();
     }
 
     /// Makes room for `n` more photons, growing geometrically but never past `cap` photons
     /// (a plain `Vec` doubling could allocate up to twice the map's bound).
     pub fn reserve(&mut self, n: usize, cap: usize) {
-        let len = self.photons.len();
+        let len = self.points.len();
         let target = (len + n).max(2 * len).min(cap.max(len + n));
-        self.photons.reserve_exact(target - len);
-        self.next.reserve_exact(target - len);
+        self.points.reserve_exact(target - len);
+        self.payload.reserve_exact(target - len);
         // Leaves hold about three photons once split, and there are as many inner nodes:
         // fewer nodes than photons except where photons cluster.
         self.nodes
@@ -136,9 +154,17 @@ impl KdTree {
     /// Adds one photon: descends to its leaf, links it in and splits the leaf while it holds
     /// more than [`LEAF_MAX`].
     pub fn insert(&mut self, photon: Photon) {
-        let index = self.photons.len() as u32;
-        self.photons.push(photon);
-        self.next.push(NIL);
+        let index = self.points.len() as u32;
+        self.points.push(Point {
+            p: photon.p,
+            next: NIL,
+        });
+        self.payload.push(Payload {
+            wi: photon.wi,
+            ng: photon.ng,
+            power: photon.power,
+            depth: photon.depth,
+        });
         let (mut lo, mut hi) = (self.lo, self.hi);
         let mut node = 0usize;
         let mut depth = 0;
@@ -154,7 +180,7 @@ impl KdTree {
             }
             depth += 1;
         }
-        self.next[index as usize] = self.nodes[node].link;
+        self.points[index as usize].next = self.nodes[node].link;
         self.nodes[node].link = index;
         self.nodes[node].count += 1;
         // A split can leave all photons on one side (they were clustered): keep splitting
@@ -174,10 +200,10 @@ impl KdTree {
             self.nodes.push(Node::leaf());
             let mut item = self.nodes[node].link;
             while item != NIL {
-                let after = self.next[item as usize];
-                let side = (self.photons[item as usize].p[a] >= split) as u32;
+                let after = self.points[item as usize].next;
+                let side = (self.points[item as usize].p[a] >= split) as u32;
                 let c = (child + side) as usize;
-                self.next[item as usize] = self.nodes[c].link;
+                self.points[item as usize].next = self.nodes[c].link;
                 self.nodes[c].link = item;
                 self.nodes[c].count += 1;
                 item = after;
@@ -212,11 +238,18 @@ impl KdTree {
             if n.axis == LEAF {
                 let mut item = n.link;
                 while item != NIL {
-                    let ph = &self.photons[item as usize];
-                    if (ph.p - x).length_squared() <= r2 {
-                        f(ph);
+                    let pt = self.points[item as usize];
+                    if (pt.p - x).length_squared() <= r2 {
+                        let pl = self.payload[item as usize];
+                        f(&Photon {
+                            p: pt.p,
+                            wi: pl.wi,
+                            ng: pl.ng,
+                            power: pl.power,
+                            depth: pl.depth,
+                        });
                     }
-                    item = self.next[item as usize];
+                    item = pt.next;
                 }
                 continue;
             }
@@ -231,11 +264,6 @@ impl KdTree {
                 top += 1;
             }
         }
-    }
-
-    /// Every stored photon, in insertion order.
-    pub fn photons(&self) -> &[Photon] {
-        &self.photons
     }
 }
 
