@@ -18,6 +18,7 @@ export const ENUMS = {
       { code: 1, name: 'light', label: 'light' },
       { code: 2, name: 'both', label: 'both' },
       { code: 3, name: 'bdpt', label: 'bidirectional' },
+      { code: 4, name: 'ppm', label: 'photon mapping' },
     ],
   },
   mode: {

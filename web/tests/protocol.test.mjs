@@ -44,7 +44,10 @@ test('no viewer module holds a literal byte offset: they all come from protocol_
 
 test('the enumerations come from the layout, in wire-code order', () => {
   assert.deepEqual(P.MODES, P.ENUMS.mode.values.map((v) => v.name));
-  assert.deepEqual(P.INTEGRATORS, P.ENUMS.integrator.values.map((v) => v.name));
+  // Integrator codes may have gaps (a code kept for an integrator of another branch):
+  // names are looked up by code.
+  P.ENUMS.integrator.values.forEach((v) => assert.equal(P.INTEGRATORS[v.code], v.name));
+  assert.equal(Object.keys(P.INTEGRATORS).length, P.ENUMS.integrator.values.length);
   P.ENUMS.mode.values.forEach((v, i) => assert.equal(v.code, i));
   assert.deepEqual(P.STREAM, { camera: 0, light: 1 });
   assert.deepEqual([...P.CAMERA_REFUSAL_CODES], [1, 4, 5]);

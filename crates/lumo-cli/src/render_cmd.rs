@@ -8,9 +8,12 @@ use clap::ValueEnum;
 use indicatif::{ProgressBar, ProgressStyle};
 use lumo_image::{write_image, Image, ImageFormat};
 use lumo_pipeline::{run_pipeline, Pipeline};
+use lumo_render::camera::PinholeCamera;
 use lumo_render::integrators::bdpt::BdptSettings;
+use lumo_render::integrators::photon::{scene_warning, KdTree, DEFAULT_MAX_PHOTONS};
 use lumo_render::{
-    render_bdpt, render_light, Frame, PathSettings, RenderScene, RenderSettings, RenderStats,
+    render_bdpt, render_light, render_ppm, Frame, PathSettings, PpmSettings, RenderScene,
+    RenderSettings, RenderStats,
 };
 use lumo_scene::load::{FileSettings, LoadOptions};
 use lumo_scene::{builtin_scene, AnimatedScene, Scene, BUILTIN_SCENES};
@@ -26,6 +29,9 @@ pub enum RenderIntegrator {
     /// Bidirectional path tracing: camera and light subpaths joined by every strategy with
     /// multiple importance sampling (no pipeline, no AOVs).
     Bdpt,
+    /// One-pass progressive photon mapping: photon batches grow a kd-tree while the passes
+    /// gather from it at a shrinking radius (no pipeline, no AOVs).
+    Ppm,
 }
 
 impl RenderIntegrator {
@@ -37,7 +43,7 @@ impl RenderIntegrator {
     /// What its throughput counts, for the closing line.
     pub fn sample_unit(self) -> &'static str {
         match self {
-            RenderIntegrator::Path | RenderIntegrator::Bdpt => "samples",
+            RenderIntegrator::Path | RenderIntegrator::Bdpt | RenderIntegrator::Ppm => "samples",
             RenderIntegrator::Light => "light paths",
         }
     }
@@ -107,10 +113,23 @@ pub struct RenderArgs {
     #[arg(long)]
     pub aovs: Option<PathBuf>,
     /// Light transport: path (from the camera), light (from the lights, splatted onto the
-    /// film; environment lights emit nothing) or bdpt (bidirectional); light and bdpt render
-    /// without a pipeline or AOVs.
+    /// film), bdpt (bidirectional) or ppm (progressive photon mapping); light, bdpt and ppm
+    /// render without a pipeline or AOVs, and environment lights emit no particles or photons.
     #[arg(long, value_enum, default_value_t = RenderIntegrator::Path)]
     pub integrator: RenderIntegrator,
+    /// --integrator ppm: most photons kept in the map (about 72 bytes each); when full, the
+    /// map starts over [default: 4194304, about 300 MB].
+    #[arg(long, value_name = "N")]
+    pub max_photons: Option<usize>,
+    /// --integrator ppm: photon paths traced per pass [default: one per pixel].
+    #[arg(long, value_name = "N")]
+    pub photons_per_pass: Option<u64>,
+    /// --integrator ppm: gather radius of the first pass as a fraction of the scene's
+    /// bounding-box diagonal at 262144 photon paths per pass (scaled by the square root of
+    /// 262144 / paths per pass, so a gather finds as many photons at any image size); later
+    /// passes shrink it (α = 2/3).
+    #[arg(long, value_name = "FRACTION", default_value_t = 0.0025)]
+    pub photon_radius: f32,
     /// The filtered-GI pipeline and its options.
     #[command(flatten)]
     pub pipeline: crate::pipeline_args::PipelineArgs,
@@ -131,6 +150,44 @@ pub fn render_bytes_per_pixel(pipeline: Pipeline) -> u64 {
         Pipeline::Atrous => 320,
         Pipeline::Guided => 430,
     }
+}
+
+/// Bytes of a photon map holding `photons` photons (tree nodes included).
+pub fn ppm_map_bytes(photons: usize) -> u64 {
+    photons as u64 * KdTree::BYTES_PER_PHOTON as u64
+}
+
+/// Most photons `--max-photons` accepts: 2^30 is 72 GB of map.
+pub const MAX_PHOTONS: usize = 1 << 30;
+
+/// The photon-mapping settings of `lumo render`, checked.
+fn ppm_settings(args: &RenderArgs) -> Result<PpmSettings> {
+    let max_photons = args.max_photons.unwrap_or(DEFAULT_MAX_PHOTONS);
+    if max_photons == 0 || max_photons > MAX_PHOTONS {
+        bail!("--max-photons {max_photons}: expected 1..={MAX_PHOTONS}");
+    }
+    if args.photons_per_pass == Some(0) {
+        bail!("--photons-per-pass must be at least 1");
+    }
+    if !(args.photon_radius > 0.0 && args.photon_radius <= 1.0) {
+        bail!(
+            "--photon-radius {}: expected a fraction of the scene diagonal in (0, 1]",
+            args.photon_radius
+        );
+    }
+    if args.integrator == RenderIntegrator::Ppm {
+        crate::cli_common::check_memory(
+            ppm_map_bytes(max_photons),
+            &format!("a photon map of {max_photons} photons"),
+            "use a smaller --max-photons",
+        )?;
+    }
+    Ok(PpmSettings {
+        photons_per_pass: args.photons_per_pass.unwrap_or(0),
+        max_photons,
+        radius: args.photon_radius,
+        ..Default::default()
+    })
 }
 
 /// Parses `WxH`.
@@ -274,6 +331,15 @@ pub fn run(args: RenderArgs) -> Result<()> {
     if args.integrator.unfiltered() && args.aovs.is_some() {
         bail!("--aovs: --integrator {integrator} makes no G-buffer; use --integrator path for AOV planes");
     }
+    if args.integrator == RenderIntegrator::Ppm && args.aovs.is_some() {
+        bail!("--aovs: the photon mapper makes no G-buffer; use --integrator path for AOV planes");
+    }
+    if args.integrator != RenderIntegrator::Ppm
+        && (args.max_photons.is_some() || args.photons_per_pass.is_some())
+    {
+        bail!("--max-photons and --photons-per-pass apply to --integrator ppm");
+    }
+    let ppm = ppm_settings(&args)?;
     let options = LoadOptions {
         defines: args.defines.clone(),
         strict: args.strict,
@@ -377,6 +443,11 @@ pub fn run(args: RenderArgs) -> Result<()> {
             settings.spp as u64 * (width * height) as u64
         ),
         RenderIntegrator::Bdpt => "bidirectional path tracer".to_owned(),
+        RenderIntegrator::Ppm => format!(
+            "photon mapping (at most {} photons, {} MB)",
+            ppm.max_photons,
+            ppm_map_bytes(ppm.max_photons) >> 20
+        ),
     };
     eprintln!(
         "{name}: {tris} triangles (BVH {:.0} ms), {width}x{height}, {} spp, max depth {}, {method}, {threads} threads",
@@ -402,6 +473,40 @@ pub fn run(args: RenderArgs) -> Result<()> {
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let start = Instant::now();
+    if args.integrator == RenderIntegrator::Ppm {
+        let camera = PinholeCamera::new(&rs.scene.camera, width, height);
+        if let Some(w) = scene_warning(&rs, &camera, &settings.path) {
+            eprintln!("{w}");
+        }
+        let (image, stats) = pool.install(|| {
+            render_ppm(&rs, &settings, &ppm, &|f| {
+                bar.set_position((f * 1000.0) as u64)
+            })
+        });
+        let secs = start.elapsed().as_secs_f64();
+        bar.finish_and_clear();
+        for o in &job.outputs {
+            write_image(o, &image)?;
+        }
+        let written: Vec<String> = job
+            .outputs
+            .iter()
+            .map(|p| p.display().to_string())
+            .collect();
+        println!(
+            "done in {secs:.2} s · {}samples/s · {}photon paths/s · {}rays/s · map {} photons (peak {}, {} MB, {} resets) · {:.1} photons/gather → {}",
+            si(stats.samples as f64 / secs),
+            si(stats.photon_paths as f64 / secs),
+            si(stats.rays as f64 / secs),
+            stats.photons_stored,
+            stats.peak_photons,
+            ppm_map_bytes(stats.peak_photons as usize) >> 20,
+            stats.generations,
+            stats.photons_gathered as f64 / stats.samples.max(1) as f64,
+            written.join(", ")
+        );
+        return Ok(());
+    }
     let out = job.render(&rs, &|f| bar.set_position((f * 1000.0) as u64))?;
     let secs = start.elapsed().as_secs_f64();
     bar.finish_and_clear();
@@ -469,6 +574,21 @@ impl Job<'_> {
             return Ok(Rendered {
                 image,
                 stats,
+                aovs: None,
+                timings: None,
+            });
+        }
+        if self.args.integrator == RenderIntegrator::Ppm {
+            let ppm = ppm_settings(self.args)?;
+            let (image, stats) = self
+                .pool
+                .install(|| render_ppm(rs, settings, &ppm, progress));
+            return Ok(Rendered {
+                image,
+                stats: RenderStats {
+                    samples: stats.samples,
+                    rays: stats.rays,
+                },
                 aovs: None,
                 timings: None,
             });

@@ -5,6 +5,8 @@ use std::net::{IpAddr, SocketAddr};
 use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
+use lumo_render::camera::PinholeCamera;
+use lumo_render::integrators::photon::scene_warning;
 use lumo_render::{PathSettings, RenderScene};
 use lumo_server::{Hub, Integrator, ServerConfig};
 
@@ -26,9 +28,14 @@ pub struct ServeArgs {
     #[arg(long)]
     pub threads: Option<usize>,
     /// Sample streams: path (camera stream), light (light stream), both (each weighted ½),
-    /// bdpt (bidirectional: both streams).
+    /// bdpt (bidirectional: both streams),
+    /// ppm (camera stream gathering from a photon map that grows with the samples).
     #[arg(long, value_enum, default_value_t = IntegratorArg::Path)]
     pub integrator: IntegratorArg,
+    /// Photon mapping: most photons kept in a render's map (about 72 bytes each); when full,
+    /// the map starts over [default: 4194304, about 300 MB].
+    #[arg(long, value_name = "N")]
+    pub max_photons: Option<usize>,
     /// Image size as WIDTHxHEIGHT [default: the scene's].
     #[arg(long, value_parser = parse_size)]
     pub size: Option<(usize, usize)>,
@@ -61,6 +68,8 @@ pub enum IntegratorArg {
     /// Bidirectional path tracer (camera-side strategies on the camera stream, light
     /// vertices seen by the camera on the light stream).
     Bdpt,
+    /// Progressive photon mapping.
+    Ppm,
 }
 
 /// Runs `lumo serve` until interrupted.
@@ -98,7 +107,26 @@ pub fn run(args: ServeArgs) -> Result<()> {
         IntegratorArg::Light => Integrator::Light,
         IntegratorArg::Both => Integrator::Both,
         IntegratorArg::Bdpt => Integrator::Bdpt,
+        IntegratorArg::Ppm => Integrator::Ppm,
     };
+    if let Some(n) = args.max_photons {
+        if n == 0 || n > crate::render_cmd::MAX_PHOTONS {
+            bail!(
+                "--max-photons {n}: expected 1..={}",
+                crate::render_cmd::MAX_PHOTONS
+            );
+        }
+        config.ppm.max_photons = n;
+    }
+    // The map grows only as photons arrive, so its bound is checked where it is asked for
+    // from the start (a viewer switching to ppm later gets the same bound).
+    if config.integrator == Integrator::Ppm {
+        crate::cli_common::check_memory(
+            crate::render_cmd::ppm_map_bytes(config.ppm.max_photons),
+            &format!("a photon map of {} photons", config.ppm.max_photons),
+            "use a smaller --max-photons",
+        )?;
+    }
     config.path = PathSettings {
         max_depth: args.max_depth.unwrap_or(scene.defaults.max_depth),
         ..Default::default()
@@ -110,6 +138,12 @@ pub fn run(args: ServeArgs) -> Result<()> {
     let tris = scene.triangle_count();
     let start = Instant::now();
     let rs = RenderScene::new(scene)?;
+    if config.integrator == Integrator::Ppm {
+        let camera = PinholeCamera::new(&rs.scene.camera, width, height);
+        if let Some(w) = scene_warning(&rs, &camera, &config.path) {
+            eprintln!("{w}");
+        }
+    }
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .thread_name("lumo-net")

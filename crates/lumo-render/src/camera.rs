@@ -43,6 +43,11 @@ impl PinholeCamera {
         }
     }
 
+    /// Film size in pixels (width, height).
+    pub fn film_size(&self) -> (f32, f32) {
+        (self.size.x, self.size.y)
+    }
+
     /// Eye position.
     pub fn origin(&self) -> Vec3 {
         self.origin

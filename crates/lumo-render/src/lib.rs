@@ -20,8 +20,10 @@ pub mod shading;
 
 pub use film::{Frame, AOV_NAMES};
 pub use integrators::path::{trace_path, FirstHit, PathRadiance, PathSettings};
+pub use integrators::photon::PpmSettings;
 pub use render::{
     frame_from_estimates, map_pixels, map_rows, render, render_bdpt, render_light, render_pixel,
-    render_pixel_one_ray, trace_sample, PixelEstimate, RenderSettings, RenderStats, LIGHT_STREAM_X,
+    render_pixel_one_ray, render_ppm, trace_sample, PixelEstimate, PpmStats, RenderSettings,
+    RenderStats, LIGHT_STREAM_X,
 };
 pub use render_scene::{RenderScene, SceneUpdate, Surface};

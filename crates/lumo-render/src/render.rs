@@ -400,3 +400,122 @@ pub fn render_bdpt(
         RenderStats { samples, rays },
     )
 }
+
+/// Counters of a photon-mapping render ([`render_ppm`]).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PpmStats {
+    /// Camera samples traced.
+    pub samples: u64,
+    /// Rays traced by camera and photon paths.
+    pub rays: u64,
+    /// Photon paths traced.
+    pub photon_paths: u64,
+    /// Photons in the map at the end.
+    pub photons_stored: u64,
+    /// Most photons the map held at once.
+    pub peak_photons: u64,
+    /// Times the map was emptied to stay within `max_photons`.
+    pub generations: u32,
+    /// Photons that contributed to some camera sample, summed over samples.
+    pub photons_gathered: u64,
+    /// Seconds spent tracing and inserting photons (the rest is camera passes).
+    pub photon_seconds: f64,
+    /// The map's lock counters.
+    pub lock: crate::integrators::photon::LockStats,
+}
+
+/// Photon paths per parallel task of a photon batch: fixed, so the batch (and the order its
+/// photons enter the map) does not depend on the thread count.
+const PHOTON_BLOCK: u64 = 2048;
+
+/// Renders with one-pass progressive photon mapping: `spp` passes, each first tracing a
+/// batch of photon paths (`ppm.photons_per_pass`, by default one per pixel) into the shared
+/// map, then camera sample `k` of every pixel gathering from it at pass `k`'s radius; the
+/// image is the mean of the passes.
+///
+/// Photon paths run in parallel in fixed blocks whose photons enter the map in path order,
+/// and each camera sample is a pure function of the map and its pixel: the image is the same
+/// bits on any number of threads. `progress` receives the fraction of passes done.
+pub fn render_ppm(
+    rs: &RenderScene,
+    settings: &RenderSettings,
+    ppm: &crate::integrators::photon::PpmSettings,
+    progress: &(dyn Fn(f32) + Sync),
+) -> (Image, PpmStats) {
+    use crate::integrators::photon::{trace_ppm_path, PhotonBatch};
+    use std::time::Instant;
+    let (w, h) = (settings.width, settings.height);
+    let camera = PinholeCamera::new(&rs.scene.camera, w, h);
+    let per_pass = ppm.paths_per_pass((w * h) as u64);
+    let schedule = ppm.schedule(rs, per_pass);
+    let map = ppm.new_map(rs);
+    let mut film = vec![[0.0f64; 3]; w * h];
+    let mut stats = PpmStats::default();
+    for k in 0..settings.spp {
+        let t = Instant::now();
+        let first = k as u64 * per_pass;
+        let blocks = per_pass.div_ceil(PHOTON_BLOCK);
+        let parts: Vec<PhotonBatch> = (0..blocks)
+            .into_par_iter()
+            .map(|b| {
+                let start = first + b * PHOTON_BLOCK;
+                let end = (start + PHOTON_BLOCK).min(first + per_pass);
+                PhotonBatch::trace(rs, &settings.path, settings.seed, start..end)
+            })
+            .collect();
+        let mut batch = PhotonBatch::default();
+        for p in parts {
+            batch.append(p);
+        }
+        stats.rays += batch.rays;
+        stats.photon_paths += batch.paths();
+        map.add(&batch);
+        drop(batch);
+        stats.photon_seconds += t.elapsed().as_secs_f64();
+        let radius = schedule.radius(k);
+        let rows: Vec<(Vec3, u32, u32)> = map_rows(h, &|_| {}, |y| {
+            // One read lock per row: no writer runs during a camera pass, so it never waits.
+            let m = map.read();
+            (0..w)
+                .map(|x| {
+                    let (mut sampler, _, dir) = camera_sample(&camera, (x, y), k, settings.seed);
+                    let (r, st) = trace_ppm_path(
+                        rs,
+                        &m,
+                        radius,
+                        camera.origin(),
+                        dir,
+                        &mut sampler,
+                        &settings.path,
+                    );
+                    (r.direct + r.indirect, st.rays, st.photons)
+                })
+                .collect()
+        });
+        for (f, (c, rays, photons)) in film.iter_mut().zip(rows) {
+            for (a, v) in f.iter_mut().zip(c.to_array()) {
+                // A NaN from one degenerate sample must not poison the pixel.
+                if v.is_finite() {
+                    *a += v as f64;
+                }
+            }
+            stats.rays += rays as u64;
+            stats.photons_gathered += photons as u64;
+        }
+        {
+            let m = map.read();
+            stats.peak_photons = stats.peak_photons.max(m.tree.len() as u64);
+            stats.photons_stored = m.tree.len() as u64;
+            stats.generations = m.generation;
+        }
+        progress((k + 1) as f32 / settings.spp.max(1) as f32);
+    }
+    stats.samples = (w * h) as u64 * settings.spp as u64;
+    stats.lock = map.lock_stats();
+    let scale = 1.0 / settings.spp.max(1) as f64;
+    let data = film
+        .iter()
+        .flat_map(|p| p.map(|c| (c * scale) as f32))
+        .collect();
+    (Image::from_vec(w, h, 3, data), stats)
+}

@@ -290,6 +290,7 @@ mod tests {
             seed: 1,
             max_batches: None,
             max_rate: None,
+            ppm: Default::default(),
         };
         let rs = RenderScene::new(scene).expect("scene");
         let mut acc = FrameAccumulator::new(&job);
@@ -380,6 +381,7 @@ mod tests {
             seed: 3,
             max_batches: None,
             max_rate: None,
+            ppm: Default::default(),
         };
         let rs = RenderScene::new(scene).expect("scene");
         let mut acc = FrameAccumulator::new(&job);

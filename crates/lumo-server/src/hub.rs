@@ -148,6 +148,7 @@ impl Hub {
             seed: config.seed,
             max_batches: None,
             max_rate: config.max_rate,
+            ppm: config.ppm,
         };
         // The finish handler runs on a render thread: it only records the event.
         let finished: Arc<Mutex<Vec<FinishEvent>>> = Arc::default();

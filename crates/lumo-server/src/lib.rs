@@ -24,7 +24,7 @@ pub mod worker;
 
 use std::time::Duration;
 
-use lumo_render::PathSettings;
+use lumo_render::{PathSettings, PpmSettings};
 
 pub use http::{router, serve};
 pub use hub::Hub;
@@ -47,6 +47,8 @@ pub struct ServerConfig {
     pub seed: u32,
     /// Throttle, samples (camera samples plus light paths) per second.
     pub max_rate: Option<f64>,
+    /// Photon-mapping settings (integrator ppm).
+    pub ppm: PpmSettings,
     /// Bytes of sample data a viewer may have queued before the oldest is dropped.
     pub viewer_queue_bytes: usize,
     /// What one client may cost the server.
@@ -128,6 +130,7 @@ impl ServerConfig {
             path: PathSettings::default(),
             seed: 0,
             max_rate: None,
+            ppm: PpmSettings::default(),
             viewer_queue_bytes: 8 << 20,
             limits: Limits::default(),
             animation: None,

@@ -11,6 +11,7 @@
 use glam::{Vec2, Vec3};
 use lumo_render::integrators::bdpt::{samplers, trace_bdpt_sample, BdptScratch, BdptSettings};
 use lumo_render::integrators::light::trace_light_path;
+use lumo_render::integrators::photon::{trace_ppm_path, PhotonMap};
 use lumo_render::RenderScene;
 use lumo_render::LIGHT_STREAM_X;
 use lumo_render::{camera::PinholeCamera, sampler::PixelSampler, trace_path, PathSettings};
@@ -103,15 +104,53 @@ pub struct StreamContext<'a> {
 }
 
 impl StreamContext<'_> {
-    /// Camera sample `n`, or None when its index falls outside a non-square image.
-    pub fn camera_sample(&self, n: u64) -> Option<(Sample, u32)> {
-        let period = self.order.period();
-        let (x, y) = self.order.pixel(n % period)?;
-        let pass = (n / period).min(u32::MAX as u64) as u32;
-        let mut sampler = PixelSampler::new(x, y, pass, self.seed);
+    /// The pass camera sample `n` belongs to: a pixel's `pass`-th sample.
+    pub fn pass(&self, n: u64) -> u32 {
+        (n / self.order.period()).min(u32::MAX as u64) as u32
+    }
+
+    /// Camera sample `n`'s sampler (past its jitter), film position and ray direction, or
+    /// None when its index falls outside a non-square image.
+    fn camera_ray(&self, n: u64) -> Option<(PixelSampler, Vec2, Vec3)> {
+        let (x, y) = self.order.pixel(n % self.order.period())?;
+        let mut sampler = PixelSampler::new(x, y, self.pass(n), self.seed);
         let jitter = sampler.next_2d();
         let film = Vec2::new(x as f32, y as f32) + jitter;
-        let dir = self.camera.direction(film);
+        Some((sampler, film, self.camera.direction(film)))
+    }
+
+    /// A camera sample's value as a stream sample.
+    fn sample(&self, film: Vec2, c: Vec3) -> Sample {
+        let [x, y, z] = rgb_to_xyz(c * self.scale);
+        let uv = film / self.size;
+        Sample {
+            uv: [uv.x, uv.y],
+            xyzw: [x, y, z, 1.0],
+        }
+    }
+
+    /// Camera sample `n` by photon mapping: gathers from `map` (under its read lock, held for
+    /// this one sample so photon writers wait at most one gather) within `radius`, the radius
+    /// of the sample's pass. Returns the sample and the rays traced.
+    pub fn ppm_sample(&self, n: u64, map: &PhotonMap, radius: f32) -> Option<(Sample, u32)> {
+        let (mut sampler, film, dir) = self.camera_ray(n)?;
+        let m = map.read();
+        let (r, st) = trace_ppm_path(
+            self.rs,
+            &m,
+            radius,
+            self.camera.origin(),
+            dir,
+            &mut sampler,
+            &self.path,
+        );
+        drop(m);
+        Some((self.sample(film, r.direct + r.indirect), st.rays))
+    }
+
+    /// Camera sample `n`, or None when its index falls outside a non-square image.
+    pub fn camera_sample(&self, n: u64) -> Option<(Sample, u32)> {
+        let (mut sampler, film, dir) = self.camera_ray(n)?;
         let r = trace_path(
             self.rs,
             self.camera.origin(),
@@ -120,16 +159,7 @@ impl StreamContext<'_> {
             &self.path,
             None,
         );
-        let c = (r.direct + r.indirect) * self.scale;
-        let [x_, y_, z_] = rgb_to_xyz(c);
-        let uv = film / self.size;
-        Some((
-            Sample {
-                uv: [uv.x, uv.y],
-                xyzw: [x_, y_, z_, 1.0],
-            },
-            r.rays,
-        ))
+        Some((self.sample(film, r.direct + r.indirect), r.rays))
     }
 
     /// Bidirectional sample `n` (in the camera stream's order): its pixel's strategies as a

@@ -14,7 +14,8 @@ use std::sync::{Arc, Condvar, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use lumo_render::{camera::PinholeCamera, PathSettings, RenderScene};
+use lumo_render::integrators::photon::{LockStats, PhotonBatch, PhotonMap, RadiusSchedule};
+use lumo_render::{camera::PinholeCamera, PathSettings, PpmSettings, RenderScene};
 use lumo_scene::{AnimatedScene, Camera};
 
 use crate::frames::{FrameAccumulator, TemporalHistory, TEMPORAL_FRAMES};
@@ -50,6 +51,8 @@ pub struct Job {
     pub max_batches: Option<u64>,
     /// Throttle to this many samples (camera samples plus light paths) per second.
     pub max_rate: Option<f64>,
+    /// Photon-mapping settings (integrator ppm): photon paths per pass, map capacity, radius.
+    pub ppm: PpmSettings,
 }
 
 /// A filtered frame ready to send.
@@ -122,6 +125,10 @@ pub struct WorkerStats {
     pub rays: u64,
     /// Batches dropped because the query buffer was full.
     pub dropped_batches: u64,
+    /// Photon paths traced into the photon map (integrator ppm).
+    pub photon_paths: u64,
+    /// The photon map's lock counters (integrator ppm), as of the last batch.
+    pub lock: LockStats,
 }
 
 enum Command {
@@ -396,6 +403,9 @@ struct Run {
     samples: AtomicU64,
     light_paths: AtomicU64,
     start: Instant,
+    /// The run's photon map (integrator ppm): camera samples of every pool thread gather from
+    /// it while each batch adds its photons.
+    photons: Option<PhotonMap>,
 }
 
 impl Run {
@@ -432,11 +442,13 @@ fn start(
 ) {
     let run = Arc::new(Run {
         epoch,
-        job,
         next_batch: AtomicU64::new(0),
         samples: AtomicU64::new(0),
         light_paths: AtomicU64::new(0),
         start: Instant::now(),
+        photons: (job.integrator == Integrator::Ppm && job.mode == Mode::Progressive)
+            .then(|| job.ppm.new_map(&rs)),
+        job,
     });
     let threads = pool.current_num_threads();
     *lock(&shared.active) = threads;
@@ -501,11 +513,23 @@ fn sample_loop(shared: &Shared, run: &Run, rs: &RenderScene) -> bool {
     };
     let bdpt = job.integrator == Integrator::Bdpt;
     let (do_camera, do_light) = match job.integrator {
-        Integrator::Path | Integrator::Bdpt => (true, false),
+        Integrator::Path | Integrator::Bdpt | Integrator::Ppm => (true, false),
         Integrator::Light => (false, !rs.lights.emits_no_particles()),
         Integrator::Both => (true, !rs.lights.emits_no_particles()),
     };
     let per_batch = do_camera as u64 * CAMERA_BATCH + do_light as u64 * LIGHT_BATCH;
+    // Photon mapping: every batch first adds its photon paths, as many per camera sample as
+    // a pass of `lumo render --integrator ppm` traces per pixel, so the map grows linearly
+    // with the samples; then its camera samples gather at their pass's radius.
+    let photons = run
+        .photons
+        .as_ref()
+        .filter(|_| !rs.lights.emits_no_particles());
+    let per_pass = job.ppm.paths_per_pass((job.width * job.height) as u64);
+    let photon_batch = (CAMERA_BATCH * per_pass).div_ceil(ctx.order.period());
+    let schedule: RadiusSchedule = job.ppm.schedule(rs, per_pass);
+    // The radius of the last pass seen (its product costs O(pass) to recompute).
+    let mut radius = (u32::MAX, 0.0f32);
     let mut camera = Vec::with_capacity(CAMERA_BATCH as usize);
     let mut light = Vec::new();
     loop {
@@ -523,6 +547,18 @@ fn sample_loop(shared: &Shared, run: &Run, rs: &RenderScene) -> bool {
         light.clear();
         let mut rays = 0u64;
         let mut paths = 0u64;
+        let mut photon_paths = 0u64;
+        if let Some(map) = photons {
+            let first = b * photon_batch;
+            // Traced outside the lock; only the insertion takes it.
+            let batch = PhotonBatch::trace(rs, &job.path, job.seed, first..first + photon_batch);
+            if run.aborted(shared) {
+                return false;
+            }
+            map.add(&batch);
+            rays += batch.rays;
+            photon_paths = batch.paths();
+        }
         if do_camera {
             for n in b * CAMERA_BATCH..(b + 1) * CAMERA_BATCH {
                 if run.aborted(shared) {
@@ -535,7 +571,16 @@ fn sample_loop(shared: &Shared, run: &Run, rs: &RenderScene) -> bool {
                     paths += s.is_some() as u64;
                     s
                 } else {
-                    ctx.camera_sample(n)
+                    match &run.photons {
+                        Some(map) => {
+                            let pass = ctx.pass(n);
+                            if radius.0 != pass {
+                                radius = (pass, schedule.radius(pass));
+                            }
+                            ctx.ppm_sample(n, map, radius.1)
+                        }
+                        None => ctx.camera_sample(n),
+                    }
                 };
                 if let Some((s, r)) = sample {
                     camera.push(s);
@@ -557,6 +602,10 @@ fn sample_loop(shared: &Shared, run: &Run, rs: &RenderScene) -> bool {
             return false;
         }
         p.stats.rays += rays;
+        p.stats.photon_paths += photon_paths;
+        if let Some(map) = &run.photons {
+            p.stats.lock = map.lock_stats();
+        }
         if p.buffer.camera.len() + p.buffer.light.len() + camera.len() + light.len() > MAX_PENDING {
             p.stats.dropped_batches += 1;
             continue;

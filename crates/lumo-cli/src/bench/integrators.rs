@@ -1,4 +1,5 @@
-//! `lumo bench integrators`: the light-transport algorithms side by side at equal time —
+//! `lumo bench integrators`: the light-transport algorithms (path, light, bdpt, ppm) side by
+//! side at equal time —
 //! relMSE against a converged reference after each time budget, per scene, and the cost of
 //! one sample of each relative to the path tracer's.
 //!
@@ -13,7 +14,10 @@ use anyhow::{bail, Context, Result};
 use lumo_image::metrics::relmse;
 use lumo_image::Image;
 use lumo_render::integrators::bdpt::BdptSettings;
-use lumo_render::{render, render_bdpt, render_light, RenderScene, RenderSettings, RenderStats};
+use lumo_render::{
+    render, render_bdpt, render_light, render_ppm, PpmSettings, RenderScene, RenderSettings,
+    RenderStats,
+};
 
 use super::scenes::{load_all, scene_names, settings, BenchScene};
 use super::{atomic, machine_description};
@@ -28,6 +32,9 @@ pub enum BenchIntegrator {
     Light,
     /// Bidirectional path tracing.
     Bdpt,
+    /// One-pass progressive photon mapping (default settings: one photon path per camera
+    /// sample, so its samples/s are also its photon paths/s).
+    Ppm,
 }
 
 /// Arguments of `lumo bench integrators`.
@@ -71,6 +78,7 @@ impl BenchIntegrator {
             BenchIntegrator::Path => "path",
             BenchIntegrator::Light => "light",
             BenchIntegrator::Bdpt => "bdpt",
+            BenchIntegrator::Ppm => "ppm",
         }
     }
 }
@@ -96,6 +104,14 @@ pub fn render_image(
                 only: None,
             };
             render_bdpt(rs, s, &b, &|_| {})
+        }
+        BenchIntegrator::Ppm => {
+            let (image, st) = render_ppm(rs, s, &PpmSettings::default(), &|_| {});
+            let stats = RenderStats {
+                samples: st.samples,
+                rays: st.rays,
+            };
+            (image, stats)
         }
     });
     (image, stats, t.elapsed().as_secs_f64())

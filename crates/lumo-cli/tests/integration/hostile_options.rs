@@ -329,3 +329,56 @@ fn the_light_integrator_renders_and_refuses_what_it_cannot_do() {
         "refused before creating the AOV directory"
     );
 }
+
+/// `--integrator ppm` renders and reports its photons; it refuses a filtering pipeline and
+/// a zero `--max-photons` up front, and on a scene lit by an environment alone it warns in
+/// one line and still renders.
+#[test]
+fn the_ppm_integrator_renders_warns_and_refuses_what_it_cannot_do() {
+    let dir = temp_dir("ppm");
+    let args = [
+        "render",
+        "--integrator",
+        "ppm",
+        "--size",
+        "16x16",
+        "--spp",
+        "2",
+        "-o",
+        "p.exr",
+    ];
+    let (o, _) = lumo_in(&dir, &args, None);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        out.contains("photon paths/s") && out.contains("photons"),
+        "{out}"
+    );
+    assert!(!stderr(&o).contains("warning"), "{}", stderr(&o));
+    let img = lumo_image::read_image(&dir.join("p.exr")).expect("an EXR");
+    assert!(img.data.iter().all(|v| v.is_finite()) && img.data.iter().any(|&v| v > 0.0));
+    let (o, _) = lumo_in(&dir, &[&args[..], &["--pipeline", "atrous"]].concat(), None);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("--pipeline atrous"), "{}", stderr(&o));
+    let (o, _) = lumo_in(&dir, &[&args[..], &["--max-photons", "0"]].concat(), None);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("--max-photons 0"), "{}", stderr(&o));
+    let scene = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../tests/data/mitsuba/scenes/constant_env.xml"
+    );
+    let env_args = [&["render", scene][..], &args[1..]].concat();
+    let (o, _) = lumo_in(&dir, &env_args, None);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    let warnings: Vec<&str> = err
+        .lines()
+        .filter(|l| l.contains("--integrator ppm"))
+        .collect();
+    assert_eq!(warnings.len(), 1, "{}", stderr(&o));
+    assert!(
+        warnings[0].contains("no light emits photons"),
+        "{}",
+        warnings[0]
+    );
+}

@@ -9,7 +9,10 @@
 //!   strategy, weighted by multiple importance sampling (`lumo render --integrator bdpt`).
 //! - [`light`]: particle (light) tracing, splatting onto the film: the server's light stream
 //!   and `lumo render --integrator light`.
+//! - [`photon`]: one-pass progressive photon mapping (`lumo render --integrator ppm`, the
+//!   server's `ppm`): photon batches grow a shared kd-tree while camera samples gather from it.
 
 pub mod bdpt;
 pub mod light;
 pub mod path;
+pub mod photon;

@@ -384,6 +384,12 @@ impl Lights {
         self.lights.is_empty()
     }
 
+    /// True when rays that escape the scene receive light (an environment map or a constant
+    /// background): light that emits no particles.
+    pub fn has_environment(&self) -> bool {
+        self.env.is_some() || self.constant != Vec3::ZERO
+    }
+
     /// Radiance arriving from direction `dir` when a ray escapes the scene.
     pub fn environment(&self, dir: Vec3) -> Vec3 {
         self.constant + self.env.as_ref().map_or(Vec3::ZERO, |e| e.radiance(dir))

@@ -16,6 +16,9 @@ wire_enum! {
         /// Bidirectional path tracing: camera-side strategies on the camera stream, light
         /// vertices seen by the camera (t = 1) on the light stream, one light path per sample.
         Bdpt = 3, "bdpt", "bidirectional";
+        /// One-pass progressive photon mapping: camera stream only, gathering from a photon
+        /// map that photon batches grow in proportion to the samples.
+        Ppm = 4, "ppm", "photon mapping";
     }
 }
 

@@ -25,6 +25,7 @@ fn job(rs: &RenderScene, size: usize) -> Job {
         seed: 0,
         max_batches: None,
         max_rate: None,
+        ppm: Default::default(),
     }
 }
 
@@ -199,4 +200,107 @@ fn max_rate_throttles_and_frame_mode_sends_filtered_frames() {
     );
     assert!(f.xyz.iter().all(|v| v.is_finite()));
     assert!(f.xyz.iter().sum::<f32>() > 0.0);
+}
+
+/// Mean luminance (Y) per sample of a budgeted render's camera stream.
+fn stream_mean(w: &RenderWorker, rx: &mpsc::Receiver<FinishEvent>, job: Job) -> (f64, u64) {
+    let epoch = w.render(job);
+    let mut buf = QueryBuffer::default();
+    let (mut sum, mut n) = (0.0f64, 0u64);
+    loop {
+        w.query(&mut buf);
+        for s in &buf.camera {
+            sum += s.xyzw[1] as f64;
+            n += 1;
+        }
+        match rx.try_recv() {
+            Ok(e) if e.epoch == epoch => {
+                assert!(!e.aborted);
+                w.query(&mut buf);
+                sum += buf.camera.iter().map(|s| s.xyzw[1] as f64).sum::<f64>();
+                n += buf.camera.len() as u64;
+                return (sum / n as f64, n);
+            }
+            _ => std::thread::sleep(Duration::from_millis(5)),
+        }
+    }
+}
+
+/// The ppm stream: photon batches grow with the camera batches (one photon path per camera
+/// sample on a square image), every sample takes the read lock once and every batch the write
+/// lock once, and the image it streams has the path tracer's mean (within 3 %, 16 passes of
+/// 32×32 on two threads).
+#[test]
+fn the_ppm_stream_grows_its_map_with_the_samples_and_matches_the_path_tracer() {
+    let rs = scene("cornell");
+    let (w, rx) = worker(rs.clone(), 2);
+    let batches = 64;
+    let base = Job {
+        max_batches: Some(batches),
+        path: PathSettings {
+            max_depth: 4,
+            ..PathSettings::default()
+        },
+        ..job(&rs, 32)
+    };
+    let (pt, n_pt) = stream_mean(&w, &rx, base.clone());
+    let (ppm, n_ppm) = stream_mean(
+        &w,
+        &rx,
+        Job {
+            integrator: Integrator::Ppm,
+            ..base
+        },
+    );
+    assert_eq!(
+        (n_pt, n_ppm),
+        (batches * CAMERA_BATCH, batches * CAMERA_BATCH)
+    );
+    let stats = w.stats();
+    assert_eq!(stats.photon_paths, batches * CAMERA_BATCH);
+    assert_eq!(stats.lock.reads, batches * CAMERA_BATCH);
+    assert_eq!(stats.lock.writes, batches);
+    eprintln!("path {pt}, ppm {ppm}; lock {:?}", stats.lock);
+    assert!(
+        (ppm - pt).abs() < 0.03 * pt,
+        "stream means: path {pt}, ppm {ppm}"
+    );
+}
+
+/// Measures the photon map's lock in the server (docs/integrators.md): photon mapping at
+/// 128×128 on the Cornell box for 3 s on two threads, then the lock's counters. Run with
+/// `cargo test --release -p lumo-server --test integration ppm_lock_contention -- --ignored
+/// --nocapture`.
+#[test]
+#[ignore = "a 3-second measurement"]
+fn ppm_lock_contention() {
+    let rs = scene("cornell");
+    let (w, _rx) = worker(rs.clone(), 2);
+    w.render(Job {
+        integrator: Integrator::Ppm,
+        ..job(&rs, 128)
+    });
+    let mut buf = QueryBuffer::default();
+    let t = Instant::now();
+    while t.elapsed() < Duration::from_secs(3) {
+        std::thread::sleep(Duration::from_millis(50));
+        w.query(&mut buf);
+    }
+    let s = w.stats();
+    let secs = t.elapsed().as_secs_f64();
+    let l = s.lock;
+    eprintln!(
+        "{:.0} samples/s, {:.0} photon paths/s; reads {} (waited {}, {:.2} ms in all), \
+         writes {} (waited {}, {:.2} ms in all; held {:.2} ms in all) over {secs:.2} s",
+        s.samples as f64 / secs,
+        s.photon_paths as f64 / secs,
+        l.reads,
+        l.read_waits,
+        l.read_wait_ns as f64 * 1e-6,
+        l.writes,
+        l.write_waits,
+        l.write_wait_ns as f64 * 1e-6,
+        l.write_hold_ns as f64 * 1e-6,
+    );
+    assert!(l.reads > 0 && l.writes > 0);
 }
