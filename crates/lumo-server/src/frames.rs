@@ -321,6 +321,7 @@ mod tests {
             seed: 4,
             max_batches: None,
             max_rate: None,
+            ppm: Default::default(),
         };
         let first = scene.camera.clone();
         let mut moved = first.clone();
