@@ -4,7 +4,8 @@
 //! one sample of each relative to the path tracer's.
 //!
 //! Every integrator renders whole images at a sample count calibrated so that the image
-//! takes the budget: one 1-spp image is timed first, then `spp = budget / t₁`. The reference
+//! takes the budget: a probe image of about a tenth of the largest budget is timed first,
+//! then `spp = budget / (probe time per sample)`. The reference
 //! is a long bidirectional render with another seed, cached as EXR in the output directory.
 
 use std::path::PathBuf;
@@ -53,7 +54,7 @@ pub struct IntegratorsArgs {
         long,
         value_enum,
         value_delimiter = ',',
-        default_value = "path,light,bdpt"
+        default_value = "path,light,bdpt,ppm"
     )]
     integrators: Vec<BenchIntegrator>,
     /// Seconds of bidirectional rendering for each scene's reference (cached).
@@ -206,7 +207,7 @@ pub fn run(args: IntegratorsArgs) -> Result<()> {
     };
     let mut table = format!(
         "Machine: {}. {w}x{h}; equal-time relMSE against a {} s bidirectional reference; \
-         spp calibrated from a 1-spp image.\n\n\
+         spp calibrated from a probe image.\n\n\
          | scene | integrator | cost/sample vs path | budget s | spp | time s | relMSE |{region_col}\n\
          |---|---|---:|---:|---:|---:|---:|{}\n",
         machine_description(pool.current_num_threads()),
@@ -225,12 +226,18 @@ pub fn run(args: IntegratorsArgs) -> Result<()> {
                 );
                 continue;
             }
-            // Warm up (page in the BVH), then time one sample per pixel.
-            render_with(integrator, &scene.rs, &base, &pool);
+            // One sample per pixel warms up (pages in the BVH) and sizes a probe of about a
+            // tenth of the largest budget, whose time per sample sets the sample counts: a
+            // 1-spp image alone overstates the cost of fast integrators (fixed overheads).
             let (_, t1) = render_with(integrator, &scene.rs, &base, &pool);
-            let cost = *path_cost.get_or_insert(t1);
+            let largest = args.budgets.iter().cloned().fold(0.0, f64::max);
+            let probe = calibrated_spp(t1, 0.1 * largest);
+            let probe_settings = RenderSettings { spp: probe, ..base };
+            let (_, tp) = render_with(integrator, &scene.rs, &probe_settings, &pool);
+            let per_spp = tp / probe as f64;
+            let cost = *path_cost.get_or_insert(per_spp);
             for &budget in &args.budgets {
-                let spp = calibrated_spp(t1, budget);
+                let spp = calibrated_spp(per_spp, budget);
                 let s = RenderSettings { spp, ..base };
                 let (img, _, secs) = render_image(integrator, &scene.rs, &s, &pool);
                 let err = relmse(&reference, &img)?;
@@ -242,7 +249,7 @@ pub fn run(args: IntegratorsArgs) -> Result<()> {
                     "| {} | {} | {:.2}× | {budget} | {spp} | {secs:.2} | {err:.5} |{region}\n",
                     scene.name,
                     integrator.name(),
-                    t1 / cost
+                    per_spp / cost
                 );
                 eprint!("{line}");
                 table.push_str(&line);
