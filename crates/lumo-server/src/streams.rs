@@ -167,12 +167,9 @@ impl StreamContext<'_> {
     /// light subpath counts as one light path), or None when `n` falls outside a non-square
     /// image.
     pub fn bdpt_sample(&self, n: u64, light: &mut Vec<Sample>) -> Option<(Sample, u32)> {
-        let period = self.order.period();
-        let (x, y) = self.order.pixel(n % period)?;
-        let pass = (n / period).min(u32::MAX as u64) as u32;
-        let (mut cs, mut ls) = samplers(x, y, pass, self.seed);
-        let jitter = cs.next_2d();
-        let film = Vec2::new(x as f32, y as f32) + jitter;
+        let (x, y) = self.order.pixel(n % self.order.period())?;
+        let (mut cs, mut ls) = samplers(x, y, self.pass(n), self.seed);
+        let film = Vec2::new(x as f32, y as f32) + cs.next_2d();
         let settings = BdptSettings {
             path: self.path,
             only: None,
@@ -186,25 +183,10 @@ impl StreamContext<'_> {
             &mut ls,
             &settings,
             &mut scratch,
-            &mut |s| {
-                let [x, y, z] = rgb_to_xyz(s.value * self.scale);
-                let uv = s.film / self.size;
-                light.push(Sample {
-                    uv: [uv.x, uv.y],
-                    xyzw: [x, y, z, 1.0],
-                });
-            },
+            &mut |s| light.push(self.sample(s.film, s.value)),
         );
         self.scratch.set(scratch);
-        let [x_, y_, z_] = rgb_to_xyz((r.direct + r.indirect) * self.scale);
-        let uv = film / self.size;
-        Some((
-            Sample {
-                uv: [uv.x, uv.y],
-                xyzw: [x_, y_, z_, 1.0],
-            },
-            r.rays,
-        ))
+        Some((self.sample(film, r.direct + r.indirect), r.rays))
     }
 
     /// Light path `m`: pushes its splats (W = 1: each counts once in the splat density).

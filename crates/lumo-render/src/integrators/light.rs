@@ -11,12 +11,14 @@
 
 use glam::{Vec2, Vec3};
 
-use crate::bsdf::TransportMode;
+use crate::bsdf::{BsdfSample, TransportMode};
 use crate::camera::PinholeCamera;
 use crate::geometry::{offset_point, shadow_segment, survival_probability};
 use crate::integrators::path::PathSettings;
 use crate::render_scene::RenderScene;
+use crate::render_scene::Surface;
 use crate::sampler::PixelSampler;
+use crate::shading::ShadingBsdf;
 
 /// One connection of a light-path vertex to the camera.
 #[derive(Clone, Copy, Debug)]
@@ -71,6 +73,37 @@ fn connect(
     let importance = ng.dot(wc).abs() * camera.pixel_importance() / (dist2 * cos_cam.powi(3));
     let value = v * importance;
     value.is_finite().then_some((LightSplat { film, value }, 1))
+}
+
+/// A particle's next direction at surface `s`, arriving from `wl` (world; `wl_local` in the
+/// shading frame): the BSDF sampled in importance mode, the sample dropped where shading
+/// normals would send it through the geometric surface. Returns the direction, the sample
+/// and its weight with the departure half of Veach's adjoint shading-normal correction
+/// (`|ng·wo| / |ns·wo|`); the arrival half is the caller's. Shared by every integrator that
+/// traces light paths (light tracer, photons, bidirectional light subpaths).
+pub(crate) fn scatter_particle(
+    bsdf: &ShadingBsdf,
+    s: &Surface,
+    wl: Vec3,
+    wl_local: Vec3,
+    u_lobe: f32,
+    u_bsdf: Vec2,
+) -> Option<(Vec3, BsdfSample, Vec3)> {
+    let bs = bsdf.sample_mode(TransportMode::Importance, wl_local, u_lobe, u_bsdf)?;
+    let new_dir = s.frame.to_world(bs.wi).normalize();
+    let reflect = bs.wi.z * wl_local.z > 0.0;
+    if reflect != (new_dir.dot(s.ng) * wl.dot(s.ng) > 0.0) {
+        return None;
+    }
+    let cos_ns_o = s.frame.n.dot(new_dir).abs();
+    if cos_ns_o <= 0.0 {
+        return None;
+    }
+    Some((
+        new_dir,
+        bs,
+        bs.weight * (s.ng.dot(new_dir).abs() / cos_ns_o),
+    ))
 }
 
 /// Traces one light path with the numbers of `sampler`, calling `splat` for every vertex that
@@ -159,20 +192,11 @@ pub fn trace_light_path(
         // Sampling "wi" with the light side as "wo" picks the particle's next direction; the
         // BSDFs are reciprocal except for refraction's radiance scaling, which importance
         // does not carry.
-        let Some(bs) = bsdf.sample_mode(TransportMode::Importance, wl_local, u_lobe, u_bsdf) else {
+        let Some((new_dir, _, weight)) = scatter_particle(&bsdf, &s, wl, wl_local, u_lobe, u_bsdf)
+        else {
             break;
         };
-        let new_dir = s.frame.to_world(bs.wi).normalize();
-        let reflect = bs.wi.z * wl_local.z > 0.0;
-        if reflect != (new_dir.dot(ng) * wl.dot(ng) > 0.0) {
-            break;
-        }
-        let cos_ns_o = ns.dot(new_dir).abs();
-        if cos_ns_o <= 0.0 {
-            break;
-        }
-        // Departure half of the correction.
-        throughput *= bs.weight * (ng.dot(new_dir).abs() / cos_ns_o);
+        throughput *= weight;
         origin = rs.offset(&s, new_dir);
         dir = new_dir;
         if depth >= settings.rr_depth {

@@ -125,7 +125,7 @@ pub(super) fn connect(
         } else {
             pt.p + ls.wi * (4.0 * ctx.rs.lights.scene_radius())
         };
-        let mut qs = light_vertex(
+        let qs = light_vertex(
             &ctx.rs.lights,
             ls.light,
             point,
@@ -133,7 +133,6 @@ pub(super) fn connect(
             -ls.wi,
             environment,
         );
-        qs.le = Vec3::ZERO;
         let value = value * mis(std::slice::from_ref(&qs), camera);
         return (Some(Contribution::Pixel(value)), 1);
     }

@@ -36,16 +36,14 @@ pub(super) fn weight(ctx: &Context, c: &Connection) -> f32 {
     let pt = &camera[t - 1];
     let qs = s.checked_sub(1).map(|i| &light[i]);
     // Reverse densities of the vertices next to the connection.
-    let pt_rev = match qs {
-        Some(q) => q.pdf(ctx, s.checked_sub(2).map(|i| &light[i]), pt),
-        None => t
-            .checked_sub(2)
-            .map_or(0.0, |i| pt.light_origin_pdf(ctx, &camera[i])),
+    let (pt_rev, pt_minus_rev) = match (qs, t.checked_sub(2).map(|i| &camera[i])) {
+        (Some(q), pt_minus) => (
+            q.pdf(ctx, s.checked_sub(2).map(|i| &light[i]), pt),
+            pt_minus.map_or(0.0, |m| pt.pdf(ctx, Some(q), m)),
+        ),
+        (None, Some(m)) => pt.as_light_origin(ctx, m),
+        (None, None) => (0.0, 0.0),
     };
-    let pt_minus_rev = t.checked_sub(2).map_or(0.0, |i| match qs {
-        Some(q) => pt.pdf(ctx, Some(q), &camera[i]),
-        None => pt.light_direction_pdf(ctx, &camera[i]),
-    });
     let qs_rev = qs.map_or(0.0, |q| {
         pt.pdf(ctx, t.checked_sub(2).map(|i| &camera[i]), q)
     });

@@ -4,9 +4,10 @@
 
 use glam::{Vec2, Vec3};
 
-use super::vertex::{Context, Kind, Vertex};
+use super::vertex::{light_origin_density, Context, Kind, Vertex};
 use crate::bsdf::TransportMode;
 use crate::geometry::{offset_point, survival_probability};
+use crate::integrators::light::scatter_particle;
 use crate::integrators::path::PathSettings;
 use crate::sampler::PixelSampler;
 
@@ -66,15 +67,7 @@ pub(super) fn light_subpath(
         delta_position: e.pdf.delta_position,
         directional: e.pdf.delta_direction,
     };
-    let r = ctx.rs.lights.scene_radius();
-    let disk = std::f32::consts::PI * r * r;
-    // The light vertex's own density: the choice and the point (a directional light's point
-    // on its disk belongs to the next vertex, see `Vertex::pdf`).
-    let origin_pdf = if e.pdf.delta_direction {
-        e.pdf.area * disk
-    } else {
-        e.pdf.area
-    };
+    let origin_pdf = light_origin_density(&ctx.rs.lights, &e.pdf);
     let mut light = Vertex::new(kind, e.p, normal, Vec3::splat(1.0 / origin_pdf));
     light.le = e.radiance;
     light.pdf_fwd = origin_pdf;
@@ -87,7 +80,8 @@ pub(super) fn light_subpath(
         None => e.p,
     };
     let pdf_dir = if e.pdf.delta_direction {
-        1.0 / disk
+        let r = ctx.rs.lights.scene_radius();
+        1.0 / (std::f32::consts::PI * r * r)
     } else {
         e.pdf.solid_angle
     };
@@ -176,29 +170,36 @@ fn random_walk(
         if path.len() >= max_vertices || black {
             break;
         }
-        let Some(bs) = bsdf.sample_mode(mode, wo_local, u_lobe, u_dir) else {
-            break;
-        };
-        let new_dir = s.frame.to_world(bs.wi).normalize();
-        // Shading normals can send a sample through the geometric surface; drop it.
-        let reflect = bs.wi.z * wo_local.z > 0.0;
-        if reflect != (new_dir.dot(s.ng) * (-dir).dot(s.ng) > 0.0) {
-            break;
-        }
-        let mut weight = bs.weight;
-        if mode == TransportMode::Importance {
-            // Veach's adjoint shading-normal correction, both halves (see the light tracer).
-            let (ns, ng) = (s.frame.n, s.ng);
-            let (cos_ns_l, cos_ng_l) = (ns.dot(dir).abs(), ng.dot(dir).abs());
-            let (cos_ns_o, cos_ng_o) = (ns.dot(new_dir).abs(), ng.dot(new_dir).abs());
-            if cos_ng_l == 0.0 || cos_ns_o == 0.0 {
+        let (new_dir, bs) = if mode == TransportMode::Importance {
+            // Veach's adjoint shading-normal correction: the arrival half here, the departure
+            // half in the light tracer's scatter.
+            let cos_ng_l = s.ng.dot(dir).abs();
+            if cos_ng_l == 0.0 {
                 break;
             }
-            weight *= (cos_ns_l / cos_ng_l) * (cos_ng_o / cos_ns_o);
-        } else if bs.eta != 1.0 {
-            eta_scale *= bs.eta * bs.eta;
-        }
-        beta *= weight;
+            let Some((new_dir, bs, weight)) =
+                scatter_particle(&bsdf, &s, -dir, wo_local, u_lobe, u_dir)
+            else {
+                break;
+            };
+            beta *= weight * (s.frame.n.dot(dir).abs() / cos_ng_l);
+            (new_dir, bs)
+        } else {
+            let Some(bs) = bsdf.sample(wo_local, u_lobe, u_dir) else {
+                break;
+            };
+            let new_dir = s.frame.to_world(bs.wi).normalize();
+            // Shading normals can send a sample through the geometric surface; drop it.
+            let reflect = bs.wi.z * wo_local.z > 0.0;
+            if reflect != (new_dir.dot(s.ng) * (-dir).dot(s.ng) > 0.0) {
+                break;
+            }
+            if bs.eta != 1.0 {
+                eta_scale *= bs.eta * bs.eta;
+            }
+            beta *= bs.weight;
+            (new_dir, bs)
+        };
         path[cur].delta = bs.delta;
         // The reverse density of the vertex before: sampled from here towards it, given the
         // new direction as the incoming one.

@@ -48,6 +48,23 @@ fn bdpt(rs: &RenderScene, s: &RenderSettings, only: Option<(usize, usize)>) -> l
     render_bdpt(rs, s, &b, &|_| {}).0
 }
 
+/// The path tracer's and BDPT's images of `rs` agree: means within 1 %, 8×8 block means within
+/// `block_tolerance` (relative, absolute below 0.05).
+fn path_and_bdpt_agree(rs: &RenderScene, s: &RenderSettings, block_tolerance: f32) {
+    let (pt, bd) = (
+        blocks(&path_traced(rs, s), 8),
+        blocks(&bdpt(rs, s, None), 8),
+    );
+    let (a, b) = (mean(&pt), mean(&bd));
+    assert!((a - b).abs() < 0.01 * a, "image means: path {a}, bdpt {b}");
+    for (i, (x, y)) in pt.iter().zip(&bd).enumerate() {
+        assert!(
+            (x - y).abs() < block_tolerance * x.max(0.05),
+            "block {i}: path {x}, bdpt {y}"
+        );
+    }
+}
+
 /// The full-path densities of a camera path x_0 … x_n ending on an area light, in both
 /// directions, and the weights of all its strategies computed by brute force: the power
 /// heuristic over the products of the densities of the strategies that can make the path
@@ -231,18 +248,7 @@ fn converges_to_the_path_tracer() {
     let rs = RenderScene::new(builtin_scene("cornell-spheres").expect("builtin")).expect("scene");
     let w = 32;
     let s = settings(w, 256, 6);
-    let (pt, bd) = (
-        blocks(&path_traced(&rs, &s), 8),
-        blocks(&bdpt(&rs, &s, None), 8),
-    );
-    let (a, b) = (mean(&pt), mean(&bd));
-    assert!((a - b).abs() < 0.01 * a, "image means: path {a}, bdpt {b}");
-    for (i, (x, y)) in pt.iter().zip(&bd).enumerate() {
-        assert!(
-            (x - y).abs() < 0.08 * x.max(0.05),
-            "block {i}: path {x}, bdpt {y}"
-        );
-    }
+    path_and_bdpt_agree(&rs, &s, 0.08);
 }
 
 /// A floor and a box lit by a point light, a spot light, a directional light and a constant
@@ -291,18 +297,7 @@ fn delta_lights_and_the_environment_match_the_path_tracer() {
     let rs = RenderScene::new(mixed_lights_scene()).expect("scene");
     let w = 32;
     let s = settings(w, 128, 4);
-    let (pt, bd) = (
-        blocks(&path_traced(&rs, &s), 8),
-        blocks(&bdpt(&rs, &s, None), 8),
-    );
-    let (a, b) = (mean(&pt), mean(&bd));
-    assert!((a - b).abs() < 0.01 * a, "image means: path {a}, bdpt {b}");
-    for (i, (x, y)) in pt.iter().zip(&bd).enumerate() {
-        assert!(
-            (x - y).abs() < 0.06 * x.max(0.05),
-            "block {i}: path {x}, bdpt {y}"
-        );
-    }
+    path_and_bdpt_agree(&rs, &s, 0.06);
 }
 
 /// The image is the same bits on one thread and on two.

@@ -12,7 +12,7 @@
 use glam::{Vec2, Vec3};
 
 use crate::camera::PinholeCamera;
-use crate::lights::Lights;
+use crate::lights::{EmissionPdf, Lights};
 use crate::render_scene::{RenderScene, Surface};
 use crate::shading::ShadingBsdf;
 
@@ -178,35 +178,24 @@ impl Vertex {
         }
     }
 
-    /// Density (area; solid angle for the environment) with which a light subpath would start
-    /// at this vertex of a camera subpath: next-event estimation's density for the
-    /// environment (the only strategy that samples it), the particle density of an area light.
-    pub fn light_origin_pdf(&self, ctx: &Context, towards: &Vertex) -> f32 {
+    /// This vertex of a camera subpath seen as the origin of a light subpath towards `to`:
+    /// the density with which the light subpath would start here (area; next-event
+    /// estimation's solid-angle density for the environment, the only strategy that samples
+    /// it) and with which it would then generate `to` (in `to`'s measure; 0 from the
+    /// environment, which emits no particles).
+    pub fn as_light_origin(&self, ctx: &Context, to: &Vertex) -> (f32, f32) {
         match self.kind {
-            Kind::Environment { dir } => ctx.rs.lights.environment_pdf(dir),
-            Kind::Surface { s, .. } => {
-                let w = (towards.p - self.p).normalize_or_zero();
-                ctx.rs
-                    .lights
-                    .emission_pdf(s.instance, s.triangle, s.ng, w)
-                    .map_or(0.0, |e| e.area)
-            }
-            _ => 0.0,
-        }
-    }
-
-    /// Density with which this vertex of a camera subpath, seen as the origin of a light
-    /// subpath, would emit towards `to` (in `to`'s measure).
-    pub fn light_direction_pdf(&self, ctx: &Context, to: &Vertex) -> f32 {
-        match self.kind {
+            Kind::Environment { dir } => (ctx.rs.lights.environment_pdf(dir), 0.0),
             Kind::Surface { s, .. } => {
                 let w = (to.p - self.p).normalize_or_zero();
                 ctx.rs
                     .lights
                     .emission_pdf(s.instance, s.triangle, s.ng, w)
-                    .map_or(0.0, |e| self.area_density(e.solid_angle, to))
+                    .map_or((0.0, 0.0), |e| {
+                        (e.area, self.area_density(e.solid_angle, to))
+                    })
             }
-            _ => 0.0,
+            _ => (0.0, 0.0),
         }
     }
 
@@ -274,14 +263,18 @@ pub(super) fn light_vertex(
         normal,
         Vec3::ONE,
     );
-    v.pdf_fwd = match e {
-        // The choice of a directional light; its disk's density is the next vertex's.
-        Some(e) if directional => {
-            let r = lights.scene_radius();
-            e.area * std::f32::consts::PI * r * r
-        }
-        Some(e) => e.area,
-        None => 0.0,
-    };
+    v.pdf_fwd = e.map_or(0.0, |e| light_origin_density(lights, &e));
     v
+}
+
+/// A light vertex's own density: the choice of the light and the point on it (area lights),
+/// the choice alone for point, spot and directional lights — a directional light's point on
+/// its disk belongs to the next vertex (see [`Vertex::pdf`]).
+pub(super) fn light_origin_density(lights: &Lights, e: &EmissionPdf) -> f32 {
+    if e.delta_direction {
+        let r = lights.scene_radius();
+        e.area * std::f32::consts::PI * r * r
+    } else {
+        e.area
+    }
 }

@@ -9,8 +9,8 @@ use std::ops::Range;
 use glam::Vec3;
 
 use super::kdtree::Photon;
-use crate::bsdf::TransportMode;
 use crate::geometry::{offset_point, survival_probability};
+use crate::integrators::light::scatter_particle;
 use crate::integrators::path::PathSettings;
 use crate::render_scene::RenderScene;
 use crate::sampler::PixelSampler;
@@ -124,20 +124,12 @@ pub fn trace_photon_path(
         let u_lobe = sampler.next_1d();
         let u_bsdf = sampler.next_2d();
         let u_rr = sampler.next_1d();
-        let Some(bs) = bsdf.sample_mode(TransportMode::Importance, wl_local, u_lobe, u_bsdf) else {
+        let Some((new_dir, _, weight)) = scatter_particle(&bsdf, &s, wl, wl_local, u_lobe, u_bsdf)
+        else {
             break;
         };
-        let new_dir = s.frame.to_world(bs.wi).normalize();
-        let reflect = bs.wi.z * wl_local.z > 0.0;
-        if reflect != (new_dir.dot(ng) * wl.dot(ng) > 0.0) {
-            break;
-        }
-        let cos_ns_o = ns.dot(new_dir).abs();
-        if cos_ns_o <= 0.0 {
-            break;
-        }
-        // Departure half.
-        throughput *= bs.weight * (ng.dot(new_dir).abs() / cos_ns_o);
+        // Departure half (in `weight`).
+        throughput *= weight;
         origin = rs.offset(&s, new_dir);
         dir = new_dir;
         // The light tracer's roulette, at the same depth (its depth counts the camera
