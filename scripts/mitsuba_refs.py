@@ -93,9 +93,14 @@ def main() -> int:
     ap.add_argument("--spp", type=int, default=4096)
     ap.add_argument("--passes", type=int, default=8)
     ap.add_argument("--variant", default="llvm_ad_rgb")
+    ap.add_argument(
+        "--spectral-variant",
+        default="llvm_ad_spectral",
+        help="variant for the scenes named spectral_* (lumo renders them with spectral transport)",
+    )
     args = ap.parse_args()
 
-    if args.variant.startswith("llvm"):
+    if args.variant.startswith("llvm") or args.spectral_variant.startswith("llvm"):
         ensure_llvm_path()
     import mitsuba as mi
     import numpy as np
@@ -112,6 +117,8 @@ def main() -> int:
         if not path.exists():
             print(f"{path}: no such scene", file=sys.stderr)
             return 2
+        variant = args.spectral_variant if name.startswith("spectral_") else args.variant
+        mi.set_variant(variant)
         t0 = time.time()
         scene = mi.load_file(str(path), spp=str(per_pass))
         passes = []
@@ -135,6 +142,7 @@ def main() -> int:
             "mean_rel_se": float((se_mean / np.maximum(mean, 1e-9)).max()),
             "block_rel_se_max": float((se_blocks / floor).max()),
             "seconds": round(seconds, 2),
+            "variant": variant,
         }
         print(
             f"{name:28s} mean {mean[0]:.4f} {mean[1]:.4f} {mean[2]:.4f}  "

@@ -102,6 +102,11 @@ pub struct RenderArgs {
     /// [default: the scene's, 0].
     #[arg(long)]
     pub seed: Option<u32>,
+    /// Spectral transport: paths carry three hero-rotated wavelengths (RGB inputs upsampled
+    /// to smooth spectra, emitters × D65, measured conductors, dispersive glasses) and the
+    /// image is accumulated in CIE XYZ, written as linear sRGB. --integrator path only.
+    #[arg(long)]
+    pub spectral: bool,
     /// Worker threads [default: all cores].
     #[arg(long)]
     pub threads: Option<usize>,
@@ -334,6 +339,9 @@ pub fn run(args: RenderArgs) -> Result<()> {
     if args.integrator == RenderIntegrator::Ppm && args.aovs.is_some() {
         bail!("--aovs: the photon mapper makes no G-buffer; use --integrator path for AOV planes");
     }
+    if args.spectral && args.integrator != RenderIntegrator::Path {
+        bail!("--spectral: spectral transport runs in the path tracer; use --integrator path (the light tracer, bdpt and ppm transport RGB)");
+    }
     if args.integrator != RenderIntegrator::Ppm
         && (args.max_photons.is_some() || args.photons_per_pass.is_some())
     {
@@ -407,6 +415,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
                 .or(file.max_depth)
                 .unwrap_or(scene.defaults.max_depth),
             rr_depth: args.rr_depth.or(file.rr_depth).unwrap_or(5),
+            spectral: args.spectral,
             ..Default::default()
         },
     };

@@ -20,7 +20,7 @@ pub use builtin::{builtin_scene, BuiltinScene, BUILTIN_SCENES};
 pub use camera::{Camera, FovAxis};
 pub use error::SceneError;
 pub use light::{EnvMap, Light};
-pub use material::{BsdfSpec, Distribution, Material, Roughness, RoughnessMaps};
+pub use material::{BsdfSpec, Distribution, Material, Roughness, RoughnessMaps, Spectra};
 pub use mesh::{Analytic, AnalyticKind, Instance, Mesh};
 pub use scene::{RenderDefaults, Scene};
 pub use texture::{Texture, TextureFilter, WrapMode};

@@ -2,6 +2,8 @@ use std::sync::Arc;
 
 use glam::{Vec2, Vec3};
 
+use lumo_spectrum::{Glass, Tabulated};
+
 use crate::Texture;
 
 /// A microfacet normal distribution (Mitsuba's `distribution` parameter).
@@ -192,6 +194,24 @@ pub struct Material {
     /// OBJ scenes; Mitsuba's `twosided`). When false the back of an opaque surface is black,
     /// as Mitsuba's plain `diffuse`, `conductor` and `plastic` are. Transmissive BSDFs ignore it.
     pub two_sided: bool,
+    /// What the scene gave as spectra, kept for spectral rendering (RGB rendering reads the
+    /// RGB fields above, which hold these spectra's colours).
+    pub spectra: Spectra,
+}
+
+/// A material's spectral data where the scene gave more than RGB: measured or tabulated
+/// spectra and dispersion. Everything absent is upsampled from the RGB values.
+#[derive(Clone, Debug, Default)]
+pub struct Spectra {
+    /// Reflectance of the diffuse base (Mitsuba `<spectrum>` wavelength:value pairs).
+    pub reflectance: Option<Arc<Tabulated>>,
+    /// Emitted radiance (Mitsuba `<spectrum>` pairs on an area emitter), in radiance units.
+    pub emission: Option<Arc<Tabulated>>,
+    /// A conductor's (η, k) spectra: a measured preset or pairs from the file.
+    pub conductor: Option<Arc<(Tabulated, Tabulated)>>,
+    /// A named dispersive glass and the exterior index it is divided by: the dielectric's
+    /// relative index at λ is `ior + (n_glass(λ) − n_glass(d line)) / exterior`.
+    pub dispersion: Option<(Glass, f32)>,
 }
 
 impl Material {
@@ -205,6 +225,7 @@ impl Material {
             emission: Vec3::ZERO,
             two_sided: true,
             emission_map: None,
+            spectra: Spectra::default(),
         }
     }
 

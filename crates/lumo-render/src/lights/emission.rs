@@ -82,6 +82,12 @@ impl Lights {
         }
     }
 
+    /// The scene material of area light `light` (`None` for other lights).
+    #[inline]
+    pub fn area_material(&self, light: u32) -> Option<usize> {
+        self.area_materials.get(light as usize).map(|&m| m as usize)
+    }
+
     /// The densities with which [`Lights::sample_emission`] would start a particle on light
     /// `light` (at a point with normal `n`, for area lights) travelling in direction `dir`.
     /// For a directional light `area` is the density on its scene-sized disk and `dir` is not

@@ -205,6 +205,9 @@ pub struct Lights {
     instance_offset: Vec<Option<u32>>,
     /// Radiance textures of textured emissive triangles ([`EmissiveTriangle::texture`]).
     textured: Vec<TexturedEmission>,
+    /// The material of each area light (the first entries of `lights`), for what only the
+    /// material knows (a tabulated emission spectrum).
+    area_materials: Vec<u32>,
     env: Option<EnvSampler>,
     /// Mean radiance of the environment image times its scale (zero without one): part of
     /// its power estimate, kept so [`Lights::update`] need not rescan the image.
@@ -238,6 +241,7 @@ impl Lights {
         let mut power = Vec::new();
         let mut instance_offset = vec![None; scene.instances.len()];
         let mut textured = Vec::new();
+        let mut area_materials = Vec::new();
         for (ii, inst) in scene.instances.iter().enumerate() {
             let mesh = &scene.meshes[inst.mesh];
             let material = &scene.materials[mesh.material];
@@ -256,6 +260,7 @@ impl Lights {
                     shape,
                     radiance: material.emission,
                 });
+                area_materials.push(mesh.material as u32);
                 continue;
             }
             for t in 0..mesh.triangle_count() {
@@ -279,6 +284,7 @@ impl Lights {
                     0.0
                 });
                 lights.push(LightKind::Triangle(tri));
+                area_materials.push(mesh.material as u32);
             }
         }
         let disk = PI * scene_radius * scene_radius;
@@ -371,6 +377,7 @@ impl Lights {
             lights,
             instance_offset,
             textured,
+            area_materials,
             env,
             env_mean,
             constant,

@@ -2,6 +2,7 @@
 //! constants, plus the surface-interaction reconstruction every integrator needs.
 
 mod materials;
+mod spectral;
 
 use materials::{has_mask, innermost, microfacet};
 

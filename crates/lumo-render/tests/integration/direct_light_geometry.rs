@@ -73,6 +73,7 @@ fn direct_at(rs: &RenderScene, eye: Vec3, x: Vec3, nee: bool, bsdf_emission: boo
         rr_depth: 100,
         nee,
         bsdf_emission,
+        spectral: false,
     };
     let n = 16384;
     let (mut sum, mut sum2) = (0.0f64, 0.0f64);

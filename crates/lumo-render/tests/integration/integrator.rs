@@ -105,6 +105,7 @@ fn direct_light_from_area_light_matches_lamberts_formula() {
             rr_depth: 100,
             nee,
             bsdf_emission,
+            spectral: false,
         };
         let n = 16384;
         let mut sum = 0.0f64;

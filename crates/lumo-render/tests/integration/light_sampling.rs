@@ -267,6 +267,7 @@ fn empty_images_built_in_code_emit_and_reflect_nothing() {
         },
         emission: Vec3::ZERO,
         emission_map: None,
+        spectra: Default::default(),
         two_sided: true,
     });
     scene.add_mesh(rectangle(&Mat4::IDENTITY, textured));

@@ -145,6 +145,8 @@ fn render_scene(entry: &Entry) -> Image {
         path: PathSettings {
             max_depth: settings.max_depth.unwrap_or(scene.defaults.max_depth),
             rr_depth: settings.rr_depth.unwrap_or(5),
+            // Scenes named spectral_* have Mitsuba references from its spectral variant.
+            spectral: entry.name.starts_with("spectral_"),
             ..Default::default()
         },
     };

@@ -304,6 +304,7 @@ pub(crate) fn atrium() -> Scene {
         emission: Vec3::ZERO,
         two_sided: true,
         emission_map: None,
+        spectra: Default::default(),
     });
     let wall = diffuse(&mut scene, "wall", Vec3::new(0.74, 0.73, 0.70));
     let stone = diffuse(&mut scene, "stone", Vec3::new(0.76, 0.76, 0.73));
@@ -321,6 +322,7 @@ pub(crate) fn atrium() -> Scene {
         emission: Vec3::ZERO,
         two_sided: true,
         emission_map: None,
+        spectra: Default::default(),
     });
     let gold = scene.add_material(Material {
         name: "rough-gold".into(),
@@ -332,6 +334,7 @@ pub(crate) fn atrium() -> Scene {
         emission: Vec3::ZERO,
         two_sided: true,
         emission_map: None,
+        spectra: Default::default(),
     });
     let drape_colours = [
         ("drape-red", Vec3::new(0.75, 0.08, 0.06)),
@@ -583,6 +586,7 @@ pub(crate) fn atrium() -> Scene {
         emission: Vec3::ZERO,
         two_sided: true,
         emission_map: None,
+        spectra: Default::default(),
     });
     let (tapestry_width, tapestry_top) = (4.8, 9.6);
     // Local frame: width along +z, folds along x; turned so the width runs along +x and the

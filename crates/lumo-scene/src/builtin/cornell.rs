@@ -115,6 +115,7 @@ pub(crate) fn cornell_spheres() -> Scene {
         emission: Vec3::ZERO,
         two_sided: true,
         emission_map: None,
+        spectra: Default::default(),
     });
     // Replace the floor's material with the checkerboard.
     if let Some(floor) = scene.meshes.iter_mut().find(|m| m.name == "floor") {
@@ -131,6 +132,7 @@ pub(crate) fn cornell_spheres() -> Scene {
         emission: Vec3::ZERO,
         two_sided: true,
         emission_map: None,
+        spectra: Default::default(),
     });
     let glass = scene.add_material(Material {
         name: "glass".into(),
@@ -141,6 +143,7 @@ pub(crate) fn cornell_spheres() -> Scene {
         emission: Vec3::ZERO,
         two_sided: true,
         emission_map: None,
+        spectra: Default::default(),
     });
     let r = 0.35;
     let mut metal = sphere(

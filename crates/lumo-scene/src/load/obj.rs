@@ -541,6 +541,7 @@ fn read_mtl(
             emission: m.ke.max(Vec3::ZERO),
             two_sided: true,
             emission_map: None,
+            spectra: Default::default(),
         });
         index.insert(m.name, materials.len() - 1);
     }

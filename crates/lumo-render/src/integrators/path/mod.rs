@@ -8,6 +8,7 @@ pub(crate) mod vector_bounce;
 pub mod wavefront;
 
 use glam::{Vec2, Vec3};
+use lumo_spectrum::Wavelengths;
 
 use crate::accel::Hit;
 use crate::bsdf::Bsdf;
@@ -29,6 +30,9 @@ pub struct PathSettings {
     pub nee: bool,
     /// BSDF-sampled hits of emitters count (off: NEE only, for tests).
     pub bsdf_emission: bool,
+    /// Spectral transport: each path carries three hero-rotated wavelengths and its estimate
+    /// is converted to RGB through CIE XYZ (off: RGB transport).
+    pub spectral: bool,
 }
 
 impl Default for PathSettings {
@@ -38,6 +42,7 @@ impl Default for PathSettings {
             rr_depth: 5,
             nee: true,
             bsdf_emission: true,
+            spectral: false,
         }
     }
 }
@@ -152,6 +157,9 @@ pub struct PathState {
     pub(crate) prev_point: Vec3,
     pub(crate) eta_scale: f32,
     pub(crate) depth: u32,
+    /// The path's wavelengths under spectral transport: the lanes of every colour it carries
+    /// are then these wavelengths, not R, G, B.
+    pub(crate) wl: Option<Wavelengths>,
 }
 
 impl PathState {
@@ -170,6 +178,42 @@ impl PathState {
             prev_point: origin,
             eta_scale: 1.0,
             depth: 1,
+            wl: None,
+        }
+    }
+
+    /// This path under spectral transport if `spectral`: its wavelengths drawn from its own
+    /// sampler (the next dimension, so RGB paths keep their sample stream).
+    #[inline]
+    pub fn spectral(mut self, spectral: bool) -> Self {
+        if spectral {
+            self.wl = Some(Wavelengths::sample(self.sampler.next_1d()));
+        }
+        self
+    }
+
+    /// What the path gathered, as RGB: under spectral transport its per-wavelength radiance
+    /// through the CIE observer.
+    #[inline]
+    pub fn result(&self) -> PathRadiance {
+        match &self.wl {
+            None => self.radiance,
+            Some(wl) => PathRadiance {
+                direct: wl.to_rgb(self.radiance.direct),
+                indirect: wl.to_rgb(self.radiance.indirect),
+                rays: self.radiance.rays,
+            },
+        }
+    }
+
+    /// Emitted radiance `rgb` (of `material`'s surface, or of the environment for `None`) at
+    /// this path's wavelengths; `rgb` itself under RGB transport.
+    #[inline]
+    fn emitted(&self, rs: &RenderScene, rgb: Vec3, material: Option<usize>) -> Vec3 {
+        match (&self.wl, material) {
+            (None, _) => rgb,
+            (Some(wl), Some(m)) => rs.spectral_emission(rgb, m, wl),
+            (Some(wl), None) => lumo_spectrum::upsample::illuminant(rgb, wl),
         }
     }
 
@@ -221,6 +265,7 @@ impl PathState {
                         }
                         _ => 1.0,
                     };
+                    let le = self.emitted(rs, le, None);
                     self.radiance.add(depth, self.throughput * le * w);
                 }
             }
@@ -237,6 +282,15 @@ impl PathState {
         let bsdf = rs.bsdf(&s);
         let le = rs.emission(&s, dir);
         self.take_hit(rs, settings, &s, hit.t, &bsdf.bsdf, le);
+        let bsdf = match &mut self.wl {
+            None => bsdf,
+            Some(wl) => {
+                let b = rs.spectral_bsdf(bsdf, &s, wl);
+                // Lanes a dispersive interface stopped carry nothing from here on.
+                self.throughput *= wl.live_mask();
+                b
+            }
+        };
         if depth >= settings.max_depth {
             return None;
         }
@@ -282,6 +336,7 @@ impl PathState {
                 ),
                 _ => 1.0,
             };
+            let le = self.emitted(rs, le, Some(s.material));
             self.radiance.add(self.depth, self.throughput * le * w);
         }
     }
@@ -345,11 +400,15 @@ impl PathState {
         } else {
             1.0
         };
+        let weight = match &self.wl {
+            None => ls.weight,
+            Some(wl) => rs.spectral_light(ls.weight, ls.light, wl),
+        };
         Some(ShadowRay {
             origin: o,
             dir,
             tmax,
-            contribution: self.throughput * f * ls.weight * w,
+            contribution: self.throughput * f * weight * w,
             depth: self.depth + 1,
         })
     }
@@ -414,7 +473,8 @@ pub fn trace_path(
     settings: &PathSettings,
     first_hit: Option<&mut FirstHit>,
 ) -> PathRadiance {
-    let mut path = PathState::new(origin, dir, *sampler, first_hit.is_some());
+    let mut path =
+        PathState::new(origin, dir, *sampler, first_hit.is_some()).spectral(settings.spectral);
     loop {
         let hit = rs
             .accel
@@ -433,5 +493,5 @@ pub fn trace_path(
     if let Some(fh) = first_hit {
         *fh = path.first_hit;
     }
-    path.radiance
+    path.result()
 }

@@ -42,7 +42,10 @@ type L3 = [L; 3];
 /// Whether the vector bounce may run in this scene under these settings (per lane it also
 /// needs [`RenderScene::simple_diffuse`]).
 pub(crate) fn applies(rs: &RenderScene, settings: &PathSettings) -> bool {
-    settings.nee && settings.bsdf_emission && rs.lights.triangles_only()
+    settings.nee
+        && settings.bsdf_emission
+        && rs.lights.triangles_only()
+        && !(settings.spectral && rs.has_emission_spectra())
 }
 
 /// `a · b` in glam's order.
@@ -178,11 +181,16 @@ fn bounce(
         }
         bu[i] = hit.u;
         bv[i] = hit.v;
+        // Under spectral transport the lanes of a colour are the path's wavelengths.
+        let lane_albedo = match &path.wl {
+            None => sd.albedo,
+            Some(wl) => rs.spectral_reflectance(sd.albedo, mesh.material, wl),
+        };
         for a in 0..3 {
             o[a][i] = path.origin[a];
             d[a][i] = path.dir[a];
             ng[a][i] = normal[a];
-            albedo[a][i] = sd.albedo[a];
+            albedo[a][i] = lane_albedo[a];
             thr[a][i] = path.throughput[a];
             // p = origin + dir·t
             pos[a][i] = o[a][i] + d[a][i] * hit.t;
@@ -289,7 +297,8 @@ fn bounce(
         if !alive[i] {
             continue;
         }
-        let u = paths[p as usize].draw();
+        let path = &mut paths[p as usize];
+        let u = path.draw();
         u_light2[0][i] = u.light_point.x;
         u_light2[1][i] = u.light_point.y;
         u_dir[0][i] = u.direction.x;
@@ -305,6 +314,12 @@ fn bounce(
                 le2[a][i] = tri.e2[a];
                 ln[a][i] = tri.normal[a];
                 lrad[a][i] = tri.radiance[a];
+            }
+            if let Some(wl) = &path.wl {
+                let l = lumo_spectrum::upsample::illuminant(tri.radiance, wl);
+                for a in 0..3 {
+                    lrad[a][i] = l[a];
+                }
             }
         }
     }

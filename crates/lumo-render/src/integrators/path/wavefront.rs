@@ -67,7 +67,7 @@ pub fn render_pixels_from(
         batch.run(rs, camera, settings, first, y, x0..x1);
         for paths in batch.paths.chunks(spp.max(1)) {
             let first_hit = paths.first().map(|p| p.first_hit).unwrap_or_default();
-            out.push(estimate(paths.iter().map(|p| p.radiance), first_hit, spp));
+            out.push(estimate(paths.iter().map(|p| p.result()), first_hit, spp));
         }
         x0 = x1;
     }
@@ -111,8 +111,10 @@ impl Batch {
             for (&(x, y, index), &sampler) in samples.iter().zip(run.iter()) {
                 let pixel = (x as usize, y as usize);
                 let (sampler, _, dir) = camera_sample_with(camera, pixel, index, sampler);
-                self.paths
-                    .push(PathState::new(camera.origin(), dir, sampler, index == 0));
+                self.paths.push(
+                    PathState::new(camera.origin(), dir, sampler, index == 0)
+                        .spectral(settings.path.spectral),
+                );
             }
         }
         self.active.clear();

@@ -120,6 +120,7 @@ impl GltfReader<'_, '_> {
             // glTF's doubleSided is about culling; lumo's opaque glTF surfaces reflect on both sides.
             two_sided: true,
             emission_map: None,
+            spectra: Default::default(),
         });
         self.material_map.insert(mat.index(), index);
         Ok(index)

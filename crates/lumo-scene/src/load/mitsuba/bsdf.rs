@@ -8,7 +8,11 @@ use super::props::Props;
 use super::xml::Element;
 use super::{presets, Builder};
 use crate::load::LoadError;
-use crate::{BsdfSpec, Distribution, Roughness, RoughnessMaps, Texture, TextureFilter, WrapMode};
+use lumo_spectrum::{Glass, Tabulated};
+
+use crate::{
+    BsdfSpec, Distribution, Roughness, RoughnessMaps, Spectra, Texture, TextureFilter, WrapMode,
+};
 
 /// Mitsuba's default exterior medium (air) for `int_ior / ext_ior`.
 const AIR: f32 = 1.00028;
@@ -17,17 +21,21 @@ impl<'a> Builder<'a, '_> {
     /// Converts a `<bsdf>` (cached); returns (name, BSDF).
     pub(super) fn bsdf(&mut self, el: &'a Element) -> Result<(String, BsdfSpec), LoadError> {
         let key = el as *const Element as usize;
-        if let Some(b) = self.bsdfs.get(&key) {
-            return Ok(b.clone());
+        if let Some((name, bsdf, spectra)) = self.bsdfs.get(&key) {
+            self.spectra = spectra.clone();
+            return Ok((name.clone(), bsdf.clone()));
         }
         let props = Props::new(el);
         let name = el
             .attr("id")
             .map(str::to_string)
             .unwrap_or_else(|| props.kind().to_string());
+        // A wrapper's spectra are those of the BSDF it wraps (set by the nested call).
+        self.spectra = Spectra::default();
         let bsdf = self.nested(el, |b| b.convert_bsdf(&props))?;
         props.finish(self.diag)?;
-        self.bsdfs.insert(key, (name.clone(), bsdf.clone()));
+        self.bsdfs
+            .insert(key, (name.clone(), bsdf.clone(), self.spectra.clone()));
         Ok((name, bsdf))
     }
 
@@ -55,9 +63,12 @@ impl<'a> Builder<'a, '_> {
         let kind = props.kind();
         let at = el.at();
         Ok(match kind {
-            "diffuse" => BsdfSpec::Diffuse {
-                reflectance: self.texture_param(props, "reflectance", Vec3::splat(0.5))?,
-            },
+            "diffuse" => {
+                self.spectra.reflectance = props.tabulated("reflectance")?.map(Arc::new);
+                BsdfSpec::Diffuse {
+                    reflectance: self.texture_param(props, "reflectance", Vec3::splat(0.5))?,
+                }
+            }
             "normalmap" | "bumpmap" | "mask" => self.wrapper(props)?,
             // lumo's opaque BSDFs already reflect on both sides.
             "twosided" | "blendbsdf" => {
@@ -99,11 +110,21 @@ impl<'a> Builder<'a, '_> {
                                 ),
                             )
                         })?;
+                        self.spectra.conductor = lumo_spectrum::conductor(&m).map(Arc::new);
                         (Vec3::from(eta), Vec3::from(k))
                     }
                     None => {
+                        let (eta_s, k_s) = (props.tabulated("eta")?, props.tabulated("k")?);
                         let eta = self.color_param(props, "eta", Vec3::ZERO)?;
                         let k = self.color_param(props, "k", Vec3::ONE)?;
+                        if eta_s.is_some() || k_s.is_some() {
+                            // The other one a constant over the visible range.
+                            let flat = |v: f32| Tabulated::new(&[(360.0, v), (830.0, v)]);
+                            self.spectra.conductor = eta_s
+                                .or_else(|| flat(eta.x))
+                                .zip(k_s.or_else(|| flat(k.x)))
+                                .map(Arc::new);
+                        }
                         (eta, k)
                     }
                 };
@@ -143,6 +164,7 @@ impl<'a> Builder<'a, '_> {
                         "roughplastic does not support anisotropic roughness (alpha_u != alpha_v)",
                     ));
                 }
+                self.spectra.reflectance = props.tabulated("diffuse_reflectance")?.map(Arc::new);
                 BsdfSpec::Plastic {
                     diffuse: self.texture_param(props, "diffuse_reflectance", Vec3::splat(0.5))?,
                     ior,
@@ -159,6 +181,7 @@ impl<'a> Builder<'a, '_> {
             }
             "dielectric" | "roughdielectric" => {
                 let ior = self.ior(props)?;
+                self.spectra.dispersion = self.dispersion(props);
                 self.unit_scale(props, "specular_reflectance")?;
                 self.unit_scale(props, "specular_transmittance")?;
                 let roughness = if kind == "roughdielectric" {
@@ -417,6 +440,19 @@ impl<'a> Builder<'a, '_> {
             ));
         }
         Ok(ior)
+    }
+
+    /// The dispersive glass named by `int_ior` (if lumo knows its dispersion) and the exterior
+    /// index the relative index is divided by.
+    fn dispersion(&self, props: &Props<'a>) -> Option<(Glass, f32)> {
+        let int = props.value("int_ior").filter(|v| v.tag == "string")?;
+        let glass = Glass::named(int.attr("value")?.trim())?;
+        let ext = match props.value("ext_ior") {
+            None => AIR,
+            Some(v) if v.tag == "float" => v.attr("value")?.trim().parse().ok()?,
+            Some(v) => presets::dielectric(v.attr("value")?)?,
+        };
+        Some((glass, ext))
     }
 
     /// A scale factor parameter lumo does not model; warns unless it is 1.

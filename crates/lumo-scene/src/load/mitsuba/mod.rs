@@ -22,7 +22,9 @@ use self::props::Props;
 use self::xml::Element;
 use super::images::ImageCache;
 use super::{defaults, Diagnostics, FileSettings, LoadError, LoadOptions, Location};
-use crate::{BsdfSpec, Material, Scene, Texture};
+use lumo_spectrum::Tabulated;
+
+use crate::{BsdfSpec, Material, Scene, Spectra, Texture};
 
 /// Deepest nesting of BSDFs, textures and integrators inside each other (counting `<ref>`s
 /// followed). Real scenes nest a handful; the bound turns a `<ref>` cycle into an error
@@ -71,6 +73,8 @@ fn convert(
         images: ImageCache::default(),
         scene: defaults::empty_scene(path),
         bsdfs: HashMap::new(),
+        spectra: Spectra::default(),
+        emission_spectrum: None,
         materials: HashMap::new(),
         textures: HashMap::new(),
         groups: HashMap::new(),
@@ -155,9 +159,14 @@ pub(super) struct Builder<'a, 'd> {
     images: ImageCache,
     scene: Scene,
     /// Converted BSDFs by element address (a BSDF referenced twice is converted once).
-    bsdfs: HashMap<usize, (String, BsdfSpec)>,
+    bsdfs: HashMap<usize, (String, BsdfSpec, Spectra)>,
+    /// Spectral data of the BSDF being converted (and of its nested BSDFs), moved into its
+    /// material.
+    spectra: Spectra,
+    /// The radiance spectrum of the area emitter read last, moved into the next material.
+    emission_spectrum: Option<Arc<Tabulated>>,
     /// Material index by (BSDF element address or 0 for the default, emission bits).
-    materials: HashMap<(usize, [u32; 3], usize), usize>,
+    materials: HashMap<(usize, [u32; 3], usize, usize), usize>,
     /// Converted textures by element address.
     textures: HashMap<usize, Texture>,
     /// Mesh indices of each converted shapegroup, by element address.
@@ -240,10 +249,12 @@ impl<'a> Builder<'a, '_> {
         emission: Vec3,
         emission_map: Option<Arc<Texture>>,
     ) -> Result<usize, LoadError> {
+        let emission_spectrum = self.emission_spectrum.take();
         let key = (
             bsdf.map_or(0, |e| e as *const Element as usize),
             emission.to_array().map(f32::to_bits),
             emission_map.as_ref().map_or(0, |t| Arc::as_ptr(t) as usize),
+            emission_spectrum.as_ref().map_or(0, |t| Arc::as_ptr(t) as usize),
         );
         if let Some(&m) = self.materials.get(&key) {
             return Ok(m);
@@ -253,6 +264,7 @@ impl<'a> Builder<'a, '_> {
             Some(el) => self.two_sided(el)?,
             None => false,
         };
+        self.spectra = Spectra::default();
         let (name, bsdf) = match bsdf {
             Some(el) => self.bsdf(el)?,
             // Mitsuba 3's default: grey diffuse, but black on an emitting shape (its
@@ -268,12 +280,15 @@ impl<'a> Builder<'a, '_> {
                 },
             ),
         };
+        let mut spectra = std::mem::take(&mut self.spectra);
+        spectra.emission = emission_spectrum;
         let index = self.scene.add_material(Material {
             name,
             bsdf,
             emission,
             two_sided,
             emission_map,
+            spectra,
         });
         self.materials.insert(key, index);
         Ok(index)

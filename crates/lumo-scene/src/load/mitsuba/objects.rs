@@ -510,6 +510,7 @@ impl<'a> Builder<'a, '_> {
                 ),
             ));
         }
+        self.emission_spectrum = props.tabulated("radiance")?.map(Arc::new);
         let radiance = self.texture_param(&props, "radiance", Vec3::ONE)?;
         props.finish(self.diag)?;
         Ok(match radiance {

@@ -5,6 +5,8 @@ use std::cell::{Cell, RefCell};
 
 use glam::{Mat4, Vec3};
 
+use lumo_spectrum::Tabulated;
+
 use super::spectrum::spectrum_to_rgb;
 use super::xml::Element;
 use crate::load::{Diagnostics, LoadError, Warning};
@@ -197,6 +199,22 @@ impl<'a> Props<'a> {
         Ok(Some(c.max(Vec3::ZERO)))
     }
 
+    /// The spectrum `name` when the file gives it as `<spectrum>` wavelength:value pairs (kept
+    /// for spectral rendering; [`Props::color`] reads the same element as RGB). Marks nothing.
+    pub fn tabulated(&self, name: &str) -> Result<Option<Tabulated>, LoadError> {
+        let Some(el) = self.el.children.iter().find(|c| {
+            c.tag == "spectrum" && c.attr("name") == Some(name) && c.attr("filename").is_none()
+        }) else {
+            return Ok(None);
+        };
+        let text = el.required("value")?;
+        if !text.contains(':') {
+            return Ok(None);
+        }
+        let pairs = parse_pairs(el, text)?;
+        Ok(Tabulated::new(&pairs.iter().map(|&(l, v)| (l, v.max(0.0))).collect::<Vec<_>>()))
+    }
+
     /// A `<point>` or `<vector>` (attributes x, y, z or value="x, y, z").
     pub fn vec3(&self, name: &str) -> Result<Option<Vec3>, LoadError> {
         self.value(name).map(parse_xyz).transpose()
@@ -252,6 +270,32 @@ fn finite3(el: &Element, v: Vec3) -> Result<Vec3, LoadError> {
     }
 }
 
+/// The wavelength:value pairs of a `<spectrum>` (strictly increasing, finite).
+fn parse_pairs(el: &Element, text: &str) -> Result<Vec<(f32, f32)>, LoadError> {
+    let mut pairs = Vec::new();
+    for item in text.split(',').map(str::trim).filter(|s| !s.is_empty()) {
+        let parsed = item.split_once(':').and_then(|(w, v)| {
+            Some((w.trim().parse::<f32>().ok()?, v.trim().parse::<f32>().ok()?))
+        });
+        match parsed {
+            Some(p) if p.0.is_finite() && p.1.is_finite() => pairs.push(p),
+            _ => {
+                return Err(LoadError::invalid(
+                    el.at(),
+                    format!("spectrum entry {item:?} is not wavelength:value"),
+                ))
+            }
+        }
+    }
+    if pairs.windows(2).any(|w| w[1].0 <= w[0].0) {
+        return Err(LoadError::invalid(
+            el.at(),
+            "spectrum wavelengths must increase",
+        ));
+    }
+    Ok(pairs)
+}
+
 /// `<rgb value="r, g, b">` (or one value), `<spectrum value="v">` or wavelength:value pairs,
 /// `<float value="v">` (grey).
 pub(crate) fn parse_color(el: &Element) -> Result<Vec3, LoadError> {
@@ -285,27 +329,7 @@ pub(crate) fn parse_color(el: &Element) -> Result<Vec3, LoadError> {
                     )),
                 };
             }
-            let mut pairs = Vec::new();
-            for item in text.split(',').map(str::trim).filter(|s| !s.is_empty()) {
-                let parsed = item.split_once(':').and_then(|(w, v)| {
-                    Some((w.trim().parse::<f32>().ok()?, v.trim().parse::<f32>().ok()?))
-                });
-                match parsed {
-                    Some(p) if p.0.is_finite() && p.1.is_finite() => pairs.push(p),
-                    _ => {
-                        return Err(LoadError::invalid(
-                            el.at(),
-                            format!("spectrum entry {item:?} is not wavelength:value"),
-                        ))
-                    }
-                }
-            }
-            if pairs.windows(2).any(|w| w[1].0 <= w[0].0) {
-                return Err(LoadError::invalid(
-                    el.at(),
-                    "spectrum wavelengths must increase",
-                ));
-            }
+            let pairs = parse_pairs(el, text)?;
             Ok(spectrum_to_rgb(&pairs))
         }
         "float" | "integer" => Ok(Vec3::splat(parse_float(el)?)),
