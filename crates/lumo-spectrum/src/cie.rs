@@ -27,11 +27,14 @@ fn lerp_table(table: &[f32; CIE_SAMPLES], lambda: f32) -> f32 {
 /// The colour-matching functions (x̄, ȳ, z̄) at `lambda` nm.
 #[inline]
 pub fn xyz_bar(lambda: f32) -> Vec3 {
-    Vec3::new(
-        lerp_table(&CIE_X, lambda),
-        lerp_table(&CIE_Y, lambda),
-        lerp_table(&CIE_Z, lambda),
-    )
+    let x = (lambda - CIE_MIN) / CIE_STEP;
+    if !(0.0..=(CIE_SAMPLES - 1) as f32).contains(&x) {
+        return Vec3::ZERO;
+    }
+    let i = (x as usize).min(CIE_SAMPLES - 2);
+    let t = x - i as f32;
+    let node = |j: usize| Vec3::new(CIE_X[j], CIE_Y[j], CIE_Z[j]);
+    node(i) * (1.0 - t) + node(i + 1) * t
 }
 
 /// Illuminant D65 at `lambda` nm, normalised to luminance 1.

@@ -35,6 +35,23 @@ impl Sigmoid {
         Self { c: [0.0, 0.0, x] }
     }
 
+    /// The spectrum at the wavelengths of `wl` (three lanes at once).
+    #[inline]
+    pub fn eval_lanes(&self, wl: &crate::Wavelengths) -> glam::Vec3 {
+        let t = wl.normalised();
+        let [c0, c1, c2] = self.c;
+        let x = (t * c0 + c1) * t + c2;
+        let q = glam::Vec3::ONE + x * x;
+        let root = glam::Vec3::new(q.x.sqrt(), q.y.sqrt(), q.z.sqrt());
+        let s = glam::Vec3::splat(0.5) + x * 0.5 / root;
+        // x = ±∞ (a table node for a channel at exactly 0 or 1) is 0 or 1, not NaN.
+        if s.is_finite() {
+            s
+        } else {
+            glam::Vec3::from_array(wl.lambda.map(|l| self.eval(l)))
+        }
+    }
+
     /// The spectrum's value at `lambda` nm.
     #[inline]
     pub fn eval(&self, lambda: f32) -> f32 {

@@ -10,15 +10,14 @@
 
 use glam::Vec3;
 
-use crate::cie::d65;
+use crate::sigmoid::Sigmoid;
 use crate::table::coefficients;
 use crate::wavelengths::Wavelengths;
 
 /// A reflectance `rgb` (clamped to [0, 1]) at the wavelengths of `wl`.
 #[inline]
 pub fn reflectance(rgb: Vec3, wl: &Wavelengths) -> Vec3 {
-    let s = coefficients(rgb);
-    Vec3::from_array(wl.lambda.map(|l| s.eval(l)))
+    coefficients(rgb).eval_lanes(wl)
 }
 
 /// An unbounded non-negative `rgb` at the wavelengths of `wl`.
@@ -28,21 +27,32 @@ pub fn unbounded(rgb: Vec3, wl: &Wavelengths) -> Vec3 {
     if m <= 0.0 || !m.is_finite() {
         return Vec3::ZERO;
     }
+    let (scale, s) = unbounded_coefficients(rgb);
+    s.eval_lanes(wl) * scale
+}
+
+/// The scale and sigmoid of an unbounded non-negative `rgb` ([`unbounded`] is the sigmoid × the
+/// scale): for a colour used many times, fetched once.
+#[inline]
+pub fn unbounded_coefficients(rgb: Vec3) -> (f32, Sigmoid) {
+    let m = rgb.max_element();
+    if m <= 0.0 || !m.is_finite() {
+        return (0.0, Sigmoid::constant(0.0));
+    }
     let scale = 2.0 * m;
-    let s = coefficients(rgb.max(Vec3::ZERO) / scale);
-    Vec3::from_array(wl.lambda.map(|l| s.eval(l) * scale))
+    (scale, coefficients(rgb.max(Vec3::ZERO) / scale))
 }
 
 /// An emitted radiance `rgb` at the wavelengths of `wl`: [`unbounded`] × D65.
 #[inline]
 pub fn illuminant(rgb: Vec3, wl: &Wavelengths) -> Vec3 {
-    unbounded(rgb, wl) * Vec3::from_array(wl.lambda.map(d65))
+    unbounded(rgb, wl) * wl.d65()
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cie::{reflectance_to_rgb, spectrum_to_xyz, XYZ_TO_SRGB};
+    use crate::cie::{d65, reflectance_to_rgb, spectrum_to_xyz, XYZ_TO_SRGB};
 
     /// RGB → spectrum → XYZ → RGB within 1e-3 for in-gamut colours, on a grid that does not
     /// sit on the table's nodes.

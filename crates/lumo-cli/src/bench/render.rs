@@ -36,6 +36,10 @@ pub struct RenderBenchArgs {
     /// Integrators to measure, comma-separated (samples are light paths for `light`).
     #[arg(long, value_enum, value_delimiter = ',', default_value = "path")]
     integrators: Vec<BenchIntegrator>,
+    /// Also measure the path tracer with spectral transport (a row after each `path` row; the
+    /// RGB-to-spectrum table is fitted before timing starts).
+    #[arg(long)]
+    spectral: bool,
     /// Also write the Markdown table to this file.
     #[arg(long)]
     markdown: Option<PathBuf>,
@@ -52,6 +56,14 @@ fn run_render(args: RenderBenchArgs) -> Result<()> {
     }
     let names = super::scenes::scene_names(&args.scenes);
     let pool = crate::cli_common::worker_pool(args.threads)?;
+    if args.spectral {
+        let t0 = Instant::now();
+        pool.install(lumo_spectrum::coefficient_table);
+        eprintln!(
+            "RGB-to-spectrum table fitted in {:.2} s",
+            t0.elapsed().as_secs_f64()
+        );
+    }
     let threads = pool.current_num_threads();
     let (w, h) = args.size;
     let mut table = format!(
@@ -80,11 +92,21 @@ fn run_render(args: RenderBenchArgs) -> Result<()> {
             },
         };
         let mut path_rate = None;
+        // Each integrator, and the spectral path tracer after the RGB one.
+        let mut runs: Vec<(BenchIntegrator, bool)> = Vec::new();
         for &integrator in &args.integrators {
+            runs.push((integrator, false));
+            if integrator == BenchIntegrator::Path && args.spectral {
+                runs.push((integrator, true));
+            }
+        }
+        for (integrator, spectral) in runs {
             if integrator == BenchIntegrator::Light && rs.lights.emits_no_particles() {
                 eprintln!("{name}: light tracer skipped (no light emits particles)");
                 continue;
             }
+            let mut settings = settings;
+            settings.path.spectral = spectral;
             let (mut sps, mut rps) = (vec![], vec![]);
             let mut rays_per_sample = 0.0;
             for _ in 0..args.repeats.max(1) {
@@ -94,13 +116,14 @@ fn run_render(args: RenderBenchArgs) -> Result<()> {
                 rays_per_sample = stats.rays as f64 / stats.samples.max(1) as f64;
             }
             let rate = median(sps);
-            if integrator == BenchIntegrator::Path {
+            if integrator == BenchIntegrator::Path && !spectral {
                 path_rate = Some(rate);
             }
             let relative = path_rate.map_or("–".to_string(), |p| format!("{:.2}×", p / rate));
             let line = format!(
-                "| {name} | {} | {tris} | {build_ms:.1} | {}samples/s | {}rays/s | {rays_per_sample:.2} | {relative} |\n",
+                "| {name} | {}{} | {tris} | {build_ms:.1} | {}samples/s | {}rays/s | {rays_per_sample:.2} | {relative} |\n",
                 integrator.name(),
+                if spectral { " (spectral)" } else { "" },
                 si(rate),
                 si(median(rps))
             );

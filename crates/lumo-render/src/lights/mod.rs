@@ -470,9 +470,9 @@ impl Lights {
     /// The light [`Lights::sample`] picks for `u_choice`, with its probability, if it is an
     /// emissive triangle that can be picked.
     #[inline(always)]
-    pub(crate) fn choose_triangle(&self, u_choice: f32) -> Option<(f32, &EmissiveTriangle)> {
+    pub(crate) fn choose_triangle(&self, u_choice: f32) -> Option<(f32, &EmissiveTriangle, u32)> {
         match self.choose(u_choice)? {
-            (_, pick, LightKind::Triangle(tri)) => Some((pick, tri)),
+            (index, pick, LightKind::Triangle(tri)) => Some((pick, tri, index as u32)),
             _ => None,
         }
     }

@@ -88,6 +88,8 @@ pub struct RenderScene {
     /// (identity transform, no vertex colours, constant reflectance):
     /// the case the wavefront's vector bounce ([`crate::integrators::path::vector_bounce`]) handles.
     simple_diffuse: Vec<Option<SimpleDiffuse>>,
+    /// Spectral constants of the materials, fitted on the first spectral lookup.
+    spectral: std::sync::OnceLock<spectral::SpectralCache>,
     /// What the scene looked like when built, to tell an update apart from a new scene.
     structure: Structure,
 }
@@ -283,6 +285,7 @@ impl RenderScene {
         Ok(Self {
             structure: Structure::of(&scene),
             simple_diffuse,
+            spectral: std::sync::OnceLock::new(),
             // Relative to the coordinate magnitude (see `offset`): float error in the hit
             // point grows with it.
             ray_epsilon: 1e-4,

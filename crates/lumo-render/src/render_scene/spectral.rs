@@ -8,9 +8,11 @@
 //! directly.
 
 use glam::Vec3;
-use lumo_spectrum::upsample::{illuminant, reflectance, unbounded};
-use lumo_spectrum::{Tabulated, Wavelengths};
+use lumo_scene::{BsdfSpec, Texture};
+use lumo_spectrum::upsample::{illuminant, reflectance, unbounded, unbounded_coefficients};
+use lumo_spectrum::{coefficients, Sigmoid, Tabulated, Wavelengths};
 
+use super::materials::innermost;
 use super::{RenderScene, Surface};
 use crate::bsdf::{Bsdf, Conductor, Diffuse, Mirror, Plastic};
 use crate::shading::ShadingBsdf;
@@ -21,7 +23,70 @@ fn at(t: &Tabulated, wl: &Wavelengths) -> Vec3 {
     Vec3::from_array(wl.lambda.map(|l| t.eval(l)))
 }
 
+/// What every spectral lookup of a material would fetch again: the sigmoids of its constant
+/// base colour and of its emission. Each entry keeps the colour it was fitted for, so a
+/// material edited since (its colour no longer equal) takes the table lookup instead.
+pub(crate) struct SpectralCache {
+    /// Per material: its constant base reflectance and that colour's sigmoid.
+    reflectance: Vec<Option<(Vec3, Sigmoid)>>,
+    /// Per material: its emitted radiance and that colour's unbounded (scale, sigmoid).
+    emission: Vec<(Vec3, f32, Sigmoid)>,
+}
+
+impl SpectralCache {
+    fn new(rs: &RenderScene) -> Self {
+        let reflectance = rs
+            .scene
+            .materials
+            .iter()
+            .map(|m| {
+                let c = match innermost(&m.bsdf) {
+                    BsdfSpec::Diffuse {
+                        reflectance: Texture::Constant(c),
+                    }
+                    | BsdfSpec::Plastic {
+                        diffuse: Texture::Constant(c),
+                        ..
+                    }
+                    | BsdfSpec::Mirror { reflectance: c } => *c,
+                    _ => return None,
+                };
+                Some((c, coefficients(c)))
+            })
+            .collect();
+        let emission = rs
+            .scene
+            .materials
+            .iter()
+            .map(|m| {
+                let (scale, s) = unbounded_coefficients(m.emission);
+                (m.emission, scale, s)
+            })
+            .collect();
+        Self {
+            reflectance,
+            emission,
+        }
+    }
+}
+
 impl RenderScene {
+    /// The spectral constants, fitted on first use.
+    #[inline]
+    fn spectral_cache(&self) -> &SpectralCache {
+        self.spectral.get_or_init(|| SpectralCache::new(self))
+    }
+
+    /// Reflectance `rgb` of `material` at `wl` from an upsampled RGB: the cached sigmoid when
+    /// `rgb` is the material's constant colour.
+    #[inline]
+    fn upsampled_reflectance(&self, rgb: Vec3, material: usize, wl: &Wavelengths) -> Vec3 {
+        match self.spectral_cache().reflectance.get(material) {
+            Some(Some((c, s))) if *c == rgb => s.eval_lanes(wl),
+            _ => reflectance(rgb, wl),
+        }
+    }
+
     /// The BSDF `b` of surface `s` at the wavelengths of `wl`. A dispersive dielectric takes
     /// its index at the hero wavelength and stops the other lanes (their paths would refract
     /// elsewhere).
@@ -31,7 +96,7 @@ impl RenderScene {
         // A tabulated reflectance holds where the surface adds no colour of its own.
         let base = |rgb: Vec3| match &spectra.reflectance {
             Some(t) if s.color == Vec3::ONE => at(t, wl),
-            _ => reflectance(rgb, wl),
+            _ => self.upsampled_reflectance(rgb, s.material, wl),
         };
         b.bsdf = match b.bsdf {
             Bsdf::Diffuse(d) => Bsdf::Diffuse(Diffuse {
@@ -42,7 +107,7 @@ impl RenderScene {
                 ..p
             }),
             Bsdf::Mirror(m) => Bsdf::Mirror(Mirror {
-                reflectance: reflectance(m.reflectance, wl),
+                reflectance: self.upsampled_reflectance(m.reflectance, s.material, wl),
             }),
             Bsdf::Conductor(c) => {
                 let (eta, k) = match &spectra.conductor {
@@ -70,7 +135,7 @@ impl RenderScene {
     pub(crate) fn spectral_reflectance(&self, rgb: Vec3, material: usize, wl: &Wavelengths) -> Vec3 {
         match &self.scene.materials[material].spectra.reflectance {
             Some(t) => at(t, wl),
-            None => reflectance(rgb, wl),
+            None => self.upsampled_reflectance(rgb, material, wl),
         }
     }
 
@@ -89,7 +154,16 @@ impl RenderScene {
                     Vec3::ZERO
                 }
             }
-            None => illuminant(rgb, wl),
+            None => {
+                // Light weights are the material's emission times a number: use its sigmoid.
+                let (e, scale, sig) = &self.spectral_cache().emission[material];
+                let c = rgb.max_element() / e.max_element();
+                if c.is_finite() && (rgb - *e * c).abs().max_element() <= 1e-5 * rgb.max_element() {
+                    sig.eval_lanes(wl) * (scale * c) * wl.d65()
+                } else {
+                    illuminant(rgb, wl)
+                }
+            }
         }
     }
 

@@ -198,11 +198,15 @@ impl PathState {
     pub fn result(&self) -> PathRadiance {
         match &self.wl {
             None => self.radiance,
-            Some(wl) => PathRadiance {
-                direct: wl.to_rgb(self.radiance.direct),
-                indirect: wl.to_rgb(self.radiance.indirect),
-                rays: self.radiance.rays,
-            },
+            Some(wl) => {
+                let (direct, indirect) =
+                    wl.to_rgb_pair(self.radiance.direct, self.radiance.indirect);
+                PathRadiance {
+                    direct,
+                    indirect,
+                    rays: self.radiance.rays,
+                }
+            }
         }
     }
 

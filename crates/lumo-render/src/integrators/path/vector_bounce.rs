@@ -304,7 +304,7 @@ fn bounce(
         u_dir[0][i] = u.direction.x;
         u_dir[1][i] = u.direction.y;
         u_rr[i] = u.roulette;
-        if let Some((pk, tri)) = rs.lights.choose_triangle(u.light) {
+        if let Some((pk, tri, light)) = rs.lights.choose_triangle(u.light) {
             has_light[i] = true;
             pick[i] = pk;
             area[i] = tri.area;
@@ -316,7 +316,7 @@ fn bounce(
                 lrad[a][i] = tri.radiance[a];
             }
             if let Some(wl) = &path.wl {
-                let l = lumo_spectrum::upsample::illuminant(tri.radiance, wl);
+                let l = rs.spectral_light(tri.radiance, light, wl);
                 for a in 0..3 {
                     lrad[a][i] = l[a];
                 }
