@@ -342,6 +342,10 @@ pub fn run(args: RenderArgs) -> Result<()> {
     if args.spectral && args.integrator != RenderIntegrator::Path {
         bail!("--spectral: spectral transport runs in the path tracer; use --integrator path (the light tracer, bdpt and ppm transport RGB)");
     }
+    if args.spectral {
+        // Fitted once per process (about a second on two cores), before the progress bar.
+        lumo_spectrum::coefficient_table();
+    }
     if args.integrator != RenderIntegrator::Ppm
         && (args.max_photons.is_some() || args.photons_per_pass.is_some())
     {

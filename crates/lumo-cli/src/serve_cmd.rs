@@ -45,6 +45,11 @@ pub struct ServeArgs {
     /// Random seed.
     #[arg(long, default_value_t = 0)]
     pub seed: u32,
+    /// Spectral transport for the path tracer (the camera stream and the filtered frames):
+    /// samples carry three wavelengths and are sent as the XYZ of their spectra. The light
+    /// tracer, bdpt and ppm stay RGB (docs/spectral.md says why RGB is the default).
+    #[arg(long)]
+    pub spectral: bool,
     /// Throttle rendering to this many samples (camera samples plus light paths) per second,
     /// to see how the viewer behaves with a slow server.
     #[arg(long)]
@@ -127,10 +132,18 @@ pub fn run(args: ServeArgs) -> Result<()> {
             "use a smaller --max-photons",
         )?;
     }
+    if args.spectral && !matches!(args.integrator, IntegratorArg::Path) {
+        bail!("--spectral: spectral transport runs in the path tracer; use --integrator path (the light tracer, bdpt and ppm transport RGB)");
+    }
     config.path = PathSettings {
         max_depth: args.max_depth.unwrap_or(scene.defaults.max_depth),
+        spectral: args.spectral,
         ..Default::default()
     };
+    if args.spectral {
+        // Fitted once per process; here rather than in the first sample's path.
+        lumo_spectrum::coefficient_table();
+    }
     config.seed = args.seed;
     config.max_rate = args.max_rate;
     config.animation = rig;

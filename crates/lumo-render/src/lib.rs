@@ -19,7 +19,7 @@ pub mod sampler;
 pub mod shading;
 
 pub use film::{Frame, AOV_NAMES};
-pub use integrators::path::{trace_path, FirstHit, PathRadiance, PathSettings};
+pub use integrators::path::{trace_path, trace_path_xyz, FirstHit, PathRadiance, PathSettings};
 pub use integrators::photon::PpmSettings;
 pub use render::{
     frame_from_estimates, map_pixels, map_rows, render, render_bdpt, render_light, render_pixel,

@@ -14,7 +14,9 @@ use lumo_render::integrators::light::trace_light_path;
 use lumo_render::integrators::photon::{trace_ppm_path, PhotonMap};
 use lumo_render::RenderScene;
 use lumo_render::LIGHT_STREAM_X;
-use lumo_render::{camera::PinholeCamera, sampler::PixelSampler, trace_path, PathSettings};
+use lumo_render::{
+    camera::PinholeCamera, sampler::PixelSampler, trace_path, trace_path_xyz, PathSettings,
+};
 
 /// One sample of either stream.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -129,6 +131,16 @@ impl StreamContext<'_> {
         }
     }
 
+    /// A camera sample's CIE XYZ value as a stream sample.
+    fn sample_xyz(&self, film: Vec2, xyz: Vec3) -> Sample {
+        let [x, y, z] = (xyz * self.scale).to_array();
+        let uv = film / self.size;
+        Sample {
+            uv: [uv.x, uv.y],
+            xyzw: [x, y, z, 1.0],
+        }
+    }
+
     /// Camera sample `n` by photon mapping: gathers from `map` (under its read lock, held for
     /// this one sample so photon writers wait at most one gather) within `radius`, the radius
     /// of the sample's pass. Returns the sample and the rays traced.
@@ -151,6 +163,12 @@ impl StreamContext<'_> {
     /// Camera sample `n`, or None when its index falls outside a non-square image.
     pub fn camera_sample(&self, n: u64) -> Option<(Sample, u32)> {
         let (mut sampler, film, dir) = self.camera_ray(n)?;
+        if self.path.spectral {
+            // The path's XYZ straight from its wavelengths, not through RGB.
+            let (xyz, rays) =
+                trace_path_xyz(self.rs, self.camera.origin(), dir, &mut sampler, &self.path);
+            return Some((self.sample_xyz(film, xyz), rays));
+        }
         let r = trace_path(
             self.rs,
             self.camera.origin(),

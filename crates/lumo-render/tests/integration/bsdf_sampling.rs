@@ -150,7 +150,29 @@ fn test_bsdfs() -> Vec<(&'static str, Bsdf)> {
                 mf: GGX_ANISO,
             }),
         ),
+        // A dispersive glass as spectral transport sees it: BK7 at its hero wavelength.
+        (
+            "dielectric-bk7-420nm",
+            Bsdf::Dielectric(Dielectric {
+                eta: bk7_at(420.0),
+                mf: Microfacet::ggx(0.2),
+            }),
+        ),
+        (
+            "dielectric-bk7-680nm",
+            Bsdf::Dielectric(Dielectric {
+                eta: bk7_at(680.0),
+                mf: Microfacet::isotropic(Distribution::Beckmann, 0.2),
+            }),
+        ),
     ]
+}
+
+/// BK7's index at `lambda` nm, quoted as Mitsuba's 1.5046 at the d line.
+fn bk7_at(lambda: f32) -> f32 {
+    lumo_spectrum::Glass::named("bk7")
+        .expect("bk7 is a known glass")
+        .ior(1.5046, lambda)
 }
 
 const BECKMANN_ANISO: Microfacet = Microfacet {

@@ -13,5 +13,6 @@ mod light_sampling;
 mod mitsuba_adapters;
 mod mitsuba_cornell;
 mod mitsuba_suite;
+mod spectral;
 mod transport_modes;
 mod wavefront;

@@ -461,11 +461,49 @@ impl PathState {
         true
     }
 
+    /// Traces this path to its end one ray at a time.
+    fn run(&mut self, rs: &RenderScene, settings: &PathSettings) {
+        loop {
+            let hit = rs
+                .accel
+                .intersect(self.origin, self.dir, 0.0, f32::INFINITY);
+            let (shadow, goes_on) = self.advance(rs, settings, hit);
+            if let Some(sh) = shadow {
+                if !rs.accel.occluded(sh.origin, sh.dir, 0.0, sh.tmax) {
+                    self.add_unoccluded(&sh);
+                }
+            }
+            if !goes_on {
+                break;
+            }
+        }
+    }
+
     /// Adds the contribution of a shadow ray this path produced and nothing blocked.
     #[inline]
     pub fn add_unoccluded(&mut self, shadow: &ShadowRay) {
         self.radiance.add(shadow.depth, shadow.contribution);
     }
+}
+
+/// [`trace_path`]'s estimate as CIE XYZ (what the progressive server streams) and its rays:
+/// under spectral transport straight from the wavelengths, without passing through RGB.
+pub fn trace_path_xyz(
+    rs: &RenderScene,
+    origin: Vec3,
+    dir: Vec3,
+    sampler: &mut PixelSampler,
+    settings: &PathSettings,
+) -> (Vec3, u32) {
+    let mut path = PathState::new(origin, dir, *sampler, false).spectral(settings.spectral);
+    path.run(rs, settings);
+    *sampler = path.sampler;
+    let l = path.radiance.direct + path.radiance.indirect;
+    let xyz = match &path.wl {
+        Some(wl) => wl.to_xyz(l),
+        None => lumo_spectrum::cie::SRGB_TO_XYZ * l,
+    };
+    (xyz, path.radiance.rays)
 }
 
 /// Traces one path starting with the ray `origin + t·dir` (unit `dir`), one ray at a time.
@@ -479,20 +517,7 @@ pub fn trace_path(
 ) -> PathRadiance {
     let mut path =
         PathState::new(origin, dir, *sampler, first_hit.is_some()).spectral(settings.spectral);
-    loop {
-        let hit = rs
-            .accel
-            .intersect(path.origin, path.dir, 0.0, f32::INFINITY);
-        let (shadow, goes_on) = path.advance(rs, settings, hit);
-        if let Some(sh) = shadow {
-            if !rs.accel.occluded(sh.origin, sh.dir, 0.0, sh.tmax) {
-                path.add_unoccluded(&sh);
-            }
-        }
-        if !goes_on {
-            break;
-        }
-    }
+    path.run(rs, settings);
     *sampler = path.sampler;
     if let Some(fh) = first_hit {
         *fh = path.first_hit;
