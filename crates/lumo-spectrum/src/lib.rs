@@ -22,4 +22,6 @@ pub use dispersion::Glass;
 pub use sigmoid::Sigmoid;
 pub use table::{coefficient_table, coefficients, CoefficientTable};
 pub use tabulated::{conductor, Tabulated};
-pub use wavelengths::{sample_visible, visible_pdf, Wavelengths, HERO_LANES, LAMBDA_MAX, LAMBDA_MIN};
+pub use wavelengths::{
+    sample_visible, visible_pdf, Wavelengths, HERO_LANES, LAMBDA_MAX, LAMBDA_MIN,
+};

@@ -73,7 +73,12 @@ mod tests {
                 }
             }
         }
-        assert!(worst.0 < 1e-3, "worst round trip {} at {}", worst.0, worst.1);
+        assert!(
+            worst.0 < 1e-3,
+            "worst round trip {} at {}",
+            worst.0,
+            worst.1
+        );
     }
 
     #[test]

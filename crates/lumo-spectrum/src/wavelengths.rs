@@ -86,7 +86,11 @@ pub fn visible_pdf(lambda: f32) -> f32 {
         return 0.0;
     }
     let t = inverse_cdf();
-    let i = t.lambda.partition_point(|&l| l <= lambda).clamp(1, SEGMENTS) - 1;
+    let i = t
+        .lambda
+        .partition_point(|&l| l <= lambda)
+        .clamp(1, SEGMENTS)
+        - 1;
     t.pdf[i]
 }
 
@@ -137,7 +141,8 @@ impl Wavelengths {
     /// polynomials' parameter).
     #[inline]
     pub fn normalised(&self) -> Vec3 {
-        (Vec3::from_array(self.lambda) - Vec3::splat(LAMBDA_MIN)) * (1.0 / (LAMBDA_MAX - LAMBDA_MIN))
+        (Vec3::from_array(self.lambda) - Vec3::splat(LAMBDA_MIN))
+            * (1.0 / (LAMBDA_MAX - LAMBDA_MIN))
     }
 
     /// The hero wavelength.
@@ -280,7 +285,10 @@ mod tests {
         let w = Wavelengths::sample(0.9);
         assert_eq!(w.lambda[0], sample_visible(0.9).0);
         assert_eq!(w.lambda[1], sample_visible((0.9f32 + 1.0 / 3.0).fract()).0);
-        assert!(w.lambda.iter().all(|l| (LAMBDA_MIN..=LAMBDA_MAX).contains(l)));
+        assert!(w
+            .lambda
+            .iter()
+            .all(|l| (LAMBDA_MIN..=LAMBDA_MAX).contains(l)));
     }
 
     /// The estimator of a spectrum's XYZ averages to its integral, with and without termination.

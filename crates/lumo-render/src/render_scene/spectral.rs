@@ -91,7 +91,12 @@ impl RenderScene {
     /// its index at the hero wavelength and stops the other lanes (their paths would refract
     /// elsewhere).
     #[inline]
-    pub fn spectral_bsdf(&self, mut b: ShadingBsdf, s: &Surface, wl: &mut Wavelengths) -> ShadingBsdf {
+    pub fn spectral_bsdf(
+        &self,
+        mut b: ShadingBsdf,
+        s: &Surface,
+        wl: &mut Wavelengths,
+    ) -> ShadingBsdf {
         let spectra = &self.scene.materials[s.material].spectra;
         // A tabulated reflectance holds where the surface adds no colour of its own.
         let base = |rgb: Vec3| match &spectra.reflectance {
@@ -132,7 +137,12 @@ impl RenderScene {
 
     /// A reflectance `rgb` of material `material` at `wl` (its tabulated spectrum if it has one).
     #[inline]
-    pub(crate) fn spectral_reflectance(&self, rgb: Vec3, material: usize, wl: &Wavelengths) -> Vec3 {
+    pub(crate) fn spectral_reflectance(
+        &self,
+        rgb: Vec3,
+        material: usize,
+        wl: &Wavelengths,
+    ) -> Vec3 {
         match &self.scene.materials[material].spectra.reflectance {
             Some(t) => at(t, wl),
             None => self.upsampled_reflectance(rgb, material, wl),

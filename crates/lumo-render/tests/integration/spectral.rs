@@ -36,10 +36,7 @@ fn mean(img: &lumo_image::Image) -> Vec3 {
 /// independently of the renderer.
 #[test]
 fn spectral_furnace_sums_the_series_per_wavelength() {
-    for (rho, le) in [
-        (Vec3::splat(0.6), 1.0f32),
-        (Vec3::new(0.8, 0.45, 0.2), 0.5),
-    ] {
+    for (rho, le) in [(Vec3::splat(0.6), 1.0f32), (Vec3::new(0.8, 0.45, 0.2), 0.5)] {
         let mut scene = common::furnace_sphere(0.5, le);
         scene.materials[0] = Material::diffuse("wall", rho).with_emission(Vec3::splat(le));
         let rs = RenderScene::new(scene).unwrap();
@@ -70,14 +67,21 @@ fn spectral_furnace_sums_the_series_per_wavelength() {
 fn a_grey_scene_renders_as_in_rgb() {
     let scene = common::light_over_floor(4.0, 1.0);
     let rs = RenderScene::new(scene).unwrap();
-    let rgb = mean(&render(&rs, &settings(24, 24, 64, 5, false), &|_| {}).0.color);
+    let rgb = mean(
+        &render(&rs, &settings(24, 24, 64, 5, false), &|_| {})
+            .0
+            .color,
+    );
     let spectral = mean(&render(&rs, &settings(24, 24, 64, 5, true), &|_| {}).0.color);
     assert!(
         (spectral - rgb).abs().max_element() < 0.01 * rgb.max_element(),
         "spectral {spectral} vs RGB {rgb}"
     );
     // Grey stays grey: no colour cast from D65 or the observer.
-    assert!((spectral.x - spectral.z).abs() < 0.01 * spectral.y, "{spectral}");
+    assert!(
+        (spectral.x - spectral.z).abs() < 0.01 * spectral.y,
+        "{spectral}"
+    );
 }
 
 /// A coloured diffuse surface seen under the white light reflects its upsampled spectrum.
@@ -125,7 +129,10 @@ fn dispersive_glass_refracts_the_hero_alone() {
     }
     let rs = RenderScene::new(scene).unwrap();
     let (o, d) = (Vec3::new(0.0, 3.0, 0.3), Vec3::new(0.0, -1.0, 0.0));
-    let hit = rs.accel.intersect(o, d, 0.0, f32::INFINITY).expect("hits the floor");
+    let hit = rs
+        .accel
+        .intersect(o, d, 0.0, f32::INFINITY)
+        .expect("hits the floor");
     let s = rs.surface(&hit, o, d);
     for hero in [420.0f32, 587.56, 680.0] {
         let mut wl = Wavelengths::fixed([hero, 500.0, 600.0]);
@@ -134,7 +141,11 @@ fn dispersive_glass_refracts_the_hero_alone() {
             panic!("not a dielectric")
         };
         let want = 1.5046 + bk7.sellmeier(hero) - bk7.sellmeier(587.56);
-        assert!((g.eta - want).abs() < 1e-6, "{hero} nm: η {} vs {want}", g.eta);
+        assert!(
+            (g.eta - want).abs() < 1e-6,
+            "{hero} nm: η {} vs {want}",
+            g.eta
+        );
         assert!(wl.is_terminated());
     }
     // Blue bends more than red.

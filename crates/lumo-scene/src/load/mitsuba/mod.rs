@@ -254,7 +254,9 @@ impl<'a> Builder<'a, '_> {
             bsdf.map_or(0, |e| e as *const Element as usize),
             emission.to_array().map(f32::to_bits),
             emission_map.as_ref().map_or(0, |t| Arc::as_ptr(t) as usize),
-            emission_spectrum.as_ref().map_or(0, |t| Arc::as_ptr(t) as usize),
+            emission_spectrum
+                .as_ref()
+                .map_or(0, |t| Arc::as_ptr(t) as usize),
         );
         if let Some(&m) = self.materials.get(&key) {
             return Ok(m);

@@ -212,7 +212,12 @@ impl<'a> Props<'a> {
             return Ok(None);
         }
         let pairs = parse_pairs(el, text)?;
-        Ok(Tabulated::new(&pairs.iter().map(|&(l, v)| (l, v.max(0.0))).collect::<Vec<_>>()))
+        Ok(Tabulated::new(
+            &pairs
+                .iter()
+                .map(|&(l, v)| (l, v.max(0.0)))
+                .collect::<Vec<_>>(),
+        ))
     }
 
     /// A `<point>` or `<vector>` (attributes x, y, z or value="x, y, z").
