@@ -42,6 +42,8 @@ fn smoothstep(x: f64) -> f64 {
 
 impl CoefficientTable {
     /// Fits a table with `res` nodes per axis (rows in parallel).
+    // The chains walk k up and down from the middle, indexing `scale` and the output by it.
+    #[allow(clippy::needless_range_loop)]
     pub fn build(res: usize) -> Self {
         let res = res.max(4);
         let q = Quadrature::new();

@@ -42,7 +42,7 @@ pub struct Wavelengths {
 #[cfg(test)]
 fn sech2_pdf(lambda: f32) -> f32 {
     let c = (0.0072 * (lambda - 538.0)).cosh();
-    0.003_939_804_2 / (c * c)
+    0.003_939_804 / (c * c)
 }
 
 /// Inverse of the sech² bump's distribution function.
@@ -185,9 +185,9 @@ impl Wavelengths {
                 w[0] = 1.0 / self.pdf[0];
             }
         } else {
-            for i in 0..HERO_LANES {
-                if self.pdf[i] > 0.0 {
-                    w[i] = 1.0 / (HERO_LANES as f32 * self.pdf[i]);
+            for (w, &pdf) in w.iter_mut().zip(&self.pdf) {
+                if pdf > 0.0 {
+                    *w = 1.0 / (HERO_LANES as f32 * pdf);
                 }
             }
         }
