@@ -596,3 +596,52 @@ fn shapegroup_meshes_are_shared_by_its_instances() {
         assert!(load(&p).is_err(), "{bad}");
     }
 }
+
+/// What spectral rendering needs survives loading: `<spectrum>` pairs on a reflectance and an
+/// area emitter, a conductor preset's measured spectra, a named glass's dispersion (through a
+/// `twosided` wrapper too); RGB values leave the spectra empty.
+#[test]
+fn spectral_data_is_kept_for_spectral_rendering() {
+    let dir =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/mitsuba/scenes");
+    let emitters = load(&dir.join("spectral_emitters.xml")).unwrap().scene;
+    let floor = &emitters.materials[emitters.meshes[0].material];
+    let refl = floor
+        .spectra
+        .reflectance
+        .as_ref()
+        .expect("floor reflectance spectrum");
+    assert!((refl.eval(540.0) - 0.15).abs() < 1e-6 && refl.eval(300.0) == 0.0);
+    let narrow = emitters.materials.iter().find_map(|m| {
+        m.spectra
+            .emission
+            .as_ref()
+            .filter(|e| e.eval(460.0) == 30.0)
+    });
+    assert!(
+        narrow.is_some(),
+        "the narrow-band emitter keeps its spectrum"
+    );
+    let cube = &emitters.materials[emitters.meshes.last().unwrap().material];
+    assert!(
+        cube.spectra.reflectance.is_none(),
+        "an RGB reflectance has no spectrum"
+    );
+
+    let conductors = load(&dir.join("spectral_conductors.xml")).unwrap().scene;
+    let gold = conductors
+        .materials
+        .iter()
+        .find_map(|m| m.spectra.conductor.as_ref())
+        .expect("a conductor preset keeps its spectra");
+    assert!(gold.1.eval(650.0) > 3.0);
+
+    let glass = load(&dir.join("spectral_dispersion.xml")).unwrap().scene;
+    let (bk7, exterior) = glass
+        .materials
+        .iter()
+        .find_map(|m| m.spectra.dispersion)
+        .expect("bk7 is dispersive");
+    assert_eq!(bk7, lumo_spectrum::Glass::named("bk7").unwrap());
+    assert!((exterior - 1.00028).abs() < 1e-6);
+}
