@@ -104,7 +104,7 @@ pub struct RenderArgs {
     pub seed: Option<u32>,
     /// Spectral transport: paths carry three hero-rotated wavelengths (RGB inputs upsampled
     /// to smooth spectra, emitters × D65, measured conductors, dispersive glasses) and the
-    /// image is accumulated in CIE XYZ, written as linear sRGB. --integrator path only.
+    /// image is accumulated in CIE XYZ, written as linear sRGB. --integrator path or light.
     #[arg(long)]
     pub spectral: bool,
     /// Worker threads [default: all cores].
@@ -339,8 +339,13 @@ pub fn run(args: RenderArgs) -> Result<()> {
     if args.integrator == RenderIntegrator::Ppm && args.aovs.is_some() {
         bail!("--aovs: the photon mapper makes no G-buffer; use --integrator path for AOV planes");
     }
-    if args.spectral && args.integrator != RenderIntegrator::Path {
-        bail!("--spectral: spectral transport runs in the path tracer; use --integrator path (the light tracer, bdpt and ppm transport RGB)");
+    if args.spectral
+        && !matches!(
+            args.integrator,
+            RenderIntegrator::Path | RenderIntegrator::Light
+        )
+    {
+        bail!("--spectral: spectral transport runs in the path and light tracers; use --integrator path or light (bdpt and ppm transport RGB)");
     }
     if args.spectral {
         // Fitted once per process (about a second on two cores), before the progress bar.

@@ -45,9 +45,9 @@ pub struct ServeArgs {
     /// Random seed.
     #[arg(long, default_value_t = 0)]
     pub seed: u32,
-    /// Spectral transport for the path tracer (the camera stream and the filtered frames):
-    /// samples carry three wavelengths and are sent as the XYZ of their spectra. The light
-    /// tracer, bdpt and ppm stay RGB (docs/spectral.md says why RGB is the default).
+    /// Spectral transport for the path tracer (camera stream, filtered frames) and the light
+    /// tracer (light stream): samples carry three wavelengths and are sent as the XYZ of their
+    /// spectra. bdpt and ppm stay RGB (docs/spectral.md says why RGB is the default).
     #[arg(long)]
     pub spectral: bool,
     /// Throttle rendering to this many samples (camera samples plus light paths) per second,
@@ -132,8 +132,13 @@ pub fn run(args: ServeArgs) -> Result<()> {
             "use a smaller --max-photons",
         )?;
     }
-    if args.spectral && !matches!(args.integrator, IntegratorArg::Path) {
-        bail!("--spectral: spectral transport runs in the path tracer; use --integrator path (the light tracer, bdpt and ppm transport RGB)");
+    if args.spectral
+        && !matches!(
+            args.integrator,
+            IntegratorArg::Path | IntegratorArg::Light | IntegratorArg::Both
+        )
+    {
+        bail!("--spectral: spectral transport runs in the path and light tracers; use --integrator path, light or both (bdpt and ppm transport RGB)");
     }
     config.path = PathSettings {
         max_depth: args.max_depth.unwrap_or(scene.defaults.max_depth),

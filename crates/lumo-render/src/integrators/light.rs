@@ -11,6 +11,8 @@
 
 use glam::{Vec2, Vec3};
 
+use lumo_spectrum::Wavelengths;
+
 use crate::bsdf::{BsdfSample, TransportMode};
 use crate::camera::PinholeCamera;
 use crate::geometry::{offset_point, shadow_segment, survival_probability};
@@ -119,12 +121,29 @@ pub fn trace_light_path(
     let u_choice = sampler.next_1d();
     let u_pos = sampler.next_2d();
     let u_dir = sampler.next_2d();
-    let Some(e) = rs.lights.sample_emission(u_choice, u_pos, u_dir) else {
+    let Some(mut e) = rs.lights.sample_emission(u_choice, u_pos, u_dir) else {
         return stats;
     };
-    let mut emit = |s: Option<(LightSplat, u32)>, stats: &mut LightPathStats| {
-        if let Some((sp, rays)) = s {
+    // Under spectral transport the particle carries three wavelengths (drawn after the
+    // emission numbers, so RGB paths keep their sample stream) and every splat is its XYZ
+    // estimate, written as linear sRGB.
+    let mut lambdas = settings
+        .spectral
+        .then(|| Wavelengths::sample(sampler.next_1d()));
+    if let Some(w) = &lambdas {
+        e.radiance = rs.spectral_light(e.radiance, e.light, w);
+        e.weight = rs.spectral_light(e.weight, e.light, w);
+    }
+    // The wavelengths a splat is converted with are those of the path when it is made (a
+    // dispersive vertex stops the secondary lanes for every splat after it).
+    let mut emit = |s: Option<(LightSplat, u32)>,
+                    stats: &mut LightPathStats,
+                    lambdas: &Option<Wavelengths>| {
+        if let Some((mut sp, rays)) = s {
             stats.rays += rays;
+            if let Some(w) = lambdas {
+                sp.value = w.to_rgb(sp.value);
+            }
             if sp.value != Vec3::ZERO {
                 stats.splats += 1;
                 splat(sp);
@@ -143,7 +162,7 @@ pub fn trace_light_path(
                 Vec3::ZERO
             }
         });
-        emit(seen, &mut stats);
+        emit(seen, &mut stats, &lambdas);
         origin = off(e.dir);
     }
     let (mut dir, mut throughput) = (e.dir, e.weight);
@@ -158,7 +177,11 @@ pub fn trace_light_path(
             break;
         };
         let s = rs.surface(&hit, origin, dir);
-        let bsdf = rs.bsdf(&s);
+        let mut bsdf = rs.bsdf(&s);
+        if let Some(w) = &mut lambdas {
+            bsdf = rs.spectral_bsdf(bsdf, &s, w);
+            throughput *= w.live_mask();
+        }
         let wl = -dir;
         let (ns, ng) = (s.frame.n, s.ng);
         let (cos_ns_l, cos_ng_l) = (ns.dot(wl).abs(), ng.dot(wl).abs());
@@ -181,7 +204,7 @@ pub fn trace_light_path(
                 let f = bsdf.eval(s.frame.to_local(wc), wl_local) / wl_local.z.abs();
                 throughput * f
             });
-            emit(seen, &mut stats);
+            emit(seen, &mut stats, &lambdas);
         }
         if depth >= settings.max_depth {
             break;

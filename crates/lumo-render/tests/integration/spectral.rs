@@ -151,3 +151,24 @@ fn dispersive_glass_refracts_the_hero_alone() {
     // Blue bends more than red.
     assert!(bk7.ior(1.5046, 420.0) > bk7.ior(1.5046, 680.0) + 0.008);
 }
+
+/// The spectral light tracer estimates the spectral path tracer's image: per channel, on a
+/// scene with saturated walls (where spectral and RGB transport differ).
+#[test]
+fn spectral_light_tracing_agrees_with_spectral_path_tracing() {
+    let rs = RenderScene::new(lumo_scene::builtin_scene("cornell").unwrap()).unwrap();
+    let s = settings(24, 24, 256, 4, true);
+    let (light, _) = lumo_render::render_light(&rs, &s, &|_| {});
+    let path = render(&rs, &s, &|_| {}).0.color;
+    let (l, p) = (mean(&light), mean(&path));
+    assert!(
+        (l / p - Vec3::ONE).abs().max_element() < 0.03,
+        "light tracer {l} vs path tracer {p}"
+    );
+    let rgb = mean(
+        &render(&rs, &settings(24, 24, 256, 4, false), &|_| {})
+            .0
+            .color,
+    );
+    eprintln!("spectral path {p}, spectral light {l}, RGB path {rgb}");
+}
