@@ -160,11 +160,28 @@ fn temporal_sequences_filter_and_evaluate() {
     let dir = temp_dir("temporal");
     let scene = animated();
     let size = ["--size", "32x24", "--spp", "1"];
-    let mut args = vec!["render", &scene, "--frames", "0..2", "--temporal", "-o", "t.pfm"];
+    let mut args = vec![
+        "render",
+        &scene,
+        "--frames",
+        "0..2",
+        "--temporal",
+        "-o",
+        "t.pfm",
+    ];
     args.extend(size);
     let o = lumo(&dir, &args);
     assert!(o.status.success(), "{}", text(&o));
-    let mut args = vec!["render", &scene, "--frames", "0..2", "--pipeline", "none", "-o", "n.pfm"];
+    let mut args = vec![
+        "render",
+        &scene,
+        "--frames",
+        "0..2",
+        "--pipeline",
+        "none",
+        "-o",
+        "n.pfm",
+    ];
     args.extend(size);
     assert!(lumo(&dir, &args).status.success());
     // Roughness: mean absolute difference of horizontal neighbours.
@@ -179,7 +196,14 @@ fn temporal_sequences_filter_and_evaluate() {
         assert!(t < 0.7 * n, "frame {f}: roughness {t} filtered, {n} traced");
     }
     let mut args = vec![
-        "render", &scene, "--frames", "0..9", "--temporal-eval", "eval", "--reference-spp", "4",
+        "render",
+        &scene,
+        "--frames",
+        "0..9",
+        "--temporal-eval",
+        "eval",
+        "--reference-spp",
+        "4",
     ];
     args.extend(size);
     let o = lumo(&dir, &args);
@@ -190,14 +214,28 @@ fn temporal_sequences_filter_and_evaluate() {
     let csv = std::fs::read_to_string(dir.join("eval/frames.csv")).unwrap();
     assert_eq!(csv.lines().count(), 11, "a header and ten frames");
     for (bad, why) in [
-        (vec!["--temporal", "--pipeline", "atrous"], "drop --pipeline atrous"),
-        (vec!["--temporal", "--integrator", "light"], "makes no G-buffer"),
+        (
+            vec!["--temporal", "--pipeline", "atrous"],
+            "drop --pipeline atrous",
+        ),
+        (
+            vec!["--temporal", "--integrator", "light"],
+            "makes no G-buffer",
+        ),
     ] {
         let mut args = vec!["render", &scene, "--frames", "0..1", "-o", "x.exr"];
         args.extend(bad);
         let o = lumo(&dir, &args);
-        assert!(!o.status.success() && text(&o).contains(why), "{}", text(&o));
+        assert!(
+            !o.status.success() && text(&o).contains(why),
+            "{}",
+            text(&o)
+        );
     }
     let o = lumo(&dir, &["render", &scene, "--temporal"]);
-    assert!(!o.status.success() && text(&o).contains("--frames"), "{}", text(&o));
+    assert!(
+        !o.status.success() && text(&o).contains("--frames"),
+        "{}",
+        text(&o)
+    );
 }
