@@ -234,3 +234,64 @@ fn edit_targets_know_what_each_part_of_the_scene_takes() {
     assert!(t.check(&edit(EditOp::Emission, glass as u32)).is_ok());
     assert!(t.check(&edit(EditOp::MoveInstance, 0)).is_ok());
 }
+
+/// A point light has no surface: a click within a few pixels of where it projects picks it,
+/// and moving it or changing its intensity reaches the scene's light table.
+#[test]
+fn a_point_light_is_picked_near_its_projection_and_edited() {
+    use lumo_render::camera::PinholeCamera;
+    use lumo_server::scene_edit::{apply, pick};
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/animated.gltf");
+    let loaded = lumo_scene::load::load_scene(&path, &Default::default()).expect("load");
+    let mut rs = RenderScene::new(loaded.scene).expect("scene");
+    let (index, position) = rs
+        .scene
+        .lights
+        .iter()
+        .enumerate()
+        .find_map(|(i, l)| match l {
+            lumo_scene::Light::Point { position, .. } => Some((i, *position)),
+            _ => None,
+        })
+        .expect("a point light");
+    let camera = rs.scene.camera.clone();
+    let (w, h) = (160, 120);
+    let Some((at, _)) = PinholeCamera::new(&camera, w, h).project_point(position) else {
+        panic!("the light is in view");
+    };
+    let uv = |dx: f32| [(at.x + dx) / w as f32, at.y / h as f32];
+    let hit = pick(&rs, &camera, w, h, uv(5.0));
+    assert_eq!(
+        (hit.target, hit.index),
+        (PickTarget::Light, index as u32),
+        "{hit:?}"
+    );
+    assert_eq!(hit.position, position);
+    assert!(hit.name.contains("point light"), "{}", hit.name);
+    assert_ne!(pick(&rs, &camera, w, h, uv(40.0)).target, PickTarget::Light);
+    let t = EditTargets::of(&rs);
+    let moved = position + Vec3::new(0.5, 0.0, 0.0);
+    let edits = [
+        Edit {
+            op: EditOp::MoveLight,
+            index: index as u32,
+            value: moved,
+        },
+        Edit {
+            op: EditOp::LightIntensity,
+            index: index as u32,
+            value: Vec3::new(1.0, 2.0, 3.0),
+        },
+    ];
+    for e in &edits {
+        t.check(e).expect("valid");
+    }
+    apply(&mut rs, &edits).expect("applied");
+    match &rs.scene.lights[index] {
+        lumo_scene::Light::Point {
+            position,
+            intensity,
+        } => assert_eq!((*position, *intensity), (moved, Vec3::new(1.0, 2.0, 3.0))),
+        l => panic!("{l:?}"),
+    }
+}
