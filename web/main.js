@@ -8,6 +8,7 @@ import { floatFormats, loadText, program } from './gl.js';
 import { SampleStream } from './stream.js';
 import { Display } from './display.js';
 import { Navigation } from './navigation.js';
+import { Editor } from './edit.js';
 import { controls, overlay } from './ui.js';
 
 // Samples rasterised per displayed frame adapt to what splatting costs (the paper's client
@@ -105,6 +106,12 @@ const nav = new Navigation(canvas, (camera) => {
   if (!sendTimer) sendTimer = setTimeout(sendCamera, CAMERA_SEND_MS);
 });
 
+const editor = new Editor(
+  canvas,
+  (bytes) => { if (ws.readyState === WebSocket.OPEN) ws.send(bytes); },
+  () => nav.camera,
+);
+
 const ui = controls(
   () => {},
   (integrator, mode) => {
@@ -162,6 +169,13 @@ ws.onmessage = async (ev) => {
       // Each animation frame arrives as a new epoch (CAMERA); this only tracks play/pause.
       state.animation = msg;
       ui.setAnimation(msg.playing);
+      break;
+    case KIND.PICK:
+      editor.onPick(msg);
+      break;
+    case KIND.EDIT:
+      // The restart that applies it arrives as a CAMERA with a new epoch, as any restart.
+      editor.onEdit(msg);
       break;
     case KIND.SAMPLES:
     case KIND.FRAME:
@@ -282,6 +296,7 @@ window.lumo = {
       params: { ...ui.params },
       errors: state.errors.slice(),
       overlay: overlayEl.textContent,
+      selection: editor.selection,
     };
   },
   pixels() {

@@ -23,6 +23,8 @@ export class Navigation {
     this.keys = new Set();
     this.dragging = false;
     element.addEventListener('pointerdown', (e) => {
+      // Shift+click and shift+drag belong to the scene editor (edit.js).
+      if (e.shiftKey) return;
       this.dragging = true;
       this.last = [e.clientX, e.clientY];
       element.setPointerCapture(e.pointerId);

@@ -29,6 +29,8 @@ export const INTEGRATORS = names('integrator');
 export const MODES = names('mode');
 export const STREAM = codes('stream');
 export const ERROR_CODE = codes('errorCode');
+export const PICK_TARGETS = names('pickTarget');
+export const EDIT_OPS = names('editOp');
 
 function codeOf(e, name) {
   const code = codes(e)[name];
@@ -121,6 +123,11 @@ export function decode(buf) {
     case KIND.SAMPLES: return { kind, ...f, buffer: buf };
     case KIND.FRAME: return { kind, ...f, mode: MODES[f.mode], buffer: buf };
     case KIND.ERROR: return { kind, code: f.code, message: text(buf, m, 'message', f) };
+    case KIND.PICK: {
+      const { nameLength, ...rest } = f;
+      return { kind, ...rest, target: PICK_TARGETS[f.target], name: text(buf, m, 'name', f) };
+    }
+    case KIND.EDIT: return { kind, op: EDIT_OPS[f.op], index: f.index, value: f.value };
     // Messages of plain numeric fields (STATS, FINISH, and any new one) need no code here:
     // their fields come out under the names the layout gives them.
     default: return { kind, ...f };
@@ -154,4 +161,16 @@ export function encodeParams(integrator, mode) {
 // Play (true) or pause (false) the animation of `lumo serve --animate`.
 export function encodeAnimate(playing) {
   return encode(MESSAGES.ANIMATE, { playing });
+}
+
+// Ask what is under image position uv ([0,1]², x right, y down); the server answers with a
+// PICK carrying the same request number.
+export function encodePick(request, uv) {
+  return encode(MESSAGES.PICK, { request, uv });
+}
+
+// Change the scene: op is an editOp name, value the new absolute value (three numbers).
+// The server checks the bounds (docs/protocol.md, EDIT) and answers a refusal with ERROR.
+export function encodeEdit(op, index, value) {
+  return encode(MESSAGES.EDIT, { op: codeOf('editOp', op), index, value });
 }

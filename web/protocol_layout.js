@@ -36,6 +36,24 @@ export const ENUMS = {
       { code: 1, name: 'light', label: 'light' },
     ],
   },
+  pickTarget: {
+    bytes: 1,
+    values: [
+      { code: 0, name: 'nothing', label: 'nothing' },
+      { code: 1, name: 'object', label: 'object' },
+      { code: 2, name: 'light', label: 'light' },
+    ],
+  },
+  editOp: {
+    bytes: 1,
+    values: [
+      { code: 0, name: 'moveInstance', label: 'move object' },
+      { code: 1, name: 'moveLight', label: 'move light' },
+      { code: 2, name: 'lightIntensity', label: 'light intensity' },
+      { code: 3, name: 'emission', label: 'emission' },
+      { code: 4, name: 'baseColor', label: 'base colour' },
+    ],
+  },
   errorCode: {
     bytes: 2,
     values: [
@@ -121,6 +139,38 @@ export const MESSAGES = {
       reserved: { offset: 5, type: 'reserved', bytes: 1, count: 3 },
       time: { offset: 8, type: 'f32', bytes: 4, count: 1 },
       duration: { offset: 12, type: 'f32', bytes: 4, count: 1 },
+    },
+  },
+  PICK: {
+    kind: 0x05,
+    direction: 'both',
+    bytes: 82,
+    fields: {
+      request: { offset: 4, type: 'u32', bytes: 4, count: 1 },
+      uv: { offset: 8, type: 'f32', bytes: 4, count: 2 },
+      target: { offset: 16, type: 'enum', enum: 'pickTarget', bytes: 1, count: 1 },
+      hasColor: { offset: 17, type: 'bool', bytes: 1, count: 1 },
+      reserved: { offset: 18, type: 'reserved', bytes: 1, count: 2 },
+      index: { offset: 20, type: 'u32', bytes: 4, count: 1 },
+      mesh: { offset: 24, type: 'u32', bytes: 4, count: 1 },
+      material: { offset: 28, type: 'u32', bytes: 4, count: 1 },
+      position: { offset: 32, type: 'f32', bytes: 4, count: 3 },
+      point: { offset: 44, type: 'f32', bytes: 4, count: 3 },
+      color: { offset: 56, type: 'f32', bytes: 4, count: 3 },
+      emission: { offset: 68, type: 'f32', bytes: 4, count: 3 },
+      nameLength: { offset: 80, type: 'u16', bytes: 2, count: 1 },
+      name: { offset: 82, type: 'utf8', bytes: 1, count: { factor: 1, fields: ['nameLength'] } },
+    },
+  },
+  EDIT: {
+    kind: 0x06,
+    direction: 'both',
+    bytes: 24,
+    fields: {
+      op: { offset: 4, type: 'enum', enum: 'editOp', bytes: 1, count: 1 },
+      reserved: { offset: 5, type: 'reserved', bytes: 1, count: 3 },
+      index: { offset: 8, type: 'u32', bytes: 4, count: 1 },
+      value: { offset: 12, type: 'f32', bytes: 4, count: 3 },
     },
   },
   SAMPLES: {

@@ -60,8 +60,23 @@ test('the documented sizes match the layout', () => {
   assert.equal(P.FRAME_HEADER, 20);
   assert.deepEqual(
     Object.fromEntries(Object.entries(P.MESSAGES).map(([n, m]) => [n, m.bytes])),
-    { HELLO: 68, CAMERA: 48, PARAMS: 8, ANIMATE: 16, SAMPLES: 20, FRAME: 20, STATS: 36, FINISH: 32, ERROR: 8 },
+    {
+      HELLO: 68, CAMERA: 48, PARAMS: 8, ANIMATE: 16, PICK: 82, EDIT: 24, SAMPLES: 20, FRAME: 20,
+      STATS: 36, FINISH: 32, ERROR: 8,
+    },
   );
+});
+
+test('edits encode every op by name and refuse unknown ones; picks decode their target', () => {
+  for (const op of P.EDIT_OPS) {
+    const m = P.decode(P.encodeEdit(op, 3, [0.5, 0.25, 1]));
+    assert.deepEqual(m, { kind: P.KIND.EDIT, op, index: 3, value: [0.5, 0.25, 1] });
+  }
+  assert.throws(() => P.encodeEdit('scaleInstance', 0, [1, 1, 1]), /unknown editOp/);
+  const pick = P.decode(P.encodePick(7, [0.5, 0.5]));
+  assert.equal(pick.target, 'nothing');
+  assert.equal(pick.request, 7);
+  assert.equal(pick.name, '');
 });
 
 test('truncated messages throw, never decode to garbage', () => {

@@ -105,3 +105,16 @@ test('encodes PARAMS exactly as the server decodes them', () => {
     new Uint8Array(bytes('client_params')),
   );
 });
+
+test('encodes PICK exactly as the server decodes it', () => {
+  const { request, uv } = expected('client_pick');
+  assert.deepEqual(new Uint8Array(P.encodePick(request, uv)), new Uint8Array(bytes('client_pick')));
+});
+
+test('encodes EDIT exactly as the server decodes it', () => {
+  const { op, index, value } = expected('client_edit');
+  assert.deepEqual(
+    new Uint8Array(P.encodeEdit(op, index, value)),
+    new Uint8Array(bytes('client_edit')),
+  );
+});

@@ -271,6 +271,80 @@ test('dragging the camera in À-Trous mode keeps a filtered picture', async () =
   await page.close();
 });
 
+// The pixel at image position uv in a read-back (rows bottom to top, as readPixels gives them).
+function pixelAt(img, uv) {
+  const x = Math.floor(uv[0] * img.width);
+  const y = img.height - 1 - Math.floor(uv[1] * img.height);
+  const i = 4 * (y * img.width + x);
+  return img.data.slice(i, i + 3);
+}
+
+// LUMO_EDIT_SHOT: if set, the page after the edits is also saved there as a PNG.
+test('shift+click picks the tall box; the panel recolours it and shift+drag moves it', async () => {
+  const size = process.env.LUMO_EDIT_SHOT ? '256x256' : '64x64';
+  const url = await serve(['--size', size, '--threads', '1']);
+  const { page, errors } = await open(url);
+  await page.selectOption('#mode', 'atrous');
+  await page.waitForFunction(() => window.lumo.counts().frameCount > 8, null, { timeout: WAIT_MS });
+  const box = await page.locator('#view').boundingBox();
+  const at = (uv) => [box.x + uv[0] * box.width, box.y + uv[1] * box.height];
+  // The tall box stands left of the centre.
+  const uv = [0.35, 0.55];
+  await page.keyboard.down('Shift');
+  await page.mouse.click(...at(uv));
+  await page.keyboard.up('Shift');
+  await page.waitForFunction(() => window.lumo.counts().selection, null, { timeout: WAIT_MS });
+  const sel = (await counts(page)).selection;
+  assert.equal(sel.target, 'object');
+  assert.match(sel.name, /white/);
+  assert.equal(await page.isHidden('#edit'), false, 'the edit panel shows');
+  const white = pixelAt(await pixels(page), uv);
+
+  // Base colour: the panel's picker (sRGB) turns the box blue.
+  const e0 = (await counts(page)).epoch;
+  await page.locator('#edit-color').fill('#2040ff');
+  await page.waitForFunction((e) => window.lumo.counts().epoch > e, e0, { timeout: WAIT_MS });
+  const f0 = (await counts(page)).frameCount;
+  await page.waitForFunction((f) => window.lumo.counts().frameCount > f + 8, f0, { timeout: WAIT_MS });
+  const blue = pixelAt(await pixels(page), uv);
+  console.log(`picked pixel: white box ${white}, after the edit ${blue}`);
+  assert.ok(blue[2] > blue[0] + 30 && white[2] < white[0] + 30, `not blue: ${white} → ${blue}`);
+
+  // Shift+drag to the right moves the box (the walls share its material, so the colour no
+  // longer tells it apart): the image changes, and a pick at the same pixel finds another
+  // instance.
+  const e1 = (await counts(page)).epoch;
+  const still = await pixels(page);
+  await page.keyboard.down('Shift');
+  await page.mouse.move(...at(uv));
+  await page.mouse.down();
+  const [x, y] = at(uv);
+  await page.mouse.move(x + box.width * 0.3, y, { steps: 4 });
+  await page.mouse.up();
+  await page.keyboard.up('Shift');
+  await page.waitForFunction((e) => window.lumo.counts().epoch > e, e1, { timeout: WAIT_MS });
+  const moved = (await counts(page)).selection;
+  assert.ok(moved.position[0] > sel.position[0] + 0.1, `moved to ${moved.position}`);
+  await sleep(300);
+  const f1 = (await counts(page)).frameCount;
+  await page.waitForFunction((f) => window.lumo.counts().frameCount > f + 8, f1, { timeout: WAIT_MS });
+  const after = await pixels(page);
+  const change = after.data.reduce((a, v, i) => (i % 4 === 3 ? a : a + Math.abs(v - still.data[i])), 0)
+    / (after.width * after.height * 3);
+  console.log(`mean change of the picture after the move: ${change.toFixed(1)} of 255`);
+  assert.ok(change > 2, `the picture did not change: ${change}`);
+  await page.keyboard.down('Shift');
+  await page.mouse.click(...at(uv));
+  await page.keyboard.up('Shift');
+  await page.waitForFunction((i) => {
+    const s = window.lumo.counts().selection;
+    return s && s.index !== i;
+  }, sel.index, { timeout: WAIT_MS });
+  if (process.env.LUMO_EDIT_SHOT) await page.screenshot({ path: process.env.LUMO_EDIT_SHOT });
+  assert.deepEqual(errors, []);
+  await page.close();
+});
+
 test('the integrator menu switches to bidirectional: both streams, a lit image', async () => {
   const url = await serve(['--size', '64x64', '--threads', '1']);
   const { page, errors } = await open(url);

@@ -9,6 +9,8 @@ mod pipeline_args;
 mod render_cmd;
 mod sequence;
 mod serve_cmd;
+mod temporal;
+mod temporal_eval;
 
 use clap::{Parser, Subcommand};
 

@@ -81,6 +81,25 @@ pub struct RenderArgs {
     /// any scene.
     #[arg(long, value_name = "DEGREES", value_parser = crate::sequence::parse_orbit, requires = "frames", allow_hyphen_values = true)]
     pub orbit: Option<f32>,
+    /// Filter the --frames sequence with the temporal filter (SVGF): each frame is traced at
+    /// --spp as with --pipeline none, and its history is carried from frame to frame with the
+    /// motion of the camera and the instances (docs/animation.md).
+    #[arg(long, requires = "frames")]
+    pub temporal: bool,
+    /// Measure temporal filtering on the --frames sequence instead of writing it: per frame,
+    /// FLIP of per-frame À-Trous and of --temporal against a converged reference, flicker and
+    /// the time per stage; the table, a plot and an image strip go into DIR
+    /// (docs/results/temporal.md).
+    #[arg(long, value_name = "DIR", requires = "frames", conflicts_with_all = ["temporal", "output", "aovs"])]
+    pub temporal_eval: Option<PathBuf>,
+    /// --temporal-eval: samples per pixel of each frame's reference (0: time the stages only).
+    #[arg(
+        long,
+        value_name = "N",
+        default_value_t = 256,
+        requires = "temporal_eval"
+    )]
+    pub reference_spp: u32,
     /// List the built-in scenes and exit.
     #[arg(long)]
     pub list: bool,
@@ -326,10 +345,19 @@ pub fn run(args: RenderArgs) -> Result<()> {
         .integrator
         .to_possible_value()
         .map_or_else(String::new, |v| v.get_name().to_owned());
+    let temporal = args.temporal || args.temporal_eval.is_some();
     let pipeline = match (args.integrator, args.pipeline.pipeline) {
         (i, Some(p)) if i.unfiltered() && p != Pipeline::None => bail!(
             "--integrator {integrator} renders without a filtering pipeline: drop --pipeline {p} (or use --pipeline none)"
         ),
+        (i, _) if i.unfiltered() && temporal => bail!(
+            "--temporal: --integrator {integrator} makes no G-buffer for the temporal filter; use --integrator path"
+        ),
+        (_, Some(p)) if temporal && p != Pipeline::None => bail!(
+            "--temporal filters each frame itself: drop --pipeline {p}"
+        ),
+        // Traced without a pipeline; the temporal filter takes its place.
+        _ if args.temporal => Pipeline::None,
         (i, _) if i.unfiltered() => Pipeline::None,
         _ => args.pipeline.pipeline(),
     };
@@ -412,7 +440,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         spp: args
             .spp
             .or(file.spp)
-            .unwrap_or(if pipeline == Pipeline::None {
+            .unwrap_or(if pipeline == Pipeline::None && !temporal {
                 scene.defaults.spp
             } else {
                 crate::pipeline_args::FILTERED_DEFAULT_SPP
@@ -484,6 +512,9 @@ pub fn run(args: RenderArgs) -> Result<()> {
         outputs,
     };
     if let Some(seq) = sequence {
+        if let Some(dir) = &args.temporal_eval {
+            return crate::temporal_eval::run(&seq, &job, rs, dir, args.reference_spp);
+        }
         return seq.run(&job, rs, build);
     }
     let bar = ProgressBar::new(1000).with_style(
@@ -577,7 +608,21 @@ pub struct Rendered {
     pub timings: Option<String>,
 }
 
-impl Job<'_> {
+impl<'a> Job<'a> {
+    /// The same job with another seed.
+    pub fn with_seed(&self, seed: u32) -> Job<'a> {
+        Job {
+            args: self.args,
+            pipeline: self.pipeline,
+            settings: RenderSettings {
+                seed,
+                ..self.settings
+            },
+            pool: self.pool,
+            outputs: self.outputs.clone(),
+        }
+    }
+
     /// Renders `rs` with the job's integrator and pipeline; `progress` gets 0..1.
     pub fn render(&self, rs: &RenderScene, progress: &(dyn Fn(f32) + Sync)) -> Result<Rendered> {
         let settings = &self.settings;

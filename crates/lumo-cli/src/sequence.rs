@@ -14,6 +14,7 @@ use lumo_scene::animation::NodeItem;
 use lumo_scene::{AnimatedScene, Camera, Scene};
 
 use crate::render_cmd::{si, Job, RenderArgs};
+use crate::temporal::TemporalSequence;
 
 /// Highest frame number `--frames` accepts: a million frames is over eleven hours of film at
 /// 24 fps; a larger number is a typo.
@@ -197,6 +198,42 @@ impl Sequence {
         })
     }
 
+    /// Moves the scene to frame `frame` (the `i`-th of the run): poses the animation (not for
+    /// the first frame, which [`Sequence::plan`] posed) and turns the orbit. Returns how the
+    /// render scene was updated and how long that took, when it was.
+    pub fn pose(
+        &self,
+        job: &Job,
+        rs: &mut RenderScene,
+        i: usize,
+        frame: u32,
+    ) -> Result<Option<(SceneUpdate, Duration)>> {
+        let t = frame as f32 / self.fps;
+        let mut updated = None;
+        if let (Some(rig), true) = (&self.rig, i > 0) {
+            // Timed inside the pool: handing the call to a sleeping worker thread takes
+            // longer than the update itself (a few µs vs about 2 ms measured).
+            let (kind, took) = job.pool.install(|| {
+                let posing = Instant::now();
+                (rs.pose(rig, t), posing.elapsed())
+            });
+            let kind =
+                kind.with_context(|| format!("frame {frame} (t = {t} s): posing the scene"))?;
+            updated = Some((kind, took));
+        }
+        if let Some((deg, pivot)) = self.orbit {
+            let count = self.frames.count();
+            rs.scene.camera = self.camera.orbited(pivot, deg * i as f32 / count as f32);
+        }
+        Ok(updated)
+    }
+
+    /// Whether instances move from frame to frame (an animation; an orbit moves only the
+    /// camera).
+    pub fn animated(&self) -> bool {
+        self.rig.is_some()
+    }
+
     /// The file of `frame` for output `base`.
     pub fn frame_path(&self, base: &Path, frame: u32) -> PathBuf {
         frame_file(base, frame, frame_digits(self.frames.last))
@@ -216,29 +253,36 @@ impl Sequence {
         let mut update = Duration::ZERO;
         let (mut refits, mut rebuilds) = (0u32, 0u32);
         let (mut samples, mut rays) = (0u64, 0u64);
+        let mut temporal = if job.args.temporal {
+            Some(TemporalSequence::new(self.rig.is_some()).context("--temporal")?)
+        } else {
+            None
+        };
         for (i, frame) in (self.frames.first..=self.frames.last).enumerate() {
             bar.set_message(format!("{frame} ({}/{count})", i + 1));
-            let t = frame as f32 / self.fps;
-            if let (Some(rig), true) = (&self.rig, i > 0) {
-                // Timed inside the pool: handing the call to a sleeping worker thread takes
-                // longer than the update itself (a few µs vs about 2 ms measured).
-                let (kind, took) = job.pool.install(|| {
-                    let posing = Instant::now();
-                    (rs.pose(rig, t), posing.elapsed())
-                });
-                let kind =
-                    kind.with_context(|| format!("frame {frame} (t = {t} s): posing the scene"))?;
+            if let Some((kind, took)) = self.pose(job, &mut rs, i, frame)? {
                 update += took;
                 match kind {
                     SceneUpdate::Refitted => refits += 1,
                     SceneUpdate::RebuiltAccel | SceneUpdate::Rebuilt => rebuilds += 1,
                 }
             }
-            if let Some((deg, pivot)) = self.orbit {
-                rs.scene.camera = self.camera.orbited(pivot, deg * i as f32 / count as f32);
-            }
             let base = i as u64 * 1000;
-            let out = job.render(&rs, &|f| bar.set_position(base + (f * 1000.0) as u64))?;
+            let progress = |f: f32| bar.set_position(base + (f * 1000.0) as u64);
+            let mut out = match temporal {
+                // New random numbers every frame, for the filter to average.
+                Some(_) => job
+                    .with_seed(crate::temporal_eval::frame_seed(job.settings.seed, frame))
+                    .render(&rs, &progress)?,
+                None => job.render(&rs, &progress)?,
+            };
+            if let (Some(t), Some((traced, _))) = (&mut temporal, &out.aovs) {
+                let (image, _) = job
+                    .pool
+                    .install(|| t.filter(&rs, traced))
+                    .with_context(|| format!("frame {frame}: temporal filter"))?;
+                out.image = image;
+            }
             samples += out.stats.samples;
             rays += out.stats.rays;
             let files: Vec<PathBuf> = job

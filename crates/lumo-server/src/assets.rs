@@ -35,6 +35,7 @@ pub const ASSETS: &[Asset] = &[
     web!("stream.js", JS),
     web!("display.js", JS),
     web!("navigation.js", JS),
+    web!("edit.js", JS),
     web!("ui.js", JS),
     web!("shaders/quad.vert", GLSL),
     web!("shaders/splat.vert", GLSL),

@@ -49,6 +49,12 @@ impl TemporalHistory {
             view_proj: None,
         })
     }
+
+    /// Forgets the history (the lighting changed): the next frame starts afresh.
+    pub fn reset(&mut self) {
+        self.filter.reset();
+        self.view_proj = None;
+    }
 }
 
 /// Running statistics of the 1-spp frames of one render.

@@ -323,6 +323,11 @@ async fn connection(socket: WebSocket, hub: Arc<Hub>) {
                     None
                 }
                 Ok(ClientMessage::Animate(a)) => hub.set_playing(a.playing).err(),
+                Ok(ClientMessage::Pick(p)) => {
+                    hub.pick(id, p);
+                    None
+                }
+                Ok(ClientMessage::Edit(e)) => hub.set_edit(e).err(),
                 Err(e) => Some(e),
             },
             Some(Ok(Message::Text(_))) => Some(ProtocolError {

@@ -17,9 +17,10 @@ use lumo_scene::{Camera, FovAxis};
 
 use crate::outbox::{Kind, Outbox, Outgoing, QueueReport, Slot};
 use crate::protocol::{
-    Animate, CameraUpdate, ErrorCode, Finish, Frame, Hello, Integrator, Mode, Params,
+    Animate, CameraUpdate, Edit, ErrorCode, Finish, Frame, Hello, Integrator, Mode, Params, Pick,
     ProtocolError, SampleBatch, Stats, Stream, WireCamera,
 };
+use crate::scene_edit::{self, EditTargets};
 use crate::worker::{FinishEvent, Job, QueryBuffer, RenderWorker};
 use crate::ServerConfig;
 
@@ -51,6 +52,8 @@ pub struct Hub {
     next_id: AtomicU64,
     /// Finish events recorded by the worker's handler, forwarded by the pump.
     finished: Arc<Mutex<Vec<FinishEvent>>>,
+    /// What viewers' edits may change (edits keep the scene's structure, so it stays valid).
+    targets: EditTargets,
 }
 
 struct HubState {
@@ -69,6 +72,9 @@ struct HubState {
     paused: bool,
     /// The animation's clock (`lumo serve --animate`); `None` for a static scene.
     clock: Option<Clock>,
+    /// Scene edits asked for since the last restart (checked; one per op and index, the
+    /// newest), applied by the worker at the next restart.
+    edits: Vec<Edit>,
 }
 
 /// The animation's clock: wall-clock time while playing, frozen while paused, looping over
@@ -108,12 +114,10 @@ impl Clock {
     }
 }
 
-/// Starts `job` on `worker`, posed at the clock's time when the scene is animated.
-fn start(worker: &RenderWorker, job: Job, clock: Option<&Clock>) -> u64 {
-    match clock {
-        Some(c) => worker.render_posed(job, c.now()),
-        None => worker.render(job),
-    }
+/// Starts `job` on `worker` after applying `edits`, posed at the clock's time when the scene
+/// is animated.
+fn start(worker: &RenderWorker, job: Job, clock: Option<&Clock>, edits: Vec<Edit>) -> u64 {
+    worker.render_edited(job, clock.map(Clock::now), edits)
 }
 
 fn to_wire(c: &Camera) -> WireCamera {
@@ -160,6 +164,7 @@ impl Hub {
             since: Instant::now(),
             duration: rig.duration(),
         });
+        let targets = EditTargets::of(&rs);
         let worker = RenderWorker::with_animation(
             Arc::new(rs),
             config.threads,
@@ -171,7 +176,7 @@ impl Hub {
         let epoch = if paused {
             worker.abort()
         } else {
-            start(&worker, job.clone(), clock.as_ref())
+            start(&worker, job.clone(), clock.as_ref(), Vec::new())
         };
         let hub = Arc::new(Self {
             worker,
@@ -188,9 +193,11 @@ impl Hub {
                 last_restart: Instant::now(),
                 paused,
                 clock,
+                edits: Vec::new(),
             }),
             next_id: AtomicU64::new(1),
             finished,
+            targets,
         });
         Ok(hub)
     }
@@ -223,7 +230,8 @@ impl Hub {
             st.job = st.next.clone();
             st.pending = false;
             st.params_changed = false;
-            st.epoch = start(&self.worker, st.job.clone(), st.clock.as_ref());
+            let edits = std::mem::take(&mut st.edits);
+            st.epoch = start(&self.worker, st.job.clone(), st.clock.as_ref(), edits);
             st.last_restart = Instant::now();
         }
         let hello = Hello {
@@ -337,6 +345,38 @@ impl Hub {
         Ok(())
     }
 
+    /// A viewer edits the scene: the edit is checked against the scene, queued (replacing an
+    /// older edit of the same op and index) and applied at the next restart (now, or merged
+    /// as cameras are), which tells every viewer with EDIT and the new epoch's CAMERA.
+    pub fn set_edit(&self, edit: Edit) -> Result<(), ProtocolError> {
+        self.targets.check(&edit)?;
+        let mut st = lock(&self.state);
+        st.edits
+            .retain(|e| (e.op, e.index) != (edit.op, edit.index));
+        st.edits.push(edit);
+        st.pending = true;
+        self.maybe_restart(&mut st);
+        Ok(())
+    }
+
+    /// Viewer `id` asks what is under an image position: the worker casts the ray through it
+    /// with the newest camera asked for (after the edits already queued) and the answer goes
+    /// to that viewer only.
+    pub fn pick(&self, id: u64, request: Pick) {
+        let st = lock(&self.state);
+        let Some(v) = st.viewers.iter().find(|v| v.id == id) else {
+            return;
+        };
+        let outbox = v.outbox.clone();
+        let (camera, w, h) = (st.next.camera.clone(), st.next.width, st.next.height);
+        drop(st);
+        self.worker.query_scene(Box::new(move |rs| {
+            let hit = scene_edit::pick(rs, &camera, w, h, request.uv);
+            let answer = Pick { hit, ..request };
+            outbox.push(control(answer.write()));
+        }));
+    }
+
     /// The animation's state, if the scene is animated.
     pub fn animation(&self) -> Option<Animate> {
         lock(&self.state).clock.map(|c| c.message())
@@ -356,7 +396,13 @@ impl Hub {
     /// one) for the others.
     fn restart(&self, st: &mut HubState) {
         st.job = st.next.clone();
-        st.epoch = start(&self.worker, st.job.clone(), st.clock.as_ref());
+        let edits = std::mem::take(&mut st.edits);
+        st.epoch = start(
+            &self.worker,
+            st.job.clone(),
+            st.clock.as_ref(),
+            edits.clone(),
+        );
         st.last_restart = Instant::now();
         st.pending = false;
         let epoch = st.epoch as u32;
@@ -370,6 +416,11 @@ impl Hub {
             }
             .write();
             broadcast(st, &latest(Slot::Params, params));
+        }
+        // The edits applied, so every viewer's panel shows them (data of the new epoch: a
+        // newer restart's edits, absolute values, replace them).
+        for e in &edits {
+            broadcast(st, &data(epoch, e.write()));
         }
         let camera = Bytes::from(
             CameraUpdate {

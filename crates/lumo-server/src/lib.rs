@@ -19,6 +19,7 @@ pub mod http;
 pub mod hub;
 pub mod outbox;
 pub mod protocol;
+pub mod scene_edit;
 pub mod streams;
 pub mod worker;
 

@@ -19,7 +19,8 @@ use lumo_render::{camera::PinholeCamera, PathSettings, PpmSettings, RenderScene}
 use lumo_scene::{AnimatedScene, Camera};
 
 use crate::frames::{FrameAccumulator, TemporalHistory, TEMPORAL_FRAMES};
-use crate::protocol::{Integrator, Mode};
+use crate::protocol::{Edit, Integrator, Mode};
+use crate::scene_edit::{edit, pose, relights};
 use crate::streams::{Sample, ScreenOrder, StreamContext};
 
 /// Camera samples per batch (about a millisecond of path tracing on one core for small scenes).
@@ -131,9 +132,15 @@ pub struct WorkerStats {
     pub lock: LockStats,
 }
 
+/// A read of the render scene run on the worker's thread (a pick).
+pub type SceneQuery = Box<dyn FnOnce(&RenderScene) + Send>;
+
 enum Command {
-    /// Render a job, first posing the animation at the given time if there is one.
-    Render(u64, Box<Job>, Option<f32>),
+    /// Render a job, first applying the edits and posing the animation at the given time if
+    /// there is one.
+    Render(u64, Box<Job>, Option<f32>, Vec<Edit>),
+    /// Run a query on the scene as it is now (between edits, beside a running render).
+    Query(SceneQuery),
     Abort,
     Term,
 }
@@ -223,23 +230,37 @@ impl RenderWorker {
 
     /// Aborts whatever runs and starts `job`; returns its epoch.
     pub fn render(&self, job: Job) -> u64 {
-        self.start_render(job, None)
+        self.start_render(job, None, Vec::new())
+    }
+
+    /// Aborts whatever runs, applies `edits` (checked against the scene by
+    /// [`crate::scene_edit::EditTargets::check`]) once the previous render's threads let go
+    /// of the scene, poses the animation at `time` if given, and starts `job`; returns its
+    /// epoch. An edit that relights the scene clears the temporal history.
+    pub fn render_edited(&self, job: Job, time: Option<f32>, edits: Vec<Edit>) -> u64 {
+        self.start_render(job, time, edits)
+    }
+
+    /// Runs `query` with the scene on the worker's thread, after the edits of the renders
+    /// started before it; a render that is running keeps running (the query only reads).
+    pub fn query_scene(&self, query: SceneQuery) {
+        let _ = self.commands.send(Command::Query(query));
     }
 
     /// Aborts whatever runs, poses the animation at `time` seconds (after the previous
     /// render's threads let go of the scene) and starts `job`; returns its epoch. Without an
     /// animation this is [`RenderWorker::render`].
     pub fn render_posed(&self, job: Job, time: f32) -> u64 {
-        self.start_render(job, Some(time))
+        self.start_render(job, Some(time), Vec::new())
     }
 
-    fn start_render(&self, job: Job, time: Option<f32>) -> u64 {
+    fn start_render(&self, job: Job, time: Option<f32>, edits: Vec<Edit>) -> u64 {
         let epoch = self.shared.epoch.fetch_add(1, Ordering::SeqCst) + 1;
         self.reset_pending(epoch);
         // A closed channel means term ran; the epoch bump already stopped everything.
         let _ = self
             .commands
-            .send(Command::Render(epoch, Box::new(job), time));
+            .send(Command::Render(epoch, Box::new(job), time, edits));
         epoch
     }
 
@@ -332,9 +353,16 @@ fn command_loop(
                 break;
             }
             Command::Abort => wait_idle(&shared),
-            Command::Render(epoch, job, time) => {
+            Command::Query(query) => query(&rs),
+            Command::Render(epoch, job, time, edits) => {
                 // One render at a time: the previous one saw the epoch bump and is stopping.
                 wait_idle(&shared);
+                if !edits.is_empty() && edit(&mut rs, &edits) && edits.iter().any(relights) {
+                    // The history's illumination is stale everywhere.
+                    if let Some(h) = lock(&shared.temporal).as_mut() {
+                        h.reset();
+                    }
+                }
                 if let (Some(rig), Some(t)) = (&rig, time) {
                     if posed != Some(t) {
                         // In the pool: a rebuild (rare) builds in parallel on its threads.
@@ -359,40 +387,6 @@ fn command_loop(
             }
         }
     }
-}
-
-/// Poses `rig` at `t` in `rs`, in place: the render threads dropped their references before
-/// saying they were done ([`start`]), so the worker holds the only one.
-/// Returns whether the scene is now at `t`.
-fn pose(rs: &mut Arc<RenderScene>, rig: &AnimatedScene, t: f32) -> bool {
-    match Arc::get_mut(rs) {
-        Some(scene) => match pose_or_keep(scene, rig, t) {
-            Ok(()) => true,
-            Err(e) => {
-                eprintln!("warning: animation at t = {t} s cannot be rendered ({e}); the scene stays at its last pose");
-                false
-            }
-        },
-        None => {
-            eprintln!("warning: the scene is shared; animation frame at t = {t} s skipped");
-            false
-        }
-    }
-}
-
-/// [`RenderScene::pose`], restoring the previous instance transforms and lights when the pose
-/// is invalid (a singular transform in a clip), so the scene stays consistent.
-fn pose_or_keep(
-    scene: &mut RenderScene,
-    rig: &AnimatedScene,
-    t: f32,
-) -> Result<(), lumo_scene::SceneError> {
-    let before = (scene.scene.instances.clone(), scene.scene.lights.clone());
-    if let Err(e) = scene.pose(rig, t) {
-        (scene.scene.instances, scene.scene.lights) = before;
-        return Err(e);
-    }
-    Ok(())
 }
 
 /// Progress of one render, shared by its pool threads.

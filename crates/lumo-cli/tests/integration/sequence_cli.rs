@@ -152,3 +152,90 @@ fn serve_animate_needs_an_animated_scene() {
     assert_eq!(o.status.code(), Some(2), "{e}");
     assert!(e.contains("--animate") && e.contains("no animation"), "{e}");
 }
+
+/// `--temporal` writes every frame filtered (not the traced 1-spp noise: the filtered frame is
+/// smoother), `--temporal-eval` writes its report, and both refuse what they cannot do.
+#[test]
+fn temporal_sequences_filter_and_evaluate() {
+    let dir = temp_dir("temporal");
+    let scene = animated();
+    let size = ["--size", "32x24", "--spp", "1"];
+    let mut args = vec![
+        "render",
+        &scene,
+        "--frames",
+        "0..2",
+        "--temporal",
+        "-o",
+        "t.pfm",
+    ];
+    args.extend(size);
+    let o = lumo(&dir, &args);
+    assert!(o.status.success(), "{}", text(&o));
+    let mut args = vec![
+        "render",
+        &scene,
+        "--frames",
+        "0..2",
+        "--pipeline",
+        "none",
+        "-o",
+        "n.pfm",
+    ];
+    args.extend(size);
+    assert!(lumo(&dir, &args).status.success());
+    // Roughness: mean absolute difference of horizontal neighbours.
+    let rough = |n: &str| {
+        let img = lumo_image::read_image(&dir.join(n)).unwrap();
+        let d = &img.data;
+        let s: f32 = (3..d.len()).map(|i| (d[i] - d[i - 3]).abs()).sum();
+        s / d.len() as f32
+    };
+    for f in ["0000", "0001", "0002"] {
+        let (t, n) = (rough(&format!("t_{f}.pfm")), rough(&format!("n_{f}.pfm")));
+        assert!(t < 0.7 * n, "frame {f}: roughness {t} filtered, {n} traced");
+    }
+    let mut args = vec![
+        "render",
+        &scene,
+        "--frames",
+        "0..9",
+        "--temporal-eval",
+        "eval",
+        "--reference-spp",
+        "4",
+    ];
+    args.extend(size);
+    let o = lumo(&dir, &args);
+    assert!(o.status.success(), "{}", text(&o));
+    for f in ["frames.csv", "summary.md", "flip.png", "strip.png"] {
+        assert!(dir.join("eval").join(f).is_file(), "{f}");
+    }
+    let csv = std::fs::read_to_string(dir.join("eval/frames.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 11, "a header and ten frames");
+    for (bad, why) in [
+        (
+            vec!["--temporal", "--pipeline", "atrous"],
+            "drop --pipeline atrous",
+        ),
+        (
+            vec!["--temporal", "--integrator", "light"],
+            "makes no G-buffer",
+        ),
+    ] {
+        let mut args = vec!["render", &scene, "--frames", "0..1", "-o", "x.exr"];
+        args.extend(bad);
+        let o = lumo(&dir, &args);
+        assert!(
+            !o.status.success() && text(&o).contains(why),
+            "{}",
+            text(&o)
+        );
+    }
+    let o = lumo(&dir, &["render", &scene, "--temporal"]);
+    assert!(
+        !o.status.success() && text(&o).contains("--frames"),
+        "{}",
+        text(&o)
+    );
+}

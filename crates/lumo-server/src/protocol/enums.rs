@@ -43,3 +43,32 @@ wire_enum! {
         Light = 1, "light", "light";
     }
 }
+
+wire_enum! {
+    /// What a PICK hit: nothing, an object (a mesh instance and its material) or a light.
+    pub enum PickTarget: u8, "pickTarget" {
+        /// The ray left the scene (or the message is a viewer's request).
+        Nothing = 0, "nothing", "nothing";
+        /// A mesh instance: movable, with its material's base colour and emission.
+        Object = 1, "object", "object";
+        /// A point or spot light near the clicked pixel: movable, with its intensity.
+        Light = 2, "light", "light";
+    }
+}
+
+wire_enum! {
+    /// What an EDIT changes; `value` holds the new absolute value.
+    pub enum EditOp: u8, "editOp" {
+        /// Instance `index`'s translation (world units): the object moves there.
+        MoveInstance = 0, "moveInstance", "move object";
+        /// Point or spot light `index`'s position (world units).
+        MoveLight = 1, "moveLight", "move light";
+        /// Light `index`'s intensity (point, spot: W/sr per channel; directional: irradiance).
+        LightIntensity = 2, "lightIntensity", "light intensity";
+        /// Material `index`'s emitted radiance (an area light's intensity), per channel.
+        Emission = 3, "emission", "emission";
+        /// Material `index`'s base colour (diffuse reflectance, a plastic's diffuse layer, a
+        /// mirror's reflectance), linear RGB in [0, 1]; a texture is replaced by the colour.
+        BaseColor = 4, "baseColor", "base colour";
+    }
+}

@@ -13,6 +13,7 @@
 
 mod animate;
 mod camera;
+mod edit;
 mod enums;
 mod error;
 mod finish;
@@ -21,6 +22,7 @@ pub mod generate;
 mod hello;
 pub mod layout;
 mod params;
+mod pick;
 mod samples;
 mod stats;
 #[cfg(test)]
@@ -28,12 +30,14 @@ mod tests;
 
 pub use animate::Animate;
 pub use camera::{CameraUpdate, WireCamera};
-pub use enums::{Integrator, Mode, Stream};
+pub use edit::{Edit, MAX_EDIT_COORD, MAX_EDIT_RADIANCE};
+pub use enums::{EditOp, Integrator, Mode, PickTarget, Stream};
 pub use error::{ErrorCode, ErrorReply, ProtocolError};
 pub use finish::Finish;
 pub use frame::Frame;
 pub use hello::Hello;
 pub use params::Params;
+pub use pick::{Pick, PickHit};
 pub use samples::{SampleBatch, SAMPLE};
 pub use stats::Stats;
 
@@ -72,6 +76,10 @@ pub mod kind {
     pub const PARAMS: u8 = 0x03;
     /// Both ways: play or pause the animation (`lumo serve --animate`).
     pub const ANIMATE: u8 = 0x04;
+    /// Both ways: what is under an image position (viewer asks, server answers that viewer).
+    pub const PICK: u8 = 0x05;
+    /// Both ways: a scene edit (viewer asks, server confirms it to every viewer).
+    pub const EDIT: u8 = 0x06;
     /// Server → viewer: packed samples of one stream.
     pub const SAMPLES: u8 = 0x10;
     /// Server → viewer: a whole filtered frame.
@@ -90,6 +98,8 @@ pub const MESSAGES: &[&Layout] = &[
     &CameraUpdate::LAYOUT,
     &Params::LAYOUT,
     &Animate::LAYOUT,
+    &Pick::LAYOUT,
+    &Edit::LAYOUT,
     &SampleBatch::LAYOUT,
     &Frame::LAYOUT,
     &Stats::LAYOUT,
@@ -105,6 +115,8 @@ pub const ENUMS: &[&WireEnum] = &[
     &Integrator::WIRE,
     &Mode::WIRE,
     &Stream::WIRE,
+    &PickTarget::WIRE,
+    &EditOp::WIRE,
     &ErrorCode::WIRE,
 ];
 
@@ -161,6 +173,8 @@ reads!(
     CameraUpdate,
     Params,
     Animate,
+    Pick,
+    Edit,
     Stats,
     Finish,
     ErrorReply
@@ -179,7 +193,7 @@ fn truncate_utf8(s: &str, max: usize) -> &str {
 }
 
 /// A decoded message from a viewer.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum ClientMessage {
     /// New camera (checked by [`WireCamera::validate`]): restarts rendering.
     Camera(WireCamera),
@@ -187,6 +201,10 @@ pub enum ClientMessage {
     Params(Params),
     /// Play or pause the animation (its time and duration fields are ignored).
     Animate(Animate),
+    /// What is under an image position (the answer fields are ignored).
+    Pick(Pick),
+    /// A scene edit (checked by [`Edit::validate`]; its index by the server).
+    Edit(Edit),
 }
 
 /// Decodes a viewer's message; every failure is an error to send back, never a panic.
@@ -209,6 +227,15 @@ pub fn decode_client(msg: &[u8]) -> Result<ClientMessage, ProtocolError> {
         }
         kind::PARAMS => Params::read(msg).map(ClientMessage::Params),
         kind::ANIMATE => Animate::read(msg).map(ClientMessage::Animate),
+        kind::PICK => Pick::read(msg).map(ClientMessage::Pick),
+        kind::EDIT => {
+            // As CAMERA: length first, then the values, then trailing bytes.
+            let r = Reader::new(msg, &Edit::LAYOUT)?;
+            let edit = Edit::decode(&r)?;
+            edit.validate()?;
+            r.end()?;
+            Ok(ClientMessage::Edit(edit))
+        }
         k if MESSAGES
             .iter()
             .any(|m| m.kind == k && m.direction == Direction::ToViewer) =>
@@ -241,6 +268,10 @@ pub mod client {
         Params(Params),
         /// Animation state.
         Animate(Animate),
+        /// The answer to a pick.
+        Pick(Pick),
+        /// An edit applied.
+        Edit(Edit),
         /// A sample batch and its unpacked samples.
         Samples(SampleBatch, Vec<Sample>),
         /// A filtered frame and its RGBA pixels.
@@ -261,6 +292,8 @@ pub mod client {
             kind::CAMERA => CameraUpdate::read(msg).map(M::Camera),
             kind::PARAMS => Params::read(msg).map(M::Params),
             kind::ANIMATE => Animate::read(msg).map(M::Animate),
+            kind::PICK => Pick::read(msg).map(M::Pick),
+            kind::EDIT => Edit::read(msg).map(M::Edit),
             kind::SAMPLES => SampleBatch::read(msg).map(|(b, s)| M::Samples(b, s)),
             kind::FRAME => Frame::read(msg).map(|(f, p)| M::Frame(f, p)),
             kind::STATS => Stats::read(msg).map(M::Stats),

@@ -14,8 +14,9 @@ use std::path::PathBuf;
 use glam::Vec3;
 use lumo_server::protocol::client::{decode_server, ServerMessage};
 use lumo_server::protocol::{
-    decode_client, Animate, CameraUpdate, ClientMessage, ErrorCode, ErrorReply, Finish, Frame,
-    Hello, Integrator, Mode, Params, ProtocolError, SampleBatch, Stats, Stream, WireCamera,
+    decode_client, Animate, CameraUpdate, ClientMessage, Edit, EditOp, ErrorCode, ErrorReply,
+    Finish, Frame, Hello, Integrator, Mode, Params, Pick, PickHit, PickTarget, ProtocolError,
+    SampleBatch, Stats, Stream, WireCamera,
 };
 use lumo_server::streams::Sample;
 
@@ -139,6 +140,43 @@ fn server_messages_match_their_golden_files_and_decode() {
         "animate",
         &bytes,
         r#"{"kind": 4, "playing": true, "time": 1.25, "duration": 2}"#,
+    );
+
+    let pick = Pick {
+        request: 3,
+        uv: [0.25, 0.75],
+        hit: PickHit {
+            target: PickTarget::Object,
+            has_color: true,
+            index: 4,
+            mesh: 5,
+            material: 2,
+            position: Vec3::new(0.5, 0.0, -1.0),
+            point: Vec3::new(0.25, 0.5, -0.75),
+            color: Vec3::new(0.75, 0.5, 0.25),
+            emission: Vec3::new(0.0, 1.5, 3.0),
+            name: "sphere · red".into(),
+        },
+    };
+    let bytes = pick.write();
+    assert_eq!(decode_server(&bytes), Ok(ServerMessage::Pick(pick)));
+    golden(
+        "pick",
+        &bytes,
+        r#"{"kind": 5, "request": 3, "uv": [0.25, 0.75], "target": "object", "hasColor": true, "index": 4, "mesh": 5, "material": 2, "position": [0.5, 0, -1], "point": [0.25, 0.5, -0.75], "color": [0.75, 0.5, 0.25], "emission": [0, 1.5, 3], "name": "sphere · red"}"#,
+    );
+
+    let edit = Edit {
+        op: EditOp::MoveInstance,
+        index: 6,
+        value: Vec3::new(1.5, -2.0, 0.25),
+    };
+    let bytes = edit.write();
+    assert_eq!(decode_server(&bytes), Ok(ServerMessage::Edit(edit)));
+    golden(
+        "edit",
+        &bytes,
+        r#"{"kind": 6, "op": "moveInstance", "index": 6, "value": [1.5, -2, 0.25]}"#,
     );
 
     let batch = SampleBatch {
@@ -288,4 +326,43 @@ fn client_messages_match_their_golden_files_and_decode() {
         }))
     );
     golden("client_animate", &bytes, r#"{"playing": false}"#);
+
+    // PICK from a viewer: the header, its request number and the image position; the answer
+    // fields and the name length stay 0.
+    let mut bytes = vec![0x05, 1, 0, 0, 9, 0, 0, 0];
+    bytes.extend_from_slice(&0.5f32.to_le_bytes());
+    bytes.extend_from_slice(&0.25f32.to_le_bytes());
+    bytes.resize(82, 0);
+    assert_eq!(
+        decode_client(&bytes),
+        Ok(ClientMessage::Pick(Pick {
+            request: 9,
+            uv: [0.5, 0.25],
+            hit: PickHit::nothing()
+        }))
+    );
+    golden(
+        "client_pick",
+        &bytes,
+        r#"{"request": 9, "uv": [0.5, 0.25]}"#,
+    );
+
+    // EDIT from a viewer: the header, op, 3 reserved bytes, index and the value.
+    let mut bytes = vec![0x06, 1, 0, 0, 4, 0, 0, 0, 2, 0, 0, 0];
+    for v in [0.25f32, 0.5, 1.0] {
+        bytes.extend_from_slice(&v.to_le_bytes());
+    }
+    assert_eq!(
+        decode_client(&bytes),
+        Ok(ClientMessage::Edit(Edit {
+            op: EditOp::BaseColor,
+            index: 2,
+            value: Vec3::new(0.25, 0.5, 1.0)
+        }))
+    );
+    golden(
+        "client_edit",
+        &bytes,
+        r#"{"op": "baseColor", "index": 2, "value": [0.25, 0.5, 1]}"#,
+    );
 }

@@ -7,6 +7,7 @@ use glam::Vec3;
 use super::*;
 use crate::streams::Sample;
 
+mod edits;
 mod refusals;
 mod round_trip;
 
@@ -30,6 +31,26 @@ pub(super) fn hello(name: &str) -> Hello {
         epoch: 3,
         camera: camera(),
         name: name.into(),
+    }
+}
+
+/// A pick answer with every field non-zero.
+pub(super) fn picked() -> Pick {
+    Pick {
+        request: 5,
+        uv: [0.25, 0.75],
+        hit: PickHit {
+            target: PickTarget::Object,
+            has_color: true,
+            index: 3,
+            mesh: 4,
+            material: 2,
+            position: Vec3::new(0.5, 1.0, -1.5),
+            point: Vec3::new(0.25, 0.5, -1.0),
+            color: Vec3::new(0.75, 0.5, 0.25),
+            emission: Vec3::new(1.0, 2.0, 4.0),
+            name: "sphere · red".into(),
+        },
     }
 }
 
@@ -64,6 +85,13 @@ pub(super) fn one_of_each() -> Vec<Vec<u8>> {
             playing: true,
             time: 0.5,
             duration: 2.0,
+        }
+        .write(),
+        picked().write(),
+        Edit {
+            op: EditOp::BaseColor,
+            index: 2,
+            value: Vec3::new(0.25, 0.5, 0.75),
         }
         .write(),
         SampleBatch {

@@ -53,6 +53,8 @@ fn field_tables_tile_their_messages() {
         kind::CAMERA,
         kind::PARAMS,
         kind::ANIMATE,
+        kind::PICK,
+        kind::EDIT,
         kind::SAMPLES,
         kind::FRAME,
         kind::STATS,

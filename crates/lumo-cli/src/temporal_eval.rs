@@ -1,0 +1,422 @@
+//! `lumo render --frames A..B --temporal-eval DIR`: the evidence for temporal filtering. Each
+//! frame is traced once (at --spp, with the per-frame À-Trous pipeline, which also returns the
+//! traced frame); the same traced frame goes through the temporal filter, so both filters see
+//! identical input. A converged reference of every frame (--reference-spp, another seed)
+//! scores both with FLIP. Written into DIR: `frames.csv` (per frame), `summary.md` (means,
+//! flicker, time per stage, fps), `flip.png` (per-frame FLIP plot) and `strip.png` (frames as
+//! 1 spp, À-Trous, temporal, reference).
+//!
+//! Flicker is the mean absolute frame-to-frame change of the per-pixel FLIP error map,
+//! mean_p |E_t(p) − E_{t−1}(p)|: an error that stays put (a smooth bias) does not flicker, one
+//! that jumps from frame to frame (noise, boiling blotches) does. "Output change" is the mean
+//! absolute frame-to-frame change of the displayed image (sRGB of the clamped linear value, 0–1
+//! per channel); on a still camera it should approach the references' own.
+
+use std::fmt::Write as _;
+use std::path::Path;
+use std::time::Duration;
+
+use anyhow::{Context, Result};
+use lumo_image::metrics::{flip_map, FlipSettings};
+use lumo_image::{linear_to_srgb, read_image, write_image, Image};
+use lumo_pipeline::{run_pipeline, Pipeline};
+use lumo_render::{RenderScene, RenderSettings};
+
+use crate::render_cmd::Job;
+use crate::sequence::Sequence;
+use crate::temporal::TemporalSequence;
+
+/// Frames whose FLIP the summary leaves out: the temporal history is still short (SVGF's
+/// blend weight reaches α = 0.2 after 1/α = 5 frames; 8 leaves a margin).
+pub const WARM_UP: usize = 8;
+
+/// One frame's scores and times.
+#[derive(Clone, Copy, Debug, Default)]
+struct Row {
+    frame: u32,
+    flip_raw: f64,
+    flip_atrous: f64,
+    flip_temporal: f64,
+    /// Flicker of each against the previous frame (0 for the first).
+    flicker_atrous: f64,
+    flicker_temporal: f64,
+    /// Output change of each and of the reference.
+    change_atrous: f64,
+    change_temporal: f64,
+    change_reference: f64,
+    update: Duration,
+    trace: Duration,
+    spatial: Duration,
+    motion: Duration,
+    temporal: Duration,
+}
+
+/// What the previous frame left for the frame-to-frame measures.
+struct Previous {
+    maps: [Image; 2],
+    shown: [Image; 3],
+}
+
+/// Runs the evaluation; see the module doc.
+pub fn run(
+    seq: &Sequence,
+    job: &Job,
+    mut rs: RenderScene,
+    dir: &Path,
+    reference_spp: u32,
+) -> Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("--temporal-eval {}", dir.display()))?;
+    let settings = job.settings;
+    let options = job.args.pipeline.options(settings.width, settings.height);
+    let mut temporal = TemporalSequence::new(seq.animated()).context("temporal filter")?;
+    let flip = FlipSettings::default();
+    let mut rows = Vec::new();
+    let mut prev: Option<Previous> = None;
+    let strip_at = strip_frames(seq.frames.count() as usize);
+    let mut strip = Vec::new();
+    let none = |_: f32| {};
+    for (i, frame) in (seq.frames.first..=seq.frames.last).enumerate() {
+        let mut row = Row {
+            frame,
+            ..Row::default()
+        };
+        if let Some((_, took)) = seq.pose(job, &mut rs, i, frame)? {
+            row.update = took;
+        }
+        // A new sample sequence every frame, as a real-time renderer draws new random numbers:
+        // with one seed a still camera would see the same noise every frame, which no
+        // temporal filter can average away (and which would not flicker either).
+        let traced = RenderSettings {
+            seed: frame_seed(settings.seed, frame),
+            ..settings
+        };
+        let out = job
+            .pool
+            .install(|| run_pipeline(&rs, Pipeline::Atrous, &traced, &options, &none))
+            .map_err(crate::pipeline_args::describe_pipeline_error)?;
+        row.trace = out.timings.trace;
+        row.spatial = out.timings.filter + out.timings.compose;
+        let (filtered, times) = job
+            .pool
+            .install(|| temporal.filter(&rs, &out.frame))
+            .with_context(|| format!("frame {frame}: temporal filter"))?;
+        row.motion = times.motion;
+        row.temporal = times.filter;
+        if reference_spp > 0 {
+            let reference = RenderSettings {
+                spp: reference_spp,
+                // Another sample sequence: the 1-spp frame must not be part of its reference.
+                seed: settings.seed.wrapping_add(0x5eed_0000 ^ frame),
+                ..settings
+            };
+            // Kept in DIR/references/ and reused by a later run of the same sequence (the
+            // references cost far more than everything else).
+            let cached = dir.join("references").join(format!(
+                "{frame:06}_{}x{}_{reference_spp}spp.exr",
+                settings.width, settings.height
+            ));
+            let r = match read_image(&cached) {
+                Ok(img) => img,
+                Err(_) => {
+                    let img = job
+                        .pool
+                        .install(|| run_pipeline(&rs, Pipeline::None, &reference, &options, &none))
+                        .map_err(crate::pipeline_args::describe_pipeline_error)?
+                        .image;
+                    std::fs::create_dir_all(dir.join("references"))?;
+                    write_image(&cached, &img)?;
+                    img
+                }
+            };
+            let map = |img: &Image| flip_map(&r, img, &flip).context("FLIP");
+            let maps = [map(&out.image)?, map(&filtered)?];
+            row.flip_raw = mean(&map(&out.frame.color)?);
+            row.flip_atrous = mean(&maps[0]);
+            row.flip_temporal = mean(&maps[1]);
+            let shown = [shown(&out.image), shown(&filtered), shown(&r)];
+            if let Some(p) = &prev {
+                row.flicker_atrous = mean_abs_diff(&maps[0], &p.maps[0]);
+                row.flicker_temporal = mean_abs_diff(&maps[1], &p.maps[1]);
+                row.change_atrous = mean_abs_diff(&shown[0], &p.shown[0]);
+                row.change_temporal = mean_abs_diff(&shown[1], &p.shown[1]);
+                row.change_reference = mean_abs_diff(&shown[2], &p.shown[2]);
+            }
+            if strip_at.contains(&i) {
+                strip.push([
+                    out.frame.color.clone(),
+                    out.image.clone(),
+                    filtered.clone(),
+                    r,
+                ]);
+            }
+            prev = Some(Previous { maps, shown });
+        }
+        eprintln!(
+            "frame {frame}: FLIP 1 spp {:.4} · À-Trous {:.4} · temporal {:.4} · trace {:.1} ms · update {:.2} ms · spatial {:.1} ms · temporal {:.1} ms (+{:.1} ms motion)",
+            row.flip_raw,
+            row.flip_atrous,
+            row.flip_temporal,
+            ms(row.trace),
+            ms(row.update),
+            ms(row.spatial),
+            ms(row.temporal),
+            ms(row.motion)
+        );
+        rows.push(row);
+    }
+    std::fs::write(dir.join("frames.csv"), csv(&rows))?;
+    let summary = summary(&rows, &settings, reference_spp);
+    std::fs::write(dir.join("summary.md"), &summary)?;
+    print!("{summary}");
+    if reference_spp > 0 {
+        write_image(&dir.join("flip.png"), &plot(&rows))?;
+        if !strip.is_empty() {
+            write_image(&dir.join("strip.png"), &tile(&strip))?;
+        }
+    }
+    Ok(())
+}
+
+/// The seed of frame `frame` of a temporally filtered sequence: a different randomisation of
+/// the samples every frame (the multiplier is odd, so frames never share a seed).
+pub fn frame_seed(seed: u32, frame: u32) -> u32 {
+    seed.wrapping_add(frame.wrapping_mul(0x9e37_79b9))
+}
+
+fn ms(d: Duration) -> f64 {
+    d.as_secs_f64() * 1e3
+}
+
+fn mean(map: &Image) -> f64 {
+    let (s, n) = map
+        .data
+        .iter()
+        .filter(|v| v.is_finite())
+        .fold((0.0f64, 0usize), |(s, n), &v| (s + v as f64, n + 1));
+    s / n.max(1) as f64
+}
+
+fn mean_abs_diff(a: &Image, b: &Image) -> f64 {
+    let (s, n) = a
+        .data
+        .iter()
+        .zip(&b.data)
+        .filter(|(x, y)| x.is_finite() && y.is_finite())
+        .fold((0.0f64, 0usize), |(s, n), (x, y)| {
+            (s + (x - y).abs() as f64, n + 1)
+        });
+    s / n.max(1) as f64
+}
+
+/// The image as displayed: sRGB of the clamped linear value.
+fn shown(img: &Image) -> Image {
+    let data = img
+        .data
+        .iter()
+        .map(|&v| {
+            linear_to_srgb(if v.is_finite() {
+                v.clamp(0.0, 1.0)
+            } else {
+                0.0
+            })
+        })
+        .collect();
+    Image::from_vec(img.width, img.height, img.channels, data)
+}
+
+/// Up to four frames for the strip: the end of the warm-up, two in between, the last.
+fn strip_frames(count: usize) -> Vec<usize> {
+    let last = count.saturating_sub(1);
+    let mut at = vec![WARM_UP.min(last), last / 3, 2 * last / 3, last];
+    at.sort_unstable();
+    at.dedup();
+    at
+}
+
+fn csv(rows: &[Row]) -> String {
+    let mut s = String::from(
+        "frame,flip_1spp,flip_atrous,flip_temporal,flicker_atrous,flicker_temporal,change_atrous,change_temporal,change_reference,update_ms,trace_ms,spatial_ms,motion_ms,temporal_ms\n",
+    );
+    for r in rows {
+        let _ = writeln!(
+            s,
+            "{},{:.5},{:.5},{:.5},{:.5},{:.5},{:.5},{:.5},{:.5},{:.3},{:.2},{:.2},{:.2},{:.2}",
+            r.frame,
+            r.flip_raw,
+            r.flip_atrous,
+            r.flip_temporal,
+            r.flicker_atrous,
+            r.flicker_temporal,
+            r.change_atrous,
+            r.change_temporal,
+            r.change_reference,
+            ms(r.update),
+            ms(r.trace),
+            ms(r.spatial),
+            ms(r.motion),
+            ms(r.temporal)
+        );
+    }
+    s
+}
+
+fn summary(rows: &[Row], settings: &RenderSettings, reference_spp: u32) -> String {
+    let after: Vec<&Row> = rows.iter().skip(WARM_UP).collect();
+    let avg = |f: &dyn Fn(&Row) -> f64, rs: &[&Row]| {
+        rs.iter().map(|r| f(r)).sum::<f64>() / rs.len().max(1) as f64
+    };
+    let all: Vec<&Row> = rows.iter().collect();
+    // Frame-to-frame measures from the second frame on (the first has no predecessor).
+    let pairs: Vec<&Row> = rows.iter().skip(WARM_UP.max(1)).collect();
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "{} frames at {}x{}, {} spp per frame{}",
+        rows.len(),
+        settings.width,
+        settings.height,
+        settings.spp,
+        if reference_spp > 0 {
+            format!(", references at {reference_spp} spp")
+        } else {
+            String::new()
+        }
+    );
+    if reference_spp > 0 {
+        let (fa, ft) = (
+            avg(&|r| r.flip_atrous, &after),
+            avg(&|r| r.flip_temporal, &after),
+        );
+        let _ = writeln!(s, "\n| after frame {WARM_UP} | 1 spp | per-frame À-Trous | temporal | temporal / À-Trous |\n|---|---:|---:|---:|---:|");
+        let _ = writeln!(
+            s,
+            "| mean FLIP | {:.4} | {fa:.4} | {ft:.4} | {:.2} |",
+            avg(&|r| r.flip_raw, &after),
+            ft / fa
+        );
+        let (ka, kt) = (
+            avg(&|r| r.flicker_atrous, &pairs),
+            avg(&|r| r.flicker_temporal, &pairs),
+        );
+        let _ = writeln!(
+            s,
+            "| flicker (mean abs. change of the FLIP map) | | {ka:.4} | {kt:.4} | {:.2} |",
+            kt / ka
+        );
+        let _ = writeln!(
+            s,
+            "| output change (reference: {:.4}) | | {:.4} | {:.4} | |",
+            avg(&|r| r.change_reference, &pairs),
+            avg(&|r| r.change_atrous, &pairs),
+            avg(&|r| r.change_temporal, &pairs)
+        );
+    }
+    let t = |f: &dyn Fn(&Row) -> Duration| avg(&|r| ms(f(r)), &all);
+    let (trace, update, spatial, motion, temporal) = (
+        t(&|r| r.trace),
+        t(&|r| r.update),
+        t(&|r| r.spatial),
+        t(&|r| r.motion),
+        t(&|r| r.temporal),
+    );
+    let frame_atrous = trace + update + spatial;
+    let frame_temporal = trace + update + motion + temporal;
+    let _ = writeln!(s, "\n| stage (mean per frame) | ms |\n|---|---:|");
+    for (name, v) in [
+        ("trace (1 spp, G-buffer)", trace),
+        ("BVH update (pose)", update),
+        ("spatial filter (per-frame À-Trous)", spatial),
+        ("motion vectors (+ instance ids when animated)", motion),
+        ("temporal filter (SVGF)", temporal),
+    ] {
+        let _ = writeln!(s, "| {name} | {v:.2} |");
+    }
+    let _ = writeln!(
+        s,
+        "| **frame, per-frame À-Trous** | {frame_atrous:.1} ({:.1} fps) |\n| **frame, temporal** | {frame_temporal:.1} ({:.1} fps) |",
+        1e3 / frame_atrous,
+        1e3 / frame_temporal
+    );
+    s
+}
+
+/// Per-frame FLIP: per-frame À-Trous in red, temporal in blue, the warm-up boundary in grey,
+/// on a dark ground with a grid line every 0.05.
+fn plot(rows: &[Row]) -> Image {
+    let (w, h, pad) = (720usize, 300usize, 10usize);
+    let mut img = Image::new(w, h, 3, 0.01);
+    let top = rows
+        .iter()
+        .map(|r| r.flip_atrous.max(r.flip_temporal))
+        .fold(0.05f64, f64::max);
+    let top = (top / 0.05).ceil() * 0.05;
+    let n = rows.len().max(2);
+    let x_of = |i: usize| pad + i * (w - 2 * pad - 1) / (n - 1);
+    let y_of =
+        |v: f64| h - pad - 1 - ((v / top).clamp(0.0, 1.0) * (h - 2 * pad - 1) as f64) as usize;
+    let set = |img: &mut Image, x: usize, y: usize, c: [f32; 3]| {
+        if x < w && y < h {
+            img.pixel_mut(x, y).copy_from_slice(&c);
+        }
+    };
+    let mut g = 0.0;
+    while g <= top + 1e-9 {
+        for x in pad..w - pad {
+            set(&mut img, x, y_of(g), [0.05; 3]);
+        }
+        g += 0.05;
+    }
+    for y in pad..h - pad {
+        set(&mut img, x_of(WARM_UP.min(n - 1)), y, [0.15; 3]);
+    }
+    for (value, colour) in [
+        (
+            &(|r: &Row| r.flip_atrous) as &dyn Fn(&Row) -> f64,
+            [0.9, 0.1, 0.05],
+        ),
+        (&|r: &Row| r.flip_temporal, [0.1, 0.3, 1.0]),
+    ] {
+        for i in 1..rows.len() {
+            let (x0, x1) = (x_of(i - 1), x_of(i));
+            let (y0, y1) = (y_of(value(&rows[i - 1])), y_of(value(&rows[i])));
+            for x in x0..=x1 {
+                let t = if x1 > x0 {
+                    (x - x0) as f64 / (x1 - x0) as f64
+                } else {
+                    0.0
+                };
+                let y = y0 as f64 + t * (y1 as f64 - y0 as f64);
+                let (lo, hi) = if x == x1 {
+                    (y.min(y1 as f64), y.max(y1 as f64))
+                } else {
+                    (y, y)
+                };
+                for yy in lo.round() as usize..=hi.round() as usize {
+                    set(&mut img, x, yy, colour);
+                    set(&mut img, x, yy + 1, colour);
+                }
+            }
+        }
+    }
+    img
+}
+
+/// Rows of frames, columns 1 spp, per-frame À-Trous, temporal, reference, 2-pixel gaps.
+fn tile(rows: &[[Image; 4]]) -> Image {
+    let (fw, fh) = (rows[0][0].width, rows[0][0].height);
+    let gap = 2;
+    let (w, h) = (4 * fw + 3 * gap, rows.len() * fh + (rows.len() - 1) * gap);
+    let mut out = Image::new(w, h, 3, 0.0);
+    for (r, row) in rows.iter().enumerate() {
+        for (c, img) in row.iter().enumerate() {
+            for y in 0..fh {
+                for x in 0..fw {
+                    let p = img.pixel(x, y);
+                    out.pixel_mut(c * (fw + gap) + x, r * (fh + gap) + y)
+                        .copy_from_slice(&p[..3]);
+                }
+            }
+        }
+    }
+    out
+}
