@@ -307,6 +307,64 @@ mod tests {
         );
     }
 
+    /// Under spectral transport the camera stream's XYZ samples estimate the spectral path
+    /// tracer's image, per XYZ channel.
+    #[test]
+    fn spectral_camera_samples_estimate_the_spectral_image() {
+        use lumo_render::{render, RenderSettings};
+        let rs = RenderScene::new(lumo_scene::builtin_scene("cornell").expect("builtin"))
+            .expect("scene");
+        let (w, h) = (16usize, 16usize);
+        let path = PathSettings {
+            max_depth: 4,
+            spectral: true,
+            ..Default::default()
+        };
+        let ctx = StreamContext {
+            rs: &rs,
+            camera: PinholeCamera::new(&rs.scene.camera, w, h),
+            order: ScreenOrder::new(w as u32, h as u32),
+            size: Vec2::new(w as f32, h as f32),
+            path,
+            seed: 5,
+            scale: 1.0,
+            scratch: Default::default(),
+        };
+        let mut sum = [0.0f64; 3];
+        let mut n = 0u64;
+        for i in 0..ctx.order.period() * 256 {
+            if let Some((s, _)) = ctx.camera_sample(i) {
+                for (c, v) in sum.iter_mut().zip(s.xyzw) {
+                    *c += v as f64;
+                }
+                n += 1;
+            }
+        }
+        let settings = RenderSettings {
+            width: w,
+            height: h,
+            spp: 256,
+            seed: 2,
+            path,
+        };
+        let frame = render(&rs, &settings, &|_| {}).0;
+        let mut reference = [0.0f64; 3];
+        for i in 0..w * h {
+            let xyz = rgb_to_xyz(Vec3::from(frame.color.rgb(i % w, i / w)));
+            for (c, v) in reference.iter_mut().zip(xyz) {
+                *c += v as f64 / (w * h) as f64;
+            }
+        }
+        for c in 0..3 {
+            let streamed = sum[c] / n as f64;
+            assert!(
+                (streamed / reference[c] - 1.0).abs() < 0.02,
+                "channel {c}: stream {streamed}, spectral render {}",
+                reference[c]
+            );
+        }
+    }
+
     #[test]
     fn xyz_of_white_is_d65() {
         let w = rgb_to_xyz(Vec3::ONE);
