@@ -8,8 +8,8 @@ use anyhow::{bail, Context};
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use lumo_filter::{
     missing_pixels, with_passthrough, AtrousDenoiser, AtrousParams, BilateralDenoiser,
-    BilateralParams, Denoiser, DepthNorm, Features, FilterInput, FilterKind, Filtered, GuideKind,
-    GuidedDenoiser, GuidedParams, Shape, FILTERS,
+    BilateralParams, Denoiser, DepthNorm, EmitterParams, Features, FilterInput, FilterKind,
+    Filtered, GuideKind, GuidedDenoiser, GuidedParams, Shape, FILTERS,
 };
 use lumo_image::{read_image, write_image, Image};
 
@@ -128,6 +128,11 @@ pub struct DenoiseArgs {
     /// Sparse input for À-Trous: only every n-th pixel (n = 2 or 4) in x and y is valid.
     #[arg(long, default_value_t = 1)]
     pub subsample: usize,
+    /// Without an emission plane, do not look for lights in the frame (by default pixels that
+    /// are noise-free and far brighter than albedo × their surroundings explain are passed
+    /// through, as an emission plane would mark them).
+    #[arg(long)]
+    pub no_detect_emitters: bool,
     /// Print the time of each stage (read, filter, write) in ms.
     #[arg(long)]
     pub timings: bool,
@@ -262,6 +267,19 @@ fn emitting(emission: &Image) -> Vec<bool> {
             px.iter().any(|&v| !(v == 0.0))
         })
         .collect()
+}
+
+/// Emitter pixels found in the colour by `lumo_filter::detect_emitters`.
+fn detect(inp: &Inputs) -> anyhow::Result<Vec<bool>> {
+    let features = Features {
+        normal: plane(&inp.normal),
+        position: plane(&inp.position),
+        depth: plane(&inp.depth),
+        albedo: plane(&inp.albedo),
+        variance: None,
+    };
+    lumo_filter::detect_emitters(&inp.color.1, &features, &EmitterParams::default())
+        .context("detecting emitters")
 }
 
 /// Where the noise estimate comes from, after `--no-variance`.
@@ -474,15 +492,21 @@ pub fn run(args: DenoiseArgs) -> anyhow::Result<()> {
         );
     }
     // Emitted light seen directly is noise-free and far brighter than what surrounds it: it is
-    // kept out of the filter (missing for its neighbours) and put back unchanged.
-    let emitters = inputs.emission.as_ref().map(|(_, e)| emitting(e));
+    // kept out of the filter (missing for its neighbours) and put back unchanged. Without an
+    // emission plane it is found in the frame itself (`lumo_filter::detect_emitters`), inside
+    // the timed loop: it is part of the filter's cost.
+    let given = inputs.emission.as_ref().map(|(_, e)| emitting(e));
     let mut denoiser = configure(&args, &inputs)?;
     let mut times = Vec::new();
     let mut filtered = None;
     for _ in 0..args.repeat {
         let t1 = Instant::now();
         let color = &inputs.color.1;
-        filtered = Some(match &emitters {
+        let detected = match &given {
+            None if !args.no_detect_emitters => Some(detect(&inputs)?),
+            _ => None,
+        };
+        filtered = Some(match given.as_ref().or(detected.as_ref()) {
             Some(em) => with_passthrough(color, em, |c| {
                 run_filter(&args, &inputs, c, denoiser.as_mut())
             })?,

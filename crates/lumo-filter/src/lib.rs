@@ -55,6 +55,7 @@ pub use bench::{synthetic, table2};
 pub use bilateral::{bilateral, BilateralDenoiser, BilateralParams};
 pub use common::albedo::{demodulate, with_demodulation, Demodulated, ALBEDO_EPS};
 pub use common::boxsum::box_mean;
+pub use common::emitters::{detect_emitters, EmitterParams};
 pub use common::error::FilterError;
 pub use common::fastmath::exp_neg;
 pub use common::gbuffer::{missing_pixels, Features, Filtered};

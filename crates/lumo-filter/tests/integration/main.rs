@@ -6,6 +6,7 @@
 mod atrous;
 mod bilateral;
 mod denoiser;
+mod emitters;
 mod guided;
 mod invariants;
 mod jbu;
