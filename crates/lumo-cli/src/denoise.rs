@@ -8,8 +8,8 @@ use anyhow::{bail, Context};
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use lumo_filter::{
     missing_pixels, with_passthrough, AtrousDenoiser, AtrousParams, BilateralDenoiser,
-    BilateralParams, Denoiser, DepthNorm, EmitterParams, Features, FilterInput, FilterKind,
-    Filtered, GuideKind, GuidedDenoiser, GuidedParams, Shape, FILTERS,
+    BilateralParams, Denoiser, DepthNorm, EmitterMask, EmitterParams, Features, FilterInput,
+    FilterKind, Filtered, GuideKind, GuidedDenoiser, GuidedParams, Shape, FILTERS,
 };
 use lumo_image::{read_image, write_image, Image};
 
@@ -269,8 +269,8 @@ fn emitting(emission: &Image) -> Vec<bool> {
         .collect()
 }
 
-/// Emitter pixels found in the colour by `lumo_filter::detect_emitters`.
-fn detect(inp: &Inputs) -> anyhow::Result<Vec<bool>> {
+/// Emitter pixels (and their rims) found in the colour by `lumo_filter::detect_emitters`.
+fn detect(inp: &Inputs) -> anyhow::Result<EmitterMask> {
     let features = Features {
         normal: plane(&inp.normal),
         position: plane(&inp.position),
@@ -495,11 +495,11 @@ fn filter_inputs(
             None if !args.no_detect_emitters => Some(detect(inputs)?),
             _ => None,
         };
-        filtered = Some(match given.as_ref().or(detected.as_ref()) {
-            Some(em) => with_passthrough(color, em, |c| {
-                run_filter(args, inputs, c, denoiser.as_mut())
-            })?,
-            None => run_filter(args, inputs, color, denoiser.as_mut())?,
+        let mut run = |c: &Image| run_filter(args, inputs, c, denoiser.as_mut());
+        filtered = Some(match (&given, &detected) {
+            (Some(em), _) => with_passthrough(color, em, run)?,
+            (None, Some(found)) => found.filter(color, run)?,
+            (None, None) => run(color)?,
         });
         times.push(t1.elapsed());
     }

@@ -59,13 +59,13 @@ pub use bench::{synthetic, table2};
 pub use bilateral::{bilateral, BilateralDenoiser, BilateralParams};
 pub use common::albedo::{demodulate, with_demodulation, Demodulated, ALBEDO_EPS};
 pub use common::boxsum::box_mean;
-pub use common::emitters::{detect_emitters, EmitterParams};
+pub use common::emitters::{detect_emitters, EmitterMask, EmitterParams};
 pub use common::error::FilterError;
 pub use common::fastmath::exp_neg;
 pub use common::gbuffer::{missing_pixels, Features, Filtered};
 pub use common::noise::spatial_variance;
 pub use common::outliers::remove_outliers;
-pub use common::passthrough::with_passthrough;
+pub use common::passthrough::{with_hidden, with_passthrough};
 pub use denoiser::{Denoiser, FilterInfo, FilterInput, FilterKind, Shape, FILTERS};
 pub use guided::{
     build_guide, guided, most_similar, most_similar_in_grid, neighbour_cells, DepthNorm, Guide,

@@ -91,7 +91,12 @@ pub fn run(args: &QualityArgs, set: &str) -> Result<()> {
         let name = s.name.trim_end_matches(".xml").to_string();
         let depth = args.max_depth.unwrap_or(s.max_depth);
         let key = reference_key(&s, size, reference_spp, args.seed.wrapping_add(1), depth);
-        let (reference, reference_path) = ensure_reference(&args.cache, &key, &s, &pool)?;
+        let (reference, _) = ensure_reference(&args.cache, &key, &s, &pool)?;
+        // Beside the planes as PFM too: every peer can read PFM with a few lines of NumPy.
+        let reference_path = root.join(&name).join("reference.pfm");
+        std::fs::create_dir_all(root.join(&name))
+            .with_context(|| format!("cannot create {}", root.join(&name).display()))?;
+        write_image_atomic(&reference_path, &reference)?;
         let mut inputs = Vec::new();
         for &spp in &args.spp {
             let rs = settings(size, spp, args.seed, depth, s.rr_depth);

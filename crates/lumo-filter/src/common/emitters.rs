@@ -33,8 +33,9 @@ pub struct EmitterParams {
     pub flatness: f32,
     /// A seed needs at least this many flat, bright neighbours among its 8.
     pub flat_neighbours: usize,
-    /// Rings of pixels added around the region (the anti-aliased rim of a light, partly
-    /// covered, is neither flat nor always bright enough).
+    /// Rings of pixels around the region that are hidden from the filter and filled from
+    /// their neighbours ([`EmitterMask::rim`]): the anti-aliased rim of a light, partly
+    /// covered, is neither flat nor always bright enough to be found, and would spread.
     pub dilate: usize,
 }
 
@@ -50,12 +51,34 @@ impl Default for EmitterParams {
     }
 }
 
+/// What [`detect_emitters`] found.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct EmitterMask {
+    /// Pixels of lights: pass them through unfiltered, as an emission plane would mark them.
+    pub light: Vec<bool>,
+    /// The rings around them ([`EmitterParams::dilate`]): hide them from the filter (they give
+    /// no weight) and keep the filter's fill — passing them through would keep their noise.
+    pub rim: Vec<bool>,
+}
+
+impl EmitterMask {
+    /// Runs `filter` with the lights passed through and the rims filled
+    /// ([`crate::with_hidden`]).
+    pub fn filter<F, E>(&self, color: &Image, filter: F) -> Result<crate::Filtered, E>
+    where
+        F: FnOnce(&Image) -> Result<crate::Filtered, E>,
+    {
+        crate::common::passthrough::with_hidden(color, &self.light, &self.rim, filter)
+    }
+}
+
 /// The darkest albedo luminance a pixel is demodulated by: black surfaces would otherwise
 /// divide by 0.
 const ALBEDO_FLOOR: f32 = 0.05;
 
-/// Pixels of `color` that look like directly visible emitters: `true` = pass through (leave
-/// unfiltered, give no weight to neighbours), as an emission plane would mark them.
+/// Pixels of `color` that look like directly visible emitters ([`EmitterMask::light`]: pass
+/// through, as an emission plane would mark them) and the rim around them
+/// ([`EmitterMask::rim`]: hide from the filter, keep its fill).
 ///
 /// Reads the albedo (to tell texture from light; without it, luminance is used as is) and the
 /// depth / position planes of `features` (background pixels are never marked: the filters
@@ -65,7 +88,7 @@ pub fn detect_emitters(
     color: &Image,
     features: &Features,
     params: &EmitterParams,
-) -> Result<Vec<bool>, FilterError> {
+) -> Result<EmitterMask, FilterError> {
     crate::common::gbuffer::check_color("color", color)?;
     let (w, h) = (color.width, color.height);
     check_features(features, w, h)?;
@@ -105,7 +128,10 @@ pub fn detect_emitters(
         .filter(|v| v.is_finite())
         .fold((0.0f64, 0usize), |(s, c), &v| (s + v as f64, c + 1));
     if count == 0 {
-        return Ok(vec![false; n]);
+        return Ok(EmitterMask {
+            light: vec![false; n],
+            rim: vec![false; n],
+        });
     }
     let floor = (0.01 * sum / count as f64).max(1e-8) as f32;
     let mut logs = vec![0.0f32; n * 2];
@@ -157,13 +183,14 @@ pub fn detect_emitters(
             }
         }
     }
+    let mut grown = mask.clone();
     for _ in 0..params.dilate {
-        let grown: Vec<bool> = (0..n)
-            .map(|i| mask[i] || (d[i].is_finite() && neighbours(i).any(|j| mask[j])))
+        grown = (0..n)
+            .map(|i| grown[i] || (d[i].is_finite() && neighbours(i).any(|j| grown[j])))
             .collect();
-        mask = grown;
     }
-    Ok(mask)
+    let rim = (0..n).map(|i| grown[i] && !mask[i]).collect();
+    Ok(EmitterMask { light: mask, rim })
 }
 
 #[cfg(test)]
@@ -191,7 +218,10 @@ mod tests {
     #[test]
     fn finds_a_large_light_and_its_rim_and_nothing_else() {
         let img = wall_with_light(64, 48, 0.9, 30.0, [10, 40, 5, 30]);
-        let m = detect_emitters(&img, &Features::default(), &EmitterParams::default()).unwrap();
+        let found = detect_emitters(&img, &Features::default(), &EmitterParams::default()).unwrap();
+        let m: Vec<bool> = (0..64 * 48)
+            .map(|i| found.light[i] || found.rim[i])
+            .collect();
         for y in 0..48 {
             for x in 0..64 {
                 let inside = (10..40).contains(&x) && (5..30).contains(&y);
@@ -207,10 +237,10 @@ mod tests {
         let mut img = wall_with_light(32, 32, 0.9, 0.4, [0, 0, 0, 0]);
         img.pixel_mut(16, 16).fill(500.0);
         let m = detect_emitters(&img, &Features::default(), &EmitterParams::default()).unwrap();
-        assert!(m.iter().all(|&b| !b));
+        assert!(m.light.iter().chain(&m.rim).all(|&b| !b));
         let flat = Image::new(32, 32, 3, 2.0);
         let m = detect_emitters(&flat, &Features::default(), &EmitterParams::default()).unwrap();
-        assert!(m.iter().all(|&b| !b));
+        assert!(m.light.iter().chain(&m.rim).all(|&b| !b));
     }
 
     #[test]
@@ -232,9 +262,9 @@ mod tests {
             ..Features::default()
         };
         let m = detect_emitters(&color, &f, &EmitterParams::default()).unwrap();
-        assert!(m.iter().all(|&b| !b));
+        assert!(m.light.iter().all(|&b| !b));
         // Without the albedo the same frame's white squares would pass for lights.
         let m = detect_emitters(&color, &Features::default(), &EmitterParams::default()).unwrap();
-        assert!(m.iter().any(|&b| b));
+        assert!(m.light.iter().any(|&b| b));
     }
 }

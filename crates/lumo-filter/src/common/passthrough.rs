@@ -21,9 +21,27 @@ pub fn with_passthrough<F, E>(color: &Image, pass: &[bool], filter: F) -> Result
 where
     F: FnOnce(&Image) -> Result<Filtered, E>,
 {
+    with_hidden(color, pass, &[], filter)
+}
+
+/// As [`with_passthrough`], and the pixels where `hidden` is true (it may be shorter, even
+/// empty) are also kept out of the filter but keep what the filter fills in there: the rim
+/// of a light found in the frame ([`crate::EmitterMask`]), whose own values would spread the
+/// light and whose noise a pass-through would keep.
+pub fn with_hidden<F, E>(
+    color: &Image,
+    pass: &[bool],
+    hidden: &[bool],
+    filter: F,
+) -> Result<Filtered, E>
+where
+    F: FnOnce(&Image) -> Result<Filtered, E>,
+{
     let mut input = color.clone();
-    for (i, _) in pass.iter().enumerate().filter(|(_, &p)| p) {
-        input.data[i * 3..i * 3 + 3].fill(f32::NAN);
+    for mask in [pass, hidden] {
+        for (i, _) in mask.iter().enumerate().filter(|(_, &p)| p) {
+            input.data[i * 3..i * 3 + 3].fill(f32::NAN);
+        }
     }
     let mut out = filter(&input)?;
     for (i, _) in pass.iter().enumerate().filter(|(_, &p)| p) {

@@ -4,6 +4,7 @@
 #![allow(clippy::needless_range_loop)]
 
 mod atrous;
+mod auto;
 mod bilateral;
 mod denoiser;
 mod emitters;
