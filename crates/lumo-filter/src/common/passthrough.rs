@@ -80,4 +80,21 @@ mod tests {
         assert_eq!(out.image.data[9], 0.0);
         assert_eq!(out.missing, 1);
     }
+
+    #[test]
+    fn hidden_pixels_are_hidden_from_the_filter_and_keep_its_fill() {
+        let mut color = Image::new(3, 1, 3, 0.5);
+        color.data[0..3].fill(50.0); // pixel 0 passed through, pixel 1 hidden
+        color.data[3..6].fill(9.0);
+        let out = with_hidden::<_, FilterError>(&color, &[true], &[false, true], |c| {
+            assert!(c.data[0].is_nan() && c.data[3].is_nan() && c.data[6] == 0.5);
+            Ok(Filtered {
+                image: Image::new(3, 1, 3, 0.25),
+                missing: 0,
+            })
+        })
+        .unwrap();
+        assert_eq!(&out.image.data[0..3], &[50.0; 3]);
+        assert_eq!(&out.image.data[3..9], &[0.25; 6]);
+    }
 }
