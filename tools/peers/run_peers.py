@@ -40,6 +40,10 @@ import time
 
 import numpy as np
 
+# The references of `lumo bench quality --set` are EXR; OpenCV reads EXR only when this is set
+# before it is imported (heldout_set.py).
+os.environ.setdefault("OPENCV_IO_ENABLE_OPENEXR", "1")
+
 PEER_MARK = "(peer)"
 
 
@@ -253,6 +257,9 @@ def main():
     ap.add_argument("--jbf-radius", type=int, default=16)
     ap.add_argument("--jbf-sigma-color", type=float, default=0.3)
     ap.add_argument("--jbf-sigma-space", type=float, default=8.0)
+    ap.add_argument("--set", default=None,
+                    help="score the frames of `lumo bench quality --set SET` instead "
+                         "(heldout_set.py): RESULTS/SET.md and SET.png")
     a = ap.parse_args()
     import cv2
     try:
@@ -273,6 +280,11 @@ def main():
         f"{a.guided_radius}, eps = {a.guided_eps}; `jointBilateralFilter` d = {2 * a.jbf_radius + 1}, "
         f"sigmaColor = {a.jbf_sigma_color}, sigmaSpace = {a.jbf_sigma_space}. Times: median of "
         f"{a.repeats} in-process calls after a warm-up call (for OIDN the warm-up creates the device).")
+    if a.set:
+        from heldout_set import main_set
+        if a.speed_sizes == "512x512,1024x1024":
+            a.speed_sizes = "512x512,1920x1080"
+        return main_set(a, cv2, pyoidn, versions)
     fns = peers(cv2, pyoidn, a)
     scenes = a.scenes.split(",")
     spps = [int(s) for s in a.spp.split(",")]

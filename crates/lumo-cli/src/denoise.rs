@@ -8,8 +8,8 @@ use anyhow::{bail, Context};
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use lumo_filter::{
     missing_pixels, with_passthrough, AtrousDenoiser, AtrousParams, BilateralDenoiser,
-    BilateralParams, Denoiser, DepthNorm, Features, FilterInput, FilterKind, Filtered, GuideKind,
-    GuidedDenoiser, GuidedParams, Shape, FILTERS,
+    BilateralParams, Denoiser, DepthNorm, EmitterMask, EmitterParams, Features, FilterInput,
+    FilterKind, Filtered, GuideKind, GuidedDenoiser, GuidedParams, Shape, FILTERS,
 };
 use lumo_image::{read_image, write_image, Image};
 
@@ -71,7 +71,7 @@ pub struct DenoiseArgs {
     #[arg(long)]
     pub input_dir: Option<PathBuf>,
     /// The filter.
-    #[arg(long, value_parser = filter_parser(), default_value = "atrous")]
+    #[arg(long, value_parser = filter_parser(), default_value = "auto")]
     pub filter: FilterKind,
     /// Output image: .exr / .pfm (float32) or .png (sRGB, clamped).
     #[arg(short = 'o', long)]
@@ -128,6 +128,11 @@ pub struct DenoiseArgs {
     /// Sparse input for À-Trous: only every n-th pixel (n = 2 or 4) in x and y is valid.
     #[arg(long, default_value_t = 1)]
     pub subsample: usize,
+    /// Without an emission plane, do not look for lights in the frame (by default pixels that
+    /// are noise-free and far brighter than albedo × their surroundings explain are passed
+    /// through, as an emission plane would mark them).
+    #[arg(long)]
+    pub no_detect_emitters: bool,
     /// Print the time of each stage (read, filter, write) in ms.
     #[arg(long)]
     pub timings: bool,
@@ -262,6 +267,19 @@ fn emitting(emission: &Image) -> Vec<bool> {
             px.iter().any(|&v| !(v == 0.0))
         })
         .collect()
+}
+
+/// Emitter pixels (and their rims) found in the colour by `lumo_filter::detect_emitters`.
+fn detect(inp: &Inputs) -> anyhow::Result<EmitterMask> {
+    let features = Features {
+        normal: plane(&inp.normal),
+        position: plane(&inp.position),
+        depth: plane(&inp.depth),
+        albedo: plane(&inp.albedo),
+        variance: None,
+    };
+    lumo_filter::detect_emitters(&inp.color.1, &features, &EmitterParams::default())
+        .context("detecting emitters")
 }
 
 /// Where the noise estimate comes from, after `--no-variance`.
@@ -446,6 +464,76 @@ fn run_filter(
     Ok(denoiser.denoise(&FilterInput::new(color, features))?)
 }
 
+/// Filters the read inputs `args.repeat` times as `lumo denoise` does (emitters from the
+/// emission plane or found in the frame, then the configured filter); returns the last result
+/// and the sorted times of the runs.
+fn filter_inputs(
+    args: &DenoiseArgs,
+    inputs: &Inputs,
+) -> anyhow::Result<(Filtered, Vec<std::time::Duration>)> {
+    let (w, h) = (inputs.color.1.width, inputs.color.1.height);
+    if let Some(r) = args.radius {
+        if r == 0 || r > w.max(h) {
+            bail!(
+                "--radius {r}: use 1 to {} (the image's larger side)",
+                w.max(h)
+            );
+        }
+    }
+    // Emitted light seen directly is noise-free and far brighter than what surrounds it: it is
+    // kept out of the filter (missing for its neighbours) and put back unchanged. Without an
+    // emission plane it is found in the frame itself (`lumo_filter::detect_emitters`), inside
+    // the timed loop: it is part of the filter's cost.
+    let given = inputs.emission.as_ref().map(|(_, e)| emitting(e));
+    let mut denoiser = configure(args, inputs)?;
+    let mut times = Vec::new();
+    let mut filtered = None;
+    for _ in 0..args.repeat {
+        let t1 = Instant::now();
+        let color = &inputs.color.1;
+        let detected = match &given {
+            None if !args.no_detect_emitters => Some(detect(inputs)?),
+            _ => None,
+        };
+        let mut run = |c: &Image| run_filter(args, inputs, c, denoiser.as_mut());
+        filtered = Some(match (&given, &detected) {
+            (Some(em), _) => with_passthrough(color, em, run)?,
+            (None, Some(found)) => found.filter(color, run)?,
+            (None, None) => run(color)?,
+        });
+        times.push(t1.elapsed());
+    }
+    times.sort();
+    Ok((filtered.context("the filter did not run")?, times))
+}
+
+/// Denoises the planes in `dir` (`color`, `albedo`, … as `--input-dir` reads them) with
+/// `filter` and every other setting at `lumo denoise`'s defaults, exactly as
+/// `lumo denoise --input-dir DIR --filter FILTER` would; for benchmarks. Returns the image and
+/// the filter time (the emitter search included).
+pub fn denoise_dir(dir: &Path, filter: FilterKind) -> anyhow::Result<(Image, std::time::Duration)> {
+    #[derive(clap::Parser)]
+    struct Wrapper {
+        #[command(flatten)]
+        args: DenoiseArgs,
+    }
+    use clap::Parser as _;
+    let dir_arg = dir.as_os_str().to_owned();
+    let w = Wrapper::try_parse_from([
+        "denoise".into(),
+        "--input-dir".into(),
+        dir_arg,
+        "--filter".into(),
+        filter.name().into(),
+        "-o".into(),
+        "unused.pfm".into(),
+    ])
+    .context("building the default denoise arguments")?;
+    let inputs = read_inputs(&w.args)?;
+    let (filtered, times) = filter_inputs(&w.args, &inputs)?;
+    Ok((filtered.image, times[0]))
+}
+
 /// Runs `lumo denoise`.
 pub fn run(args: DenoiseArgs) -> anyhow::Result<()> {
     // Named as the command line spells them: the filter's own error calls --subsample
@@ -456,15 +544,6 @@ pub fn run(args: DenoiseArgs) -> anyhow::Result<()> {
     crate::render_cmd::check_writable(&args.output).context("-o")?;
     let t0 = Instant::now();
     let inputs = read_inputs(&args)?;
-    let (w, h) = (inputs.color.1.width, inputs.color.1.height);
-    if let Some(r) = args.radius {
-        if r == 0 || r > w.max(h) {
-            bail!(
-                "--radius {r}: use 1 to {} (the image's larger side)",
-                w.max(h)
-            );
-        }
-    }
     let t_read = t0.elapsed();
     let missing = missing_pixels(&inputs.color.1);
     if missing > 0 {
@@ -473,26 +552,8 @@ pub fn run(args: DenoiseArgs) -> anyhow::Result<()> {
             inputs.color.0.display()
         );
     }
-    // Emitted light seen directly is noise-free and far brighter than what surrounds it: it is
-    // kept out of the filter (missing for its neighbours) and put back unchanged.
-    let emitters = inputs.emission.as_ref().map(|(_, e)| emitting(e));
-    let mut denoiser = configure(&args, &inputs)?;
-    let mut times = Vec::new();
-    let mut filtered = None;
-    for _ in 0..args.repeat {
-        let t1 = Instant::now();
-        let color = &inputs.color.1;
-        filtered = Some(match &emitters {
-            Some(em) => with_passthrough(color, em, |c| {
-                run_filter(&args, &inputs, c, denoiser.as_mut())
-            })?,
-            None => run_filter(&args, &inputs, color, denoiser.as_mut())?,
-        });
-        times.push(t1.elapsed());
-    }
-    times.sort();
+    let (filtered, times) = filter_inputs(&args, &inputs)?;
     let t_filter = times[times.len() / 2];
-    let filtered = filtered.context("the filter did not run")?;
     let t2 = Instant::now();
     write_image(&args.output, &filtered.image)
         .with_context(|| format!("cannot write {}", args.output.display()))?;
@@ -528,7 +589,7 @@ mod tests {
             .expect("a list of values")
             .map(|v| v.get_name().to_string())
             .collect();
-        assert_eq!(offered, ["atrous", "guided", "bilateral"]);
+        assert_eq!(offered, ["atrous", "guided", "bilateral", "auto"]);
         for info in FILTERS {
             let got = parser.parse_ref(&cmd, None, OsStr::new(info.name));
             if info.shape == Shape::Image {

@@ -27,8 +27,8 @@ use lumo_image::Image;
 
 use crate::common::gbuffer::{Features, Filtered};
 use crate::{
-    AtrousDenoiser, BilateralDenoiser, FilterError, GuidedDenoiser, JbuDenoiser, TemporalFilter,
-    TemporalParams,
+    AtrousDenoiser, AutoDenoiser, BilateralDenoiser, FilterError, GuidedDenoiser, JbuDenoiser,
+    TemporalFilter, TemporalParams,
 };
 
 /// Everything a [`Denoiser`] may read for one frame: the colour to filter and the planes that
@@ -105,6 +105,9 @@ pub enum FilterKind {
     Jbu,
     /// Spatiotemporal variance-guided filtering ([`crate::TemporalFilter`]).
     Temporal,
+    /// Guided filters at several radii blended per pixel by their estimated error
+    /// ([`crate::auto()`]).
+    Auto,
 }
 
 /// What a filter's colour input is, and so which callers can use it.
@@ -192,6 +195,14 @@ pub const FILTERS: &[FilterInfo] = &[
                     .expect("the default temporal parameters are valid"),
             )
         },
+    },
+    FilterInfo {
+        kind: FilterKind::Auto,
+        name: "auto",
+        title: "auto",
+        description: "Guided filters at radii 4-32 blended per pixel by a leave-one-out error estimate (the default)",
+        shape: Shape::Image,
+        new: || Box::new(AutoDenoiser::default()),
     },
 ];
 

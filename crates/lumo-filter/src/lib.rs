@@ -8,6 +8,8 @@
 //! - [`bilateral()`]: brute-force cross (joint) bilateral filter, the quality reference.
 //! - [`jbu()`]: joint bilateral upsampling of a low-resolution buffer (Kopf et al. 2007), with
 //!   [`remove_outliers`] and an optional bilateral pre-filter.
+//! - [`auto()`]: guided filters at several radii blended per pixel by a leave-one-out error
+//!   estimate (the default of `lumo denoise`).
 //! - [`most_similar`]: the geometry-aware lookup of Bauszat et al. (eqs 3–5).
 //! - [`TemporalFilter`]: spatiotemporal variance-guided filtering (SVGF, Schied et al. 2017),
 //!   the one stateful filter: reprojected, accumulated history + the variance-guided À-Trous;
@@ -39,6 +41,7 @@ extern crate lumo_simd;
 mod common;
 
 mod atrous;
+mod auto;
 mod bench;
 mod bilateral;
 mod denoiser;
@@ -50,17 +53,19 @@ pub use atrous::{
     atrous, AtrousDenoiser, AtrousFilter, AtrousParams, B3, DEFAULT_SIGMA_LUMINANCE,
     DEFAULT_SIGMA_NORMAL, DEFAULT_SIGMA_POSITION,
 };
+pub use auto::{auto, AutoDenoiser, AutoParams};
 pub use bench::synthetic::{synthetic_frame, SyntheticFrame};
 pub use bench::{synthetic, table2};
 pub use bilateral::{bilateral, BilateralDenoiser, BilateralParams};
 pub use common::albedo::{demodulate, with_demodulation, Demodulated, ALBEDO_EPS};
 pub use common::boxsum::box_mean;
+pub use common::emitters::{detect_emitters, EmitterMask, EmitterParams};
 pub use common::error::FilterError;
 pub use common::fastmath::exp_neg;
 pub use common::gbuffer::{missing_pixels, Features, Filtered};
 pub use common::noise::spatial_variance;
 pub use common::outliers::remove_outliers;
-pub use common::passthrough::with_passthrough;
+pub use common::passthrough::{with_hidden, with_passthrough};
 pub use denoiser::{Denoiser, FilterInfo, FilterInput, FilterKind, Shape, FILTERS};
 pub use guided::{
     build_guide, guided, most_similar, most_similar_in_grid, neighbour_cells, DepthNorm, Guide,

@@ -9,6 +9,7 @@ mod atomic;
 mod cache;
 mod contact_sheet;
 mod font;
+mod heldout;
 mod inputs;
 mod integrators;
 mod quality;

@@ -25,9 +25,9 @@ pub struct QualityArgs {
     /// Scenes (built-in names or scene files), comma-separated [default: every built-in].
     #[arg(long, value_delimiter = ',')]
     pub scenes: Vec<String>,
-    /// Image size of every render.
-    #[arg(long, value_parser = parse_size, default_value = "256x256")]
-    pub size: (usize, usize),
+    /// Image size of every render [default: 256x256; 512x512 with --set].
+    #[arg(long, value_parser = parse_size)]
+    pub size: Option<(usize, usize)>,
     /// Samples per pixel of the test images, comma-separated.
     #[arg(long, value_delimiter = ',', default_value = "1,4")]
     pub spp: Vec<u32>,
@@ -35,9 +35,10 @@ pub struct QualityArgs {
     #[arg(long, value_delimiter = ',', value_parser = parse_pipeline,
           default_value = "none,bilateral,atrous,guided,jbu")]
     pub pipelines: Vec<Pipeline>,
-    /// Samples per pixel of the converged reference (`--pipeline none`).
-    #[arg(long, default_value_t = 1024)]
-    pub reference_spp: u32,
+    /// Samples per pixel of the converged reference (`--pipeline none`) [default: 1024; 512
+    /// with --set].
+    #[arg(long)]
+    pub reference_spp: Option<u32>,
     /// Seed of the test images; the reference uses SEED + 1 so its noise is independent.
     #[arg(long, default_value_t = 0)]
     pub seed: u32,
@@ -63,7 +64,21 @@ pub struct QualityArgs {
     /// Worker threads [default: all cores].
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Score lumo's filters (`lumo denoise` defaults, no emission plane) on whole frames of
+    /// the scenes in scenes/SET/ (`heldout` or `tuning`) instead of the pipelines; writes
+    /// SET.md and SET.json (docs/bench.md, "Held-out evaluation").
+    #[arg(long, conflicts_with_all = ["scenes", "pipelines"])]
+    pub set: Option<String>,
+    /// With --set: folder of frames from another renderer (tools/heldout/mitsuba_inputs.py)
+    /// [default: CACHE/mitsuba for the held-out set, when it exists].
+    #[arg(long, requires = "set")]
+    pub external: Option<PathBuf>,
 }
+
+/// Size of the renders when --size is not given (without --set).
+const DEFAULT_SIZE: (usize, usize) = (256, 256);
+/// Reference samples when --reference-spp is not given (without --set).
+const DEFAULT_REFERENCE_SPP: u32 = 1024;
 
 /// One scored render.
 pub struct Scored {
@@ -84,6 +99,11 @@ pub struct Scored {
 /// Runs `lumo bench quality`.
 pub fn run(args: QualityArgs) -> Result<()> {
     validate(&args)?;
+    if let Some(set) = &args.set {
+        return super::heldout::run(&args, set);
+    }
+    let size = args.size.unwrap_or(DEFAULT_SIZE);
+    let reference_spp = args.reference_spp.unwrap_or(DEFAULT_REFERENCE_SPP);
     let out_dir = super::out_dir(args.out_dir.as_deref(), args.publish);
     check_dir_writable(&out_dir)?;
     let pool = crate::cli_common::worker_pool(args.threads)?;
@@ -96,8 +116,8 @@ pub fn run(args: QualityArgs) -> Result<()> {
     for s in &scenes {
         let key = reference_key(
             s,
-            args.size,
-            args.reference_spp,
+            size,
+            reference_spp,
             args.seed.wrapping_add(1),
             depth(&args, s),
         );
@@ -113,7 +133,7 @@ pub fn run(args: QualityArgs) -> Result<()> {
         for &spp in &args.spp {
             for &pipeline in &args.pipelines {
                 bar.set_message(format!("{} {spp} spp {pipeline}", s.name));
-                let rs = settings(args.size, spp, args.seed, depth(&args, s), s.rr_depth);
+                let rs = settings(size, spp, args.seed, depth(&args, s), s.rr_depth);
                 let out = pool.install(|| {
                     run_pipeline(&s.rs, pipeline, &rs, &PipelineOptions::default(), &|_| {})
                 })?;
@@ -138,9 +158,9 @@ pub fn run(args: QualityArgs) -> Result<()> {
         command: command_line(),
         machine: super::machine_description(threads),
         note: args.note.clone(),
-        size: args.size,
+        size,
         spp: args.spp.clone(),
-        reference_spp: args.reference_spp,
+        reference_spp,
         seed: args.seed,
         max_depths: scenes
             .iter()
@@ -168,7 +188,7 @@ fn validate(args: &QualityArgs) -> Result<()> {
     if args.pipelines.is_empty() {
         bail!("--pipelines: give at least one pipeline");
     }
-    if args.reference_spp == 0 {
+    if args.reference_spp == Some(0) {
         bail!("--reference-spp must be at least 1");
     }
     crate::cli_common::check_max_depth(args.max_depth)?;
@@ -247,7 +267,7 @@ fn error_map(reference: &Image, rows: &[&Scored], exposure: f32) -> Vec<f64> {
 }
 
 fn sheet(args: &QualityArgs, scenes: &[BenchScene], refs: &[Image], scored: &[Scored]) -> Image {
-    let (w, h) = args.size;
+    let (w, h) = args.size.unwrap_or(DEFAULT_SIZE);
     let side = crop_side(w, h);
     let mut columns = vec!["REFERENCE".to_string()];
     columns.extend(args.pipelines.iter().map(|p| p.name().to_uppercase()));
@@ -261,7 +281,10 @@ fn sheet(args: &QualityArgs, scenes: &[BenchScene], refs: &[Image], scored: &[Sc
                 lines: vec![
                     s.name.clone(),
                     format!("{spp} SPP"),
-                    format!("REF {}", args.reference_spp),
+                    format!(
+                        "REF {}",
+                        args.reference_spp.unwrap_or(DEFAULT_REFERENCE_SPP)
+                    ),
                 ],
             }];
             for r in mine.iter().filter(|r| r.spp == spp) {

@@ -1,5 +1,5 @@
 //! What every filter shares: the feature planes and their checks, the typed error, albedo
-//! demodulation, pass-through pixels, box means, the spatial noise estimate and outlier
+//! demodulation, pass-through pixels and finding them without an emission plane, box means, the spatial noise estimate and outlier
 //! removal. (The fast `exp` and the `multiversion!` macro live in lumo-simd, shared with the
 //! renderer.)
 //!
@@ -11,6 +11,7 @@ pub(crate) use lumo_simd::fastmath;
 
 pub(crate) mod albedo;
 pub(crate) mod boxsum;
+pub(crate) mod emitters;
 pub(crate) mod error;
 pub(crate) mod gbuffer;
 pub(crate) mod noise;

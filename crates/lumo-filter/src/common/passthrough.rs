@@ -21,9 +21,27 @@ pub fn with_passthrough<F, E>(color: &Image, pass: &[bool], filter: F) -> Result
 where
     F: FnOnce(&Image) -> Result<Filtered, E>,
 {
+    with_hidden(color, pass, &[], filter)
+}
+
+/// As [`with_passthrough`], and the pixels where `hidden` is true (it may be shorter, even
+/// empty) are also kept out of the filter but keep what the filter fills in there: the rim
+/// of a light found in the frame ([`crate::EmitterMask`]), whose own values would spread the
+/// light and whose noise a pass-through would keep.
+pub fn with_hidden<F, E>(
+    color: &Image,
+    pass: &[bool],
+    hidden: &[bool],
+    filter: F,
+) -> Result<Filtered, E>
+where
+    F: FnOnce(&Image) -> Result<Filtered, E>,
+{
     let mut input = color.clone();
-    for (i, _) in pass.iter().enumerate().filter(|(_, &p)| p) {
-        input.data[i * 3..i * 3 + 3].fill(f32::NAN);
+    for mask in [pass, hidden] {
+        for (i, _) in mask.iter().enumerate().filter(|(_, &p)| p) {
+            input.data[i * 3..i * 3 + 3].fill(f32::NAN);
+        }
     }
     let mut out = filter(&input)?;
     for (i, _) in pass.iter().enumerate().filter(|(_, &p)| p) {
@@ -61,5 +79,22 @@ mod tests {
         assert_eq!(&out.image.data[3..6], &[50.0; 3]);
         assert_eq!(out.image.data[9], 0.0);
         assert_eq!(out.missing, 1);
+    }
+
+    #[test]
+    fn hidden_pixels_are_hidden_from_the_filter_and_keep_its_fill() {
+        let mut color = Image::new(3, 1, 3, 0.5);
+        color.data[0..3].fill(50.0); // pixel 0 passed through, pixel 1 hidden
+        color.data[3..6].fill(9.0);
+        let out = with_hidden::<_, FilterError>(&color, &[true], &[false, true], |c| {
+            assert!(c.data[0].is_nan() && c.data[3].is_nan() && c.data[6] == 0.5);
+            Ok(Filtered {
+                image: Image::new(3, 1, 3, 0.25),
+                missing: 0,
+            })
+        })
+        .unwrap();
+        assert_eq!(&out.image.data[0..3], &[50.0; 3]);
+        assert_eq!(&out.image.data[3..9], &[0.25; 6]);
     }
 }

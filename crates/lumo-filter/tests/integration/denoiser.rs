@@ -109,6 +109,10 @@ fn every_listed_filter_gives_its_direct_result_bit_for_bit() {
                     };
                     (fr.noisy.clone(), temporal.filter(&frame).unwrap())
                 }
+                FilterKind::Auto => (
+                    fr.noisy.clone(),
+                    auto(&fr.noisy, &f, &AutoParams::default()).unwrap(),
+                ),
             };
             let got = d.denoise(&FilterInput::new(&input_color, f)).unwrap();
             assert_identical(&got, &want, &format!("{} frame {n}", info.name));
@@ -254,6 +258,7 @@ fn a_missing_plane_is_an_error_that_names_it() {
             FilterKind::Bilateral => (&fr.noisy, &[]),
             FilterKind::Jbu => (&low, &[]),
             FilterKind::Temporal => (&fr.noisy, &["normal", "depth"]),
+            FilterKind::Auto => (&fr.noisy, &["normal"]),
         };
         for &plane in needs {
             let e = missing((info.new)().denoise(&FilterInput::new(color, without(plane))));

@@ -4,8 +4,10 @@
 #![allow(clippy::needless_range_loop)]
 
 mod atrous;
+mod auto;
 mod bilateral;
 mod denoiser;
+mod emitters;
 mod guided;
 mod invariants;
 mod jbu;

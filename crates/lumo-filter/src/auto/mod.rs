@@ -1,0 +1,200 @@
+//! `auto`: guided filters at several radii, blended per pixel by an estimate of each one's
+//! error there — leave-one-out cross-validation, the σ-free cousin of SURE (Li, Wu & Chuang
+//! 2012 select per pixel among filter scales by SURE).
+//!
+//! Why this shape: no single radius suits a frame. Where the noise is heavy and the
+//! illumination smooth (an indirect-only room at 1 spp) a 32-pixel window is best; along
+//! shadow edges, contact shadows and glossy highlights a 4-pixel one is. The guided filter is
+//! linear in the colour for a fixed geometry guide, so its self-weight `W_pp = ∂F_p/∂y_p` is
+//! exact ([`selfweight`]), and `(y_p − F_p) / (1 − W_pp)` is the error of predicting the
+//! pixel from its neighbours alone. Its square estimates MSE + σ², and σ² — the noise, which
+//! nothing here knows — is the same for every candidate at a pixel, so it drops out of the
+//! comparison: no variance plane or noise model is needed, which matters for frames from other
+//! renderers. The squared errors are averaged over a window (a single pixel's is pure noise)
+//! and turned into soft weights.
+//!
+//! Everything runs on the albedo-demodulated colour (texture is not filtered) when an albedo
+//! plane is given; lights are the caller's business, as for every filter
+//! ([`crate::with_passthrough`], [`crate::detect_emitters`]).
+
+mod selfweight;
+
+use lumo_image::Image;
+use rayon::prelude::*;
+
+use crate::common::boxsum::box_mean;
+use crate::common::gbuffer::{check_color, missing_pixels, Features, Filtered};
+use crate::denoiser::{Denoiser, FilterInput, FilterKind};
+use crate::{build_guide, demodulate, guided, DepthNorm, FilterError, GuideKind, GuidedParams};
+
+/// Parameters of [`auto`]; the defaults were chosen on the tuning set (scenes/tuning and the
+/// built-in scenes), never on scenes/heldout (docs/filters.md).
+#[derive(Clone, Debug, PartialEq)]
+pub struct AutoParams {
+    /// Window radii of the candidate guided filters.
+    pub radii: Vec<usize>,
+    /// ε on the guide's normal dimensions.
+    pub eps_normal: f32,
+    /// ε on its depth dimension.
+    pub eps_depth: f32,
+    /// Radius of the window the squared leave-one-out errors are averaged over.
+    pub error_radius: usize,
+    /// Softness of the blend: a candidate whose error exceeds the best one's by this fraction
+    /// of it gets weight e⁻¹ relative to the best.
+    pub softness: f32,
+    /// Divide by the albedo before filtering (when an albedo plane is given).
+    pub demodulate: bool,
+}
+
+impl Default for AutoParams {
+    fn default() -> Self {
+        Self {
+            radii: vec![4, 8, 16, 32],
+            eps_normal: 0.001,
+            eps_depth: 0.001,
+            error_radius: 4,
+            softness: 0.2,
+            demodulate: true,
+        }
+    }
+}
+
+/// Denoises `color` (3 channels) with [`AutoParams::radii`] guided filters blended per pixel
+/// by their estimated error. Needs a normal plane; uses depth (4-D guide) and albedo when
+/// given. Missing (non-finite) colour pixels take no part in the error estimate.
+pub fn auto(
+    color: &Image,
+    features: &Features,
+    params: &AutoParams,
+) -> Result<Filtered, FilterError> {
+    check_color("color", color)?;
+    if params.radii.is_empty() || params.radii.contains(&0) {
+        return Err(crate::common::error::param(
+            "auto radii",
+            format!("{:?} (give one or more radii ≥ 1)", params.radii),
+        ));
+    }
+    if !(params.softness > 0.0) {
+        return Err(crate::common::error::param(
+            "auto softness",
+            format!("{} (must be > 0)", params.softness),
+        ));
+    }
+    let kind = if features.depth.is_some() {
+        GuideKind::NormalDepth
+    } else {
+        GuideKind::Normal
+    };
+    let guide = build_guide(
+        kind,
+        features,
+        DepthNorm::Range,
+        params.eps_normal,
+        params.eps_depth,
+    )
+    .map_err(|e| match e {
+        FilterError::MissingFeature { needs, .. } => FilterError::MissingFeature {
+            filter: "the auto filter",
+            needs,
+        },
+        e => e,
+    })?;
+    let (w, h) = (color.width, color.height);
+    let n = w * h;
+    let demod = match (params.demodulate, features.albedo) {
+        (true, Some(a)) => Some(demodulate(color, a)?),
+        _ => None,
+    };
+    let y = demod.as_ref().map_or(color, |d| &d.illumination);
+    // A window larger than the image only costs time: cap the radii, drop repeats.
+    let mut radii: Vec<usize> = params.radii.iter().map(|&r| r.min(w.max(h))).collect();
+    radii.dedup();
+    let mut candidates = Vec::with_capacity(radii.len());
+    let mut errors = Vec::with_capacity(radii.len());
+    for &r in &radii {
+        let f = guided(
+            y,
+            &guide,
+            &GuidedParams {
+                radius: r,
+                fast_subsample: 1,
+            },
+        )?
+        .image;
+        let self_weight = selfweight::guided_self_weight(&guide, r);
+        errors.push(loo_error(y, &f, &self_weight, params.error_radius));
+        candidates.push(f);
+    }
+    let mut blended = Image::new(w, h, 3, 0.0);
+    blended
+        .data
+        .par_chunks_mut(3)
+        .enumerate()
+        .for_each(|(i, out)| {
+            let best = errors.iter().map(|e| e[i]).fold(f32::INFINITY, f32::min);
+            let scale = params.softness * best.max(1e-12);
+            let mut total = 0.0f32;
+            for (f, e) in candidates.iter().zip(&errors) {
+                let wk = (-(e[i] - best) / scale).exp();
+                total += wk;
+                for c in 0..3 {
+                    out[c] += wk * f.data[i * 3 + c];
+                }
+            }
+            for v in out.iter_mut() {
+                *v /= total;
+            }
+        });
+    debug_assert_eq!(blended.data.len(), n * 3);
+    let image = match &demod {
+        Some(d) => d.remodulate(&blended, color),
+        None => blended,
+    };
+    Ok(Filtered {
+        image,
+        missing: missing_pixels(color),
+    })
+}
+
+/// Squared leave-one-out prediction error `Σ_c ((y − F) / (1 − W_pp))²`, averaged over the
+/// window of radius `r` over the finite pixels (a window with none gets 1 for every
+/// candidate, so the blend there is uniform).
+fn loo_error(y: &Image, f: &Image, self_weight: &[f32], r: usize) -> Vec<f32> {
+    let (w, h) = (y.width, y.height);
+    let mut sq = vec![0.0f32; w * h * 2];
+    sq.par_chunks_mut(2).enumerate().for_each(|(i, s)| {
+        // A pixel that is all its own estimate predicts nothing: floor the denominator.
+        let k = 1.0 / (1.0 - self_weight[i]).max(0.05);
+        let mut e = 0.0;
+        for c in 0..3 {
+            let d = (y.data[i * 3 + c] - f.data[i * 3 + c]) * k;
+            e += d * d;
+        }
+        if e.is_finite() {
+            s[0] = e;
+            s[1] = 1.0;
+        }
+    });
+    let m = box_mean(&sq, w, h, 2, r);
+    m.chunks_exact(2)
+        .map(|p| if p[1] > 0.0 { p[0] / p[1] } else { 1.0 })
+        .collect()
+}
+
+/// [`auto`] behind the [`Denoiser`] interface. Needs a normal plane; reads depth and albedo
+/// when given.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct AutoDenoiser {
+    /// Its parameters.
+    pub params: AutoParams,
+}
+
+impl Denoiser for AutoDenoiser {
+    fn name(&self) -> &'static str {
+        FilterKind::Auto.name()
+    }
+
+    fn denoise(&mut self, input: &FilterInput) -> Result<Filtered, FilterError> {
+        auto(input.color, &input.features, &self.params)
+    }
+}

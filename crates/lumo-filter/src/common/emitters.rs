@@ -1,0 +1,279 @@
+//! Finding lights (and other noise-free, far too bright pixels) in a frame that comes without
+//! an emission plane, so that they can be passed through instead of smeared over their
+//! neighbours.
+//!
+//! Why not a threshold on brightness alone: a sunlit floor patch, a 1-spp firefly and an area
+//! light can all be 50× brighter than the rest of the frame. What sets a light apart is that
+//! emitted radiance seen directly is noise-free: neighbouring pixels inside a light carry the
+//! same value to the last few bits at any sample count, while a bright pixel of a noisy lit
+//! surface has no neighbour within a few per cent of it. So the detector asks two things of a
+//! seed pixel — far brighter than its surroundings can explain, and flat with its neighbours —
+//! and then grows the region from the seeds through pixels that are bright or equally flat
+//! (a light larger than the window is bright only at its rim, flat inside).
+
+use std::collections::VecDeque;
+
+use lumo_image::{luminance, rgb_of, Image};
+
+use crate::common::boxsum::box_mean;
+use crate::common::gbuffer::{check_features, Features};
+use crate::FilterError;
+
+/// Settings of [`detect_emitters`]; the defaults were chosen on the tuning set
+/// (scenes/tuning, docs/filters.md), never on the held-out scenes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EmitterParams {
+    /// A seed is at least this many times brighter (demodulated luminance) than the geometric
+    /// mean of its window.
+    pub brightness: f32,
+    /// Radius of the window of that geometric mean, in pixels.
+    pub radius: usize,
+    /// Two pixels are "flat" when their demodulated luminances differ by at most this
+    /// fraction of the larger.
+    pub flatness: f32,
+    /// A seed needs at least this many flat, bright neighbours among its 8.
+    pub flat_neighbours: usize,
+    /// Rings of pixels around the region, passed through with it ([`EmitterMask::rim`]): the
+    /// anti-aliased rim of a light, partly covered, is neither flat nor always bright enough
+    /// to be found, and would spread.
+    pub dilate: usize,
+}
+
+impl Default for EmitterParams {
+    fn default() -> Self {
+        Self {
+            brightness: 8.0,
+            radius: 8,
+            flatness: 0.02,
+            flat_neighbours: 3,
+            dilate: 1,
+        }
+    }
+}
+
+/// What [`detect_emitters`] found.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct EmitterMask {
+    /// Pixels of lights: pass them through unfiltered, as an emission plane would mark them.
+    pub light: Vec<bool>,
+    /// The rings around them ([`EmitterParams::dilate`]): the anti-aliased rim, partly light.
+    pub rim: Vec<bool>,
+}
+
+impl EmitterMask {
+    /// Runs `filter` with the lights and their rims passed through ([`crate::with_passthrough`]).
+    ///
+    /// Why the rim is passed through rather than hidden and filled ([`crate::with_hidden`]):
+    /// on the tuning set a filled rim loses the light's share of its partly covered pixels
+    /// (tune-room, guided: relMSE 3.5e-3 → 4.2e-3 at 1 spp, 2.6e-3 → 3.4e-3 at 4 spp), which
+    /// costs more than the rim's unfiltered noise.
+    pub fn filter<F, E>(&self, color: &Image, filter: F) -> Result<crate::Filtered, E>
+    where
+        F: FnOnce(&Image) -> Result<crate::Filtered, E>,
+    {
+        let pass: Vec<bool> = self
+            .light
+            .iter()
+            .zip(&self.rim)
+            .map(|(&l, &r)| l || r)
+            .collect();
+        crate::common::passthrough::with_passthrough(color, &pass, filter)
+    }
+}
+
+/// The darkest albedo luminance a pixel is demodulated by: black surfaces would otherwise
+/// divide by 0.
+const ALBEDO_FLOOR: f32 = 0.05;
+
+/// Pixels of `color` that look like directly visible emitters ([`EmitterMask::light`]) and
+/// the rim around them ([`EmitterMask::rim`]); [`EmitterMask::filter`] passes both through,
+/// as an emission plane would mark them.
+///
+/// Reads the albedo (to tell texture from light; without it, luminance is used as is) and the
+/// depth / position planes of `features` (background pixels are never marked: the filters
+/// keep them apart from geometry already, and they do not count towards any window's level).
+/// Non-finite colour pixels are never marked (the filters treat them as missing).
+pub fn detect_emitters(
+    color: &Image,
+    features: &Features,
+    params: &EmitterParams,
+) -> Result<EmitterMask, FilterError> {
+    crate::common::gbuffer::check_color("color", color)?;
+    let (w, h) = (color.width, color.height);
+    check_features(features, w, h)?;
+    if !(params.brightness > 1.0) || !(params.flatness >= 0.0) || params.flat_neighbours > 8 {
+        return Err(crate::common::error::param(
+            "emitter detection",
+            format!("{params:?} (brightness must be > 1, flatness ≥ 0, flat_neighbours ≤ 8)"),
+        ));
+    }
+    let n = w * h;
+    let background: Vec<bool> = (0..n)
+        .map(|i| crate::common::gbuffer::is_background(features, i))
+        .collect();
+    // Demodulated luminance; NaN where the pixel takes no part (missing or background).
+    let d: Vec<f32> = (0..n)
+        .map(|i| {
+            let l = luminance(rgb_of(&color.data[i * 3..i * 3 + 3]));
+            if !l.is_finite() || background[i] {
+                return f32::NAN;
+            }
+            let a = features.albedo.map_or(1.0, |a| {
+                let v = luminance(rgb_of(&a.data[i * a.channels..][..a.channels.min(3)]));
+                if v.is_finite() {
+                    v.max(ALBEDO_FLOOR)
+                } else {
+                    1.0
+                }
+            });
+            (l / a).max(0.0)
+        })
+        .collect();
+    // The level a pixel's surroundings set: the geometric mean of the window (robust to the
+    // heavy tail of few-sample noise, and to the light itself at a light's rim), offset by a
+    // small fraction of the frame's mean so that black regions do not make everything bright.
+    let (sum, count) = d
+        .iter()
+        .filter(|v| v.is_finite())
+        .fold((0.0f64, 0usize), |(s, c), &v| (s + v as f64, c + 1));
+    if count == 0 {
+        return Ok(EmitterMask {
+            light: vec![false; n],
+            rim: vec![false; n],
+        });
+    }
+    let floor = (0.01 * sum / count as f64).max(1e-8) as f32;
+    let mut logs = vec![0.0f32; n * 2];
+    for i in 0..n {
+        if d[i].is_finite() {
+            logs[i * 2] = (d[i] + floor).ln();
+            logs[i * 2 + 1] = 1.0;
+        }
+    }
+    let means = box_mean(&logs, w, h, 2, params.radius);
+    let bright: Vec<bool> = (0..n)
+        .map(|i| {
+            let (s, c) = (means[i * 2], means[i * 2 + 1]);
+            d[i].is_finite() && c > 0.0 && d[i] + floor > params.brightness * (s / c).exp()
+        })
+        .collect();
+    let flat = |a: f32, b: f32| (a - b).abs() <= params.flatness * a.max(b);
+    let neighbours = |i: usize| {
+        let (x, y) = ((i % w) as isize, (i / w) as isize);
+        (-1isize..=1)
+            .flat_map(move |dy| (-1isize..=1).map(move |dx| (dx, dy)))
+            .filter(|&(dx, dy)| dx != 0 || dy != 0)
+            .filter_map(move |(dx, dy)| {
+                let (xx, yy) = (x + dx, y + dy);
+                (xx >= 0 && yy >= 0 && (xx as usize) < w && (yy as usize) < h)
+                    .then(|| yy as usize * w + xx as usize)
+            })
+    };
+    let mut mask = vec![false; n];
+    let mut queue = VecDeque::new();
+    for i in 0..n {
+        if bright[i]
+            && neighbours(i)
+                .filter(|&j| bright[j] && flat(d[i], d[j]))
+                .count()
+                >= params.flat_neighbours
+        {
+            mask[i] = true;
+            queue.push_back(i);
+        }
+    }
+    // Grow through bright pixels and through flat continuations of the region (a light's
+    // interior, where the window is all light and nothing is "bright" relative to it).
+    while let Some(i) = queue.pop_front() {
+        for j in neighbours(i).collect::<Vec<_>>() {
+            if !mask[j] && d[j].is_finite() && (bright[j] || flat(d[i], d[j])) {
+                mask[j] = true;
+                queue.push_back(j);
+            }
+        }
+    }
+    let mut grown = mask.clone();
+    for _ in 0..params.dilate {
+        grown = (0..n)
+            .map(|i| grown[i] || (d[i].is_finite() && neighbours(i).any(|j| grown[j])))
+            .collect();
+    }
+    let rim = (0..n).map(|i| grown[i] && !mask[i]).collect();
+    Ok(EmitterMask { light: mask, rim })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A noisy grey wall (deterministic hash noise of relative amplitude `amp`) with a
+    /// light of radiance `le` in the rectangle [x0, x1) × [y0, y1).
+    fn wall_with_light(w: usize, h: usize, amp: f32, le: f32, rect: [usize; 4]) -> Image {
+        let mut img = Image::new(w, h, 3, 0.0);
+        for y in 0..h {
+            for x in 0..w {
+                let u = (((x * 73856093) ^ (y * 19349663)) % 1000) as f32 / 1000.0;
+                let v = if (rect[0]..rect[1]).contains(&x) && (rect[2]..rect[3]).contains(&y) {
+                    le
+                } else {
+                    0.4 * (1.0 + amp * (2.0 * u - 1.0))
+                };
+                img.pixel_mut(x, y).fill(v);
+            }
+        }
+        img
+    }
+
+    #[test]
+    fn finds_a_large_light_and_its_rim_and_nothing_else() {
+        let img = wall_with_light(64, 48, 0.9, 30.0, [10, 40, 5, 30]);
+        let found = detect_emitters(&img, &Features::default(), &EmitterParams::default()).unwrap();
+        let m: Vec<bool> = (0..64 * 48)
+            .map(|i| found.light[i] || found.rim[i])
+            .collect();
+        for y in 0..48 {
+            for x in 0..64 {
+                let inside = (10..40).contains(&x) && (5..30).contains(&y);
+                let rim = (9..41).contains(&x) && (4..31).contains(&y);
+                assert!(!inside || m[y * 64 + x], "light pixel ({x}, {y}) missed");
+                assert!(rim || !m[y * 64 + x], "wall pixel ({x}, {y}) marked");
+            }
+        }
+    }
+
+    #[test]
+    fn an_isolated_firefly_and_a_constant_frame_are_not_lights() {
+        let mut img = wall_with_light(32, 32, 0.9, 0.4, [0, 0, 0, 0]);
+        img.pixel_mut(16, 16).fill(500.0);
+        let m = detect_emitters(&img, &Features::default(), &EmitterParams::default()).unwrap();
+        assert!(m.light.iter().chain(&m.rim).all(|&b| !b));
+        let flat = Image::new(32, 32, 3, 2.0);
+        let m = detect_emitters(&flat, &Features::default(), &EmitterParams::default()).unwrap();
+        assert!(m.light.iter().chain(&m.rim).all(|&b| !b));
+    }
+
+    #[test]
+    fn a_bright_texture_explained_by_its_albedo_is_not_a_light() {
+        // White squares (albedo 0.9) on a black floor (albedo 0.005) under even light: 180×
+        // brighter, flat — and fully explained by the albedo.
+        let (w, h) = (48, 48);
+        let mut albedo = Image::new(w, h, 3, 0.0);
+        let mut color = Image::new(w, h, 3, 0.0);
+        for y in 0..h {
+            for x in 0..w {
+                let a = if (x / 8 + y / 8) % 2 == 0 { 0.9 } else { 0.005 };
+                albedo.pixel_mut(x, y).fill(a);
+                color.pixel_mut(x, y).fill(a * 0.7);
+            }
+        }
+        let f = Features {
+            albedo: Some(&albedo),
+            ..Features::default()
+        };
+        let m = detect_emitters(&color, &f, &EmitterParams::default()).unwrap();
+        assert!(m.light.iter().all(|&b| !b));
+        // Without the albedo the same frame's white squares would pass for lights.
+        let m = detect_emitters(&color, &Features::default(), &EmitterParams::default()).unwrap();
+        assert!(m.light.iter().any(|&b| b));
+    }
+}
