@@ -247,6 +247,26 @@ mod tests {
         assert_eq!(pts, lattice);
     }
 
+    /// The streams of a `w`×`h` image of `rs` at full weight.
+    fn test_context(
+        rs: &RenderScene,
+        w: usize,
+        h: usize,
+        path: PathSettings,
+        seed: u32,
+    ) -> StreamContext<'_> {
+        StreamContext {
+            rs,
+            camera: PinholeCamera::new(&rs.scene.camera, w, h),
+            order: ScreenOrder::new(w as u32, h as u32),
+            size: Vec2::new(w as f32, h as f32),
+            path,
+            seed,
+            scale: 1.0,
+            scratch: Default::default(),
+        }
+    }
+
     /// The viewer's reconstruction of the bidirectional streams (camera samples averaged per
     /// pixel, light splats summed and divided by the number of samples) estimates the same
     /// image as the path tracer.
@@ -260,16 +280,7 @@ mod tests {
             max_depth: 5,
             ..Default::default()
         };
-        let ctx = StreamContext {
-            rs: &rs,
-            camera: PinholeCamera::new(&rs.scene.camera, w, h),
-            order: ScreenOrder::new(w as u32, h as u32),
-            size: Vec2::new(w as f32, h as f32),
-            path,
-            seed: 2,
-            scale: 1.0,
-            scratch: Default::default(),
-        };
+        let ctx = test_context(&rs, w, h, path, 2);
         let (mut camera, mut counts) = (vec![0.0f64; w * h], vec![0u32; w * h]);
         let mut light = Vec::new();
         let mut paths = 0u64;
@@ -320,16 +331,7 @@ mod tests {
             spectral: true,
             ..Default::default()
         };
-        let ctx = StreamContext {
-            rs: &rs,
-            camera: PinholeCamera::new(&rs.scene.camera, w, h),
-            order: ScreenOrder::new(w as u32, h as u32),
-            size: Vec2::new(w as f32, h as f32),
-            path,
-            seed: 5,
-            scale: 1.0,
-            scratch: Default::default(),
-        };
+        let ctx = test_context(&rs, w, h, path, 5);
         let mut sum = [0.0f64; 3];
         let mut n = 0u64;
         for i in 0..ctx.order.period() * 256 {
