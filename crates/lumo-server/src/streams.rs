@@ -123,17 +123,16 @@ impl StreamContext<'_> {
 
     /// A camera sample's value as a stream sample.
     fn sample(&self, film: Vec2, c: Vec3) -> Sample {
-        let [x, y, z] = rgb_to_xyz(c * self.scale);
-        let uv = film / self.size;
-        Sample {
-            uv: [uv.x, uv.y],
-            xyzw: [x, y, z, 1.0],
-        }
+        self.at(film, rgb_to_xyz(c * self.scale))
     }
 
     /// A camera sample's CIE XYZ value as a stream sample.
     fn sample_xyz(&self, film: Vec2, xyz: Vec3) -> Sample {
-        let [x, y, z] = (xyz * self.scale).to_array();
+        self.at(film, (xyz * self.scale).to_array())
+    }
+
+    /// The stream sample of XYZ value `xyz` (already scaled) at film position `film`.
+    fn at(&self, film: Vec2, [x, y, z]: [f32; 3]) -> Sample {
         let uv = film / self.size;
         Sample {
             uv: [uv.x, uv.y],

@@ -57,11 +57,6 @@ impl Tabulated {
         let t = (lambda - self.lambda[i]) / (self.lambda[i + 1] - self.lambda[i]);
         self.value[i] * (1.0 - t) + self.value[i + 1] * t
     }
-
-    /// Largest sampled value.
-    pub fn max_value(&self) -> f32 {
-        self.value.iter().copied().fold(0.0, f32::max)
-    }
 }
 
 /// The measured (η, k) spectra of Mitsuba's conductor preset `name` (e.g. "Au", "Cu_palik").

@@ -166,12 +166,18 @@ impl RenderScene {
             }
             None => {
                 // Light weights are the material's emission times a number: use its sigmoid.
-                let (e, scale, sig) = &self.spectral_cache().emission[material];
-                let c = rgb.max_element() / e.max_element();
-                if c.is_finite() && (rgb - *e * c).abs().max_element() <= 1e-5 * rgb.max_element() {
-                    sig.eval_lanes(wl) * (scale * c) * wl.d65()
-                } else {
-                    illuminant(rgb, wl)
+                match self.spectral_cache().emission.get(material) {
+                    Some((e, scale, sig)) => {
+                        let c = rgb.max_element() / e.max_element();
+                        if c.is_finite()
+                            && (rgb - *e * c).abs().max_element() <= 1e-5 * rgb.max_element()
+                        {
+                            sig.eval_lanes(wl) * (scale * c) * wl.d65()
+                        } else {
+                            illuminant(rgb, wl)
+                        }
+                    }
+                    None => illuminant(rgb, wl),
                 }
             }
         }
@@ -185,14 +191,5 @@ impl RenderScene {
             Some(m) => self.spectral_emission(weight, m, wl),
             None => illuminant(weight, wl),
         }
-    }
-
-    /// Whether some emitter has a tabulated spectrum (the vector bounce, which reads emissive
-    /// triangles without their material, then leaves spectral paths to the scalar bounce).
-    pub fn has_emission_spectra(&self) -> bool {
-        self.scene
-            .materials
-            .iter()
-            .any(|m| m.spectra.emission.is_some() && m.is_emissive())
     }
 }

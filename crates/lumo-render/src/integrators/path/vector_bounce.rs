@@ -42,10 +42,7 @@ type L3 = [L; 3];
 /// Whether the vector bounce may run in this scene under these settings (per lane it also
 /// needs [`RenderScene::simple_diffuse`]).
 pub(crate) fn applies(rs: &RenderScene, settings: &PathSettings) -> bool {
-    settings.nee
-        && settings.bsdf_emission
-        && rs.lights.triangles_only()
-        && !(settings.spectral && rs.has_emission_spectra())
+    settings.nee && settings.bsdf_emission && rs.lights.triangles_only()
 }
 
 /// `a · b` in glam's order.

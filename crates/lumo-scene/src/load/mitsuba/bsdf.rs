@@ -409,29 +409,8 @@ impl<'a> Builder<'a, '_> {
 
     /// `int_ior / ext_ior`, each a number or a named medium.
     fn ior(&mut self, props: &Props<'a>) -> Result<f32, LoadError> {
-        let side = |name: &str, default: f32| -> Result<f32, LoadError> {
-            let Some(v) = props.value(name) else {
-                return Ok(default);
-            };
-            let text = v.required("value")?;
-            if v.tag == "float" {
-                return text.trim().parse::<f32>().map_err(|_| {
-                    LoadError::invalid(v.at(), format!("{name}: {text:?} is not a number"))
-                });
-            }
-            presets::dielectric(text).ok_or_else(|| {
-                let names: Vec<&str> = presets::DIELECTRICS.iter().map(|d| d.0).collect();
-                LoadError::invalid(
-                    v.at(),
-                    format!(
-                        "unknown medium {text:?}; use a number or one of {}",
-                        names.join(", ")
-                    ),
-                )
-            })
-        };
-        let int = side("int_ior", 1.5046)?;
-        let ext = side("ext_ior", AIR)?;
+        let int = medium_index(props, "int_ior", 1.5046)?;
+        let ext = medium_index(props, "ext_ior", AIR)?;
         let ior = int / ext;
         if !(ior.is_finite() && ior > 0.0) {
             return Err(LoadError::invalid(
@@ -447,11 +426,7 @@ impl<'a> Builder<'a, '_> {
     fn dispersion(&self, props: &Props<'a>) -> Option<(Glass, f32)> {
         let int = props.value("int_ior").filter(|v| v.tag == "string")?;
         let glass = Glass::named(int.attr("value")?.trim())?;
-        let ext = match props.value("ext_ior") {
-            None => AIR,
-            Some(v) if v.tag == "float" => v.attr("value")?.trim().parse().ok()?,
-            Some(v) => presets::dielectric(v.attr("value")?)?,
-        };
+        let ext = medium_index(props, "ext_ior", AIR).ok()?;
         Some((glass, ext))
     }
 
@@ -632,4 +607,29 @@ fn mark_all(props: &Props) {
     for (i, _) in props.el.children.iter().enumerate() {
         props.mark(i);
     }
+}
+
+/// The index of refraction `name` (`int_ior` / `ext_ior`): a number or a named medium;
+/// `default` where the file gives none.
+fn medium_index(props: &Props<'_>, name: &str, default: f32) -> Result<f32, LoadError> {
+    let Some(v) = props.value(name) else {
+        return Ok(default);
+    };
+    let text = v.required("value")?;
+    if v.tag == "float" {
+        return text
+            .trim()
+            .parse::<f32>()
+            .map_err(|_| LoadError::invalid(v.at(), format!("{name}: {text:?} is not a number")));
+    }
+    presets::dielectric(text).ok_or_else(|| {
+        let names: Vec<&str> = presets::DIELECTRICS.iter().map(|d| d.0).collect();
+        LoadError::invalid(
+            v.at(),
+            format!(
+                "unknown medium {text:?}; use a number or one of {}",
+                names.join(", ")
+            ),
+        )
+    })
 }
