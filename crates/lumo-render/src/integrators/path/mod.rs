@@ -187,9 +187,15 @@ impl PathState {
     #[inline]
     pub fn spectral(mut self, spectral: bool) -> Self {
         if spectral {
-            self.wl = Some(Wavelengths::sample(self.sampler.next_1d()));
+            self.make_spectral();
         }
         self
+    }
+
+    /// Puts this path under spectral transport in place (see [`PathState::spectral`]).
+    #[inline]
+    pub fn make_spectral(&mut self) {
+        self.wl = Some(Wavelengths::sample(self.sampler.next_1d()));
     }
 
     /// What the path gathered, as RGB: under spectral transport its per-wavelength radiance
