@@ -145,6 +145,24 @@ pub(crate) fn triangle_map(u0: f32, u1: f32) -> (f32, f32) {
     (b1, 1.0 - b0 - b1)
 }
 
+/// The larger of `a` and `b` as one `maxss`: `f32::max` also orders NaNs, which costs three
+/// more instructions per call in the ray-offset rules below (~0.5 % of a render). The two agree
+/// wherever neither argument is NaN.
+#[inline(always)]
+fn max_fast(a: f32, b: f32) -> f32 {
+    if a > b {
+        a
+    } else {
+        b
+    }
+}
+
+/// The largest magnitude of `p`'s coordinates.
+#[inline(always)]
+fn max3_abs(p: [f32; 3]) -> f32 {
+    max_fast(p[0].abs(), max_fast(p[1].abs(), p[2].abs()))
+}
+
 /// `p` moved off a surface with unit geometric normal `ng` to the side of direction `d`, by
 /// `eps` relative to the point's magnitude: the one ray-origin rule of every integrator (the
 /// scalar code through [`crate::RenderScene::offset`], the lane loops directly).
@@ -152,7 +170,7 @@ pub(crate) fn triangle_map(u0: f32, u1: f32) -> (f32, f32) {
 pub(crate) fn offset_point(p: [f32; 3], ng: [f32; 3], d: [f32; 3], eps: f32) -> [f32; 3] {
     let along = (ng[0] * d[0]) + (ng[1] * d[1]) + (ng[2] * d[2]);
     let side = if along >= 0.0 { 1.0 } else { -1.0 };
-    let m = p[0].abs().max(p[1].abs().max(p[2].abs()));
+    let m = max3_abs(p);
     let k = side * eps * (1.0 + m);
     [p[0] + ng[0] * k, p[1] + ng[1] * k, p[2] + ng[2] * k]
 }
@@ -207,8 +225,8 @@ pub(crate) fn shadow_segment(o: [f32; 3], q: [f32; 3], wi: [f32; 3], eps: f32) -
     let d = [q[0] - o[0], q[1] - o[1], q[2] - o[2]];
     let len = ((d[0] * d[0]) + (d[1] * d[1]) + (d[2] * d[2])).sqrt();
     let ahead = (d[0] * wi[0]) + (d[1] * wi[1]) + (d[2] * wi[2]) > 0.0;
-    let scale = q[0].abs().max(q[1].abs().max(q[2].abs()));
-    let tmax = len - (eps * (1.0 + scale)).max(len * 1e-4);
+    let scale = max3_abs(q);
+    let tmax = len - max_fast(eps * (1.0 + scale), len * 1e-4);
     let clear = ahead && tmax > 0.0;
     let inv = 1.0 / len;
     let dir = [d[0] * inv, d[1] * inv, d[2] * inv];
