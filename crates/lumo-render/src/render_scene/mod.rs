@@ -382,6 +382,12 @@ impl RenderScene {
         self.simple_diffuse[instance as usize]
     }
 
+    /// Whether [`RenderScene::simple_diffuse`] has a record for the instance.
+    #[inline]
+    pub(crate) fn is_simple_diffuse(&self, instance: u32) -> bool {
+        self.simple_diffuse[instance as usize].is_some()
+    }
+
     /// Unit geometric normal of triangle `triangle` of mesh `mesh`, in object space.
     #[inline]
     pub(crate) fn unit_normal(&self, mesh: usize, triangle: u32) -> Vec3 {

@@ -30,12 +30,14 @@ use crate::geometry::{
     survival_probability, triangle_map, Basis,
 };
 use crate::integrators::path::{PathSettings, PathState, ShadowRay};
-use crate::render_scene::{RenderScene, SimpleDiffuse, Surface};
+use crate::render_scene::{RenderScene, Surface};
 
 const N: usize = LANES;
 
 /// A path at a simple diffuse surface: its index, its hit and the surface's material.
-pub(crate) type SimpleLane = (u32, Hit, SimpleDiffuse);
+/// A lane of the vector bounce: the path and its hit on a simple diffuse instance (whose
+/// [`SimpleDiffuse`] the bounce looks up: copying it into every lane cost more).
+pub(crate) type SimpleLane = (u32, Hit);
 type L = [f32; N];
 type L3 = [L; 3];
 
@@ -162,7 +164,8 @@ fn bounce(
     let (mut bu, mut bv) = ([0.0f32; N], [0.0f32; N]);
     let (mut nv0, mut nv1, mut nv2): (L3, L3, L3) = ([[0.0; N]; 3], [[0.0; N]; 3], [[0.0; N]; 3]);
     let mut interpolate = [false; N];
-    for (i, &(p, hit, sd)) in lanes.iter().enumerate().take(n) {
+    for (i, &(p, hit)) in lanes.iter().enumerate().take(n) {
+        let sd = rs.simple_diffuse(hit.instance).unwrap_or_default();
         let path = &mut paths[p as usize];
         path.radiance.rays += 1;
         let normal = rs.unit_normal(sd.mesh, hit.triangle);
@@ -254,7 +257,8 @@ fn bounce(
     }
 
     // What `arrive` records for the hit: the first-hit record, emission seen along the ray.
-    for (i, &(p, hit, sd)) in lanes.iter().enumerate().take(n) {
+    for (i, &(p, hit)) in lanes.iter().enumerate().take(n) {
+        let sd = rs.simple_diffuse(hit.instance).unwrap_or_default();
         let path = &mut paths[p as usize];
         let g = Vec3::new(ng[0][i], ng[1][i], ng[2][i]);
         let le = if g.dot(path.dir) < 0.0 {
@@ -290,7 +294,7 @@ fn bounce(
     );
     let (mut pick, mut area) = ([1.0f32; N], [0.0f32; N]);
     let mut has_light = [false; N];
-    for (i, &(p, _, _)) in lanes.iter().enumerate().take(n) {
+    for (i, &(p, _)) in lanes.iter().enumerate().take(n) {
         if !alive[i] {
             continue;
         }
@@ -436,7 +440,7 @@ fn bounce(
     }
 
     // Scatter: shadow rays, continuing paths.
-    for (i, &(p, _, _)) in lanes.iter().enumerate().take(n) {
+    for (i, &(p, _)) in lanes.iter().enumerate().take(n) {
         if sh_ok[i] {
             let path = &mut paths[p as usize];
             path.radiance.rays += 1;
@@ -538,9 +542,9 @@ mod tests {
                         .intersect(path.origin, path.dir, 0.0, f32::INFINITY);
                     let mut alone = *path;
                     let (shadow, on) = alone.advance(rs, &settings, hit);
-                    match hit.and_then(|h| Some((h, rs.simple_diffuse(h.instance)?))) {
-                        Some((h, sd)) => {
-                            lanes.push((p, h, sd));
+                    match hit.filter(|h| rs.simple_diffuse(h.instance).is_some()) {
+                        Some(h) => {
+                            lanes.push((p, h));
                             want.push((p, path.depth, alone, shadow, on));
                         }
                         None => {

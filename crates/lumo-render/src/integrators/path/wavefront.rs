@@ -161,8 +161,8 @@ impl Batch {
             let mut n_simple = 0;
             for (&p, &hit) in group.iter().zip(&hits) {
                 if let Some(h) = hit.filter(|_| vector_group) {
-                    if let Some(sd) = rs.simple_diffuse(h.instance) {
-                        simple[n_simple] = (p, h, sd);
+                    if rs.is_simple_diffuse(h.instance) {
+                        simple[n_simple] = (p, h);
                         n_simple += 1;
                         continue;
                     }
