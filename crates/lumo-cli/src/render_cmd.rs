@@ -163,19 +163,6 @@ pub struct RenderArgs {
 /// a typo (4294967295) would run for ever.
 pub const MAX_SPP: u32 = 1 << 20;
 
-/// Working memory of `lumo render` per image pixel, in bytes: the frame's AOV planes, the
-/// pipeline's buffers and the output. Measured as peak RSS over a 1024x1024 render, less
-/// that of an 8x8 one: none 199, jbu 199, bilateral 210, atrous 306, guided 408 (at 4096x4096
-/// atrous: 294); rounded up. Used to refuse sizes that cannot fit before allocating.
-pub fn render_bytes_per_pixel(pipeline: Pipeline) -> u64 {
-    match pipeline {
-        Pipeline::None | Pipeline::Jbu => 220,
-        Pipeline::Bilateral => 230,
-        Pipeline::Atrous => 320,
-        Pipeline::Guided => 430,
-    }
-}
-
 /// Bytes of a photon map holding `photons` photons (tree nodes included).
 pub fn ppm_map_bytes(photons: usize) -> u64 {
     photons as u64 * KdTree::BYTES_PER_PHOTON as u64
@@ -463,7 +450,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         );
     }
     args.pipeline.check()?;
-    let per_pixel = render_bytes_per_pixel(pipeline);
+    let per_pixel = pipeline.bytes_per_pixel();
     crate::cli_common::check_memory(
         (width as u64 * height as u64).saturating_mul(per_pixel),
         &format!(
