@@ -30,6 +30,7 @@ pub(crate) mod bvh8;
 pub mod packet;
 mod robust;
 pub(crate) mod stack;
+mod tlas;
 #[cfg(test)]
 mod tests;
 pub(crate) mod wide;
@@ -131,6 +132,9 @@ pub struct Accel {
     tlas: Bvh2,
     /// Levels of `tlas` (its nodes' largest depth), which bounds its traversal stack.
     tlas_depth: usize,
+    /// Walk `tlas` with the AVX pair test ([`tlas::traverse_avx`]): the CPU has AVX and
+    /// `LUMO_SIMD` allows it.
+    tlas_avx: bool,
 }
 
 /// Gathers the triangles of identity instances into one mesh; returns it and each triangle's
@@ -217,6 +221,7 @@ impl Accel {
             placements,
             tlas: Bvh2::default(),
             tlas_depth: 0,
+            tlas_avx: lumo_simd::Isa::detect() >= lumo_simd::Isa::Avx2,
         };
         let boxes = accel.placement_boxes(scene);
         accel.tlas = robust::build_bvh2(
@@ -557,8 +562,15 @@ impl Accel {
     ) {
         // obvhs's fixed stack saturates instead of growing: only a tree no deeper than its
         // size may use it.
-        if self.tlas_depth < TLAS_STACK {
-            let mut stack = StackStack::<u32, TLAS_STACK>::default();
+        if self.tlas_depth < tlas::MAX_DEPTH {
+            #[cfg(target_arch = "x86_64")]
+            if self.tlas_avx {
+                // SAFETY: `tlas_avx` is set only where the CPU has AVX2 (so AVX); the tree is
+                // not empty (both callers return first) and shallow enough (tested above).
+                unsafe { tlas::traverse_avx(&self.tlas, ray, hit, leaf) };
+                return;
+            }
+            let mut stack = StackStack::<u32, { tlas::MAX_DEPTH }>::default();
             self.tlas.ray_traverse_dynamic(&mut stack, ray, hit, leaf);
         } else {
             let mut stack = Vec::with_capacity(self.tlas_depth + 1);
@@ -586,8 +598,6 @@ fn tree_depth(tree: &Bvh2) -> usize {
     deepest
 }
 
-/// Entries of the instance tree's traversal stack kept in registers and the stack frame.
-const TLAS_STACK: usize = 32;
 
 /// Packets with fewer rays go ray by ray: a packet's tests cost sixteen lanes whatever the
 /// number of rays in it (a pixel rendered alone at 1 spp traces packets of one ray).
