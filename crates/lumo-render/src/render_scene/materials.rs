@@ -33,7 +33,7 @@ impl RenderScene {
 
     /// The BSDF of `surface` with textures evaluated and Mitsuba's adapters (normal and bump
     /// maps, masks) applied.
-    #[inline]
+    #[inline(always)]
     pub fn bsdf(&self, surface: &Surface) -> ShadingBsdf {
         let material = &self.scene.materials[surface.material];
         let mut b = &material.bsdf;

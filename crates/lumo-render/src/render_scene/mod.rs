@@ -375,14 +375,22 @@ impl RenderScene {
         Ok(())
     }
 
-    /// The instance's reflectance and emission if it is a simple diffuse surface (see the
-    /// field's doc), for the vector bounce.
+    /// The instance's reflectance and emission, for the vector bounce, where it is a simple
+    /// diffuse surface (see the field's doc; a black record otherwise).
     #[inline]
-    pub(crate) fn simple_diffuse(&self, instance: u32) -> Option<SimpleDiffuse> {
+    pub(crate) fn simple_diffuse_ref(&self, instance: u32) -> &SimpleDiffuse {
+        static NONE: SimpleDiffuse = SimpleDiffuse {
+            mesh: 0,
+            albedo: Vec3::ZERO,
+            emission: Vec3::ZERO,
+            one_sided: false,
+        };
         self.simple_diffuse[instance as usize]
+            .as_ref()
+            .unwrap_or(&NONE)
     }
 
-    /// Whether [`RenderScene::simple_diffuse`] has a record for the instance.
+    /// Whether the instance is a simple diffuse surface ([`RenderScene::simple_diffuse_ref`]).
     #[inline]
     pub(crate) fn is_simple_diffuse(&self, instance: u32) -> bool {
         self.simple_diffuse[instance as usize].is_some()
@@ -395,7 +403,7 @@ impl RenderScene {
     }
 
     /// Reconstructs the surface at `hit` of the ray with direction `dir`.
-    #[inline]
+    #[inline(always)]
     pub fn surface(&self, hit: &Hit, origin: Vec3, dir: Vec3) -> Surface {
         let inst = &self.scene.instances[hit.instance as usize];
         let place = &self.placements[hit.instance as usize];

@@ -315,7 +315,7 @@ impl PathState {
     /// What a hit contributes before the path bounces: the first-hit record if asked for, and
     /// the radiance `le` the surface emits towards the ray, MIS-weighted against light
     /// sampling. (Shared by [`PathState::arrive`] and the vector bounce.)
-    #[inline]
+    #[inline(always)]
     pub(crate) fn take_hit(
         &mut self,
         rs: &RenderScene,

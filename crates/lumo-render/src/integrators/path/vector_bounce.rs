@@ -165,7 +165,7 @@ fn bounce(
     let (mut nv0, mut nv1, mut nv2): (L3, L3, L3) = ([[0.0; N]; 3], [[0.0; N]; 3], [[0.0; N]; 3]);
     let mut interpolate = [false; N];
     for (i, &(p, hit)) in lanes.iter().enumerate().take(n) {
-        let sd = rs.simple_diffuse(hit.instance).unwrap_or_default();
+        let sd = rs.simple_diffuse_ref(hit.instance);
         let path = &mut paths[p as usize];
         path.radiance.rays += 1;
         let normal = rs.unit_normal(sd.mesh, hit.triangle);
@@ -258,7 +258,7 @@ fn bounce(
 
     // What `arrive` records for the hit: the first-hit record, emission seen along the ray.
     for (i, &(p, hit)) in lanes.iter().enumerate().take(n) {
-        let sd = rs.simple_diffuse(hit.instance).unwrap_or_default();
+        let sd = rs.simple_diffuse_ref(hit.instance);
         let path = &mut paths[p as usize];
         let g = Vec3::new(ng[0][i], ng[1][i], ng[2][i]);
         let le = if g.dot(path.dir) < 0.0 {
@@ -542,7 +542,7 @@ mod tests {
                         .intersect(path.origin, path.dir, 0.0, f32::INFINITY);
                     let mut alone = *path;
                     let (shadow, on) = alone.advance(rs, &settings, hit);
-                    match hit.filter(|h| rs.simple_diffuse(h.instance).is_some()) {
+                    match hit.filter(|h| rs.is_simple_diffuse(h.instance)) {
                         Some(h) => {
                             lanes.push((p, h));
                             want.push((p, path.depth, alone, shadow, on));
