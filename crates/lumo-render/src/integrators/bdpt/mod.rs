@@ -23,12 +23,13 @@ mod vertex;
 
 use glam::Vec2;
 
+use crate::accel::packet::{RayPacket, LANES};
 use crate::camera::PinholeCamera;
 use crate::integrators::light::LightSplat;
 use crate::integrators::path::{PathRadiance, PathSettings};
 use crate::render_scene::RenderScene;
 use crate::sampler::PixelSampler;
-use connect::{connect, Contribution};
+use connect::{finish, prepare, Contribution, Pending, Prepared};
 use subpath::{camera_subpath, light_subpath};
 use vertex::{Context, Vertex};
 
@@ -43,11 +44,13 @@ pub struct BdptSettings {
     pub only: Option<(usize, usize)>,
 }
 
-/// Reused vertex storage of one thread's samples.
+/// Reused storage of one thread's samples: the subpaths' vertices and the strategies waiting
+/// for their shadow rays.
 #[derive(Default)]
 pub struct BdptScratch {
     camera: Vec<Vertex>,
     light: Vec<Vertex>,
+    pending: Vec<Pending>,
 }
 
 /// The sampler seed offset of light subpaths: camera sample `i` of pixel (x, y) draws its
@@ -99,7 +102,14 @@ pub fn trace_bdpt_sample(
         &mut scratch.light,
     );
     radiance.rays += rays;
-    let (cam, light) = (&scratch.camera, &scratch.light);
+    let (cam, light, pending) = (&scratch.camera, &scratch.light, &mut scratch.pending);
+    let unweighted = settings.only.is_some();
+    let mut add = |radiance: &mut PathRadiance, depth: usize, c: Contribution| match c {
+        Contribution::Pixel(v) => radiance.add(depth as u32, v),
+        Contribution::Splat(film, value) if value.is_finite() => splat(LightSplat { film, value }),
+        Contribution::Splat(..) => {}
+    };
+    pending.clear();
     for t in 1..=cam.len() {
         for s in 0..=light.len().max(1) {
             let depth = s + t - 1;
@@ -113,14 +123,26 @@ pub fn trace_bdpt_sample(
             if s > light.len() && !(s == 1 && t >= 2) {
                 continue;
             }
-            let (c, rays) = connect(&ctx, light, cam, (s, t), settings.only.is_some());
-            radiance.rays += rays;
-            match c {
-                Some(Contribution::Pixel(v)) => radiance.add(depth as u32, v),
-                Some(Contribution::Splat(film, value)) if value.is_finite() => {
-                    splat(LightSplat { film, value })
-                }
-                _ => {}
+            match prepare(&ctx, light, cam, (s, t), unweighted) {
+                Prepared::Nothing => {}
+                Prepared::Done(c) => add(&mut radiance, depth, c),
+                Prepared::Pending(p) => pending.push(p),
+            }
+        }
+    }
+    // The shadow rays of the sample, up to a packet at a time; the visible strategies are
+    // weighed and added in the order they were prepared.
+    radiance.rays += pending.len() as u32;
+    for chunk in pending.chunks(LANES) {
+        let mut rays = RayPacket::default();
+        for (lane, p) in chunk.iter().enumerate() {
+            rays.set(lane, p.ray.origin, p.ray.dir, 0.0, p.ray.tmax);
+        }
+        let occluded = rs.accel.occluded_packet(&rays);
+        for (lane, p) in chunk.iter().enumerate() {
+            if occluded & (1 << lane) == 0 {
+                let c = finish(&ctx, light, cam, p, unweighted);
+                add(&mut radiance, p.s + p.t - 1, c);
             }
         }
     }
