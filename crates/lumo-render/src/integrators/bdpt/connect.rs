@@ -66,8 +66,19 @@ pub(super) struct Pending {
     pub s: usize,
     /// The strategy.
     pub t: usize,
-    /// For `s = 1`, `t ≥ 2`: the light vertex next-event estimation chose.
-    pub nee: Option<Vertex>,
+    /// For `s = 1`, `t ≥ 2`: the light point next-event estimation chose (its vertex is
+    /// built only if the shadow ray is unoccluded).
+    pub nee: Option<NeePoint>,
+}
+
+/// The light point of next-event estimation, as [`light_vertex`] takes it.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct NeePoint {
+    light: u32,
+    point: Vec3,
+    normal: Vec3,
+    towards: Vec3,
+    environment: Option<Vec3>,
 }
 
 /// What [`prepare`] found for one strategy.
@@ -173,15 +184,14 @@ pub(super) fn prepare(
         } else {
             pt.p + ls.wi * (4.0 * ctx.rs.lights.scene_radius())
         };
-        let qs = light_vertex(
-            &ctx.rs.lights,
-            ls.light,
+        let nee = NeePoint {
+            light: ls.light,
             point,
-            ls.normal,
-            -ls.wi,
+            normal: ls.normal,
+            towards: -ls.wi,
             environment,
-        );
-        return pending(Contribution::Pixel(value), ray, Some(qs));
+        };
+        return pending(Contribution::Pixel(value), ray, Some(nee));
     }
     let qs = &light[s - 1];
     if !qs.is_connectible() {
@@ -215,7 +225,17 @@ pub(super) fn finish(
         return p.contribution;
     }
     let camera = &camera[..p.t];
-    let light = match &p.nee {
+    let nee = p.nee.map(|n| {
+        light_vertex(
+            &ctx.rs.lights,
+            n.light,
+            n.point,
+            n.normal,
+            n.towards,
+            n.environment,
+        )
+    });
+    let light = match &nee {
         Some(v) => std::slice::from_ref(v),
         None => &light[..p.s],
     };
