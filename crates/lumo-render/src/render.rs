@@ -367,7 +367,7 @@ pub fn render_bdpt(
     bdpt: &crate::integrators::bdpt::BdptSettings,
     progress: &(dyn Fn(f32) + Sync),
 ) -> (Image, RenderStats) {
-    use crate::integrators::bdpt::{samplers, trace_bdpt_sample, BdptScratch};
+    use crate::integrators::bdpt::{samplers, trace_bdpt_samples, BdptScratch, GROUP};
     let (w, h) = (settings.width, settings.height);
     let camera = PinholeCamera::new(&rs.scene.camera, w, h);
     let rows_per_block = h.div_ceil(64).max(1);
@@ -392,33 +392,47 @@ pub fn render_bdpt(
                 let mut film = BlockSplats::List(Vec::new());
                 let mut scratch = BdptScratch::default();
                 let mut rays = 0u64;
+                let spp = settings.spp as usize;
+                let mut sums = vec![Vec3::ZERO; w];
+                let mut out = [PathRadiance::default(); GROUP];
                 for y in rows {
-                    for x in 0..w {
-                        let mut sum = Vec3::ZERO;
-                        for i in 0..settings.spp {
-                            let (mut cs, mut ls) = samplers(x as u32, y as u32, i, settings.seed);
+                    sums.fill(Vec3::ZERO);
+                    // The row's samples, pixel by pixel and in index order within a pixel,
+                    // a group (one ray packet per subpath step) at a time.
+                    let count = w * spp;
+                    for first in (0..count).step_by(GROUP) {
+                        let n = GROUP.min(count - first);
+                        let mut films = [Vec2::ZERO; GROUP];
+                        let mut pairs = [samplers(0, 0, 0, 0); GROUP];
+                        for k in 0..n {
+                            let (x, i) = ((first + k) / spp, (first + k) % spp);
+                            let (mut cs, ls) =
+                                samplers(x as u32, y as u32, i as u32, settings.seed);
                             let jitter = cs.next_2d();
-                            let at = Vec2::new(x as f32, y as f32) + jitter;
-                            let r = trace_bdpt_sample(
-                                rs,
-                                &camera,
-                                at,
-                                &mut cs,
-                                &mut ls,
-                                bdpt,
-                                &mut scratch,
-                                &mut |s| {
-                                    let (sx, sy) = (s.film.x as usize, s.film.y as usize);
-                                    if sx < w && sy < h {
-                                        film.add(sy * w + sx, s.value, w * h);
-                                    }
-                                },
-                            );
-                            sum += r.direct + r.indirect;
+                            films[k] = Vec2::new(x as f32, y as f32) + jitter;
+                            pairs[k] = (cs, ls);
+                        }
+                        trace_bdpt_samples(
+                            rs,
+                            &camera,
+                            &films[..n],
+                            &mut pairs[..n],
+                            bdpt,
+                            &mut scratch,
+                            &mut out[..n],
+                            &mut |_, s| {
+                                let (sx, sy) = (s.film.x as usize, s.film.y as usize);
+                                if sx < w && sy < h {
+                                    film.add(sy * w + sx, s.value, w * h);
+                                }
+                            },
+                        );
+                        for (k, r) in out[..n].iter().enumerate() {
+                            sums[(first + k) / spp] += r.direct + r.indirect;
                             rays += r.rays as u64;
                         }
-                        own.push(sum / settings.spp.max(1) as f32);
                     }
+                    own.extend(sums.iter().map(|&sum| sum / settings.spp.max(1) as f32));
                 }
                 let n = done.fetch_add(1, Ordering::Relaxed) + 1;
                 progress(n as f32 / blocks.max(1) as f32);
