@@ -160,8 +160,8 @@ pub fn trace_bdpt_samples(
     for k in 0..n {
         samplers[k].1 = subpath_samplers[k];
     }
-    for k in 0..n {
-        out[k] = connect_all(
+    for (k, o) in out[..n].iter_mut().enumerate() {
+        *o = connect_all(
             &ctx,
             &scratch.light[k],
             &scratch.camera[k],

@@ -59,9 +59,7 @@ pub(super) fn light_start(
     if max_vertices == 0 {
         return None;
     }
-    let Some(e) = ctx.rs.lights.sample_emission(u_choice, u_pos, u_dir) else {
-        return None;
-    };
+    let e = ctx.rs.lights.sample_emission(u_choice, u_pos, u_dir)?;
     let normal = e.normal.unwrap_or(Vec3::ZERO);
     let kind = Kind::Light {
         light: e.light,
