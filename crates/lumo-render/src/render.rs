@@ -310,80 +310,141 @@ pub fn render_light(
     (Image::from_vec(w, h, 3, data), stats)
 }
 
+/// The splats of one block of rows ([`render_bdpt`]): a list while it is short (most blocks:
+/// a few splats per sample), a film of the whole image once the list would outgrow one.
+enum BlockSplats {
+    /// Pixel index and value, in the order the block made them.
+    List(Vec<(u32, Vec3)>),
+    /// A whole-image film.
+    Film(Vec<Vec3>),
+}
+
+impl BlockSplats {
+    /// Adds `value` at pixel `index` of a `pixels`-pixel image.
+    #[inline]
+    fn add(&mut self, index: usize, value: Vec3, pixels: usize) {
+        match self {
+            BlockSplats::List(list) if list.len() < pixels => list.push((index as u32, value)),
+            BlockSplats::List(list) => {
+                let mut film = vec![Vec3::ZERO; pixels];
+                for &(i, v) in list.iter() {
+                    film[i as usize] += v;
+                }
+                film[index] += value;
+                *self = BlockSplats::Film(film);
+            }
+            BlockSplats::Film(film) => film[index] += value,
+        }
+    }
+
+    /// Adds the splats into `acc` (f64 per channel), in the block's own order.
+    fn add_to(&self, acc: &mut [[f64; 3]]) {
+        let add = |a: &mut [f64; 3], v: Vec3| {
+            for (c, x) in a.iter_mut().zip(v.to_array()) {
+                *c += x as f64;
+            }
+        };
+        match self {
+            BlockSplats::List(list) => list.iter().for_each(|&(i, v)| add(&mut acc[i as usize], v)),
+            BlockSplats::Film(film) => acc.iter_mut().zip(film).for_each(|(a, &v)| add(a, v)),
+        }
+    }
+}
+
 /// Renders with bidirectional path tracing: `spp` samples per pixel, each a camera and a
 /// light subpath joined by every strategy ([`crate::integrators::bdpt`]). The returned
 /// image is each pixel's sample mean plus the light vertices splatted into it divided by
 /// the number of samples of the whole image.
 ///
-/// Rows run in fixed blocks (at most 64), as many at a time as there are threads; each block
-/// splats into its own image and the images are added in block order, so the result is the
-/// same bits on any number of threads. `progress` receives the fraction of rows done.
+/// Rows run in fixed blocks (at most 64); each block keeps its own splats (a list, or a film
+/// when the list grows past the image's size), added into the image in block order, so the
+/// result is the same bits on any number of threads. Blocks run in waves sized to keep the
+/// waiting splat lists near 256 MB (usually one wave: no barrier between blocks).
+/// `progress` receives the fraction of rows done.
 pub fn render_bdpt(
     rs: &RenderScene,
     settings: &RenderSettings,
     bdpt: &crate::integrators::bdpt::BdptSettings,
     progress: &(dyn Fn(f32) + Sync),
 ) -> (Image, RenderStats) {
-    use crate::integrators::bdpt::{samplers, trace_bdpt_sample, BdptScratch};
+    use crate::integrators::bdpt::{samplers, trace_bdpt_samples, BdptScratch, GROUP};
     let (w, h) = (settings.width, settings.height);
     let camera = PinholeCamera::new(&rs.scene.camera, w, h);
     let rows_per_block = h.div_ceil(64).max(1);
     let blocks = h.div_ceil(rows_per_block);
-    let wave = rayon::current_num_threads().max(1);
+    // About three splats of 16 bytes per sample, or a film of 12 bytes per pixel.
+    let block_bytes = (rows_per_block * w * settings.spp.max(1) as usize * 48).min(w * h * 12);
+    let wave = (256usize << 20)
+        .checked_div(block_bytes.max(1))
+        .unwrap_or(blocks)
+        .max(rayon::current_num_threads())
+        .max(1);
+    let done = AtomicU64::new(0);
     let mut pixels = vec![Vec3::ZERO; w * h];
     let mut splats = vec![[0.0f64; 3]; w * h];
     let mut rays = 0u64;
     for first in (0..blocks).step_by(wave) {
-        let results: Vec<(Vec<Vec3>, Vec<Vec3>, u64)> = (first..(first + wave).min(blocks))
+        let results: Vec<(Vec<Vec3>, BlockSplats, u64)> = (first..(first + wave).min(blocks))
             .into_par_iter()
             .map(|b| {
                 let rows = b * rows_per_block..((b + 1) * rows_per_block).min(h);
                 let mut own = Vec::with_capacity(rows.len() * w);
-                let mut film = vec![Vec3::ZERO; w * h];
+                let mut film = BlockSplats::List(Vec::new());
                 let mut scratch = BdptScratch::default();
                 let mut rays = 0u64;
+                let spp = settings.spp as usize;
+                let mut sums = vec![Vec3::ZERO; w];
+                let mut out = [PathRadiance::default(); GROUP];
                 for y in rows {
-                    for x in 0..w {
-                        let mut sum = Vec3::ZERO;
-                        for i in 0..settings.spp {
-                            let (mut cs, mut ls) = samplers(x as u32, y as u32, i, settings.seed);
+                    sums.fill(Vec3::ZERO);
+                    // The row's samples, pixel by pixel and in index order within a pixel,
+                    // a group (one ray packet per subpath step) at a time.
+                    let count = w * spp;
+                    for first in (0..count).step_by(GROUP) {
+                        let n = GROUP.min(count - first);
+                        let mut films = [Vec2::ZERO; GROUP];
+                        let mut pairs = [samplers(0, 0, 0, 0); GROUP];
+                        for k in 0..n {
+                            let (x, i) = ((first + k) / spp, (first + k) % spp);
+                            let (mut cs, ls) =
+                                samplers(x as u32, y as u32, i as u32, settings.seed);
                             let jitter = cs.next_2d();
-                            let at = Vec2::new(x as f32, y as f32) + jitter;
-                            let r = trace_bdpt_sample(
-                                rs,
-                                &camera,
-                                at,
-                                &mut cs,
-                                &mut ls,
-                                bdpt,
-                                &mut scratch,
-                                &mut |s| {
-                                    let (sx, sy) = (s.film.x as usize, s.film.y as usize);
-                                    if sx < w && sy < h {
-                                        film[sy * w + sx] += s.value;
-                                    }
-                                },
-                            );
-                            sum += r.direct + r.indirect;
+                            films[k] = Vec2::new(x as f32, y as f32) + jitter;
+                            pairs[k] = (cs, ls);
+                        }
+                        trace_bdpt_samples(
+                            rs,
+                            &camera,
+                            &films[..n],
+                            &mut pairs[..n],
+                            bdpt,
+                            &mut scratch,
+                            &mut out[..n],
+                            &mut |_, s| {
+                                let (sx, sy) = (s.film.x as usize, s.film.y as usize);
+                                if sx < w && sy < h {
+                                    film.add(sy * w + sx, s.value, w * h);
+                                }
+                            },
+                        );
+                        for (k, r) in out[..n].iter().enumerate() {
+                            sums[(first + k) / spp] += r.direct + r.indirect;
                             rays += r.rays as u64;
                         }
-                        own.push(sum / settings.spp.max(1) as f32);
                     }
+                    own.extend(sums.iter().map(|&sum| sum / settings.spp.max(1) as f32));
                 }
+                let n = done.fetch_add(1, Ordering::Relaxed) + 1;
+                progress(n as f32 / blocks.max(1) as f32);
                 (own, film, rays)
             })
             .collect();
         for (k, (own, film, r)) in results.into_iter().enumerate() {
             let start = (first + k) * rows_per_block * w;
             pixels[start..start + own.len()].copy_from_slice(&own);
-            for (acc, v) in splats.iter_mut().zip(film) {
-                for (c, x) in acc.iter_mut().zip(v.to_array()) {
-                    *c += x as f64;
-                }
-            }
+            film.add_to(&mut splats);
             rays += r;
         }
-        progress(((first + wave).min(blocks)) as f32 / blocks.max(1) as f32);
     }
     let samples = (w * h) as u64 * settings.spp as u64;
     let scale = 1.0 / samples.max(1) as f64;

@@ -13,6 +13,7 @@ mod heldout;
 mod inputs;
 mod integrators;
 mod quality;
+mod quality_integrators;
 mod reference;
 mod render;
 mod report;

@@ -13,6 +13,8 @@ use lumo_pipeline::{run_pipeline, Pipeline, PipelineOptions, Timings};
 
 use super::atomic::{check_dir_writable, write_bytes, write_image_atomic};
 use super::contact_sheet::{contact_sheet, crop_side, hardest_window, Row, Tile};
+use super::integrators::BenchIntegrator;
+use super::quality_integrators::{row_integrators, score, IntegratorScored};
 use super::reference::{ensure_reference, reference_key};
 use super::report::{quality_markdown, QualityContext};
 use super::scenes::{load_all, scene_names, settings, BenchScene};
@@ -35,6 +37,17 @@ pub struct QualityArgs {
     #[arg(long, value_delimiter = ',', value_parser = parse_pipeline,
           default_value = "none,bilateral,atrous,guided,jbu")]
     pub pipelines: Vec<Pipeline>,
+    /// Other integrators scored at equal time with each `none` image (rows of the relMSE and
+    /// FLIP tables and a table of their own), comma-separated; `path` is the `none` row itself.
+    /// Not with --set.
+    #[arg(
+        long,
+        value_enum,
+        value_delimiter = ',',
+        default_value = "light,bdpt,ppm",
+        conflicts_with = "set"
+    )]
+    pub integrators: Vec<BenchIntegrator>,
     /// Samples per pixel of the converged reference (`--pipeline none`) [default: 1024; 512
     /// with --set].
     #[arg(long)]
@@ -123,12 +136,14 @@ pub fn run(args: QualityArgs) -> Result<()> {
         );
         references.push(ensure_reference(&args.cache, &key, s, &pool)?.0);
     }
-    let jobs = scenes.len() * args.spp.len() * args.pipelines.len();
+    let extra = row_integrators(&args.integrators);
+    let jobs = scenes.len() * args.spp.len() * (args.pipelines.len() + extra.len());
     let bar = ProgressBar::new(jobs as u64).with_style(
         ProgressStyle::with_template("{bar:40} {pos}/{len} {msg}  {elapsed} (eta {eta})")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let mut scored = Vec::with_capacity(jobs);
+    let mut integrator_rows: Vec<IntegratorScored> = Vec::new();
     for (s, reference) in scenes.iter().zip(&references) {
         for &spp in &args.spp {
             for &pipeline in &args.pipelines {
@@ -147,6 +162,33 @@ pub fn run(args: QualityArgs) -> Result<()> {
                     timings: out.timings,
                     image: out.image,
                 });
+                bar.inc(1);
+            }
+            // The other integrators in the time of this spp's unfiltered path-traced image
+            // (timed here if `none` is not among the pipelines).
+            if extra.is_empty() {
+                continue;
+            }
+            let rs = settings(size, spp, args.seed, depth(&args, s), s.rr_depth);
+            let budget = match scored
+                .iter()
+                .find(|r| r.scene == s.name && r.spp == spp && r.pipeline == Pipeline::None)
+            {
+                Some(r) => r.timings.total().as_secs_f64(),
+                None => super::integrators::render_with(BenchIntegrator::Path, &s.rs, &rs, &pool).1,
+            };
+            for &integrator in &extra {
+                bar.set_message(format!("{} {spp} spp {}", s.name, integrator.name()));
+                let r = score(
+                    integrator,
+                    s,
+                    &rs,
+                    budget,
+                    reference,
+                    &compare_settings,
+                    &pool,
+                )?;
+                integrator_rows.extend(r);
                 bar.inc(1);
             }
         }
@@ -168,9 +210,10 @@ pub fn run(args: QualityArgs) -> Result<()> {
             .collect(),
         exposure: args.exposure,
         pipelines: args.pipelines.clone(),
+        integrators: extra.clone(),
         scenes: scenes.iter().map(|s| s.name.clone()).collect(),
     };
-    let markdown = quality_markdown(&ctx, &scored);
+    let markdown = quality_markdown(&ctx, &scored, &integrator_rows);
     let sheet = sheet(&args, &scenes, &references, &scored);
     // Everything is computed: only now touch the output files, each all-or-nothing.
     let png = out_dir.join("quality.png");

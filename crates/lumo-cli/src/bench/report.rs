@@ -7,7 +7,9 @@ use std::fmt::Write as _;
 use lumo_image::metrics::{RELMSE_EPSILON, SMAPE_EPSILON, TONE_MAP_DESCRIPTION};
 use lumo_pipeline::Pipeline;
 
+use super::integrators::BenchIntegrator;
 use super::quality::Scored;
+use super::quality_integrators::{self, IntegratorScored};
 
 /// What the report header states about the run.
 pub struct QualityContext {
@@ -31,6 +33,8 @@ pub struct QualityContext {
     pub exposure: f32,
     /// Pipelines in row order.
     pub pipelines: Vec<Pipeline>,
+    /// Integrators scored at equal time, in row order after the pipelines.
+    pub integrators: Vec<BenchIntegrator>,
     /// Scenes in table order.
     pub scenes: Vec<String>,
 }
@@ -49,7 +53,11 @@ fn ms(d: std::time::Duration) -> String {
 }
 
 /// The whole report.
-pub fn quality_markdown(ctx: &QualityContext, rows: &[Scored]) -> String {
+pub fn quality_markdown(
+    ctx: &QualityContext,
+    rows: &[Scored],
+    integrator_rows: &[IntegratorScored],
+) -> String {
     let mut md = String::new();
     let (w, h) = ctx.size;
     let depths: Vec<String> = ctx
@@ -98,27 +106,41 @@ pub fn quality_markdown(ctx: &QualityContext, rows: &[Scored]) -> String {
         ctx.seed.wrapping_add(1),
         ctx.exposure,
     );
+    if !ctx.integrators.is_empty() {
+        let names: Vec<&str> = ctx.integrators.iter().map(|i| i.name()).collect();
+        let _ = writeln!(
+            md,
+            "Rows `… (equal time)`: the other integrators ({}, docs/integrators.md), each in \
+             the time of the `none` image of its scene and spp; their sample counts and times \
+             are in the last section. The contact sheet and the per-scene tables show the \
+             pipelines only.\n",
+            names.join(", ")
+        );
+    }
     let _ = writeln!(
         md,
         "![Contact sheet: per scene and spp the reference and each method, a magnified crop \
          of the region where the filters err most (outlined on the reference) and the \
          scores](quality.png)\n"
     );
-    summary(&mut md, ctx, rows, "relMSE", |r| r.metrics.relmse);
-    summary(&mut md, ctx, rows, "FLIP", |r| r.metrics.flip);
+    summary(&mut md, ctx, rows, integrator_rows, "relMSE", |m| m.relmse);
+    summary(&mut md, ctx, rows, integrator_rows, "FLIP", |m| m.flip);
     for scene in &ctx.scenes {
         per_scene(&mut md, ctx, rows, scene);
     }
+    quality_integrators::section(&mut md, integrator_rows);
     md
 }
 
-/// `## NAME per method and scene`: one row per method, one column per scene and spp.
+/// `## NAME per method and scene`: one row per method (the pipelines, then the integrators
+/// at equal time), one column per scene and spp.
 fn summary(
     md: &mut String,
     ctx: &QualityContext,
     rows: &[Scored],
+    integrator_rows: &[IntegratorScored],
     name: &str,
-    value: impl Fn(&Scored) -> f64,
+    value: impl Fn(&lumo_image::metrics::Metrics) -> f64,
 ) {
     let _ = writeln!(md, "## {name} per method and scene\n");
     let mut header = String::from("| method |");
@@ -130,6 +152,13 @@ fn summary(
         }
     }
     let _ = writeln!(md, "{header}\n{rule}");
+    let format = |m: &lumo_image::metrics::Metrics| {
+        if name == "FLIP" {
+            format!("{:.4}", value(m))
+        } else {
+            sci(value(m))
+        }
+    };
     for &p in &ctx.pipelines {
         let _ = write!(md, "| {p} |");
         for s in &ctx.scenes {
@@ -137,13 +166,18 @@ fn summary(
                 let cell = rows
                     .iter()
                     .find(|r| r.scene == *s && r.spp == spp && r.pipeline == p)
-                    .map_or("—".to_string(), |r| {
-                        if name == "FLIP" {
-                            format!("{:.4}", value(r))
-                        } else {
-                            sci(value(r))
-                        }
-                    });
+                    .map_or("—".to_string(), |r| format(&r.metrics));
+                let _ = write!(md, " {cell} |");
+            }
+        }
+        md.push('\n');
+    }
+    for &i in &ctx.integrators {
+        let _ = write!(md, "| {} |", quality_integrators::label(i));
+        for s in &ctx.scenes {
+            for &spp in &ctx.spp {
+                let cell = quality_integrators::cell(integrator_rows, i, s, spp)
+                    .map_or("—".to_string(), |r| format(&r.metrics));
                 let _ = write!(md, " {cell} |");
             }
         }

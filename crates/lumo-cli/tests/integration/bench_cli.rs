@@ -97,8 +97,48 @@ fn quality_writes_the_tables_and_the_contact_sheet() {
     ] {
         let rows = table(&md, heading);
         let methods: Vec<&str> = rows.iter().map(|r| r[0].as_str()).collect();
-        assert_eq!(methods, ["none", "bilateral", "atrous", "guided", "jbu"]);
+        assert_eq!(
+            methods,
+            [
+                "none",
+                "bilateral",
+                "atrous",
+                "guided",
+                "jbu",
+                "light (equal time)",
+                "bdpt (equal time)",
+                "ppm (equal time)"
+            ]
+        );
         assert!(rows.iter().all(|r| r.len() == 3), "{rows:?}");
+        for r in &rows[5..] {
+            for c in &r[1..] {
+                let v: f64 = c.parse().unwrap_or_else(|_| panic!("{r:?}"));
+                assert!(v.is_finite() && v >= 0.0, "{r:?}");
+            }
+        }
+    }
+    // The integrators' own table: one row per integrator and spp, at least one sample each.
+    let rows = table(&md, "## Integrators at equal time");
+    let which: Vec<(&str, &str)> = rows
+        .iter()
+        .map(|r| (r[1].as_str(), r[2].as_str()))
+        .collect();
+    assert_eq!(
+        which,
+        [
+            ("1", "light"),
+            ("1", "bdpt"),
+            ("1", "ppm"),
+            ("2", "light"),
+            ("2", "bdpt"),
+            ("2", "ppm")
+        ]
+    );
+    for r in &rows {
+        assert_eq!(r.len(), 9, "{r:?}");
+        assert!(r[3].parse::<u32>().unwrap() >= 1, "{r:?}");
+        assert!(r[6].parse::<f64>().unwrap() > 0.0, "{r:?}");
     }
     let rows = table(&md, "### cornell");
     assert_eq!(rows.len(), 10);

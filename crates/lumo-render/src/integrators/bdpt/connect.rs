@@ -11,6 +11,7 @@ use crate::geometry::{offset_point, shadow_segment};
 
 /// What one strategy adds: radiance for the camera sample's pixel, or a splat elsewhere on
 /// the film (t = 1).
+#[derive(Clone, Copy, Debug)]
 pub(super) enum Contribution {
     /// Radiance for the camera sample.
     Pixel(Vec3),
@@ -19,10 +20,26 @@ pub(super) enum Contribution {
     Splat(Vec2, Vec3),
 }
 
-/// The unoccluded segment test between `a` (already offset) and the point `b`.
-fn visible(ctx: &Context, a: Vec3, b: Vec3, w: Vec3) -> bool {
+/// A shadow ray: origin (already offset), unit direction, largest parameter (negative: a
+/// degenerate segment, which counts as unoccluded like [`shadow_segment`]'s callers do).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct ShadowRay {
+    /// Origin, offset off the surface.
+    pub origin: Vec3,
+    /// Unit direction.
+    pub dir: Vec3,
+    /// Largest accepted ray parameter.
+    pub tmax: f32,
+}
+
+/// The segment from `a` (already offset) to the point `b`.
+fn segment(ctx: &Context, a: Vec3, b: Vec3, w: Vec3) -> ShadowRay {
     let (dir, tmax) = shadow_segment(a.into(), b.into(), w.into(), ctx.rs.ray_epsilon);
-    !ctx.rs.accel.occluded(a, dir.into(), 0.0, tmax)
+    ShadowRay {
+        origin: a,
+        dir: dir.into(),
+        tmax,
+    }
 }
 
 /// A ray origin just off vertex `v` on the side of `w`.
@@ -36,42 +53,86 @@ fn origin_off(ctx: &Context, v: &Vertex, w: Vec3) -> Vec3 {
     }
 }
 
-/// Strategy (s, t) of `light[..s]` and `camera[..t]`, weighted by MIS unless `unweighted`.
-/// Returns the contribution (if any) and the rays traced.
-pub(super) fn connect(
+/// A strategy whose unweighted value is known and whose shadow ray is still to be traced:
+/// the caller traces the shadow rays of a sample together (one packet) and then weighs the
+/// visible ones ([`finish`]).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Pending {
+    /// The unweighted contribution.
+    pub contribution: Contribution,
+    /// The segment that must be unoccluded.
+    pub ray: ShadowRay,
+    /// The strategy.
+    pub s: usize,
+    /// The strategy.
+    pub t: usize,
+    /// For `s = 1`, `t ≥ 2`: the light point next-event estimation chose (its vertex is
+    /// built only if the shadow ray is unoccluded).
+    pub nee: Option<NeePoint>,
+}
+
+/// The light point of next-event estimation, as [`light_vertex`] takes it.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct NeePoint {
+    light: u32,
+    point: Vec3,
+    normal: Vec3,
+    towards: Vec3,
+    environment: Option<Vec3>,
+}
+
+/// What [`prepare`] found for one strategy.
+pub(super) enum Prepared {
+    /// Nothing to add.
+    Nothing,
+    /// A weighted contribution that needs no shadow ray (s = 0).
+    Done(Contribution),
+    /// A contribution waiting for its shadow ray.
+    Pending(Pending),
+}
+
+/// Strategy (s, t) of `light[..s]` and `camera[..t]` up to its shadow ray: the unweighted
+/// value and the segment to test, or (s = 0) the value weighted by MIS unless `unweighted`.
+pub(super) fn prepare(
     ctx: &Context,
     light: &[Vertex],
     camera: &[Vertex],
     (s, t): (usize, usize),
     unweighted: bool,
-) -> (Option<Contribution>, u32) {
+) -> Prepared {
     // (s = 1 with t ≥ 2 samples its own light vertex: the light subpath may be empty.)
     let light = &light[..s.min(light.len())];
     let camera = &camera[..t];
-    let mis = |light: &[Vertex], camera: &[Vertex]| {
-        if unweighted {
-            1.0
-        } else {
-            weight(ctx, &Connection { light, camera })
-        }
-    };
     let finite = |v: Vec3| v.is_finite() && v != Vec3::ZERO;
+    let pending = |contribution, ray, nee| {
+        Prepared::Pending(Pending {
+            contribution,
+            ray,
+            s,
+            t,
+            nee,
+        })
+    };
     if s == 0 {
         let pt = &camera[t - 1];
         let value = pt.beta * pt.le;
         if !finite(value) {
-            return (None, 0);
+            return Prepared::Nothing;
         }
-        let value = value * mis(light, camera);
-        return (Some(Contribution::Pixel(value)), 0);
+        let w = if unweighted {
+            1.0
+        } else {
+            weight(ctx, &Connection { light, camera })
+        };
+        return Prepared::Done(Contribution::Pixel(value * w));
     }
     if t == 1 {
         let qs = &light[s - 1];
         if !qs.is_connectible() {
-            return (None, 0);
+            return Prepared::Nothing;
         }
         let Some((film, cos_cam)) = ctx.camera.project_point(qs.p) else {
-            return (None, 0);
+            return Prepared::Nothing;
         };
         let to_cam = ctx.camera.origin() - qs.p;
         let dist2 = to_cam.length_squared();
@@ -84,39 +145,37 @@ pub(super) fn connect(
         // G·We of the pinhole: the surface cosine is in `value`.
         let value = value * ctx.camera.pixel_importance() / (dist2 * cos_cam.powi(3));
         if !finite(value) {
-            return (None, 0);
+            return Prepared::Nothing;
         }
         let o = origin_off(ctx, qs, wc);
-        if !visible(ctx, o, ctx.camera.origin(), wc) {
-            return (None, 1);
-        }
-        let value = value * mis(light, camera);
-        return (Some(Contribution::Splat(film, value)), 1);
+        let ray = segment(ctx, o, ctx.camera.origin(), wc);
+        return pending(Contribution::Splat(film, value), ray, None);
     }
     let pt = &camera[t - 1];
     if !pt.is_connectible() {
-        return (None, 0);
+        return Prepared::Nothing;
     }
     if s == 1 {
         // Next-event estimation: the light point comes from the lights' own sampler.
         let (u_choice, u_point) = pt.u_light;
         let Some(ls) = ctx.rs.lights.sample(pt.p, u_choice, u_point) else {
-            return (None, 0);
+            return Prepared::Nothing;
         };
         let f = pt.scatter_towards(ls.wi, false);
         let value = pt.beta * f * ls.weight;
         if !finite(value) {
-            return (None, 0);
+            return Prepared::Nothing;
         }
         let o = origin_off(ctx, pt, ls.wi);
-        let unoccluded = if ls.distance.is_finite() {
-            visible(ctx, o, ls.point, ls.wi)
+        let ray = if ls.distance.is_finite() {
+            segment(ctx, o, ls.point, ls.wi)
         } else {
-            !ctx.rs.accel.occluded(o, ls.wi, 0.0, f32::INFINITY)
+            ShadowRay {
+                origin: o,
+                dir: ls.wi,
+                tmax: f32::INFINITY,
+            }
         };
-        if !unoccluded {
-            return (None, 1);
-        }
         let environment = ctx.rs.lights.is_environment(ls.light).then_some(ls.wi);
         // A directional light's vertex stands on its disk outside the scene, in line with
         // the shading point (the densities read the direction from the positions).
@@ -125,23 +184,21 @@ pub(super) fn connect(
         } else {
             pt.p + ls.wi * (4.0 * ctx.rs.lights.scene_radius())
         };
-        let qs = light_vertex(
-            &ctx.rs.lights,
-            ls.light,
+        let nee = NeePoint {
+            light: ls.light,
             point,
-            ls.normal,
-            -ls.wi,
+            normal: ls.normal,
+            towards: -ls.wi,
             environment,
-        );
-        let value = value * mis(std::slice::from_ref(&qs), camera);
-        return (Some(Contribution::Pixel(value)), 1);
+        };
+        return pending(Contribution::Pixel(value), ray, Some(nee));
     }
     let qs = &light[s - 1];
     if !qs.is_connectible() {
-        return (None, 0);
+        return Prepared::Nothing;
     }
     let (Kind::Surface { .. }, Kind::Surface { .. }) = (qs.kind, pt.kind) else {
-        return (None, 0);
+        return Prepared::Nothing;
     };
     let d = qs.p - pt.p;
     let dist2 = d.length_squared();
@@ -149,12 +206,42 @@ pub(super) fn connect(
     let value =
         pt.beta * pt.scatter_towards(w, false) * qs.scatter_towards(-w, true) * qs.beta / dist2;
     if !finite(value) {
-        return (None, 0);
+        return Prepared::Nothing;
     }
     let (a, b) = (origin_off(ctx, pt, w), origin_off(ctx, qs, -w));
-    if !visible(ctx, a, b, w) {
-        return (None, 1);
+    pending(Contribution::Pixel(value), segment(ctx, a, b, w), None)
+}
+
+/// The contribution of a pending strategy whose shadow ray was unoccluded, weighted by MIS
+/// unless `unweighted`.
+pub(super) fn finish(
+    ctx: &Context,
+    light: &[Vertex],
+    camera: &[Vertex],
+    p: &Pending,
+    unweighted: bool,
+) -> Contribution {
+    if unweighted {
+        return p.contribution;
     }
-    let value = value * mis(light, camera);
-    (Some(Contribution::Pixel(value)), 1)
+    let camera = &camera[..p.t];
+    let nee = p.nee.map(|n| {
+        light_vertex(
+            &ctx.rs.lights,
+            n.light,
+            n.point,
+            n.normal,
+            n.towards,
+            n.environment,
+        )
+    });
+    let light = match &nee {
+        Some(v) => std::slice::from_ref(v),
+        None => &light[..p.s],
+    };
+    let w = weight(ctx, &Connection { light, camera });
+    match p.contribution {
+        Contribution::Pixel(v) => Contribution::Pixel(v * w),
+        Contribution::Splat(film, v) => Contribution::Splat(film, v * w),
+    }
 }

@@ -35,21 +35,32 @@ pub(super) fn weight(ctx: &Context, c: &Connection) -> f32 {
     let (s, t) = (light.len(), camera.len());
     let pt = &camera[t - 1];
     let qs = s.checked_sub(1).map(|i| &light[i]);
-    // Reverse densities of the vertices next to the connection.
-    let (pt_rev, pt_minus_rev) = match (qs, t.checked_sub(2).map(|i| &camera[i])) {
-        (Some(q), pt_minus) => (
-            q.pdf(ctx, s.checked_sub(2).map(|i| &light[i]), pt),
-            pt_minus.map_or(0.0, |m| pt.pdf(ctx, Some(q), m)),
-        ),
-        (None, Some(m)) => pt.as_light_origin(ctx, m),
-        (None, None) => (0.0, 0.0),
-    };
-    let qs_rev = qs.map_or(0.0, |q| {
-        pt.pdf(ctx, t.checked_sub(2).map(|i| &camera[i]), q)
-    });
-    let qs_minus_rev = match (qs, s.checked_sub(2)) {
-        (Some(q), Some(i)) => q.pdf(ctx, Some(pt), &light[i]),
-        _ => 0.0,
+    let pt_minus = t.checked_sub(2).map(|i| &camera[i]);
+    let qs_minus = s.checked_sub(2).map(|i| &light[i]);
+    // Reverse densities of the vertices next to the connection, each direction and distance
+    // computed once.
+    let (pt_rev, pt_minus_rev, qs_rev, qs_minus_rev) = match qs {
+        Some(q) => {
+            let (w, dist2) = pt.towards(q);
+            let to_pt_minus = pt_minus.map(|m| pt.towards(m));
+            let to_qs_minus = qs_minus.map(|m| q.towards(m));
+            let pt_rev = q.pdf_along(ctx, to_qs_minus.map(|(w, _)| w), pt, -w, dist2);
+            let qs_rev = pt.pdf_along(ctx, to_pt_minus.map(|(w, _)| w), q, w, dist2);
+            let pt_minus_rev = match (pt_minus, to_pt_minus) {
+                (Some(m), Some((wm, d2))) => pt.pdf_along(ctx, Some(w), m, wm, d2),
+                _ => 0.0,
+            };
+            let qs_minus_rev = match (qs_minus, to_qs_minus) {
+                (Some(m), Some((wm, d2))) => q.pdf_along(ctx, Some(-w), m, wm, d2),
+                _ => 0.0,
+            };
+            (pt_rev, pt_minus_rev, qs_rev, qs_minus_rev)
+        }
+        None => {
+            let (pt_rev, pt_minus_rev) =
+                pt_minus.map_or((0.0, 0.0), |m| pt.as_light_origin(ctx, m));
+            (pt_rev, pt_minus_rev, 0.0, 0.0)
+        }
     };
     let mut sum = 0.0f32;
     // Strategies with fewer camera vertices.

@@ -23,13 +23,14 @@ mod vertex;
 
 use glam::Vec2;
 
+use crate::accel::packet::{RayPacket, LANES};
 use crate::camera::PinholeCamera;
 use crate::integrators::light::LightSplat;
 use crate::integrators::path::{PathRadiance, PathSettings};
 use crate::render_scene::RenderScene;
 use crate::sampler::PixelSampler;
-use connect::{connect, Contribution};
-use subpath::{camera_subpath, light_subpath};
+use connect::{finish, prepare, Contribution, Pending, Prepared};
+use subpath::{camera_start, light_start, random_walks};
 use vertex::{Context, Vertex};
 
 /// Bidirectional path tracing parameters.
@@ -43,12 +44,19 @@ pub struct BdptSettings {
     pub only: Option<(usize, usize)>,
 }
 
-/// Reused vertex storage of one thread's samples.
+/// Reused storage of one thread's samples: the subpaths' vertices and the strategies waiting
+/// for their shadow rays.
 #[derive(Default)]
 pub struct BdptScratch {
-    camera: Vec<Vertex>,
-    light: Vec<Vertex>,
+    /// Camera subpaths, one per sample of a group.
+    camera: Vec<Vec<Vertex>>,
+    /// Light subpaths, one per sample of a group.
+    light: Vec<Vec<Vertex>>,
+    pending: Vec<Pending>,
 }
+
+/// Most samples [`trace_bdpt_samples`] takes at once (one ray packet).
+pub const GROUP: usize = LANES;
 
 /// The sampler seed offset of light subpaths: camera sample `i` of pixel (x, y) draws its
 /// light subpath from the same pixel and index under this seed, an independent sequence.
@@ -79,27 +87,115 @@ pub fn trace_bdpt_sample(
     scratch: &mut BdptScratch,
     splat: &mut impl FnMut(LightSplat),
 ) -> PathRadiance {
+    let mut samplers = [(*camera_sampler, *light_sampler)];
+    let mut out = [PathRadiance::default()];
+    trace_bdpt_samples(
+        rs,
+        camera,
+        &[film],
+        &mut samplers,
+        settings,
+        scratch,
+        &mut out,
+        &mut |_, s| splat(s),
+    );
+    (*camera_sampler, *light_sampler) = samplers[0];
+    out[0]
+}
+
+/// [`trace_bdpt_sample`] for up to [`GROUP`] samples at once, sample `k` through `films[k]`
+/// with `samplers[k]` (camera, light) into `out[k]`; `splat` receives the sample's index.
+/// The subpaths' rays of each step go through the BVH as one packet, whose hits are bit for
+/// bit the single rays', and each sample's strategies then run as [`trace_bdpt_sample`]'s:
+/// every sample gets exactly the values it gets alone, and the splats come sample by sample.
+#[allow(clippy::too_many_arguments)]
+pub fn trace_bdpt_samples(
+    rs: &RenderScene,
+    camera: &PinholeCamera,
+    films: &[Vec2],
+    samplers: &mut [(PixelSampler, PixelSampler)],
+    settings: &BdptSettings,
+    scratch: &mut BdptScratch,
+    out: &mut [PathRadiance],
+    splat: &mut impl FnMut(usize, LightSplat),
+) {
+    let n = films.len().min(GROUP).min(samplers.len()).min(out.len());
     let ctx = Context { rs, camera };
     let max_depth = settings.path.max_depth.max(1) as usize;
-    let mut radiance = PathRadiance::default();
-    let rays = camera_subpath(
+    scratch
+        .camera
+        .resize_with(n.max(scratch.camera.len()), Vec::new);
+    scratch
+        .light
+        .resize_with(n.max(scratch.light.len()), Vec::new);
+    let mut walks = [None; GROUP];
+    let mut subpath_samplers = [PixelSampler::new(0, 0, 0, 0); GROUP];
+    // Camera subpaths, then light subpaths, a packet per step.
+    for k in 0..n {
+        walks[k] = camera_start(&ctx, films[k], max_depth + 1, &mut scratch.camera[k]);
+        subpath_samplers[k] = samplers[k].0;
+    }
+    let rays = random_walks(
         &ctx,
-        film,
-        camera_sampler,
+        &mut walks[..n],
+        &mut subpath_samplers[..n],
         &settings.path,
-        max_depth.saturating_add(1),
-        &mut scratch.camera,
+        max_depth + 1,
+        &mut scratch.camera[..n],
     );
-    radiance.rays += rays;
-    let rays = light_subpath(
+    let mut total_rays = rays;
+    for k in 0..n {
+        samplers[k].0 = subpath_samplers[k];
+        walks[k] = light_start(&ctx, &mut samplers[k].1, max_depth, &mut scratch.light[k]);
+        subpath_samplers[k] = samplers[k].1;
+    }
+    total_rays += random_walks(
         &ctx,
-        light_sampler,
+        &mut walks[..n],
+        &mut subpath_samplers[..n],
         &settings.path,
         max_depth,
-        &mut scratch.light,
+        &mut scratch.light[..n],
     );
-    radiance.rays += rays;
-    let (cam, light) = (&scratch.camera, &scratch.light);
+    for k in 0..n {
+        samplers[k].1 = subpath_samplers[k];
+    }
+    for (k, o) in out[..n].iter_mut().enumerate() {
+        *o = connect_all(
+            &ctx,
+            &scratch.light[k],
+            &scratch.camera[k],
+            settings,
+            &mut scratch.pending,
+            &mut |s| splat(k, s),
+        );
+    }
+    // The subpaths' rays, counted with the group's first sample.
+    if n > 0 {
+        out[0].rays += total_rays;
+    }
+}
+
+/// Every strategy of one sample's subpaths: the radiance for its pixel, the splats through
+/// `splat`.
+fn connect_all(
+    ctx: &Context,
+    light: &[Vertex],
+    cam: &[Vertex],
+    settings: &BdptSettings,
+    pending: &mut Vec<Pending>,
+    splat: &mut impl FnMut(LightSplat),
+) -> PathRadiance {
+    let rs = ctx.rs;
+    let max_depth = settings.path.max_depth.max(1) as usize;
+    let mut radiance = PathRadiance::default();
+    let unweighted = settings.only.is_some();
+    let mut add = |radiance: &mut PathRadiance, depth: usize, c: Contribution| match c {
+        Contribution::Pixel(v) => radiance.add(depth as u32, v),
+        Contribution::Splat(film, value) if value.is_finite() => splat(LightSplat { film, value }),
+        Contribution::Splat(..) => {}
+    };
+    pending.clear();
     for t in 1..=cam.len() {
         for s in 0..=light.len().max(1) {
             let depth = s + t - 1;
@@ -113,14 +209,26 @@ pub fn trace_bdpt_sample(
             if s > light.len() && !(s == 1 && t >= 2) {
                 continue;
             }
-            let (c, rays) = connect(&ctx, light, cam, (s, t), settings.only.is_some());
-            radiance.rays += rays;
-            match c {
-                Some(Contribution::Pixel(v)) => radiance.add(depth as u32, v),
-                Some(Contribution::Splat(film, value)) if value.is_finite() => {
-                    splat(LightSplat { film, value })
-                }
-                _ => {}
+            match prepare(ctx, light, cam, (s, t), unweighted) {
+                Prepared::Nothing => {}
+                Prepared::Done(c) => add(&mut radiance, depth, c),
+                Prepared::Pending(p) => pending.push(p),
+            }
+        }
+    }
+    // The shadow rays of the sample, up to a packet at a time; the visible strategies are
+    // weighed and added in the order they were prepared.
+    radiance.rays += pending.len() as u32;
+    for chunk in pending.chunks(LANES) {
+        let mut rays = RayPacket::default();
+        for (lane, p) in chunk.iter().enumerate() {
+            rays.set(lane, p.ray.origin, p.ray.dir, 0.0, p.ray.tmax);
+        }
+        let occluded = rs.accel.occluded_packet(&rays);
+        for (lane, p) in chunk.iter().enumerate() {
+            if occluded & (1 << lane) == 0 {
+                let c = finish(ctx, light, cam, p, unweighted);
+                add(&mut radiance, p.s + p.t - 1, c);
             }
         }
     }

@@ -5,22 +5,24 @@
 use glam::{Vec2, Vec3};
 
 use super::vertex::{light_origin_density, Context, Kind, Vertex};
+use crate::accel::packet::{RayPacket, LANES};
+use crate::accel::Hit;
 use crate::bsdf::TransportMode;
 use crate::geometry::{offset_point, survival_probability};
 use crate::integrators::light::scatter_particle;
 use crate::integrators::path::PathSettings;
 use crate::sampler::PixelSampler;
 
-/// Appends the camera subpath through film position `film` (pixels) to `path` (cleared
-/// first): the pinhole, then at most `max_vertices - 1` scene vertices. Returns rays traced.
-pub(super) fn camera_subpath(
+/// Starts the camera subpath through film position `film` (pixels) in `path` (cleared
+/// first): pushes the pinhole and returns the walk that leaves it (`None`: no scene vertex
+/// can follow). [`random_walk`] or [`random_walks`] adds at most `max_vertices - 1` scene
+/// vertices.
+pub(super) fn camera_start(
     ctx: &Context,
     film: Vec2,
-    sampler: &mut PixelSampler,
-    settings: &PathSettings,
     max_vertices: usize,
     path: &mut Vec<Vertex>,
-) -> u32 {
+) -> Option<Walk> {
     path.clear();
     let origin = ctx.camera.origin();
     let mut camera = Vertex::new(Kind::Camera, origin, Vec3::ZERO, Vec3::ONE);
@@ -29,38 +31,35 @@ pub(super) fn camera_subpath(
     let dir = ctx.camera.direction(film);
     let pdf_dir = ctx.camera.direction_pdf(dir);
     if pdf_dir <= 0.0 || max_vertices < 2 {
-        return 0;
+        return None;
     }
-    let walk = Walk {
+    Some(Walk {
         origin,
         dir,
         beta: Vec3::ONE,
         pdf_dir,
         mode: TransportMode::Radiance,
-    };
-    random_walk(ctx, walk, sampler, settings, max_vertices, path)
+        eta_scale: 1.0,
+    })
 }
 
-/// Appends the light subpath of the particle the sampler's next numbers choose to `path`
-/// (cleared first): its light vertex, then at most `max_vertices - 1` scene vertices.
-/// Returns rays traced.
-pub(super) fn light_subpath(
+/// Starts the light subpath of the particle the sampler's next numbers choose in `path`
+/// (cleared first): pushes its light vertex and returns the walk that leaves it (`None`: no
+/// scene vertex can follow). The walk adds at most `max_vertices - 1` scene vertices.
+pub(super) fn light_start(
     ctx: &Context,
     sampler: &mut PixelSampler,
-    settings: &PathSettings,
     max_vertices: usize,
     path: &mut Vec<Vertex>,
-) -> u32 {
+) -> Option<Walk> {
     path.clear();
     let u_choice = sampler.next_1d();
     let u_pos = sampler.next_2d();
     let u_dir = sampler.next_2d();
     if max_vertices == 0 {
-        return 0;
+        return None;
     }
-    let Some(e) = ctx.rs.lights.sample_emission(u_choice, u_pos, u_dir) else {
-        return 0;
-    };
+    let e = ctx.rs.lights.sample_emission(u_choice, u_pos, u_dir)?;
     let normal = e.normal.unwrap_or(Vec3::ZERO);
     let kind = Kind::Light {
         light: e.light,
@@ -73,7 +72,7 @@ pub(super) fn light_subpath(
     light.pdf_fwd = origin_pdf;
     path.push(light);
     if max_vertices < 2 || !e.weight.is_finite() || e.weight == Vec3::ZERO {
-        return 0;
+        return None;
     }
     let origin = match e.normal {
         Some(n) => offset_point(e.p.into(), n.into(), e.dir.into(), ctx.rs.ray_epsilon).into(),
@@ -85,18 +84,19 @@ pub(super) fn light_subpath(
     } else {
         e.pdf.solid_angle
     };
-    let walk = Walk {
+    Some(Walk {
         origin,
         dir: e.dir,
         beta: e.weight,
         pdf_dir,
         mode: TransportMode::Importance,
-    };
-    random_walk(ctx, walk, sampler, settings, max_vertices, path)
+        eta_scale: 1.0,
+    })
 }
 
-/// Where a random walk starts.
-struct Walk {
+/// A random walk between two vertices: the ray it traces next and what it carries.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Walk {
     origin: Vec3,
     dir: Vec3,
     beta: Vec3,
@@ -104,124 +104,218 @@ struct Walk {
     /// disk for a directional light).
     pdf_dir: f32,
     mode: TransportMode,
+    /// Product of the squared relative indices crossed (Russian roulette's correction).
+    eta_scale: f32,
 }
 
-/// Extends `path` (whose last vertex the walk leaves) until it has `max_vertices` vertices,
-/// a ray escapes, a BSDF absorbs or Russian roulette ends it. Returns rays traced.
-fn random_walk(
+/// The camera subpath through film position `film` traced alone (the tests' form of
+/// [`camera_start`] and [`random_walks`]). Returns rays traced.
+#[cfg(test)]
+pub(super) fn camera_subpath(
     ctx: &Context,
-    walk: Walk,
+    film: Vec2,
     sampler: &mut PixelSampler,
     settings: &PathSettings,
     max_vertices: usize,
     path: &mut Vec<Vertex>,
 ) -> u32 {
-    let rs = ctx.rs;
-    let Walk {
-        mut origin,
-        mut dir,
-        mut beta,
-        mut pdf_dir,
-        mode,
-    } = walk;
+    let walk = camera_start(ctx, film, max_vertices, path);
+    random_walk(ctx, walk, sampler, settings, max_vertices, path)
+}
+
+/// Extends `path` (whose last vertex the walk leaves) until it has `max_vertices` vertices,
+/// a ray escapes, a BSDF absorbs or Russian roulette ends it, one ray at a time. Returns
+/// rays traced.
+#[cfg(test)]
+fn random_walk(
+    ctx: &Context,
+    walk: Option<Walk>,
+    sampler: &mut PixelSampler,
+    settings: &PathSettings,
+    max_vertices: usize,
+    path: &mut Vec<Vertex>,
+) -> u32 {
+    let Some(mut walk) = walk else { return 0 };
     let mut rays = 0;
-    let mut eta_scale = 1.0f32;
     while path.len() < max_vertices {
         rays += 1;
-        let hit = rs.accel.intersect(origin, dir, 0.0, f32::INFINITY);
-        let prev = path.len() - 1;
-        let Some(hit) = hit else {
-            if mode == TransportMode::Radiance {
-                let mut v = Vertex::new(Kind::Environment { dir }, origin, Vec3::ZERO, beta);
-                v.le = rs.lights.environment(dir);
-                v.pdf_fwd = pdf_dir;
-                path.push(v);
-            }
-            break;
-        };
-        let s = rs.surface(&hit, origin, dir);
-        let bsdf = rs.bsdf(&s);
-        let wo_local = s.frame.to_local(-dir);
-        let black = wo_local.z <= 0.0 && rs.one_sided(s.material);
-        let kind = Kind::Surface {
-            s,
-            bsdf,
-            wo: -dir,
-            black,
-        };
-        let mut v = Vertex::new(kind, s.p, s.ng, beta);
-        v.pdf_fwd = match path[prev].kind {
-            _ if path[prev].delta => 1.0,
-            // Parallel rays: the disk's density projected onto the surface.
-            Kind::Light {
-                directional: true, ..
-            } => pdf_dir * s.ng.dot(dir).abs(),
-            _ => path[prev].area_density(pdf_dir, &v),
-        };
-        if mode == TransportMode::Radiance {
-            v.le = rs.emission(&s, dir);
-            v.u_light = (sampler.next_1d(), sampler.next_2d());
-        }
-        let u_lobe = sampler.next_1d();
-        let u_dir = sampler.next_2d();
-        let u_rr = sampler.next_1d();
-        path.push(v);
-        let cur = path.len() - 1;
-        if path.len() >= max_vertices || black {
-            break;
-        }
-        let (new_dir, bs) = if mode == TransportMode::Importance {
-            // Veach's adjoint shading-normal correction: the arrival half here, the departure
-            // half in the light tracer's scatter.
-            let cos_ng_l = s.ng.dot(dir).abs();
-            if cos_ng_l == 0.0 {
-                break;
-            }
-            let Some((new_dir, bs, weight)) =
-                scatter_particle(&bsdf, &s, -dir, wo_local, u_lobe, u_dir)
-            else {
-                break;
-            };
-            beta *= weight * (s.frame.n.dot(dir).abs() / cos_ng_l);
-            (new_dir, bs)
-        } else {
-            let Some(bs) = bsdf.sample(wo_local, u_lobe, u_dir) else {
-                break;
-            };
-            let new_dir = s.frame.to_world(bs.wi).normalize();
-            // Shading normals can send a sample through the geometric surface; drop it.
-            let reflect = bs.wi.z * wo_local.z > 0.0;
-            if reflect != (new_dir.dot(s.ng) * (-dir).dot(s.ng) > 0.0) {
-                break;
-            }
-            if bs.eta != 1.0 {
-                eta_scale *= bs.eta * bs.eta;
-            }
-            beta *= bs.weight;
-            (new_dir, bs)
-        };
-        path[cur].delta = bs.delta;
-        // The reverse density of the vertex before: sampled from here towards it, given the
-        // new direction as the incoming one.
-        path[prev].pdf_rev = if bs.delta {
-            1.0
-        } else {
-            let pdf = bsdf.pdf(bs.wi, wo_local);
-            path[cur].area_density(pdf, &path[prev])
-        };
-        pdf_dir = if bs.delta { 1.0 } else { bs.pdf };
-        origin = rs.offset(&s, new_dir);
-        dir = new_dir;
-        if (path.len() - 1) as u32 >= settings.rr_depth {
-            let q = survival_probability(beta.max_element(), eta_scale);
-            if u_rr >= q {
-                break;
-            }
-            beta /= q;
-        }
-        if beta == Vec3::ZERO || !beta.is_finite() {
+        let hit = ctx
+            .rs
+            .accel
+            .intersect(walk.origin, walk.dir, 0.0, f32::INFINITY);
+        if !step(ctx, &mut walk, hit, sampler, settings, max_vertices, path) {
             break;
         }
     }
     rays
+}
+
+/// [`random_walk`] for several subpaths at once, walk `k` with `samplers[k]` into `paths[k]`:
+/// the rays of each step go through the BVH together as one packet, whose hits are bit for
+/// bit the single rays' ([`crate::accel::Accel::intersect_packet`]), so every subpath is
+/// exactly the one [`random_walk`] makes. At most [`LANES`] walks. Returns rays traced.
+pub(super) fn random_walks(
+    ctx: &Context,
+    walks: &mut [Option<Walk>],
+    samplers: &mut [PixelSampler],
+    settings: &PathSettings,
+    max_vertices: usize,
+    paths: &mut [Vec<Vertex>],
+) -> u32 {
+    debug_assert!(walks.len() <= LANES);
+    let mut rays = 0;
+    let mut hits: [Option<Hit>; LANES] = [None; LANES];
+    let mut lanes = [0usize; LANES];
+    loop {
+        let mut packet = RayPacket::default();
+        let mut n = 0;
+        for (k, w) in walks.iter().enumerate() {
+            if let Some(w) = w {
+                if paths[k].len() < max_vertices {
+                    packet.set(n, w.origin, w.dir, 0.0, f32::INFINITY);
+                    lanes[n] = k;
+                    n += 1;
+                }
+            }
+        }
+        if n == 0 {
+            return rays;
+        }
+        rays += n as u32;
+        ctx.rs.accel.intersect_packet(&packet, &mut hits);
+        for (&k, &hit) in lanes[..n].iter().zip(&hits[..n]) {
+            let Some(walk) = walks[k].as_mut() else {
+                continue;
+            };
+            if !step(
+                ctx,
+                walk,
+                hit,
+                &mut samplers[k],
+                settings,
+                max_vertices,
+                &mut paths[k],
+            ) {
+                walks[k] = None;
+            }
+        }
+    }
+}
+
+/// One step of a walk whose ray found `hit`: records the vertex and samples the direction
+/// that leaves it. Returns whether the walk goes on.
+fn step(
+    ctx: &Context,
+    walk: &mut Walk,
+    hit: Option<Hit>,
+    sampler: &mut PixelSampler,
+    settings: &PathSettings,
+    max_vertices: usize,
+    path: &mut Vec<Vertex>,
+) -> bool {
+    let rs = ctx.rs;
+    let Walk {
+        origin,
+        dir,
+        mut beta,
+        pdf_dir,
+        mode,
+        mut eta_scale,
+    } = *walk;
+    let prev = path.len() - 1;
+    let Some(hit) = hit else {
+        if mode == TransportMode::Radiance {
+            let mut v = Vertex::new(Kind::Environment { dir }, origin, Vec3::ZERO, beta);
+            v.le = rs.lights.environment(dir);
+            v.pdf_fwd = pdf_dir;
+            path.push(v);
+        }
+        return false;
+    };
+    let s = rs.surface(&hit, origin, dir);
+    let bsdf = rs.bsdf(&s);
+    let wo_local = s.frame.to_local(-dir);
+    let black = wo_local.z <= 0.0 && rs.one_sided(s.material);
+    let kind = Kind::Surface {
+        s,
+        bsdf,
+        wo: -dir,
+        black,
+    };
+    let mut v = Vertex::new(kind, s.p, s.ng, beta);
+    v.pdf_fwd = match path[prev].kind {
+        _ if path[prev].delta => 1.0,
+        // Parallel rays: the disk's density projected onto the surface.
+        Kind::Light {
+            directional: true, ..
+        } => pdf_dir * s.ng.dot(dir).abs(),
+        _ => path[prev].area_density(pdf_dir, &v),
+    };
+    if mode == TransportMode::Radiance {
+        v.le = rs.emission(&s, dir);
+        v.u_light = (sampler.next_1d(), sampler.next_2d());
+    }
+    let u_lobe = sampler.next_1d();
+    let u_dir = sampler.next_2d();
+    let u_rr = sampler.next_1d();
+    path.push(v);
+    let cur = path.len() - 1;
+    if path.len() >= max_vertices || black {
+        return false;
+    }
+    let (new_dir, bs) = if mode == TransportMode::Importance {
+        // Veach's adjoint shading-normal correction: the arrival half here, the departure
+        // half in the light tracer's scatter.
+        let cos_ng_l = s.ng.dot(dir).abs();
+        if cos_ng_l == 0.0 {
+            return false;
+        }
+        let Some((new_dir, bs, weight)) =
+            scatter_particle(&bsdf, &s, -dir, wo_local, u_lobe, u_dir)
+        else {
+            return false;
+        };
+        beta *= weight * (s.frame.n.dot(dir).abs() / cos_ng_l);
+        (new_dir, bs)
+    } else {
+        let Some(bs) = bsdf.sample(wo_local, u_lobe, u_dir) else {
+            return false;
+        };
+        let new_dir = s.frame.to_world(bs.wi).normalize();
+        // Shading normals can send a sample through the geometric surface; drop it.
+        let reflect = bs.wi.z * wo_local.z > 0.0;
+        if reflect != (new_dir.dot(s.ng) * (-dir).dot(s.ng) > 0.0) {
+            return false;
+        }
+        if bs.eta != 1.0 {
+            eta_scale *= bs.eta * bs.eta;
+        }
+        beta *= bs.weight;
+        (new_dir, bs)
+    };
+    path[cur].delta = bs.delta;
+    // The reverse density of the vertex before: sampled from here towards it, given the
+    // new direction as the incoming one.
+    path[prev].pdf_rev = if bs.delta {
+        1.0
+    } else {
+        let pdf = bsdf.pdf(bs.wi, wo_local);
+        path[cur].area_density(pdf, &path[prev])
+    };
+    walk.pdf_dir = if bs.delta { 1.0 } else { bs.pdf };
+    walk.origin = rs.offset(&s, new_dir);
+    walk.dir = new_dir;
+    if (path.len() - 1) as u32 >= settings.rr_depth {
+        let q = survival_probability(beta.max_element(), eta_scale);
+        if u_rr >= q {
+            return false;
+        }
+        beta /= q;
+    }
+    if beta == Vec3::ZERO || !beta.is_finite() {
+        return false;
+    }
+    walk.beta = beta;
+    walk.eta_scale = eta_scale;
+    true
 }

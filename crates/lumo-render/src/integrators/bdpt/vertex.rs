@@ -127,26 +127,48 @@ impl Vertex {
     /// The solid-angle density `pdf` of leaving `self` towards `to`, as an area density at
     /// `to` (left as is for the environment, whose vertices live in solid angle).
     pub fn area_density(&self, pdf: f32, to: &Vertex) -> f32 {
-        if let Kind::Environment { .. } = to.kind {
-            return pdf;
+        let (w, dist2) = self.towards(to);
+        area_density_along(pdf, to, w, dist2)
+    }
+
+    /// The unit direction from `self` to `to` (the environment's own direction) and the
+    /// squared distance between them (1 for the environment; zero direction for coincident
+    /// points).
+    #[inline]
+    pub fn towards(&self, to: &Vertex) -> (Vec3, f32) {
+        if let Kind::Environment { dir } = to.kind {
+            return (dir, 1.0);
         }
         let d = to.p - self.p;
         let dist2 = d.length_squared();
         if dist2 == 0.0 {
-            return 0.0;
+            return (Vec3::ZERO, 0.0);
         }
-        pdf * to.arrival_cos(d / dist2.sqrt()) / dist2
+        (d / dist2.sqrt(), dist2)
     }
 
     /// Density (in `to`'s measure) with which `self`, reached from `prev` in its own
-    /// subpath, would generate `to` next. Subpath origins take `prev = None`.
+    /// subpath, would generate `to` next. Subpath origins take `prev = None`. (The weights
+    /// use [`Vertex::pdf_along`], sharing the directions; the tests use this form.)
+    #[cfg(test)]
     pub fn pdf(&self, ctx: &Context, prev: Option<&Vertex>, to: &Vertex) -> f32 {
-        let w = match to.kind {
-            Kind::Environment { dir } => dir,
-            _ => (to.p - self.p).normalize_or_zero(),
-        };
+        let w_prev = prev.map(|prev| self.towards(prev).0);
+        let (w, dist2) = self.towards(to);
+        self.pdf_along(ctx, w_prev, to, w, dist2)
+    }
+
+    /// [`Vertex::pdf`] with the geometry already known: `w_prev` the unit direction towards
+    /// the previous vertex, `(w, dist2)` what [`Vertex::towards`] returns for `to`.
+    pub fn pdf_along(
+        &self,
+        ctx: &Context,
+        w_prev: Option<Vec3>,
+        to: &Vertex,
+        w: Vec3,
+        dist2: f32,
+    ) -> f32 {
         match self.kind {
-            Kind::Camera => self.area_density(ctx.camera.direction_pdf(w), to),
+            Kind::Camera => area_density_along(ctx.camera.direction_pdf(w), to, w, dist2),
             Kind::Light {
                 light, directional, ..
             } => {
@@ -162,18 +184,14 @@ impl Vertex {
                 ctx.rs
                     .lights
                     .emission_pdf_of(light, self.ng, w)
-                    .map_or(0.0, |e| self.area_density(e.solid_angle, to))
+                    .map_or(0.0, |e| area_density_along(e.solid_angle, to, w, dist2))
             }
             // Light does not leave the environment towards the scene (it emits no particles).
             Kind::Environment { .. } => 0.0,
             Kind::Surface { s, bsdf, .. } => {
-                let Some(prev) = prev else { return 0.0 };
-                let w_prev = match prev.kind {
-                    Kind::Environment { dir } => dir,
-                    _ => (prev.p - self.p).normalize_or_zero(),
-                };
+                let Some(w_prev) = w_prev else { return 0.0 };
                 let pdf = bsdf.pdf(s.frame.to_local(w_prev), s.frame.to_local(w));
-                self.area_density(pdf, to)
+                area_density_along(pdf, to, w, dist2)
             }
         }
     }
@@ -223,6 +241,19 @@ impl Vertex {
         }
         bsdf.eval(w_l, wo_l) / cos_ng_l * cos_ng_w
     }
+}
+
+/// A solid-angle density `pdf` along unit direction `w` as an area density at `to`, at squared
+/// distance `dist2` (left as is for the environment, whose vertices live in solid angle).
+#[inline]
+fn area_density_along(pdf: f32, to: &Vertex, w: Vec3, dist2: f32) -> f32 {
+    if let Kind::Environment { .. } = to.kind {
+        return pdf;
+    }
+    if dist2 == 0.0 {
+        return 0.0;
+    }
+    pdf * to.arrival_cos(w) / dist2
 }
 
 /// What the densities need besides the vertices.
