@@ -13,8 +13,8 @@ use std::time::{Duration, Instant};
 
 use glam::{Mat4, Vec2, Vec3};
 use lumo_filter::{
-    pinhole_view_projection, project_to_pixel, with_passthrough, FilterError, TemporalFilter,
-    TemporalFrame, TemporalParams,
+    pinhole_view_projection, project_to_pixel, with_passthrough, FilterError, TemporalAntialias,
+    TemporalFilter, TemporalFrame, TemporalParams,
 };
 use lumo_image::Image;
 use lumo_render::camera::PinholeCamera;
@@ -43,6 +43,8 @@ pub struct TemporalTimes {
 /// The temporal filter of one sequence with its memory of the previous frame.
 pub struct TemporalSequence {
     filter: TemporalFilter,
+    /// Temporal anti-aliasing of the filtered image (with the lights), when on.
+    taa: Option<TemporalAntialias>,
     prev: Option<View>,
     /// Instances move (an animated scene): trace ids and follow each instance's motion.
     object_motion: bool,
@@ -51,8 +53,13 @@ pub struct TemporalSequence {
 impl TemporalSequence {
     /// A sequence with SVGF's parameters; `object_motion` when the scene's instances move.
     pub fn new(object_motion: bool) -> Result<Self, FilterError> {
+        let (params, taa) = sequence_params();
         Ok(Self {
-            filter: TemporalFilter::new(sequence_params())?,
+            filter: TemporalFilter::new(params)?,
+            taa: match taa {
+                Some((alpha, gamma)) => Some(TemporalAntialias::new(alpha, gamma)?),
+                None => None,
+            },
             prev: None,
             object_motion,
         })
@@ -98,12 +105,16 @@ impl TemporalSequence {
                 motion: motion.as_ref(),
             })
         })?;
+        let image = match &mut self.taa {
+            Some(taa) => taa.apply(&filtered.image, motion.as_ref())?,
+            None => filtered.image,
+        };
         let times = TemporalTimes {
             motion: motion_time,
             filter: t.elapsed(),
         };
         self.prev = Some(view);
-        Ok((filtered.image, times))
+        Ok((image, times))
     }
 }
 
@@ -112,14 +123,51 @@ impl TemporalSequence {
 /// frame 8 fell from 0.78 to 0.70 of per-frame À-Trous and the flicker from 0.41 to 0.39
 /// (docs/results/temporal.md): accumulated colour needs less spatial blur, and each level's
 /// blur otherwise stays in the image.
-fn sequence_params() -> TemporalParams {
+fn sequence_params() -> (TemporalParams, Option<(f32, f32)>) {
     let mut p = TemporalParams {
         alpha: 0.1,
         alpha_moments: 0.1,
         ..TemporalParams::default()
     };
     p.atrous.iterations = 2;
-    p
+    let mut taa = None;
+    tune(&mut p, &mut taa);
+    (p, taa)
+}
+
+/// Tuning aid (undocumented in `--help`): `LUMO_TEMPORAL_TUNE="alpha=0.1,levels=2,…"`
+/// overrides the parameters for parameter sweeps without a rebuild. Keys: alpha (colour and
+/// moments), levels, sigma_l, gr / gk / gg (gradient radius, sigmas, gain). Values that do not
+/// parse are ignored; the filter still checks ranges.
+fn tune(p: &mut TemporalParams, taa: &mut Option<(f32, f32)>) {
+    let Ok(spec) = std::env::var("LUMO_TEMPORAL_TUNE") else {
+        return;
+    };
+    for kv in spec.split(',') {
+        let Some((k, v)) = kv.split_once('=') else {
+            continue;
+        };
+        let Ok(v) = v.trim().parse::<f32>() else {
+            continue;
+        };
+        match k.trim() {
+            "alpha" => {
+                p.alpha = v;
+                p.alpha_moments = v;
+            }
+            "levels" => p.atrous.iterations = v as usize,
+            "sigma_l" => p.atrous.sigma_luminance = Some(v),
+            "gr" => p.gradient_radius = v as usize,
+            "gk" => p.gradient_sigmas = v,
+            "gg" => p.gradient_gain = v,
+            "taa" if v > 0.0 => {
+                *taa = Some((v, taa.map_or(lumo_filter::DEFAULT_TAA_GAMMA, |t| t.1)))
+            }
+            "taa" => *taa = None,
+            "taag" => *taa = Some((taa.map_or(lumo_filter::DEFAULT_TAA_ALPHA, |t| t.0), v)),
+            _ => {}
+        }
+    }
 }
 
 /// The instance each pixel centre's camera ray hits first ([`NO_INSTANCE`] on a miss): the

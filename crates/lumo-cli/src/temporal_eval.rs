@@ -75,6 +75,10 @@ pub fn run(
     let strip_at = strip_frames(seq.frames.count() as usize);
     let mut strip = Vec::new();
     let none = |_: f32| {};
+    // Tuning aid: LUMO_TEMPORAL_DUMP=N writes frame N's images into DIR/dump/.
+    let dump_at: Option<u32> = std::env::var("LUMO_TEMPORAL_DUMP")
+        .ok()
+        .and_then(|v| v.parse().ok());
     for (i, frame) in (seq.frames.first..=seq.frames.last).enumerate() {
         let mut row = Row {
             frame,
@@ -140,6 +144,18 @@ pub fn run(
                 row.change_atrous = mean_abs_diff(&shown[0], &p.shown[0]);
                 row.change_temporal = mean_abs_diff(&shown[1], &p.shown[1]);
                 row.change_reference = mean_abs_diff(&shown[2], &p.shown[2]);
+            }
+            if dump_at == Some(frame) {
+                let d = dir.join("dump");
+                std::fs::create_dir_all(&d)?;
+                for (name, img) in [
+                    ("noisy", &out.frame.color),
+                    ("atrous", &out.image),
+                    ("temporal", &filtered),
+                    ("reference", &r),
+                ] {
+                    write_image(&d.join(format!("{frame:06}_{name}.exr")), img)?;
+                }
             }
             if strip_at.contains(&i) {
                 strip.push([
