@@ -3,7 +3,8 @@
 //! the history of a static surface in place. Per pixel, the mean luminance of this frame's
 //! samples over a (2r+1)² window is compared with the mean luminance of the reprojected
 //! history over the same pixels (those with both); the difference beyond `k` standard errors
-//! of the samples' mean, relative to the larger of the two means, is the rejection
+//! of the samples' mean (their variance: the larger of the window's and the history's temporal
+//! estimate), relative to the larger of the two means, is the rejection
 //! λ ∈ [0, 1], which shortens the history (see [`super::reproject::blend`]).
 //!
 //! Comparing means over the same pixels makes the test blind to edges inside the window (both
@@ -16,8 +17,9 @@ use rayon::prelude::*;
 use super::reproject::{Prev, Sample};
 use super::TemporalParams;
 
-/// Windowed sums: count, Σ l, Σ l² of the samples, Σ l of the history.
-type Sums = [f32; 4];
+/// Windowed sums: count, Σ l, Σ l² of the samples, Σ l of the history, Σ of the history's
+/// temporal luminance variance (from its moments).
+pub(super) type Sums = [f32; 5];
 
 /// Smallest mean luminance the relative difference divides by.
 const EPS: f32 = 1e-4;
@@ -43,20 +45,21 @@ pub(super) fn rejection(
         match (samples[i].valid, prev[i]) {
             (true, Some(pr)) => {
                 let l = samples[i].moments[0];
-                [1.0, l, l * l, luminance(pr.color)]
+                let v = (pr.moments[1] - pr.moments[0] * pr.moments[0]).max(0.0);
+                [1.0, l, l * l, luminance(pr.color), v]
             }
-            _ => [0.0; 4],
+            _ => [0.0; 5],
         }
     };
     // Horizontal box sums.
     sums.clear();
-    sums.resize(w * h, [0.0; 4]);
+    sums.resize(w * h, [0.0; 5]);
     sums.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
         for (x, out) in row.iter_mut().enumerate() {
-            let mut s = [0.0f32; 4];
+            let mut s = [0.0f32; 5];
             for xx in x.saturating_sub(r)..(x + r + 1).min(w) {
                 let v = item(y * w + xx);
-                for k in 0..4 {
+                for k in 0..5 {
                     s[k] += v[k];
                 }
             }
@@ -68,10 +71,10 @@ pub(super) fn rejection(
     let (k_sigma, gain) = (p.gradient_sigmas, p.gradient_gain);
     lambda.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
         for (x, out) in row.iter_mut().enumerate() {
-            let mut s = [0.0f32; 4];
+            let mut s = [0.0f32; 5];
             for yy in y.saturating_sub(r)..(y + r + 1).min(h) {
                 let v = sums[yy * w + x];
-                for k in 0..4 {
+                for k in 0..5 {
                     s[k] += v[k];
                 }
             }
@@ -87,7 +90,9 @@ fn lambda_of(s: Sums, k_sigma: f32, gain: f32) -> f32 {
         return 0.0;
     }
     let (mc, mh) = (s[1] / n, s[3] / n);
-    let var = (s[2] / n - mc * mc).max(0.0);
+    // The samples' variance: the larger of the window's and the history's temporal estimate
+    // (a window of 1-spp samples mostly misses the rare bright ones that the history saw).
+    let var = (s[2] / n - mc * mc).max(s[4] / n).max(0.0);
     let excess = (mc - mh).abs() - k_sigma * (var / n).sqrt();
     let l = gain * excess / mc.max(mh).max(EPS);
     if l.is_finite() {
@@ -104,7 +109,7 @@ mod tests {
     #[test]
     fn lambda_grows_with_the_change_beyond_the_noise() {
         // 49 samples of mean 1 and variance 0.49: standard error 0.1.
-        let s = |mc: f32, mh: f32| [49.0, 49.0 * mc, 49.0 * (0.49 + mc * mc), 49.0 * mh];
+        let s = |mc: f32, mh: f32| [49.0, 49.0 * mc, 49.0 * (0.49 + mc * mc), 49.0 * mh, 0.0];
         assert_eq!(lambda_of(s(1.0, 1.15), 2.0, 1.0), 0.0, "within 2 SE");
         let half = lambda_of(s(1.0, 2.0), 2.0, 1.0);
         assert!((half - 0.4).abs() < 1e-4, "{half}");
@@ -112,6 +117,15 @@ mod tests {
             lambda_of(s(0.0, 5.0), 2.0, 1.0) > 0.95,
             "the light went out"
         );
-        assert_eq!(lambda_of([1.0, 1.0, 1.0, 9.0], 2.0, 1.0), 0.0, "one pixel");
+        assert_eq!(
+            lambda_of([1.0, 1.0, 1.0, 9.0, 0.0], 2.0, 1.0),
+            0.0,
+            "one pixel"
+        );
+        // The history saw a variance of 4 (SE 2/7): a difference of 0.5 is noise.
+        let mut t = s(1.0, 1.5);
+        assert!(lambda_of(t, 1.0, 1.0) > 0.0);
+        t[4] = 49.0 * 4.0;
+        assert_eq!(lambda_of(t, 2.0, 1.0), 0.0);
     }
 }

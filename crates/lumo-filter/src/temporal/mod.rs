@@ -14,6 +14,8 @@ mod reproject;
 mod taa;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_rejection;
 
 use lumo_image::Image;
 use rayon::prelude::*;
@@ -56,6 +58,10 @@ pub struct TemporalParams {
     pub depth_tolerance: f32,
     /// Reprojection: a history tap is rejected when dot(normal_prev, normal) < this.
     pub normal_min_dot: f32,
+    /// Keep the first À-Trous level as the colour history (SVGF) rather than the accumulated,
+    /// spatially unfiltered colour. SVGF's choice converges faster but compounds that level's
+    /// blur frame after frame (a steady state of Σ α(1−α)^k K^(k+1)); see docs/filters.md.
+    pub filtered_history: bool,
     /// History rejection where the lighting changed (A-SVGF-like, see docs/filters.md): radius
     /// r of the (2r+1)² window whose mean sample luminance is compared with the reprojected
     /// history's; 0 switches the rejection off.
@@ -82,9 +88,10 @@ impl Default for TemporalParams {
             spatial_radius: 3,
             depth_tolerance: 0.1,
             normal_min_dot: 0.9,
-            gradient_radius: 3,
+            filtered_history: true,
+            gradient_radius: 4,
             gradient_sigmas: 2.0,
-            gradient_gain: 1.0,
+            gradient_gain: 10.0,
             atrous: AtrousParams {
                 iterations: 5,
                 sigma_luminance: Some(DEFAULT_TEMPORAL_SIGMA_LUMINANCE),
@@ -151,7 +158,7 @@ pub struct TemporalFilter {
     /// Working buffers, reused between frames.
     samples: Vec<Sample>,
     prev: Vec<Option<Prev>>,
-    sums: Vec<[f32; 4]>,
+    sums: Vec<gradient::Sums>,
     lambda: Vec<f32>,
     acc: Vec<reproject::Accumulated>,
     integrated: Image,
@@ -339,7 +346,11 @@ impl TemporalFilter {
                 }
             });
         // 6. The new history.
-        let mut color = first;
+        let mut color = if p.filtered_history {
+            first
+        } else {
+            integrated.clone()
+        };
         for v in &mut color.data {
             *v = sanitize(*v);
         }
