@@ -269,20 +269,29 @@ impl Sequence {
             }
             let base = i as u64 * 1000;
             let progress = |f: f32| bar.set_position(base + (f * 1000.0) as u64);
-            let mut out = match temporal {
-                // New random numbers every frame, for the filter to average.
-                Some(_) => job
-                    .with_seed(crate::temporal_eval::frame_seed(job.settings.seed, frame))
-                    .render(&rs, &progress)?,
+            let mut jitter = [0.0; 2];
+            let nominal = rs.scene.camera.clone();
+            let mut out = match &temporal {
+                // New random numbers every frame, for the filter to average, through a camera
+                // jittered by a sub-pixel offset, for its anti-aliasing.
+                Some(t) => {
+                    let (w, h) = (job.settings.width, job.settings.height);
+                    let (camera, j) = t.camera(&nominal, w, h, i);
+                    jitter = j;
+                    rs.scene.camera = camera;
+                    job.with_seed(crate::temporal_eval::frame_seed(job.settings.seed, frame))
+                        .render(&rs, &progress)?
+                }
                 None => job.render(&rs, &progress)?,
             };
             if let (Some(t), Some((traced, _))) = (&mut temporal, &out.aovs) {
                 let (image, _) = job
                     .pool
-                    .install(|| t.filter(&rs, traced))
+                    .install(|| t.filter(&rs, traced, jitter))
                     .with_context(|| format!("frame {frame}: temporal filter"))?;
                 out.image = image;
             }
+            rs.scene.camera = nominal;
             samples += out.stats.samples;
             rays += out.stats.rays;
             let files: Vec<PathBuf> = job

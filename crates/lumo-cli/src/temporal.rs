@@ -13,12 +13,13 @@ use std::time::{Duration, Instant};
 
 use glam::{Mat4, Vec2, Vec3};
 use lumo_filter::{
-    pinhole_view_projection, project_to_pixel, with_passthrough, FilterError, TemporalFilter,
-    TemporalFrame, TemporalParams,
+    pinhole_view_projection, project_to_pixel, with_passthrough, FilterError, TemporalAntialias,
+    TemporalFilter, TemporalFrame, TemporalParams,
 };
 use lumo_image::Image;
 use lumo_render::camera::PinholeCamera;
 use lumo_render::{Frame, RenderScene};
+use lumo_scene::Camera;
 use rayon::prelude::*;
 
 /// Id of pixels whose centre ray hits nothing.
@@ -27,6 +28,8 @@ const NO_INSTANCE: u32 = u32::MAX;
 /// What the previous frame looked like, for its motion vectors.
 struct View {
     view_proj: Mat4,
+    /// The frame's sub-pixel jitter (pixels).
+    jitter: [f32; 2],
     /// Instance transforms (object → world).
     transforms: Vec<Mat4>,
 }
@@ -43,7 +46,11 @@ pub struct TemporalTimes {
 /// The temporal filter of one sequence with its memory of the previous frame.
 pub struct TemporalSequence {
     filter: TemporalFilter,
+    /// Temporal anti-aliasing of the filtered image (with the lights), when on.
+    taa: Option<TemporalAntialias>,
     prev: Option<View>,
+    /// Jitter the camera by a sub-pixel offset every frame (see [`jitter`]).
+    jitter: bool,
     /// Instances move (an animated scene): trace ids and follow each instance's motion.
     object_motion: bool,
 }
@@ -51,18 +58,38 @@ pub struct TemporalSequence {
 impl TemporalSequence {
     /// A sequence with SVGF's parameters; `object_motion` when the scene's instances move.
     pub fn new(object_motion: bool) -> Result<Self, FilterError> {
+        let (params, taa) = sequence_params();
         Ok(Self {
-            filter: TemporalFilter::new(sequence_params())?,
+            filter: TemporalFilter::new(params)?,
+            taa: match taa {
+                Some((alpha, gamma)) => Some(TemporalAntialias::new(alpha, gamma)?),
+                None => None,
+            },
             prev: None,
+            jitter: tuned("jit").is_some_and(|v| v != 0.0),
             object_motion,
         })
     }
 
-    /// Filters `frame`, traced from `rs` as it is posed now; returns the filtered image.
+    /// The camera to trace frame number `i` of the sequence (counting from 0) with, and its
+    /// jitter: `camera` turned by [`jitter`]`(i)` when jittering is on (as a real-time renderer
+    /// jitters its projection for temporal anti-aliasing), else `camera` and no jitter.
+    pub fn camera(&self, camera: &Camera, w: usize, h: usize, i: usize) -> (Camera, [f32; 2]) {
+        if !self.jitter {
+            return (camera.clone(), [0.0; 2]);
+        }
+        let j = jitter(i);
+        (jittered_camera(camera, w, h, j), j)
+    }
+
+    /// Filters `frame`, traced from `rs` as it is posed now with a camera jittered by `jitter`
+    /// pixels (see [`Self::camera`]); returns the filtered image, which the TAA stage puts back
+    /// on the unjittered pixel grid.
     pub fn filter(
         &mut self,
         rs: &RenderScene,
         frame: &Frame,
+        jitter: [f32; 2],
     ) -> Result<(Image, TemporalTimes), FilterError> {
         let (w, h) = (frame.width(), frame.height());
         let start = Instant::now();
@@ -70,6 +97,7 @@ impl TemporalSequence {
         let (hw, hh) = c.half_extent(w, h);
         let view = View {
             view_proj: pinhole_view_projection(c.origin, c.target, c.up, [hw, hh]),
+            jitter,
             transforms: rs.scene.instances.iter().map(|i| i.transform).collect(),
         };
         let ids = self.object_motion.then(|| instance_ids(rs, w, h));
@@ -98,28 +126,135 @@ impl TemporalSequence {
                 motion: motion.as_ref(),
             })
         })?;
+        // The TAA history lives on the unjittered grid. A jittered pixel x shows the unjittered
+        // image at x + j, so the surface at unjittered x was at jittered x − j + motion in the
+        // previous frame, which is unjittered x + motion + j_prev − j.
+        let image = match &mut self.taa {
+            Some(taa) => {
+                let unjittered = match (&motion, &self.prev) {
+                    (Some(m), Some(prev)) => {
+                        let mut m = m.clone();
+                        let d = [prev.jitter[0] - jitter[0], prev.jitter[1] - jitter[1]];
+                        for v in m.data.chunks_exact_mut(2) {
+                            v[0] += d[0];
+                            v[1] += d[1];
+                        }
+                        Some(m)
+                    }
+                    _ => None,
+                };
+                taa.apply(&filtered.image, unjittered.as_ref())?
+            }
+            None => filtered.image,
+        };
         let times = TemporalTimes {
             motion: motion_time,
             filter: t.elapsed(),
         };
         self.prev = Some(view);
-        Ok((filtered.image, times))
+        Ok((image, times))
     }
 }
 
-/// SVGF's parameters with a longer history (α = 0.1) and a 2-level À-Trous instead of 5: on
-/// the 24-frame Cornell orbit at 128² and 1 spp (references at 512 spp) the mean FLIP after
-/// frame 8 fell from 0.78 to 0.70 of per-frame À-Trous and the flicker from 0.41 to 0.39
-/// (docs/results/temporal.md): accumulated colour needs less spatial blur, and each level's
-/// blur otherwise stays in the image.
-fn sequence_params() -> TemporalParams {
+/// The sequence's parameters, tuned on a 24-frame 20° Cornell orbit at 128² (references at
+/// 512 spp) and a 24-frame, 96×64 run of `scenes/animated.gltf` (seed 7), never on the reported
+/// sequences (docs/results/temporal.md): α = 0.1 and a 2-level À-Trous (SVGF: 0.2 and 5), the
+/// accumulated rather than the filtered colour as history (SVGF's feedback of the first
+/// À-Trous level compounds its blur: 0.70 → 0.59 of per-frame À-Trous on the Cornell orbit),
+/// and history rejection where the lighting changes (radius 4, 2 standard errors, gain 10: the
+/// animated scene went from 2.3× to 0.97× per-frame À-Trous). Camera jitter and TAA are off:
+/// measured, they did not lower FLIP (docs/results/temporal.md).
+fn sequence_params() -> (TemporalParams, Option<(f32, f32)>) {
     let mut p = TemporalParams {
         alpha: 0.1,
         alpha_moments: 0.1,
+        filtered_history: false,
+        gradient_radius: 4,
+        gradient_sigmas: 2.0,
+        gradient_gain: 10.0,
         ..TemporalParams::default()
     };
     p.atrous.iterations = 2;
-    p
+    let mut taa = None;
+    tune(&mut p, &mut taa);
+    (p, taa)
+}
+
+/// The sub-pixel jitter of frame `i`: the Halton (2, 3) point i + 1, less 0.5, in pixels
+/// (x right, y down), repeating every 16 frames.
+pub fn jitter(i: usize) -> [f32; 2] {
+    let k = (i % 16) as u32 + 1;
+    [halton(k, 2) - 0.5, halton(k, 3) - 0.5]
+}
+
+fn halton(mut i: u32, base: u32) -> f32 {
+    let (mut f, mut r) = (1.0f32, 0.0f32);
+    while i > 0 {
+        f /= base as f32;
+        r += f * (i % base) as f32;
+        i /= base;
+    }
+    r
+}
+
+/// `camera` turned so that the centre of its pixel x sees what the centre of `camera`'s pixel
+/// x + `j` sees (exactly at the image centre; about a tenth of a pixel off near the corners at a
+/// 40° field of view): the target moves along the image plane, the eye stays.
+pub fn jittered_camera(camera: &Camera, w: usize, h: usize, j: [f32; 2]) -> Camera {
+    let (right, up, _) = camera.basis();
+    let (hw, hh) = camera.half_extent(w, h);
+    let dist = (camera.target - camera.origin).length();
+    let shift = right * (j[0] * 2.0 * hw / w as f32) - up * (j[1] * 2.0 * hh / h as f32);
+    Camera {
+        target: camera.target + shift * dist,
+        ..camera.clone()
+    }
+}
+
+/// A tuning value of `LUMO_TEMPORAL_TUNE` (see [`tune`]).
+fn tuned(key: &str) -> Option<f32> {
+    let spec = std::env::var("LUMO_TEMPORAL_TUNE").ok()?;
+    spec.split(',').find_map(|kv| {
+        let (k, v) = kv.split_once('=')?;
+        (k.trim() == key).then(|| v.trim().parse().ok()).flatten()
+    })
+}
+
+/// Tuning aid (undocumented in `--help`): `LUMO_TEMPORAL_TUNE="alpha=0.1,levels=2,…"`
+/// overrides the parameters for parameter sweeps without a rebuild. Keys: alpha (colour and
+/// moments), levels, sigma_l, gr / gk / gg (gradient radius, sigmas, gain), fh (1: filtered
+/// history), taa / taag (TAA blend weight, 0 = off, and clip width), jit (1: camera jitter).
+/// Values that do not parse are ignored; the filter still checks ranges.
+fn tune(p: &mut TemporalParams, taa: &mut Option<(f32, f32)>) {
+    let Ok(spec) = std::env::var("LUMO_TEMPORAL_TUNE") else {
+        return;
+    };
+    for kv in spec.split(',') {
+        let Some((k, v)) = kv.split_once('=') else {
+            continue;
+        };
+        let Ok(v) = v.trim().parse::<f32>() else {
+            continue;
+        };
+        match k.trim() {
+            "alpha" => {
+                p.alpha = v;
+                p.alpha_moments = v;
+            }
+            "levels" => p.atrous.iterations = v as usize,
+            "sigma_l" => p.atrous.sigma_luminance = Some(v),
+            "gr" => p.gradient_radius = v as usize,
+            "gk" => p.gradient_sigmas = v,
+            "gg" => p.gradient_gain = v,
+            "fh" => p.filtered_history = v != 0.0,
+            "taa" if v > 0.0 => {
+                *taa = Some((v, taa.map_or(lumo_filter::DEFAULT_TAA_GAMMA, |t| t.1)))
+            }
+            "taa" => *taa = None,
+            "taag" => *taa = Some((taa.map_or(lumo_filter::DEFAULT_TAA_ALPHA, |t| t.0), v)),
+            _ => {}
+        }
+    }
 }
 
 /// The instance each pixel centre's camera ray hits first ([`NO_INSTANCE`] on a miss): the
@@ -188,6 +323,35 @@ fn motion_vectors(prev: &View, cur: &View, position: &Image, ids: Option<&[u32]>
 mod tests {
     use super::*;
 
+    /// The jittered camera's pixel centre x looks where the nominal camera's x + j looks (at
+    /// the image centre exactly; about a tenth of a pixel off near the corners at 40°), and the
+    /// jitter sequence covers the pixel.
+    #[test]
+    fn jittered_camera_shifts_the_pixel_grid() {
+        let nominal = Camera {
+            origin: Vec3::new(0.0, 1.0, 4.0),
+            target: Vec3::new(0.0, 1.0, 0.0),
+            up: Vec3::Y,
+            fov: 40.0,
+            fov_axis: lumo_scene::FovAxis::Y,
+        };
+        let (w, h) = (128, 96);
+        let j = [0.3, -0.4];
+        let a = PinholeCamera::new(&jittered_camera(&nominal, w, h, j), w, h);
+        let b = PinholeCamera::new(&nominal, w, h);
+        for (x, y) in [(64.0, 48.0), (10.5, 80.5)] {
+            let d = a.direction(Vec2::new(x, y));
+            let p = b.project(d).unwrap();
+            assert!((p.x - (x + j[0])).abs() < 0.15, "{x}: {p}");
+            assert!((p.y - (y + j[1])).abs() < 0.15, "{y}: {p}");
+        }
+        let js: Vec<[f32; 2]> = (0..16).map(jitter).collect();
+        assert!(js.iter().all(|j| j.iter().all(|v| v.abs() < 0.5)));
+        let mean = js.iter().fold(0.0, |s, j| s + j[0]) / 16.0;
+        assert!(mean.abs() < 0.05, "{mean}");
+        assert_eq!(jitter(3), jitter(19));
+    }
+
     /// A point on an instance that moved right by one unit comes from one unit left: its
     /// motion vector points there, while a static point under the same camera has none.
     #[test]
@@ -197,10 +361,12 @@ mod tests {
         let moved = Mat4::from_translation(Vec3::X);
         let prev = View {
             view_proj: vp,
+            jitter: [0.0; 2],
             transforms: vec![Mat4::IDENTITY, Mat4::IDENTITY],
         };
         let cur = View {
             view_proj: vp,
+            jitter: [0.0; 2],
             transforms: vec![Mat4::IDENTITY, moved],
         };
         let mut position = Image::new(w, h, 3, f32::NAN);

@@ -75,6 +75,10 @@ pub fn run(
     let strip_at = strip_frames(seq.frames.count() as usize);
     let mut strip = Vec::new();
     let none = |_: f32| {};
+    // Tuning aid: LUMO_TEMPORAL_DUMP=N writes frame N's images into DIR/dump/.
+    let dump_at: Option<u32> = std::env::var("LUMO_TEMPORAL_DUMP")
+        .ok()
+        .and_then(|v| v.parse().ok());
     for (i, frame) in (seq.frames.first..=seq.frames.last).enumerate() {
         let mut row = Row {
             frame,
@@ -96,10 +100,29 @@ pub fn run(
             .map_err(crate::pipeline_args::describe_pipeline_error)?;
         row.trace = out.timings.trace;
         row.spatial = out.timings.filter + out.timings.compose;
-        let (filtered, times) = job
-            .pool
-            .install(|| temporal.filter(&rs, &out.frame))
-            .with_context(|| format!("frame {frame}: temporal filter"))?;
+        // The temporal filter's own trace: the same randomisation through the jittered camera
+        // (no jitter: the frame above).
+        let nominal = rs.scene.camera.clone();
+        let (camera, jitter) = temporal.camera(&nominal, settings.width, settings.height, i);
+        let jittered = if jitter != [0.0; 2] {
+            rs.scene.camera = camera;
+            let o = job
+                .pool
+                .install(|| run_pipeline(&rs, Pipeline::None, &traced, &options, &none));
+            rs.scene.camera = nominal.clone();
+            Some(o.map_err(crate::pipeline_args::describe_pipeline_error)?)
+        } else {
+            None
+        };
+        let tframe = jittered.as_ref().map_or(&out.frame, |o| &o.frame);
+        rs.scene.camera = match jittered {
+            Some(_) => camera_for_filter(&nominal, settings.width, settings.height, jitter),
+            None => nominal.clone(),
+        };
+        let filtered = job.pool.install(|| temporal.filter(&rs, tframe, jitter));
+        rs.scene.camera = nominal;
+        let (filtered, times) =
+            filtered.with_context(|| format!("frame {frame}: temporal filter"))?;
         row.motion = times.motion;
         row.temporal = times.filter;
         if reference_spp > 0 {
@@ -141,6 +164,18 @@ pub fn run(
                 row.change_temporal = mean_abs_diff(&shown[1], &p.shown[1]);
                 row.change_reference = mean_abs_diff(&shown[2], &p.shown[2]);
             }
+            if dump_at == Some(frame) {
+                let d = dir.join("dump");
+                std::fs::create_dir_all(&d)?;
+                for (name, img) in [
+                    ("noisy", &out.frame.color),
+                    ("atrous", &out.image),
+                    ("temporal", &filtered),
+                    ("reference", &r),
+                ] {
+                    write_image(&d.join(format!("{frame:06}_{name}.exr")), img)?;
+                }
+            }
             if strip_at.contains(&i) {
                 strip.push([
                     out.frame.color.clone(),
@@ -175,6 +210,17 @@ pub fn run(
         }
     }
     Ok(())
+}
+
+/// The camera the temporal filter must see for a frame traced with `jitter`: the jittered one
+/// (its motion vectors and instance ids follow the traced pixels).
+fn camera_for_filter(
+    nominal: &lumo_scene::Camera,
+    w: usize,
+    h: usize,
+    jitter: [f32; 2],
+) -> lumo_scene::Camera {
+    crate::temporal::jittered_camera(nominal, w, h, jitter)
 }
 
 /// The seed of frame `frame` of a temporally filtered sequence: a different randomisation of

@@ -8,15 +8,20 @@
 //! The filter is pure except for its own history: the same sequence of frames gives the same
 //! images, bit for bit, on any number of threads. See docs/filters.md ("Temporal filter").
 
+mod gradient;
 mod motion;
 mod reproject;
+mod taa;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_rejection;
 
 use lumo_image::Image;
 use rayon::prelude::*;
 
 pub use motion::{motion_vectors, pinhole_view_projection, project_to_pixel};
+pub use taa::{TemporalAntialias, DEFAULT_TAA_ALPHA, DEFAULT_TAA_GAMMA};
 
 use crate::atrous::{AtrousFilter, AtrousParams};
 use crate::common::albedo::albedo_divisor;
@@ -25,7 +30,7 @@ use crate::common::gbuffer::{check_color, check_size, missing_pixels, Features, 
 use crate::common::passthrough::passed;
 use crate::denoiser::{require, Denoiser, FilterInput, FilterKind};
 use crate::FilterError;
-use reproject::{History, Sample};
+use reproject::{History, Prev, Sample};
 
 /// SVGF's temporal colour weight: the new frame's share once the history is long.
 pub const DEFAULT_ALPHA: f32 = 0.2;
@@ -53,6 +58,20 @@ pub struct TemporalParams {
     pub depth_tolerance: f32,
     /// Reprojection: a history tap is rejected when dot(normal_prev, normal) < this.
     pub normal_min_dot: f32,
+    /// Keep the first À-Trous level as the colour history (SVGF) rather than the accumulated,
+    /// spatially unfiltered colour. SVGF's choice converges faster but compounds that level's
+    /// blur frame after frame (a steady state of Σ α(1−α)^k K^(k+1)); see docs/filters.md.
+    pub filtered_history: bool,
+    /// History rejection where the lighting changed (A-SVGF-like, see docs/filters.md): radius
+    /// r of the (2r+1)² window whose mean sample luminance is compared with the reprojected
+    /// history's; 0 switches the rejection off.
+    pub gradient_radius: usize,
+    /// The part of that difference within this many standard errors of the samples' mean is
+    /// taken for noise.
+    pub gradient_sigmas: f32,
+    /// λ = gain × (difference beyond the noise) / the larger mean, clamped to [0, 1]; the new
+    /// sample's weight becomes (1 − λ)·α + λ.
+    pub gradient_gain: f32,
     /// The spatial filter. `demodulate` is ignored (the temporal filter demodulates itself);
     /// `use_variance` should stay on (the temporal variance steers the colour weight);
     /// `sigma_position` is dropped when a frame has no position plane; `sparse` must be 1.
@@ -69,6 +88,10 @@ impl Default for TemporalParams {
             spatial_radius: 3,
             depth_tolerance: 0.1,
             normal_min_dot: 0.9,
+            filtered_history: true,
+            gradient_radius: 4,
+            gradient_sigmas: 2.0,
+            gradient_gain: 10.0,
             atrous: AtrousParams {
                 iterations: 5,
                 sigma_luminance: Some(DEFAULT_TEMPORAL_SIGMA_LUMINANCE),
@@ -134,6 +157,9 @@ pub struct TemporalFilter {
     variance: Image,
     /// Working buffers, reused between frames.
     samples: Vec<Sample>,
+    prev: Vec<Option<Prev>>,
+    sums: Vec<gradient::Sums>,
+    lambda: Vec<f32>,
     acc: Vec<reproject::Accumulated>,
     integrated: Image,
 }
@@ -149,6 +175,9 @@ impl TemporalFilter {
             reprojected: Image::new(0, 0, 3, 0.0),
             variance: Image::new(0, 0, 1, 0.0),
             samples: vec![],
+            prev: vec![],
+            sums: vec![],
+            lambda: vec![],
             acc: vec![],
             integrated: Image::new(0, 0, 3, 0.0),
         })
@@ -184,6 +213,12 @@ impl TemporalFilter {
     /// where there was none.
     pub fn reprojected_history(&self) -> &Image {
         &self.reprojected
+    }
+
+    /// The last frame's history rejection λ per pixel (row-major, 0 = history kept as it is,
+    /// 1 = dropped), see [`TemporalParams::gradient_radius`].
+    pub fn rejection(&self) -> &[f32] {
+        &self.lambda
     }
 
     /// The last frame's luminance variance estimate of colour / albedo (1 channel).
@@ -227,12 +262,20 @@ impl TemporalFilter {
             }
         });
         let samples = &samples[..];
-        // 2. Reprojection and accumulation.
+        // 2. Reprojection, history rejection where the lighting changed, accumulation.
         let hist = self.history.as_ref();
-        acc.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-            for (x, a) in row.iter_mut().enumerate() {
-                *a = reproject::accumulate(p, hist, frame, samples, x, y);
+        let prev = &mut self.prev;
+        prev.resize(n, None);
+        prev.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+            for (x, pr) in row.iter_mut().enumerate() {
+                *pr = reproject::reproject_pixel(p, hist, frame, samples, x, y);
             }
+        });
+        let prev = &prev[..];
+        gradient::rejection(p, samples, prev, w, h, &mut self.sums, &mut self.lambda);
+        let lambda = &self.lambda[..];
+        acc.par_iter_mut().enumerate().for_each(|(i, a)| {
+            *a = reproject::blend(p, &samples[i], prev[i], lambda[i]);
         });
         // 3. Variance: temporal from the moments, spatial while the history is short.
         let acc = &acc[..];
@@ -303,7 +346,11 @@ impl TemporalFilter {
                 }
             });
         // 6. The new history.
-        let mut color = first;
+        let mut color = if p.filtered_history {
+            first
+        } else {
+            integrated.clone()
+        };
         for v in &mut color.data {
             *v = sanitize(*v);
         }
@@ -358,6 +405,20 @@ fn validate_params(p: &TemporalParams) -> Result<(), FilterError> {
     }
     if p.max_history == 0 {
         return Err(param("max_history", "0 (use ≥ 1)"));
+    }
+    if p.gradient_radius > 16 {
+        return Err(param(
+            "gradient_radius",
+            format!("{} (use 0..=16)", p.gradient_radius),
+        ));
+    }
+    for (name, v) in [
+        ("gradient_sigmas", p.gradient_sigmas),
+        ("gradient_gain", p.gradient_gain),
+    ] {
+        if !(v.is_finite() && v >= 0.0) {
+            return Err(param(name, format!("{v} (use a finite value ≥ 0)")));
+        }
     }
     if p.spatial_radius > 16 {
         return Err(param(

@@ -195,31 +195,63 @@ fn reproject(
     Some((color.map(|c| c * inv), moments.map(|m| m * inv), len))
 }
 
-/// Reprojects and blends pixel (x, y).
-pub(super) fn accumulate(
+/// A pixel's reprojected history: colour / albedo, luminance moments, length.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct Prev {
+    pub color: [f32; 3],
+    pub moments: [f32; 2],
+    pub len: u32,
+}
+
+/// Reprojects pixel (x, y)'s history (`None`: none, or the pixel is passed through).
+pub(super) fn reproject_pixel(
     p: &TemporalParams,
     hist: Option<&History>,
     frame: &TemporalFrame,
     samples: &[Sample],
     x: usize,
     y: usize,
+) -> Option<Prev> {
+    let s = &samples[y * frame.color.width + x];
+    s.divisor?;
+    let (color, moments, len) = reproject(p, hist?, frame, &s.surface, x, y)?;
+    Some(Prev {
+        color,
+        moments,
+        len,
+    })
+}
+
+/// Blends sample `s` into its reprojected history `prev`. `lambda` ∈ [0, 1] is the history
+/// rejection of [`super::gradient`]: the blend weights become (1 − λ)·α + λ and, where λ > 0,
+/// the history length is cut to what that weight means (⌈1 / weight⌉ frames), so a young
+/// history's variance is estimated spatially again.
+pub(super) fn blend(
+    p: &TemporalParams,
+    s: &Sample,
+    prev: Option<Prev>,
+    lambda: f32,
 ) -> Accumulated {
-    let w = frame.color.width;
-    let s = &samples[y * w + x];
     if s.divisor.is_none() {
         return Accumulated::default();
     }
-    let prev = hist.and_then(|hi| reproject(p, hi, frame, &s.surface, x, y));
     match (s.valid, prev) {
-        (true, Some((hc, hm, hl))) => {
-            let len = (hl + 1).min(p.max_history);
+        (true, Some(pr)) => {
+            let mut len = (pr.len + 1).min(p.max_history);
             let a = p.alpha.max(1.0 / len as f32);
             let am = p.alpha_moments.max(1.0 / len as f32);
+            let (a, am) = if lambda > 0.0 {
+                let (a, am) = (a + lambda * (1.0 - a), am + lambda * (1.0 - am));
+                len = len.min((1.0 / a).ceil() as u32).max(1);
+                (a, am)
+            } else {
+                (a, am)
+            };
             Accumulated {
-                color: [0, 1, 2].map(|k| hc[k] + a * (s.illum[k] - hc[k])),
-                moments: [0, 1].map(|k| hm[k] + am * (s.moments[k] - hm[k])),
+                color: [0, 1, 2].map(|k| pr.color[k] + a * (s.illum[k] - pr.color[k])),
+                moments: [0, 1].map(|k| pr.moments[k] + am * (s.moments[k] - pr.moments[k])),
                 len,
-                history: Some(hc),
+                history: Some(pr.color),
             }
         }
         (true, None) => Accumulated {
@@ -229,11 +261,11 @@ pub(super) fn accumulate(
             history: None,
         },
         // A missing sample keeps its history as it is.
-        (false, Some((hc, hm, hl))) => Accumulated {
-            color: hc,
-            moments: hm,
-            len: hl,
-            history: Some(hc),
+        (false, Some(pr)) => Accumulated {
+            color: pr.color,
+            moments: pr.moments,
+            len: pr.len,
+            history: Some(pr.color),
         },
         (false, None) => Accumulated::default(),
     }
