@@ -30,9 +30,9 @@ pub(crate) mod bvh8;
 pub mod packet;
 mod robust;
 pub(crate) mod stack;
-mod tlas;
 #[cfg(test)]
 mod tests;
+mod tlas;
 pub(crate) mod wide;
 
 /// The nearest intersection of a ray with the scene.
@@ -597,7 +597,6 @@ fn tree_depth(tree: &Bvh2) -> usize {
     }
     deepest
 }
-
 
 /// Packets with fewer rays go ray by ray: a packet's tests cost sixteen lanes whatever the
 /// number of rays in it (a pixel rendered alone at 1 spp traces packets of one ray).
