@@ -5,7 +5,7 @@ use glam::Vec3;
 use lumo_image::Image;
 
 use super::*;
-use crate::bench::synthetic::{splitmix, synthetic_frame};
+use crate::bench::synthetic::{splitmix, synthetic_frame, SyntheticFrame};
 use crate::{atrous, spatial_variance, AtrousParams};
 
 /// A flat G-buffer: every pixel faces the camera at depth 2, positions on the plane z = −2.
@@ -42,6 +42,20 @@ fn frame<'a>(color: &'a Image, g: &'a Flat) -> TemporalFrame<'a> {
         normal: &g.normal,
         depth: &g.depth,
         position: Some(&g.position),
+        ids: None,
+        motion: None,
+    }
+}
+
+/// A synthetic frame's noisy image and G-buffer as the temporal filter's input, with no motion
+/// (a still camera over a static scene).
+pub(super) fn still_input(fr: &SyntheticFrame) -> TemporalFrame<'_> {
+    TemporalFrame {
+        color: &fr.noisy,
+        albedo: Some(&fr.albedo),
+        normal: &fr.normal,
+        depth: &fr.depth,
+        position: Some(&fr.position),
         ids: None,
         motion: None,
     }
@@ -107,16 +121,7 @@ fn static_noisy_scene_converges_below_single_frame_atrous() {
         let mut f = TemporalFilter::new(TemporalParams::default()).unwrap();
         for k in 0..8u64 {
             let fr = synthetic_frame(w, h, 1, 1000 * run + k);
-            let input = TemporalFrame {
-                color: &fr.noisy,
-                albedo: Some(&fr.albedo),
-                normal: &fr.normal,
-                depth: &fr.depth,
-                position: Some(&fr.position),
-                ids: None,
-                motion: None,
-            };
-            let out = f.filter(&input).unwrap();
+            let out = f.filter(&still_input(&fr)).unwrap();
             assert!(out.image.data.iter().all(|v| v.is_finite()));
             errors[k as usize] += mse(&out.image, &fr.reference) / runs as f64;
             // The spatial filter on one frame alone, as the À-Trous pipeline runs it.

@@ -113,16 +113,7 @@ fn unfiltered_history_converges_on_a_still_scene() {
         let mut f = TemporalFilter::new(p).unwrap();
         for k in 0..10u64 {
             let fr = synthetic_frame(w, h, 1, 500 + 1000 * run + k);
-            let input = TemporalFrame {
-                color: &fr.noisy,
-                albedo: Some(&fr.albedo),
-                normal: &fr.normal,
-                depth: &fr.depth,
-                position: Some(&fr.position),
-                ids: None,
-                motion: None,
-            };
-            let out = f.filter(&input).unwrap();
+            let out = f.filter(&super::tests::still_input(&fr)).unwrap();
             let e: f64 = out
                 .image
                 .data
