@@ -145,12 +145,23 @@ pub(crate) fn triangle_map(u0: f32, u1: f32) -> (f32, f32) {
     (b1, 1.0 - b0 - b1)
 }
 
-/// The larger of `a` and `b` as one `maxss`: `f32::max` also orders NaNs, which costs three
-/// more instructions per call in the ray-offset rules below (~0.5 % of a render). The two agree
-/// wherever neither argument is NaN.
+/// The larger of `a` and `b` with x86 `maxps` semantics (the second operand when either is
+/// NaN), one instruction: `f32::max` also orders NaNs, which cost three more per call in the
+/// ray-offset rules below (~0.5 % of a render). The packet kernels' slab tests use it too, so
+/// they compute the single-ray code's distances.
 #[inline(always)]
-fn max_fast(a: f32, b: f32) -> f32 {
+pub(crate) fn vmax(a: f32, b: f32) -> f32 {
     if a > b {
+        a
+    } else {
+        b
+    }
+}
+
+/// The smaller of `a` and `b` with x86 `minps` semantics.
+#[inline(always)]
+pub(crate) fn vmin(a: f32, b: f32) -> f32 {
+    if a < b {
         a
     } else {
         b
@@ -160,7 +171,7 @@ fn max_fast(a: f32, b: f32) -> f32 {
 /// The largest magnitude of `p`'s coordinates.
 #[inline(always)]
 fn max3_abs(p: [f32; 3]) -> f32 {
-    max_fast(p[0].abs(), max_fast(p[1].abs(), p[2].abs()))
+    vmax(p[0].abs(), vmax(p[1].abs(), p[2].abs()))
 }
 
 /// `p` moved off a surface with unit geometric normal `ng` to the side of direction `d`, by
@@ -226,7 +237,7 @@ pub(crate) fn shadow_segment(o: [f32; 3], q: [f32; 3], wi: [f32; 3], eps: f32) -
     let len = ((d[0] * d[0]) + (d[1] * d[1]) + (d[2] * d[2])).sqrt();
     let ahead = (d[0] * wi[0]) + (d[1] * wi[1]) + (d[2] * wi[2]) > 0.0;
     let scale = max3_abs(q);
-    let tmax = len - max_fast(eps * (1.0 + scale), len * 1e-4);
+    let tmax = len - vmax(eps * (1.0 + scale), len * 1e-4);
     let clear = ahead && tmax > 0.0;
     let inv = 1.0 / len;
     let dir = [d[0] * inv, d[1] * inv, d[2] * inv];

@@ -371,13 +371,8 @@ fn result_does_not_depend_on_the_thread_count() {
                 }
                 let out = f
                     .filter(&TemporalFrame {
-                        color: &fr.noisy,
-                        albedo: Some(&fr.albedo),
-                        normal: &fr.normal,
-                        depth: &fr.depth,
-                        position: Some(&fr.position),
-                        ids: None,
                         motion: Some(&motion),
+                        ..still_input(&fr)
                     })
                     .unwrap();
                 bits.extend(out.image.data.iter().map(|v| v.to_bits()));

@@ -58,24 +58,12 @@ pub(super) unsafe fn traverse_avx(
             std::mem::swap(&mut near_t, &mut far_t);
             std::mem::swap(&mut near, &mut far);
         }
-        let hit_near = near_t < ray.tmax;
-        let go_near = if hit_near && near.is_leaf() {
-            if !leaf(near, &mut ray, hit) {
-                return;
-            }
-            false
-        } else {
-            hit_near
+        let Some(go_near) = descend(near, near_t, &mut ray, hit, leaf) else {
+            return;
         };
         // After the near leaf, which may have shortened the ray.
-        let hit_far = far_t < ray.tmax;
-        let go_far = if hit_far && far.is_leaf() {
-            if !leaf(far, &mut ray, hit) {
-                return;
-            }
-            false
-        } else {
-            hit_far
+        let Some(go_far) = descend(far, far_t, &mut ray, hit, leaf) else {
+            return;
         };
         current = match (go_near, go_far) {
             (true, true) => {
@@ -95,6 +83,23 @@ pub(super) unsafe fn traverse_avx(
             }
         };
     }
+}
+
+/// Whether the walk goes down into `node`, entered at `t`: an entered leaf is handed to `leaf`
+/// at once and not descended into. `None`: `leaf` asked to stop the walk.
+#[inline(always)]
+fn descend(
+    node: &Bvh2Node,
+    t: f32,
+    ray: &mut Ray,
+    hit: &mut RayHit,
+    leaf: &mut impl FnMut(&Bvh2Node, &mut Ray, &mut RayHit) -> bool,
+) -> Option<bool> {
+    let entered = t < ray.tmax;
+    if entered && node.is_leaf() {
+        return leaf(node, ray, hit).then_some(false);
+    }
+    Some(entered)
 }
 
 /// The entry distances of the ray (origin `o`, inverse direction `inv`, each repeated in both

@@ -1,28 +1,10 @@
-//! The lane-wise pieces of packet traversal: NaN rules of the single-ray code, lane masks, and
-//! one node's box test and one triangle's intersection against all sixteen rays.
+//! The lane-wise pieces of packet traversal: lane masks (with the single-ray code's NaN rules,
+//! `crate::geometry::vmax`/`vmin`), one node's box test and one triangle's intersection
+//! against all sixteen rays.
 
 use super::{Lanes, PacketHits, Prepared, LANES};
 use crate::accel::wide::{Node, Packet};
-
-/// `x86 maxps` semantics (the second operand when either is NaN), as the single-ray code.
-#[inline(always)]
-pub(super) fn vmax(a: f32, b: f32) -> f32 {
-    if a > b {
-        a
-    } else {
-        b
-    }
-}
-
-/// `x86 minps` semantics.
-#[inline(always)]
-pub(super) fn vmin(a: f32, b: f32) -> f32 {
-    if a < b {
-        a
-    } else {
-        b
-    }
-}
+use crate::geometry::{vmax, vmin};
 
 /// `b` where the mask is set, else `a`.
 #[inline(always)]

@@ -27,7 +27,7 @@ use crate::accel::Hit;
 use crate::bsdf::{Bsdf, Diffuse};
 use crate::geometry::{
     cosine_pdf, disk_map, hemisphere_z, offset_point, power_heuristic, shadow_segment,
-    survival_probability, triangle_map, Basis,
+    survival_probability, triangle_map, vmax, Basis,
 };
 use crate::integrators::path::{PathSettings, PathState, ShadowRay};
 use crate::render_scene::{RenderScene, Surface};
@@ -419,10 +419,7 @@ fn bounce(
         let p = at(&pos, i);
         let no = offset_point(p, g, nd, eps);
         // Russian roulette (the scalar code's depth test is per lane here).
-        let max = {
-            let m = |a: f32, b: f32| if a > b { a } else { b };
-            m(th[0], m(th[1], th[2]))
-        };
+        let max = vmax(th[0], vmax(th[1], th[2]));
         let q = survival_probability(max, eta_scale[i]);
         let roulette = depth[i] >= settings.rr_depth;
         ok &= !(roulette && u_rr[i] >= q);

@@ -75,7 +75,6 @@ pub fn render_pixels_from(
 }
 
 /// Reusable buffers of one batch of paths.
-#[derive(Default)]
 struct Batch {
     paths: Vec<PathState>,
     active: Vec<u32>,
