@@ -487,19 +487,31 @@ impl Accel {
         if n >= MIN_PACKET_RAYS {
             if let Some(tree) = self.packet_tree() {
                 let h = tree.intersect_packet(rays);
+                // `scene_hit` for placement 0, its target matched once per packet.
+                let ids: Option<&[(u32, u32)]> = match self.placements[0].target {
+                    Target::Static => self.static_bvh.as_ref().map(|s| s.1.as_slice()),
+                    _ => None,
+                };
                 for (i, o) in out.iter_mut().enumerate().take(n) {
-                    *o = if h.id[i] == EMPTY {
-                        None
-                    } else {
-                        self.scene_hit(
-                            0,
-                            TriHit {
-                                t: h.t[i],
-                                triangle: h.id[i],
-                                u: h.u[i],
-                                v: h.v[i],
-                            },
-                        )
+                    let hit = TriHit {
+                        t: h.t[i],
+                        triangle: h.id[i],
+                        u: h.u[i],
+                        v: h.v[i],
+                    };
+                    *o = match ids {
+                        _ if h.id[i] == EMPTY => None,
+                        Some(ids) => {
+                            ids.get(hit.triangle as usize)
+                                .map(|&(instance, triangle)| Hit {
+                                    t: hit.t,
+                                    instance,
+                                    triangle,
+                                    u: hit.u,
+                                    v: hit.v,
+                                })
+                        }
+                        None => self.scene_hit(0, hit),
                     };
                 }
                 return;

@@ -453,7 +453,7 @@ impl RenderScene {
         } else {
             mesh.colors[i0] * w + mesh.colors[i1] * u + mesh.colors[i2] * v
         };
-        let mut surface = Surface {
+        let surface = Surface {
             p,
             ng,
             frame: Basis::new(ns),
@@ -464,8 +464,18 @@ impl RenderScene {
             triangle: hit.triangle,
         };
         if self.anisotropic[mesh.material] {
-            surface.frame = self.tangent_frame(&surface);
+            return self.with_tangent_frame(surface);
         }
+        surface
+    }
+
+    /// `surface` with its frame turned to the texture's u direction (anisotropic BSDFs).
+    /// Out of line and by value: a reference to the surface taken in [`Self::surface`] itself
+    /// kept LLVM from holding the record in registers for every other material.
+    #[cold]
+    #[inline(never)]
+    fn with_tangent_frame(&self, mut surface: Surface) -> Surface {
+        surface.frame = self.tangent_frame(&surface);
         surface
     }
 
@@ -479,7 +489,7 @@ impl RenderScene {
             unreachable!("analytic placement without a shape");
         };
         let sp = shape.surface_at(origin + dir * hit.t);
-        let mut surface = Surface {
+        let surface = Surface {
             p: sp.p,
             ng: sp.n,
             frame: Basis::new(sp.n),
@@ -490,7 +500,7 @@ impl RenderScene {
             triangle: 0,
         };
         if self.anisotropic[material] {
-            surface.frame = self.tangent_frame(&surface);
+            return self.with_tangent_frame(surface);
         }
         surface
     }

@@ -164,6 +164,9 @@ fn bounce(
     let (mut bu, mut bv) = ([0.0f32; N], [0.0f32; N]);
     let (mut nv0, mut nv1, mut nv2): (L3, L3, L3) = ([[0.0; N]; 3], [[0.0; N]; 3], [[0.0; N]; 3]);
     let mut interpolate = [false; N];
+    // Lanes whose hit `arrive` must record (a first hit wanted, or emission seen): rare, so
+    // the record is built only for them, in a second pass once the frame is known.
+    let mut records = [false; N];
     for (i, &(p, hit)) in lanes.iter().enumerate().take(n) {
         let sd = rs.simple_diffuse_ref(hit.instance);
         let path = &mut paths[p as usize];
@@ -195,6 +198,8 @@ fn bounce(
             // p = origin + dir·t
             pos[a][i] = o[a][i] + d[a][i] * hit.t;
         }
+        let seen_front = dot(normal.into(), path.dir.into()) < 0.0;
+        records[i] = path.want_first_hit || (seen_front && sd.emission != Vec3::ZERO);
         eta_scale[i] = path.eta_scale;
         depth[i] = path.depth;
         alive[i] = path.depth < settings.max_depth;
@@ -258,6 +263,9 @@ fn bounce(
 
     // What `arrive` records for the hit: the first-hit record, emission seen along the ray.
     for (i, &(p, hit)) in lanes.iter().enumerate().take(n) {
+        if !records[i] {
+            continue;
+        }
         let sd = rs.simple_diffuse_ref(hit.instance);
         let path = &mut paths[p as usize];
         let g = Vec3::new(ng[0][i], ng[1][i], ng[2][i]);
