@@ -10,7 +10,9 @@ pub struct PipelineArgs {
     /// How traced paths become the image: atrous (À-Trous on the demodulated image; the
     /// default, see docs/pipelines.md), none (plain path tracing), guided (guided filter on
     /// indirect light), jbu (sparse indirect + joint bilateral upsampling), bilateral
-    /// (cross-bilateral reference) [default: atrous; none with --integrator light].
+    /// (cross-bilateral reference), auto (guided filters at four radii blended per pixel by
+    /// their estimated error, as `lumo denoise --filter auto`) [default: atrous; none with
+    /// --integrator light].
     #[arg(long, value_parser = parse_pipeline)]
     pub pipeline: Option<Pipeline>,
     /// atrous: trace every n-th pixel in x and y only (1, 2 or 4) and in-paint the rest.

@@ -6,6 +6,7 @@
 #![forbid(unsafe_code)]
 
 mod atrous;
+mod auto;
 mod bilateral;
 mod compose;
 mod guided;
@@ -33,16 +34,20 @@ pub enum Pipeline {
     Jbu,
     /// Cross-bilateral filter on the demodulated indirect light (the papers' quality reference).
     Bilateral,
+    /// Full paths, then guided filters at several radii blended per pixel by their estimated
+    /// error (lumo-filter's `auto`).
+    Auto,
 }
 
 impl Pipeline {
     /// Every pipeline, in the order tables list them.
-    pub const ALL: [Pipeline; 5] = [
+    pub const ALL: [Pipeline; 6] = [
         Pipeline::None,
         Pipeline::Bilateral,
         Pipeline::Atrous,
         Pipeline::Guided,
         Pipeline::Jbu,
+        Pipeline::Auto,
     ];
 
     /// The name used on the command line.
@@ -53,6 +58,7 @@ impl Pipeline {
             Pipeline::Guided => "guided",
             Pipeline::Jbu => "jbu",
             Pipeline::Bilateral => "bilateral",
+            Pipeline::Auto => "auto",
         }
     }
 
@@ -64,14 +70,16 @@ impl Pipeline {
     /// Working memory of a render through this pipeline per image pixel, in bytes: the
     /// frame's AOV planes, the pipeline's buffers and the output. Measured as peak RSS over a
     /// 1024x1024 `lumo render`, less that of an 8x8 one: none 199, jbu 199, bilateral 210,
-    /// atrous 306, guided 408 (at 4096x4096 atrous: 294); rounded up. Callers refuse sizes
-    /// that cannot fit before allocating.
+    /// atrous 306, guided 408, auto 630 (four candidate images and their error maps); at
+    /// 4096x4096 atrous: 294; rounded up. Callers refuse sizes that cannot fit before
+    /// allocating.
     pub fn bytes_per_pixel(self) -> u64 {
         match self {
             Pipeline::None | Pipeline::Jbu => 220,
             Pipeline::Bilateral => 230,
             Pipeline::Atrous => 320,
             Pipeline::Guided => 430,
+            Pipeline::Auto => 660,
         }
     }
 }
@@ -193,5 +201,6 @@ pub fn run_pipeline(
         Pipeline::Guided => guided::run(rs, settings, options, progress),
         Pipeline::Jbu => jbu::run(rs, settings, options, progress),
         Pipeline::Bilateral => bilateral::run(rs, settings, progress),
+        Pipeline::Auto => auto::run(rs, settings, progress),
     }
 }

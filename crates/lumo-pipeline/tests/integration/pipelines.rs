@@ -155,6 +155,7 @@ fn errors_fall_with_spp_and_sit_far_below_the_unfiltered_error() {
         Pipeline::Guided,
         Pipeline::Jbu,
         Pipeline::Bilateral,
+        Pipeline::Auto,
     ] {
         let errors: Vec<f64> = [1, 4, 16]
             .iter()
