@@ -111,6 +111,7 @@ pub fn auto(
     radii.dedup();
     let mut candidates = Vec::with_capacity(radii.len());
     let mut errors = Vec::with_capacity(radii.len());
+    let mut self_weights = selfweight::SelfWeights::new(&guide);
     for &r in &radii {
         let f = guided(
             y,
@@ -121,7 +122,7 @@ pub fn auto(
             },
         )?
         .image;
-        let self_weight = selfweight::guided_self_weight(&guide, r);
+        let self_weight = self_weights.at_radius(r);
         errors.push(loo_error(y, &f, &self_weight, params.error_radius));
         candidates.push(f);
     }

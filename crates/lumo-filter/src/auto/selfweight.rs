@@ -14,7 +14,7 @@
 
 use rayon::prelude::*;
 
-use crate::common::boxsum::box_mean;
+use crate::common::boxsum::box_mean_into;
 use crate::Guide;
 
 /// Number of pixels of the window of radius `r` around `i` on an axis of length `n`.
@@ -27,113 +27,165 @@ fn packed(d: usize, row: usize, col: usize) -> usize {
     row * d - row * (row + 1) / 2 + col
 }
 
-/// Largest guide dimension (as [`crate::MAX_GUIDE_DIMS`]), for stack buffers.
-const MAX_D: usize = crate::MAX_GUIDE_DIMS;
-
-/// Inverts the symmetric positive definite `m` (d×d, row-major) in place by Gauss–Jordan
-/// elimination without pivoting (the ε on the diagonal keeps the pivots positive); a pivot
-/// that rounding drives to ≤ 0 is floored so the result stays finite. On the stack: it runs
-/// once per pixel.
-fn invert(m: &mut [f64], d: usize) {
-    let mut inv = [0.0f64; MAX_D * MAX_D];
-    for i in 0..d {
-        inv[i * d + i] = 1.0;
+/// Inverts the symmetric positive definite `m` in place by Gauss–Jordan elimination without
+/// pivoting (the ε on the diagonal keeps the pivots positive); a pivot that rounding drives to
+/// ≤ 0 is floored so the result stays finite. On the stack: it runs once per pixel and radius,
+/// and with `D` a constant the loops unroll (the first version, with the dimension known only
+/// at run time, spent a third of `auto`'s time here).
+#[inline(always)]
+fn invert<const D: usize>(m: &mut [[f64; D]; D]) {
+    let mut inv = [[0.0f64; D]; D];
+    for (i, row) in inv.iter_mut().enumerate() {
+        row[i] = 1.0;
     }
-    for c in 0..d {
-        let p = m[c * d + c].max(1e-12);
-        for k in 0..d {
-            m[c * d + k] /= p;
-            inv[c * d + k] /= p;
+    for c in 0..D {
+        let p = m[c][c].max(1e-12);
+        for k in 0..D {
+            m[c][k] /= p;
+            inv[c][k] /= p;
         }
-        for r in 0..d {
+        for r in 0..D {
             if r != c {
-                let f = m[r * d + c];
-                for k in 0..d {
-                    m[r * d + k] -= f * m[c * d + k];
-                    inv[r * d + k] -= f * inv[c * d + k];
+                let f = m[r][c];
+                for k in 0..D {
+                    m[r][k] -= f * m[c][k];
+                    inv[r][k] -= f * inv[c][k];
                 }
             }
         }
     }
-    m.copy_from_slice(&inv[..d * d]);
+    *m = inv;
 }
 
-/// The guided filter's self-weight at every pixel for `guide` and window radius `r`.
-pub(super) fn guided_self_weight(guide: &Guide, r: usize) -> Vec<f32> {
-    let (w, h, d) = (guide.width, guide.height, guide.dims);
-    let n = w * h;
-    let np = d * (d + 1) / 2;
-    // Guide moments: g (d values) and the packed upper triangle of g gᵀ.
-    let k1 = d + np;
-    let mut moments = vec![0.0f32; n * k1];
-    moments
-        .par_chunks_mut(k1)
-        .zip(guide.data.par_chunks(d))
-        .for_each(|(m, g)| {
-            m[..d].copy_from_slice(g);
-            for a in 0..d {
-                for b in a..d {
-                    m[d + packed(d, a, b)] = g[a] * g[b];
-                }
-            }
-        });
-    let means = box_mean(&moments, w, h, k1, r);
-    // Per window: A/|ω| (packed), Aμ/|ω|, (1 + μᵀAμ)/|ω|.
-    let k2 = np + d + 1;
-    let mut window = vec![0.0f32; n * k2];
-    window
-        .par_chunks_mut(k2 * w)
-        .enumerate()
-        .for_each(|(y, row)| {
-            let mut mbuf = [0.0f64; MAX_D * MAX_D];
-            let m = &mut mbuf[..d * d];
-            let mut mu = [0.0f64; MAX_D];
-            for x in 0..w {
-                let i = y * w + x;
-                let s = &means[i * k1..(i + 1) * k1];
-                for a in 0..d {
-                    mu[a] = s[a] as f64;
-                }
+/// The guided filter's self-weight for one guide at several radii, its working buffers kept
+/// from one radius to the next (fresh ones per radius page-faulted ~60 MB each at 512²).
+pub(super) struct SelfWeights<'g> {
+    guide: &'g Guide,
+    /// Guide moments: g and the packed upper triangle of g gᵀ, per pixel (any radius).
+    moments: Vec<f32>,
+    means: Vec<f32>,
+    window: Vec<f32>,
+    avg: Vec<f32>,
+    tmp: Vec<f32>,
+}
+
+impl<'g> SelfWeights<'g> {
+    /// Buffers for `guide`, its moments computed once.
+    pub(super) fn new(guide: &'g Guide) -> Self {
+        let d = guide.dims;
+        let k1 = d + d * (d + 1) / 2;
+        let mut moments = vec![0.0f32; guide.width * guide.height * k1];
+        moments
+            .par_chunks_mut(k1)
+            .zip(guide.data.par_chunks(d))
+            .for_each(|(m, g)| {
+                m[..d].copy_from_slice(g);
                 for a in 0..d {
                     for b in a..d {
-                        let cov = s[d + packed(d, a, b)] as f64 - mu[a] * mu[b];
-                        m[a * d + b] = cov;
-                        m[b * d + a] = cov;
-                    }
-                    m[a * d + a] += guide.eps[a] as f64;
-                }
-                invert(m, d);
-                let size = span(x, r, w) * span(y, r, h);
-                let out = &mut row[x * k2..(x + 1) * k2];
-                let mut quad = 0.0;
-                for a in 0..d {
-                    let am: f64 = (0..d).map(|b| m[a * d + b] * mu[b]).sum();
-                    out[np + a] = (am / size) as f32;
-                    quad += mu[a] * am;
-                    for b in a..d {
-                        out[packed(d, a, b)] = (m[a * d + b] / size) as f32;
+                        m[d + packed(d, a, b)] = g[a] * g[b];
                     }
                 }
-                out[np + d] = ((1.0 + quad) / size) as f32;
-            }
-        });
-    let avg = box_mean(&window, w, h, k2, r);
-    (0..n)
-        .into_par_iter()
-        .map(|i| {
-            let g = &guide.data[i * d..(i + 1) * d];
-            let s = &avg[i * k2..(i + 1) * k2];
-            let mut v = s[np + d] as f64;
-            for a in 0..d {
-                v -= 2.0 * g[a] as f64 * s[np + a] as f64;
-                for b in a..d {
-                    let t = g[a] as f64 * g[b] as f64 * s[packed(d, a, b)] as f64;
-                    v += if a == b { t } else { 2.0 * t };
+            });
+        Self {
+            guide,
+            moments,
+            means: Vec::new(),
+            window: Vec::new(),
+            avg: Vec::new(),
+            tmp: Vec::new(),
+        }
+    }
+
+    /// The self-weight at every pixel for window radius `r`.
+    pub(super) fn at_radius(&mut self, r: usize) -> Vec<f32> {
+        // One copy per guide dimension (at most `crate::MAX_GUIDE_DIMS`).
+        match self.guide.dims {
+            1 => self.weights::<1>(r),
+            2 => self.weights::<2>(r),
+            3 => self.weights::<3>(r),
+            4 => self.weights::<4>(r),
+            5 => self.weights::<5>(r),
+            6 => self.weights::<6>(r),
+            7 => self.weights::<7>(r),
+            _ => self.weights::<{ crate::MAX_GUIDE_DIMS }>(r),
+        }
+    }
+
+    /// [`Self::at_radius`] for a guide of `D` dimensions.
+    fn weights<const D: usize>(&mut self, r: usize) -> Vec<f32> {
+        let guide = self.guide;
+        let (w, h) = (guide.width, guide.height);
+        debug_assert_eq!(guide.dims, D);
+        let n = w * h;
+        let np = D * (D + 1) / 2;
+        let k1 = D + np;
+        box_mean_into(&self.moments, w, h, k1, r, &mut self.tmp, &mut self.means);
+        let means = &self.means;
+        // Per window: A/|ω| (packed), Aμ/|ω|, (1 + μᵀAμ)/|ω|.
+        let k2 = np + D + 1;
+        self.window.clear();
+        self.window.resize(n * k2, 0.0);
+        self.window
+            .par_chunks_mut(k2 * w)
+            .enumerate()
+            .for_each(|(y, row)| {
+                let mut mu = [0.0f64; D];
+                for x in 0..w {
+                    let i = y * w + x;
+                    let s = &means[i * k1..(i + 1) * k1];
+                    for a in 0..D {
+                        mu[a] = s[a] as f64;
+                    }
+                    let mut m = [[0.0f64; D]; D];
+                    for a in 0..D {
+                        for b in a..D {
+                            let cov = s[D + packed(D, a, b)] as f64 - mu[a] * mu[b];
+                            m[a][b] = cov;
+                            m[b][a] = cov;
+                        }
+                        m[a][a] += guide.eps[a] as f64;
+                    }
+                    invert(&mut m);
+                    let size = span(x, r, w) * span(y, r, h);
+                    let out = &mut row[x * k2..(x + 1) * k2];
+                    let mut quad = 0.0;
+                    for a in 0..D {
+                        let am: f64 = (0..D).map(|b| m[a][b] * mu[b]).sum();
+                        out[np + a] = (am / size) as f32;
+                        quad += mu[a] * am;
+                        for b in a..D {
+                            out[packed(D, a, b)] = (m[a][b] / size) as f32;
+                        }
+                    }
+                    out[np + D] = ((1.0 + quad) / size) as f32;
                 }
-            }
-            v.clamp(0.0, 1.0) as f32
-        })
-        .collect()
+            });
+        box_mean_into(&self.window, w, h, k2, r, &mut self.tmp, &mut self.avg);
+        let avg = &self.avg;
+        (0..n)
+            .into_par_iter()
+            .map(|i| {
+                let g = &guide.data[i * D..(i + 1) * D];
+                let s = &avg[i * k2..(i + 1) * k2];
+                let mut v = s[np + D] as f64;
+                for a in 0..D {
+                    v -= 2.0 * g[a] as f64 * s[np + a] as f64;
+                    for b in a..D {
+                        let t = g[a] as f64 * g[b] as f64 * s[packed(D, a, b)] as f64;
+                        v += if a == b { t } else { 2.0 * t };
+                    }
+                }
+                v.clamp(0.0, 1.0) as f32
+            })
+            .collect()
+    }
+}
+
+/// The guided filter's self-weight at every pixel for `guide` and window radius `r` (one
+/// radius; `auto` keeps a [`SelfWeights`] for its several).
+#[cfg(test)]
+fn guided_self_weight(guide: &Guide, r: usize) -> Vec<f32> {
+    SelfWeights::new(guide).at_radius(r)
 }
 
 #[cfg(test)]
