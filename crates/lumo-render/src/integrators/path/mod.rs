@@ -138,28 +138,32 @@ pub(crate) struct BounceNumbers {
 /// one-path loop ([`trace_path`]) and the wavefront renderer ([`crate::integrators::path::wavefront`]), which
 /// traces the rays of many paths together, run the same code and give the same result.
 #[derive(Clone, Copy, Debug)]
+// Fields in the order a bounce touches them, the first-hit record (written once per path)
+// last: a batch's states outgrow the first-level cache, and keeping the per-bounce fields
+// together touches fewer cache lines per path.
+#[repr(C)]
 pub struct PathState {
+    /// The path's random numbers.
+    pub sampler: PixelSampler,
     /// Origin of the ray to trace next.
     pub origin: Vec3,
     /// Unit direction of the ray to trace next.
     pub dir: Vec3,
-    /// The path's random numbers.
-    pub sampler: PixelSampler,
-    /// Radiance gathered so far.
-    pub radiance: PathRadiance,
-    /// The first hit, once known (filled only if asked for).
-    pub first_hit: FirstHit,
-    pub(crate) want_first_hit: bool,
     pub(crate) throughput: Vec3,
+    pub(crate) eta_scale: f32,
+    pub(crate) depth: u32,
     /// Density of the BSDF sample that produced the current ray; None for camera rays and
     /// delta lobes (no MIS against light sampling).
     pub(crate) prev_pdf: Option<f32>,
     pub(crate) prev_point: Vec3,
-    pub(crate) eta_scale: f32,
-    pub(crate) depth: u32,
+    pub(crate) want_first_hit: bool,
+    /// Radiance gathered so far.
+    pub radiance: PathRadiance,
     /// The path's wavelengths under spectral transport: the lanes of every colour it carries
     /// are then these wavelengths, not R, G, B.
     pub(crate) wl: Option<Wavelengths>,
+    /// The first hit, once known (filled only if asked for).
+    pub first_hit: FirstHit,
 }
 
 impl PathState {
