@@ -13,8 +13,8 @@ use std::time::{Duration, Instant};
 
 use glam::{Mat4, Vec2, Vec3};
 use lumo_filter::{
-    pinhole_view_projection, project_to_pixel, with_passthrough, FilterError, TemporalAntialias,
-    TemporalFilter, TemporalFrame, TemporalParams,
+    pinhole_view_projection, project_to_pixel, with_passthrough, FilterError, Resample,
+    TemporalAntialias, TemporalFilter, TemporalFrame, TemporalParams,
 };
 use lumo_image::Image;
 use lumo_render::camera::PinholeCamera;
@@ -212,7 +212,7 @@ pub fn jittered_camera(camera: &Camera, w: usize, h: usize, j: [f32; 2]) -> Came
 }
 
 /// A tuning value of `LUMO_TEMPORAL_TUNE` (see [`tune`]).
-fn tuned(key: &str) -> Option<f32> {
+pub fn tuned(key: &str) -> Option<f32> {
     let spec = std::env::var("LUMO_TEMPORAL_TUNE").ok()?;
     spec.split(',').find_map(|kv| {
         let (k, v) = kv.split_once('=')?;
@@ -223,7 +223,9 @@ fn tuned(key: &str) -> Option<f32> {
 /// Tuning aid (undocumented in `--help`): `LUMO_TEMPORAL_TUNE="alpha=0.1,levels=2,…"`
 /// overrides the parameters for parameter sweeps without a rebuild. Keys: alpha (colour and
 /// moments), levels, sigma_l, gr / gk / gg (gradient radius, sigmas, gain), fh (1: filtered
-/// history), taa / taag (TAA blend weight, 0 = off, and clip width), jit (1: camera jitter).
+/// history), cr (1: Catmull-Rom history reads), clamp (neighbourhood clamp, σ), sl / sn
+/// (short-history À-Trous levels and frames), taa / taag (TAA blend weight, 0 = off, and clip
+/// width), jit (1: camera jitter), jm (1: with jitter, motion on the unjittered grid).
 /// Values that do not parse are ignored; the filter still checks ranges.
 fn tune(p: &mut TemporalParams, taa: &mut Option<(f32, f32)>) {
     let Ok(spec) = std::env::var("LUMO_TEMPORAL_TUNE") else {
@@ -247,6 +249,16 @@ fn tune(p: &mut TemporalParams, taa: &mut Option<(f32, f32)>) {
             "gk" => p.gradient_sigmas = v,
             "gg" => p.gradient_gain = v,
             "fh" => p.filtered_history = v != 0.0,
+            "cr" => {
+                p.resample = if v != 0.0 {
+                    Resample::CatmullRom
+                } else {
+                    Resample::Bilinear
+                }
+            }
+            "clamp" => p.clamp_sigmas = v,
+            "sl" => p.short_history_levels = v as usize,
+            "sn" => p.short_history_frames = v as u32,
             "taa" if v > 0.0 => {
                 *taa = Some((v, taa.map_or(lumo_filter::DEFAULT_TAA_GAMMA, |t| t.1)))
             }
