@@ -90,6 +90,11 @@ pub struct TemporalParams {
     pub short_history_levels: usize,
     /// See [`Self::short_history_levels`].
     pub short_history_frames: u32,
+    /// Steer the À-Trous with the variance of the accumulated colour rather than of one
+    /// sample (SVGF): the temporal estimate times max(1/n, α/(2 − α)), the share of a sample's
+    /// variance left in a mean of n samples or in the moving average's steady state. The
+    /// edge-stopping then tightens as the history grows (less blur where less noise is left).
+    pub scale_variance: bool,
     /// The spatial filter. `demodulate` is ignored (the temporal filter demodulates itself);
     /// `use_variance` should stay on (the temporal variance steers the colour weight);
     /// `sigma_position` is dropped when a frame has no position plane; `sparse` must be 1.
@@ -114,6 +119,7 @@ impl Default for TemporalParams {
             clamp_sigmas: 0.0,
             short_history_levels: 0,
             short_history_frames: 4,
+            scale_variance: false,
             atrous: AtrousParams {
                 iterations: 5,
                 sigma_luminance: Some(DEFAULT_TEMPORAL_SIGMA_LUMINANCE),

@@ -382,7 +382,12 @@ pub(super) fn variance(
     let v = if a.len == 0 {
         0.0
     } else if a.len >= p.variance_history {
-        a.moments[1] - a.moments[0] * a.moments[0]
+        let v = a.moments[1] - a.moments[0] * a.moments[0];
+        if p.scale_variance {
+            v * (1.0 / a.len as f32).max(p.alpha / (2.0 - p.alpha))
+        } else {
+            v
+        }
     } else {
         let r = p.spatial_radius;
         let cur = &samples[y * w + x].surface;
