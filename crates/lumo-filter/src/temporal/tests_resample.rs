@@ -211,3 +211,48 @@ fn new_parameters_are_checked() {
         assert!(TemporalFilter::new(p).is_err());
     }
 }
+
+#[test]
+fn scaled_variance_is_the_sample_variance_times_the_history_share() {
+    let (w, h) = (32, 24);
+    let frames: Vec<_> = (0..12).map(|k| synthetic_frame(w, h, 1, 70 + k)).collect();
+    let run = |scale_variance: bool| {
+        let p = TemporalParams {
+            alpha: 0.2,
+            alpha_moments: 0.2,
+            filtered_history: false,
+            gradient_radius: 0,
+            scale_variance,
+            ..TemporalParams::default()
+        };
+        let mut f = TemporalFilter::new(p).unwrap();
+        let mut out = vec![];
+        for fr in &frames {
+            f.filter(&still_input(fr)).unwrap();
+            out.push((f.variance().clone(), f.history_length().to_vec()));
+        }
+        out
+    };
+    let (plain, scaled) = (run(false), run(true));
+    let mut checked = 0;
+    for ((v0, len), (v1, _)) in plain.iter().zip(&scaled) {
+        for i in 0..w * h {
+            let n = len[i];
+            if n < 4 {
+                // The spatial estimate of a short history is not scaled.
+                assert_eq!(v0.data[i], v1.data[i]);
+                continue;
+            }
+            // 1/n while the mean is plain (n ≤ 5), then α/(2 − α) = 1/9.
+            let share = (1.0 / n as f32).max(0.2 / 1.8);
+            assert!(
+                (v1.data[i] - share * v0.data[i]).abs() <= 1e-6 * (1.0 + v0.data[i]),
+                "n {n}: {} vs {}",
+                v1.data[i],
+                v0.data[i]
+            );
+            checked += 1;
+        }
+    }
+    assert!(checked > 1000, "{checked}");
+}
