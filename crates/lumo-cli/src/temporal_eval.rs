@@ -289,7 +289,7 @@ fn pixel_classes(frame: &lumo_render::Frame) -> Vec<PixelClass> {
                     return false;
                 }
                 let dot = n[0] * nj[0] + n[1] * nj[1] + n[2] * nj[2];
-                (d - dj).abs() > 0.05 * d || !(dot >= 0.9)
+                (d - dj).abs() > 0.05 * d || dot.is_nan() || dot < 0.9
             };
             if near(1, &step) {
                 out[i] = PixelClass::Edge;
