@@ -158,8 +158,8 @@ impl TemporalSequence {
 
 /// The sequence's parameters, tuned on a 24-frame 20° Cornell orbit at 128² (references at
 /// 512 spp) and a 24-frame, 96×64 run of `scenes/animated.gltf` (seed 7), never on the reported
-/// sequences (docs/results/temporal.md). Round 1: α = 0.1 and a 2-level À-Trous (SVGF: 0.2 and 5), the
-/// accumulated rather than the filtered colour as history (SVGF's feedback of the first
+/// sequences (docs/results/temporal.md). Round 1: α = 0.1 and a 2-level À-Trous (SVGF: 0.2
+/// and 5), the accumulated rather than the filtered colour as history (SVGF's feedback of the first
 /// À-Trous level compounds its blur: 0.70 → 0.59 of per-frame À-Trous on the Cornell orbit),
 /// and history rejection where the lighting changes (2 standard errors, gain 10: the animated
 /// scene went from 2.3× to 0.97× per-frame À-Trous). A second round (also on a 64-frame, 16°
