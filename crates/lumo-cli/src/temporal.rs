@@ -13,8 +13,8 @@ use std::time::{Duration, Instant};
 
 use glam::{Mat4, Vec2, Vec3};
 use lumo_filter::{
-    pinhole_view_projection, project_to_pixel, with_passthrough, FilterError, TemporalAntialias,
-    TemporalFilter, TemporalFrame, TemporalParams,
+    pinhole_view_projection, project_to_pixel, with_passthrough, FilterError, Resample,
+    TemporalAntialias, TemporalFilter, TemporalFrame, TemporalParams,
 };
 use lumo_image::Image;
 use lumo_render::camera::PinholeCamera;
@@ -158,20 +158,27 @@ impl TemporalSequence {
 
 /// The sequence's parameters, tuned on a 24-frame 20° Cornell orbit at 128² (references at
 /// 512 spp) and a 24-frame, 96×64 run of `scenes/animated.gltf` (seed 7), never on the reported
-/// sequences (docs/results/temporal.md): α = 0.1 and a 2-level À-Trous (SVGF: 0.2 and 5), the
-/// accumulated rather than the filtered colour as history (SVGF's feedback of the first
+/// sequences (docs/results/temporal.md). Round 1: α = 0.1 and a 2-level À-Trous (SVGF: 0.2
+/// and 5), the accumulated rather than the filtered colour as history (SVGF's feedback of the first
 /// À-Trous level compounds its blur: 0.70 → 0.59 of per-frame À-Trous on the Cornell orbit),
-/// and history rejection where the lighting changes (radius 4, 2 standard errors, gain 10: the
-/// animated scene went from 2.3× to 0.97× per-frame À-Trous). Camera jitter and TAA are off:
-/// measured, they did not lower FLIP (docs/results/temporal.md).
+/// and history rejection where the lighting changes (2 standard errors, gain 10: the animated
+/// scene went from 2.3× to 0.97× per-frame À-Trous). A second round (also on a 64-frame, 16°
+/// cornell-spheres orbit at 96², references 256 spp) added the variance of the accumulated
+/// colour rather than of one sample to steer the À-Trous (0.71 → 0.66 on that orbit), a longer
+/// history (α = 0.05, up to 128 frames) and a rejection radius of 6 (Cornell 0.61 → 0.59,
+/// spheres 0.65, animated 0.97 → 0.96). Camera jitter, TAA, Catmull-Rom history reads, the
+/// neighbourhood clamp and the short-history levels are off: measured, they did not lower FLIP
+/// (docs/results/temporal.md).
 fn sequence_params() -> (TemporalParams, Option<(f32, f32)>) {
     let mut p = TemporalParams {
-        alpha: 0.1,
-        alpha_moments: 0.1,
+        alpha: 0.05,
+        alpha_moments: 0.05,
+        max_history: 128,
         filtered_history: false,
-        gradient_radius: 4,
+        gradient_radius: 6,
         gradient_sigmas: 2.0,
         gradient_gain: 10.0,
+        scale_variance: true,
         ..TemporalParams::default()
     };
     p.atrous.iterations = 2;
@@ -212,7 +219,7 @@ pub fn jittered_camera(camera: &Camera, w: usize, h: usize, j: [f32; 2]) -> Came
 }
 
 /// A tuning value of `LUMO_TEMPORAL_TUNE` (see [`tune`]).
-fn tuned(key: &str) -> Option<f32> {
+pub fn tuned(key: &str) -> Option<f32> {
     let spec = std::env::var("LUMO_TEMPORAL_TUNE").ok()?;
     spec.split(',').find_map(|kv| {
         let (k, v) = kv.split_once('=')?;
@@ -223,7 +230,10 @@ fn tuned(key: &str) -> Option<f32> {
 /// Tuning aid (undocumented in `--help`): `LUMO_TEMPORAL_TUNE="alpha=0.1,levels=2,…"`
 /// overrides the parameters for parameter sweeps without a rebuild. Keys: alpha (colour and
 /// moments), levels, sigma_l, gr / gk / gg (gradient radius, sigmas, gain), fh (1: filtered
-/// history), taa / taag (TAA blend weight, 0 = off, and clip width), jit (1: camera jitter).
+/// history), cr (1: Catmull-Rom history reads), clamp (neighbourhood clamp, σ), sl / sn
+/// (short-history À-Trous levels and frames), mh (max history), vs (1: variance of
+/// the accumulated colour), taa / taag (TAA blend weight, 0 = off, and clip
+/// width), jit (1: camera jitter), jm (1: with jitter, motion on the unjittered grid).
 /// Values that do not parse are ignored; the filter still checks ranges.
 fn tune(p: &mut TemporalParams, taa: &mut Option<(f32, f32)>) {
     let Ok(spec) = std::env::var("LUMO_TEMPORAL_TUNE") else {
@@ -247,6 +257,18 @@ fn tune(p: &mut TemporalParams, taa: &mut Option<(f32, f32)>) {
             "gk" => p.gradient_sigmas = v,
             "gg" => p.gradient_gain = v,
             "fh" => p.filtered_history = v != 0.0,
+            "cr" => {
+                p.resample = if v != 0.0 {
+                    Resample::CatmullRom
+                } else {
+                    Resample::Bilinear
+                }
+            }
+            "clamp" => p.clamp_sigmas = v,
+            "mh" => p.max_history = v as u32,
+            "vs" => p.scale_variance = v != 0.0,
+            "sl" => p.short_history_levels = v as usize,
+            "sn" => p.short_history_frames = v as u32,
             "taa" if v > 0.0 => {
                 *taa = Some((v, taa.map_or(lumo_filter::DEFAULT_TAA_GAMMA, |t| t.1)))
             }

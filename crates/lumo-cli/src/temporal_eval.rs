@@ -44,6 +44,9 @@ struct Row {
     change_atrous: f64,
     change_temporal: f64,
     change_reference: f64,
+    /// FLIP summed over each [`PixelClass`] and divided by the pixel count (the classes'
+    /// shares of the mean), per-frame À-Trous then temporal.
+    by_class: [[f64; 3]; 2],
     update: Duration,
     trace: Duration,
     spatial: Duration,
@@ -115,11 +118,19 @@ pub fn run(
             None
         };
         let tframe = jittered.as_ref().map_or(&out.frame, |o| &o.frame);
+        // Tuning (`jm`): the jittered samples accumulate on the unjittered grid (motion from
+        // the nominal cameras), so the history converges to the pixel's area average.
+        let unjittered_motion = crate::temporal::tuned("jm").is_some_and(|v| v != 0.0);
         rs.scene.camera = match jittered {
-            Some(_) => camera_for_filter(&nominal, settings.width, settings.height, jitter),
-            None => nominal.clone(),
+            Some(_) if !unjittered_motion => {
+                camera_for_filter(&nominal, settings.width, settings.height, jitter)
+            }
+            _ => nominal.clone(),
         };
-        let filtered = job.pool.install(|| temporal.filter(&rs, tframe, jitter));
+        let filter_jitter = if unjittered_motion { [0.0; 2] } else { jitter };
+        let filtered = job
+            .pool
+            .install(|| temporal.filter(&rs, tframe, filter_jitter));
         rs.scene.camera = nominal;
         let (filtered, times) =
             filtered.with_context(|| format!("frame {frame}: temporal filter"))?;
@@ -156,6 +167,8 @@ pub fn run(
             row.flip_raw = mean(&map(&out.frame.color)?);
             row.flip_atrous = mean(&maps[0]);
             row.flip_temporal = mean(&maps[1]);
+            let classes = pixel_classes(&out.frame);
+            row.by_class = [0, 1].map(|k| class_means(&maps[k], &classes));
             let shown = [shown(&out.image), shown(&filtered), shown(&r)];
             if let Some(p) = &prev {
                 row.flicker_atrous = mean_abs_diff(&maps[0], &p.maps[0]);
@@ -221,6 +234,80 @@ fn camera_for_filter(
     jitter: [f32; 2],
 ) -> lumo_scene::Camera {
     crate::temporal::jittered_camera(nominal, w, h, jitter)
+}
+
+/// Where a pixel's error comes from, for the breakdown in the summary: next to a directly
+/// seen light (within 2 pixels: the light's aliased border), at a geometric edge (a depth,
+/// normal or background step in its 3×3 neighbourhood), or in a flat region.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum PixelClass {
+    LightRim = 0,
+    Edge = 1,
+    Flat = 2,
+}
+
+/// The class of every pixel of a traced frame (from its G-buffer at the pixel centres).
+fn pixel_classes(frame: &lumo_render::Frame) -> Vec<PixelClass> {
+    let (w, h) = (frame.width(), frame.height());
+    let emitter: Vec<bool> = frame
+        .emission
+        .data
+        .chunks_exact(3)
+        .map(|e| e.iter().any(|&v| v != 0.0))
+        .collect();
+    let depth = |i: usize| {
+        let d = frame.depth.data[i * frame.depth.channels];
+        if d.is_finite() && d > 0.0 {
+            d
+        } else {
+            0.0
+        }
+    };
+    let normal = |i: usize| {
+        let n = &frame.normal.data[3 * i..3 * i + 3];
+        [n[0], n[1], n[2]]
+    };
+    let mut out = vec![PixelClass::Flat; w * h];
+    for y in 0..h {
+        for x in 0..w {
+            let i = y * w + x;
+            let near = |r: usize, f: &dyn Fn(usize) -> bool| {
+                (y.saturating_sub(r)..(y + r + 1).min(h))
+                    .any(|yy| (x.saturating_sub(r)..(x + r + 1).min(w)).any(|xx| f(yy * w + xx)))
+            };
+            if near(2, &|j| emitter[j]) {
+                out[i] = PixelClass::LightRim;
+                continue;
+            }
+            let (d, n) = (depth(i), normal(i));
+            let step = |j: usize| {
+                let (dj, nj) = (depth(j), normal(j));
+                if (d == 0.0) != (dj == 0.0) {
+                    return true;
+                }
+                if d == 0.0 {
+                    return false;
+                }
+                let dot = n[0] * nj[0] + n[1] * nj[1] + n[2] * nj[2];
+                (d - dj).abs() > 0.05 * d || dot.is_nan() || dot < 0.9
+            };
+            if near(1, &step) {
+                out[i] = PixelClass::Edge;
+            }
+        }
+    }
+    out
+}
+
+/// A FLIP map's sum over each class, divided by the pixel count.
+fn class_means(map: &Image, classes: &[PixelClass]) -> [f64; 3] {
+    let mut s = [0.0f64; 3];
+    for (v, c) in map.data.iter().zip(classes) {
+        if v.is_finite() {
+            s[*c as usize] += *v as f64;
+        }
+    }
+    s.map(|v| v / classes.len().max(1) as f64)
 }
 
 /// The seed of frame `frame` of a temporally filtered sequence: a different randomisation of
@@ -356,6 +443,14 @@ fn summary(rows: &[Row], settings: &RenderSettings, reference_spp: u32) -> Strin
             avg(&|r| r.change_atrous, &pairs),
             avg(&|r| r.change_temporal, &pairs)
         );
+        let _ = writeln!(
+            s,
+            "\n| share of the mean FLIP after frame {WARM_UP} | light rim | edges | flat |\n|---|---:|---:|---:|"
+        );
+        for (k, name) in ["per-frame À-Trous", "temporal"].iter().enumerate() {
+            let c = |j: usize| avg(&|r| r.by_class[k][j], &after);
+            let _ = writeln!(s, "| {name} | {:.4} | {:.4} | {:.4} |", c(0), c(1), c(2));
+        }
     }
     let t = |f: &dyn Fn(&Row) -> Duration| avg(&|r| ms(f(r)), &all);
     let (trace, update, spatial, motion, temporal) = (

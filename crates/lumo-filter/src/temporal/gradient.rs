@@ -25,7 +25,11 @@ pub(super) type Sums = [f32; 5];
 const EPS: f32 = 1e-4;
 
 /// Fills `lambda` (one value per pixel, row-major) for a `w`×`h` frame; `sums` is a working
-/// buffer. All zero when the rejection is off (`gradient_radius` 0).
+/// buffer. All zero when the rejection is off (`gradient_radius` 0). With
+/// [`TemporalParams::clamp_sigmas`] > 0, `bounds` gets each pixel's neighbourhood-clamp
+/// interval of the history's luminance (the window samples' mean ± that many standard
+/// deviations), else it is left empty.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn rejection(
     p: &TemporalParams,
     samples: &[Sample],
@@ -34,9 +38,11 @@ pub(super) fn rejection(
     h: usize,
     sums: &mut Vec<Sums>,
     lambda: &mut Vec<f32>,
+    bounds: &mut Vec<[f32; 2]>,
 ) {
     lambda.clear();
     lambda.resize(w * h, 0.0);
+    bounds.clear();
     let r = p.gradient_radius;
     if r == 0 || w == 0 {
         return;
@@ -69,18 +75,46 @@ pub(super) fn rejection(
     // Vertical box sums and λ.
     let sums = &sums[..];
     let (k_sigma, gain) = (p.gradient_sigmas, p.gradient_gain);
+    let window = |x: usize, y: usize| {
+        let mut s = [0.0f32; 5];
+        for yy in y.saturating_sub(r)..(y + r + 1).min(h) {
+            let v = sums[yy * w + x];
+            for k in 0..5 {
+                s[k] += v[k];
+            }
+        }
+        s
+    };
     lambda.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
         for (x, out) in row.iter_mut().enumerate() {
-            let mut s = [0.0f32; 5];
-            for yy in y.saturating_sub(r)..(y + r + 1).min(h) {
-                let v = sums[yy * w + x];
-                for k in 0..5 {
-                    s[k] += v[k];
-                }
-            }
-            *out = lambda_of(s, k_sigma, gain);
+            *out = lambda_of(window(x, y), k_sigma, gain);
         }
     });
+    if p.clamp_sigmas > 0.0 {
+        bounds.resize(w * h, [f32::NEG_INFINITY, f32::INFINITY]);
+        bounds.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+            for (x, out) in row.iter_mut().enumerate() {
+                *out = clamp_bounds(window(x, y), p.clamp_sigmas);
+            }
+        });
+    }
+}
+
+/// The clamp interval of one window's sums: mean ± `gamma` standard deviations of the
+/// samples' luminance; unbounded with fewer than two samples.
+pub(super) fn clamp_bounds(s: Sums, gamma: f32) -> [f32; 2] {
+    let n = s[0];
+    if n < 2.0 {
+        return [f32::NEG_INFINITY, f32::INFINITY];
+    }
+    let m = s[1] / n;
+    let sd = (s[2] / n - m * m).max(0.0).sqrt();
+    let b = [m - gamma * sd, m + gamma * sd];
+    if b.iter().all(|v| v.is_finite()) {
+        b
+    } else {
+        [f32::NEG_INFINITY, f32::INFINITY]
+    }
 }
 
 /// λ of one window's sums.

@@ -16,6 +16,8 @@ mod taa;
 mod tests;
 #[cfg(test)]
 mod tests_rejection;
+#[cfg(test)]
+mod tests_resample;
 
 use lumo_image::Image;
 use rayon::prelude::*;
@@ -72,6 +74,27 @@ pub struct TemporalParams {
     /// λ = gain × (difference beyond the noise) / the larger mean, clamped to [0, 1]; the new
     /// sample's weight becomes (1 − λ)·α + λ.
     pub gradient_gain: f32,
+    /// How the colour history is read at pixel + motion: bilinearly (SVGF), or by Catmull-Rom
+    /// where all 4×4 taps are valid (bilinear elsewhere). Bilinear reads blur a little every
+    /// frame under motion (a shift by a fraction f averages with weight f(1 − f)), and the
+    /// history keeps that blur; Catmull-Rom keeps the history sharp.
+    pub resample: Resample,
+    /// Neighbourhood clamp of the reprojected history (0 = off): its luminance is clamped to
+    /// the mean ± this many standard deviations of this frame's samples over the rejection
+    /// window ([`Self::gradient_radius`], needed > 0), the colour scaled with it.
+    pub clamp_sigmas: f32,
+    /// À-Trous levels for pixels with a short history (0 = off): where the history length n is
+    /// below [`Self::short_history_frames`] + 1, the output blends towards an À-Trous of this
+    /// many levels (weight 1 − (n − 1) / frames), e.g. more levels right after a disocclusion
+    /// or a rejection, where the 1-spp sample is alone. Costs a second À-Trous.
+    pub short_history_levels: usize,
+    /// See [`Self::short_history_levels`].
+    pub short_history_frames: u32,
+    /// Steer the À-Trous with the variance of the accumulated colour rather than of one
+    /// sample (SVGF): the temporal estimate times max(1/n, α/(2 − α)), the share of a sample's
+    /// variance left in a mean of n samples or in the moving average's steady state. The
+    /// edge-stopping then tightens as the history grows (less blur where less noise is left).
+    pub scale_variance: bool,
     /// The spatial filter. `demodulate` is ignored (the temporal filter demodulates itself);
     /// `use_variance` should stay on (the temporal variance steers the colour weight);
     /// `sigma_position` is dropped when a frame has no position plane; `sparse` must be 1.
@@ -92,6 +115,11 @@ impl Default for TemporalParams {
             gradient_radius: 4,
             gradient_sigmas: 2.0,
             gradient_gain: 10.0,
+            resample: Resample::Bilinear,
+            clamp_sigmas: 0.0,
+            short_history_levels: 0,
+            short_history_frames: 4,
+            scale_variance: false,
             atrous: AtrousParams {
                 iterations: 5,
                 sigma_luminance: Some(DEFAULT_TEMPORAL_SIGMA_LUMINANCE),
@@ -100,6 +128,16 @@ impl Default for TemporalParams {
             },
         }
     }
+}
+
+/// How [`TemporalFilter`] reads the history between pixels ([`TemporalParams::resample`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Resample {
+    /// Bilinear over the valid 2×2 taps (SVGF).
+    #[default]
+    Bilinear,
+    /// Catmull-Rom over 4×4 taps where all are valid, clamped to the central 2×2 taps' range.
+    CatmullRom,
 }
 
 /// One frame's input planes. All have the colour image's size.
@@ -160,6 +198,7 @@ pub struct TemporalFilter {
     prev: Vec<Option<Prev>>,
     sums: Vec<gradient::Sums>,
     lambda: Vec<f32>,
+    bounds: Vec<[f32; 2]>,
     acc: Vec<reproject::Accumulated>,
     integrated: Image,
 }
@@ -178,6 +217,7 @@ impl TemporalFilter {
             prev: vec![],
             sums: vec![],
             lambda: vec![],
+            bounds: vec![],
             acc: vec![],
             integrated: Image::new(0, 0, 3, 0.0),
         })
@@ -272,10 +312,21 @@ impl TemporalFilter {
             }
         });
         let prev = &prev[..];
-        gradient::rejection(p, samples, prev, w, h, &mut self.sums, &mut self.lambda);
+        gradient::rejection(
+            p,
+            samples,
+            prev,
+            w,
+            h,
+            &mut self.sums,
+            &mut self.lambda,
+            &mut self.bounds,
+        );
         let lambda = &self.lambda[..];
+        let bounds = &self.bounds[..];
         acc.par_iter_mut().enumerate().for_each(|(i, a)| {
-            *a = reproject::blend(p, &samples[i], prev[i], lambda[i]);
+            let pr = prev[i].map(|pr| reproject::clamp_history(pr, bounds.get(i).copied()));
+            *a = reproject::blend(p, &samples[i], pr, lambda[i]);
         });
         // 3. Variance: temporal from the moments, spatial while the history is short.
         let acc = &acc[..];
@@ -321,6 +372,29 @@ impl TemporalFilter {
         let (filtered, first) = self
             .atrous
             .filter_keeping_first_level(integrated, &features, &ap)?;
+        let mut filtered = filtered;
+        if p.short_history_levels > 0 && p.short_history_levels != ap.iterations {
+            let sp = AtrousParams {
+                iterations: p.short_history_levels,
+                ..ap.clone()
+            };
+            let short = self.atrous.filter(integrated, &features, &sp)?.image;
+            let frames = p.short_history_frames.max(1) as f32;
+            filtered
+                .image
+                .data
+                .par_chunks_mut(3)
+                .zip(short.data.par_chunks(3))
+                .enumerate()
+                .for_each(|(i, (o, s))| {
+                    let t = short_weight(acc[i].len, frames);
+                    if t > 0.0 {
+                        for k in 0..3 {
+                            o[k] += t * (s[k] - o[k]);
+                        }
+                    }
+                });
+        }
         // 5. Remodulation; pass-through pixels get their own colour.
         let mut image = filtered.image;
         image
@@ -387,6 +461,15 @@ impl TemporalFilter {
     }
 }
 
+/// The weight of the short-history À-Trous for history length `len` (0: no sample):
+/// 1 − (len − 1) / frames, clamped to [0, 1].
+fn short_weight(len: u32, frames: f32) -> f32 {
+    if len == 0 {
+        return 0.0;
+    }
+    (1.0 - (len - 1) as f32 / frames).clamp(0.0, 1.0)
+}
+
 /// `v`, or 0 where it is not finite.
 #[inline]
 fn sanitize(v: f32) -> f32 {
@@ -419,6 +502,18 @@ fn validate_params(p: &TemporalParams) -> Result<(), FilterError> {
         if !(v.is_finite() && v >= 0.0) {
             return Err(param(name, format!("{v} (use a finite value ≥ 0)")));
         }
+    }
+    if !(p.clamp_sigmas.is_finite() && p.clamp_sigmas >= 0.0) {
+        return Err(param(
+            "clamp_sigmas",
+            format!("{} (use a finite value ≥ 0)", p.clamp_sigmas),
+        ));
+    }
+    if p.short_history_levels > 16 {
+        return Err(param(
+            "short_history_levels",
+            format!("{} (use 0..=16)", p.short_history_levels),
+        ));
     }
     if p.spatial_radius > 16 {
         return Err(param(

@@ -3,7 +3,7 @@
 
 use lumo_image::{luminance, Image};
 
-use super::{divisor, TemporalFrame, TemporalParams};
+use super::{divisor, Resample, TemporalFrame, TemporalParams};
 use crate::common::gbuffer::{is_background, Features};
 
 /// What reprojection compares between a pixel and a history tap.
@@ -192,7 +192,76 @@ fn reproject(
         return None;
     }
     let inv = 1.0 / sum;
-    Some((color.map(|c| c * inv), moments.map(|m| m * inv), len))
+    let mut color = color.map(|c| c * inv);
+    // All four bilinear taps valid: the sharper Catmull-Rom colour when its 4×4 taps all are.
+    if p.resample == Resample::CatmullRom && sum > 0.999 {
+        if let Some(c) = catmull_rom(p, hist, frame, cur, i, x0, y0, fx, fy) {
+            color = c;
+        }
+    }
+    Some((color, moments.map(|m| m * inv), len))
+}
+
+/// The Catmull-Rom (cubic convolution, a = −½) weights of the four taps at −1, 0, 1, 2 for a
+/// point at fraction `t` ∈ [0, 1) past tap 0. They sum to 1 and reproduce polynomials up to
+/// degree 2 exactly (bilinear only up to degree 1).
+pub(super) fn catmull_rom_weights(t: f32) -> [f32; 4] {
+    let (t2, t3) = (t * t, t * t * t);
+    [
+        0.5 * (-t3 + 2.0 * t2 - t),
+        0.5 * (3.0 * t3 - 5.0 * t2 + 2.0),
+        0.5 * (-3.0 * t3 + 4.0 * t2 + t),
+        0.5 * (t3 - t2),
+    ]
+}
+
+/// The history colour at (x0 + fx, y0 + fy) by Catmull-Rom over the 4×4 taps x0 − 1 … x0 + 2
+/// (likewise y), clamped per channel to the range of the four central taps (the cubic
+/// overshoots at steps; the clamp keeps it from ringing and from going negative). `None`
+/// when a tap is outside the image or fails the validity tests of [`reproject`].
+#[allow(clippy::too_many_arguments)]
+fn catmull_rom(
+    p: &TemporalParams,
+    hist: &History,
+    frame: &TemporalFrame,
+    cur: &Surface,
+    i: usize,
+    x0: isize,
+    y0: isize,
+    fx: f32,
+    fy: f32,
+) -> Option<[f32; 3]> {
+    let (w, h) = (hist.w as isize, hist.h as isize);
+    if x0 < 1 || y0 < 1 || x0 + 2 >= w || y0 + 2 >= h {
+        return None;
+    }
+    let (wx, wy) = (catmull_rom_weights(fx), catmull_rom_weights(fy));
+    let mut color = [0.0f32; 3];
+    let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+    for (j, wyj) in wy.iter().enumerate() {
+        for (k, wxk) in wx.iter().enumerate() {
+            let t = (y0 + j as isize - 1) as usize * hist.w + (x0 + k as isize - 1) as usize;
+            if hist.len[t] == 0 || !cur.matches(&hist.surface[t], p) {
+                return None;
+            }
+            if let (Some(ci), Some(hi)) = (frame.ids, hist.ids.as_ref()) {
+                if ci[i] != hi[t] {
+                    return None;
+                }
+            }
+            let c = &hist.color.data[3 * t..3 * t + 3];
+            let wt = wyj * wxk;
+            let central = (1..=2).contains(&j) && (1..=2).contains(&k);
+            for ch in 0..3 {
+                color[ch] += wt * c[ch];
+                if central {
+                    lo[ch] = lo[ch].min(c[ch]);
+                    hi[ch] = hi[ch].max(c[ch]);
+                }
+            }
+        }
+    }
+    Some([0, 1, 2].map(|ch| color[ch].clamp(lo[ch], hi[ch])))
 }
 
 /// A pixel's reprojected history: colour / albedo, luminance moments, length.
@@ -220,6 +289,32 @@ pub(super) fn reproject_pixel(
         moments,
         len,
     })
+}
+
+/// `prev` with its colour's luminance clamped to `bounds` (lo, hi) by scaling the colour
+/// (neighbourhood clamping, [`TemporalParams::clamp_sigmas`]); unchanged without bounds, inside
+/// them, or where its luminance is not positive. The clamp only ever moves the luminance
+/// towards the interval.
+pub(super) fn clamp_history(mut prev: Prev, bounds: Option<[f32; 2]>) -> Prev {
+    let Some([lo, hi]) = bounds else {
+        return prev;
+    };
+    let l = luminance(prev.color);
+    if !(l > 0.0) {
+        return prev;
+    }
+    let target = if l > hi {
+        hi.max(0.0)
+    } else if l < lo {
+        lo
+    } else {
+        return prev;
+    };
+    let s = target / l;
+    if s.is_finite() {
+        prev.color = prev.color.map(|c| c * s);
+    }
+    prev
 }
 
 /// Blends sample `s` into its reprojected history `prev`. `lambda` ∈ [0, 1] is the history
@@ -287,7 +382,12 @@ pub(super) fn variance(
     let v = if a.len == 0 {
         0.0
     } else if a.len >= p.variance_history {
-        a.moments[1] - a.moments[0] * a.moments[0]
+        let v = a.moments[1] - a.moments[0] * a.moments[0];
+        if p.scale_variance {
+            v * (1.0 / a.len as f32).max(p.alpha / (2.0 - p.alpha))
+        } else {
+            v
+        }
     } else {
         let r = p.spatial_radius;
         let cur = &samples[y * w + x].surface;
