@@ -170,18 +170,7 @@ impl TemporalSequence {
 /// neighbourhood clamp and the short-history levels are off: measured, they did not lower FLIP
 /// (docs/results/temporal.md).
 fn sequence_params() -> (TemporalParams, Option<(f32, f32)>) {
-    let mut p = TemporalParams {
-        alpha: 0.05,
-        alpha_moments: 0.05,
-        max_history: 128,
-        filtered_history: false,
-        gradient_radius: 6,
-        gradient_sigmas: 2.0,
-        gradient_gain: 10.0,
-        scale_variance: true,
-        ..TemporalParams::default()
-    };
-    p.atrous.iterations = 2;
+    let mut p = TemporalParams::sequence();
     let mut taa = None;
     tune(&mut p, &mut taa);
     (p, taa)

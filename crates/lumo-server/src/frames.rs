@@ -42,10 +42,11 @@ pub struct TemporalHistory {
 }
 
 impl TemporalHistory {
-    /// An empty history with SVGF's parameters.
+    /// An empty history with the settings tuned for 1-spp sequences (those of `lumo render
+    /// --frames --temporal`).
     pub fn new() -> Option<Self> {
         Some(Self {
-            filter: TemporalFilter::new(TemporalParams::default()).ok()?,
+            filter: TemporalFilter::new(TemporalParams::sequence()).ok()?,
             view_proj: None,
         })
     }

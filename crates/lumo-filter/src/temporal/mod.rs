@@ -130,6 +130,30 @@ impl Default for TemporalParams {
     }
 }
 
+impl TemporalParams {
+    /// The settings tuned for 1-spp frame sequences under camera and object motion (`lumo
+    /// render --frames --temporal` and `lumo serve`'s filtered frames): SVGF's reprojection
+    /// with a longer history (α = 0.05, up to 128 frames), the accumulated rather than the
+    /// filtered colour as history, history rejection where the lighting changes (radius 6,
+    /// 2 standard errors, gain 10), the À-Trous steered by the variance left in the accumulated
+    /// colour, 2 levels. Chosen on tuning sequences only (docs/results/temporal.md).
+    pub fn sequence() -> Self {
+        let mut p = Self {
+            alpha: 0.05,
+            alpha_moments: 0.05,
+            max_history: 128,
+            filtered_history: false,
+            gradient_radius: 6,
+            gradient_sigmas: 2.0,
+            gradient_gain: 10.0,
+            scale_variance: true,
+            ..Self::default()
+        };
+        p.atrous.iterations = 2;
+        p
+    }
+}
+
 /// How [`TemporalFilter`] reads the history between pixels ([`TemporalParams::resample`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum Resample {
