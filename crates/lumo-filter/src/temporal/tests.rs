@@ -61,6 +61,24 @@ pub(super) fn still_input(fr: &SyntheticFrame) -> TemporalFrame<'_> {
     }
 }
 
+/// Colour, normals and depth alone as the temporal filter's input (no albedo, positions, ids
+/// or motion).
+pub(super) fn bare_input<'a>(
+    color: &'a Image,
+    normal: &'a Image,
+    depth: &'a Image,
+) -> TemporalFrame<'a> {
+    TemporalFrame {
+        color,
+        albedo: None,
+        normal,
+        depth,
+        position: None,
+        ids: None,
+        motion: None,
+    }
+}
+
 fn random_image(w: usize, h: usize, seed: u64) -> Image {
     let mut s = seed;
     Image::from_vec(w, h, 3, (0..w * h * 3).map(|_| splitmix(&mut s)).collect())

@@ -2,6 +2,7 @@
 
 use lumo_image::Image;
 
+use super::tests::bare_input;
 use super::*;
 use crate::bench::synthetic::{splitmix, synthetic_frame};
 
@@ -57,15 +58,7 @@ fn dimmed(params: TemporalParams) -> (Image, f32, Vec<f32>) {
             77 + k,
             |x| if k >= 12 && x < w / 2 { 0.2 } else { 1.0 },
         );
-        let fr = TemporalFrame {
-            color: &color,
-            albedo: None,
-            normal: &normal,
-            depth: &depth,
-            position: None,
-            ids: None,
-            motion: None,
-        };
+        let fr = bare_input(&color, &normal, &depth);
         out = f.filter(&fr).unwrap().image;
         if (1..12).contains(&k) {
             still += f.rejection().iter().sum::<f32>() / (w * h) as f32 / 11.0;

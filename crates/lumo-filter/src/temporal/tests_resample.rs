@@ -5,7 +5,7 @@ use lumo_image::{luminance, Image};
 
 use super::gradient::clamp_bounds;
 use super::reproject::{catmull_rom_weights, clamp_history, Prev};
-use super::tests::still_input;
+use super::tests::{bare_input, still_input};
 use super::*;
 use crate::bench::synthetic::{splitmix, synthetic_frame};
 
@@ -40,15 +40,7 @@ fn reprojected(resample: Resample, f: &dyn Fn(f32, f32) -> f32, motion: [f32; 2]
         ..TemporalParams::default()
     };
     let mut filter = TemporalFilter::new(p).unwrap();
-    let mut frame = TemporalFrame {
-        color: &color,
-        albedo: None,
-        normal: &normal,
-        depth: &depth,
-        position: None,
-        ids: None,
-        motion: None,
-    };
+    let mut frame = bare_input(&color, &normal, &depth);
     filter.filter(&frame).unwrap();
     frame.motion = Some(&m);
     filter.filter(&frame).unwrap();
