@@ -4,6 +4,8 @@
 //! `(pdf_rev / pdf_fwd)²` of the vertex it moves across, so a weight costs O(s + t) without
 //! re-evaluating any strategy's full density.
 
+use glam::Vec3;
+
 use super::vertex::{Context, Vertex};
 
 /// The two subpaths of strategy (s, t), as connected: for `s = 1` the light vertex is the
@@ -14,6 +16,9 @@ pub(super) struct Connection<'a> {
     pub light: &'a [Vertex],
     /// Camera vertices `0..t`.
     pub camera: &'a [Vertex],
+    /// The unit direction from the last camera vertex to the last light vertex and their
+    /// squared distance where the caller has them (what [`Vertex::towards`] returns).
+    pub segment: Option<(Vec3, f32)>,
 }
 
 /// The ratio of a vertex's reverse to forward density; 0 where the forward density is 0
@@ -37,23 +42,16 @@ pub(super) fn weight(ctx: &Context, c: &Connection) -> f32 {
     let qs = s.checked_sub(1).map(|i| &light[i]);
     let pt_minus = t.checked_sub(2).map(|i| &camera[i]);
     let qs_minus = s.checked_sub(2).map(|i| &light[i]);
-    // Reverse densities of the vertices next to the connection, each direction and distance
-    // computed once.
+    // Reverse densities of the vertices next to the connection: the connection's direction
+    // and distance computed once, those to the neighbours cached in the vertices.
     let (pt_rev, pt_minus_rev, qs_rev, qs_minus_rev) = match qs {
         Some(q) => {
-            let (w, dist2) = pt.towards(q);
-            let to_pt_minus = pt_minus.map(|m| pt.towards(m));
-            let to_qs_minus = qs_minus.map(|m| q.towards(m));
-            let pt_rev = q.pdf_along(ctx, to_qs_minus.map(|(w, _)| w), pt, -w, dist2);
-            let qs_rev = pt.pdf_along(ctx, to_pt_minus.map(|(w, _)| w), q, w, dist2);
-            let pt_minus_rev = match (pt_minus, to_pt_minus) {
-                (Some(m), Some((wm, d2))) => pt.pdf_along(ctx, Some(w), m, wm, d2),
-                _ => 0.0,
-            };
-            let qs_minus_rev = match (qs_minus, to_qs_minus) {
-                (Some(m), Some((wm, d2))) => q.pdf_along(ctx, Some(-w), m, wm, d2),
-                _ => 0.0,
-            };
+            let (w, dist2) = c.segment.unwrap_or_else(|| pt.towards(q));
+            let (w_pt, w_q) = (pt.local(w), q.local(-w));
+            let pt_rev = q.pdf_onward(ctx, pt, -w, w_q, dist2);
+            let qs_rev = pt.pdf_onward(ctx, q, w, w_pt, dist2);
+            let pt_minus_rev = pt_minus.map_or(0.0, |m| pt.pdf_back(ctx, w, w_pt, m));
+            let qs_minus_rev = qs_minus.map_or(0.0, |m| q.pdf_back(ctx, -w, w_q, m));
             (pt_rev, pt_minus_rev, qs_rev, qs_minus_rev)
         }
         None => {

@@ -133,8 +133,8 @@ fn check_weights_on(scene: &str, wanted: usize) -> (usize, usize) {
                 return l0;
             }
             let mut v = x[k];
-            if let Kind::Surface { ref mut wo, .. } = v.kind {
-                *wo = (x[k + 1].p - x[k].p).normalize();
+            if k > 0 {
+                v.set_previous(&x[k + 1]);
             }
             v
         };
@@ -189,6 +189,7 @@ fn check_weights_on(scene: &str, wanted: usize) -> (usize, usize) {
                 &Connection {
                     light: &light,
                     camera: &cam,
+                    segment: None,
                 },
             );
             let expected = density(t).powi(2) / sum_sq;
