@@ -33,6 +33,15 @@ fn ratio(rev: f32, fwd: f32) -> f32 {
     }
 }
 
+/// Stores in every vertex of a subpath the squared ratio of its reverse to its forward
+/// density, which the weights of all strategies that do not connect next to it share. Call
+/// once the subpath's densities are final.
+pub(super) fn set_ratios(path: &mut [Vertex]) {
+    for v in path {
+        v.ratio = ratio(v.pdf_rev, v.pdf_fwd);
+    }
+}
+
 /// The power-heuristic weight of strategy (s, t) = (`c.light.len()`, `c.camera.len()`) for
 /// the path its vertices form. Pure function of the vertices.
 pub(super) fn weight(ctx: &Context, c: &Connection) -> f32 {
@@ -61,40 +70,51 @@ pub(super) fn weight(ctx: &Context, c: &Connection) -> f32 {
         }
     };
     let mut sum = 0.0f32;
-    // Strategies with fewer camera vertices.
+    // Strategies with fewer camera vertices: the two next to the connection with the
+    // recomputed densities, the others with the subpath's own ratios ([`set_ratios`]).
     let mut r = 1.0f32;
-    for i in (1..t).rev() {
-        let rev = if i == t - 1 {
-            pt_rev
-        } else if i == t - 2 {
-            pt_minus_rev
-        } else {
-            camera[i].pdf_rev
-        };
-        r *= ratio(rev, camera[i].pdf_fwd);
-        let delta_here = i != t - 1 && camera[i].delta;
-        if !delta_here && !camera[i - 1].delta {
+    if t >= 2 {
+        r *= ratio(pt_rev, camera[t - 1].pdf_fwd);
+        if !camera[t - 2].delta {
+            sum += r;
+        }
+    }
+    if t >= 3 {
+        r *= ratio(pt_minus_rev, camera[t - 2].pdf_fwd);
+        if !camera[t - 2].delta && !camera[t - 3].delta {
+            sum += r;
+        }
+    }
+    for i in (1..t.saturating_sub(2)).rev() {
+        r *= camera[i].ratio;
+        if !camera[i].delta && !camera[i - 1].delta {
             sum += r;
         }
     }
     // Strategies with fewer light vertices.
-    let mut r = 1.0f32;
-    for i in (0..s).rev() {
-        let rev = if i == s - 1 {
-            qs_rev
-        } else if i == s - 2 {
-            qs_minus_rev
-        } else {
-            light[i].pdf_rev
-        };
-        r *= ratio(rev, light[i].pdf_fwd);
-        let delta_here = i != s - 1 && light[i].delta;
-        let delta_before = if i > 0 {
+    let delta_before = |i: usize| {
+        if i > 0 {
             light[i - 1].delta
         } else {
             light[0].is_delta_light()
-        };
-        if !delta_here && !delta_before {
+        }
+    };
+    let mut r = 1.0f32;
+    if s >= 1 {
+        r *= ratio(qs_rev, light[s - 1].pdf_fwd);
+        if !delta_before(s - 1) {
+            sum += r;
+        }
+    }
+    if s >= 2 {
+        r *= ratio(qs_minus_rev, light[s - 2].pdf_fwd);
+        if !light[s - 2].delta && !delta_before(s - 2) {
+            sum += r;
+        }
+    }
+    for i in (0..s.saturating_sub(2)).rev() {
+        r *= light[i].ratio;
+        if !light[i].delta && !delta_before(i) {
             sum += r;
         }
     }

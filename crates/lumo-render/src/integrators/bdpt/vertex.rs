@@ -79,6 +79,8 @@ pub(super) struct Vertex {
     pub pdf_rev: f32,
     /// Its own subpath left it through a Dirac lobe.
     pub delta: bool,
+    /// `(pdf_rev / pdf_fwd)²` once the subpath is complete ([`super::mis::set_ratios`]).
+    pub ratio: f32,
     /// Scene vertices: the unit direction towards the previous vertex of its own subpath and
     /// the squared distance to it, exactly as [`Vertex::towards`] computes them (the weights
     /// need them for every strategy that ends here; zero for subpath origins).
@@ -102,6 +104,7 @@ impl Vertex {
             pdf_fwd: 0.0,
             pdf_rev: 0.0,
             delta: false,
+            ratio: 0.0,
             w_prev: Vec3::ZERO,
             d2_prev: 0.0,
             u_light: (0.0, Vec2::ZERO),
