@@ -5,7 +5,7 @@
 use glam::{Vec2, Vec3};
 
 use super::vertex::{
-    area_density_along, light_origin_density, surface_local, Context, Kind, Vertex,
+    area_density_along, bsdf_pdf, light_origin_density, surface_local, Context, Kind, Vertex,
 };
 use crate::accel::packet::{RayPacket, LANES};
 use crate::accel::Hit;
@@ -319,7 +319,7 @@ fn step(
     path[prev].pdf_rev = if bs.delta {
         1.0
     } else {
-        let pdf = bsdf.pdf(bs.wi, wo_local);
+        let pdf = bsdf_pdf(&bsdf, lambert, bs.wi, wo_local);
         area_density_along(pdf, &path[prev], -w_in, d2)
     };
     walk.pdf_dir = if bs.delta { 1.0 } else { bs.pdf };

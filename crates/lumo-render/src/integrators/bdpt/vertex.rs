@@ -366,7 +366,7 @@ pub(super) fn surface_local(s: &Surface, lambert: bool, w: Vec3) -> Vec3 {
 
 /// The BSDF's density of `wi` given `wo` (local; only `z` read for a Lambertian one).
 #[inline(always)]
-fn bsdf_pdf(bsdf: &ShadingBsdf, lambert: Option<Vec3>, wo: Vec3, wi: Vec3) -> f32 {
+pub(super) fn bsdf_pdf(bsdf: &ShadingBsdf, lambert: Option<Vec3>, wo: Vec3, wi: Vec3) -> f32 {
     match lambert {
         Some(_) => lambert_pdf(wo.z, wi.z),
         None => bsdf.pdf(wo, wi),
