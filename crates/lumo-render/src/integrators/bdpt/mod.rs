@@ -58,6 +58,8 @@ pub struct BdptScratch {
 
 /// Most samples [`trace_bdpt_samples`] takes at once (one ray packet).
 pub const GROUP: usize = LANES;
+// A group's samplers are made in one `PixelSampler::run`.
+const _: () = assert!(GROUP <= crate::sampler::RUN);
 
 /// The sampler seed offset of light subpaths: camera sample `i` of pixel (x, y) draws its
 /// light subpath from the same pixel and index under this seed, an independent sequence.
