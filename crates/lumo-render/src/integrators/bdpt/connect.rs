@@ -33,6 +33,7 @@ pub(super) struct ShadowRay {
 }
 
 /// The segment from `a` (already offset) to the point `b`.
+#[inline]
 fn segment(ctx: &Context, a: Vec3, b: Vec3, w: Vec3) -> ShadowRay {
     let (dir, tmax) = shadow_segment(a.into(), b.into(), w.into(), ctx.rs.ray_epsilon);
     ShadowRay {
@@ -43,6 +44,7 @@ fn segment(ctx: &Context, a: Vec3, b: Vec3, w: Vec3) -> ShadowRay {
 }
 
 /// A ray origin just off vertex `v` on the side of `w`.
+#[inline]
 fn origin_off(ctx: &Context, v: &Vertex, w: Vec3) -> Vec3 {
     match v.kind {
         Kind::Surface { s, .. } => ctx.rs.offset(&s, w),
@@ -96,6 +98,7 @@ pub(super) enum Prepared {
 
 /// Strategy (s, t) of `light[..s]` and `camera[..t]` up to its shadow ray: the unweighted
 /// value and the segment to test, or (s = 0) the value weighted by MIS unless `unweighted`.
+#[inline(always)]
 pub(super) fn prepare(
     ctx: &Context,
     light: &[Vertex],

@@ -245,7 +245,7 @@ impl Vertex {
     /// [`Vertex::pdf_along`] with its own subpath's previous vertex as the one it was reached
     /// from (the cached direction): the density of generating `to` along `(w, dist2)`, with
     /// `w_local` = [`Vertex::local`]`(w)`.
-    #[inline]
+    #[inline(always)]
     pub fn pdf_onward(
         &self,
         ctx: &Context,
@@ -268,7 +268,7 @@ impl Vertex {
     /// [`Vertex::pdf_along`] the other way along its own subpath: the density with which this
     /// vertex, reached along `w_in` (unit, towards the vertex it is joined to; `w_in_local`
     /// its [`Vertex::local`]), generates its own subpath's previous vertex `prev`.
-    #[inline]
+    #[inline(always)]
     pub fn pdf_back(
         &self,
         ctx: &Context,
@@ -319,6 +319,7 @@ impl Vertex {
     /// for a camera subpath's vertex `f(wo, w)·|cos_ns w|`; for a light subpath's vertex the
     /// adjoint `f(w, wl)` with Veach's shading-normal correction and the geometric cosine
     /// `|ng·w|`, so that both sides multiply into `value / distance²`.
+    #[inline]
     pub fn scatter_towards(&self, w: Vec3, light_side: bool) -> Vec3 {
         let Kind::Surface {
             s,
