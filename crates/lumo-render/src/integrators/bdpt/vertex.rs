@@ -18,6 +18,9 @@ use crate::render_scene::{RenderScene, Surface};
 use crate::shading::ShadingBsdf;
 
 /// What a vertex is.
+// Most vertices are surfaces and live in reused buffers ([`super::BdptScratch`]); boxing the
+// large variant would allocate per vertex.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug)]
 pub(super) enum Kind {
     /// The pinhole: the camera subpath's first vertex.
@@ -269,13 +272,7 @@ impl Vertex {
     /// vertex, reached along `w_in` (unit, towards the vertex it is joined to; `w_in_local`
     /// its [`Vertex::local`]), generates its own subpath's previous vertex `prev`.
     #[inline(always)]
-    pub fn pdf_back(
-        &self,
-        ctx: &Context,
-        w_in: Vec3,
-        w_in_local: Vec3,
-        prev: &Vertex,
-    ) -> f32 {
+    pub fn pdf_back(&self, ctx: &Context, w_in: Vec3, w_in_local: Vec3, prev: &Vertex) -> f32 {
         match self.kind {
             Kind::Surface {
                 bsdf,
