@@ -5,7 +5,8 @@
 use glam::{Vec2, Vec3};
 
 use super::vertex::{
-    area_density_along, bsdf_pdf, light_origin_density, surface_local, Context, Kind, Vertex,
+    area_density_along, bsdf_pdf, lambert_sample, light_origin_density, surface_local, Context,
+    Kind, Vertex,
 };
 use crate::accel::packet::{RayPacket, LANES};
 use crate::accel::Hit;
@@ -298,7 +299,11 @@ fn step(
         beta *= weight * (s.frame.n.dot(dir).abs() / cos_ng_l);
         (new_dir, bs)
     } else {
-        let Some(bs) = bsdf.sample(wo_local, u_lobe, u_dir) else {
+        let bs = match lambert {
+            Some(albedo) => lambert_sample(albedo, wo_local, u_dir),
+            None => bsdf.sample(wo_local, u_lobe, u_dir),
+        };
+        let Some(bs) = bs else {
             return false;
         };
         let new_dir = s.frame.to_world(bs.wi).normalize();

@@ -11,8 +11,9 @@
 
 use glam::{Vec2, Vec3};
 
+use crate::bsdf::BsdfSample;
 use crate::camera::PinholeCamera;
-use crate::geometry::cosine_pdf;
+use crate::geometry::{cosine_hemisphere_pdf, cosine_pdf, square_to_cosine_hemisphere};
 use crate::lights::{EmissionPdf, Lights};
 use crate::render_scene::{RenderScene, Surface};
 use crate::shading::ShadingBsdf;
@@ -381,6 +382,26 @@ fn lambert_eval(albedo: Vec3, zo: f32, zi: f32) -> Vec3 {
         return Vec3::ZERO;
     }
     albedo * cosine_pdf(zi)
+}
+
+/// [`crate::bsdf::Bsdf::sample`] of a two-sided Lambertian BSDF of reflectance `albedo`
+/// (the same operations, without the dispatch over BSDF kinds).
+#[inline(always)]
+pub(super) fn lambert_sample(albedo: Vec3, wo: Vec3, u: Vec2) -> Option<BsdfSample> {
+    let flip = wo.z < 0.0;
+    if wo.z == 0.0 {
+        return None;
+    }
+    let wi = square_to_cosine_hemisphere(u);
+    let pdf = cosine_hemisphere_pdf(wi);
+    let wi = if flip { -wi } else { wi };
+    (albedo.is_finite() && pdf > 0.0).then_some(BsdfSample {
+        wi,
+        weight: albedo,
+        pdf,
+        delta: false,
+        eta: 1.0,
+    })
 }
 
 /// [`lambert_eval`]'s density ([`crate::bsdf::Bsdf::pdf`] of a diffuse BSDF).
