@@ -367,7 +367,7 @@ pub fn render_bdpt(
     bdpt: &crate::integrators::bdpt::BdptSettings,
     progress: &(dyn Fn(f32) + Sync),
 ) -> (Image, RenderStats) {
-    use crate::integrators::bdpt::{samplers, trace_bdpt_samples, BdptScratch, GROUP};
+    use crate::integrators::bdpt::{trace_bdpt_samples, BdptScratch, GROUP, LIGHT_SUBPATH_SEED};
     let (w, h) = (settings.width, settings.height);
     let camera = PinholeCamera::new(&rs.scene.camera, w, h);
     let rows_per_block = h.div_ceil(64).max(1);
@@ -395,6 +395,9 @@ pub fn render_bdpt(
                 let spp = settings.spp as usize;
                 let mut sums = vec![Vec3::ZERO; w];
                 let mut out = [PathRadiance::default(); GROUP];
+                let blank = PixelSampler::new(0, 0, 0, 0);
+                let mut pairs = [(blank, blank); GROUP];
+                let (mut cams, mut lights) = ([blank; GROUP], [blank; GROUP]);
                 for y in rows {
                     sums.fill(Vec3::ZERO);
                     // The row's samples, pixel by pixel and in index order within a pixel,
@@ -403,14 +406,20 @@ pub fn render_bdpt(
                     for first in (0..count).step_by(GROUP) {
                         let n = GROUP.min(count - first);
                         let mut films = [Vec2::ZERO; GROUP];
-                        let mut pairs = [samplers(0, 0, 0, 0); GROUP];
-                        for k in 0..n {
+                        // The group's samplers (`samplers`' pairs), sixteen at a time in
+                        // vector lanes (the same bits as one at a time).
+                        let mut triples = [(0, 0, 0); GROUP];
+                        for (k, tr) in triples[..n].iter_mut().enumerate() {
                             let (x, i) = ((first + k) / spp, (first + k) % spp);
-                            let (mut cs, ls) =
-                                samplers(x as u32, y as u32, i as u32, settings.seed);
-                            let jitter = cs.next_2d();
-                            films[k] = Vec2::new(x as f32, y as f32) + jitter;
-                            pairs[k] = (cs, ls);
+                            *tr = (x as u32, y as u32, i as u32);
+                        }
+                        PixelSampler::run(&triples[..n], settings.seed, &mut cams[..n]);
+                        let light_seed = settings.seed ^ LIGHT_SUBPATH_SEED;
+                        PixelSampler::run(&triples[..n], light_seed, &mut lights[..n]);
+                        for k in 0..n {
+                            let jitter = cams[k].next_2d();
+                            films[k] = Vec2::new(triples[k].0 as f32, y as f32) + jitter;
+                            pairs[k] = (cams[k], lights[k]);
                         }
                         trace_bdpt_samples(
                             rs,

@@ -99,6 +99,17 @@ impl ShadingBsdf {
         self.bsdf.is_delta()
     }
 
+    /// The reflectance of a plain Lambertian BSDF (no adapter), whose value and density
+    /// depend only on the two directions' cosines to the shading normal: the bidirectional
+    /// integrator's fast path. `None` for every other BSDF.
+    #[inline]
+    pub fn lambert(&self) -> Option<Vec3> {
+        match self.bsdf {
+            Bsdf::Diffuse(d) if self.plain => Some(d.albedo),
+            _ => None,
+        }
+    }
+
     /// The G-buffer "albedo" of the nested BSDF.
     pub fn albedo(&self) -> Vec3 {
         self.bsdf.albedo()

@@ -33,6 +33,7 @@ pub(super) struct ShadowRay {
 }
 
 /// The segment from `a` (already offset) to the point `b`.
+#[inline]
 fn segment(ctx: &Context, a: Vec3, b: Vec3, w: Vec3) -> ShadowRay {
     let (dir, tmax) = shadow_segment(a.into(), b.into(), w.into(), ctx.rs.ray_epsilon);
     ShadowRay {
@@ -43,6 +44,7 @@ fn segment(ctx: &Context, a: Vec3, b: Vec3, w: Vec3) -> ShadowRay {
 }
 
 /// A ray origin just off vertex `v` on the side of `w`.
+#[inline]
 fn origin_off(ctx: &Context, v: &Vertex, w: Vec3) -> Vec3 {
     match v.kind {
         Kind::Surface { s, .. } => ctx.rs.offset(&s, w),
@@ -69,6 +71,9 @@ pub(super) struct Pending {
     /// For `s = 1`, `t ≥ 2`: the light point next-event estimation chose (its vertex is
     /// built only if the shadow ray is unoccluded).
     pub nee: Option<NeePoint>,
+    /// For `s, t ≥ 2`: the connection's unit direction (camera side to light side) and
+    /// squared length, for the weight.
+    pub segment: Option<(Vec3, f32)>,
 }
 
 /// The light point of next-event estimation, as [`light_vertex`] takes it.
@@ -93,6 +98,7 @@ pub(super) enum Prepared {
 
 /// Strategy (s, t) of `light[..s]` and `camera[..t]` up to its shadow ray: the unweighted
 /// value and the segment to test, or (s = 0) the value weighted by MIS unless `unweighted`.
+#[inline(always)]
 pub(super) fn prepare(
     ctx: &Context,
     light: &[Vertex],
@@ -104,13 +110,14 @@ pub(super) fn prepare(
     let light = &light[..s.min(light.len())];
     let camera = &camera[..t];
     let finite = |v: Vec3| v.is_finite() && v != Vec3::ZERO;
-    let pending = |contribution, ray, nee| {
+    let pending = |contribution, ray, nee, segment| {
         Prepared::Pending(Pending {
             contribution,
             ray,
             s,
             t,
             nee,
+            segment,
         })
     };
     if s == 0 {
@@ -122,7 +129,14 @@ pub(super) fn prepare(
         let w = if unweighted {
             1.0
         } else {
-            weight(ctx, &Connection { light, camera })
+            weight(
+                ctx,
+                &Connection {
+                    light,
+                    camera,
+                    segment: None,
+                },
+            )
         };
         return Prepared::Done(Contribution::Pixel(value * w));
     }
@@ -149,7 +163,7 @@ pub(super) fn prepare(
         }
         let o = origin_off(ctx, qs, wc);
         let ray = segment(ctx, o, ctx.camera.origin(), wc);
-        return pending(Contribution::Splat(film, value), ray, None);
+        return pending(Contribution::Splat(film, value), ray, None, None);
     }
     let pt = &camera[t - 1];
     if !pt.is_connectible() {
@@ -191,7 +205,7 @@ pub(super) fn prepare(
             towards: -ls.wi,
             environment,
         };
-        return pending(Contribution::Pixel(value), ray, Some(nee));
+        return pending(Contribution::Pixel(value), ray, Some(nee), None);
     }
     let qs = &light[s - 1];
     if !qs.is_connectible() {
@@ -209,7 +223,12 @@ pub(super) fn prepare(
         return Prepared::Nothing;
     }
     let (a, b) = (origin_off(ctx, pt, w), origin_off(ctx, qs, -w));
-    pending(Contribution::Pixel(value), segment(ctx, a, b, w), None)
+    pending(
+        Contribution::Pixel(value),
+        segment(ctx, a, b, w),
+        None,
+        Some((w, dist2)),
+    )
 }
 
 /// The contribution of a pending strategy whose shadow ray was unoccluded, weighted by MIS
@@ -239,7 +258,14 @@ pub(super) fn finish(
         Some(v) => std::slice::from_ref(v),
         None => &light[..p.s],
     };
-    let w = weight(ctx, &Connection { light, camera });
+    let w = weight(
+        ctx,
+        &Connection {
+            light,
+            camera,
+            segment: p.segment,
+        },
+    );
     match p.contribution {
         Contribution::Pixel(v) => Contribution::Pixel(v * w),
         Contribution::Splat(film, v) => Contribution::Splat(film, v * w),

@@ -4,6 +4,8 @@
 //! `(pdf_rev / pdf_fwd)²` of the vertex it moves across, so a weight costs O(s + t) without
 //! re-evaluating any strategy's full density.
 
+use glam::Vec3;
+
 use super::vertex::{Context, Vertex};
 
 /// The two subpaths of strategy (s, t), as connected: for `s = 1` the light vertex is the
@@ -14,6 +16,9 @@ pub(super) struct Connection<'a> {
     pub light: &'a [Vertex],
     /// Camera vertices `0..t`.
     pub camera: &'a [Vertex],
+    /// The unit direction from the last camera vertex to the last light vertex and their
+    /// squared distance where the caller has them (what [`Vertex::towards`] returns).
+    pub segment: Option<(Vec3, f32)>,
 }
 
 /// The ratio of a vertex's reverse to forward density; 0 where the forward density is 0
@@ -28,6 +33,15 @@ fn ratio(rev: f32, fwd: f32) -> f32 {
     }
 }
 
+/// Stores in every vertex of a subpath the squared ratio of its reverse to its forward
+/// density, which the weights of all strategies that do not connect next to it share. Call
+/// once the subpath's densities are final.
+pub(super) fn set_ratios(path: &mut [Vertex]) {
+    for v in path {
+        v.ratio = ratio(v.pdf_rev, v.pdf_fwd);
+    }
+}
+
 /// The power-heuristic weight of strategy (s, t) = (`c.light.len()`, `c.camera.len()`) for
 /// the path its vertices form. Pure function of the vertices.
 pub(super) fn weight(ctx: &Context, c: &Connection) -> f32 {
@@ -37,23 +51,16 @@ pub(super) fn weight(ctx: &Context, c: &Connection) -> f32 {
     let qs = s.checked_sub(1).map(|i| &light[i]);
     let pt_minus = t.checked_sub(2).map(|i| &camera[i]);
     let qs_minus = s.checked_sub(2).map(|i| &light[i]);
-    // Reverse densities of the vertices next to the connection, each direction and distance
-    // computed once.
+    // Reverse densities of the vertices next to the connection: the connection's direction
+    // and distance computed once, those to the neighbours cached in the vertices.
     let (pt_rev, pt_minus_rev, qs_rev, qs_minus_rev) = match qs {
         Some(q) => {
-            let (w, dist2) = pt.towards(q);
-            let to_pt_minus = pt_minus.map(|m| pt.towards(m));
-            let to_qs_minus = qs_minus.map(|m| q.towards(m));
-            let pt_rev = q.pdf_along(ctx, to_qs_minus.map(|(w, _)| w), pt, -w, dist2);
-            let qs_rev = pt.pdf_along(ctx, to_pt_minus.map(|(w, _)| w), q, w, dist2);
-            let pt_minus_rev = match (pt_minus, to_pt_minus) {
-                (Some(m), Some((wm, d2))) => pt.pdf_along(ctx, Some(w), m, wm, d2),
-                _ => 0.0,
-            };
-            let qs_minus_rev = match (qs_minus, to_qs_minus) {
-                (Some(m), Some((wm, d2))) => q.pdf_along(ctx, Some(-w), m, wm, d2),
-                _ => 0.0,
-            };
+            let (w, dist2) = c.segment.unwrap_or_else(|| pt.towards(q));
+            let (w_pt, w_q) = (pt.local(w), q.local(-w));
+            let pt_rev = q.pdf_onward(ctx, pt, -w, w_q, dist2);
+            let qs_rev = pt.pdf_onward(ctx, q, w, w_pt, dist2);
+            let pt_minus_rev = pt_minus.map_or(0.0, |m| pt.pdf_back(ctx, w, w_pt, m));
+            let qs_minus_rev = qs_minus.map_or(0.0, |m| q.pdf_back(ctx, -w, w_q, m));
             (pt_rev, pt_minus_rev, qs_rev, qs_minus_rev)
         }
         None => {
@@ -63,40 +70,51 @@ pub(super) fn weight(ctx: &Context, c: &Connection) -> f32 {
         }
     };
     let mut sum = 0.0f32;
-    // Strategies with fewer camera vertices.
+    // Strategies with fewer camera vertices: the two next to the connection with the
+    // recomputed densities, the others with the subpath's own ratios ([`set_ratios`]).
     let mut r = 1.0f32;
-    for i in (1..t).rev() {
-        let rev = if i == t - 1 {
-            pt_rev
-        } else if i == t - 2 {
-            pt_minus_rev
-        } else {
-            camera[i].pdf_rev
-        };
-        r *= ratio(rev, camera[i].pdf_fwd);
-        let delta_here = i != t - 1 && camera[i].delta;
-        if !delta_here && !camera[i - 1].delta {
+    if t >= 2 {
+        r *= ratio(pt_rev, camera[t - 1].pdf_fwd);
+        if !camera[t - 2].delta {
+            sum += r;
+        }
+    }
+    if t >= 3 {
+        r *= ratio(pt_minus_rev, camera[t - 2].pdf_fwd);
+        if !camera[t - 2].delta && !camera[t - 3].delta {
+            sum += r;
+        }
+    }
+    for i in (1..t.saturating_sub(2)).rev() {
+        r *= camera[i].ratio;
+        if !camera[i].delta && !camera[i - 1].delta {
             sum += r;
         }
     }
     // Strategies with fewer light vertices.
-    let mut r = 1.0f32;
-    for i in (0..s).rev() {
-        let rev = if i == s - 1 {
-            qs_rev
-        } else if i == s - 2 {
-            qs_minus_rev
-        } else {
-            light[i].pdf_rev
-        };
-        r *= ratio(rev, light[i].pdf_fwd);
-        let delta_here = i != s - 1 && light[i].delta;
-        let delta_before = if i > 0 {
+    let delta_before = |i: usize| {
+        if i > 0 {
             light[i - 1].delta
         } else {
             light[0].is_delta_light()
-        };
-        if !delta_here && !delta_before {
+        }
+    };
+    let mut r = 1.0f32;
+    if s >= 1 {
+        r *= ratio(qs_rev, light[s - 1].pdf_fwd);
+        if !delta_before(s - 1) {
+            sum += r;
+        }
+    }
+    if s >= 2 {
+        r *= ratio(qs_minus_rev, light[s - 2].pdf_fwd);
+        if !light[s - 2].delta && !delta_before(s - 2) {
+            sum += r;
+        }
+    }
+    for i in (0..s.saturating_sub(2)).rev() {
+        r *= light[i].ratio;
+        if !light[i].delta && !delta_before(i) {
             sum += r;
         }
     }

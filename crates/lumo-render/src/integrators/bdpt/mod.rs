@@ -30,6 +30,7 @@ use crate::integrators::path::{PathRadiance, PathSettings};
 use crate::render_scene::RenderScene;
 use crate::sampler::PixelSampler;
 use connect::{finish, prepare, Contribution, Pending, Prepared};
+use mis::set_ratios;
 use subpath::{camera_start, light_start, random_walks};
 use vertex::{Context, Vertex};
 
@@ -57,6 +58,8 @@ pub struct BdptScratch {
 
 /// Most samples [`trace_bdpt_samples`] takes at once (one ray packet).
 pub const GROUP: usize = LANES;
+// A group's samplers are made in one `PixelSampler::run`.
+const _: () = assert!(GROUP <= crate::sampler::RUN);
 
 /// The sampler seed offset of light subpaths: camera sample `i` of pixel (x, y) draws its
 /// light subpath from the same pixel and index under this seed, an independent sequence.
@@ -159,6 +162,8 @@ pub fn trace_bdpt_samples(
     );
     for k in 0..n {
         samplers[k].1 = subpath_samplers[k];
+        set_ratios(&mut scratch.camera[k]);
+        set_ratios(&mut scratch.light[k]);
     }
     for (k, o) in out[..n].iter_mut().enumerate() {
         *o = connect_all(

@@ -4,7 +4,10 @@
 
 use glam::{Vec2, Vec3};
 
-use super::vertex::{light_origin_density, Context, Kind, Vertex};
+use super::vertex::{
+    area_density_along, bsdf_pdf, lambert_sample, light_origin_density, surface_local, Context,
+    Kind, Vertex,
+};
 use crate::accel::packet::{RayPacket, LANES};
 use crate::accel::Hit;
 use crate::bsdf::TransportMode;
@@ -236,20 +239,38 @@ fn step(
     let bsdf = rs.bsdf(&s);
     let wo_local = s.frame.to_local(-dir);
     let black = wo_local.z <= 0.0 && rs.one_sided(s.material);
+    // The segment from the previous vertex, computed once: its reverse (the same bits as
+    // `towards` the other way: negation is exact) serves this vertex's reverse density and
+    // the weights.
+    let (w_in, d2) = {
+        let d = s.p - path[prev].p;
+        let d2 = d.length_squared();
+        if d2 == 0.0 {
+            (Vec3::ZERO, 0.0)
+        } else {
+            (d / d2.sqrt(), d2)
+        }
+    };
+    let lambert = bsdf.lambert();
     let kind = Kind::Surface {
         s,
         bsdf,
         wo: -dir,
+        wo_local,
+        wp_local: surface_local(&s, lambert.is_some(), -w_in),
+        lambert,
         black,
     };
     let mut v = Vertex::new(kind, s.p, s.ng, beta);
+    v.w_prev = -w_in;
+    v.d2_prev = d2;
     v.pdf_fwd = match path[prev].kind {
         _ if path[prev].delta => 1.0,
         // Parallel rays: the disk's density projected onto the surface.
         Kind::Light {
             directional: true, ..
         } => pdf_dir * s.ng.dot(dir).abs(),
-        _ => path[prev].area_density(pdf_dir, &v),
+        _ => area_density_along(pdf_dir, &v, w_in, d2),
     };
     if mode == TransportMode::Radiance {
         v.le = rs.emission(&s, dir);
@@ -278,7 +299,11 @@ fn step(
         beta *= weight * (s.frame.n.dot(dir).abs() / cos_ng_l);
         (new_dir, bs)
     } else {
-        let Some(bs) = bsdf.sample(wo_local, u_lobe, u_dir) else {
+        let bs = match lambert {
+            Some(albedo) => lambert_sample(albedo, wo_local, u_dir),
+            None => bsdf.sample(wo_local, u_lobe, u_dir),
+        };
+        let Some(bs) = bs else {
             return false;
         };
         let new_dir = s.frame.to_world(bs.wi).normalize();
@@ -299,8 +324,8 @@ fn step(
     path[prev].pdf_rev = if bs.delta {
         1.0
     } else {
-        let pdf = bsdf.pdf(bs.wi, wo_local);
-        path[cur].area_density(pdf, &path[prev])
+        let pdf = bsdf_pdf(&bsdf, lambert, bs.wi, wo_local);
+        area_density_along(pdf, &path[prev], -w_in, d2)
     };
     walk.pdf_dir = if bs.delta { 1.0 } else { bs.pdf };
     walk.origin = rs.offset(&s, new_dir);

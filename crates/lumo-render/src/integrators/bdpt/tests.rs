@@ -3,7 +3,7 @@ use lumo_image::luminance;
 use lumo_scene::shapes::{cube, rectangle};
 use lumo_scene::{builtin_scene, Camera, FovAxis, Light, Material, Scene};
 
-use super::mis::{weight, Connection};
+use super::mis::{set_ratios, weight, Connection};
 use super::subpath::camera_subpath;
 use super::vertex::{light_vertex, Context, Kind, Vertex};
 use super::*;
@@ -133,8 +133,8 @@ fn check_weights_on(scene: &str, wanted: usize) -> (usize, usize) {
                 return l0;
             }
             let mut v = x[k];
-            if let Kind::Surface { ref mut wo, .. } = v.kind {
-                *wo = (x[k + 1].p - x[k].p).normalize();
+            if k > 0 {
+                v.set_previous(&x[k + 1]);
             }
             v
         };
@@ -184,11 +184,14 @@ fn check_weights_on(scene: &str, wanted: usize) -> (usize, usize) {
                 v.pdf_fwd = p_light[n - j];
                 v.pdf_rev = p_cam[n - j];
             }
+            set_ratios(&mut cam);
+            set_ratios(&mut light);
             let w = weight(
                 &ctx,
                 &Connection {
                     light: &light,
                     camera: &cam,
+                    segment: None,
                 },
             );
             let expected = density(t).powi(2) / sum_sq;

@@ -11,12 +11,17 @@
 
 use glam::{Vec2, Vec3};
 
+use crate::bsdf::BsdfSample;
 use crate::camera::PinholeCamera;
+use crate::geometry::{cosine_hemisphere_pdf, cosine_pdf, square_to_cosine_hemisphere};
 use crate::lights::{EmissionPdf, Lights};
 use crate::render_scene::{RenderScene, Surface};
 use crate::shading::ShadingBsdf;
 
 /// What a vertex is.
+// Most vertices are surfaces and live in reused buffers ([`super::BdptScratch`]); boxing the
+// large variant would allocate per vertex.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug)]
 pub(super) enum Kind {
     /// The pinhole: the camera subpath's first vertex.
@@ -42,8 +47,16 @@ pub(super) enum Kind {
         s: Surface,
         /// Its BSDF.
         bsdf: ShadingBsdf,
-        /// Unit direction (world) back towards the previous vertex of its own subpath.
+        /// Unit direction (world) back towards the previous vertex of its own subpath: the
+        /// reverse of the ray that found it.
         wo: Vec3,
+        /// `wo` in the shading frame.
+        wo_local: Vec3,
+        /// [`Vertex::w_prev`] in the shading frame (only `z` for a Lambertian vertex).
+        wp_local: Vec3,
+        /// The reflectance of a plain Lambertian BSDF ([`ShadingBsdf::lambert`]): its value
+        /// and density come from two cosines, without the general BSDF code.
+        lambert: Option<Vec3>,
         /// A one-sided material seen from behind: black both ways, no connections.
         black: bool,
     },
@@ -70,6 +83,14 @@ pub(super) struct Vertex {
     pub pdf_rev: f32,
     /// Its own subpath left it through a Dirac lobe.
     pub delta: bool,
+    /// `(pdf_rev / pdf_fwd)²` once the subpath is complete ([`super::mis::set_ratios`]).
+    pub ratio: f32,
+    /// Scene vertices: the unit direction towards the previous vertex of its own subpath and
+    /// the squared distance to it, exactly as [`Vertex::towards`] computes them (the weights
+    /// need them for every strategy that ends here; zero for subpath origins).
+    pub w_prev: Vec3,
+    /// See `w_prev`.
+    pub d2_prev: f32,
     /// Random numbers for next-event estimation from this vertex (camera subpaths), drawn
     /// with the vertex so that the sample stream does not depend on which strategies run.
     pub u_light: (f32, Vec2),
@@ -87,6 +108,9 @@ impl Vertex {
             pdf_fwd: 0.0,
             pdf_rev: 0.0,
             delta: false,
+            ratio: 0.0,
+            w_prev: Vec3::ZERO,
+            d2_prev: 0.0,
             u_light: (0.0, Vec2::ZERO),
         }
     }
@@ -124,11 +148,26 @@ impl Vertex {
         }
     }
 
-    /// The solid-angle density `pdf` of leaving `self` towards `to`, as an area density at
-    /// `to` (left as is for the environment, whose vertices live in solid angle).
-    pub fn area_density(&self, pdf: f32, to: &Vertex) -> f32 {
-        let (w, dist2) = self.towards(to);
-        area_density_along(pdf, to, w, dist2)
+    /// Makes `prev` the vertex before this scene vertex on its subpath (the tests turn a
+    /// camera subpath around into a light subpath): the cached direction and distance, and
+    /// the direction it arrived from.
+    #[cfg(test)]
+    pub fn set_previous(&mut self, prev: &Vertex) {
+        let (w, d2) = self.towards(prev);
+        (self.w_prev, self.d2_prev) = (w, d2);
+        if let Kind::Surface {
+            s,
+            wo,
+            wo_local,
+            wp_local,
+            lambert,
+            ..
+        } = &mut self.kind
+        {
+            *wo = w;
+            *wo_local = s.frame.to_local(w);
+            *wp_local = surface_local(s, lambert.is_some(), w);
+        }
     }
 
     /// The unit direction from `self` to `to` (the environment's own direction) and the
@@ -196,11 +235,67 @@ impl Vertex {
         }
     }
 
+    /// Unit direction `w` (world) in this surface vertex's shading frame, only `z` (the
+    /// cosine to the shading normal, the same bits) for a Lambertian vertex; zero for the
+    /// other kinds.
+    #[inline]
+    pub fn local(&self, w: Vec3) -> Vec3 {
+        match self.kind {
+            Kind::Surface { s, lambert, .. } => surface_local(&s, lambert.is_some(), w),
+            _ => Vec3::ZERO,
+        }
+    }
+
+    /// [`Vertex::pdf_along`] with its own subpath's previous vertex as the one it was reached
+    /// from (the cached direction): the density of generating `to` along `(w, dist2)`, with
+    /// `w_local` = [`Vertex::local`]`(w)`.
+    #[inline(always)]
+    pub fn pdf_onward(
+        &self,
+        ctx: &Context,
+        to: &Vertex,
+        w: Vec3,
+        w_local: Vec3,
+        dist2: f32,
+    ) -> f32 {
+        match self.kind {
+            Kind::Surface {
+                bsdf,
+                wp_local,
+                lambert,
+                ..
+            } => area_density_along(bsdf_pdf(&bsdf, lambert, wp_local, w_local), to, w, dist2),
+            _ => self.pdf_along(ctx, None, to, w, dist2),
+        }
+    }
+
+    /// [`Vertex::pdf_along`] the other way along its own subpath: the density with which this
+    /// vertex, reached along `w_in` (unit, towards the vertex it is joined to; `w_in_local`
+    /// its [`Vertex::local`]), generates its own subpath's previous vertex `prev`.
+    #[inline(always)]
+    pub fn pdf_back(&self, ctx: &Context, w_in: Vec3, w_in_local: Vec3, prev: &Vertex) -> f32 {
+        match self.kind {
+            Kind::Surface {
+                bsdf,
+                wp_local,
+                lambert,
+                ..
+            } => area_density_along(
+                bsdf_pdf(&bsdf, lambert, w_in_local, wp_local),
+                prev,
+                self.w_prev,
+                self.d2_prev,
+            ),
+            _ => self.pdf_along(ctx, Some(w_in), prev, self.w_prev, self.d2_prev),
+        }
+    }
+
     /// This vertex of a camera subpath seen as the origin of a light subpath towards `to`:
     /// the density with which the light subpath would start here (area; next-event
     /// estimation's solid-angle density for the environment, the only strategy that samples
     /// it) and with which it would then generate `to` (in `to`'s measure; 0 from the
     /// environment, which emits no particles).
+    /// `to` must be the vertex before it on its subpath (its cached direction is used).
     pub fn as_light_origin(&self, ctx: &Context, to: &Vertex) -> (f32, f32) {
         match self.kind {
             Kind::Environment { dir } => (ctx.rs.lights.environment_pdf(dir), 0.0),
@@ -210,7 +305,8 @@ impl Vertex {
                     .lights
                     .emission_pdf(s.instance, s.triangle, s.ng, w)
                     .map_or((0.0, 0.0), |e| {
-                        (e.area, self.area_density(e.solid_angle, to))
+                        let pdf = area_density_along(e.solid_angle, to, self.w_prev, self.d2_prev);
+                        (e.area, pdf)
                     })
             }
             _ => (0.0, 0.0),
@@ -221,16 +317,30 @@ impl Vertex {
     /// for a camera subpath's vertex `f(wo, w)·|cos_ns w|`; for a light subpath's vertex the
     /// adjoint `f(w, wl)` with Veach's shading-normal correction and the geometric cosine
     /// `|ng·w|`, so that both sides multiply into `value / distance²`.
+    #[inline]
     pub fn scatter_towards(&self, w: Vec3, light_side: bool) -> Vec3 {
-        let Kind::Surface { s, bsdf, wo, black } = self.kind else {
+        let Kind::Surface {
+            s,
+            bsdf,
+            wo,
+            wo_local: wo_l,
+            lambert,
+            black,
+            ..
+        } = self.kind
+        else {
             return Vec3::ZERO;
         };
         if black {
             return Vec3::ZERO;
         }
-        let (wo_l, w_l) = (s.frame.to_local(wo), s.frame.to_local(w));
+        let w_l = surface_local(&s, lambert.is_some(), w);
+        let eval = |a: Vec3, b: Vec3| match lambert {
+            Some(albedo) => lambert_eval(albedo, a.z, b.z),
+            None => bsdf.eval(a, b),
+        };
         if !light_side {
-            return bsdf.eval(wo_l, w_l);
+            return eval(wo_l, w_l);
         }
         // eval includes |cos| on the light side (wo here); divide it out, then apply the
         // arrival half of the correction (|ns·wl| / |ng·wl|) and the geometric cosine of the
@@ -239,14 +349,76 @@ impl Vertex {
         if wo_l.z == 0.0 || cos_ng_l == 0.0 {
             return Vec3::ZERO;
         }
-        bsdf.eval(w_l, wo_l) / cos_ng_l * cos_ng_w
+        eval(w_l, wo_l) / cos_ng_l * cos_ng_w
+    }
+}
+
+/// [`Vertex::local`] of a surface.
+#[inline(always)]
+pub(super) fn surface_local(s: &Surface, lambert: bool, w: Vec3) -> Vec3 {
+    if lambert {
+        Vec3::new(0.0, 0.0, w.dot(s.frame.n))
+    } else {
+        s.frame.to_local(w)
+    }
+}
+
+/// The BSDF's density of `wi` given `wo` (local; only `z` read for a Lambertian one).
+#[inline(always)]
+pub(super) fn bsdf_pdf(bsdf: &ShadingBsdf, lambert: Option<Vec3>, wo: Vec3, wi: Vec3) -> f32 {
+    match lambert {
+        Some(_) => lambert_pdf(wo.z, wi.z),
+        None => bsdf.pdf(wo, wi),
+    }
+}
+
+/// A two-sided Lambertian BSDF's value `f·|cos θi|` from the cosines of `wo` and `wi`: the
+/// same operations as [`crate::bsdf::Bsdf::eval`] (orientation, hemisphere test, cosine
+/// density), so the same bits.
+#[inline(always)]
+fn lambert_eval(albedo: Vec3, zo: f32, zi: f32) -> Vec3 {
+    let (zo, zi) = if zo < 0.0 { (-zo, -zi) } else { (zo, zi) };
+    if zo <= 0.0 || zi <= 0.0 {
+        return Vec3::ZERO;
+    }
+    albedo * cosine_pdf(zi)
+}
+
+/// [`crate::bsdf::Bsdf::sample`] of a two-sided Lambertian BSDF of reflectance `albedo`
+/// (the same operations, without the dispatch over BSDF kinds).
+#[inline(always)]
+pub(super) fn lambert_sample(albedo: Vec3, wo: Vec3, u: Vec2) -> Option<BsdfSample> {
+    let flip = wo.z < 0.0;
+    if wo.z == 0.0 {
+        return None;
+    }
+    let wi = square_to_cosine_hemisphere(u);
+    let pdf = cosine_hemisphere_pdf(wi);
+    let wi = if flip { -wi } else { wi };
+    (albedo.is_finite() && pdf > 0.0).then_some(BsdfSample {
+        wi,
+        weight: albedo,
+        pdf,
+        delta: false,
+        eta: 1.0,
+    })
+}
+
+/// [`lambert_eval`]'s density ([`crate::bsdf::Bsdf::pdf`] of a diffuse BSDF).
+#[inline(always)]
+fn lambert_pdf(zo: f32, zi: f32) -> f32 {
+    let (zo, zi) = if zo < 0.0 { (-zo, -zi) } else { (zo, zi) };
+    if zo <= 0.0 {
+        0.0
+    } else {
+        cosine_pdf(zi)
     }
 }
 
 /// A solid-angle density `pdf` along unit direction `w` as an area density at `to`, at squared
 /// distance `dist2` (left as is for the environment, whose vertices live in solid angle).
 #[inline]
-fn area_density_along(pdf: f32, to: &Vertex, w: Vec3, dist2: f32) -> f32 {
+pub(super) fn area_density_along(pdf: f32, to: &Vertex, w: Vec3, dist2: f32) -> f32 {
     if let Kind::Environment { .. } = to.kind {
         return pdf;
     }
