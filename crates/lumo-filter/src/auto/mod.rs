@@ -17,6 +17,7 @@
 //! plane is given; lights are the caller's business, as for every filter
 //! ([`crate::with_passthrough`], [`crate::detect_emitters`]).
 
+mod atrous_candidate;
 mod selfweight;
 
 use lumo_image::Image;
@@ -44,17 +45,21 @@ pub struct AutoParams {
     pub softness: f32,
     /// Divide by the albedo before filtering (when an albedo plane is given).
     pub demodulate: bool,
+    /// Also blend the edge-avoiding À-Trous (its colour weight keeps the edges the geometry
+    /// guide does not explain, such as hard shadows), its self-weight measured by a probe.
+    pub atrous: bool,
 }
 
 impl Default for AutoParams {
     fn default() -> Self {
         Self {
-            radii: vec![4, 8, 16, 32],
+            radii: vec![2, 4, 8, 16, 32],
             eps_normal: 0.001,
             eps_depth: 0.001,
-            error_radius: 4,
-            softness: 0.2,
+            error_radius: 8,
+            softness: 0.01,
             demodulate: true,
+            atrous: true,
         }
     }
 }
@@ -123,6 +128,11 @@ pub fn auto(
         )?
         .image;
         let self_weight = self_weights.at_radius(r);
+        errors.push(loo_error(y, &f, &self_weight, params.error_radius));
+        candidates.push(f);
+    }
+    if params.atrous {
+        let (f, self_weight) = atrous_candidate::atrous_candidate(y, features)?;
         errors.push(loo_error(y, &f, &self_weight, params.error_radius));
         candidates.push(f);
     }
