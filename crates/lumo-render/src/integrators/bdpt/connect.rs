@@ -47,7 +47,7 @@ fn segment(ctx: &Context, a: Vec3, b: Vec3, w: Vec3) -> ShadowRay {
 #[inline]
 fn origin_off(ctx: &Context, v: &Vertex, w: Vec3) -> Vec3 {
     match v.kind {
-        Kind::Surface { s, .. } => ctx.rs.offset(&s, w),
+        Kind::Surface { ref s, .. } => ctx.rs.offset(s, w),
         _ if v.ng != Vec3::ZERO => {
             offset_point(v.p.into(), v.ng.into(), w.into(), ctx.rs.ray_epsilon).into()
         }

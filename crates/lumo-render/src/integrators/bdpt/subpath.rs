@@ -153,37 +153,47 @@ fn random_walk(
     rays
 }
 
-/// [`random_walk`] for several subpaths at once, walk `k` with `samplers[k]` into `paths[k]`:
-/// the rays of each step go through the BVH together as one packet, whose hits are bit for
-/// bit the single rays' ([`crate::accel::Accel::intersect_packet`]), so every subpath is
-/// exactly the one [`random_walk`] makes. At most [`LANES`] walks. Returns rays traced.
+/// [`random_walk`] for several subpaths at once, walk `k` with `samplers[k]` into `paths[k]`
+/// up to `max_vertices[k]` vertices: each step traces a packet of the next (at most
+/// [`LANES`]) live walks, taken in turn, whose hits are bit for bit the single rays'
+/// ([`crate::accel::Accel::intersect_packet`]). Each walk's steps stay in its own order and
+/// walks share nothing, so every subpath is exactly the one [`random_walk`] makes. Returns
+/// rays traced.
 pub(super) fn random_walks(
     ctx: &Context,
     walks: &mut [Option<Walk>],
     samplers: &mut [PixelSampler],
     settings: &PathSettings,
-    max_vertices: usize,
+    max_vertices: &[usize],
     paths: &mut [Vec<Vertex>],
 ) -> u32 {
-    debug_assert!(walks.len() <= LANES);
+    let count = walks.len();
     let mut rays = 0;
     let mut hits: [Option<Hit>; LANES] = [None; LANES];
     let mut lanes = [0usize; LANES];
+    // The walk the next packet starts its search at: after the last one traced, so that
+    // every live walk gets a step before any gets two.
+    let mut next = 0;
     loop {
         let mut packet = RayPacket::default();
         let mut n = 0;
-        for (k, w) in walks.iter().enumerate() {
-            if let Some(w) = w {
-                if paths[k].len() < max_vertices {
+        for j in 0..count {
+            let k = (next + j) % count;
+            if let Some(w) = &walks[k] {
+                if paths[k].len() < max_vertices[k] {
                     packet.set(n, w.origin, w.dir, 0.0, f32::INFINITY);
                     lanes[n] = k;
                     n += 1;
+                    if n == LANES {
+                        break;
+                    }
                 }
             }
         }
         if n == 0 {
             return rays;
         }
+        next = (lanes[n - 1] + 1) % count;
         rays += n as u32;
         ctx.rs.accel.intersect_packet(&packet, &mut hits);
         for (&k, &hit) in lanes[..n].iter().zip(&hits[..n]) {
@@ -196,7 +206,7 @@ pub(super) fn random_walks(
                 hit,
                 &mut samplers[k],
                 settings,
-                max_vertices,
+                max_vertices[k],
                 &mut paths[k],
             ) {
                 walks[k] = None;

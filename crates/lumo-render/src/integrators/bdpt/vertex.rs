@@ -118,7 +118,8 @@ impl Vertex {
     /// Whether a strategy may connect to this vertex with a deterministic segment: surfaces
     /// with a non-Dirac lobe, area lights, point and spot lights, the camera.
     pub fn is_connectible(&self) -> bool {
-        match self.kind {
+        // By reference: binding the surface's BSDF by value copies it.
+        match &self.kind {
             Kind::Camera => true,
             Kind::Light { directional, .. } => !directional,
             Kind::Environment { .. } => false,
@@ -227,7 +228,9 @@ impl Vertex {
             }
             // Light does not leave the environment towards the scene (it emits no particles).
             Kind::Environment { .. } => 0.0,
-            Kind::Surface { s, bsdf, .. } => {
+            Kind::Surface {
+                ref s, ref bsdf, ..
+            } => {
                 let Some(w_prev) = w_prev else { return 0.0 };
                 let pdf = bsdf.pdf(s.frame.to_local(w_prev), s.frame.to_local(w));
                 area_density_along(pdf, to, w, dist2)
@@ -241,7 +244,7 @@ impl Vertex {
     #[inline]
     pub fn local(&self, w: Vec3) -> Vec3 {
         match self.kind {
-            Kind::Surface { s, lambert, .. } => surface_local(&s, lambert.is_some(), w),
+            Kind::Surface { ref s, lambert, .. } => surface_local(s, lambert.is_some(), w),
             _ => Vec3::ZERO,
         }
     }
@@ -260,11 +263,11 @@ impl Vertex {
     ) -> f32 {
         match self.kind {
             Kind::Surface {
-                bsdf,
+                ref bsdf,
                 wp_local,
                 lambert,
                 ..
-            } => area_density_along(bsdf_pdf(&bsdf, lambert, wp_local, w_local), to, w, dist2),
+            } => area_density_along(bsdf_pdf(bsdf, lambert, wp_local, w_local), to, w, dist2),
             _ => self.pdf_along(ctx, None, to, w, dist2),
         }
     }
@@ -276,12 +279,12 @@ impl Vertex {
     pub fn pdf_back(&self, ctx: &Context, w_in: Vec3, w_in_local: Vec3, prev: &Vertex) -> f32 {
         match self.kind {
             Kind::Surface {
-                bsdf,
+                ref bsdf,
                 wp_local,
                 lambert,
                 ..
             } => area_density_along(
-                bsdf_pdf(&bsdf, lambert, w_in_local, wp_local),
+                bsdf_pdf(bsdf, lambert, w_in_local, wp_local),
                 prev,
                 self.w_prev,
                 self.d2_prev,
@@ -299,7 +302,7 @@ impl Vertex {
     pub fn as_light_origin(&self, ctx: &Context, to: &Vertex) -> (f32, f32) {
         match self.kind {
             Kind::Environment { dir } => (ctx.rs.lights.environment_pdf(dir), 0.0),
-            Kind::Surface { s, .. } => {
+            Kind::Surface { ref s, .. } => {
                 let w = (to.p - self.p).normalize_or_zero();
                 ctx.rs
                     .lights
@@ -319,9 +322,10 @@ impl Vertex {
     /// `|ng·w|`, so that both sides multiply into `value / distance²`.
     #[inline]
     pub fn scatter_towards(&self, w: Vec3, light_side: bool) -> Vec3 {
+        // By reference: binding the surface and its BSDF by value copies them.
         let Kind::Surface {
-            s,
-            bsdf,
+            ref s,
+            ref bsdf,
             wo,
             wo_local: wo_l,
             lambert,
@@ -334,7 +338,7 @@ impl Vertex {
         if black {
             return Vec3::ZERO;
         }
-        let w_l = surface_local(&s, lambert.is_some(), w);
+        let w_l = surface_local(s, lambert.is_some(), w);
         let eval = |a: Vec3, b: Vec3| match lambert {
             Some(albedo) => lambert_eval(albedo, a.z, b.z),
             None => bsdf.eval(a, b),
