@@ -211,9 +211,9 @@ pub(super) fn prepare(
     if !qs.is_connectible() {
         return Prepared::Nothing;
     }
-    let (Kind::Surface { .. }, Kind::Surface { .. }) = (qs.kind, pt.kind) else {
+    if !matches!(qs.kind, Kind::Surface { .. }) || !matches!(pt.kind, Kind::Surface { .. }) {
         return Prepared::Nothing;
-    };
+    }
     let d = qs.p - pt.p;
     let dist2 = d.length_squared();
     let w = d / dist2.sqrt();

@@ -229,11 +229,10 @@ fn prepare_all(
     let unweighted = settings.only.is_some();
     let first = pending.len();
     for t in 1..=cam.len() {
-        for s in 0..=light.len().max(1) {
+        // Only the strategies that exist: s + t ≥ 2 and depth s + t − 1 ≤ `max_depth`.
+        let s_last = light.len().max(1).min((max_depth + 1).saturating_sub(t));
+        for s in usize::from(t < 2)..=s_last {
             let depth = s + t - 1;
-            if s + t < 2 || depth > max_depth {
-                continue;
-            }
             if settings.only.is_some_and(|only| only != (s, t)) {
                 continue;
             }

@@ -12,7 +12,7 @@ use crate::accel::packet::{RayPacket, LANES};
 use crate::accel::Hit;
 use crate::bsdf::TransportMode;
 use crate::geometry::{offset_point, survival_probability};
-use crate::integrators::light::scatter_particle;
+use crate::integrators::light::{particle_direction, scatter_particle};
 use crate::integrators::path::PathSettings;
 use crate::sampler::PixelSampler;
 
@@ -301,9 +301,13 @@ fn step(
         if cos_ng_l == 0.0 {
             return false;
         }
-        let Some((new_dir, bs, weight)) =
-            scatter_particle(&bsdf, &s, -dir, wo_local, u_lobe, u_dir)
-        else {
+        // A Lambertian BSDF draws the same sample in both modes (no refraction to undo).
+        let scattered = match lambert {
+            Some(albedo) => lambert_sample(albedo, wo_local, u_dir)
+                .and_then(|bs| particle_direction(bs, &s, -dir, wo_local)),
+            None => scatter_particle(&bsdf, &s, -dir, wo_local, u_lobe, u_dir),
+        };
+        let Some((new_dir, bs, weight)) = scattered else {
             return false;
         };
         beta *= weight * (s.frame.n.dot(dir).abs() / cos_ng_l);
