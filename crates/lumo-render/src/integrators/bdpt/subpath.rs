@@ -73,6 +73,7 @@ pub(super) fn light_start(
     let mut light = Vertex::new(kind, e.p, normal, Vec3::splat(1.0 / origin_pdf));
     light.le = e.radiance;
     light.pdf_fwd = origin_pdf;
+    light.set_offset(ctx.rs.ray_epsilon);
     path.push(light);
     if max_vertices < 2 || !e.weight.is_finite() || e.weight == Vec3::ZERO {
         return None;
@@ -265,13 +266,14 @@ fn step(
     let kind = Kind::Surface {
         s,
         bsdf,
-        wo: -dir,
         wo_local,
+        cos_ng_wo: s.ng.dot(-dir).abs(),
         wp_local: surface_local(&s, lambert.is_some(), -w_in),
         lambert,
         black,
     };
     let mut v = Vertex::new(kind, s.p, s.ng, beta);
+    v.set_offset(rs.ray_epsilon);
     v.w_prev = -w_in;
     v.d2_prev = d2;
     v.pdf_fwd = match path[prev].kind {
