@@ -172,14 +172,20 @@ pub(super) fn random_walks(
     let mut rays = 0;
     let mut hits: [Option<Hit>; LANES] = [None; LANES];
     let mut lanes = [0usize; LANES];
-    // The walk the next packet starts its search at: after the last one traced, so that
-    // every live walk gets a step before any gets two.
+    // The walk the next packet starts its search at (`count` wraps to 0): after the last
+    // one traced, so that every live walk gets a step before any gets two.
     let mut next = 0;
     loop {
         let mut packet = RayPacket::default();
         let mut n = 0;
-        for j in 0..count {
-            let k = (next + j) % count;
+        // (Wrapped by hand: `%` by a count unknown at compile time is a division.)
+        let mut j = next;
+        for _ in 0..count {
+            if j == count {
+                j = 0;
+            }
+            let k = j;
+            j += 1;
             if let Some(w) = &walks[k] {
                 if paths[k].len() < max_vertices[k] {
                     packet.set(n, w.origin, w.dir, 0.0, f32::INFINITY);
@@ -194,7 +200,7 @@ pub(super) fn random_walks(
         if n == 0 {
             return rays;
         }
-        next = (lanes[n - 1] + 1) % count;
+        next = lanes[n - 1] + 1;
         rays += n as u32;
         ctx.rs.accel.intersect_packet(&packet, &mut hits);
         for (&k, &hit) in lanes[..n].iter().zip(&hits[..n]) {
