@@ -170,7 +170,7 @@ pub(crate) fn vmin(a: f32, b: f32) -> f32 {
 
 /// The largest magnitude of `p`'s coordinates.
 #[inline(always)]
-fn max3_abs(p: [f32; 3]) -> f32 {
+pub(crate) fn max3_abs(p: [f32; 3]) -> f32 {
     vmax(p[0].abs(), vmax(p[1].abs(), p[2].abs()))
 }
 

@@ -92,6 +92,19 @@ pub(crate) fn scatter_particle(
     u_bsdf: Vec2,
 ) -> Option<(Vec3, BsdfSample, Vec3)> {
     let bs = bsdf.sample_mode(TransportMode::Importance, wl_local, u_lobe, u_bsdf)?;
+    particle_direction(bs, s, wl, wl_local)
+}
+
+/// The second half of [`scatter_particle`] for a sample `bs` already drawn in importance
+/// mode (BDPT draws a Lambertian one without the BSDF dispatch): the world direction, the
+/// sample and the weight with the departure half of the shading-normal correction.
+#[inline(always)]
+pub(crate) fn particle_direction(
+    bs: BsdfSample,
+    s: &Surface,
+    wl: Vec3,
+    wl_local: Vec3,
+) -> Option<(Vec3, BsdfSample, Vec3)> {
     let new_dir = s.frame.to_world(bs.wi).normalize();
     let reflect = bs.wi.z * wl_local.z > 0.0;
     if reflect != (new_dir.dot(s.ng) * wl.dot(s.ng) > 0.0) {

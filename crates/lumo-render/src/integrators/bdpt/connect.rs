@@ -5,9 +5,9 @@
 
 use glam::{Vec2, Vec3};
 
-use super::mis::{weight, Connection};
+use super::mis::{weight, Connection, Segment};
 use super::vertex::{light_vertex, Context, Kind, Vertex};
-use crate::geometry::{offset_point, shadow_segment};
+use crate::geometry::shadow_segment;
 
 /// What one strategy adds: radiance for the camera sample's pixel, or a splat elsewhere on
 /// the film (t = 1).
@@ -43,18 +43,6 @@ fn segment(ctx: &Context, a: Vec3, b: Vec3, w: Vec3) -> ShadowRay {
     }
 }
 
-/// A ray origin just off vertex `v` on the side of `w`.
-#[inline]
-fn origin_off(ctx: &Context, v: &Vertex, w: Vec3) -> Vec3 {
-    match v.kind {
-        Kind::Surface { s, .. } => ctx.rs.offset(&s, w),
-        _ if v.ng != Vec3::ZERO => {
-            offset_point(v.p.into(), v.ng.into(), w.into(), ctx.rs.ray_epsilon).into()
-        }
-        _ => v.p,
-    }
-}
-
 /// A strategy whose unweighted value is known and whose shadow ray is still to be traced:
 /// the caller traces the shadow rays of a sample together (one packet) and then weighs the
 /// visible ones ([`finish`]).
@@ -71,9 +59,8 @@ pub(super) struct Pending {
     /// For `s = 1`, `t ≥ 2`: the light point next-event estimation chose (its vertex is
     /// built only if the shadow ray is unoccluded).
     pub nee: Option<NeePoint>,
-    /// For `s, t ≥ 2`: the connection's unit direction (camera side to light side) and
-    /// squared length, for the weight.
-    pub segment: Option<(Vec3, f32)>,
+    /// For `s, t ≥ 2`: the connection's geometry, for the weight.
+    pub segment: Option<Segment>,
 }
 
 /// The light point of next-event estimation, as [`light_vertex`] takes it.
@@ -161,7 +148,7 @@ pub(super) fn prepare(
         if !finite(value) {
             return Prepared::Nothing;
         }
-        let o = origin_off(ctx, qs, wc);
+        let o = qs.origin_off(wc);
         let ray = segment(ctx, o, ctx.camera.origin(), wc);
         return pending(Contribution::Splat(film, value), ray, None, None);
     }
@@ -180,7 +167,7 @@ pub(super) fn prepare(
         if !finite(value) {
             return Prepared::Nothing;
         }
-        let o = origin_off(ctx, pt, ls.wi);
+        let o = pt.origin_off(ls.wi);
         let ray = if ls.distance.is_finite() {
             segment(ctx, o, ls.point, ls.wi)
         } else {
@@ -211,23 +198,31 @@ pub(super) fn prepare(
     if !qs.is_connectible() {
         return Prepared::Nothing;
     }
-    let (Kind::Surface { .. }, Kind::Surface { .. }) = (qs.kind, pt.kind) else {
+    if !matches!(qs.kind, Kind::Surface { .. }) || !matches!(pt.kind, Kind::Surface { .. }) {
         return Prepared::Nothing;
-    };
+    }
     let d = qs.p - pt.p;
     let dist2 = d.length_squared();
     let w = d / dist2.sqrt();
+    // The shading-frame forms of the connection, shared with the weight's densities.
+    let (w_pt, w_q) = (pt.local(w), qs.local(-w));
     let value =
-        pt.beta * pt.scatter_towards(w, false) * qs.scatter_towards(-w, true) * qs.beta / dist2;
+        pt.beta * pt.scatter_local(w, w_pt, false) * qs.scatter_local(-w, w_q, true) * qs.beta
+            / dist2;
     if !finite(value) {
         return Prepared::Nothing;
     }
-    let (a, b) = (origin_off(ctx, pt, w), origin_off(ctx, qs, -w));
+    let (a, b) = (pt.origin_off(w), qs.origin_off(-w));
     pending(
         Contribution::Pixel(value),
         segment(ctx, a, b, w),
         None,
-        Some((w, dist2)),
+        Some(Segment {
+            w,
+            dist2,
+            w_pt,
+            w_q,
+        }),
     )
 }
 

@@ -16,9 +16,22 @@ pub(super) struct Connection<'a> {
     pub light: &'a [Vertex],
     /// Camera vertices `0..t`.
     pub camera: &'a [Vertex],
-    /// The unit direction from the last camera vertex to the last light vertex and their
-    /// squared distance where the caller has them (what [`Vertex::towards`] returns).
-    pub segment: Option<(Vec3, f32)>,
+    /// The connection's geometry where the caller has it.
+    pub segment: Option<Segment>,
+}
+
+/// The edge between the last camera vertex `pt` and the last light vertex `qs` of a
+/// strategy, as computed for its value.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Segment {
+    /// Unit direction from `pt` to `qs` (what [`Vertex::towards`] returns).
+    pub w: Vec3,
+    /// Their squared distance.
+    pub dist2: f32,
+    /// `pt.local(w)` ([`Vertex::local`]).
+    pub w_pt: Vec3,
+    /// `qs.local(-w)`.
+    pub w_q: Vec3,
 }
 
 /// The ratio of a vertex's reverse to forward density; 0 where the forward density is 0
@@ -55,8 +68,20 @@ pub(super) fn weight(ctx: &Context, c: &Connection) -> f32 {
     // and distance computed once, those to the neighbours cached in the vertices.
     let (pt_rev, pt_minus_rev, qs_rev, qs_minus_rev) = match qs {
         Some(q) => {
-            let (w, dist2) = c.segment.unwrap_or_else(|| pt.towards(q));
-            let (w_pt, w_q) = (pt.local(w), q.local(-w));
+            let Segment {
+                w,
+                dist2,
+                w_pt,
+                w_q,
+            } = c.segment.unwrap_or_else(|| {
+                let (w, dist2) = pt.towards(q);
+                Segment {
+                    w,
+                    dist2,
+                    w_pt: pt.local(w),
+                    w_q: q.local(-w),
+                }
+            });
             let pt_rev = q.pdf_onward(ctx, pt, -w, w_q, dist2);
             let qs_rev = pt.pdf_onward(ctx, q, w, w_pt, dist2);
             let pt_minus_rev = pt_minus.map_or(0.0, |m| pt.pdf_back(ctx, w, w_pt, m));

@@ -49,11 +49,13 @@ pub struct BdptSettings {
 /// for their shadow rays.
 #[derive(Default)]
 pub struct BdptScratch {
-    /// Camera subpaths, one per sample of a group.
-    camera: Vec<Vec<Vertex>>,
-    /// Light subpaths, one per sample of a group.
-    light: Vec<Vec<Vertex>>,
+    /// Subpaths of a group: sample `k`'s camera subpath at `k`, its light subpath at
+    /// `GROUP + k` (one slice, so that both walks share packets).
+    paths: Vec<Vec<Vertex>>,
+    /// The group's strategies waiting for their shadow rays, sample by sample.
     pending: Vec<Pending>,
+    /// Bit `i % LANES` of entry `i / LANES`: the shadow ray of `pending[i]` is blocked.
+    occluded: Vec<u32>,
 }
 
 /// Most samples [`trace_bdpt_samples`] takes at once (one ray packet).
@@ -125,55 +127,71 @@ pub fn trace_bdpt_samples(
     let n = films.len().min(GROUP).min(samplers.len()).min(out.len());
     let ctx = Context { rs, camera };
     let max_depth = settings.path.max_depth.max(1) as usize;
-    scratch
-        .camera
-        .resize_with(n.max(scratch.camera.len()), Vec::new);
-    scratch
-        .light
-        .resize_with(n.max(scratch.light.len()), Vec::new);
-    let mut walks = [None; GROUP];
-    let mut subpath_samplers = [PixelSampler::new(0, 0, 0, 0); GROUP];
-    // Camera subpaths, then light subpaths, a packet per step.
+    scratch.paths.resize_with(2 * GROUP, Vec::new);
+    let mut walks = [None; 2 * GROUP];
+    let mut subpath_samplers = [PixelSampler::new(0, 0, 0, 0); 2 * GROUP];
+    let mut max_vertices = [0usize; 2 * GROUP];
+    // Both subpaths of every sample walk together, a packet of the next sixteen live walks
+    // per step: the walks are independent (each its own sampler and vertices), so the order
+    // of their steps changes nothing, while packets stay full until fewer than sixteen walks
+    // are left (a packet costs sixteen lanes however few rays it holds).
     for k in 0..n {
-        walks[k] = camera_start(&ctx, films[k], max_depth + 1, &mut scratch.camera[k]);
-        subpath_samplers[k] = samplers[k].0;
-    }
-    let rays = random_walks(
-        &ctx,
-        &mut walks[..n],
-        &mut subpath_samplers[..n],
-        &settings.path,
-        max_depth + 1,
-        &mut scratch.camera[..n],
-    );
-    let mut total_rays = rays;
-    for k in 0..n {
-        samplers[k].0 = subpath_samplers[k];
-        walks[k] = light_start(&ctx, &mut samplers[k].1, max_depth, &mut scratch.light[k]);
-        subpath_samplers[k] = samplers[k].1;
-    }
-    total_rays += random_walks(
-        &ctx,
-        &mut walks[..n],
-        &mut subpath_samplers[..n],
-        &settings.path,
-        max_depth,
-        &mut scratch.light[..n],
-    );
-    for k in 0..n {
-        samplers[k].1 = subpath_samplers[k];
-        set_ratios(&mut scratch.camera[k]);
-        set_ratios(&mut scratch.light[k]);
-    }
-    for (k, o) in out[..n].iter_mut().enumerate() {
-        *o = connect_all(
+        let (cam, light) = (k, GROUP + k);
+        walks[cam] = camera_start(&ctx, films[k], max_depth + 1, &mut scratch.paths[cam]);
+        subpath_samplers[cam] = samplers[k].0;
+        max_vertices[cam] = max_depth + 1;
+        walks[light] = light_start(
             &ctx,
-            &scratch.light[k],
-            &scratch.camera[k],
-            settings,
-            &mut scratch.pending,
-            &mut |s| splat(k, s),
+            &mut samplers[k].1,
+            max_depth,
+            &mut scratch.paths[light],
         );
+        subpath_samplers[light] = samplers[k].1;
+        max_vertices[light] = max_depth;
+    }
+    let total_rays = random_walks(
+        &ctx,
+        &mut walks,
+        &mut subpath_samplers,
+        &settings.path,
+        &max_vertices,
+        &mut scratch.paths,
+    );
+    for k in 0..n {
+        samplers[k] = (subpath_samplers[k], subpath_samplers[GROUP + k]);
+        set_ratios(&mut scratch.paths[k]);
+        set_ratios(&mut scratch.paths[GROUP + k]);
+    }
+    // Every sample's strategies up to their shadow rays, then all the group's shadow rays in
+    // full packets, then each sample's visible strategies weighed and added in the order they
+    // were prepared (the order of tracing one sample alone).
+    let (cams, lights) = scratch.paths.split_at(GROUP);
+    scratch.pending.clear();
+    let mut ends = [0usize; GROUP];
+    for (k, o) in out[..n].iter_mut().enumerate() {
+        *o = prepare_all(&ctx, &lights[k], &cams[k], settings, &mut scratch.pending);
+        ends[k] = scratch.pending.len();
+    }
+    scratch.occluded.clear();
+    for chunk in scratch.pending.chunks(LANES) {
+        let mut rays = RayPacket::default();
+        for (lane, p) in chunk.iter().enumerate() {
+            rays.set(lane, p.ray.origin, p.ray.dir, 0.0, p.ray.tmax);
+        }
+        scratch.occluded.push(rs.accel.occluded_packet(&rays));
+    }
+    let unweighted = settings.only.is_some();
+    let mut start = 0;
+    for (k, o) in out[..n].iter_mut().enumerate() {
+        for i in start..ends[k] {
+            if scratch.occluded[i / LANES] & (1 << (i % LANES)) != 0 {
+                continue;
+            }
+            let p = &scratch.pending[i];
+            let c = finish(&ctx, &lights[k], &cams[k], p, unweighted);
+            add(o, p.s + p.t - 1, c, &mut |s| splat(k, s));
+        }
+        start = ends[k];
     }
     // The subpaths' rays, counted with the group's first sample.
     if n > 0 {
@@ -181,32 +199,40 @@ pub fn trace_bdpt_samples(
     }
 }
 
-/// Every strategy of one sample's subpaths: the radiance for its pixel, the splats through
-/// `splat`.
-fn connect_all(
+/// Adds one strategy's contribution: radiance to the sample, a splat through `splat`.
+#[inline]
+fn add(
+    radiance: &mut PathRadiance,
+    depth: usize,
+    c: Contribution,
+    splat: &mut impl FnMut(LightSplat),
+) {
+    match c {
+        Contribution::Pixel(v) => radiance.add(depth as u32, v),
+        Contribution::Splat(film, value) if value.is_finite() => splat(LightSplat { film, value }),
+        Contribution::Splat(..) => {}
+    }
+}
+
+/// Every strategy of one sample's subpaths up to its shadow ray: returns the radiance of
+/// those that need none (s = 0) and the count of shadow rays, and appends the others to
+/// `pending` in order.
+fn prepare_all(
     ctx: &Context,
     light: &[Vertex],
     cam: &[Vertex],
     settings: &BdptSettings,
     pending: &mut Vec<Pending>,
-    splat: &mut impl FnMut(LightSplat),
 ) -> PathRadiance {
-    let rs = ctx.rs;
     let max_depth = settings.path.max_depth.max(1) as usize;
     let mut radiance = PathRadiance::default();
     let unweighted = settings.only.is_some();
-    let mut add = |radiance: &mut PathRadiance, depth: usize, c: Contribution| match c {
-        Contribution::Pixel(v) => radiance.add(depth as u32, v),
-        Contribution::Splat(film, value) if value.is_finite() => splat(LightSplat { film, value }),
-        Contribution::Splat(..) => {}
-    };
-    pending.clear();
+    let first = pending.len();
     for t in 1..=cam.len() {
-        for s in 0..=light.len().max(1) {
+        // Only the strategies that exist: s + t ≥ 2 and depth s + t − 1 ≤ `max_depth`.
+        let s_last = light.len().max(1).min((max_depth + 1).saturating_sub(t));
+        for s in usize::from(t < 2)..=s_last {
             let depth = s + t - 1;
-            if s + t < 2 || depth > max_depth {
-                continue;
-            }
             if settings.only.is_some_and(|only| only != (s, t)) {
                 continue;
             }
@@ -216,26 +242,11 @@ fn connect_all(
             }
             match prepare(ctx, light, cam, (s, t), unweighted) {
                 Prepared::Nothing => {}
-                Prepared::Done(c) => add(&mut radiance, depth, c),
+                Prepared::Done(c) => add(&mut radiance, depth, c, &mut |_| {}),
                 Prepared::Pending(p) => pending.push(p),
             }
         }
     }
-    // The shadow rays of the sample, up to a packet at a time; the visible strategies are
-    // weighed and added in the order they were prepared.
-    radiance.rays += pending.len() as u32;
-    for chunk in pending.chunks(LANES) {
-        let mut rays = RayPacket::default();
-        for (lane, p) in chunk.iter().enumerate() {
-            rays.set(lane, p.ray.origin, p.ray.dir, 0.0, p.ray.tmax);
-        }
-        let occluded = rs.accel.occluded_packet(&rays);
-        for (lane, p) in chunk.iter().enumerate() {
-            if occluded & (1 << lane) == 0 {
-                let c = finish(ctx, light, cam, p, unweighted);
-                add(&mut radiance, p.s + p.t - 1, c);
-            }
-        }
-    }
+    radiance.rays += (pending.len() - first) as u32;
     radiance
 }

@@ -12,7 +12,7 @@ use crate::accel::packet::{RayPacket, LANES};
 use crate::accel::Hit;
 use crate::bsdf::TransportMode;
 use crate::geometry::{offset_point, survival_probability};
-use crate::integrators::light::scatter_particle;
+use crate::integrators::light::{particle_direction, scatter_particle};
 use crate::integrators::path::PathSettings;
 use crate::sampler::PixelSampler;
 
@@ -73,6 +73,7 @@ pub(super) fn light_start(
     let mut light = Vertex::new(kind, e.p, normal, Vec3::splat(1.0 / origin_pdf));
     light.le = e.radiance;
     light.pdf_fwd = origin_pdf;
+    light.set_offset(ctx.rs.ray_epsilon);
     path.push(light);
     if max_vertices < 2 || !e.weight.is_finite() || e.weight == Vec3::ZERO {
         return None;
@@ -153,37 +154,53 @@ fn random_walk(
     rays
 }
 
-/// [`random_walk`] for several subpaths at once, walk `k` with `samplers[k]` into `paths[k]`:
-/// the rays of each step go through the BVH together as one packet, whose hits are bit for
-/// bit the single rays' ([`crate::accel::Accel::intersect_packet`]), so every subpath is
-/// exactly the one [`random_walk`] makes. At most [`LANES`] walks. Returns rays traced.
+/// [`random_walk`] for several subpaths at once, walk `k` with `samplers[k]` into `paths[k]`
+/// up to `max_vertices[k]` vertices: each step traces a packet of the next (at most
+/// [`LANES`]) live walks, taken in turn, whose hits are bit for bit the single rays'
+/// ([`crate::accel::Accel::intersect_packet`]). Each walk's steps stay in its own order and
+/// walks share nothing, so every subpath is exactly the one [`random_walk`] makes. Returns
+/// rays traced.
 pub(super) fn random_walks(
     ctx: &Context,
     walks: &mut [Option<Walk>],
     samplers: &mut [PixelSampler],
     settings: &PathSettings,
-    max_vertices: usize,
+    max_vertices: &[usize],
     paths: &mut [Vec<Vertex>],
 ) -> u32 {
-    debug_assert!(walks.len() <= LANES);
+    let count = walks.len();
     let mut rays = 0;
     let mut hits: [Option<Hit>; LANES] = [None; LANES];
     let mut lanes = [0usize; LANES];
+    // The walk the next packet starts its search at (`count` wraps to 0): after the last
+    // one traced, so that every live walk gets a step before any gets two.
+    let mut next = 0;
     loop {
         let mut packet = RayPacket::default();
         let mut n = 0;
-        for (k, w) in walks.iter().enumerate() {
-            if let Some(w) = w {
-                if paths[k].len() < max_vertices {
+        // (Wrapped by hand: `%` by a count unknown at compile time is a division.)
+        let mut j = next;
+        for _ in 0..count {
+            if j == count {
+                j = 0;
+            }
+            let k = j;
+            j += 1;
+            if let Some(w) = &walks[k] {
+                if paths[k].len() < max_vertices[k] {
                     packet.set(n, w.origin, w.dir, 0.0, f32::INFINITY);
                     lanes[n] = k;
                     n += 1;
+                    if n == LANES {
+                        break;
+                    }
                 }
             }
         }
         if n == 0 {
             return rays;
         }
+        next = lanes[n - 1] + 1;
         rays += n as u32;
         ctx.rs.accel.intersect_packet(&packet, &mut hits);
         for (&k, &hit) in lanes[..n].iter().zip(&hits[..n]) {
@@ -196,7 +213,7 @@ pub(super) fn random_walks(
                 hit,
                 &mut samplers[k],
                 settings,
-                max_vertices,
+                max_vertices[k],
                 &mut paths[k],
             ) {
                 walks[k] = None;
@@ -255,13 +272,14 @@ fn step(
     let kind = Kind::Surface {
         s,
         bsdf,
-        wo: -dir,
         wo_local,
+        cos_ng_wo: s.ng.dot(-dir).abs(),
         wp_local: surface_local(&s, lambert.is_some(), -w_in),
         lambert,
         black,
     };
     let mut v = Vertex::new(kind, s.p, s.ng, beta);
+    v.set_offset(rs.ray_epsilon);
     v.w_prev = -w_in;
     v.d2_prev = d2;
     v.pdf_fwd = match path[prev].kind {
@@ -291,9 +309,13 @@ fn step(
         if cos_ng_l == 0.0 {
             return false;
         }
-        let Some((new_dir, bs, weight)) =
-            scatter_particle(&bsdf, &s, -dir, wo_local, u_lobe, u_dir)
-        else {
+        // A Lambertian BSDF draws the same sample in both modes (no refraction to undo).
+        let scattered = match lambert {
+            Some(albedo) => lambert_sample(albedo, wo_local, u_dir)
+                .and_then(|bs| particle_direction(bs, &s, -dir, wo_local)),
+            None => scatter_particle(&bsdf, &s, -dir, wo_local, u_lobe, u_dir),
+        };
+        let Some((new_dir, bs, weight)) = scattered else {
             return false;
         };
         beta *= weight * (s.frame.n.dot(dir).abs() / cos_ng_l);

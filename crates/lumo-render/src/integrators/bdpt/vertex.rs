@@ -13,7 +13,7 @@ use glam::{Vec2, Vec3};
 
 use crate::bsdf::BsdfSample;
 use crate::camera::PinholeCamera;
-use crate::geometry::{cosine_hemisphere_pdf, cosine_pdf, square_to_cosine_hemisphere};
+use crate::geometry::{cosine_hemisphere_pdf, cosine_pdf, max3_abs, square_to_cosine_hemisphere};
 use crate::lights::{EmissionPdf, Lights};
 use crate::render_scene::{RenderScene, Surface};
 use crate::shading::ShadingBsdf;
@@ -47,11 +47,11 @@ pub(super) enum Kind {
         s: Surface,
         /// Its BSDF.
         bsdf: ShadingBsdf,
-        /// Unit direction (world) back towards the previous vertex of its own subpath: the
-        /// reverse of the ray that found it.
-        wo: Vec3,
-        /// `wo` in the shading frame.
+        /// The unit direction back towards the previous vertex of its own subpath (the
+        /// reverse of the ray that found it) in the shading frame.
         wo_local: Vec3,
+        /// `|ng·wo|` of that direction `wo` (world), the arrival cosine that the light side of a connection divides out.
+        cos_ng_wo: f32,
         /// [`Vertex::w_prev`] in the shading frame (only `z` for a Lambertian vertex).
         wp_local: Vec3,
         /// The reflectance of a plain Lambertian BSDF ([`ShadingBsdf::lambert`]): its value
@@ -94,6 +94,10 @@ pub(super) struct Vertex {
     /// Random numbers for next-event estimation from this vertex (camera subpaths), drawn
     /// with the vertex so that the sample stream does not depend on which strategies run.
     pub u_light: (f32, Vec2),
+    /// `ray_epsilon · (1 + max |p_i|)`: how far a ray origin moves off this vertex along its
+    /// geometric normal ([`crate::geometry::offset_point`]'s scale, computed once per vertex
+    /// instead of once per strategy; [`Vertex::new`] leaves it 0, [`Vertex::set_offset`]).
+    pub off_scale: f32,
 }
 
 impl Vertex {
@@ -112,13 +116,40 @@ impl Vertex {
             w_prev: Vec3::ZERO,
             d2_prev: 0.0,
             u_light: (0.0, Vec2::ZERO),
+            off_scale: 0.0,
         }
+    }
+
+    /// Sets [`Vertex::off_scale`] for ray epsilon `eps`, the operations of
+    /// [`crate::geometry::offset_point`] (so its offsets are the same bits).
+    #[inline]
+    pub fn set_offset(&mut self, eps: f32) {
+        self.off_scale = eps * (1.0 + max3_abs(self.p.into()));
+    }
+
+    /// A ray origin just off this vertex on the side of `w`: [`crate::geometry::offset_point`]
+    /// with the cached scale (`side · eps · (1 + m)` with `side = ±1` is `±(eps · (1 + m))`
+    /// exactly), the vertex itself where it has no normal.
+    #[inline]
+    pub fn origin_off(&self, w: Vec3) -> Vec3 {
+        if !matches!(self.kind, Kind::Surface { .. }) && self.ng == Vec3::ZERO {
+            return self.p;
+        }
+        let (p, ng) = (self.p, self.ng);
+        let along = (ng.x * w.x) + (ng.y * w.y) + (ng.z * w.z);
+        let k = if along >= 0.0 {
+            self.off_scale
+        } else {
+            -self.off_scale
+        };
+        Vec3::new(p.x + ng.x * k, p.y + ng.y * k, p.z + ng.z * k)
     }
 
     /// Whether a strategy may connect to this vertex with a deterministic segment: surfaces
     /// with a non-Dirac lobe, area lights, point and spot lights, the camera.
     pub fn is_connectible(&self) -> bool {
-        match self.kind {
+        // By reference: binding the surface's BSDF by value copies it.
+        match &self.kind {
             Kind::Camera => true,
             Kind::Light { directional, .. } => !directional,
             Kind::Environment { .. } => false,
@@ -157,15 +188,15 @@ impl Vertex {
         (self.w_prev, self.d2_prev) = (w, d2);
         if let Kind::Surface {
             s,
-            wo,
             wo_local,
+            cos_ng_wo,
             wp_local,
             lambert,
             ..
         } = &mut self.kind
         {
-            *wo = w;
             *wo_local = s.frame.to_local(w);
+            *cos_ng_wo = s.ng.dot(w).abs();
             *wp_local = surface_local(s, lambert.is_some(), w);
         }
     }
@@ -227,7 +258,9 @@ impl Vertex {
             }
             // Light does not leave the environment towards the scene (it emits no particles).
             Kind::Environment { .. } => 0.0,
-            Kind::Surface { s, bsdf, .. } => {
+            Kind::Surface {
+                ref s, ref bsdf, ..
+            } => {
                 let Some(w_prev) = w_prev else { return 0.0 };
                 let pdf = bsdf.pdf(s.frame.to_local(w_prev), s.frame.to_local(w));
                 area_density_along(pdf, to, w, dist2)
@@ -241,7 +274,7 @@ impl Vertex {
     #[inline]
     pub fn local(&self, w: Vec3) -> Vec3 {
         match self.kind {
-            Kind::Surface { s, lambert, .. } => surface_local(&s, lambert.is_some(), w),
+            Kind::Surface { ref s, lambert, .. } => surface_local(s, lambert.is_some(), w),
             _ => Vec3::ZERO,
         }
     }
@@ -260,11 +293,11 @@ impl Vertex {
     ) -> f32 {
         match self.kind {
             Kind::Surface {
-                bsdf,
+                ref bsdf,
                 wp_local,
                 lambert,
                 ..
-            } => area_density_along(bsdf_pdf(&bsdf, lambert, wp_local, w_local), to, w, dist2),
+            } => area_density_along(bsdf_pdf(bsdf, lambert, wp_local, w_local), to, w, dist2),
             _ => self.pdf_along(ctx, None, to, w, dist2),
         }
     }
@@ -276,12 +309,12 @@ impl Vertex {
     pub fn pdf_back(&self, ctx: &Context, w_in: Vec3, w_in_local: Vec3, prev: &Vertex) -> f32 {
         match self.kind {
             Kind::Surface {
-                bsdf,
+                ref bsdf,
                 wp_local,
                 lambert,
                 ..
             } => area_density_along(
-                bsdf_pdf(&bsdf, lambert, w_in_local, wp_local),
+                bsdf_pdf(bsdf, lambert, w_in_local, wp_local),
                 prev,
                 self.w_prev,
                 self.d2_prev,
@@ -299,7 +332,7 @@ impl Vertex {
     pub fn as_light_origin(&self, ctx: &Context, to: &Vertex) -> (f32, f32) {
         match self.kind {
             Kind::Environment { dir } => (ctx.rs.lights.environment_pdf(dir), 0.0),
-            Kind::Surface { s, .. } => {
+            Kind::Surface { ref s, .. } => {
                 let w = (to.p - self.p).normalize_or_zero();
                 ctx.rs
                     .lights
@@ -319,13 +352,21 @@ impl Vertex {
     /// `|ng·w|`, so that both sides multiply into `value / distance²`.
     #[inline]
     pub fn scatter_towards(&self, w: Vec3, light_side: bool) -> Vec3 {
+        self.scatter_local(w, self.local(w), light_side)
+    }
+
+    /// [`Vertex::scatter_towards`] with `w_l` = [`Vertex::local`]`(w)` already computed (a
+    /// connection reuses it for its weight's densities).
+    #[inline]
+    pub fn scatter_local(&self, w: Vec3, w_l: Vec3, light_side: bool) -> Vec3 {
+        // By reference: binding the surface and its BSDF by value copies them.
         let Kind::Surface {
-            s,
-            bsdf,
-            wo,
+            ref s,
+            ref bsdf,
             wo_local: wo_l,
             lambert,
             black,
+            cos_ng_wo,
             ..
         } = self.kind
         else {
@@ -334,7 +375,6 @@ impl Vertex {
         if black {
             return Vec3::ZERO;
         }
-        let w_l = surface_local(&s, lambert.is_some(), w);
         let eval = |a: Vec3, b: Vec3| match lambert {
             Some(albedo) => lambert_eval(albedo, a.z, b.z),
             None => bsdf.eval(a, b),
@@ -345,11 +385,11 @@ impl Vertex {
         // eval includes |cos| on the light side (wo here); divide it out, then apply the
         // arrival half of the correction (|ns·wl| / |ng·wl|) and the geometric cosine of the
         // departure.
-        let (cos_ng_l, cos_ng_w) = (s.ng.dot(wo).abs(), s.ng.dot(w).abs());
-        if wo_l.z == 0.0 || cos_ng_l == 0.0 {
+        let cos_ng_w = s.ng.dot(w).abs();
+        if wo_l.z == 0.0 || cos_ng_wo == 0.0 {
             return Vec3::ZERO;
         }
-        eval(w_l, wo_l) / cos_ng_l * cos_ng_w
+        eval(w_l, wo_l) / cos_ng_wo * cos_ng_w
     }
 }
 
