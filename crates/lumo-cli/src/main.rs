@@ -7,6 +7,7 @@ mod compare_cmd;
 mod denoise;
 mod pipeline_args;
 mod render_cmd;
+mod reshade;
 mod sequence;
 mod serve_cmd;
 mod temporal;

@@ -254,7 +254,9 @@ impl Sequence {
         let (mut refits, mut rebuilds) = (0u32, 0u32);
         let (mut samples, mut rays) = (0u64, 0u64);
         let mut temporal = if job.args.temporal {
-            Some(TemporalSequence::new(self.rig.is_some()).context("--temporal")?)
+            let s = &job.settings;
+            let reshade = (s.spp == 1).then_some(s.path);
+            Some(TemporalSequence::new(self.rig.is_some(), reshade).context("--temporal")?)
         } else {
             None
         };
@@ -271,6 +273,7 @@ impl Sequence {
             let progress = |f: f32| bar.set_position(base + (f * 1000.0) as u64);
             let mut jitter = [0.0; 2];
             let nominal = rs.scene.camera.clone();
+            let seed = crate::temporal_eval::frame_seed(job.settings.seed, frame);
             let mut out = match &temporal {
                 // New random numbers every frame, for the filter to average, through a camera
                 // jittered by a sub-pixel offset, for its anti-aliasing.
@@ -279,15 +282,14 @@ impl Sequence {
                     let (camera, j) = t.camera(&nominal, w, h, i);
                     jitter = j;
                     rs.scene.camera = camera;
-                    job.with_seed(crate::temporal_eval::frame_seed(job.settings.seed, frame))
-                        .render(&rs, &progress)?
+                    job.with_seed(seed).render(&rs, &progress)?
                 }
                 None => job.render(&rs, &progress)?,
             };
             if let (Some(t), Some((traced, _))) = (&mut temporal, &out.aovs) {
                 let (image, _) = job
                     .pool
-                    .install(|| t.filter(&rs, traced, jitter))
+                    .install(|| t.filter(&rs, traced, jitter, seed))
                     .with_context(|| format!("frame {frame}: temporal filter"))?;
                 out.image = image;
             }

@@ -18,9 +18,11 @@ use lumo_filter::{
 };
 use lumo_image::Image;
 use lumo_render::camera::PinholeCamera;
-use lumo_render::{Frame, RenderScene};
+use lumo_render::{Frame, PathSettings, RenderScene};
 use lumo_scene::Camera;
 use rayon::prelude::*;
+
+use crate::reshade::{reshade, Pose, ShadedFrame};
 
 /// Id of pixels whose centre ray hits nothing.
 const NO_INSTANCE: u32 = u32::MAX;
@@ -32,6 +34,10 @@ struct View {
     jitter: [f32; 2],
     /// Instance transforms (object → world).
     transforms: Vec<Mat4>,
+    /// The instance under each pixel centre, when instances move.
+    ids: Option<Vec<u32>>,
+    /// The traced frame, for re-shading (when on).
+    shaded: Option<ShadedFrame>,
 }
 
 /// Time spent on one frame's temporal filtering.
@@ -39,6 +45,8 @@ struct View {
 pub struct TemporalTimes {
     /// Instance ids and motion vectors.
     pub motion: Duration,
+    /// Re-shading one point per 3×3 block of the previous frame (history rejection).
+    pub reshade: Duration,
     /// The filter itself (reprojection, accumulation, variance, À-Trous).
     pub filter: Duration,
 }
@@ -53,11 +61,17 @@ pub struct TemporalSequence {
     jitter: bool,
     /// Instances move (an animated scene): trace ids and follow each instance's motion.
     object_motion: bool,
+    /// The path settings frames are traced with, when the history rejection re-shades
+    /// samples of the previous frame (`crate::reshade`); `None`: the windowed test.
+    reshade: Option<PathSettings>,
 }
 
 impl TemporalSequence {
     /// A sequence with SVGF's parameters; `object_motion` when the scene's instances move.
-    pub fn new(object_motion: bool) -> Result<Self, FilterError> {
+    /// With `reshade` (the path settings of frames traced at one sample per pixel) the history
+    /// rejection re-traces a few of the previous frame's samples (A-SVGF), unless the tuning
+    /// hook turns that off (`rs=0`); without, it uses the windowed statistical test.
+    pub fn new(object_motion: bool, reshade: Option<PathSettings>) -> Result<Self, FilterError> {
         let (params, taa) = sequence_params();
         Ok(Self {
             filter: TemporalFilter::new(params)?,
@@ -68,6 +82,7 @@ impl TemporalSequence {
             prev: None,
             jitter: tuned("jit").is_some_and(|v| v != 0.0),
             object_motion,
+            reshade: reshade.filter(|_| tuned("rs") != Some(0.0)),
         })
     }
 
@@ -83,29 +98,51 @@ impl TemporalSequence {
     }
 
     /// Filters `frame`, traced from `rs` as it is posed now with a camera jittered by `jitter`
-    /// pixels (see [`Self::camera`]); returns the filtered image, which the TAA stage puts back
-    /// on the unjittered pixel grid.
+    /// pixels (see [`Self::camera`]) and random-number seed `seed`, one sample per pixel;
+    /// returns the filtered image, which the TAA stage puts back on the unjittered pixel grid.
     pub fn filter(
         &mut self,
         rs: &RenderScene,
         frame: &Frame,
         jitter: [f32; 2],
+        seed: u32,
     ) -> Result<(Image, TemporalTimes), FilterError> {
         let (w, h) = (frame.width(), frame.height());
         let start = Instant::now();
         let c = &rs.scene.camera;
         let (hw, hh) = c.half_extent(w, h);
-        let view = View {
+        let mut view = View {
             view_proj: pinhole_view_projection(c.origin, c.target, c.up, [hw, hh]),
             jitter,
             transforms: rs.scene.instances.iter().map(|i| i.transform).collect(),
+            ids: self.object_motion.then(|| instance_ids(rs, w, h)),
+            shaded: None,
         };
-        let ids = self.object_motion.then(|| instance_ids(rs, w, h));
+        let ids = view.ids.as_deref();
         let motion = self
             .prev
             .as_ref()
-            .map(|prev| motion_vectors(prev, &view, &frame.position, ids.as_deref()));
+            .map(|prev| motion_vectors(prev, &view, &frame.position, ids));
         let motion_time = start.elapsed();
+        let t = Instant::now();
+        let changes = match (&self.reshade, &self.prev) {
+            (Some(path), Some(prev)) => prev.shaded.as_ref().map(|before| {
+                let camera = PinholeCamera::new(c, w, h);
+                let then = Pose {
+                    view_proj: prev.view_proj,
+                    transforms: &prev.transforms,
+                    ids: prev.ids.as_deref(),
+                };
+                let now = Pose {
+                    view_proj: view.view_proj,
+                    transforms: &view.transforms,
+                    ids,
+                };
+                reshade(rs, &camera, path, before, &then, &now)
+            }),
+            _ => None,
+        };
+        let reshade_time = t.elapsed();
         // Emitters seen directly pass through unfiltered, as in every pipeline.
         let emitter: Vec<bool> = frame
             .emission
@@ -116,15 +153,18 @@ impl TemporalSequence {
             .collect();
         let t = Instant::now();
         let filtered = with_passthrough(&frame.color, &emitter, |c| {
-            self.filter.filter(&TemporalFrame {
-                color: c,
-                albedo: Some(&frame.albedo),
-                normal: &frame.normal,
-                depth: &frame.depth,
-                position: Some(&frame.position),
-                ids: ids.as_deref(),
-                motion: motion.as_ref(),
-            })
+            self.filter.filter_reshaded(
+                &TemporalFrame {
+                    color: c,
+                    albedo: Some(&frame.albedo),
+                    normal: &frame.normal,
+                    depth: &frame.depth,
+                    position: Some(&frame.position),
+                    ids,
+                    motion: motion.as_ref(),
+                },
+                changes.as_deref(),
+            )
         })?;
         // The TAA history lives on the unjittered grid. A jittered pixel x shows the unjittered
         // image at x + j, so the surface at unjittered x was at jittered x − j + motion in the
@@ -149,8 +189,12 @@ impl TemporalSequence {
         };
         let times = TemporalTimes {
             motion: motion_time,
+            reshade: reshade_time,
             filter: t.elapsed(),
         };
+        if self.reshade.is_some() {
+            view.shaded = Some(ShadedFrame::new(frame, seed));
+        }
         self.prev = Some(view);
         Ok((image, times))
     }
@@ -166,9 +210,12 @@ impl TemporalSequence {
 /// cornell-spheres orbit at 96², references 256 spp) added the variance of the accumulated
 /// colour rather than of one sample to steer the À-Trous (0.71 → 0.66 on that orbit), a longer
 /// history (α = 0.05, up to 128 frames) and a rejection radius of 6 (Cornell 0.61 → 0.59,
-/// spheres 0.65, animated 0.97 → 0.96). Camera jitter, TAA, Catmull-Rom history reads, the
-/// neighbourhood clamp and the short-history levels are off: measured, they did not lower FLIP
-/// (docs/results/temporal.md).
+/// spheres 0.65, animated 0.97 → 0.96). A third round re-shades one sample per 3×3 block of the
+/// previous frame with its own random numbers (A-SVGF's temporal gradients, `crate::reshade`)
+/// and rejects history by that change (gain 3, radius 4) while scaling what is kept by it
+/// (animated 0.96 → 0.78, Cornell 0.59 → 0.57, spheres 0.65 → 0.66). Camera jitter, TAA,
+/// Catmull-Rom history reads, the neighbourhood clamp and the short-history levels are off:
+/// measured, they did not lower FLIP (docs/results/temporal.md).
 fn sequence_params() -> (TemporalParams, Option<(f32, f32)>) {
     let mut p = TemporalParams::sequence();
     let mut taa = None;
@@ -218,7 +265,7 @@ pub fn tuned(key: &str) -> Option<f32> {
 
 /// Tuning aid (undocumented in `--help`): `LUMO_TEMPORAL_TUNE="alpha=0.1,levels=2,…"`
 /// overrides the parameters for parameter sweeps without a rebuild. Keys: alpha (colour and
-/// moments), levels, sigma_l, gr / gk / gg (gradient radius, sigmas, gain), fh (1: filtered
+/// moments), levels, sigma_l, gr / gk / gg (gradient radius, sigmas, gain), rg (re-shaded rejection gain), rr (1: rescale the history by the re-shaded change), rr_radius (its window radius), rs (0: no re-shading), fh (1: filtered
 /// history), cr (1: Catmull-Rom history reads), clamp (neighbourhood clamp, σ), sl / sn
 /// (short-history À-Trous levels and frames), mh (max history), vs (1: variance of
 /// the accumulated colour), taa / taag (TAA blend weight, 0 = off, and clip
@@ -245,6 +292,9 @@ fn tune(p: &mut TemporalParams, taa: &mut Option<(f32, f32)>) {
             "gr" => p.gradient_radius = v as usize,
             "gk" => p.gradient_sigmas = v,
             "gg" => p.gradient_gain = v,
+            "rg" => p.reshade_gain = v,
+            "rr" => p.reshade_rescale = v != 0.0,
+            "rr_radius" => p.reshade_radius = v as usize,
             "fh" => p.filtered_history = v != 0.0,
             "cr" => {
                 p.resample = if v != 0.0 {
@@ -374,11 +424,15 @@ mod tests {
             view_proj: vp,
             jitter: [0.0; 2],
             transforms: vec![Mat4::IDENTITY, Mat4::IDENTITY],
+            ids: None,
+            shaded: None,
         };
         let cur = View {
             view_proj: vp,
             jitter: [0.0; 2],
             transforms: vec![Mat4::IDENTITY, moved],
+            ids: None,
+            shaded: None,
         };
         let mut position = Image::new(w, h, 3, f32::NAN);
         let centre = 32 * w + 32;

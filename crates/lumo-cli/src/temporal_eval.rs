@@ -51,6 +51,7 @@ struct Row {
     trace: Duration,
     spatial: Duration,
     motion: Duration,
+    reshade: Duration,
     temporal: Duration,
 }
 
@@ -71,7 +72,9 @@ pub fn run(
     std::fs::create_dir_all(dir).with_context(|| format!("--temporal-eval {}", dir.display()))?;
     let settings = job.settings;
     let options = job.args.pipeline.options(settings.width, settings.height);
-    let mut temporal = TemporalSequence::new(seq.animated()).context("temporal filter")?;
+    let mut temporal =
+        TemporalSequence::new(seq.animated(), (settings.spp == 1).then_some(settings.path))
+            .context("temporal filter")?;
     let flip = FlipSettings::default();
     let mut rows = Vec::new();
     let mut prev: Option<Previous> = None;
@@ -130,11 +133,12 @@ pub fn run(
         let filter_jitter = if unjittered_motion { [0.0; 2] } else { jitter };
         let filtered = job
             .pool
-            .install(|| temporal.filter(&rs, tframe, filter_jitter));
+            .install(|| temporal.filter(&rs, tframe, filter_jitter, traced.seed));
         rs.scene.camera = nominal;
         let (filtered, times) =
             filtered.with_context(|| format!("frame {frame}: temporal filter"))?;
         row.motion = times.motion;
+        row.reshade = times.reshade;
         row.temporal = times.filter;
         if reference_spp > 0 {
             let reference = RenderSettings {
@@ -200,7 +204,7 @@ pub fn run(
             prev = Some(Previous { maps, shown });
         }
         eprintln!(
-            "frame {frame}: FLIP 1 spp {:.4} · À-Trous {:.4} · temporal {:.4} · trace {:.1} ms · update {:.2} ms · spatial {:.1} ms · temporal {:.1} ms (+{:.1} ms motion)",
+            "frame {frame}: FLIP 1 spp {:.4} · À-Trous {:.4} · temporal {:.4} · trace {:.1} ms · update {:.2} ms · spatial {:.1} ms · temporal {:.1} ms (+{:.1} ms motion, +{:.1} ms re-shading)",
             row.flip_raw,
             row.flip_atrous,
             row.flip_temporal,
@@ -208,7 +212,8 @@ pub fn run(
             ms(row.update),
             ms(row.spatial),
             ms(row.temporal),
-            ms(row.motion)
+            ms(row.motion),
+            ms(row.reshade)
         );
         rows.push(row);
     }
@@ -368,12 +373,12 @@ fn strip_frames(count: usize) -> Vec<usize> {
 
 fn csv(rows: &[Row]) -> String {
     let mut s = String::from(
-        "frame,flip_1spp,flip_atrous,flip_temporal,flicker_atrous,flicker_temporal,change_atrous,change_temporal,change_reference,update_ms,trace_ms,spatial_ms,motion_ms,temporal_ms\n",
+        "frame,flip_1spp,flip_atrous,flip_temporal,flicker_atrous,flicker_temporal,change_atrous,change_temporal,change_reference,update_ms,trace_ms,spatial_ms,motion_ms,reshade_ms,temporal_ms\n",
     );
     for r in rows {
         let _ = writeln!(
             s,
-            "{},{:.5},{:.5},{:.5},{:.5},{:.5},{:.5},{:.5},{:.5},{:.3},{:.2},{:.2},{:.2},{:.2}",
+            "{},{:.5},{:.5},{:.5},{:.5},{:.5},{:.5},{:.5},{:.5},{:.3},{:.2},{:.2},{:.2},{:.2},{:.2}",
             r.frame,
             r.flip_raw,
             r.flip_atrous,
@@ -387,6 +392,7 @@ fn csv(rows: &[Row]) -> String {
             ms(r.trace),
             ms(r.spatial),
             ms(r.motion),
+            ms(r.reshade),
             ms(r.temporal)
         );
     }
@@ -453,21 +459,26 @@ fn summary(rows: &[Row], settings: &RenderSettings, reference_spp: u32) -> Strin
         }
     }
     let t = |f: &dyn Fn(&Row) -> Duration| avg(&|r| ms(f(r)), &all);
-    let (trace, update, spatial, motion, temporal) = (
+    let (trace, update, spatial, motion, reshade, temporal) = (
         t(&|r| r.trace),
         t(&|r| r.update),
         t(&|r| r.spatial),
         t(&|r| r.motion),
+        t(&|r| r.reshade),
         t(&|r| r.temporal),
     );
     let frame_atrous = trace + update + spatial;
-    let frame_temporal = trace + update + motion + temporal;
+    let frame_temporal = trace + update + motion + reshade + temporal;
     let _ = writeln!(s, "\n| stage (mean per frame) | ms |\n|---|---:|");
     for (name, v) in [
         ("trace (1 spp, G-buffer)", trace),
         ("BVH update (pose)", update),
         ("spatial filter (per-frame À-Trous)", spatial),
         ("motion vectors (+ instance ids when animated)", motion),
+        (
+            "re-shading (1 path per 3×3 block, history rejection)",
+            reshade,
+        ),
         ("temporal filter (SVGF)", temporal),
     ] {
         let _ = writeln!(s, "| {name} | {v:.2} |");

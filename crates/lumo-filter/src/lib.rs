@@ -74,7 +74,7 @@ pub use guided::{
 };
 pub use jbu::{jbu, JbuDenoiser, JbuParams};
 pub use temporal::{
-    motion_vectors, pinhole_view_projection, project_to_pixel, Resample, TemporalAntialias,
-    TemporalFilter, TemporalFrame, TemporalParams, DEFAULT_ALPHA, DEFAULT_TAA_ALPHA,
-    DEFAULT_TAA_GAMMA, DEFAULT_TEMPORAL_SIGMA_LUMINANCE,
+    motion_vectors, pinhole_view_projection, project_to_pixel, Resample, ShadingChange,
+    TemporalAntialias, TemporalFilter, TemporalFrame, TemporalParams, DEFAULT_ALPHA,
+    DEFAULT_TAA_ALPHA, DEFAULT_TAA_GAMMA, DEFAULT_TEMPORAL_SIGMA_LUMINANCE,
 };

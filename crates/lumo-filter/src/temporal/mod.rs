@@ -11,6 +11,7 @@
 mod gradient;
 mod motion;
 mod reproject;
+mod reshade;
 mod taa;
 #[cfg(test)]
 mod tests;
@@ -23,6 +24,7 @@ use lumo_image::Image;
 use rayon::prelude::*;
 
 pub use motion::{motion_vectors, pinhole_view_projection, project_to_pixel};
+pub use reshade::ShadingChange;
 pub use taa::{TemporalAntialias, DEFAULT_TAA_ALPHA, DEFAULT_TAA_GAMMA};
 
 use crate::atrous::{AtrousFilter, AtrousParams};
@@ -74,6 +76,17 @@ pub struct TemporalParams {
     /// λ = gain × (difference beyond the noise) / the larger mean, clamped to [0, 1]; the new
     /// sample's weight becomes (1 − λ)·α + λ.
     pub gradient_gain: f32,
+    /// With re-shaded samples ([`TemporalFilter::filter_reshaded`]) the rejection is instead
+    /// λ = this × |Σ (now − before)| / Σ max(now, before) over a (2r+1)² window of radius
+    /// [`Self::reshade_radius`], clamped to [0, 1] (A-SVGF's normalised temporal gradient; see
+    /// `temporal/reshade.rs`).
+    pub reshade_gain: f32,
+    /// See [`Self::reshade_gain`]; 0 switches the re-shaded rejection off.
+    pub reshade_radius: usize,
+    /// With re-shaded samples, also scale the reprojected history by how much the lighting of
+    /// the window changed (ρ = Σ now / Σ before, within [1/4, 4]): the part of the history that
+    /// λ keeps then follows a moving light instead of lagging behind it.
+    pub reshade_rescale: bool,
     /// How the colour history is read at pixel + motion: bilinearly (SVGF), or by Catmull-Rom
     /// where all 4×4 taps are valid (bilinear elsewhere). Bilinear reads blur a little every
     /// frame under motion (a shift by a fraction f averages with weight f(1 − f)), and the
@@ -115,6 +128,9 @@ impl Default for TemporalParams {
             gradient_radius: 4,
             gradient_sigmas: 2.0,
             gradient_gain: 10.0,
+            reshade_gain: 1.0,
+            reshade_radius: 4,
+            reshade_rescale: false,
             resample: Resample::Bilinear,
             clamp_sigmas: 0.0,
             short_history_levels: 0,
@@ -134,8 +150,9 @@ impl TemporalParams {
     /// The settings tuned for 1-spp frame sequences under camera and object motion (`lumo
     /// render --frames --temporal` and `lumo serve`'s filtered frames): SVGF's reprojection
     /// with a longer history (α = 0.05, up to 128 frames), the accumulated rather than the
-    /// filtered colour as history, history rejection where the lighting changes (radius 6,
-    /// 2 standard errors, gain 10), the À-Trous steered by the variance left in the accumulated
+    /// filtered colour as history, history rejection where the lighting changes (windowed test:
+    /// radius 6, 2 standard errors, gain 10; from re-shaded samples: radius 4, gain 3, the
+    /// kept history rescaled), the À-Trous steered by the variance left in the accumulated
     /// colour, 2 levels. Chosen on tuning sequences only (docs/results/temporal.md).
     pub fn sequence() -> Self {
         let mut p = Self {
@@ -146,6 +163,9 @@ impl TemporalParams {
             gradient_radius: 6,
             gradient_sigmas: 2.0,
             gradient_gain: 10.0,
+            reshade_gain: 3.0,
+            reshade_radius: 4,
+            reshade_rescale: true,
             scale_variance: true,
             ..Self::default()
         };
@@ -221,6 +241,8 @@ pub struct TemporalFilter {
     samples: Vec<Sample>,
     prev: Vec<Option<Prev>>,
     sums: Vec<gradient::Sums>,
+    reshade_sums: Vec<[f32; 4]>,
+    reshade_scale: Vec<f32>,
     lambda: Vec<f32>,
     bounds: Vec<[f32; 2]>,
     acc: Vec<reproject::Accumulated>,
@@ -240,6 +262,8 @@ impl TemporalFilter {
             samples: vec![],
             prev: vec![],
             sums: vec![],
+            reshade_sums: vec![],
+            reshade_scale: vec![],
             lambda: vec![],
             bounds: vec![],
             acc: vec![],
@@ -293,7 +317,22 @@ impl TemporalFilter {
     /// Filters one frame and updates the history. Returns the filtered colour (3 channels,
     /// finite) and the number of non-finite input colour pixels.
     pub fn filter(&mut self, frame: &TemporalFrame) -> Result<Filtered, FilterError> {
+        self.filter_reshaded(frame, None)
+    }
+
+    /// [`Self::filter`] with the history rejection taken from re-shaded samples (`Some`,
+    /// see [`ShadingChange`]) instead of the windowed statistical test (`None`). With `Some`,
+    /// pixels whose window holds no sample keep their history; the neighbourhood clamp
+    /// ([`TemporalParams::clamp_sigmas`]) still uses the windowed statistics.
+    pub fn filter_reshaded(
+        &mut self,
+        frame: &TemporalFrame,
+        changes: Option<&[ShadingChange]>,
+    ) -> Result<Filtered, FilterError> {
         validate_frame(frame)?;
+        if let Some(c) = changes {
+            reshade::validate(c, frame.color.width, frame.color.height)?;
+        }
         let (w, h) = (frame.color.width, frame.color.height);
         if self
             .history
@@ -346,10 +385,27 @@ impl TemporalFilter {
             &mut self.lambda,
             &mut self.bounds,
         );
+        if let Some(c) = changes {
+            reshade::rejection(
+                p,
+                c,
+                w,
+                h,
+                &mut self.reshade_sums,
+                &mut self.lambda,
+                &mut self.reshade_scale,
+            );
+        } else {
+            self.reshade_scale.clear();
+        }
         let lambda = &self.lambda[..];
+        let scale = &self.reshade_scale[..];
         let bounds = &self.bounds[..];
         acc.par_iter_mut().enumerate().for_each(|(i, a)| {
-            let pr = prev[i].map(|pr| reproject::clamp_history(pr, bounds.get(i).copied()));
+            let pr = prev[i].map(|pr| {
+                let pr = reproject::rescale_history(pr, scale.get(i).copied());
+                reproject::clamp_history(pr, bounds.get(i).copied())
+            });
             *a = reproject::blend(p, &samples[i], pr, lambda[i]);
         });
         // 3. Variance: temporal from the moments, spatial while the history is short.
@@ -513,15 +569,18 @@ fn validate_params(p: &TemporalParams) -> Result<(), FilterError> {
     if p.max_history == 0 {
         return Err(param("max_history", "0 (use ≥ 1)"));
     }
-    if p.gradient_radius > 16 {
-        return Err(param(
-            "gradient_radius",
-            format!("{} (use 0..=16)", p.gradient_radius),
-        ));
+    for (name, r) in [
+        ("gradient_radius", p.gradient_radius),
+        ("reshade_radius", p.reshade_radius),
+    ] {
+        if r > 16 {
+            return Err(param(name, format!("{r} (use 0..=16)")));
+        }
     }
     for (name, v) in [
         ("gradient_sigmas", p.gradient_sigmas),
         ("gradient_gain", p.gradient_gain),
+        ("reshade_gain", p.reshade_gain),
     ] {
         if !(v.is_finite() && v >= 0.0) {
             return Err(param(name, format!("{v} (use a finite value ≥ 0)")));

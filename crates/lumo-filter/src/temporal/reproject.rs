@@ -272,6 +272,19 @@ pub(super) struct Prev {
     pub len: u32,
 }
 
+/// The history scaled by `scale` (the lighting's change measured by re-shading; `None` or 1:
+/// unchanged): colour and first moment by ρ, second moment by ρ².
+pub(super) fn rescale_history(pr: Prev, scale: Option<f32>) -> Prev {
+    match scale {
+        Some(r) if r != 1.0 => Prev {
+            color: pr.color.map(|c| c * r),
+            moments: [pr.moments[0] * r, pr.moments[1] * r * r],
+            len: pr.len,
+        },
+        _ => pr,
+    }
+}
+
 /// Reprojects pixel (x, y)'s history (`None`: none, or the pixel is passed through).
 pub(super) fn reproject_pixel(
     p: &TemporalParams,

@@ -142,3 +142,50 @@ fn gradient_parameters_are_checked() {
         assert!(TemporalFilter::new(p).is_err());
     }
 }
+
+/// Runs 40 frames of a uniform light brightening by 3 % a frame under a still camera, with
+/// re-shaded samples at every ninth pixel reporting that change (same paths: the same random
+/// value times the light then and now); returns the last output's mean over the light.
+fn brightening(params: TemporalParams) -> (f32, f32) {
+    let (w, h) = (36, 27);
+    let (normal, depth) = flat_planes(w, h);
+    let mut f = TemporalFilter::new(params).unwrap();
+    let light = |k: u64| 1.03f32.powi(k as i32);
+    let mut out = Image::new(0, 0, 3, 0.0);
+    for k in 0..40u64 {
+        let color = lit(w, h, 300 + k, |_| light(k));
+        let changes: Vec<ShadingChange> = (0..w * h)
+            .step_by(9)
+            .map(|i| {
+                let u = 0.5 + (i % 7) as f32 / 7.0;
+                ShadingChange {
+                    pixel: i,
+                    now: u * light(k),
+                    before: u * light(k.saturating_sub(1)),
+                }
+            })
+            .collect();
+        let fr = bare_input(&color, &normal, &depth);
+        out = f.filter_reshaded(&fr, Some(&changes)).unwrap().image;
+    }
+    (mean_over(&out, 4..32, 4..23), light(39))
+}
+
+#[test]
+fn a_rescaled_history_follows_a_brightening_light() {
+    let seq = TemporalParams::sequence();
+    let (rescaled, truth) = brightening(seq.clone());
+    let (rejected, _) = brightening(TemporalParams {
+        reshade_rescale: false,
+        ..seq.clone()
+    });
+    let (ignored, _) = brightening(TemporalParams {
+        reshade_radius: 0,
+        ..seq
+    });
+    let err = |v: f32| (v / truth - 1.0).abs();
+    assert!(err(rescaled) < 0.03, "rescaled {rescaled} vs {truth}");
+    // Rejection alone shortens the history but still lags; no rejection lags most.
+    assert!(err(rejected) > 2.0 * err(rescaled), "{rejected} vs {rescaled}");
+    assert!(err(ignored) > err(rejected), "{ignored} vs {rejected}");
+}

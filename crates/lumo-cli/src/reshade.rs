@@ -1,0 +1,222 @@
+//! Re-shaded samples for the temporal filter's history rejection (A-SVGF's temporal
+//! gradients, Schied et al. 2018): one surface point per 3×3 block of the previous frame is
+//! traced again in this frame's scene with the random numbers it was traced with then. Where
+//! nothing changed along the path the two luminances are the same; where a light, a shadow or a
+//! material changed they differ by that change, not by noise (lumo-filter's `reshade.rs`).
+//!
+//! The point is carried with its instance's motion and re-traced from this frame's camera; it
+//! counts only if that ray still reaches it (otherwise it was disoccluded or covered). With
+//! the camera and the point's instance unchanged the ray is the previous frame's own pixel-centre
+//! ray, bit for bit, so an unchanged scene gives exactly zero differences.
+
+use glam::{Mat4, Vec2, Vec3};
+use lumo_filter::{project_to_pixel, ShadingChange};
+use lumo_image::{luminance, Image};
+use lumo_render::camera::PinholeCamera;
+use lumo_render::sampler::PixelSampler;
+use lumo_render::{trace_path, FirstHit, Frame, PathSettings, RenderScene};
+use rayon::prelude::*;
+
+/// Side of the blocks of the previous frame that each give one re-shaded sample (A-SVGF: 3).
+pub const BLOCK: usize = 3;
+
+/// A first hit re-traced this far from where it was (relative to its distance) was covered or
+/// uncovered by something else.
+const SAME_POINT: f32 = 1e-2;
+
+/// What re-shading needs of a traced frame, kept until the next frame.
+pub struct ShadedFrame {
+    /// The random-number seed the frame was traced with.
+    pub seed: u32,
+    /// First-hit positions (3 channels) and distances (1 channel, non-finite or ≤ 0 = miss).
+    position: Image,
+    depth: Image,
+    /// Luminance of the traced colour (direct + indirect).
+    luminance: Vec<f32>,
+}
+
+impl ShadedFrame {
+    /// Keeps what re-shading `frame` (traced with `seed`, one sample per pixel) needs.
+    pub fn new(frame: &Frame, seed: u32) -> Self {
+        Self {
+            seed,
+            position: frame.position.clone(),
+            depth: frame.depth.clone(),
+            luminance: frame
+                .color
+                .data
+                .chunks_exact(3)
+                .map(|c| luminance([c[0], c[1], c[2]]))
+                .collect(),
+        }
+    }
+}
+
+/// The camera and instance placement of a frame.
+pub struct Pose<'a> {
+    /// World → clip of the pinhole camera ([`lumo_filter::pinhole_view_projection`]).
+    pub view_proj: Mat4,
+    /// Instance transforms (object → world).
+    pub transforms: &'a [Mat4],
+    /// The instance under each pixel centre (`u32::MAX` = none), when instances move.
+    pub ids: Option<&'a [u32]>,
+}
+
+/// The pixel of block (`bx`, `by`) that is re-shaded: a hash of the block and the seed, so
+/// the choice moves every frame and no pixel is favoured.
+fn block_pixel(bx: usize, by: usize, seed: u32, w: usize, h: usize) -> (usize, usize) {
+    let mut v =
+        (bx as u32).wrapping_mul(0x9e37_79b9) ^ (by as u32).wrapping_mul(0x85eb_ca6b) ^ seed;
+    v ^= v >> 16;
+    v = v.wrapping_mul(0x7feb_352d);
+    v ^= v >> 15;
+    let k = (v % (BLOCK * BLOCK) as u32) as usize;
+    (
+        (bx * BLOCK + k % BLOCK).min(w - 1),
+        (by * BLOCK + k / BLOCK).min(h - 1),
+    )
+}
+
+/// Re-shades one point per 3×3 block of `before` (posed as `then`) in `rs` as it is now (posed
+/// as `now`, camera `camera` at `w`×`h`), tracing with `path`. Returns the samples whose point
+/// is still seen, each at the pixel it lies in now.
+pub fn reshade(
+    rs: &RenderScene,
+    camera: &PinholeCamera,
+    path: &PathSettings,
+    before: &ShadedFrame,
+    then: &Pose,
+    now: &Pose,
+) -> Vec<ShadingChange> {
+    let (w, h) = (before.position.width, before.position.height);
+    if w == 0 || h == 0 {
+        return vec![];
+    }
+    let same_camera = then.view_proj == now.view_proj;
+    // Per instance: world then → world now (identity when the instance list changed).
+    let forward: Vec<Option<Mat4>> = if then.transforms.len() == now.transforms.len() {
+        then.transforms
+            .iter()
+            .zip(now.transforms)
+            .map(|(t, n)| (t != n).then(|| *n * t.inverse()))
+            .collect()
+    } else {
+        vec![None; now.transforms.len()]
+    };
+    let (bw, bh) = (w.div_ceil(BLOCK), h.div_ceil(BLOCK));
+    let rows: Vec<Vec<ShadingChange>> = (0..bh)
+        .into_par_iter()
+        .map(|by| {
+            (0..bw)
+                .filter_map(|bx| {
+                    let (x, y) = block_pixel(bx, by, before.seed, w, h);
+                    let i = y * w + x;
+                    let d = before.depth.data[i * before.depth.channels];
+                    if !(d.is_finite() && d > 0.0) {
+                        return None;
+                    }
+                    let q = &before.position.data[i * 3..i * 3 + 3];
+                    let p = Vec3::new(q[0], q[1], q[2]);
+                    let moved = then
+                        .ids
+                        .and_then(|ids| forward.get(ids[i] as usize).copied().flatten());
+                    let p_now = moved.map_or(p, |m| m.transform_point3(p));
+                    let origin = camera.origin();
+                    // The previous frame's own ray where neither the camera nor the point
+                    // moved: the same path, bit for bit, when nothing else changed.
+                    let dir = if same_camera && moved.is_none() {
+                        camera.direction(Vec2::new(x as f32 + 0.5, y as f32 + 0.5))
+                    } else {
+                        (p_now - origin).normalize()
+                    };
+                    let pix = project_to_pixel(&now.view_proj, p_now, w, h)?;
+                    let (px, py) = (pix[0].floor(), pix[1].floor());
+                    if !(px >= 0.0 && py >= 0.0 && (px as usize) < w && (py as usize) < h) {
+                        return None;
+                    }
+                    // The sampler as the camera sample left it (after its jitter draw).
+                    let mut sampler = PixelSampler::new(x as u32, y as u32, 0, before.seed);
+                    sampler.next_2d();
+                    let mut hit = FirstHit::default();
+                    let r = trace_path(rs, origin, dir, &mut sampler, path, Some(&mut hit));
+                    let dist = (p_now - origin).length();
+                    if !(hit.depth.is_finite()
+                        && (hit.position - p_now).length() <= SAME_POINT * dist)
+                    {
+                        return None;
+                    }
+                    Some(ShadingChange {
+                        pixel: py as usize * w + px as usize,
+                        now: luminance((r.direct + r.indirect).to_array()),
+                        before: before.luminance[i],
+                    })
+                })
+                .collect()
+        })
+        .collect();
+    rows.into_iter().flatten().collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use lumo_filter::pinhole_view_projection;
+    use lumo_render::{render, RenderSettings};
+    use lumo_scene::builtin_scene;
+
+    fn pose(rs: &RenderScene, w: usize, h: usize) -> (Mat4, Vec<Mat4>) {
+        let c = &rs.scene.camera;
+        let (hw, hh) = c.half_extent(w, h);
+        (
+            pinhole_view_projection(c.origin, c.target, c.up, [hw, hh]),
+            rs.scene.instances.iter().map(|i| i.transform).collect(),
+        )
+    }
+
+    /// Re-shading an unchanged scene repeats the previous frame's paths bit for bit; with every
+    /// emitter twice as bright the same paths carry twice the light. Both fail if the re-traced
+    /// path does not draw the random numbers the frame's sample drew.
+    #[test]
+    fn the_same_paths_are_traced_again() {
+        let (w, h) = (24, 24);
+        let scene = builtin_scene("cornell").expect("built-in scene");
+        let rs = RenderScene::new(scene.clone()).expect("scene");
+        let settings = RenderSettings {
+            width: w,
+            height: h,
+            spp: 1,
+            seed: 11,
+            path: PathSettings::default(),
+        };
+        let (frame, _) = render(&rs, &settings, &|_| {});
+        let before = ShadedFrame::new(&frame, settings.seed);
+        let (vp, transforms) = pose(&rs, w, h);
+        let at = Pose {
+            view_proj: vp,
+            transforms: &transforms,
+            ids: None,
+        };
+        let camera = PinholeCamera::new(&rs.scene.camera, w, h);
+        let same = reshade(&rs, &camera, &settings.path, &before, &at, &at);
+        assert!(same.len() > w * h / 9 / 2, "{} samples", same.len());
+        assert!(
+            same.iter().all(|c| c.now == c.before),
+            "unchanged scene, same values"
+        );
+        assert!(same.iter().any(|c| c.now > 0.0));
+
+        let mut brighter = scene;
+        for m in &mut brighter.materials {
+            m.emission *= 2.0;
+        }
+        let rs2 = RenderScene::new(brighter).expect("scene");
+        let doubled = reshade(&rs2, &camera, &settings.path, &before, &at, &at);
+        assert_eq!(doubled.len(), same.len());
+        for c in &doubled {
+            assert!(
+                (c.now - 2.0 * c.before).abs() <= 1e-4 * c.before.max(1.0),
+                "{c:?}"
+            );
+        }
+    }
+}
