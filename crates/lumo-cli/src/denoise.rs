@@ -7,9 +7,9 @@ use std::time::Instant;
 use anyhow::{bail, Context};
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use lumo_filter::{
-    missing_pixels, with_passthrough, AtrousDenoiser, AtrousParams, BilateralDenoiser,
-    BilateralParams, Denoiser, DepthNorm, EmitterMask, EmitterParams, Features, FilterInput,
-    FilterKind, Filtered, GuideKind, GuidedDenoiser, GuidedParams, Shape, FILTERS,
+    missing_pixels, with_passthrough, AtrousDenoiser, AtrousParams, AutoDenoiser, AutoParams,
+    BilateralDenoiser, BilateralParams, Denoiser, DepthNorm, EmitterMask, EmitterParams, Features,
+    FilterInput, FilterKind, Filtered, GuideKind, GuidedDenoiser, GuidedParams, Shape, FILTERS,
 };
 use lumo_image::{read_image, write_image, Image};
 
@@ -116,6 +116,19 @@ pub struct DenoiseArgs {
     /// range of the image].
     #[arg(long)]
     pub depth_scale: Option<f32>,
+    /// auto: the candidate guided filters' radii, comma-separated [default: 2,4,8,16,32].
+    #[arg(long, value_delimiter = ',')]
+    pub auto_radii: Option<Vec<usize>>,
+    /// auto: radius of the window its error estimates are averaged over [default: 8].
+    #[arg(long)]
+    pub auto_error_radius: Option<usize>,
+    /// auto: blend softness; a candidate whose error exceeds the best one's by this fraction
+    /// gets e⁻¹ of its weight [default: 0.01].
+    #[arg(long)]
+    pub auto_softness: Option<f32>,
+    /// auto: leave the À-Trous out of the candidates.
+    #[arg(long)]
+    pub no_auto_atrous: bool,
     /// Demodulate by albedo (default when --albedo is given).
     #[arg(long, conflicts_with = "no_demodulate")]
     pub demodulate: bool,
@@ -317,6 +330,17 @@ fn configure(a: &DenoiseArgs, inp: &Inputs) -> anyhow::Result<Box<dyn Denoiser>>
         bail!("--demodulate needs an albedo plane: --albedo FILE (or albedo.exr in --input-dir)");
     }
     let demod = inp.albedo.is_some() && !a.no_demodulate;
+    let auto_flags = a.auto_radii.is_some()
+        || a.auto_error_radius.is_some()
+        || a.auto_softness.is_some()
+        || a.no_auto_atrous;
+    if auto_flags && a.filter != FilterKind::Auto {
+        bail!(
+            "--auto-radii, --auto-error-radius, --auto-softness and --no-auto-atrous apply to \
+             --filter auto only (this run uses --filter {})",
+            a.filter.name()
+        );
+    }
     Ok(match a.filter {
         FilterKind::Atrous => {
             let needs = |flag: &str, has: bool, feat: &str| -> anyhow::Result<()> {
@@ -428,6 +452,20 @@ fn configure(a: &DenoiseArgs, inp: &Inputs) -> anyhow::Result<Box<dyn Denoiser>>
                     sigma_color: sigma(a.sigma_color, None)?,
                 },
                 demodulate: demod,
+            })
+        }
+        FilterKind::Auto => {
+            let d = AutoParams::default();
+            Box::new(AutoDenoiser {
+                params: AutoParams {
+                    radii: a.auto_radii.clone().unwrap_or(d.radii),
+                    eps_normal: a.eps_normal.unwrap_or(d.eps_normal),
+                    eps_depth: a.eps_depth.unwrap_or(d.eps_depth),
+                    error_radius: a.auto_error_radius.unwrap_or(d.error_radius),
+                    softness: a.auto_softness.unwrap_or(d.softness),
+                    demodulate: demod,
+                    atrous: !a.no_auto_atrous,
+                },
             })
         }
         // A filter with no flags of its own runs with the library's defaults, so a filter

@@ -200,7 +200,7 @@ pub const FILTERS: &[FilterInfo] = &[
         kind: FilterKind::Auto,
         name: "auto",
         title: "auto",
-        description: "Guided filters at radii 4-32 blended per pixel by a leave-one-out error estimate (the default)",
+        description: "Guided filters at radii 2-32 and the À-Trous, blended per pixel by a leave-one-out error estimate (the default)",
         shape: Shape::Image,
         new: || Box::new(AutoDenoiser::default()),
     },

@@ -367,3 +367,72 @@ fn variance_source_plane_without_a_plane_is_an_error() {
     assert_eq!(o.status.code(), Some(2), "{:?}", text(&o));
     assert!(text(&o).1.contains("--variance FILE"), "{:?}", text(&o));
 }
+
+/// `auto`'s parameters from the command line: other values give another image, the defaults
+/// given explicitly the same one; bad values and flags for another filter are refused by name.
+#[test]
+fn auto_flags_set_its_parameters_and_are_checked() {
+    let dir = temp_dir("auto-flags");
+    write_scene(&dir, 32, 24);
+    let run = |name: &str, extra: &[&str]| -> (Output, PathBuf) {
+        let out = dir.join(format!("{name}.exr"));
+        let mut args = vec![
+            "--input-dir",
+            dir.to_str().unwrap(),
+            "--filter",
+            "auto",
+            "-o",
+            out.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        (lumo(&args), out)
+    };
+    let (o, default) = run("default", &[]);
+    assert!(o.status.success(), "{}", text(&o).1);
+    let (o, explicit) = run(
+        "explicit",
+        &[
+            "--auto-radii",
+            "2,4,8,16,32",
+            "--auto-error-radius",
+            "8",
+            "--auto-softness",
+            "0.01",
+        ],
+    );
+    assert!(o.status.success(), "{}", text(&o).1);
+    let (o, first) = run(
+        "first",
+        &[
+            "--auto-radii",
+            "4,8,16,32",
+            "--auto-error-radius",
+            "4",
+            "--auto-softness",
+            "0.2",
+            "--no-auto-atrous",
+        ],
+    );
+    assert!(o.status.success(), "{}", text(&o).1);
+    let (a, b, c) = (
+        read_image(&default).unwrap(),
+        read_image(&explicit).unwrap(),
+        read_image(&first).unwrap(),
+    );
+    assert_eq!(a.data, b.data, "the defaults given explicitly");
+    assert_ne!(a.data, c.data, "other parameters, another image");
+    let (o, _) = run("zero", &["--auto-radii", "0,4"]);
+    assert!(!o.status.success());
+    assert!(text(&o).1.contains("radii"), "{}", text(&o).1);
+    let o = lumo(&[
+        "--input-dir",
+        dir.to_str().unwrap(),
+        "--filter",
+        "guided",
+        "--no-auto-atrous",
+        "-o",
+        dir.join("g.exr").to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(text(&o).1.contains("--filter auto only"), "{}", text(&o).1);
+}

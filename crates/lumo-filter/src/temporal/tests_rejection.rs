@@ -186,6 +186,9 @@ fn a_rescaled_history_follows_a_brightening_light() {
     let err = |v: f32| (v / truth - 1.0).abs();
     assert!(err(rescaled) < 0.03, "rescaled {rescaled} vs {truth}");
     // Rejection alone shortens the history but still lags; no rejection lags most.
-    assert!(err(rejected) > 2.0 * err(rescaled), "{rejected} vs {rescaled}");
+    assert!(
+        err(rejected) > 2.0 * err(rescaled),
+        "{rejected} vs {rescaled}"
+    );
     assert!(err(ignored) > err(rejected), "{ignored} vs {rejected}");
 }
