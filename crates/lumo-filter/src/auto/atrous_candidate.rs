@@ -129,13 +129,10 @@ mod tests {
     #[test]
     fn probe_matches_the_guided_filters_exact_self_weight() {
         let (w, h) = (64, 48);
-        let mut g = Image::new(w, h, 2, 0.0);
+        let g = crate::auto::selfweight::two_region_guide(w, h, 30);
         let mut y = Image::new(w, h, 3, 0.0);
         for yy in 0..h {
             for x in 0..w {
-                let p = g.pixel_mut(x, yy);
-                p[0] = if x < 30 { 0.2 } else { 0.8 };
-                p[1] = (x as f32 * 0.37 + yy as f32 * 0.11).sin() * 0.3 + 0.5;
                 let i = (yy * w + x) as f32;
                 let c = y.pixel_mut(x, yy);
                 for (k, v) in c.iter_mut().enumerate() {

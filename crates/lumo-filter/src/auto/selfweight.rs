@@ -188,6 +188,21 @@ fn guided_self_weight(guide: &Guide, r: usize) -> Vec<f32> {
     SelfWeights::new(guide).at_radius(r)
 }
 
+/// A 2-channel test guide: a step at column `split` in the first channel, a smooth wave in the
+/// second.
+#[cfg(test)]
+pub(super) fn two_region_guide(w: usize, h: usize, split: usize) -> lumo_image::Image {
+    let mut g = lumo_image::Image::new(w, h, 2, 0.0);
+    for y in 0..h {
+        for x in 0..w {
+            let p = g.pixel_mut(x, y);
+            p[0] = if x < split { 0.2 } else { 0.8 };
+            p[1] = (x as f32 * 0.37 + y as f32 * 0.11).sin() * 0.3 + 0.5;
+        }
+    }
+    g
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -199,14 +214,7 @@ mod tests {
     #[test]
     fn matches_the_filter_response_to_a_unit_impulse() {
         let (w, h) = (23, 17);
-        let mut g = Image::new(w, h, 2, 0.0);
-        for y in 0..h {
-            for x in 0..w {
-                let p = g.pixel_mut(x, y);
-                p[0] = if x < 11 { 0.2 } else { 0.8 };
-                p[1] = (x as f32 * 0.37 + y as f32 * 0.11).sin() * 0.3 + 0.5;
-            }
-        }
+        let g = two_region_guide(w, h, 11);
         let guide = Guide::from_image(&g, vec![0.01, 0.02]).unwrap();
         for r in [1, 3, 6] {
             let weights = guided_self_weight(&guide, r);

@@ -128,7 +128,11 @@ fn lambda_of(s: Sums, k_sigma: f32, gain: f32) -> f32 {
     // (a window of 1-spp samples mostly misses the rare bright ones that the history saw).
     let var = (s[2] / n - mc * mc).max(s[4] / n).max(0.0);
     let excess = (mc - mh).abs() - k_sigma * (var / n).sqrt();
-    let l = gain * excess / mc.max(mh).max(EPS);
+    unit_or_zero(gain * excess / mc.max(mh).max(EPS))
+}
+
+/// `l` clamped to [0, 1]; 0 when it is not finite (a degenerate window keeps its history).
+pub(super) fn unit_or_zero(l: f32) -> f32 {
     if l.is_finite() {
         l.clamp(0.0, 1.0)
     } else {

@@ -15,6 +15,7 @@
 
 use rayon::prelude::*;
 
+use super::gradient::unit_or_zero;
 use super::TemporalParams;
 use crate::common::error::param;
 use crate::FilterError;
@@ -143,17 +144,19 @@ fn lambda_of(s: Sums, gain: f32) -> f32 {
     if s[2] < 1.0 {
         return 0.0;
     }
-    let l = gain * s[0].abs() / s[1].max(EPS);
-    if l.is_finite() {
-        l.clamp(0.0, 1.0)
-    } else {
-        0.0
-    }
+    unit_or_zero(gain * s[0].abs() / s[1].max(EPS))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// λ of `changes` on a `w`×`h` frame without rescaling.
+    fn lambdas(p: &TemporalParams, changes: &[ShadingChange], w: usize, h: usize) -> Vec<f32> {
+        let (mut plane, mut lambda) = (vec![], vec![]);
+        rejection(p, changes, w, h, &mut plane, &mut lambda, &mut vec![]);
+        lambda
+    }
 
     fn params(r: usize, gain: f32) -> TemporalParams {
         TemporalParams {
@@ -175,16 +178,7 @@ mod tests {
                 before: 0.5 + (i % 7) as f32,
             })
             .collect();
-        let (mut plane, mut lambda) = (vec![], vec![]);
-        rejection(
-            &params(2, 1.0),
-            &changes,
-            w,
-            h,
-            &mut plane,
-            &mut lambda,
-            &mut vec![],
-        );
+        let mut lambda = lambdas(&params(2, 1.0), &changes, w, h);
         assert!(lambda.iter().all(|&l| l == 0.0), "same paths, same values");
         // The light went out on the right half: λ is 1 there, 0 far from it.
         for c in &mut changes {
@@ -192,15 +186,7 @@ mod tests {
                 c.now = 0.0;
             }
         }
-        rejection(
-            &params(2, 1.0),
-            &changes,
-            w,
-            h,
-            &mut plane,
-            &mut lambda,
-            &mut vec![],
-        );
+        lambda = lambdas(&params(2, 1.0), &changes, w, h);
         assert_eq!(lambda[3 * w + w - 1], 1.0);
         assert_eq!(lambda[3 * w], 0.0);
         // Half the window's light went: λ = ½ at gain 1, clamped at gain 4.
@@ -216,25 +202,9 @@ mod tests {
                 before: 1.0,
             },
         ];
-        rejection(
-            &params(1, 1.0),
-            &half,
-            w,
-            h,
-            &mut plane,
-            &mut lambda,
-            &mut vec![],
-        );
+        lambda = lambdas(&params(1, 1.0), &half, w, h);
         assert!((lambda[0] - 0.5).abs() < 1e-6, "{}", lambda[0]);
-        rejection(
-            &params(1, 4.0),
-            &half,
-            w,
-            h,
-            &mut plane,
-            &mut lambda,
-            &mut vec![],
-        );
+        lambda = lambdas(&params(1, 4.0), &half, w, h);
         assert_eq!(lambda[0], 1.0);
         assert_eq!(lambda[5 * w + 10], 0.0, "no sample in the window: kept");
     }
@@ -261,16 +231,7 @@ mod tests {
                 before: 1.0,
             },
         ];
-        let (mut plane, mut lambda) = (vec![], vec![]);
-        rejection(
-            &params(2, 1.0),
-            &noise,
-            w,
-            h,
-            &mut plane,
-            &mut lambda,
-            &mut vec![],
-        );
+        let lambda = lambdas(&params(2, 1.0), &noise, w, h);
         assert_eq!(lambda[9], 0.0);
         assert!(validate(&noise, w, h).is_ok());
         let outside = [ShadingChange {
