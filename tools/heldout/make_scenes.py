@@ -260,6 +260,18 @@ TUNING = {
         + rect('<scale x="0.3" y="0.3" z="1"/><translate x="0.0" y="1.4" z="-1.7"/><rotate y="1" angle="180"/><translate z="-3.4"/>', diffuse(WHITE), "50, 45, 40")
         + cube('<scale value="0.3"/><rotate y="1" angle="-20"/><translate x="0.5" y="0.3" z="0.2"/>', diffuse("0.7, 0.7, 0.7"))
         + "</scene>\n"),
+    # Added 4 December 2026 for the high-dynamic-range regime the first three lacked (a light
+    # 7× the tuning room light's radiance, seen directly, and the bright patch it throws).
+    "tune-skylight": (
+        head("Tuning set: high dynamic range, a small very bright light in the back wall seen "
+             "directly, the floor patch it lights and the dim room around it.",
+             "0.4, 1.2, 3.4", "-0.2, 0.7, -1", 44, 6)
+        + room(1.6, 2.2, 2.0, floor=checker("0.55, 0.5, 0.45", "0.35, 0.3, 0.28", 10),
+               left="0.5, 0.45, 0.3", right="0.3, 0.4, 0.5")
+        + rect('<scale x="0.2" y="0.25" z="1"/><translate x="-0.6" y="1.4" z="-1.99"/>', diffuse(WHITE), "120, 114, 102")
+        + cube('<scale x="0.25" y="0.5" z="0.25"/><rotate y="1" angle="35"/><translate x="0.5" y="0.5" z="-0.8"/>', diffuse("0.7, 0.7, 0.7"))
+        + sphere("-0.7, 0.3, -0.3", 0.3, plastic("0.3, 0.5, 0.7", 0.2))
+        + "</scene>\n"),
 }
 
 
