@@ -47,7 +47,8 @@ pub struct PixelEstimate {
     pub indirect: Vec3,
     /// Sample variance of luminance (Welford); 0 with one sample.
     pub luminance_variance: f32,
-    /// The pixel-centre ray's first hit.
+    /// The pixel-centre ray's first hit, except its albedo: the mean of all samples' (see
+    /// [`PathRadiance::albedo`]).
     pub first_hit: FirstHit,
     /// Rays traced.
     pub rays: u64,

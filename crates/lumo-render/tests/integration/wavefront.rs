@@ -89,3 +89,44 @@ fn wavefront_equals_one_ray_at_a_time_on_every_builtin_scene() {
         }
     }
 }
+
+/// The albedo plane is the mean of the pixel's samples' first-hit albedos (the colour averages
+/// the same samples), not the pixel-centre sample's: where a pixel straddles the Cornell box's
+/// walls their albedos mix. The other G-buffer planes stay the centre ray's.
+#[test]
+fn the_albedo_plane_averages_the_pixels_samples() {
+    let scene = lumo_scene::builtin_scene("cornell").expect("built-in");
+    let rs = RenderScene::new(scene).expect("scene");
+    let (w, h, spp) = (24, 24, 8);
+    let settings = RenderSettings {
+        width: w,
+        height: h,
+        spp,
+        seed: 3,
+        path: PathSettings::default(),
+    };
+    let camera = PinholeCamera::new(&rs.scene.camera, w, h);
+    let mut mixed = 0;
+    for y in 0..h {
+        let row = render_pixels(&rs, &camera, &settings, y, 0..w);
+        for (x, e) in row.iter().enumerate() {
+            let albedos: Vec<glam::Vec3> = (0..spp)
+                .map(|i| {
+                    lumo_render::trace_sample(&rs, &camera, &settings, (x, y), i, None)
+                        .0
+                        .albedo
+                })
+                .collect();
+            let mean = albedos
+                .iter()
+                .fold(glam::DVec3::ZERO, |s, a| s + a.as_dvec3())
+                / spp as f64;
+            assert_eq!(e.first_hit.albedo, mean.as_vec3(), "pixel ({x}, {y})");
+            if albedos.iter().any(|a| *a != albedos[0]) {
+                mixed += 1;
+                assert_ne!(e.first_hit.albedo, albedos[0], "pixel ({x}, {y})");
+            }
+        }
+    }
+    assert!(mixed > 10, "only {mixed} pixels straddle an edge");
+}

@@ -81,6 +81,10 @@ pub struct PathRadiance {
     pub indirect: Vec3,
     /// Rays traced (closest-hit and shadow).
     pub rays: u32,
+    /// Reflectance of the first surface the path hit (zero on a miss). A pixel's albedo plane
+    /// is the mean of its samples' (the colour's average over the same samples), so that
+    /// demodulating by it does not re-impose one sample's texture on the whole pixel.
+    pub albedo: Vec3,
 }
 
 impl PathRadiance {
@@ -215,6 +219,7 @@ impl PathState {
                     direct,
                     indirect,
                     rays: self.radiance.rays,
+                    albedo: self.radiance.albedo,
                 }
             }
         }
@@ -329,6 +334,9 @@ impl PathState {
         bsdf: &Bsdf,
         le: Vec3,
     ) {
+        if self.depth == 1 {
+            self.radiance.albedo = bsdf.albedo();
+        }
         if std::mem::take(&mut self.want_first_hit) {
             let n = s.frame.n;
             self.first_hit = FirstHit {

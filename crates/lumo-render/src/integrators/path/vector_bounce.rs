@@ -200,6 +200,11 @@ fn bounce(
         }
         let seen_front = dot(normal.into(), path.dir.into()) < 0.0;
         records[i] = path.want_first_hit || (seen_front && sd.emission != Vec3::ZERO);
+        // The albedo plane's share of this sample: what `take_hit` records on the scalar path
+        // (the same value: its BSDF there is this diffuse albedo).
+        if path.depth == 1 {
+            path.radiance.albedo = sd.albedo;
+        }
         eta_scale[i] = path.eta_scale;
         depth[i] = path.depth;
         alive[i] = path.depth < settings.max_depth;

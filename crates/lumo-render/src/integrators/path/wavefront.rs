@@ -213,13 +213,14 @@ pub(crate) fn estimate(
         first_hit,
         ..Default::default()
     };
-    let (mut sum_d, mut sum_i) = (DVec3::ZERO, DVec3::ZERO);
+    let (mut sum_d, mut sum_i, mut sum_a) = (DVec3::ZERO, DVec3::ZERO, DVec3::ZERO);
     let lum = |r: &PathRadiance| luminance((r.direct + r.indirect).into()) as f64;
     let mut sum_l = 0.0f64;
     for r in radiance.clone() {
         est.rays += r.rays as u64;
         sum_d += r.direct.as_dvec3();
         sum_i += r.indirect.as_dvec3();
+        sum_a += r.albedo.as_dvec3();
         sum_l += lum(&r);
     }
     // Luminance variance in a second pass around the mean: no division per sample and no
@@ -230,6 +231,10 @@ pub(crate) fn estimate(
     let n = spp.max(1) as f64;
     est.direct = (sum_d / n).as_vec3();
     est.indirect = (sum_i / n).as_vec3();
+    // The albedo plane averages the same samples as the colour (the other G-buffer planes
+    // stay the pixel-centre ray's: a guide must not blur across edges). With one sample it is
+    // exactly the first hit's.
+    est.first_hit.albedo = (sum_a / n).as_vec3();
     est.luminance_variance = if spp > 1 {
         (m2 / (n - 1.0)) as f32
     } else {
