@@ -375,16 +375,22 @@ impl TemporalFilter {
             }
         });
         let prev = &prev[..];
-        gradient::rejection(
-            p,
-            samples,
-            prev,
-            w,
-            h,
-            &mut self.sums,
-            &mut self.lambda,
-            &mut self.bounds,
-        );
+        // Re-shaded samples replace the windowed test's λ; its window statistics are then
+        // needed only for the neighbourhood clamp.
+        if changes.is_none() || p.clamp_sigmas > 0.0 {
+            gradient::rejection(
+                p,
+                samples,
+                prev,
+                w,
+                h,
+                &mut self.sums,
+                &mut self.lambda,
+                &mut self.bounds,
+            );
+        } else {
+            self.bounds.clear();
+        }
         if let Some(c) = changes {
             reshade::rejection(
                 p,
