@@ -50,6 +50,12 @@ fn wavefront_equals_one_ray_at_a_time_on_every_builtin_scene() {
     }
     for (name, scene) in scenes {
         let rs = RenderScene::new(scene).expect("valid scene");
+        // Both sides of the surface prefetch (a hint that must not change a bit) are covered.
+        match name.as_str() {
+            "atrium" => assert!(rs.prefetches_surfaces(), "the atrium's meshes are large"),
+            "cornell" => assert!(!rs.prefetches_surfaces(), "the Cornell box fits the cache"),
+            _ => {}
+        }
         for spp in [1u32, 3, 16] {
             let settings = RenderSettings {
                 width: 24,

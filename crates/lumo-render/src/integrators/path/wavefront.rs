@@ -155,6 +155,14 @@ impl Batch {
                 rays.set(lane, path.origin, path.dir, 0.0, f32::INFINITY);
             }
             rs.accel.intersect_packet(&rays, &mut hits);
+            if rs.prefetches_surfaces() {
+                for h in hits.iter().take(group.len()).flatten() {
+                    rs.prefetch_indices(h);
+                }
+                for h in hits.iter().take(group.len()).flatten() {
+                    rs.prefetch_corners(h);
+                }
+            }
             let vector_group = vector && group.len() >= MIN_VECTOR_LANES;
             let mut simple: [SimpleLane; LANES] = [Default::default(); LANES];
             let mut n_simple = 0;
