@@ -11,21 +11,18 @@
 
 use std::time::{Duration, Instant};
 
-use glam::{Mat4, Vec2, Vec3};
+use glam::Mat4;
 use lumo_filter::{
-    pinhole_view_projection, project_to_pixel, with_passthrough, FilterError, Resample,
-    TemporalAntialias, TemporalFilter, TemporalFrame, TemporalParams,
+    motion_vectors, object_motion, object_motion_vectors, pinhole_view_projection,
+    with_passthrough, FilterError, Resample, TemporalAntialias, TemporalFilter, TemporalFrame,
+    TemporalParams,
 };
 use lumo_image::Image;
 use lumo_render::camera::PinholeCamera;
-use lumo_render::{Frame, PathSettings, RenderScene};
+use lumo_render::{instance_ids, Frame, PathSettings, RenderScene};
 use lumo_scene::Camera;
-use rayon::prelude::*;
 
 use crate::reshade::{reshade, Pose, ShadedFrame};
-
-/// Id of pixels whose centre ray hits nothing.
-const NO_INSTANCE: u32 = u32::MAX;
 
 /// What the previous frame looked like, for its motion vectors.
 struct View {
@@ -115,14 +112,25 @@ impl TemporalSequence {
             view_proj: pinhole_view_projection(c.origin, c.target, c.up, [hw, hh]),
             jitter,
             transforms: rs.scene.instances.iter().map(|i| i.transform).collect(),
-            ids: self.object_motion.then(|| instance_ids(rs, w, h)),
+            ids: self
+                .object_motion
+                .then(|| instance_ids(rs, &PinholeCamera::new(c, w, h), w, h)),
             shaded: None,
         };
         let ids = view.ids.as_deref();
-        let motion = self
-            .prev
-            .as_ref()
-            .map(|prev| motion_vectors(prev, &view, &frame.position, ids));
+        let motion = self.prev.as_ref().map(|prev| match ids {
+            Some(ids) => {
+                let back = object_motion(&prev.transforms, &view.transforms);
+                object_motion_vectors(
+                    &prev.view_proj,
+                    &view.view_proj,
+                    &frame.position,
+                    ids,
+                    &back,
+                )
+            }
+            None => motion_vectors(&prev.view_proj, &view.view_proj, &frame.position),
+        });
         let motion_time = start.elapsed();
         let t = Instant::now();
         let changes = match (&self.reshade, &self.prev) {
@@ -318,71 +326,10 @@ fn tune(p: &mut TemporalParams, taa: &mut Option<(f32, f32)>) {
     }
 }
 
-/// The instance each pixel centre's camera ray hits first ([`NO_INSTANCE`] on a miss): the
-/// ray of the frame's G-buffer.
-fn instance_ids(rs: &RenderScene, w: usize, h: usize) -> Vec<u32> {
-    let cam = PinholeCamera::new(&rs.scene.camera, w, h);
-    let origin = cam.origin();
-    let mut ids = vec![NO_INSTANCE; w * h];
-    ids.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-        for (x, id) in row.iter_mut().enumerate() {
-            let dir = cam.direction(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
-            if let Some(hit) = rs.accel.intersect(origin, dir, 0.0, f32::INFINITY) {
-                *id = hit.instance;
-            }
-        }
-    });
-    ids
-}
-
-/// Motion vectors (2 channels, pixels, previous position = pixel + motion; NaN = no
-/// history) of the current frame's first-hit `position`s: each point is moved back with its
-/// instance (when `ids` are given) and projected with the previous camera.
-fn motion_vectors(prev: &View, cur: &View, position: &Image, ids: Option<&[u32]>) -> Image {
-    let (w, h) = (position.width, position.height);
-    let mut out = Image::new(w, h, 2, f32::NAN);
-    // Per instance: current world → previous world (identity where nothing moved or the
-    // instance list changed).
-    let back: Vec<Mat4> = if prev.transforms.len() == cur.transforms.len() {
-        prev.transforms
-            .iter()
-            .zip(&cur.transforms)
-            .map(|(p, c)| *p * c.inverse())
-            .collect()
-    } else {
-        vec![Mat4::IDENTITY; cur.transforms.len()]
-    };
-    let pc = position.channels;
-    out.data
-        .par_chunks_mut(2 * w)
-        .enumerate()
-        .for_each(|(y, row)| {
-            for x in 0..w {
-                let q = &position.data[(y * w + x) * pc..][..3];
-                let p = Vec3::new(q[0], q[1], q[2]);
-                if !p.is_finite() {
-                    continue;
-                }
-                let then = match ids.and_then(|ids| back.get(ids[y * w + x] as usize)) {
-                    Some(m) => m.transform_point3(p),
-                    None => p,
-                };
-                let (Some(a), Some(b)) = (
-                    project_to_pixel(&prev.view_proj, then, w, h),
-                    project_to_pixel(&cur.view_proj, p, w, h),
-                ) else {
-                    continue;
-                };
-                row[2 * x] = a[0] - b[0];
-                row[2 * x + 1] = a[1] - b[1];
-            }
-        });
-    out
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::{Vec2, Vec3};
 
     /// The jittered camera's pixel centre x looks where the nominal camera's x + j looks (at
     /// the image centre exactly; about a tenth of a pixel off near the corners at 40°), and the
@@ -411,49 +358,5 @@ mod tests {
         let mean = js.iter().fold(0.0, |s, j| s + j[0]) / 16.0;
         assert!(mean.abs() < 0.05, "{mean}");
         assert_eq!(jitter(3), jitter(19));
-    }
-
-    /// A point on an instance that moved right by one unit comes from one unit left: its
-    /// motion vector points there, while a static point under the same camera has none.
-    #[test]
-    fn object_motion_follows_the_instance() {
-        let (w, h) = (64, 64);
-        let vp = pinhole_view_projection(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y, [0.5, 0.5]);
-        let moved = Mat4::from_translation(Vec3::X);
-        let prev = View {
-            view_proj: vp,
-            jitter: [0.0; 2],
-            transforms: vec![Mat4::IDENTITY, Mat4::IDENTITY],
-            ids: None,
-            shaded: None,
-        };
-        let cur = View {
-            view_proj: vp,
-            jitter: [0.0; 2],
-            transforms: vec![Mat4::IDENTITY, moved],
-            ids: None,
-            shaded: None,
-        };
-        let mut position = Image::new(w, h, 3, f32::NAN);
-        let centre = 32 * w + 32;
-        position.data[centre * 3..centre * 3 + 3].copy_from_slice(&[0.5, 0.0, 0.0]);
-        position.data[(centre + 1) * 3..(centre + 1) * 3 + 3].copy_from_slice(&[0.5, 0.0, 0.0]);
-        let mut ids = vec![NO_INSTANCE; w * h];
-        ids[centre] = 1;
-        ids[centre + 1] = 0;
-        let m = motion_vectors(&prev, &cur, &position, Some(&ids));
-        // One unit at distance 5 with a half extent of 0.5 is 64 / 2 / 0.5 / 5 = 12.8 pixels.
-        assert!(
-            (m.data[centre * 2] + 12.8).abs() < 1e-3,
-            "{}",
-            m.data[centre * 2]
-        );
-        assert!(m.data[centre * 2 + 1].abs() < 1e-4);
-        assert_eq!(
-            m.data[(centre + 1) * 2],
-            0.0,
-            "a static point does not move"
-        );
-        assert!(m.data[0].is_nan(), "background keeps no history");
     }
 }

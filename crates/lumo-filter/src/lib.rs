@@ -13,7 +13,8 @@
 //! - [`most_similar`]: the geometry-aware lookup of Bauszat et al. (eqs 3–5).
 //! - [`TemporalFilter`]: spatiotemporal variance-guided filtering (SVGF, Schied et al. 2017),
 //!   the one stateful filter: reprojected, accumulated history + the variance-guided À-Trous;
-//!   [`motion_vectors`] computes its motion vectors for a static scene and a moving camera.
+//!   [`motion_vectors`] computes its motion vectors for a static scene and a moving camera,
+//!   [`object_motion_vectors`] for objects that move too.
 //!
 //! Every filter is also a [`Denoiser`] (one interface: a [`FilterInput`] in, [`Filtered`] out,
 //! parameters held by the denoiser, one [`FilterError`]), and [`FILTERS`] lists them all: the
@@ -74,7 +75,8 @@ pub use guided::{
 };
 pub use jbu::{jbu, JbuDenoiser, JbuParams};
 pub use temporal::{
-    motion_vectors, pinhole_view_projection, project_to_pixel, Resample, ShadingChange,
-    TemporalAntialias, TemporalFilter, TemporalFrame, TemporalParams, DEFAULT_ALPHA,
-    DEFAULT_TAA_ALPHA, DEFAULT_TAA_GAMMA, DEFAULT_TEMPORAL_SIGMA_LUMINANCE,
+    motion_vectors, object_motion, object_motion_vectors, pinhole_view_projection,
+    project_to_pixel, Resample, ShadingChange, TemporalAntialias, TemporalFilter, TemporalFrame,
+    TemporalParams, DEFAULT_ALPHA, DEFAULT_TAA_ALPHA, DEFAULT_TAA_GAMMA,
+    DEFAULT_TEMPORAL_SIGMA_LUMINANCE, NO_OBJECT,
 };

@@ -22,8 +22,8 @@ pub use film::{Frame, AOV_NAMES};
 pub use integrators::path::{trace_path, trace_path_xyz, FirstHit, PathRadiance, PathSettings};
 pub use integrators::photon::PpmSettings;
 pub use render::{
-    frame_from_estimates, map_pixels, map_rows, render, render_bdpt, render_light, render_pixel,
-    render_pixel_one_ray, render_ppm, trace_sample, PixelEstimate, PpmStats, RenderSettings,
-    RenderStats, LIGHT_STREAM_X,
+    frame_from_estimates, instance_ids, map_pixels, map_rows, render, render_bdpt, render_light,
+    render_pixel, render_pixel_one_ray, render_ppm, trace_sample, PixelEstimate, PpmStats,
+    RenderSettings, RenderStats, LIGHT_STREAM_X,
 };
 pub use render_scene::{RenderScene, SceneUpdate, Surface};

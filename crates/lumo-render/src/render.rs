@@ -186,6 +186,24 @@ where
     rows.into_iter().flatten().collect()
 }
 
+/// The instance that each pixel centre's camera ray hits first (`u32::MAX` where it hits
+/// nothing), row-major: the object-id plane of the G-buffer, whose rays go through the pixel
+/// centres as well. Temporal filtering follows moving instances with it.
+pub fn instance_ids(
+    rs: &RenderScene,
+    camera: &PinholeCamera,
+    width: usize,
+    height: usize,
+) -> Vec<u32> {
+    let origin = camera.origin();
+    map_pixels(width, height, &|_| {}, |x, y| {
+        let dir = camera.direction(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
+        rs.accel
+            .intersect(origin, dir, 0.0, f32::INFINITY)
+            .map_or(u32::MAX, |hit| hit.instance)
+    })
+}
+
 /// Renders the full frame. `progress` is called with the number of rows finished so far.
 pub fn render(
     rs: &RenderScene,

@@ -10,17 +10,20 @@
 //! In À-Trous mode a camera move does not throw the picture away: the first
 //! [`TEMPORAL_FRAMES`] frames after every restart go through the temporal filter (SVGF), whose
 //! history outlives the restart ([`TemporalHistory`]) and is reprojected with the motion of the
-//! camera; after that the running mean of the still camera's frames takes over and converges
-//! as before.
+//! camera and, when an animation moved the scene's instances between the two frames
+//! (`lumo serve --animate`), with each instance's own motion (an instance id per pixel, traced
+//! through the pixel centres once per render); after that the running mean of the still
+//! camera's frames takes over and converges as before.
 
 use glam::{Mat4, Vec3};
 use lumo_filter::{
-    motion_vectors, pinhole_view_projection, with_passthrough, AtrousDenoiser, AtrousParams,
-    Denoiser, Features, FilterInput, GuidedDenoiser, TemporalFilter, TemporalFrame, TemporalParams,
+    motion_vectors, object_motion, object_motion_vectors, pinhole_view_projection,
+    with_passthrough, AtrousDenoiser, AtrousParams, Denoiser, Features, FilterInput,
+    GuidedDenoiser, TemporalFilter, TemporalFrame, TemporalParams,
 };
 use lumo_image::{luminance, Image};
 use lumo_render::integrators::path::wavefront::render_pixels_from;
-use lumo_render::{camera::PinholeCamera, RenderScene, RenderSettings};
+use lumo_render::{camera::PinholeCamera, instance_ids, RenderScene, RenderSettings};
 use rayon::prelude::*;
 
 use crate::protocol::Mode;
@@ -39,6 +42,8 @@ pub struct TemporalHistory {
     filter: TemporalFilter,
     /// View-projection of the camera of the last frame fed (for the motion vectors).
     view_proj: Option<Mat4>,
+    /// The instance transforms (object → world) of the scene of the last frame fed.
+    transforms: Vec<Mat4>,
 }
 
 impl TemporalHistory {
@@ -48,6 +53,7 @@ impl TemporalHistory {
         Some(Self {
             filter: TemporalFilter::new(TemporalParams::sequence()).ok()?,
             view_proj: None,
+            transforms: Vec::new(),
         })
     }
 
@@ -55,6 +61,7 @@ impl TemporalHistory {
     pub fn reset(&mut self) {
         self.filter.reset();
         self.view_proj = None;
+        self.transforms.clear();
     }
 }
 
@@ -80,6 +87,9 @@ pub struct FrameAccumulator {
     depth: Image,
     /// Pixels showing an emitter (first frame), kept out of the filters.
     emitter: Vec<bool>,
+    /// The instance under each pixel centre, traced when the temporal filter first needs it
+    /// (instances moved since the frame its history holds).
+    ids: Option<Vec<u32>>,
     /// The À-Trous filter; it keeps its working memory from frame to frame.
     atrous: AtrousDenoiser,
     /// The guided filter (4-dimensional guide: normal and depth over its range).
@@ -116,6 +126,7 @@ impl FrameAccumulator {
             position: Image::new(w, h, 3, 0.0),
             depth: Image::new(w, h, 1, 0.0),
             emitter: vec![false; w * h],
+            ids: None,
             atrous: AtrousDenoiser::new(AtrousParams {
                 demodulate: true,
                 ..AtrousParams::default()
@@ -226,8 +237,13 @@ impl FrameAccumulator {
     }
 
     /// The last frame through the temporal filter, its history reprojected from the camera of
-    /// the frame `history` saw before (this render's, or the one before a camera move).
-    pub fn filtered_temporal(&mut self, history: &mut TemporalHistory) -> Option<FilteredFrame> {
+    /// the frame `history` saw before (this render's, or the one before a camera move) and, if
+    /// instances of `rs` (the scene the frames were traced in) moved since, with their motion.
+    pub fn filtered_temporal(
+        &mut self,
+        history: &mut TemporalHistory,
+        rs: &RenderScene,
+    ) -> Option<FilteredFrame> {
         if self.frames == 0 {
             return None;
         }
@@ -238,9 +254,15 @@ impl FrameAccumulator {
             3,
             self.last.iter().flat_map(|c| c.to_array()).collect(),
         );
-        let motion = history
-            .view_proj
-            .map(|prev| motion_vectors(&prev, &self.view_proj, &self.position));
+        let transforms: Vec<Mat4> = rs.scene.instances.iter().map(|i| i.transform).collect();
+        let back = object_motion(&history.transforms, &transforms);
+        if self.ids.is_none() && back.iter().any(|m| *m != Mat4::IDENTITY) {
+            self.ids = Some(instance_ids(rs, &self.rays, w, h));
+        }
+        let motion = history.view_proj.map(|prev| match &self.ids {
+            Some(ids) => object_motion_vectors(&prev, &self.view_proj, &self.position, ids, &back),
+            None => motion_vectors(&prev, &self.view_proj, &self.position),
+        });
         let image = with_passthrough(&color, &self.emitter, |c| {
             history.filter.filter(&TemporalFrame {
                 color: c,
@@ -248,13 +270,14 @@ impl FrameAccumulator {
                 normal: &self.normal,
                 depth: &self.depth,
                 position: Some(&self.position),
-                ids: None,
+                ids: self.ids.as_deref(),
                 motion: motion.as_ref(),
             })
         })
         .ok()?
         .image;
         history.view_proj = Some(self.view_proj);
+        history.transforms = transforms;
         Some(self.to_xyz(image.data, Mode::Atrous))
     }
 
@@ -338,13 +361,19 @@ mod tests {
         let mut still = FrameAccumulator::new(&job(first));
         for i in 0..TEMPORAL_FRAMES {
             still.add_frame(&rs, i, &|| false).expect("not aborted");
-            still.filtered_temporal(&mut history).expect("a frame");
+            still.filtered_temporal(&mut history, &rs).expect("a frame");
         }
-        let stale = still.filtered_temporal(&mut history).expect("a frame").xyz;
+        let stale = still
+            .filtered_temporal(&mut history, &rs)
+            .expect("a frame")
+            .xyz;
         let mut after = FrameAccumulator::new(&job(moved.clone()));
         after.add_frame(&rs, 0, &|| false).expect("not aborted");
         let spatial = after.filtered(Mode::Atrous).expect("a frame").xyz;
-        let temporal = after.filtered_temporal(&mut history).expect("a frame").xyz;
+        let temporal = after
+            .filtered_temporal(&mut history, &rs)
+            .expect("a frame")
+            .xyz;
         let mut reference = FrameAccumulator::new(&job(moved));
         for i in 0..128 {
             reference.add_frame(&rs, i, &|| false).expect("not aborted");
@@ -367,6 +396,89 @@ mod tests {
         assert!(
             t < 0.7 * sp && t < 0.7 * st,
             "MSE after the move: temporal {t}, spatial only {sp}, stale picture {st}"
+        );
+    }
+
+    /// An instance that moved between two frames (an animation's next pose) keeps its
+    /// history: the ids traced for the frame carry each box pixel back to where the box was,
+    /// so the first frame of the new pose is closer to the converged image on the box than
+    /// with camera motion alone (where the box's history is missed or misplaced). Measured:
+    /// 0.63–0.66× the camera-only MSE for steps of 0.12–0.18 (3–4 px); 0.87× at 0.25 and
+    /// worse at 0.45, where the box's lighting changes so much that its carried history is
+    /// stale (the per-pose steps of an animation at interactive rates are small).
+    #[test]
+    fn a_moving_instance_keeps_its_temporal_history() {
+        let scene = lumo_scene::builtin_scene("cornell").expect("built-in");
+        let job = Job {
+            camera: scene.camera.clone(),
+            width: 48,
+            height: 48,
+            integrator: Integrator::Path,
+            mode: Mode::Atrous,
+            path: PathSettings {
+                max_depth: 4,
+                ..PathSettings::default()
+            },
+            seed: 4,
+            max_batches: None,
+            max_rate: None,
+            ppm: Default::default(),
+        };
+        let mut moved = scene.clone();
+        let large_box = moved.instances.len() - 1;
+        moved.instances[large_box].transform = Mat4::from_translation(Vec3::new(0.15, 0.0, 0.0));
+        let (before, after) = (
+            RenderScene::new(scene).expect("scene"),
+            RenderScene::new(moved).expect("scene"),
+        );
+        let mut tracked = TemporalHistory::new().expect("default parameters");
+        let mut camera_only = TemporalHistory::new().expect("default parameters");
+        let mut still = FrameAccumulator::new(&job);
+        for i in 0..TEMPORAL_FRAMES {
+            still.add_frame(&before, i, &|| false).expect("not aborted");
+            still
+                .filtered_temporal(&mut tracked, &before)
+                .expect("a frame");
+            still
+                .filtered_temporal(&mut camera_only, &before)
+                .expect("a frame");
+        }
+        assert!(still.ids.is_none(), "nothing moved: no ids traced");
+        // Forgetting the transforms makes the motion of the instances unknown.
+        camera_only.transforms.clear();
+        let first = |history: &mut TemporalHistory| {
+            let mut acc = FrameAccumulator::new(&job);
+            acc.add_frame(&after, 0, &|| false).expect("not aborted");
+            let xyz = acc.filtered_temporal(history, &after).expect("a frame").xyz;
+            (xyz, acc.ids)
+        };
+        let (with_ids, ids) = first(&mut tracked);
+        let (without, no_ids) = first(&mut camera_only);
+        let ids = ids.expect("the box moved: ids traced");
+        assert!(no_ids.is_none());
+        let mut reference = FrameAccumulator::new(&job);
+        for i in 0..128 {
+            reference
+                .add_frame(&after, i, &|| false)
+                .expect("not aborted");
+        }
+        let reference = reference.filtered(Mode::Atrous).expect("a frame").xyz;
+        let on_box: Vec<usize> = (0..ids.len())
+            .filter(|&i| ids[i] == large_box as u32)
+            .collect();
+        assert!(on_box.len() > 100, "the box covers {} pixels", on_box.len());
+        let mse = |a: &[f32]| {
+            let sum: f64 = on_box
+                .iter()
+                .flat_map(|&i| 3 * i..3 * i + 3)
+                .map(|c| ((a[c] - reference[c]) as f64).powi(2))
+                .sum();
+            sum / (3 * on_box.len()) as f64
+        };
+        let (t, c) = (mse(&with_ids), mse(&without));
+        assert!(
+            t < 0.75 * c,
+            "MSE on the moved box: with its motion {t}, camera motion only {c}"
         );
     }
 

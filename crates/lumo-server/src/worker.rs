@@ -632,7 +632,7 @@ fn frame_loop(shared: &Shared, run: &Run, rs: &RenderScene) -> bool {
         };
         let temporal = job.mode == Mode::Atrous && acc.frames() <= TEMPORAL_FRAMES;
         let filtered = match lock(&shared.temporal).as_mut() {
-            Some(history) if temporal => acc.filtered_temporal(history),
+            Some(history) if temporal => acc.filtered_temporal(history, rs),
             _ => acc.filtered(job.mode),
         };
         let Some(filtered) = filtered else {

@@ -23,7 +23,10 @@ mod tests_resample;
 use lumo_image::Image;
 use rayon::prelude::*;
 
-pub use motion::{motion_vectors, pinhole_view_projection, project_to_pixel};
+pub use motion::{
+    motion_vectors, object_motion, object_motion_vectors, pinhole_view_projection,
+    project_to_pixel, NO_OBJECT,
+};
 pub use reshade::ShadingChange;
 pub use taa::{TemporalAntialias, DEFAULT_TAA_ALPHA, DEFAULT_TAA_GAMMA};
 

@@ -58,6 +58,57 @@ pub fn project_to_pixel(
 /// where the position is not finite (background) or behind either camera: such pixels keep
 /// no history.
 pub fn motion_vectors(prev_view_proj: &Mat4, view_proj: &Mat4, position: &Image) -> Image {
+    moving_points(prev_view_proj, view_proj, position, None)
+}
+
+/// Id of a pixel that shows no object (its camera ray hit nothing), in the `ids` planes of
+/// [`object_motion_vectors`] and [`super::TemporalFrame::ids`].
+pub const NO_OBJECT: u32 = u32::MAX;
+
+/// [`motion_vectors`] of a scene whose objects move too: pixel i's point belongs to object
+/// `ids[i]` and is carried back to where it was with `back[ids[i]]` (current world → previous
+/// world; see [`object_motion`]) before the previous camera projects it. A pixel whose id has
+/// no entry in `back` ([`NO_OBJECT`], or an object that did not exist) is taken as static.
+/// `ids` must have one entry per pixel (otherwise every point is taken as static).
+pub fn object_motion_vectors(
+    prev_view_proj: &Mat4,
+    view_proj: &Mat4,
+    position: &Image,
+    ids: &[u32],
+    back: &[Mat4],
+) -> Image {
+    let objects = (ids.len() == position.width * position.height).then_some((ids, back));
+    moving_points(prev_view_proj, view_proj, position, objects)
+}
+
+/// Per object, the transform that carries a point from where the object is now back to where
+/// it was: `prev[i] · now[i]⁻¹` from the objects' object → world transforms then and now. The
+/// identity for every object when the lists differ in length (a different scene) and for an
+/// object whose transform now cannot be inverted.
+pub fn object_motion(prev: &[Mat4], now: &[Mat4]) -> Vec<Mat4> {
+    if prev.len() != now.len() {
+        return vec![Mat4::IDENTITY; now.len()];
+    }
+    prev.iter()
+        .zip(now)
+        .map(|(p, c)| {
+            if p == c || c.determinant() == 0.0 {
+                Mat4::IDENTITY
+            } else {
+                *p * c.inverse()
+            }
+        })
+        .collect()
+}
+
+/// The motion vectors of `position`'s points, each first carried back by its object's
+/// transform when `objects` (ids per pixel, transform per id) are given.
+fn moving_points(
+    prev_view_proj: &Mat4,
+    view_proj: &Mat4,
+    position: &Image,
+    objects: Option<(&[u32], &[Mat4])>,
+) -> Image {
     let (w, h) = (position.width, position.height);
     let pc = position.channels;
     let mut out = Image::new(w, h, 2, f32::NAN);
@@ -69,13 +120,18 @@ pub fn motion_vectors(prev_view_proj: &Mat4, view_proj: &Mat4, position: &Image)
         .enumerate()
         .for_each(|(y, row)| {
             for x in 0..w {
-                let q = &position.data[(y * w + x) * pc..][..3];
+                let i = y * w + x;
+                let q = &position.data[i * pc..][..3];
                 let p = Vec3::new(q[0], q[1], q[2]);
                 if !p.is_finite() {
                     continue;
                 }
+                let then = match objects.and_then(|(ids, back)| back.get(ids[i] as usize)) {
+                    Some(m) => m.transform_point3(p),
+                    None => p,
+                };
                 let (Some(a), Some(b)) = (
-                    project_to_pixel(prev_view_proj, p, w, h),
+                    project_to_pixel(prev_view_proj, then, w, h),
                     project_to_pixel(view_proj, p, w, h),
                 ) else {
                     continue;

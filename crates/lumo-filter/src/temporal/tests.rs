@@ -403,6 +403,57 @@ fn result_does_not_depend_on_the_thread_count() {
     assert_eq!(one, run(3));
 }
 
+/// A point on an object that moved right by one unit comes from one unit left: its motion
+/// vector points there, while a static point under the same camera has none.
+#[test]
+fn object_motion_follows_the_object() {
+    let (w, h) = (64, 64);
+    let vp = pinhole_view_projection(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y, [0.5, 0.5]);
+    let back = object_motion(
+        &[glam::Mat4::IDENTITY, glam::Mat4::IDENTITY],
+        &[glam::Mat4::IDENTITY, glam::Mat4::from_translation(Vec3::X)],
+    );
+    assert_eq!(
+        back[0],
+        glam::Mat4::IDENTITY,
+        "an unmoved object is the identity"
+    );
+    let mut position = Image::new(w, h, 3, f32::NAN);
+    let centre = 32 * w + 32;
+    for i in [centre, centre + 1, centre + 2] {
+        position.data[i * 3..i * 3 + 3].copy_from_slice(&[0.5, 0.0, 0.0]);
+    }
+    let mut ids = vec![NO_OBJECT; w * h];
+    ids[centre] = 1;
+    ids[centre + 1] = 0;
+    let m = object_motion_vectors(&vp, &vp, &position, &ids, &back);
+    // One unit at distance 5 with a half extent of 0.5 is 64 / 2 / 0.5 / 5 = 12.8 pixels.
+    assert!(
+        (m.data[centre * 2] + 12.8).abs() < 1e-3,
+        "{}",
+        m.data[centre * 2]
+    );
+    assert!(m.data[centre * 2 + 1].abs() < 1e-4);
+    assert_eq!(
+        m.data[(centre + 1) * 2],
+        0.0,
+        "a static object's point does not move"
+    );
+    assert_eq!(
+        m.data[(centre + 2) * 2],
+        0.0,
+        "a point on no object is static"
+    );
+    assert!(m.data[0].is_nan(), "background keeps no history");
+    // Ids of the wrong size: everything is static, as with `motion_vectors`.
+    let static_ = object_motion_vectors(&vp, &vp, &position, &ids[1..], &back);
+    assert_eq!(static_.data[centre * 2], 0.0);
+    // A different scene (another object count): nothing is carried.
+    assert!(object_motion(&[glam::Mat4::IDENTITY], &back)
+        .iter()
+        .all(|m| *m == glam::Mat4::IDENTITY));
+}
+
 #[test]
 fn motion_vectors_of_a_sideways_camera_step() {
     let (w, h) = (64, 48);
