@@ -66,7 +66,7 @@ pub use common::fastmath::exp_neg;
 pub use common::gbuffer::{missing_pixels, Features, Filtered};
 pub use common::noise::spatial_variance;
 pub use common::outliers::remove_outliers;
-pub use common::passthrough::{with_hidden, with_passthrough};
+pub use common::passthrough::{with_emitted, with_hidden, with_passthrough};
 pub use denoiser::{Denoiser, FilterInfo, FilterInput, FilterKind, Shape, FILTERS};
 pub use guided::{
     build_guide, guided, most_similar, most_similar_in_grid, neighbour_cells, DepthNorm, Guide,

@@ -1,13 +1,14 @@
 //! The `auto` pipeline: trace full paths at every pixel, then lumo-filter's `auto` estimator
 //! (guided filters at several radii on the albedo-demodulated colour, blended per pixel by
 //! their leave-one-out error; docs/filters.md). Lights seen directly pass through untouched,
-//! as in the À-Trous pipeline: the renderer knows exactly where they are.
+//! as in the À-Trous pipeline: the renderer knows exactly where they are, and on a light's rim
+//! how much of each pixel's colour the light is.
 
 use std::time::Instant;
 
-use lumo_filter::{with_passthrough, AutoDenoiser, Denoiser, Features, FilterInput};
+use lumo_filter::{with_emitted, AutoDenoiser, Denoiser, Features, FilterInput};
 
-use super::compose::trace_full;
+use super::compose::{emitted_plane, trace_full};
 use super::{PipelineError, PipelineOutput, Timings};
 use lumo_render::{RenderScene, RenderSettings};
 
@@ -29,7 +30,9 @@ pub(super) fn run(
         ..Features::default()
     };
     let mut denoiser = AutoDenoiser::default();
-    let filtered = with_passthrough(&frame.color, &emitter, |c| {
+    // The light's share of its rim pixels stays out too (`with_emitted`).
+    let emitted = emitted_plane(settings.width, settings.height, &estimates);
+    let filtered = with_emitted(&frame.color, &emitter, &emitted, |c| {
         denoiser.denoise(&FilterInput::new(c, features))
     })?;
     Ok(PipelineOutput {

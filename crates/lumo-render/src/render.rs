@@ -50,6 +50,9 @@ pub struct PixelEstimate {
     /// The pixel-centre ray's first hit, except its albedo: the mean of all samples' (see
     /// [`PathRadiance::albedo`]).
     pub first_hit: FirstHit,
+    /// Mean over the samples of the radiance their first hit emits towards the camera (see
+    /// [`PathRadiance::emitted`]): on a light's rim, the light's share of the pixel.
+    pub emitted: Vec3,
     /// Rays traced.
     pub rays: u64,
 }

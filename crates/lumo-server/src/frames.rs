@@ -17,9 +17,9 @@
 
 use glam::{Mat4, Vec3};
 use lumo_filter::{
-    motion_vectors, object_motion, object_motion_vectors, pinhole_view_projection,
-    with_passthrough, AtrousDenoiser, AtrousParams, Denoiser, Features, FilterInput,
-    GuidedDenoiser, TemporalFilter, TemporalFrame, TemporalParams,
+    motion_vectors, object_motion, object_motion_vectors, pinhole_view_projection, with_emitted,
+    AtrousDenoiser, AtrousParams, Denoiser, Features, FilterInput, GuidedDenoiser, TemporalFilter,
+    TemporalFrame, TemporalParams,
 };
 use lumo_image::{luminance, Image};
 use lumo_render::integrators::path::wavefront::render_pixels_from;
@@ -76,6 +76,10 @@ pub struct FrameAccumulator {
     sum: Vec<Vec3>,
     /// The last frame's colours (what the temporal filter is fed).
     last: Vec<Vec3>,
+    /// Sum of the radiance the frames' first hits emit towards the camera, and the last
+    /// frame's: the light's share of its rim pixels, kept out of the filters.
+    emitted_sum: Vec<Vec3>,
+    last_emitted: Vec<Vec3>,
     /// The camera's view-projection (for motion vectors).
     view_proj: Mat4,
     /// Welford mean and M2 of luminance per pixel.
@@ -114,6 +118,8 @@ impl FrameAccumulator {
             frames: 0,
             sum: vec![Vec3::ZERO; w * h],
             last: vec![Vec3::ZERO; w * h],
+            emitted_sum: vec![Vec3::ZERO; w * h],
+            last_emitted: vec![Vec3::ZERO; w * h],
             view_proj: {
                 let c = &job.camera;
                 let (hw, hh) = c.half_extent(w, h);
@@ -174,6 +180,8 @@ impl FrameAccumulator {
                 traced += e.rays;
                 self.sum[i] += c;
                 self.last[i] = c;
+                self.emitted_sum[i] += e.emitted;
+                self.last_emitted[i] = e.emitted;
                 let l = luminance(c.into());
                 let d = l - self.lum_mean[i];
                 self.lum_mean[i] += d / n;
@@ -228,7 +236,8 @@ impl FrameAccumulator {
             Mode::Atrous => &mut self.atrous,
             Mode::Guided => &mut self.guided,
         };
-        let image = with_passthrough(&color, &self.emitter, |c| {
+        let emitted = planar(w, h, self.emitted_sum.iter().map(|e| *e / n));
+        let image = with_emitted(&color, &self.emitter, &emitted, |c| {
             denoiser.denoise(&FilterInput::new(c, features))
         })
         .ok()?
@@ -263,7 +272,8 @@ impl FrameAccumulator {
             Some(ids) => object_motion_vectors(&prev, &self.view_proj, &self.position, ids, &back),
             None => motion_vectors(&prev, &self.view_proj, &self.position),
         });
-        let image = with_passthrough(&color, &self.emitter, |c| {
+        let emitted = planar(w, h, self.last_emitted.iter().copied());
+        let image = with_emitted(&color, &self.emitter, &emitted, |c| {
             history.filter.filter(&TemporalFrame {
                 color: c,
                 albedo: Some(&self.albedo),
@@ -295,6 +305,11 @@ impl FrameAccumulator {
             mode,
         }
     }
+}
+
+/// A 3-channel image of `w`×`h` RGB values in row-major order.
+fn planar(w: usize, h: usize, values: impl Iterator<Item = Vec3>) -> Image {
+    Image::from_vec(w, h, 3, values.flat_map(|v| v.to_array()).collect())
 }
 
 #[cfg(test)]
@@ -380,11 +395,24 @@ mod tests {
         }
         // The converged image through the same spatial filter: what is left of a difference
         // is noise and misplaced history, not the filter's own blur.
+        // Pixels none of whose converged samples saw the light: on the light's rim a 1-spp
+        // frame holds all or none of the light where the reference holds its share, which
+        // would decide the MSE and say nothing of the history.
+        let off_light: Vec<bool> = reference
+            .emitted_sum
+            .iter()
+            .map(|e| *e == Vec3::ZERO)
+            .collect();
         let reference = reference.filtered(Mode::Atrous).expect("a frame").xyz;
         // Over the filtered pixels: emitters pass through unfiltered in every mode.
         let mse = |a: &[f32]| {
             let (mut sum, mut n) = (0.0f64, 0usize);
-            for (i, _) in after.emitter.iter().enumerate().filter(|(_, &e)| !e) {
+            let filtered = after
+                .emitter
+                .iter()
+                .zip(&off_light)
+                .map(|(&e, &off)| !e && off);
+            for (i, _) in filtered.enumerate().filter(|&(_, f)| f) {
                 for c in 3 * i..3 * i + 3 {
                     sum += ((a[c] - reference[c]) as f64).powi(2);
                     n += 1;

@@ -53,6 +53,56 @@ where
     Ok(out)
 }
 
+/// As [`with_passthrough`], and the radiance `emitted` (3 channels, the mean over each
+/// pixel's samples of what their first hits emit towards the camera) is kept out of the filter
+/// everywhere else: the filter sees `color − emitted` (at least 0) and `emitted` is added back
+/// to its output. Why: with several samples a pixel on a light's rim mixes the light with its
+/// surroundings; its centre ray may see the surroundings, so `pass` keeps it, and its bright
+/// share of the light, in the filter, which spread it over the ceiling as a halo. An `emitted`
+/// plane of another size, or a non-finite value, leaves those pixels' colour as it is.
+pub fn with_emitted<F, E>(
+    color: &Image,
+    pass: &[bool],
+    emitted: &Image,
+    filter: F,
+) -> Result<Filtered, E>
+where
+    F: FnOnce(&Image) -> Result<Filtered, E>,
+{
+    let usable = emitted.width == color.width
+        && emitted.height == color.height
+        && emitted.channels == 3
+        && color.channels == 3;
+    if !usable {
+        return with_passthrough(color, pass, filter);
+    }
+    let share = |i: usize| -> Option<[f32; 3]> {
+        if pass.get(i).copied().unwrap_or(false) {
+            return None;
+        }
+        let e = &emitted.data[i * 3..i * 3 + 3];
+        (e.iter().all(|v| v.is_finite()) && e.iter().any(|&v| v > 0.0)).then(|| [e[0], e[1], e[2]])
+    };
+    let mut reflected = color.clone();
+    for i in 0..color.pixel_count() {
+        if let Some(e) = share(i) {
+            for (c, e) in reflected.data[i * 3..i * 3 + 3].iter_mut().zip(e) {
+                *c = (*c - e).max(0.0);
+            }
+        }
+    }
+    let mut out = with_passthrough(&reflected, pass, filter)?;
+    for i in 0..color.pixel_count() {
+        if let Some(e) = share(i) {
+            for (c, e) in out.image.data[i * 3..i * 3 + 3].iter_mut().zip(e) {
+                *c += e;
+            }
+        }
+    }
+    out.missing = missing_pixels(color);
+    Ok(out)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -96,5 +146,66 @@ mod tests {
         .unwrap();
         assert_eq!(&out.image.data[0..3], &[50.0; 3]);
         assert_eq!(&out.image.data[3..9], &[0.25; 6]);
+    }
+
+    /// A rim pixel (centre ray off the light) holding half a light: the filter sees only its
+    /// reflected part, which a box mean spreads, and the light's share comes back unspread.
+    #[test]
+    fn emitted_radiance_is_kept_out_of_the_filter() {
+        let mut color = Image::new(3, 1, 3, 0.5);
+        color.data[0..3].fill(50.0); // pixel 0: the light itself (passed through)
+        color.data[3..6].fill(25.5); // pixel 1: half light (25), half wall (0.5)
+        let mut emitted = Image::new(3, 1, 3, 0.0);
+        emitted.data[0..3].fill(50.0);
+        emitted.data[3..6].fill(25.0);
+        let pass = [true, false, false];
+        let out = with_emitted::<_, FilterError>(&color, &pass, &emitted, |c| {
+            assert!(c.data[0].is_nan(), "the light is passed through");
+            assert_eq!(
+                &c.data[3..9],
+                &[0.5; 6],
+                "the filter sees the reflected part only"
+            );
+            let valid: Vec<f32> = c.data.iter().copied().filter(|v| v.is_finite()).collect();
+            let mean = valid.iter().sum::<f32>() / valid.len() as f32;
+            Ok(Filtered {
+                image: Image::new(3, 1, 3, mean),
+                missing: 0,
+            })
+        })
+        .unwrap();
+        assert_eq!(&out.image.data[0..3], &[50.0; 3]);
+        assert_eq!(
+            &out.image.data[3..6],
+            &[25.5; 3],
+            "the light's share comes back"
+        );
+        assert_eq!(
+            &out.image.data[6..9],
+            &[0.5; 3],
+            "nothing spread to the wall"
+        );
+        // Without the plane the rim's light would have spread: the box mean of 25.5 and 0.5.
+        let spread = with_passthrough::<_, FilterError>(&color, &pass, |c| {
+            let valid: Vec<f32> = c.data.iter().copied().filter(|v| v.is_finite()).collect();
+            let mean = valid.iter().sum::<f32>() / valid.len() as f32;
+            Ok(Filtered {
+                image: Image::new(3, 1, 3, mean),
+                missing: 0,
+            })
+        })
+        .unwrap();
+        assert_eq!(spread.image.data[6], 13.0);
+        // A plane of another size is ignored (the pass-through still applies).
+        let other = Image::new(2, 1, 3, 1.0);
+        let out = with_emitted::<_, FilterError>(&color, &pass, &other, |c| {
+            assert_eq!(c.data[3], 25.5);
+            Ok(Filtered {
+                image: c.clone(),
+                missing: 0,
+            })
+        })
+        .unwrap();
+        assert_eq!(out.image.data[0], 50.0);
     }
 }

@@ -85,6 +85,11 @@ pub struct PathRadiance {
     /// is the mean of its samples' (the colour's average over the same samples), so that
     /// demodulating by it does not re-impose one sample's texture on the whole pixel.
     pub albedo: Vec3,
+    /// Radiance the first hit emits towards the camera (a light, or the environment on a
+    /// miss; already part of `direct`). Its mean over a pixel's samples is the part of the
+    /// pixel's colour that filters must not spread: with several samples a pixel on a light's
+    /// rim mixes the light with its surroundings while its centre ray may see either.
+    pub emitted: Vec3,
 }
 
 impl PathRadiance {
@@ -220,6 +225,8 @@ impl PathState {
                     indirect,
                     rays: self.radiance.rays,
                     albedo: self.radiance.albedo,
+                    // The RGB emission, as the G-buffer's emission plane (`FirstHit::emitted`).
+                    emitted: self.radiance.emitted,
                 }
             }
         }
@@ -275,6 +282,9 @@ impl PathState {
         self.radiance.rays += 1;
         let (depth, dir) = (self.depth, self.dir);
         let Some(hit) = hit else {
+            if depth == 1 {
+                self.radiance.emitted = rs.lights.environment(dir);
+            }
             if depth == 1 || settings.bsdf_emission || self.prev_pdf.is_none() {
                 let le = rs.lights.environment(dir);
                 if le != Vec3::ZERO {
@@ -336,6 +346,7 @@ impl PathState {
     ) {
         if self.depth == 1 {
             self.radiance.albedo = bsdf.albedo();
+            self.radiance.emitted = le;
         }
         if std::mem::take(&mut self.want_first_hit) {
             let n = s.frame.n;

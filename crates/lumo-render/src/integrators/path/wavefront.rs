@@ -222,6 +222,7 @@ pub(crate) fn estimate(
         ..Default::default()
     };
     let (mut sum_d, mut sum_i, mut sum_a) = (DVec3::ZERO, DVec3::ZERO, DVec3::ZERO);
+    let mut sum_e = DVec3::ZERO;
     let lum = |r: &PathRadiance| luminance((r.direct + r.indirect).into()) as f64;
     let mut sum_l = 0.0f64;
     for r in radiance.clone() {
@@ -229,6 +230,7 @@ pub(crate) fn estimate(
         sum_d += r.direct.as_dvec3();
         sum_i += r.indirect.as_dvec3();
         sum_a += r.albedo.as_dvec3();
+        sum_e += r.emitted.as_dvec3();
         sum_l += lum(&r);
     }
     // Luminance variance in a second pass around the mean: no division per sample and no
@@ -243,6 +245,7 @@ pub(crate) fn estimate(
     // stay the pixel-centre ray's: a guide must not blur across edges). With one sample it is
     // exactly the first hit's.
     est.first_hit.albedo = (sum_a / n).as_vec3();
+    est.emitted = (sum_e / n).as_vec3();
     est.luminance_variance = if spp > 1 {
         (m2 / (n - 1.0)) as f32
     } else {
