@@ -13,9 +13,8 @@ use std::time::{Duration, Instant};
 
 use glam::Mat4;
 use lumo_filter::{
-    motion_vectors, object_motion, object_motion_vectors, pinhole_view_projection,
-    with_passthrough, FilterError, Resample, TemporalAntialias, TemporalFilter, TemporalFrame,
-    TemporalParams,
+    motion_vectors, object_motion, object_motion_vectors, pinhole_view_projection, with_emitted,
+    FilterError, Resample, TemporalAntialias, TemporalFilter, TemporalFrame, TemporalParams,
 };
 use lumo_image::Image;
 use lumo_render::camera::PinholeCamera;
@@ -160,7 +159,8 @@ impl TemporalSequence {
             .map(|(e, a)| e.iter().any(|&v| v != 0.0) && a.iter().any(|&v| v != 0.0))
             .collect();
         let t = Instant::now();
-        let filtered = with_passthrough(&frame.color, &emitter, |c| {
+        // With several samples per frame a light's rim pixels hold a share of it: kept out too.
+        let filtered = with_emitted(&frame.color, &emitter, &frame.emitted, |c| {
             self.filter.filter_reshaded(
                 &TemporalFrame {
                     color: c,

@@ -8,7 +8,7 @@ use lumo_filter::{
     spatial_variance, with_emitted, AtrousDenoiser, AtrousParams, Denoiser, Features, FilterInput,
 };
 
-use super::compose::{emitted_plane, frame_with_variance, trace_full};
+use super::compose::{frame_with_variance, trace_full};
 use super::{PipelineError, PipelineOptions, PipelineOutput, Timings};
 use lumo_render::camera::PinholeCamera;
 use lumo_render::integrators::path::wavefront::render_pixels;
@@ -68,8 +68,7 @@ pub(super) fn run(
     });
     // The light's share of its rim pixels (samples on the light, centre ray off it) stays out
     // as well: the mean emitted radiance is subtracted before the filter and added after.
-    let emitted = emitted_plane(w, h, &estimates);
-    let filtered = with_emitted(&frame.color, &emitter, &emitted, |c| {
+    let filtered = with_emitted(&frame.color, &emitter, &frame.emitted, |c| {
         if n == 1 {
             return denoiser.denoise(&FilterInput::new(c, features));
         }

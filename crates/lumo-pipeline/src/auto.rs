@@ -8,7 +8,7 @@ use std::time::Instant;
 
 use lumo_filter::{with_emitted, AutoDenoiser, Denoiser, Features, FilterInput};
 
-use super::compose::{emitted_plane, trace_full};
+use super::compose::trace_full;
 use super::{PipelineError, PipelineOutput, Timings};
 use lumo_render::{RenderScene, RenderSettings};
 
@@ -31,8 +31,7 @@ pub(super) fn run(
     };
     let mut denoiser = AutoDenoiser::default();
     // The light's share of its rim pixels stays out too (`with_emitted`).
-    let emitted = emitted_plane(settings.width, settings.height, &estimates);
-    let filtered = with_emitted(&frame.color, &emitter, &emitted, |c| {
+    let filtered = with_emitted(&frame.color, &emitter, &frame.emitted, |c| {
         denoiser.denoise(&FilterInput::new(c, features))
     })?;
     Ok(PipelineOutput {

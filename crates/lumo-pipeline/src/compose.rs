@@ -32,16 +32,6 @@ pub(super) fn trace_full(
     (estimates, frame, stats, t.elapsed())
 }
 
-/// The mean radiance each pixel's samples see emitted directly ([`PixelEstimate::emitted`]),
-/// as a 3-channel image for [`lumo_filter::with_emitted`].
-pub(super) fn emitted_plane(w: usize, h: usize, estimates: &[PixelEstimate]) -> Image {
-    let data = estimates
-        .iter()
-        .flat_map(|e| e.emitted.to_array())
-        .collect();
-    Image::from_vec(w, h, 3, data)
-}
-
 /// [`frame_from_estimates`] with a variance plane filters can use at one sample per pixel: a
 /// single sample has no per-pixel variance (the renderer leaves 0), so it is estimated from
 /// 3×3 neighbourhoods instead, as SVGF does before it has history.

@@ -36,6 +36,10 @@ pub struct Frame {
     /// the environment where the ray escapes), RGB: the noise-free part of the image that a
     /// filter must leave alone (like Blender's Emit pass; `lumo denoise` reads it).
     pub emission: Image,
+    /// The mean over each pixel's samples of what `emission` records for one: on a light's
+    /// anti-aliased rim, the light's share of the pixel, which filters keep out
+    /// (`lumo_filter::with_emitted`). Not an AOV file (`emission` is the one written).
+    pub emitted: Image,
 }
 
 impl Frame {

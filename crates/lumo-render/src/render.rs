@@ -239,6 +239,7 @@ pub fn frame_from_estimates(w: usize, h: usize, spp: u32, estimates: &[PixelEsti
         depth: Image::new(w, h, 1, 0.0),
         variance: Image::new(w, h, 1, 0.0),
         emission: Image::new(w, h, 3, 0.0),
+        emitted: Image::new(w, h, 3, 0.0),
     };
     for (i, e) in estimates.iter().enumerate() {
         let (x, y) = (i % w, i / w);
@@ -248,6 +249,7 @@ pub fn frame_from_estimates(w: usize, h: usize, spp: u32, estimates: &[PixelEsti
         put(&mut frame.color, e.direct + e.indirect);
         put(&mut frame.albedo, e.first_hit.albedo);
         put(&mut frame.emission, e.first_hit.emitted);
+        put(&mut frame.emitted, e.emitted);
         put(&mut frame.normal, e.first_hit.normal);
         put(&mut frame.position, e.first_hit.position);
         frame.depth.pixel_mut(x, y)[0] = e.first_hit.depth;
