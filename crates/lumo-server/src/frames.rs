@@ -347,13 +347,9 @@ mod tests {
         (acc, out)
     }
 
-    /// After a camera move, the first À-Trous frame with the temporal history carried over is
-    /// closer to the converged image (filtered alike) than the same frame filtered alone (the
-    /// history was reprojected, not thrown away), and it is not the stale picture either.
-    #[test]
-    fn a_camera_move_keeps_the_temporal_history() {
-        let scene = lumo_scene::builtin_scene("cornell").expect("built-in");
-        let job = |camera: lumo_scene::Camera| Job {
+    /// A 48×48 "À-Trous frames" render of the Cornell box seen by `camera` (max depth 4).
+    fn atrous_job(camera: lumo_scene::Camera) -> Job {
+        Job {
             camera,
             width: 48,
             height: 48,
@@ -367,7 +363,16 @@ mod tests {
             max_batches: None,
             max_rate: None,
             ppm: Default::default(),
-        };
+        }
+    }
+
+    /// After a camera move, the first À-Trous frame with the temporal history carried over is
+    /// closer to the converged image (filtered alike) than the same frame filtered alone (the
+    /// history was reprojected, not thrown away), and it is not the stale picture either.
+    #[test]
+    fn a_camera_move_keeps_the_temporal_history() {
+        let scene = lumo_scene::builtin_scene("cornell").expect("built-in");
+        let job = atrous_job;
         let first = scene.camera.clone();
         let mut moved = first.clone();
         moved.origin += glam::Vec3::new(0.25, 0.1, 0.0);
@@ -437,21 +442,7 @@ mod tests {
     #[test]
     fn a_moving_instance_keeps_its_temporal_history() {
         let scene = lumo_scene::builtin_scene("cornell").expect("built-in");
-        let job = Job {
-            camera: scene.camera.clone(),
-            width: 48,
-            height: 48,
-            integrator: Integrator::Path,
-            mode: Mode::Atrous,
-            path: PathSettings {
-                max_depth: 4,
-                ..PathSettings::default()
-            },
-            seed: 4,
-            max_batches: None,
-            max_rate: None,
-            ppm: Default::default(),
-        };
+        let job = atrous_job(scene.camera.clone());
         let mut moved = scene.clone();
         let large_box = moved.instances.len() - 1;
         moved.instances[large_box].transform = Mat4::from_translation(Vec3::new(0.15, 0.0, 0.0));

@@ -108,6 +108,16 @@ mod tests {
     use super::*;
     use crate::FilterError;
 
+    /// A stand-in filter: every pixel becomes the mean of the valid (finite) values.
+    fn mean_filter(c: &Image) -> Filtered {
+        let valid: Vec<f32> = c.data.iter().copied().filter(|v| v.is_finite()).collect();
+        let mean = valid.iter().sum::<f32>() / valid.len() as f32;
+        Filtered {
+            image: Image::new(c.width, c.height, 3, mean),
+            missing: 0,
+        }
+    }
+
     #[test]
     fn passed_pixels_are_hidden_from_the_filter_and_put_back() {
         let mut color = Image::new(4, 1, 3, 0.5);
@@ -117,12 +127,7 @@ mod tests {
         let out = with_passthrough::<_, FilterError>(&color, &pass, |c| {
             // The filter sees NaN where pixels are passed through; it averages the rest.
             assert!(c.data[3].is_nan() && c.data[9].is_nan());
-            let valid: Vec<f32> = c.data.iter().copied().filter(|v| v.is_finite()).collect();
-            let mean = valid.iter().sum::<f32>() / valid.len() as f32;
-            Ok(Filtered {
-                image: Image::new(4, 1, 3, mean),
-                missing: 0,
-            })
+            Ok(mean_filter(c))
         })
         .unwrap();
         assert_eq!(&out.image.data[0..3], &[0.5; 3]);
@@ -166,12 +171,7 @@ mod tests {
                 &[0.5; 6],
                 "the filter sees the reflected part only"
             );
-            let valid: Vec<f32> = c.data.iter().copied().filter(|v| v.is_finite()).collect();
-            let mean = valid.iter().sum::<f32>() / valid.len() as f32;
-            Ok(Filtered {
-                image: Image::new(3, 1, 3, mean),
-                missing: 0,
-            })
+            Ok(mean_filter(c))
         })
         .unwrap();
         assert_eq!(&out.image.data[0..3], &[50.0; 3]);
@@ -186,15 +186,8 @@ mod tests {
             "nothing spread to the wall"
         );
         // Without the plane the rim's light would have spread: the box mean of 25.5 and 0.5.
-        let spread = with_passthrough::<_, FilterError>(&color, &pass, |c| {
-            let valid: Vec<f32> = c.data.iter().copied().filter(|v| v.is_finite()).collect();
-            let mean = valid.iter().sum::<f32>() / valid.len() as f32;
-            Ok(Filtered {
-                image: Image::new(3, 1, 3, mean),
-                missing: 0,
-            })
-        })
-        .unwrap();
+        let spread =
+            with_passthrough::<_, FilterError>(&color, &pass, |c| Ok(mean_filter(c))).unwrap();
         assert_eq!(spread.image.data[6], 13.0);
         // A plane of another size is ignored (the pass-through still applies).
         let other = Image::new(2, 1, 3, 1.0);
