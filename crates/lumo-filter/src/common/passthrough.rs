@@ -86,8 +86,12 @@ where
     let mut reflected = color.clone();
     for i in 0..color.pixel_count() {
         if let Some(e) = share(i) {
+            // A non-finite value stays as it is: it marks the pixel missing for the filter
+            // (`max` would turn a NaN into 0).
             for (c, e) in reflected.data[i * 3..i * 3 + 3].iter_mut().zip(e) {
-                *c = (*c - e).max(0.0);
+                if c.is_finite() {
+                    *c = (*c - e).max(0.0);
+                }
             }
         }
     }
@@ -200,5 +204,14 @@ mod tests {
         })
         .unwrap();
         assert_eq!(out.image.data[0], 50.0);
+        // A missing (NaN) pixel with an emitted share stays missing for the filter.
+        let mut broken = color.clone();
+        broken.data[3] = f32::NAN;
+        let out = with_emitted::<_, FilterError>(&broken, &pass, &emitted, |c| {
+            assert!(c.data[3].is_nan(), "still missing");
+            Ok(mean_filter(c))
+        })
+        .unwrap();
+        assert_eq!(out.missing, 1);
     }
 }
