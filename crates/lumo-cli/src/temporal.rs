@@ -13,8 +13,8 @@ use std::time::{Duration, Instant};
 
 use glam::Mat4;
 use lumo_filter::{
-    motion_vectors, object_motion, object_motion_vectors, pinhole_view_projection, with_emitted,
-    FilterError, Resample, TemporalAntialias, TemporalFilter, TemporalFrame, TemporalParams,
+    object_motion, object_motion_vectors, pinhole_view_projection, with_emitted, FilterError,
+    Resample, TemporalAntialias, TemporalFilter, TemporalFrame, TemporalParams,
 };
 use lumo_image::Image;
 use lumo_render::camera::PinholeCamera;
@@ -117,18 +117,16 @@ impl TemporalSequence {
             shaded: None,
         };
         let ids = view.ids.as_deref();
-        let motion = self.prev.as_ref().map(|prev| match ids {
-            Some(ids) => {
-                let back = object_motion(&prev.transforms, &view.transforms);
-                object_motion_vectors(
-                    &prev.view_proj,
-                    &view.view_proj,
-                    &frame.position,
-                    ids,
-                    &back,
-                )
-            }
-            None => motion_vectors(&prev.view_proj, &view.view_proj, &frame.position),
+        let motion = self.prev.as_ref().map(|prev| {
+            let back = object_motion(&prev.transforms, &view.transforms);
+            let ids = ids.unwrap_or_default();
+            object_motion_vectors(
+                &prev.view_proj,
+                &view.view_proj,
+                &frame.position,
+                ids,
+                &back,
+            )
         });
         let motion_time = start.elapsed();
         let t = Instant::now();

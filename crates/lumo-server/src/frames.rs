@@ -17,9 +17,9 @@
 
 use glam::{Mat4, Vec3};
 use lumo_filter::{
-    motion_vectors, object_motion, object_motion_vectors, pinhole_view_projection, with_emitted,
-    AtrousDenoiser, AtrousParams, Denoiser, Features, FilterInput, GuidedDenoiser, TemporalFilter,
-    TemporalFrame, TemporalParams,
+    object_motion, object_motion_vectors, pinhole_view_projection, with_emitted, AtrousDenoiser,
+    AtrousParams, Denoiser, Features, FilterInput, GuidedDenoiser, TemporalFilter, TemporalFrame,
+    TemporalParams,
 };
 use lumo_image::{luminance, Image};
 use lumo_render::integrators::path::wavefront::render_pixels_from;
@@ -217,8 +217,7 @@ impl FrameAccumulator {
         }
         let (w, h) = (self.width, self.height);
         let n = self.frames as f32;
-        let mean: Vec<f32> = self.sum.iter().flat_map(|c| (*c / n).to_array()).collect();
-        let color = Image::from_vec(w, h, 3, mean);
+        let color = planar(w, h, self.sum.iter().map(|c| *c / n));
         // Variance of the mean; one frame has none, and the filters then rely on geometry.
         let variance = (self.frames > 1).then(|| {
             let v = self.lum_m2.iter().map(|m2| m2 / (n - 1.0) / n).collect();
@@ -257,20 +256,15 @@ impl FrameAccumulator {
             return None;
         }
         let (w, h) = (self.width, self.height);
-        let color = Image::from_vec(
-            w,
-            h,
-            3,
-            self.last.iter().flat_map(|c| c.to_array()).collect(),
-        );
+        let color = planar(w, h, self.last.iter().copied());
         let transforms: Vec<Mat4> = rs.scene.instances.iter().map(|i| i.transform).collect();
         let back = object_motion(&history.transforms, &transforms);
         if self.ids.is_none() && back.iter().any(|m| *m != Mat4::IDENTITY) {
             self.ids = Some(instance_ids(rs, &self.rays, w, h));
         }
-        let motion = history.view_proj.map(|prev| match &self.ids {
-            Some(ids) => object_motion_vectors(&prev, &self.view_proj, &self.position, ids, &back),
-            None => motion_vectors(&prev, &self.view_proj, &self.position),
+        let motion = history.view_proj.map(|prev| {
+            let ids = self.ids.as_deref().unwrap_or_default();
+            object_motion_vectors(&prev, &self.view_proj, &self.position, ids, &back)
         });
         let emitted = planar(w, h, self.last_emitted.iter().copied());
         let image = with_emitted(&color, &self.emitter, &emitted, |c| {

@@ -69,7 +69,8 @@ pub const NO_OBJECT: u32 = u32::MAX;
 /// `ids[i]` and is carried back to where it was with `back[ids[i]]` (current world → previous
 /// world; see [`object_motion`]) before the previous camera projects it. A pixel whose id has
 /// no entry in `back` ([`NO_OBJECT`], or an object that did not exist) is taken as static.
-/// `ids` must have one entry per pixel (otherwise every point is taken as static).
+/// `ids` must have one entry per pixel; otherwise (empty: no ids traced) every point is taken
+/// as static, which is [`motion_vectors`].
 pub fn object_motion_vectors(
     prev_view_proj: &Mat4,
     view_proj: &Mat4,

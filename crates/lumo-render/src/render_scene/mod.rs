@@ -421,12 +421,9 @@ impl RenderScene {
     /// overlap instead of each one stalling the shading that follows it.
     #[inline(always)]
     pub fn prefetch_indices(&self, hit: &Hit) {
-        if let Some(mesh) = self.hit_mesh(hit) {
+        if let Some((m, mesh)) = self.hit_mesh(hit) {
             prefetch(mesh.indices.as_ptr().wrapping_add(hit.triangle as usize));
-            if let Some(n) = self
-                .unit_normals
-                .get(self.scene.instances[hit.instance as usize].mesh)
-            {
+            if let Some(n) = self.unit_normals.get(m) {
                 prefetch(n.as_ptr().wrapping_add(hit.triangle as usize));
             }
         }
@@ -436,7 +433,7 @@ impl RenderScene {
     /// [`Self::prefetch_indices`], whose indices this reads).
     #[inline(always)]
     pub fn prefetch_corners(&self, hit: &Hit) {
-        let Some(mesh) = self.hit_mesh(hit) else {
+        let Some((_, mesh)) = self.hit_mesh(hit) else {
             return;
         };
         let Some(&[i0, i1, i2]) = mesh.indices.get(hit.triangle as usize) else {
@@ -454,15 +451,16 @@ impl RenderScene {
         }
     }
 
-    /// The mesh of a triangle hit (none for an exact shape, whose surface reads no mesh).
+    /// The mesh of a triangle hit and its index (none for an exact shape, whose surface reads
+    /// no mesh).
     #[inline(always)]
-    fn hit_mesh(&self, hit: &Hit) -> Option<&Mesh> {
+    fn hit_mesh(&self, hit: &Hit) -> Option<(usize, &Mesh)> {
         let place = self.placements.get(hit.instance as usize)?;
         if place.analytic {
             return None;
         }
-        let inst = self.scene.instances.get(hit.instance as usize)?;
-        self.scene.meshes.get(inst.mesh)
+        let m = self.scene.instances.get(hit.instance as usize)?.mesh;
+        Some((m, self.scene.meshes.get(m)?))
     }
 
     /// Reconstructs the surface at `hit` of the ray with direction `dir`.
