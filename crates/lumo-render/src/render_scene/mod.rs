@@ -88,22 +88,29 @@ pub struct RenderScene {
     /// Offset applied to ray origins to escape the surface they leave.
     pub ray_epsilon: f32,
     /// Per instance, its reflectance and emission if it is a diffuse surface in world space
-    /// (identity transform, no vertex colours, constant reflectance):
+    /// (identity transform, no vertex colours, a reflectance whose every value is finite):
     /// the case the wavefront's vector bounce ([`crate::integrators::path::vector_bounce`]) handles.
     simple_diffuse: Vec<Option<SimpleDiffuse>>,
+    /// Per diffuse material, whether its reflectance texture has only finite values: bitmaps
+    /// are scanned once here rather than on every [`RenderScene::update`] (an update keeps
+    /// the materials' textures; an edit only sets constant colours, which are checked where
+    /// used).
+    finite_textures: Vec<bool>,
     /// Spectral constants of the materials, fitted on the first spectral lookup.
     spectral: std::sync::OnceLock<spectral::SpectralCache>,
     /// What the scene looked like when built, to tell an update apart from a new scene.
     structure: Structure,
 }
 
-/// A constant-reflectance diffuse instance in world space.
+/// A diffuse instance in world space whose reflectance is finite everywhere.
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct SimpleDiffuse {
     /// Mesh index (for its unit normals).
     pub mesh: usize,
-    /// Diffuse reflectance.
+    /// Diffuse reflectance where it is constant (unused if `textured`).
     pub albedo: Vec3,
+    /// Whether the reflectance is a texture, looked up per hit ([`RenderScene::simple_albedo`]).
+    pub textured: bool,
     /// Emitted radiance (front side).
     pub emission: Vec3,
     /// Black from behind (see [`RenderScene::one_sided`]).
@@ -120,7 +127,7 @@ type InstanceTables = (
     Vec<Option<SimpleDiffuse>>,
 );
 
-fn instance_tables(scene: &Scene) -> InstanceTables {
+fn instance_tables(scene: &Scene, finite_textures: &[bool]) -> InstanceTables {
     let placements = scene
         .instances
         .iter()
@@ -145,27 +152,49 @@ fn instance_tables(scene: &Scene) -> InstanceTables {
         .map(|inst| {
             let mesh = &scene.meshes[inst.mesh];
             let material = &scene.materials[mesh.material];
-            match &material.bsdf {
-                BsdfSpec::Diffuse {
-                    reflectance: Texture::Constant(albedo),
-                } if inst.transform == Mat4::IDENTITY
-                    && mesh.analytic.is_none()
-                    && albedo.is_finite()
-                    && mesh.colors.is_empty()
-                    && material.emission_map.is_none() =>
-                {
-                    Some(SimpleDiffuse {
-                        mesh: inst.mesh,
-                        albedo: *albedo,
-                        emission: material.emission,
-                        one_sided: !material.two_sided,
-                    })
-                }
-                _ => None,
-            }
+            let BsdfSpec::Diffuse { reflectance } = &material.bsdf else {
+                return None;
+            };
+            // A non-finite reflectance would make the vector bounce's selects and the scalar
+            // path's branches disagree; such surfaces take the scalar path.
+            let finite = match reflectance {
+                Texture::Constant(c) => c.is_finite(),
+                _ => finite_textures.get(mesh.material).copied().unwrap_or(false),
+            };
+            (inst.transform == Mat4::IDENTITY
+                && mesh.analytic.is_none()
+                && finite
+                && mesh.colors.is_empty()
+                && material.emission_map.is_none())
+            .then(|| SimpleDiffuse {
+                mesh: inst.mesh,
+                albedo: match reflectance {
+                    Texture::Constant(c) => *c,
+                    _ => Vec3::ZERO,
+                },
+                textured: !matches!(reflectance, Texture::Constant(_)),
+                emission: material.emission,
+                one_sided: !material.two_sided,
+            })
         })
         .collect();
     (placements, shapes, simple_diffuse)
+}
+
+/// Whether every value `t` can take is finite (a bitmap's texels are all scanned).
+fn texture_is_finite(t: &Texture) -> bool {
+    match t {
+        Texture::Constant(c) => c.is_finite(),
+        Texture::Checkerboard {
+            color0,
+            color1,
+            scale,
+        } => color0.is_finite() && color1.is_finite() && scale.is_finite(),
+        Texture::Bitmap {
+            image, uv_scale, ..
+        } => uv_scale.is_finite() && image.non_finite_count() == 0,
+        Texture::Transformed { texture, uv } => uv.is_finite() && texture_is_finite(texture),
+    }
 }
 
 /// Each triangle's unit geometric normal in object space (zero if degenerate).
@@ -283,12 +312,21 @@ impl RenderScene {
             .zip(&back_black)
             .map(|(m, &black)| black && !has_mask(&m.bsdf))
             .collect();
-        let (placements, shapes, simple_diffuse) = instance_tables(&scene);
+        let finite_textures: Vec<bool> = scene
+            .materials
+            .iter()
+            .map(|m| match &m.bsdf {
+                BsdfSpec::Diffuse { reflectance } => texture_is_finite(reflectance),
+                _ => false,
+            })
+            .collect();
+        let (placements, shapes, simple_diffuse) = instance_tables(&scene, &finite_textures);
         let unit_normals = scene.meshes.iter().map(unit_normals).collect();
         Ok(Self {
             prefetch_surfaces: surface_bytes(&scene) > PREFETCH_ABOVE_BYTES,
             structure: Structure::of(&scene),
             simple_diffuse,
+            finite_textures,
             spectral: std::sync::OnceLock::new(),
             // Relative to the coordinate magnitude (see `offset`): float error in the hit
             // point grows with it.
@@ -333,7 +371,8 @@ impl RenderScene {
         for &m in moved_meshes {
             self.unit_normals[m] = unit_normals(&self.scene.meshes[m]);
         }
-        (self.placements, self.shapes, self.simple_diffuse) = instance_tables(&self.scene);
+        (self.placements, self.shapes, self.simple_diffuse) =
+            instance_tables(&self.scene, &self.finite_textures);
         self.lights.update(&self.scene);
         Ok(match accel {
             AccelUpdate::Refitted => SceneUpdate::Refitted,
@@ -386,12 +425,37 @@ impl RenderScene {
         static NONE: SimpleDiffuse = SimpleDiffuse {
             mesh: 0,
             albedo: Vec3::ZERO,
+            textured: false,
             emission: Vec3::ZERO,
             one_sided: false,
         };
         self.simple_diffuse[instance as usize]
             .as_ref()
             .unwrap_or(&NONE)
+    }
+
+    /// The reflectance of simple diffuse surface `sd` at `hit` and the texture coordinates
+    /// it was looked up at: exactly what [`Self::surface`] and [`Self::bsdf`] give the scalar
+    /// path (its vertex colour is one, which multiplies exactly).
+    #[inline]
+    pub(crate) fn simple_albedo(&self, sd: &SimpleDiffuse, hit: &Hit) -> (Vec3, Vec2) {
+        let barycentric = Vec2::new(hit.u, hit.v);
+        if !sd.textured {
+            return (sd.albedo, barycentric);
+        }
+        let mesh = &self.scene.meshes[sd.mesh];
+        let uv = if mesh.uvs.is_empty() {
+            barycentric
+        } else {
+            let [i0, i1, i2] = mesh.indices[hit.triangle as usize].map(|i| i as usize);
+            let (u, v) = (hit.u, hit.v);
+            let w = 1.0 - u - v;
+            mesh.uvs[i0] * w + mesh.uvs[i1] * u + mesh.uvs[i2] * v
+        };
+        match &self.scene.materials[mesh.material].bsdf {
+            BsdfSpec::Diffuse { reflectance } => (materials::texture(reflectance, uv), uv),
+            _ => (sd.albedo, uv),
+        }
     }
 
     /// Whether the instance is a simple diffuse surface ([`RenderScene::simple_diffuse_ref`]).

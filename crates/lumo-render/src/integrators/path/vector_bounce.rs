@@ -1,5 +1,5 @@
 //! One bounce of up to sixteen paths at once, structure of arrays, for the common case: a
-//! diffuse surface with constant reflectance in world space (flat or with vertex normals), in
+//! diffuse surface (constant or textured reflectance) in world space (flat or with vertex normals), in
 //! a scene lit only by emissive triangles. Used by the wavefront renderer for the lanes that
 //! qualify ([`RenderScene::simple_diffuse`]); all others take [`PathState::advance`].
 //!
@@ -19,7 +19,7 @@
 // vector operation per statement.
 #![allow(clippy::needless_range_loop)]
 
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use lumo_simd::Isa;
 
 use crate::accel::packet::LANES;
@@ -184,10 +184,11 @@ fn bounce(
         }
         bu[i] = hit.u;
         bv[i] = hit.v;
+        let (rgb_albedo, _) = rs.simple_albedo(sd, &hit);
         // Under spectral transport the lanes of a colour are the path's wavelengths.
         let lane_albedo = match &path.wl {
-            None => sd.albedo,
-            Some(wl) => rs.spectral_reflectance(sd.albedo, mesh.material, wl),
+            None => rgb_albedo,
+            Some(wl) => rs.spectral_reflectance(rgb_albedo, mesh.material, wl),
         };
         for a in 0..3 {
             o[a][i] = path.origin[a];
@@ -203,7 +204,7 @@ fn bounce(
         // The albedo plane's share of this sample: what `take_hit` records on the scalar path
         // (the same value: its BSDF there is this diffuse albedo).
         if path.depth == 1 {
-            path.radiance.albedo = sd.albedo;
+            path.radiance.albedo = rgb_albedo;
         }
         eta_scale[i] = path.eta_scale;
         depth[i] = path.depth;
@@ -280,17 +281,18 @@ fn bounce(
             Vec3::ZERO
         };
         if path.want_first_hit || le != Vec3::ZERO {
+            let (albedo, uv) = rs.simple_albedo(sd, &hit);
             let s = Surface {
                 p: Vec3::new(pos[0][i], pos[1][i], pos[2][i]),
                 ng: g,
                 frame: Basis::new(Vec3::new(ns[0][i], ns[1][i], ns[2][i])),
-                uv: Vec2::new(hit.u, hit.v),
+                uv,
                 color: Vec3::ONE,
                 material: rs.scene.meshes[sd.mesh].material,
                 instance: hit.instance,
                 triangle: hit.triangle,
             };
-            let bsdf = Bsdf::Diffuse(Diffuse { albedo: sd.albedo });
+            let bsdf = Bsdf::Diffuse(Diffuse { albedo });
             path.take_hit(rs, settings, &s, hit.t, &bsdf, le);
         }
     }
@@ -483,6 +485,7 @@ mod tests {
     use super::*;
     use crate::camera::PinholeCamera;
     use crate::sampler::PixelSampler;
+    use glam::Vec2;
 
     /// Everything a bounce leaves in a path and its shadow ray, as bits.
     fn bits(path: &PathState, shadow: Option<&ShadowRay>) -> Vec<u32> {
@@ -524,11 +527,67 @@ mod tests {
         assert!(applies(&rs, &settings));
         // Every compiled form this CPU runs: AVX-512, AVX2, baseline.
         for level in Isa::detect().up_to() {
-            check_level(&rs, &settings, level);
+            check_level(&rs, &settings, level, 20);
         }
     }
 
-    fn check_level(rs: &RenderScene, settings: &PathSettings, level: Isa) {
+    /// The same on textured floors: `cornell-spheres`' checkerboard (no uvs, so the
+    /// barycentric coordinates index it) and the Cornell box with a bilinear bitmap over
+    /// per-vertex uvs, so the vector bounce's per-lane texture lookups are the scalar path's.
+    #[test]
+    fn vector_bounce_equals_advance_on_textured_floors() {
+        use lumo_scene::{BsdfSpec, Texture, TextureFilter, WrapMode};
+        use std::sync::Arc;
+        let spheres = lumo_scene::builtin_scene("cornell-spheres").expect("built-in");
+        let mut bitmap = lumo_scene::builtin_scene("cornell").expect("built-in");
+        let texels: Vec<f32> = (0..4 * 4 * 3)
+            .map(|i| 0.1 + (i * 7 % 11) as f32 / 14.0)
+            .collect();
+        let floor = bitmap
+            .meshes
+            .iter()
+            .position(|m| m.name == "floor")
+            .expect("the Cornell box has a floor");
+        let mesh = &mut bitmap.meshes[floor];
+        mesh.uvs = mesh
+            .positions
+            .iter()
+            .map(|p| Vec2::new(p.x, p.z) * 1.7)
+            .collect();
+        let material = mesh.material;
+        bitmap.materials[material].bsdf = BsdfSpec::Diffuse {
+            reflectance: Texture::Bitmap {
+                image: Arc::new(lumo_image::Image::from_vec(4, 4, 3, texels)),
+                uv_scale: Vec2::ONE,
+                filter: TextureFilter::Bilinear,
+                wrap: WrapMode::Repeat,
+            },
+        };
+        let settings = PathSettings {
+            max_depth: 6,
+            rr_depth: 3,
+            ..Default::default()
+        };
+        for scene in [spheres, bitmap] {
+            let rs = RenderScene::new(scene).expect("valid scene");
+            let textured = (0..rs.scene.instances.len() as u32)
+                .filter(|&i| rs.is_simple_diffuse(i) && rs.simple_diffuse_ref(i).textured)
+                .count();
+            assert!(
+                textured > 0,
+                "{}: no textured simple diffuse instance",
+                rs.scene.name
+            );
+            // Darker floors: fewer paths survive the roulette to the limit.
+            for level in Isa::detect().up_to() {
+                check_level(&rs, &settings, level, 2);
+            }
+        }
+    }
+
+    /// Walks 32 rows of 16 paths with both bounces at `level`; at least `deepest` bounces must
+    /// reach the depth limit.
+    fn check_level(rs: &RenderScene, settings: &PathSettings, level: Isa, deepest: usize) {
         let (rs, settings) = (rs, *settings);
         let camera = PinholeCamera::new(&rs.scene.camera, 32, 32);
         let mut checked = [0usize; 7];
@@ -603,7 +662,7 @@ mod tests {
             }
         }
         assert!(
-            checked[1] > 400 && checked[3] > 100 && checked[6] > 20,
+            checked[1] > 400 && checked[3] > 100 && checked[6] > deepest,
             "level {level:?}: bounces checked per depth: {checked:?}"
         );
     }
