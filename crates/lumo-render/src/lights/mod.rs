@@ -455,24 +455,15 @@ impl Lights {
         self.choice.pmf(index) * dist2 / (tri.area * cos)
     }
 
-    /// Whether there are lights and all are emissive triangles: the lights the wavefront's
-    /// vector bounce samples itself.
-    pub(crate) fn triangles_only(&self) -> bool {
-        // The vector bounce reads a triangle's radiance as one constant.
-        self.textured.is_empty()
-            && !self.lights.is_empty()
-            && self
-                .lights
-                .iter()
-                .all(|l| matches!(l, LightKind::Triangle(_)))
-    }
-
     /// The light [`Lights::sample`] picks for `u_choice`, with its probability, if it is an
-    /// emissive triangle that can be picked.
+    /// emissive triangle of constant radiance that can be picked: the lights the wavefront's
+    /// vector bounce samples itself (it reads the radiance as one constant).
     #[inline(always)]
     pub(crate) fn choose_triangle(&self, u_choice: f32) -> Option<(f32, &EmissiveTriangle, u32)> {
         match self.choose(u_choice)? {
-            (index, pick, LightKind::Triangle(tri)) => Some((pick, tri, index as u32)),
+            (index, pick, LightKind::Triangle(tri)) if tri.texture == NO_TEXTURE => {
+                Some((pick, tri, index as u32))
+            }
             _ => None,
         }
     }

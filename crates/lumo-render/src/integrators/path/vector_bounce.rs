@@ -1,7 +1,10 @@
 //! One bounce of up to sixteen paths at once, structure of arrays, for the common case: a
-//! diffuse surface (constant or textured reflectance) in world space (flat or with vertex normals), in
-//! a scene lit only by emissive triangles. Used by the wavefront renderer for the lanes that
-//! qualify ([`RenderScene::simple_diffuse`]); all others take [`PathState::advance`].
+//! diffuse surface (constant or textured reflectance) in world space, flat or with vertex
+//! normals. Used by the wavefront renderer for the lanes that qualify
+//! ([`RenderScene::simple_diffuse`]); all others take [`PathState::advance`]. Light samples on
+//! emissive triangles of constant radiance are computed in the lanes; a lane that picked any
+//! other light (sun, environment, point, spot, exact shape, textured emitter) gets its shadow
+//! ray from the scalar path's own light sample and connection.
 //!
 //! Why: after packet traversal, shading and sampling one path at a time was ≈ 60 % of a
 //! Cornell-box render, a few hundred scalar instructions per bounce with square roots and
@@ -29,7 +32,7 @@ use crate::geometry::{
     cosine_pdf, disk_map, hemisphere_z, offset_point, power_heuristic, shadow_segment,
     survival_probability, triangle_map, vmax, Basis,
 };
-use crate::integrators::path::{PathSettings, PathState, ShadowRay};
+use crate::integrators::path::{Arrival, PathSettings, PathState, ShadowRay};
 use crate::render_scene::{RenderScene, Surface};
 
 const N: usize = LANES;
@@ -43,8 +46,8 @@ type L3 = [L; 3];
 
 /// Whether the vector bounce may run in this scene under these settings (per lane it also
 /// needs [`RenderScene::simple_diffuse`]).
-pub(crate) fn applies(rs: &RenderScene, settings: &PathSettings) -> bool {
-    settings.nee && settings.bsdf_emission && rs.lights.triangles_only()
+pub(crate) fn applies(settings: &PathSettings) -> bool {
+    settings.nee && settings.bsdf_emission
 }
 
 /// `a · b` in glam's order.
@@ -309,7 +312,11 @@ fn bounce(
     );
     let (mut pick, mut area) = ([1.0f32; N], [0.0f32; N]);
     let mut has_light = [false; N];
-    for (i, &(p, _)) in lanes.iter().enumerate().take(n) {
+    // Shadow rays of lanes whose chosen light is not a constant emissive triangle (a sun, an
+    // environment, a point, spot or exact-shape light, a textured emitter), made by the
+    // scalar path's own light sample and connection.
+    let mut other_shadows: [Option<ShadowRay>; N] = [None; N];
+    for (i, &(p, hit)) in lanes.iter().enumerate().take(n) {
         if !alive[i] {
             continue;
         }
@@ -320,7 +327,31 @@ fn bounce(
         u_dir[0][i] = u.direction.x;
         u_dir[1][i] = u.direction.y;
         u_rr[i] = u.roulette;
-        if let Some((pk, tri, light)) = rs.lights.choose_triangle(u.light) {
+        let Some((pk, tri, light)) = rs.lights.choose_triangle(u.light) else {
+            let sd = rs.simple_diffuse_ref(hit.instance);
+            let (_, uv) = rs.simple_albedo(sd, &hit);
+            let at = Arrival {
+                s: Surface {
+                    p: Vec3::from(at(&pos, i)),
+                    ng: Vec3::from(at(&ng, i)),
+                    frame: Basis::new(Vec3::from(at(&ns, i))),
+                    uv,
+                    color: Vec3::ONE,
+                    material: rs.scene.meshes[sd.mesh].material,
+                    instance: hit.instance,
+                    triangle: hit.triangle,
+                },
+                bsdf: Bsdf::Diffuse(Diffuse {
+                    albedo: Vec3::from(at(&albedo, i)),
+                })
+                .into(),
+                wo: Vec3::from(at(&wo, i)),
+            };
+            let light = path.sample_light(rs, settings, &at, &u);
+            other_shadows[i] = path.connect(rs, settings, &at, light);
+            continue;
+        };
+        {
             has_light[i] = true;
             pick[i] = pk;
             area[i] = tri.area;
@@ -453,6 +484,9 @@ fn bounce(
 
     // Scatter: shadow rays, continuing paths.
     for (i, &(p, _)) in lanes.iter().enumerate().take(n) {
+        if let Some(shadow) = other_shadows[i] {
+            shadows.push((p, shadow));
+        }
         if sh_ok[i] {
             let path = &mut paths[p as usize];
             path.radiance.rays += 1;
@@ -524,7 +558,7 @@ mod tests {
             rr_depth: 3,
             ..Default::default()
         };
-        assert!(applies(&rs, &settings));
+        assert!(applies(&settings));
         // Every compiled form this CPU runs: AVX-512, AVX2, baseline.
         for level in Isa::detect().up_to() {
             check_level(&rs, &settings, level, 20);
@@ -582,6 +616,44 @@ mod tests {
             for level in Isa::detect().up_to() {
                 check_level(&rs, &settings, level, 2);
             }
+        }
+    }
+
+    /// The same where lanes pick other lights than constant emissive triangles (a point,
+    /// a spot, a sun, a constant environment beside the Cornell box's area light): those
+    /// lanes' shadow rays come from the scalar light sample, the rest from the lanes.
+    #[test]
+    fn vector_bounce_equals_advance_with_other_lights() {
+        use lumo_scene::Light;
+        let mut scene = lumo_scene::builtin_scene("cornell").expect("built-in");
+        scene.lights.extend([
+            Light::Point {
+                position: Vec3::new(0.3, 0.5, 0.2),
+                intensity: Vec3::splat(2.0),
+            },
+            Light::Spot {
+                position: Vec3::new(-0.4, 0.8, 0.0),
+                direction: Vec3::new(0.2, -1.0, 0.1),
+                intensity: Vec3::new(3.0, 2.0, 1.0),
+                beam_width: 20.0,
+                cutoff: 35.0,
+            },
+            Light::Directional {
+                direction: Vec3::new(0.3, -1.0, -0.2),
+                irradiance: Vec3::splat(1.5),
+            },
+            Light::Constant {
+                radiance: Vec3::splat(0.2),
+            },
+        ]);
+        let rs = RenderScene::new(scene).expect("valid scene");
+        let settings = PathSettings {
+            max_depth: 6,
+            rr_depth: 3,
+            ..Default::default()
+        };
+        for level in Isa::detect().up_to() {
+            check_level(&rs, &settings, level, 20);
         }
     }
 

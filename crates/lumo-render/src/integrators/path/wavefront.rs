@@ -146,7 +146,7 @@ impl Batch {
         self.shadows.clear();
         let mut hits: [Option<Hit>; LANES] = [None; LANES];
         // Paths at simple diffuse surfaces bounce sixteen at a time in vector registers.
-        let vector = vector_bounce::applies(rs, &settings.path);
+        let vector = vector_bounce::applies(&settings.path);
         let active = std::mem::take(&mut self.active);
         for group in active.chunks(LANES) {
             let mut rays = RayPacket::default();
