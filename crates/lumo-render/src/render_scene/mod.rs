@@ -166,7 +166,7 @@ fn instance_tables(scene: &Scene, finite_textures: &[bool]) -> InstanceTables {
                 && finite
                 && mesh.colors.is_empty()
                 && material.emission_map.is_none())
-            .then(|| SimpleDiffuse {
+            .then_some(SimpleDiffuse {
                 mesh: inst.mesh,
                 albedo: match reflectance {
                     Texture::Constant(c) => *c,
