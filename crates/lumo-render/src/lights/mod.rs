@@ -398,6 +398,7 @@ impl Lights {
     }
 
     /// Radiance arriving from direction `dir` when a ray escapes the scene.
+    #[inline]
     pub fn environment(&self, dir: Vec3) -> Vec3 {
         self.constant + self.env.as_ref().map_or(Vec3::ZERO, |e| e.radiance(dir))
     }
