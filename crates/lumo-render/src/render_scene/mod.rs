@@ -184,6 +184,17 @@ fn instance_tables(scene: &Scene, finite_textures: &[bool]) -> InstanceTables {
     (placements, shapes, simple_diffuse)
 }
 
+/// The texture coordinates at barycentrics (u, v), w = 1 − u − v, of triangle `corners` of
+/// `mesh`: its vertex uvs interpolated, or (u, v) itself where it has none.
+#[inline(always)]
+fn corner_uv(mesh: &Mesh, [i0, i1, i2]: [usize; 3], u: f32, v: f32, w: f32) -> Vec2 {
+    if mesh.uvs.is_empty() {
+        Vec2::new(u, v)
+    } else {
+        mesh.uvs[i0] * w + mesh.uvs[i1] * u + mesh.uvs[i2] * v
+    }
+}
+
 /// Whether some simple diffuse instance has a textured reflectance.
 fn any_textured(simple: &[Option<SimpleDiffuse>]) -> bool {
     simple.iter().flatten().any(|s| s.textured)
@@ -471,13 +482,9 @@ impl RenderScene {
     /// [`Self::surface`] computes them.
     pub(crate) fn simple_uv(&self, sd: &SimpleDiffuse, hit: &Hit) -> Vec2 {
         let mesh = &self.scene.meshes[sd.mesh];
-        if mesh.uvs.is_empty() {
-            return Vec2::new(hit.u, hit.v);
-        }
-        let [i0, i1, i2] = mesh.indices[hit.triangle as usize].map(|i| i as usize);
+        let corners = mesh.indices[hit.triangle as usize].map(|i| i as usize);
         let (u, v) = (hit.u, hit.v);
-        let w = 1.0 - u - v;
-        mesh.uvs[i0] * w + mesh.uvs[i1] * u + mesh.uvs[i2] * v
+        corner_uv(mesh, corners, u, v, 1.0 - u - v)
     }
 
     /// Whether some simple diffuse instance is textured ([`RenderScene::simple_albedo`]).
@@ -596,11 +603,7 @@ impl RenderScene {
         if ns.dot(ng) < 0.0 {
             ns = -ns;
         }
-        let uv = if mesh.uvs.is_empty() {
-            Vec2::new(u, v)
-        } else {
-            mesh.uvs[i0] * w + mesh.uvs[i1] * u + mesh.uvs[i2] * v
-        };
+        let uv = corner_uv(mesh, [i0, i1, i2], u, v, w);
         let color = if mesh.colors.is_empty() {
             Vec3::ONE
         } else {

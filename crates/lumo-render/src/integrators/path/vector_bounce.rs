@@ -418,22 +418,20 @@ fn bounce(
             }
             continue;
         };
-        {
-            has_light[i] = true;
-            pick[i] = pk;
-            area[i] = tri.area;
+        has_light[i] = true;
+        pick[i] = pk;
+        area[i] = tri.area;
+        for a in 0..3 {
+            lp0[a][i] = tri.p0[a];
+            le1[a][i] = tri.e1[a];
+            le2[a][i] = tri.e2[a];
+            ln[a][i] = tri.normal[a];
+            lrad[a][i] = tri.radiance[a];
+        }
+        if let Some(wl) = &path.wl {
+            let l = rs.spectral_light(tri.radiance, light, wl);
             for a in 0..3 {
-                lp0[a][i] = tri.p0[a];
-                le1[a][i] = tri.e1[a];
-                le2[a][i] = tri.e2[a];
-                ln[a][i] = tri.normal[a];
-                lrad[a][i] = tri.radiance[a];
-            }
-            if let Some(wl) = &path.wl {
-                let l = rs.spectral_light(tri.radiance, light, wl);
-                for a in 0..3 {
-                    lrad[a][i] = l[a];
-                }
+                lrad[a][i] = l[a];
             }
         }
     }
