@@ -119,7 +119,7 @@ pub struct DenoiseArgs {
     /// auto: the candidate guided filters' radii, comma-separated [default: 2,4,8,16,32].
     #[arg(long, value_delimiter = ',')]
     pub auto_radii: Option<Vec<usize>>,
-    /// auto: radius of the window its error estimates are averaged over [default: 8].
+    /// auto: radius of the window its error estimates are averaged over [default: 12].
     #[arg(long)]
     pub auto_error_radius: Option<usize>,
     /// auto: blend softness; a candidate whose error exceeds the best one's by this fraction
@@ -129,6 +129,14 @@ pub struct DenoiseArgs {
     /// auto: leave the À-Trous out of the candidates.
     #[arg(long)]
     pub no_auto_atrous: bool,
+    /// auto: firefly threshold k; a pixel brighter than k × its neighbourhood's mean
+    /// (demodulated luminance) is clamped before filtering and its excess spread over a wide,
+    /// geometry-guided window; 0 = off [default: 16].
+    #[arg(long)]
+    pub auto_fireflies: Option<f32>,
+    /// auto: radius of the guided filter that spreads the fireflies' excess [default: 64].
+    #[arg(long)]
+    pub auto_firefly_spread: Option<usize>,
     /// Demodulate by albedo (default when --albedo is given).
     #[arg(long, conflicts_with = "no_demodulate")]
     pub demodulate: bool,
@@ -333,11 +341,13 @@ fn configure(a: &DenoiseArgs, inp: &Inputs) -> anyhow::Result<Box<dyn Denoiser>>
     let auto_flags = a.auto_radii.is_some()
         || a.auto_error_radius.is_some()
         || a.auto_softness.is_some()
-        || a.no_auto_atrous;
+        || a.no_auto_atrous
+        || a.auto_fireflies.is_some()
+        || a.auto_firefly_spread.is_some();
     if auto_flags && a.filter != FilterKind::Auto {
         bail!(
-            "--auto-radii, --auto-error-radius, --auto-softness and --no-auto-atrous apply to \
-             --filter auto only (this run uses --filter {})",
+            "--auto-radii, --auto-error-radius, --auto-softness, --no-auto-atrous, \
+             --auto-fireflies and --auto-firefly-spread apply to --filter auto only (this run uses --filter {})",
             a.filter.name()
         );
     }
@@ -465,6 +475,9 @@ fn configure(a: &DenoiseArgs, inp: &Inputs) -> anyhow::Result<Box<dyn Denoiser>>
                     softness: a.auto_softness.unwrap_or(d.softness),
                     demodulate: demod,
                     atrous: !a.no_auto_atrous,
+                    firefly_k: a.auto_fireflies.unwrap_or(d.firefly_k),
+                    firefly_radius: d.firefly_radius,
+                    firefly_spread: a.auto_firefly_spread.unwrap_or(d.firefly_spread),
                 },
             })
         }

@@ -395,9 +395,13 @@ fn auto_flags_set_its_parameters_and_are_checked() {
             "--auto-radii",
             "2,4,8,16,32",
             "--auto-error-radius",
-            "8",
+            "12",
             "--auto-softness",
             "0.01",
+            "--auto-fireflies",
+            "16",
+            "--auto-firefly-spread",
+            "64",
         ],
     );
     assert!(o.status.success(), "{}", text(&o).1);
@@ -424,6 +428,19 @@ fn auto_flags_set_its_parameters_and_are_checked() {
     let (o, _) = run("zero", &["--auto-radii", "0,4"]);
     assert!(!o.status.success());
     assert!(text(&o).1.contains("radii"), "{}", text(&o).1);
+    // The firefly threshold reaches the filter (this frame's ±50 % noise has no pixel above
+    // the default 16 × its neighbourhood, but many above 1.2 ×); a spread radius of 0 is
+    // refused by name.
+    let (o, low) = run("low-threshold", &["--auto-fireflies", "1.2"]);
+    assert!(o.status.success(), "{}", text(&o).1);
+    assert_ne!(
+        read_image(&low).unwrap().data,
+        a.data,
+        "--auto-fireflies did nothing"
+    );
+    let (o, _) = run("no-spread", &["--auto-firefly-spread", "0"]);
+    assert!(!o.status.success());
+    assert!(text(&o).1.contains("firefly"), "{}", text(&o).1);
     let o = lumo(&[
         "--input-dir",
         dir.to_str().unwrap(),

@@ -18,6 +18,7 @@
 //! ([`crate::with_passthrough`], [`crate::detect_emitters`]).
 
 mod atrous_candidate;
+mod fireflies;
 mod selfweight;
 
 use lumo_image::Image;
@@ -48,6 +49,15 @@ pub struct AutoParams {
     /// Also blend the edge-avoiding À-Trous (its colour weight keeps the edges the geometry
     /// guide does not explain, such as hard shadows), its self-weight measured by a probe.
     pub atrous: bool,
+    /// Firefly threshold k (0 = off): a pixel whose demodulated luminance exceeds k × the
+    /// mean of its neighbourhood (fireflies clamped out of that mean first) is scaled down to
+    /// that bound before the candidates see it, and what was taken off is spread back over a
+    /// window of [`Self::firefly_spread`] by the geometry-guided filter (`auto/fireflies.rs`).
+    pub firefly_k: f32,
+    /// Radius of the neighbourhood the firefly threshold is measured over.
+    pub firefly_radius: usize,
+    /// Radius of the guided filter that spreads the fireflies' excess.
+    pub firefly_spread: usize,
 }
 
 impl Default for AutoParams {
@@ -56,10 +66,13 @@ impl Default for AutoParams {
             radii: vec![2, 4, 8, 16, 32],
             eps_normal: 0.001,
             eps_depth: 0.001,
-            error_radius: 8,
+            error_radius: 12,
             softness: 0.01,
             demodulate: true,
             atrous: true,
+            firefly_k: 16.0,
+            firefly_radius: 8,
+            firefly_spread: 64,
         }
     }
 }
@@ -77,6 +90,21 @@ pub fn auto(
         return Err(crate::common::error::param(
             "auto radii",
             format!("{:?} (give one or more radii ≥ 1)", params.radii),
+        ));
+    }
+    if !(params.firefly_k >= 0.0 && params.firefly_k.is_finite()) {
+        return Err(crate::common::error::param(
+            "auto firefly k",
+            format!("{} (use 0 = off, or a finite k > 0)", params.firefly_k),
+        ));
+    }
+    if params.firefly_k > 0.0 && (params.firefly_radius == 0 || params.firefly_spread == 0) {
+        return Err(crate::common::error::param(
+            "auto firefly radii",
+            format!(
+                "{} and {} (both must be ≥ 1 when the firefly threshold is on)",
+                params.firefly_radius, params.firefly_spread
+            ),
         ));
     }
     if !(params.softness > 0.0) {
@@ -111,6 +139,10 @@ pub fn auto(
         _ => None,
     };
     let y = demod.as_ref().map_or(color, |d| &d.illumination);
+    let fireflies = (params.firefly_k > 0.0)
+        .then(|| fireflies::split(y, params.firefly_k, params.firefly_radius))
+        .filter(|f| f.count > 0);
+    let y = fireflies.as_ref().map_or(y, |f| &f.clamped);
     // A window larger than the image only costs time: cap the radii, drop repeats.
     let mut radii: Vec<usize> = params.radii.iter().map(|&r| r.min(w.max(h))).collect();
     radii.dedup();
@@ -157,6 +189,12 @@ pub fn auto(
             }
         });
     debug_assert_eq!(blended.data.len(), n * 3);
+    if let Some(f) = &fireflies {
+        let spread = fireflies::spread(&f.excess, &guide, params.firefly_spread)?;
+        for (b, s) in blended.data.iter_mut().zip(&spread.data) {
+            *b += s;
+        }
+    }
     let image = match &demod {
         Some(d) => d.remodulate(&blended, color),
         None => blended,

@@ -168,3 +168,62 @@ fn the_atrous_candidate_keeps_a_shadow_edge_the_guide_cannot_see() {
     eprintln!("edge error: guided candidates only {e_off:.4}, with the À-Trous {e_on:.4}");
     assert!(e_on < 0.5 * e_off, "{e_on} not well below {e_off}");
 }
+
+/// Rare very bright samples on a flat, evenly lit wall (an indirect-lit room at 1 spp): every
+/// candidate is linear, so without the firefly threshold each leaves a blob of its window's
+/// size; with it the wall stays flat and keeps its energy.
+#[test]
+fn fireflies_do_not_leave_blobs_and_keep_their_energy() {
+    let (w, h) = (96, 64);
+    let mut normal = Image::new(w, h, 3, 0.0);
+    for px in normal.data.chunks_exact_mut(3) {
+        px[2] = 1.0;
+    }
+    let depth = Image::new(w, h, 1, 3.0);
+    let mut noisy = Image::new(w, h, 3, 0.5);
+    for &(x, y) in &[(12, 10), (50, 40), (80, 20), (30, 55), (70, 58)] {
+        noisy.pixel_mut(x, y).fill(400.0);
+    }
+    let f = Features {
+        normal: Some(&normal),
+        depth: Some(&depth),
+        ..Features::default()
+    };
+    let mean =
+        |img: &Image| img.data.iter().map(|&v| v as f64).sum::<f64>() / img.data.len() as f64;
+    let truth = mean(&noisy);
+    let worst = |img: &Image| {
+        img.data
+            .iter()
+            .map(|&v| (v as f64 - truth).abs() / truth)
+            .fold(0.0, f64::max)
+    };
+    let off = auto(
+        &noisy,
+        &f,
+        &AutoParams {
+            firefly_k: 0.0,
+            ..AutoParams::default()
+        },
+    )
+    .unwrap()
+    .image;
+    let on = auto(&noisy, &f, &AutoParams::default()).unwrap().image;
+    eprintln!(
+        "largest deviation from the mean {truth:.3}: off {:.3}, on {:.3}; means {:.4} / {:.4}",
+        worst(&off),
+        worst(&on),
+        mean(&off),
+        mean(&on)
+    );
+    assert!(
+        worst(&off) > 1.0,
+        "the test needs blobs without the threshold"
+    );
+    assert!(worst(&on) < 0.25, "{}", worst(&on));
+    assert!(
+        (mean(&on) / truth - 1.0).abs() < 0.02,
+        "energy: {} vs {truth}",
+        mean(&on)
+    );
+}
