@@ -227,3 +227,35 @@ fn fireflies_do_not_leave_blobs_and_keep_their_energy() {
         mean(&on)
     );
 }
+
+/// A frame far smaller than the firefly windows, with a firefly and a missing pixel: the
+/// firefly step neither panics nor leaves a non-finite pixel.
+#[test]
+fn a_tiny_frame_with_a_firefly_stays_finite() {
+    let (w, h) = (6, 5);
+    let mut color = Image::new(w, h, 3, 0.5);
+    color.pixel_mut(2, 2).fill(300.0);
+    color.pixel_mut(0, 4).fill(f32::NAN);
+    let mut normal = Image::new(w, h, 3, 0.0);
+    for px in normal.data.chunks_exact_mut(3) {
+        px[2] = 1.0;
+    }
+    let depth = Image::new(w, h, 1, 2.0);
+    let f = Features {
+        normal: Some(&normal),
+        depth: Some(&depth),
+        ..Features::default()
+    };
+    let out = auto(&color, &f, &AutoParams::default()).unwrap().image;
+    assert!(out.data.iter().all(|v| v.is_finite()), "{:?}", out.data);
+    // The spike's energy is spread, not dropped: the frame's mean stays near the input's.
+    let finite: Vec<f32> = color
+        .data
+        .iter()
+        .copied()
+        .filter(|v| v.is_finite())
+        .collect();
+    let m_in = finite.iter().sum::<f32>() / finite.len() as f32;
+    let m_out = out.data.iter().sum::<f32>() / out.data.len() as f32;
+    assert!((m_out / m_in - 1.0).abs() < 0.1, "{m_out} vs {m_in}");
+}
