@@ -33,38 +33,47 @@ pub(super) struct Split {
 /// scaled to the threshold.
 pub(super) fn split(y: &Image, k: f32, r: usize) -> Split {
     let (w, h) = (y.width, y.height);
+    // Element-wise passes in parallel: serial, the split took 12–14 ms of a 512² frame on one
+    // thread and on two alike (same output bits either way).
     let lum: Vec<f32> = y
         .data
-        .chunks_exact(3)
+        .par_chunks_exact(3)
         .map(|p| luminance([p[0], p[1], p[2]]))
         .collect();
     let window_mean = |values: &[f32]| -> Vec<f32> {
         let mut pairs = vec![0.0f32; w * h * 2];
-        for (p, &v) in pairs.chunks_exact_mut(2).zip(values) {
-            if v.is_finite() {
-                p[0] = v.max(0.0);
-                p[1] = 1.0;
-            }
-        }
+        pairs
+            .par_chunks_exact_mut(2)
+            .zip(values.par_iter())
+            .for_each(|(p, &v)| {
+                if v.is_finite() {
+                    p[0] = v.max(0.0);
+                    p[1] = 1.0;
+                }
+            });
         box_mean(&pairs, w, h, 2, r)
-            .chunks_exact(2)
+            .par_chunks_exact(2)
             .map(|m| if m[1] > 0.0 { m[0] / m[1] } else { 0.0 })
             .collect()
     };
     let first = window_mean(&lum);
     let pre: Vec<f32> = lum
-        .iter()
-        .zip(&first)
+        .par_iter()
+        .zip(first.par_iter())
         .map(|(&l, &m)| if l.is_finite() { l.min(k * m) } else { l })
         .collect();
-    let threshold: Vec<f32> = window_mean(&pre).into_iter().map(|m| k * m).collect();
+    let threshold: Vec<f32> = window_mean(&pre).into_par_iter().map(|m| k * m).collect();
     let mut clamped = y.clone();
     let mut excess = Image::new(w, h, 3, 0.0);
-    for (e, &l) in excess.data.chunks_exact_mut(3).zip(&lum) {
-        if !l.is_finite() {
-            e.fill(f32::NAN);
-        }
-    }
+    excess
+        .data
+        .par_chunks_exact_mut(3)
+        .zip(lum.par_iter())
+        .for_each(|(e, &l)| {
+            if !l.is_finite() {
+                e.fill(f32::NAN);
+            }
+        });
     let count = clamped
         .data
         .par_chunks_mut(3)
