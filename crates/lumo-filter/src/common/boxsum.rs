@@ -85,9 +85,12 @@ pub fn box_mean_into(
         );
 
     // Vertical pass in bands of rows: each band primes its running sums with the rows above
-    // it (O(r) extra rows per band) and then slides down; a band owns its output rows.
-    let threads = rayon::current_num_threads().max(1);
-    let band = h.div_ceil(4 * threads).max(16);
+    // it (O(r) extra rows per band) and then slides down; a band owns its output rows. The
+    // band height comes from the image alone, never from the thread count: a band restarts
+    // its running sums, so where bands start changes the last bits of the means, and through
+    // `auto`'s sharp blend whole pixels (it once did: `auto` gave other bits on one thread
+    // than on two). Eight bands, the split two threads had before.
+    let band = h.div_ceil(8).max(16);
     let tmp: &[f32] = tmp;
     out.resize(data.len(), 0.0);
     out.par_chunks_mut(band * stride)
@@ -132,6 +135,40 @@ fn add_row(acc: &mut [f64], row: &[f32], sign: f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The same bits on any number of threads (the vertical pass's bands once came from the
+    /// thread count, and a band's running sums round differently from a longer run's).
+    #[test]
+    fn same_bits_on_any_thread_count() {
+        let (w, h, k, r) = (37usize, 300usize, 3usize, 7usize);
+        let mut s = 7u64;
+        let data: Vec<f32> = (0..w * h * k)
+            .map(|_| {
+                s = s
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                let u = (s >> 40) as f32 / (1u64 << 24) as f32;
+                // Heavy-tailed, as squared 1-spp errors: mostly tiny, now and then huge (wider
+                // than an f64 sum of f32 values holds exactly).
+                if u > 0.98 {
+                    1e9 * u
+                } else {
+                    1e-6 * u
+                }
+            })
+            .collect();
+        let run = |threads: usize| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| box_mean(&data, w, h, k, r))
+        };
+        let one = run(1);
+        for threads in [2, 3, 4] {
+            assert!(one == run(threads), "{threads} threads differ from one");
+        }
+    }
 
     #[test]
     fn matches_brute_force() {
