@@ -13,7 +13,7 @@
 use lumo_image::{luminance, Image};
 use rayon::prelude::*;
 
-use crate::common::boxsum::box_mean;
+use crate::common::boxsum::box_mean_finite;
 use crate::{guided, FilterError, Guide, GuidedParams};
 
 /// The colour split into what the candidates filter and what is spread.
@@ -40,20 +40,16 @@ pub(super) fn split(y: &Image, k: f32, r: usize) -> Split {
         .par_chunks_exact(3)
         .map(|p| luminance([p[0], p[1], p[2]]))
         .collect();
+    // Negative samples count as 0 in the means; a window with no finite pixel has mean 0.
     let window_mean = |values: &[f32]| -> Vec<f32> {
-        let mut pairs = vec![0.0f32; w * h * 2];
-        pairs
-            .par_chunks_exact_mut(2)
-            .zip(values.par_iter())
-            .for_each(|(p, &v)| {
-                if v.is_finite() {
-                    p[0] = v.max(0.0);
-                    p[1] = 1.0;
-                }
-            });
-        box_mean(&pairs, w, h, 2, r)
-            .par_chunks_exact(2)
-            .map(|m| if m[1] > 0.0 { m[0] / m[1] } else { 0.0 })
+        // (`f32::max` would turn a missing NaN into 0: keep it missing.)
+        let nonneg: Vec<f32> = values
+            .par_iter()
+            .map(|&v| if v.is_finite() { v.max(0.0) } else { v })
+            .collect();
+        box_mean_finite(&nonneg, w, h, r)
+            .into_par_iter()
+            .map(|m| if m.is_nan() { 0.0 } else { m })
             .collect()
     };
     let first = window_mean(&lum);
@@ -65,15 +61,6 @@ pub(super) fn split(y: &Image, k: f32, r: usize) -> Split {
     let threshold: Vec<f32> = window_mean(&pre).into_par_iter().map(|m| k * m).collect();
     let mut clamped = y.clone();
     let mut excess = Image::new(w, h, 3, 0.0);
-    excess
-        .data
-        .par_chunks_exact_mut(3)
-        .zip(lum.par_iter())
-        .for_each(|(e, &l)| {
-            if !l.is_finite() {
-                e.fill(f32::NAN);
-            }
-        });
     let count = clamped
         .data
         .par_chunks_mut(3)
@@ -81,7 +68,11 @@ pub(super) fn split(y: &Image, k: f32, r: usize) -> Split {
         .enumerate()
         .map(|(i, (c, e))| {
             let (l, t) = (lum[i], threshold[i]);
-            if !(l.is_finite() && l > t && l > 0.0) {
+            if !l.is_finite() {
+                e.fill(f32::NAN);
+                return 0;
+            }
+            if !(l > t && l > 0.0) {
                 return 0;
             }
             let s = t / l;

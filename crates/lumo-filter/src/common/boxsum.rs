@@ -25,6 +25,26 @@ pub fn box_mean(data: &[f32], w: usize, h: usize, k: usize, r: usize) -> Vec<f32
     out
 }
 
+/// Mean of the finite values of the one-channel plane `values` over the (2r+1)×(2r+1) window
+/// around every pixel (clipped to the image); NaN where the window holds none. Non-finite
+/// values are missing pixels: they take no part, rather than poisoning the sums.
+pub(crate) fn box_mean_finite(values: &[f32], w: usize, h: usize, r: usize) -> Vec<f32> {
+    let mut pairs = vec![0.0f32; values.len() * 2];
+    pairs
+        .par_chunks_exact_mut(2)
+        .zip(values.par_iter())
+        .for_each(|(p, &v)| {
+            if v.is_finite() {
+                p[0] = v;
+                p[1] = 1.0;
+            }
+        });
+    box_mean(&pairs, w, h, 2, r)
+        .par_chunks_exact(2)
+        .map(|m| if m[1] > 0.0 { m[0] / m[1] } else { f32::NAN })
+        .collect()
+}
+
 /// [`box_mean`] into `out`, with `tmp` as the intermediate: both are resized to the data's
 /// length, so a caller that filters several images of one size allocates (and page-faults)
 /// its buffers once. At 512² `auto`'s fresh buffers per radius cost it a third of its time in

@@ -15,7 +15,7 @@ use std::collections::VecDeque;
 
 use lumo_image::{luminance, rgb_of, Image};
 
-use crate::common::boxsum::box_mean;
+use crate::common::boxsum::box_mean_finite;
 use crate::common::gbuffer::{check_features, Features};
 use crate::FilterError;
 
@@ -143,18 +143,12 @@ pub fn detect_emitters(
         });
     }
     let floor = (0.01 * sum / count as f64).max(1e-8) as f32;
-    let mut logs = vec![0.0f32; n * 2];
-    for i in 0..n {
-        if d[i].is_finite() {
-            logs[i * 2] = (d[i] + floor).ln();
-            logs[i * 2 + 1] = 1.0;
-        }
-    }
-    let means = box_mean(&logs, w, h, 2, params.radius);
+    let logs: Vec<f32> = d.iter().map(|&v| (v + floor).ln()).collect();
+    let log_means = box_mean_finite(&logs, w, h, params.radius);
     let bright: Vec<bool> = (0..n)
         .map(|i| {
-            let (s, c) = (means[i * 2], means[i * 2 + 1]);
-            d[i].is_finite() && c > 0.0 && d[i] + floor > params.brightness * (s / c).exp()
+            let m = log_means[i];
+            d[i].is_finite() && m.is_finite() && d[i] + floor > params.brightness * m.exp()
         })
         .collect();
     let flat = |a: f32, b: f32| (a - b).abs() <= params.flatness * a.max(b);
