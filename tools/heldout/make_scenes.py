@@ -85,13 +85,26 @@ def cylinder(p0, p1, r, bsdf):
 
 def room(w=2.0, h=2.0, d=2.0, floor=None, walls="0.7, 0.7, 0.7", left="0.6, 0.2, 0.15",
          right="0.15, 0.35, 0.6", ceiling=True):
-    """An open-fronted box: floor y=0, walls at x=±w, back at z=-d, ceiling at y=h."""
+    """An open-fronted box: floor y=0, walls at x=±w, back at z=-d, ceiling at y=h (no left
+    wall when `left` is None)."""
     out = rect(f'<scale x="{w}" y="{d}" z="1"/><rotate x="1" angle="-90"/>', floor or diffuse(walls))
     if ceiling:
         out += rect(f'<scale x="{w}" y="{d}" z="1"/><rotate x="1" angle="90"/><translate y="{h}"/>', diffuse(walls))
     out += rect(f'<scale x="{w}" y="{h / 2}" z="1"/><translate y="{h / 2}" z="{-d}"/>', diffuse(walls))
-    out += rect(f'<scale x="{d}" y="{h / 2}" z="1"/><rotate y="1" angle="90"/><translate x="{-w}" y="{h / 2}"/>', diffuse(left))
+    if left is not None:
+        out += rect(f'<scale x="{d}" y="{h / 2}" z="1"/><rotate y="1" angle="90"/><translate x="{-w}" y="{h / 2}"/>', diffuse(left))
     out += rect(f'<scale x="{d}" y="{h / 2}" z="1"/><rotate y="1" angle="-90"/><translate x="{w}" y="{h / 2}"/>', diffuse(right))
+    return out
+
+
+def wall_with_window(x, d, h, hole, rgb):
+    """The wall x = const (z from -d to d, y from 0 to h) with a window hole
+    (z0, z1, y0, y1): four rectangles around it."""
+    z0, z1, y0, y1 = hole
+    out = ""
+    for (za, zb, ya, yb) in [(-d, d, 0.0, y0), (-d, d, y1, h), (-d, z0, y0, y1), (z1, d, y0, y1)]:
+        out += rect(f'<scale x="{(zb - za) / 2}" y="{(yb - ya) / 2}" z="1"/><rotate y="1" angle="90"/>'
+                    f'<translate x="{x}" y="{(ya + yb) / 2}" z="{(za + zb) / 2}"/>', diffuse(rgb))
     return out
 
 
@@ -271,6 +284,22 @@ TUNING = {
         + rect('<scale x="0.2" y="0.25" z="1"/><translate x="-0.6" y="1.4" z="-1.99"/>', diffuse(WHITE), "120, 114, 102")
         + cube('<scale x="0.25" y="0.5" z="0.25"/><rotate y="1" angle="35"/><translate x="0.5" y="0.5" z="-0.8"/>', diffuse("0.7, 0.7, 0.7"))
         + sphere("-0.7, 0.3, -0.3", 0.3, plastic("0.3, 0.5, 0.7", 0.2))
+        + "</scene>\n"),
+    # Added 4 December 2026: sunlight through a window onto a floor and a wall, far brighter
+    # than the rest of the room and nearly noise-free with next-event estimation, and no light
+    # in view: the light search takes the patch for a light (the regime of the held-out
+    # hdr-window's worst frames, reproduced here so that they are never tuned on).
+    "tune-sunroom": (
+        head("Tuning set: sun through a side window throws a bright patch across the floor and "
+             "the right wall of a dim room; no light in view.",
+             "0.3, 1.1, 3.6", "-0.3, 0.6, -1", 50, 6)
+        + room(1.6, 2.2, 2.0, floor=checker("0.6, 0.55, 0.5", "0.3, 0.28, 0.25", 8),
+               left=None, right="0.55, 0.6, 0.5")
+        + wall_with_window(-1.6, 2.0, 2.2, (-1.8, 0.6, 0.3, 2.0), "0.65, 0.6, 0.55")
+        + cube('<scale x="0.3" y="0.25" z="0.3"/><rotate y="1" angle="-25"/><translate x="0.9" y="0.25" z="0.5"/>', diffuse("0.5, 0.6, 0.7"))
+        + sphere("-0.7, 0.35, 0.9", 0.35, plastic("0.7, 0.4, 0.3", 0.25))
+        + sun("0.8, -0.4, 0.25", "50, 45, 36")
+        + sky("0.02, 0.025, 0.035")
         + "</scene>\n"),
 }
 
