@@ -154,6 +154,11 @@ pub struct DenoiseArgs {
     /// through, as an emission plane would mark them).
     #[arg(long)]
     pub no_detect_emitters: bool,
+    /// Also write what the light search found (no --emission plane): 1 where pixels were taken
+    /// for a light and passed through unfiltered, 0.5 on the ring around them (passed through
+    /// too), 0 elsewhere; any image format by extension. To see why a bright area kept its noise.
+    #[arg(long, value_name = "FILE")]
+    pub light_mask: Option<PathBuf>,
     /// Print the time of each stage (read, filter, write) in ms.
     #[arg(long)]
     pub timings: bool,
@@ -521,7 +526,7 @@ fn run_filter(
 fn filter_inputs(
     args: &DenoiseArgs,
     inputs: &Inputs,
-) -> anyhow::Result<(Filtered, Vec<std::time::Duration>)> {
+) -> anyhow::Result<(Filtered, Vec<std::time::Duration>, Option<EmitterMask>)> {
     let (w, h) = (inputs.color.1.width, inputs.color.1.height);
     if let Some(r) = args.radius {
         if r == 0 || r > w.max(h) {
@@ -539,10 +544,11 @@ fn filter_inputs(
     let mut denoiser = configure(args, inputs)?;
     let mut times = Vec::new();
     let mut filtered = None;
+    let mut detected = None;
     for _ in 0..args.repeat {
         let t1 = Instant::now();
         let color = &inputs.color.1;
-        let detected = match &given {
+        detected = match &given {
             None if !args.no_detect_emitters => Some(detect(inputs)?),
             _ => None,
         };
@@ -555,7 +561,24 @@ fn filter_inputs(
         times.push(t1.elapsed());
     }
     times.sort();
-    Ok((filtered.context("the filter did not run")?, times))
+    Ok((filtered.context("the filter did not run")?, times, detected))
+}
+
+/// The light search's mask as an image: 1 for lights, 0.5 for their rims, 0 elsewhere.
+fn light_mask_image(mask: &EmitterMask, w: usize, h: usize) -> Image {
+    let data = (0..w * h)
+        .flat_map(|i| {
+            let v = if mask.light[i] {
+                1.0
+            } else if mask.rim[i] {
+                0.5
+            } else {
+                0.0
+            };
+            [v; 3]
+        })
+        .collect();
+    Image::from_vec(w, h, 3, data)
 }
 
 /// Denoises the planes in `dir` (`color`, `albedo`, … as `--input-dir` reads them) with
@@ -581,7 +604,7 @@ pub fn denoise_dir(dir: &Path, filter: FilterKind) -> anyhow::Result<(Image, std
     ])
     .context("building the default denoise arguments")?;
     let inputs = read_inputs(&w.args)?;
-    let (filtered, times) = filter_inputs(&w.args, &inputs)?;
+    let (filtered, times, _) = filter_inputs(&w.args, &inputs)?;
     Ok((filtered.image, times[0]))
 }
 
@@ -593,8 +616,22 @@ pub fn run(args: DenoiseArgs) -> anyhow::Result<()> {
         bail!("--subsample {}: use 1, 2 or 4", args.subsample);
     }
     crate::render_cmd::check_writable(&args.output).context("-o")?;
+    if let Some(path) = &args.light_mask {
+        if args.no_detect_emitters {
+            bail!(
+                "--light-mask: the light search is off (--no-detect-emitters); drop one of the two"
+            );
+        }
+        crate::render_cmd::check_writable(path).context("--light-mask")?;
+    }
     let t0 = Instant::now();
     let inputs = read_inputs(&args)?;
+    if args.light_mask.is_some() && inputs.emission.is_some() {
+        bail!(
+            "--light-mask: an emission plane was given, so no light search runs (the plane marks \
+             the lights); drop --light-mask or the emission plane"
+        );
+    }
     let t_read = t0.elapsed();
     let missing = missing_pixels(&inputs.color.1);
     if missing > 0 {
@@ -603,12 +640,24 @@ pub fn run(args: DenoiseArgs) -> anyhow::Result<()> {
             inputs.color.0.display()
         );
     }
-    let (filtered, times) = filter_inputs(&args, &inputs)?;
+    let (filtered, times, detected) = filter_inputs(&args, &inputs)?;
     let t_filter = times[times.len() / 2];
     let t2 = Instant::now();
     write_image(&args.output, &filtered.image)
         .with_context(|| format!("cannot write {}", args.output.display()))?;
     let t_write = t2.elapsed();
+    if let (Some(path), Some(mask)) = (&args.light_mask, &detected) {
+        let (w, h) = (inputs.color.1.width, inputs.color.1.height);
+        write_image(path, &light_mask_image(mask, w, h))
+            .with_context(|| format!("cannot write {}", path.display()))?;
+        let count = |m: &[bool]| m.iter().filter(|&&b| b).count();
+        eprintln!(
+            "light search: {} pixel(s) taken for lights, {} on their rims → {}",
+            count(&mask.light),
+            count(&mask.rim),
+            path.display()
+        );
+    }
     if args.timings {
         let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
         println!("read {:.3} ms", ms(t_read));

@@ -353,6 +353,61 @@ fn emitters_in_the_emission_plane_stay_sharp_and_do_not_bleed() {
 }
 
 #[test]
+fn light_mask_shows_what_the_search_passed_through_and_needs_the_search() {
+    let dir = temp_dir("light-mask");
+    write_wall_with_light(&dir, false);
+    let (out, mask) = (dir.join("out.exr"), dir.join("mask.png"));
+    let base = [
+        "--input-dir",
+        dir.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ];
+    let o = lumo(&[&base[..], &["--light-mask", mask.to_str().unwrap()]].concat());
+    assert!(o.status.success(), "{:?}", text(&o));
+    assert!(
+        text(&o).1.contains("16 pixel(s) taken for lights"),
+        "{:?}",
+        text(&o)
+    );
+    let m = read_image(&mask).unwrap();
+    for y in 0..24 {
+        for x in 0..24 {
+            let want = if (10..14).contains(&x) && (10..14).contains(&y) {
+                1.0
+            } else if (9..15).contains(&x) && (9..15).contains(&y) {
+                0.5
+            } else {
+                0.0
+            };
+            assert!((m.pixel(x, y)[0] - want).abs() < 0.01, "({x}, {y})");
+        }
+    }
+    // No search, no mask: said before anything is read or written.
+    let o = lumo(
+        &[
+            &base[..],
+            &[
+                "--light-mask",
+                mask.to_str().unwrap(),
+                "--no-detect-emitters",
+            ],
+        ]
+        .concat(),
+    );
+    assert!(!o.status.success());
+    assert!(
+        text(&o).1.contains("--no-detect-emitters"),
+        "{:?}",
+        text(&o)
+    );
+    write_wall_with_light(&dir, true);
+    let o = lumo(&[&base[..], &["--light-mask", mask.to_str().unwrap()]].concat());
+    assert!(!o.status.success());
+    assert!(text(&o).1.contains("emission plane"), "{:?}", text(&o));
+}
+
+#[test]
 fn variance_source_plane_without_a_plane_is_an_error() {
     let dir = temp_dir("nosrc");
     write_wall_with_light(&dir, false);
