@@ -108,11 +108,13 @@ pub fn detect_emitters(
     crate::common::gbuffer::check_color("color", color)?;
     let (w, h) = (color.width, color.height);
     check_features(features, w, h)?;
-    if !(params.brightness > 1.0)
-        || !(params.flatness >= 0.0)
-        || params.flat_neighbours > 8
-        || !(params.region_contrast >= 0.0 && params.region_contrast.is_finite())
-    {
+    // (Written so that NaN parameters fail too.)
+    let valid = params.brightness > 1.0
+        && params.flatness >= 0.0
+        && params.flat_neighbours <= 8
+        && params.region_contrast >= 0.0
+        && params.region_contrast.is_finite();
+    if !valid {
         return Err(crate::common::error::param(
             "emitter detection",
             format!(
