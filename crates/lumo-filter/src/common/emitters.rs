@@ -394,6 +394,19 @@ mod tests {
     }
 
     #[test]
+    fn a_nan_or_negative_region_contrast_is_an_error() {
+        let img = Image::new(8, 8, 3, 1.0);
+        for bad in [f32::NAN, -1.0, f32::INFINITY] {
+            let p = EmitterParams {
+                region_contrast: bad,
+                ..EmitterParams::default()
+            };
+            let e = detect_emitters(&img, &Features::default(), &p).unwrap_err();
+            assert!(e.to_string().contains("region_contrast"), "{e}");
+        }
+    }
+
+    #[test]
     fn a_bright_texture_explained_by_its_albedo_is_not_a_light() {
         // White squares (albedo 0.9) on a black floor (albedo 0.005) under even light: 180×
         // brighter, flat — and fully explained by the albedo.
