@@ -123,7 +123,7 @@ impl<'g> SelfWeights<'g> {
         let means = &self.means;
         // Per window: A/|ω| (packed), Aμ/|ω|, (1 + μᵀAμ)/|ω|.
         let k2 = np + D + 1;
-        self.window.clear();
+        // Every element is written below: resized, not cleared (see `box_mean_into`).
         self.window.resize(n * k2, 0.0);
         self.window
             .par_chunks_mut(k2 * w)

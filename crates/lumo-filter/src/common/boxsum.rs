@@ -61,16 +61,17 @@ pub fn box_mean_into(
     out: &mut Vec<f32>,
 ) {
     assert_eq!(data.len(), w * h * k, "box_mean: data length");
-    out.clear();
     if w == 0 || h == 0 || k == 0 {
+        out.clear();
         return;
     }
     let cx = counts(w, r);
     let cy = counts(h, r);
     let stride = w * k;
 
-    // Horizontal pass, one row per task.
-    tmp.clear();
+    // Horizontal pass, one row per task. Both passes write every element of their buffer, so
+    // a buffer kept from an earlier call is only resized, not cleared: zeroing them was 5 % of
+    // `auto`'s time at 512².
     tmp.resize(data.len(), 0.0);
     tmp.par_chunks_mut(stride)
         .zip(data.par_chunks(stride))
