@@ -15,6 +15,7 @@
 use rayon::prelude::*;
 
 use crate::common::boxsum::box_mean_into;
+use crate::guided::cholesky::{factor_lanes, inverse_factor_lanes, L};
 use crate::Guide;
 
 /// Number of pixels of the window of radius `r` around `i` on an axis of length `n`.
@@ -25,36 +26,6 @@ fn span(i: usize, r: usize, n: usize) -> f64 {
 /// Index of the (row, col) entry (row ≤ col) of a packed symmetric d×d matrix.
 fn packed(d: usize, row: usize, col: usize) -> usize {
     row * d - row * (row + 1) / 2 + col
-}
-
-/// Inverts the symmetric positive definite `m` in place by Gauss–Jordan elimination without
-/// pivoting (the ε on the diagonal keeps the pivots positive); a pivot that rounding drives to
-/// ≤ 0 is floored so the result stays finite. On the stack: it runs once per pixel and radius,
-/// and with `D` a constant the loops unroll (the first version, with the dimension known only
-/// at run time, spent a third of `auto`'s time here).
-#[inline(always)]
-fn invert<const D: usize>(m: &mut [[f64; D]; D]) {
-    let mut inv = [[0.0f64; D]; D];
-    for (i, row) in inv.iter_mut().enumerate() {
-        row[i] = 1.0;
-    }
-    for c in 0..D {
-        let p = m[c][c].max(1e-12);
-        for k in 0..D {
-            m[c][k] /= p;
-            inv[c][k] /= p;
-        }
-        for r in 0..D {
-            if r != c {
-                let f = m[r][c];
-                for k in 0..D {
-                    m[r][k] -= f * m[c][k];
-                    inv[r][k] -= f * inv[c][k];
-                }
-            }
-        }
-    }
-    *m = inv;
 }
 
 /// The guided filter's self-weight for one guide at several radii, its working buffers kept
@@ -125,40 +96,14 @@ impl<'g> SelfWeights<'g> {
         let k2 = np + D + 1;
         // Every element is written below: resized, not cleared (see `box_mean_into`).
         self.window.resize(n * k2, 0.0);
+        let avx2 = lumo_simd::Isa::detect() >= lumo_simd::Isa::Avx2;
+        let eps = &guide.eps;
         self.window
             .par_chunks_mut(k2 * w)
             .enumerate()
             .for_each(|(y, row)| {
-                let mut mu = [0.0f64; D];
-                for x in 0..w {
-                    let i = y * w + x;
-                    let s = &means[i * k1..(i + 1) * k1];
-                    for a in 0..D {
-                        mu[a] = s[a] as f64;
-                    }
-                    let mut m = [[0.0f64; D]; D];
-                    for a in 0..D {
-                        for b in a..D {
-                            let cov = s[D + packed(D, a, b)] as f64 - mu[a] * mu[b];
-                            m[a][b] = cov;
-                            m[b][a] = cov;
-                        }
-                        m[a][a] += guide.eps[a] as f64;
-                    }
-                    invert(&mut m);
-                    let size = span(x, r, w) * span(y, r, h);
-                    let out = &mut row[x * k2..(x + 1) * k2];
-                    let mut quad = 0.0;
-                    for a in 0..D {
-                        let am: f64 = (0..D).map(|b| m[a][b] * mu[b]).sum();
-                        out[np + a] = (am / size) as f32;
-                        quad += mu[a] * am;
-                        for b in a..D {
-                            out[packed(D, a, b)] = (m[a][b] / size) as f32;
-                        }
-                    }
-                    out[np + D] = ((1.0 + quad) / size) as f32;
-                }
+                let means_row = &means[y * w * k1..(y + 1) * w * k1];
+                window_row::<D>(means_row, eps, span(y, r, h), r, row, avx2)
             });
         box_mean_into(&self.window, w, h, k2, r, &mut self.tmp, &mut self.avg);
         let avg = &self.avg;
@@ -180,6 +125,131 @@ impl<'g> SelfWeights<'g> {
             .collect()
     }
 }
+
+/// The per-window terms of one row ([`SelfWeights::at_radius`]): from the row's box means
+/// `means` of the guide moments (g, packed g gᵀ), for each pixel A/|ω| (packed), Aμ/|ω| and
+/// (1 + μᵀAμ)/|ω| into `out`, with A = (Σ + diag ε)⁻¹ and |ω| = `rows` × the row span at
+/// radius `r`. In the AVX2 copy when `avx2` (no fused multiply-adds: the same bits as the
+/// baseline copy).
+fn window_row<const D: usize>(
+    means: &[f32],
+    eps: &[f32],
+    rows: f64,
+    r: usize,
+    out: &mut [f32],
+    avx2: bool,
+) {
+    #[cfg(target_arch = "x86_64")]
+    if avx2 {
+        // SAFETY: `avx2` comes from run-time detection.
+        unsafe { window_row_avx2::<D>(means, eps, rows, r, out) };
+        return;
+    }
+    let _ = avx2;
+    window_row_lanes::<D>(means, eps, rows, r, out)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn window_row_avx2<const D: usize>(
+    means: &[f32],
+    eps: &[f32],
+    rows: f64,
+    r: usize,
+    out: &mut [f32],
+) {
+    window_row_lanes::<D>(means, eps, rows, r, out)
+}
+
+/// [`window_row`], [`L`] pixels at a time: why — the per-pixel D×D inverse in f64 by
+/// Gauss–Jordan was a sixth of `auto`'s time at 512²; a Cholesky factor in f32 lanes, as the
+/// guided filter solves its own windows, vectorises.
+#[inline(always)]
+fn window_row_lanes<const D: usize>(
+    means: &[f32],
+    eps: &[f32],
+    rows: f64,
+    r: usize,
+    out: &mut [f32],
+) {
+    let np = D * (D + 1) / 2;
+    let k1 = D + np;
+    let k2 = np + D + 1;
+    let w = means.len() / k1;
+    for x0 in (0..w).step_by(L) {
+        let lanes = (w - x0).min(L);
+        let mut mu = [[0.0f32; L]; D];
+        // Lanes past `lanes` keep the identity: finite, never written out.
+        let mut sys = [[[0.0f32; L]; D]; D];
+        for a in 0..D {
+            sys[a][a] = [1.0; L];
+        }
+        for l in 0..lanes {
+            let s = &means[(x0 + l) * k1..(x0 + l + 1) * k1];
+            for a in 0..D {
+                mu[a][l] = s[a];
+            }
+            for a in 0..D {
+                for b in 0..=a {
+                    sys[a][b][l] = s[D + packed(D, b, a)] - s[a] * s[b];
+                }
+                sys[a][a][l] += eps[a];
+            }
+        }
+        let (lo, inv_diag) = factor_lanes::<D>(&sys);
+        let m = inverse_factor_lanes::<D>(&lo, &inv_diag);
+        // z = Mμ; A = MᵀM, so Aμ = Mᵀz and μᵀAμ = |z|².
+        let mut z = [[0.0f32; L]; D];
+        for i in 0..D {
+            for k in 0..=i {
+                for l in 0..L {
+                    z[i][l] += m[i][k][l] * mu[k][l];
+                }
+            }
+        }
+        let mut quad = [0.0f32; L];
+        for i in 0..D {
+            for l in 0..L {
+                quad[l] += z[i][l] * z[i][l];
+            }
+        }
+        let mut a_mu = [[0.0f32; L]; D];
+        for a in 0..D {
+            for k in a..D {
+                for l in 0..L {
+                    a_mu[a][l] += m[k][a][l] * z[k][l];
+                }
+            }
+        }
+        let mut a_packed = [[0.0f32; L]; MAX_PACKED];
+        for a in 0..D {
+            for b in a..D {
+                let mut acc = [0.0f32; L];
+                for k in b..D {
+                    for l in 0..L {
+                        acc[l] += m[k][a][l] * m[k][b][l];
+                    }
+                }
+                a_packed[packed(D, a, b)] = acc;
+            }
+        }
+        for l in 0..lanes {
+            let x = x0 + l;
+            let inv_size = (1.0 / (span(x, r, w) * rows)) as f32;
+            let o = &mut out[x * k2..(x + 1) * k2];
+            for (p, v) in a_packed.iter().enumerate().take(np) {
+                o[p] = v[l] * inv_size;
+            }
+            for a in 0..D {
+                o[np + a] = a_mu[a][l] * inv_size;
+            }
+            o[np + D] = (1.0 + quad[l]) * inv_size;
+        }
+    }
+}
+
+/// Packed entries of the largest guide's symmetric matrix.
+const MAX_PACKED: usize = crate::MAX_GUIDE_DIMS * (crate::MAX_GUIDE_DIMS + 1) / 2;
 
 /// The guided filter's self-weight at every pixel for `guide` and window radius `r` (one
 /// radius; `auto` keeps a [`SelfWeights`] for its several).
@@ -215,9 +285,22 @@ mod tests {
     fn matches_the_filter_response_to_a_unit_impulse() {
         let (w, h) = (23, 17);
         let g = two_region_guide(w, h, 11);
-        let guide = Guide::from_image(&g, vec![0.01, 0.02]).unwrap();
-        for r in [1, 3, 6] {
-            let weights = guided_self_weight(&guide, r);
+        // And four dimensions, as `auto`'s normal + depth guide has (rows of 16 lanes and a
+        // partly filled last lane group).
+        let mut g4 = Image::new(w, h, 4, 0.0);
+        for y in 0..h {
+            for x in 0..w {
+                let (a, b) = (g.pixel(x, y)[0], g.pixel(x, y)[1]);
+                let c = (x as f32 * 0.21 - y as f32 * 0.4).cos() * 0.2;
+                g4.pixel_mut(x, y).copy_from_slice(&[a, b, c, 0.5 * a + c]);
+            }
+        }
+        let guides = [
+            Guide::from_image(&g, vec![0.01, 0.02]).unwrap(),
+            Guide::from_image(&g4, vec![0.01, 0.02, 0.005, 0.01]).unwrap(),
+        ];
+        for (guide, r) in guides.iter().flat_map(|g| [1, 3, 6].map(|r| (g, r))) {
+            let weights = guided_self_weight(guide, r);
             for &(x, y) in &[(0, 0), (5, 8), (10, 3), (11, 3), (22, 16), (12, 9)] {
                 let mut impulse = Image::new(w, h, 3, 0.0);
                 impulse.pixel_mut(x, y).fill(1.0);
@@ -225,7 +308,7 @@ mod tests {
                     radius: r,
                     fast_subsample: 1,
                 };
-                let f = guided(&impulse, &guide, &params).unwrap().image;
+                let f = guided(&impulse, guide, &params).unwrap().image;
                 let want = f.rgb(x, y)[0];
                 let got = weights[y * w + x];
                 assert!(

@@ -1,7 +1,7 @@
 //! Small symmetric positive definite solves (the guided filter's d×d window systems).
 
 /// Systems solved together, one per lane.
-pub(super) const L: usize = 16;
+pub(crate) const L: usize = 16;
 
 /// Solves `A x_c = b_c` for the 3 right-hand sides `b` with `A` symmetric positive definite
 /// (D×D), for L independent systems at once, stored lane-last (`a[i][j][lane]`) so that every
@@ -13,33 +13,7 @@ pub(super) fn solve_lanes<const D: usize>(
     a: &[[[f32; L]; D]; D],
     b: &[[[f32; L]; D]; 3],
 ) -> [[[f32; L]; D]; 3] {
-    // Only the lower triangle of `a` is read.
-    let mut lo = [[[0.0f32; L]; D]; D];
-    let mut inv_diag = [[0.0f32; L]; D];
-    for j in 0..D {
-        let mut s = a[j][j];
-        for k in 0..j {
-            for l in 0..L {
-                s[l] -= lo[j][k][l] * lo[j][k][l];
-            }
-        }
-        for l in 0..L {
-            let d = s[l].max(1e-12).sqrt();
-            lo[j][j][l] = d;
-            inv_diag[j][l] = 1.0 / d;
-        }
-        for i in j + 1..D {
-            let mut s = a[i][j];
-            for k in 0..j {
-                for l in 0..L {
-                    s[l] -= lo[i][k][l] * lo[j][k][l];
-                }
-            }
-            for l in 0..L {
-                lo[i][j][l] = s[l] * inv_diag[j][l];
-            }
-        }
-    }
+    let (lo, inv_diag) = factor_lanes(a);
     let mut x = [[[0.0f32; L]; D]; 3];
     for c in 0..3 {
         // Forward: L y = b.
@@ -71,9 +45,104 @@ pub(super) fn solve_lanes<const D: usize>(
     x
 }
 
+/// The lower Cholesky factor of L symmetric positive definite D×D systems (lanes last; only
+/// the lower triangle of `a` is read) and the reciprocals of its diagonal. Pivots are floored
+/// at a tiny positive value ([`solve_lanes`]).
+#[inline(always)]
+pub(crate) fn factor_lanes<const D: usize>(
+    a: &[[[f32; L]; D]; D],
+) -> ([[[f32; L]; D]; D], [[f32; L]; D]) {
+    let mut lo = [[[0.0f32; L]; D]; D];
+    let mut inv_diag = [[0.0f32; L]; D];
+    for j in 0..D {
+        let mut s = a[j][j];
+        for k in 0..j {
+            for l in 0..L {
+                s[l] -= lo[j][k][l] * lo[j][k][l];
+            }
+        }
+        for l in 0..L {
+            let d = s[l].max(1e-12).sqrt();
+            lo[j][j][l] = d;
+            inv_diag[j][l] = 1.0 / d;
+        }
+        for i in j + 1..D {
+            let mut s = a[i][j];
+            for k in 0..j {
+                for l in 0..L {
+                    s[l] -= lo[i][k][l] * lo[j][k][l];
+                }
+            }
+            for l in 0..L {
+                lo[i][j][l] = s[l] * inv_diag[j][l];
+            }
+        }
+    }
+    (lo, inv_diag)
+}
+
+/// The inverse `M = L⁻¹` of the lower factor [`factor_lanes`] returns (lower triangular; the
+/// system's inverse is `MᵀM`).
+#[inline(always)]
+pub(crate) fn inverse_factor_lanes<const D: usize>(
+    lo: &[[[f32; L]; D]; D],
+    inv_diag: &[[f32; L]; D],
+) -> [[[f32; L]; D]; D] {
+    let mut m = [[[0.0f32; L]; D]; D];
+    for j in 0..D {
+        m[j][j] = inv_diag[j];
+        for i in j + 1..D {
+            let mut s = [0.0f32; L];
+            for k in j..i {
+                for l in 0..L {
+                    s[l] += lo[i][k][l] * m[k][j][l];
+                }
+            }
+            for l in 0..L {
+                m[i][j][l] = -s[l] * inv_diag[i][l];
+            }
+        }
+    }
+    m
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_inverse_factor_gives_the_inverse() {
+        let a = [
+            [4.0, 1.0, 0.5, 0.1],
+            [1.0, 3.0, 0.2, 0.3],
+            [0.5, 0.2, 2.0, 0.4],
+            [0.1, 0.3, 0.4, 1.5],
+        ];
+        let mut al = [[[0.0f32; L]; 4]; 4];
+        for l in 0..L {
+            for i in 0..4 {
+                for j in 0..4 {
+                    al[i][j][l] = a[i][j] * (1.0 + l as f32);
+                }
+            }
+        }
+        let (lo, inv_diag) = factor_lanes(&al);
+        let m = inverse_factor_lanes(&lo, &inv_diag);
+        for l in 0..L {
+            // (MᵀM) A = I.
+            for i in 0..4 {
+                for j in 0..4 {
+                    let mut v = 0.0;
+                    for k in 0..4 {
+                        let inv_ik: f32 = (0..4).map(|q| m[q][i][l] * m[q][k][l]).sum();
+                        v += inv_ik * al[k][j][l];
+                    }
+                    let want = if i == j { 1.0 } else { 0.0 };
+                    assert!((v - want).abs() < 1e-5, "lane {l} ({i}, {j}): {v}");
+                }
+            }
+        }
+    }
 
     #[test]
     fn solves_a_known_system() {

@@ -5,7 +5,7 @@
 //! variant), stream.rs (the exact filter streamed row by row), cholesky.rs (its small window
 //! solves) and lookup.rs (the paper's geometry-aware lookup, used by the guided pipeline).
 
-mod cholesky;
+pub(crate) mod cholesky;
 mod lookup;
 mod stream;
 
