@@ -212,7 +212,15 @@ mod tests {
 
     #[test]
     fn matches_brute_force() {
-        let (w, h, k, r) = (13usize, 9usize, 2usize, 3usize);
+        // Every channel count with a copy of its own (2, 14, 15) and two without; radii
+        // smaller and larger than the image.
+        for (k, r) in [(2, 3), (14, 2), (15, 4), (3, 1), (1, 20)] {
+            matches_brute_force_with(k, r);
+        }
+    }
+
+    fn matches_brute_force_with(k: usize, r: usize) {
+        let (w, h) = (13usize, 9usize);
         let data: Vec<f32> = (0..w * h * k)
             .map(|i| ((i * 7919) % 101) as f32 / 10.0)
             .collect();
@@ -229,7 +237,10 @@ mod tests {
                     }
                     let want = (s / n) as f32;
                     let g = got[(y * w + x) * k + c];
-                    assert!((g - want).abs() < 1e-5, "({x},{y},{c}): {g} vs {want}");
+                    assert!(
+                        (g - want).abs() < 1e-5,
+                        "k {k} r {r} ({x},{y},{c}): {g} vs {want}"
+                    );
                 }
             }
         }
