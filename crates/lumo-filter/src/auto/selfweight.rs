@@ -130,7 +130,8 @@ impl<'g> SelfWeights<'g> {
 /// `means` of the guide moments (g, packed g gᵀ), for each pixel A/|ω| (packed), Aμ/|ω| and
 /// (1 + μᵀAμ)/|ω| into `out`, with A = (Σ + diag ε)⁻¹ and |ω| = `rows` × the row span at
 /// radius `r`. In the AVX2 copy when `avx2` (no fused multiply-adds: the same bits as the
-/// baseline copy).
+/// baseline copy). Not `multiversion!`: its AVX-512 copy, the same bits, made `auto` ~3 %
+/// slower at 512² (three alternations, 176–183 → 183–206 ms).
 fn window_row<const D: usize>(
     means: &[f32],
     eps: &[f32],
