@@ -157,7 +157,7 @@ pub struct DenoiseArgs {
     /// Also write what the light search found (no --emission plane): 1 where pixels were taken
     /// for a light and passed through unfiltered, 0.5 on the ring around them (passed through
     /// too), 0 elsewhere; any image format by extension. To see why a bright area kept its noise.
-    #[arg(long, value_name = "FILE")]
+    #[arg(long, value_name = "FILE", conflicts_with = "no_detect_emitters")]
     pub light_mask: Option<PathBuf>,
     /// Print the time of each stage (read, filter, write) in ms.
     #[arg(long)]
@@ -617,11 +617,6 @@ pub fn run(args: DenoiseArgs) -> anyhow::Result<()> {
     }
     crate::render_cmd::check_writable(&args.output).context("-o")?;
     if let Some(path) = &args.light_mask {
-        if args.no_detect_emitters {
-            bail!(
-                "--light-mask: the light search is off (--no-detect-emitters); drop one of the two"
-            );
-        }
         crate::render_cmd::check_writable(path).context("--light-mask")?;
     }
     let t0 = Instant::now();

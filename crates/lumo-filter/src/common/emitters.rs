@@ -168,17 +168,7 @@ pub fn detect_emitters(
         })
         .collect();
     let flat = |a: f32, b: f32| (a - b).abs() <= params.flatness * a.max(b);
-    let neighbours = |i: usize| {
-        let (x, y) = ((i % w) as isize, (i / w) as isize);
-        (-1isize..=1)
-            .flat_map(move |dy| (-1isize..=1).map(move |dx| (dx, dy)))
-            .filter(|&(dx, dy)| dx != 0 || dy != 0)
-            .filter_map(move |(dx, dy)| {
-                let (xx, yy) = (x + dx, y + dy);
-                (xx >= 0 && yy >= 0 && (xx as usize) < w && (yy as usize) < h)
-                    .then(|| yy as usize * w + xx as usize)
-            })
-    };
+    let neighbours = |i: usize| window(i, 1, w, h).filter(move |&j| j != i);
     let mut mask = vec![false; n];
     let mut queue = VecDeque::new();
     for i in 0..n {
@@ -213,6 +203,14 @@ pub fn detect_emitters(
     Ok(EmitterMask { light: mask, rim })
 }
 
+/// Indices of the pixels of the (2r+1)² window around pixel `i` of a `w`×`h` image, clipped to
+/// the image, row by row (`i` itself included).
+fn window(i: usize, r: usize, w: usize, h: usize) -> impl Iterator<Item = usize> {
+    let (x, y) = (i % w, i / w);
+    (y.saturating_sub(r)..(y + r + 1).min(h))
+        .flat_map(move |yy| (x.saturating_sub(r)..(x + r + 1).min(w)).map(move |xx| yy * w + xx))
+}
+
 /// Unmarks every connected region of `mask` whose median demodulated luminance is less than
 /// [`EmitterParams::region_contrast`] × the arithmetic mean of the pixels around it (the region's
 /// bounding box grown by [`EmitterParams::radius`], less the region and the ring one pixel
@@ -237,12 +235,6 @@ fn drop_explained_regions(
     let mut region = vec![usize::MAX; n];
     let mut stack = Vec::new();
     let mut drop = Vec::new();
-    let window = |i: usize, r: usize| {
-        let (x, y) = (i % w, i / w);
-        (y.saturating_sub(r)..(y + r + 1).min(h)).flat_map(move |yy| {
-            (x.saturating_sub(r)..(x + r + 1).min(w)).map(move |xx| yy * w + xx)
-        })
-    };
     for start in 0..n {
         if !mask[start] || region[start] != usize::MAX {
             continue;
@@ -256,7 +248,7 @@ fn drop_explained_regions(
             members.push(i);
             let (x, y) = (i % w, i / w);
             (x0, y0, x1, y1) = (x0.min(x), y0.min(y), x1.max(x), y1.max(y));
-            for j in window(i, 1) {
+            for j in window(i, 1, w, h) {
                 if mask[j] && region[j] == usize::MAX {
                     region[j] = start;
                     stack.push(j);
@@ -264,8 +256,8 @@ fn drop_explained_regions(
             }
         }
         let mut levels: Vec<f32> = members.iter().map(|&i| d[i]).collect();
-        levels.sort_by(f32::total_cmp);
-        let level = levels[levels.len() / 2];
+        let mid = levels.len() / 2;
+        let level = *levels.select_nth_unstable_by(mid, f32::total_cmp).1;
         // The surroundings: everything in the grown box but the region and the ring one pixel
         // wide around it (a light's anti-aliased rim, partly light). Other regions count:
         // clusters of bounce samples are samples of one surface, and where they are dense
@@ -278,7 +270,7 @@ fn drop_explained_regions(
         for yy in y0.saturating_sub(r)..(y1 + r + 1).min(h) {
             for xx in x0.saturating_sub(r)..(x1 + r + 1).min(w) {
                 let j = yy * w + xx;
-                if d[j].is_finite() && !window(j, 1).any(|k| region[k] == start) {
+                if d[j].is_finite() && !window(j, 1, w, h).any(|k| region[k] == start) {
                     sum += d[j] as f64;
                     count += 1;
                 }
