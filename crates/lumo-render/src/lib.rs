@@ -9,6 +9,7 @@
 pub mod accel;
 pub mod bsdf;
 pub mod camera;
+mod direct_split;
 mod film;
 pub mod geometry;
 pub mod integrators;
@@ -18,6 +19,7 @@ mod render_scene;
 pub mod sampler;
 pub mod shading;
 
+pub use direct_split::{direct_split, DirectSplit, MAX_ANALYTIC_TRIANGLES};
 pub use film::{Frame, AOV_NAMES};
 pub use integrators::path::{trace_path, trace_path_xyz, FirstHit, PathRadiance, PathSettings};
 pub use integrators::photon::PpmSettings;

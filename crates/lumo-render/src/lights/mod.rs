@@ -4,6 +4,8 @@
 pub mod distribution;
 mod emission;
 mod environment;
+mod polygon;
+mod split;
 
 use std::f32::consts::PI;
 
@@ -18,6 +20,7 @@ use crate::geometry::{square_to_triangle, square_to_uniform_sphere, UNIFORM_SPHE
 use crate::lights::distribution::{AliasTable, Distribution1d};
 pub use emission::{EmissionPdf, EmissionSample};
 use environment::EnvSampler;
+pub use polygon::polygon_cosine_integral;
 
 /// An emissive triangle in world space.
 #[derive(Clone, Copy, Debug)]
@@ -201,6 +204,9 @@ pub struct Lights {
     /// The choice among lights that emit particles (not the environment), by the same power;
     /// `None` when there are none.
     emission_choice: Option<Distribution1d>,
+    /// The choice among lights that are not Dirac deltas (triangles, shapes, environment), by
+    /// the same power; `None` when there are none (the direct-light split samples these).
+    area_choice: Option<Distribution1d>,
     /// For each instance, the index of its first emissive triangle in `lights`, if emissive.
     instance_offset: Vec<Option<u32>>,
     /// Radiance textures of textured emissive triangles ([`EmissiveTriangle::texture`]).
@@ -370,7 +376,23 @@ impl Lights {
             .iter()
             .any(|&w| w.is_finite() && w > 0.0)
             .then(|| Distribution1d::new(&emission_power));
+        let is_delta = |l: &LightKind| {
+            matches!(
+                l,
+                LightKind::Point { .. } | LightKind::Spot { .. } | LightKind::Directional { .. }
+            )
+        };
+        let area_power: Vec<f32> = lights
+            .iter()
+            .zip(&power)
+            .map(|(l, &w)| if is_delta(l) { 0.0 } else { w })
+            .collect();
+        let area_choice = area_power
+            .iter()
+            .any(|&w| w.is_finite() && w > 0.0)
+            .then(|| Distribution1d::new(&area_power));
         Lights {
+            area_choice,
             alias: AliasTable::new(&choice),
             emission_choice,
             choice,
@@ -484,6 +506,19 @@ impl Lights {
     /// Picks a light and a point on it as seen from `p`.
     pub fn sample(&self, p: Vec3, u_choice: f32, u: Vec2) -> Option<LightSample> {
         let (index, pick, light) = self.choose(u_choice)?;
+        self.sample_chosen(index, pick, light, p, u)
+    }
+
+    /// A point on light `index` (picked with probability `pick`) as seen from `p`.
+    #[inline(always)]
+    fn sample_chosen(
+        &self,
+        index: usize,
+        pick: f32,
+        light: &LightKind,
+        p: Vec3,
+        u: Vec2,
+    ) -> Option<LightSample> {
         let light_index = index as u32;
         let sample = match light {
             LightKind::Triangle(tri) => {

@@ -1,0 +1,54 @@
+//! What the direct-light split (`crate::direct_split`) asks of the lights: the Dirac lights
+//! one by one, the constant-radiance triangles whose unshadowed irradiance has a closed form,
+//! and a sample among the lights that are not Dirac deltas.
+
+use glam::{Vec2, Vec3};
+
+use super::{LightKind, LightSample, Lights, NO_TEXTURE};
+
+impl Lights {
+    /// Every point, spot and directional light as a sample from `p` (probability 1: `weight`
+    /// is the intensity over the squared distance, or the irradiance), skipping spots whose
+    /// cone does not reach `p`.
+    pub(crate) fn delta_samples(&self, p: Vec3) -> impl Iterator<Item = LightSample> + '_ {
+        self.lights
+            .iter()
+            .enumerate()
+            .filter_map(move |(i, l)| match l {
+                LightKind::Point { .. }
+                | LightKind::Spot { .. }
+                | LightKind::Directional { .. } => self.sample_chosen(i, 1.0, l, p, Vec2::ZERO),
+                _ => None,
+            })
+    }
+
+    /// The corners and radiance of every emissive triangle whose radiance is one constant
+    /// (no texture), with its light index.
+    pub(crate) fn constant_triangles(&self) -> impl Iterator<Item = (u32, [Vec3; 3], Vec3)> + '_ {
+        self.lights.iter().enumerate().filter_map(|(i, l)| match l {
+            LightKind::Triangle(t) if t.texture == NO_TEXTURE && t.area > 0.0 => {
+                Some((i as u32, [t.p0, t.p0 + t.e1, t.p0 + t.e2], t.radiance))
+            }
+            _ => None,
+        })
+    }
+
+    /// Whether light `light` is a constant-radiance triangle (one of
+    /// [`Lights::constant_triangles`]).
+    pub(crate) fn is_constant_triangle(&self, light: u32) -> bool {
+        matches!(self.lights.get(light as usize),
+            Some(LightKind::Triangle(t)) if t.texture == NO_TEXTURE && t.area > 0.0)
+    }
+
+    /// A point on a light that is not a Dirac delta (an emissive triangle or shape, or the
+    /// environment), chosen in proportion to power among those only.
+    pub(crate) fn sample_non_delta(&self, p: Vec3, u_choice: f32, u: Vec2) -> Option<LightSample> {
+        let choice = self.area_choice.as_ref()?;
+        let (index, _) = choice.sample(u_choice);
+        let pick = choice.pmf(index);
+        if pick <= 0.0 {
+            return None;
+        }
+        self.sample_chosen(index, pick, &self.lights[index], p, u)
+    }
+}
