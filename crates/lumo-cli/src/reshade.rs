@@ -31,23 +31,36 @@ pub struct ShadedFrame {
     /// First-hit positions (3 channels) and distances (1 channel, non-finite or ≤ 0 = miss).
     position: Image,
     depth: Image,
-    /// Luminance of the traced colour (direct + indirect).
+    /// Luminance of the traced colour (direct + indirect), or of its indirect light alone
+    /// where the temporal filter splits the direct light off (`indirect_only`).
     luminance: Vec<f32>,
+    indirect_only: Vec<bool>,
 }
 
 impl ShadedFrame {
-    /// Keeps what re-shading `frame` (traced with `seed`, one sample per pixel) needs.
-    pub fn new(frame: &Frame, seed: u32) -> Self {
+    /// Keeps what re-shading `frame` (traced with `seed`, one sample per pixel) needs;
+    /// `indirect_only` marks the pixels whose direct light the temporal filter takes apart
+    /// (the direct-light split), where only the indirect light is compared.
+    pub fn new(frame: &Frame, seed: u32, indirect_only: Option<&[bool]>) -> Self {
+        let n = frame.color.width * frame.color.height;
+        let indirect_only = indirect_only.map_or_else(|| vec![false; n], <[bool]>::to_vec);
+        let luminance = (0..n)
+            .map(|i| {
+                let plane = if indirect_only[i] {
+                    &frame.indirect
+                } else {
+                    &frame.color
+                };
+                let c = &plane.data[i * 3..i * 3 + 3];
+                luminance([c[0], c[1], c[2]])
+            })
+            .collect();
         Self {
             seed,
             position: frame.position.clone(),
             depth: frame.depth.clone(),
-            luminance: frame
-                .color
-                .data
-                .chunks_exact(3)
-                .map(|c| luminance([c[0], c[1], c[2]]))
-                .collect(),
+            luminance,
+            indirect_only,
         }
     }
 }
@@ -147,7 +160,11 @@ pub fn reshade(
                     }
                     Some(ShadingChange {
                         pixel: py as usize * w + px as usize,
-                        now: luminance((r.direct + r.indirect).to_array()),
+                        now: if before.indirect_only[i] {
+                            luminance(r.indirect.to_array())
+                        } else {
+                            luminance((r.direct + r.indirect).to_array())
+                        },
                         before: before.luminance[i],
                     })
                 })
@@ -189,7 +206,7 @@ mod tests {
             path: PathSettings::default(),
         };
         let (frame, _) = render(&rs, &settings, &|_| {});
-        let before = ShadedFrame::new(&frame, settings.seed);
+        let before = ShadedFrame::new(&frame, settings.seed, None);
         let (vp, transforms) = pose(&rs, w, h);
         let at = Pose {
             view_proj: vp,

@@ -18,7 +18,7 @@ use lumo_filter::{
 };
 use lumo_image::Image;
 use lumo_render::camera::PinholeCamera;
-use lumo_render::{instance_ids, Frame, PathSettings, RenderScene};
+use lumo_render::{direct_split, instance_ids, DirectSplit, Frame, PathSettings, RenderScene};
 use lumo_scene::Camera;
 
 use crate::reshade::{reshade, Pose, ShadedFrame};
@@ -43,6 +43,9 @@ pub struct TemporalTimes {
     pub motion: Duration,
     /// Re-shading one point per 3×3 block of the previous frame (history rejection).
     pub reshade: Duration,
+    /// The direct-light split: its rays (one camera ray, one shadow ray per Dirac light and one
+    /// light sample per pixel) and the temporal filter of its shadow ratio.
+    pub split: Duration,
     /// The filter itself (reprojection, accumulation, variance, À-Trous).
     pub filter: Duration,
 }
@@ -60,6 +63,9 @@ pub struct TemporalSequence {
     /// The path settings frames are traced with, when the history rejection re-shades
     /// samples of the previous frame (`crate::reshade`); `None`: the windowed test.
     reshade: Option<PathSettings>,
+    /// The temporal filter of the direct-light split's shadow ratio, when the split is on
+    /// (see [`TemporalSequence::filter`]).
+    ratio: Option<TemporalFilter>,
 }
 
 impl TemporalSequence {
@@ -79,6 +85,10 @@ impl TemporalSequence {
             jitter: tuned("jit").is_some_and(|v| v != 0.0),
             object_motion,
             reshade: reshade.filter(|_| tuned("rs") != Some(0.0)),
+            ratio: match tuned("ds") {
+                Some(0.0) => None,
+                _ => Some(TemporalFilter::new(ratio_params())?),
+            },
         })
     }
 
@@ -130,6 +140,12 @@ impl TemporalSequence {
         });
         let motion_time = start.elapsed();
         let t = Instant::now();
+        let split = self
+            .ratio
+            .is_some()
+            .then(|| direct_split(rs, &PinholeCamera::new(c, w, h), w, h, seed));
+        let mut split_time = t.elapsed();
+        let t = Instant::now();
         let changes = match (&self.reshade, &self.prev) {
             (Some(path), Some(prev)) => prev.shaded.as_ref().map(|before| {
                 let camera = PinholeCamera::new(c, w, h);
@@ -156,9 +172,12 @@ impl TemporalSequence {
             .zip(frame.albedo.data.chunks_exact(3))
             .map(|(e, a)| e.iter().any(|&v| v != 0.0) && a.iter().any(|&v| v != 0.0))
             .collect();
+        // Where the direct light is split, the history holds the indirect light only.
+        let noisy = split.as_ref().map(|d| split_noisy(frame, d));
+        let color = noisy.as_ref().unwrap_or(&frame.color);
         let t = Instant::now();
         // With several samples per frame a light's rim pixels hold a share of it: kept out too.
-        let filtered = with_emitted(&frame.color, &emitter, &frame.emitted, |c| {
+        let filtered = with_emitted(color, &emitter, &frame.emitted, |c| {
             self.filter.filter_reshaded(
                 &TemporalFrame {
                     color: c,
@@ -172,6 +191,26 @@ impl TemporalSequence {
                 changes.as_deref(),
             )
         })?;
+        let filter_time = t.elapsed();
+        let t = Instant::now();
+        let filtered = match (&split, &mut self.ratio) {
+            (Some(d), Some(ratio)) => {
+                let shadow = ratio.filter(&TemporalFrame {
+                    color: &ratio_image(d),
+                    albedo: None,
+                    normal: &frame.normal,
+                    depth: &frame.depth,
+                    position: Some(&frame.position),
+                    ids,
+                    motion: motion.as_ref(),
+                })?;
+                let mut image = filtered.image;
+                add_split_direct(&mut image, d, &shadow.image);
+                lumo_filter::Filtered { image, ..filtered }
+            }
+            _ => filtered,
+        };
+        split_time += t.elapsed();
         // The TAA history lives on the unjittered grid. A jittered pixel x shows the unjittered
         // image at x + j, so the surface at unjittered x was at jittered x − j + motion in the
         // previous frame, which is unjittered x + motion + j_prev − j.
@@ -196,10 +235,15 @@ impl TemporalSequence {
         let times = TemporalTimes {
             motion: motion_time,
             reshade: reshade_time,
-            filter: t.elapsed(),
+            split: split_time,
+            filter: filter_time,
         };
         if self.reshade.is_some() {
-            view.shaded = Some(ShadedFrame::new(frame, seed));
+            view.shaded = Some(ShadedFrame::new(
+                frame,
+                seed,
+                split.as_ref().map(|d| &d.split[..]),
+            ));
         }
         self.prev = Some(view);
         Ok((image, times))
@@ -227,6 +271,71 @@ fn sequence_params() -> (TemporalParams, Option<(f32, f32)>) {
     let mut taa = None;
     tune(&mut p, &mut taa);
     (p, taa)
+}
+
+/// The blend weight of the shadow ratio's history (see [`ratio_params`]).
+const RATIO_ALPHA: f32 = 0.2;
+
+/// The frame's colour with the direct light taken out where it is split: indirect light
+/// there, the full colour elsewhere.
+fn split_noisy(frame: &Frame, d: &DirectSplit) -> Image {
+    let mut out = frame.color.clone();
+    for (i, _) in d.split.iter().enumerate().filter(|(_, &s)| s) {
+        for k in i * 3..i * 3 + 3 {
+            out.data[k] = frame.indirect.data[k];
+        }
+    }
+    out
+}
+
+/// The ratio estimator's two halves as an image for the temporal filter: shadowed in red and
+/// green, unshadowed in blue, so that the filter's luminance-driven weights (0.93 of it red
+/// and green) follow the shadows while both halves get the same weights.
+fn ratio_image(d: &DirectSplit) -> Image {
+    let (w, h) = (d.ratio.width, d.ratio.height);
+    let mut out = Image::new(w, h, 3, 0.0);
+    for (o, r) in out
+        .data
+        .chunks_exact_mut(3)
+        .zip(d.ratio.data.chunks_exact(2))
+    {
+        o.copy_from_slice(&[r[0], r[0], r[1]]);
+    }
+    out
+}
+
+/// Adds the split direct light to the filtered image: the exact part, and the unshadowed
+/// part times the filtered shadowed-over-unshadowed ratio (in [0, 1]).
+fn add_split_direct(image: &mut Image, d: &DirectSplit, shadow: &Image) {
+    for (i, _) in d.split.iter().enumerate().filter(|(_, &s)| s) {
+        let r = &shadow.data[i * 3..i * 3 + 3];
+        let ratio = if r[2] > 1e-6 {
+            (r[0] / r[2]).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        for k in i * 3..i * 3 + 3 {
+            image.data[k] += d.exact.data[k] + d.unshadowed.data[k] * ratio;
+        }
+    }
+}
+
+/// The shadow ratio's filter: the sequence's parameters with α = 0.2 (SVGF's: shadows move with
+/// their objects and lights, and a ratio of 0 or 1 needs few frames), or the tuning hook's `ra`,
+/// and `rl` À-Trous levels if given. Tuned on the same sequences as the rest (α 0.05 / 0.2 /
+/// 0.4, 1–4 levels all within 0.001 FLIP; 0.2 was best on both, docs/results/temporal.md).
+fn ratio_params() -> TemporalParams {
+    let (mut p, _) = sequence_params();
+    p.alpha = RATIO_ALPHA;
+    p.alpha_moments = RATIO_ALPHA;
+    if let Some(a) = tuned("ra") {
+        p.alpha = a;
+        p.alpha_moments = a;
+    }
+    if let Some(l) = tuned("rl") {
+        p.atrous.iterations = l as usize;
+    }
+    p
 }
 
 /// The sub-pixel jitter of frame `i`: the Halton (2, 3) point i + 1, less 0.5, in pixels
@@ -275,7 +384,8 @@ pub fn tuned(key: &str) -> Option<f32> {
 /// history), cr (1: Catmull-Rom history reads), clamp (neighbourhood clamp, σ), sl / sn
 /// (short-history À-Trous levels and frames), mh (max history), vs (1: variance of
 /// the accumulated colour), taa / taag (TAA blend weight, 0 = off, and clip
-/// width), jit (1: camera jitter), jm (1: with jitter, motion on the unjittered grid).
+/// width), jit (1: camera jitter), jm (1: with jitter, motion on the unjittered grid), ds (0:
+/// no direct-light split), ra / rl (the shadow ratio filter's α and À-Trous levels).
 /// Values that do not parse are ignored; the filter still checks ranges.
 fn tune(p: &mut TemporalParams, taa: &mut Option<(f32, f32)>) {
     let Ok(spec) = std::env::var("LUMO_TEMPORAL_TUNE") else {
@@ -328,6 +438,59 @@ fn tune(p: &mut TemporalParams, taa: &mut Option<(f32, f32)>) {
 mod tests {
     use super::*;
     use glam::{Vec2, Vec3};
+
+    /// A still Cornell box, 24 one-sample frames: with the direct light split (the default)
+    /// the temporal output has the mean brightness of a converged render (the split's light
+    /// is added back once, not twice or not at all), and two runs with other random numbers
+    /// differ by far less than without the split, which keeps the area light's sampling noise
+    /// in its history. (Their difference is the noise alone: the pixel-centre aliasing that
+    /// both share against an area-sampled reference cancels.)
+    #[test]
+    fn the_direct_light_split_keeps_the_brightness_and_lowers_the_noise() {
+        use lumo_render::{render, RenderSettings};
+        let (w, h) = (32, 32);
+        let scene = lumo_scene::builtin_scene("cornell").expect("built-in scene");
+        let rs = RenderScene::new(scene).expect("scene");
+        let settings = |spp, seed| RenderSettings {
+            width: w,
+            height: h,
+            spp,
+            seed,
+            path: PathSettings::default(),
+        };
+        let (reference, _) = render(&rs, &settings(1024, 99), &|_| {});
+        let run = |split: bool, base: u32| {
+            let mut seq = TemporalSequence::new(false, Some(PathSettings::default())).unwrap();
+            if !split {
+                seq.ratio = None;
+            }
+            let mut out = None;
+            for f in 0..24u32 {
+                let seed = base.wrapping_add(f.wrapping_mul(0x9e37_79b9));
+                let (frame, _) = render(&rs, &settings(1, seed), &|_| {});
+                out = Some(seq.filter(&rs, &frame, [0.0; 2], seed).unwrap().0);
+            }
+            out.unwrap()
+        };
+        let mean = |img: &Image| img.data.iter().map(|&v| v as f64).sum::<f64>();
+        // Relative squared difference, so that the light's pixels do not dominate.
+        let diff = |a: &Image, b: &Image| {
+            let d: f64 = a
+                .data
+                .iter()
+                .zip(&b.data)
+                .zip(&reference.color.data)
+                .map(|((&a, &b), &r)| ((a - b) as f64).powi(2) / ((r as f64).powi(2) + 1e-2))
+                .sum();
+            d / a.data.len() as f64
+        };
+        let with = [run(true, 7), run(true, 1234)];
+        let without = [run(false, 7), run(false, 1234)];
+        let ratio = mean(&with[0]) / mean(&reference.color);
+        assert!((ratio - 1.0).abs() < 0.05, "mean brightness ratio {ratio}");
+        let (a, b) = (diff(&with[0], &with[1]), diff(&without[0], &without[1]));
+        assert!(a < 0.85 * b, "noise {a} with the split, {b} without");
+    }
 
     /// The jittered camera's pixel centre x looks where the nominal camera's x + j looks (at
     /// the image centre exactly; about a tenth of a pixel off near the corners at 40°), and the

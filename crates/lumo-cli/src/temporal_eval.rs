@@ -52,6 +52,7 @@ struct Row {
     spatial: Duration,
     motion: Duration,
     reshade: Duration,
+    split: Duration,
     temporal: Duration,
 }
 
@@ -139,6 +140,7 @@ pub fn run(
             filtered.with_context(|| format!("frame {frame}: temporal filter"))?;
         row.motion = times.motion;
         row.reshade = times.reshade;
+        row.split = times.split;
         row.temporal = times.filter;
         if reference_spp > 0 {
             let reference = RenderSettings {
@@ -204,7 +206,7 @@ pub fn run(
             prev = Some(Previous { maps, shown });
         }
         eprintln!(
-            "frame {frame}: FLIP 1 spp {:.4} · À-Trous {:.4} · temporal {:.4} · trace {:.1} ms · update {:.2} ms · spatial {:.1} ms · temporal {:.1} ms (+{:.1} ms motion, +{:.1} ms re-shading)",
+            "frame {frame}: FLIP 1 spp {:.4} · À-Trous {:.4} · temporal {:.4} · trace {:.1} ms · update {:.2} ms · spatial {:.1} ms · temporal {:.1} ms (+{:.1} ms motion, +{:.1} ms re-shading, +{:.1} ms direct split)",
             row.flip_raw,
             row.flip_atrous,
             row.flip_temporal,
@@ -213,7 +215,8 @@ pub fn run(
             ms(row.spatial),
             ms(row.temporal),
             ms(row.motion),
-            ms(row.reshade)
+            ms(row.reshade),
+            ms(row.split)
         );
         rows.push(row);
     }
@@ -373,12 +376,12 @@ fn strip_frames(count: usize) -> Vec<usize> {
 
 fn csv(rows: &[Row]) -> String {
     let mut s = String::from(
-        "frame,flip_1spp,flip_atrous,flip_temporal,flicker_atrous,flicker_temporal,change_atrous,change_temporal,change_reference,update_ms,trace_ms,spatial_ms,motion_ms,reshade_ms,temporal_ms\n",
+        "frame,flip_1spp,flip_atrous,flip_temporal,flicker_atrous,flicker_temporal,change_atrous,change_temporal,change_reference,update_ms,trace_ms,spatial_ms,motion_ms,reshade_ms,split_ms,temporal_ms\n",
     );
     for r in rows {
         let _ = writeln!(
             s,
-            "{},{:.5},{:.5},{:.5},{:.5},{:.5},{:.5},{:.5},{:.5},{:.3},{:.2},{:.2},{:.2},{:.2},{:.2}",
+            "{},{:.5},{:.5},{:.5},{:.5},{:.5},{:.5},{:.5},{:.5},{:.3},{:.2},{:.2},{:.2},{:.2},{:.2},{:.2}",
             r.frame,
             r.flip_raw,
             r.flip_atrous,
@@ -393,6 +396,7 @@ fn csv(rows: &[Row]) -> String {
             ms(r.spatial),
             ms(r.motion),
             ms(r.reshade),
+            ms(r.split),
             ms(r.temporal)
         );
     }
@@ -459,16 +463,17 @@ fn summary(rows: &[Row], settings: &RenderSettings, reference_spp: u32) -> Strin
         }
     }
     let t = |f: &dyn Fn(&Row) -> Duration| avg(&|r| ms(f(r)), &all);
-    let (trace, update, spatial, motion, reshade, temporal) = (
+    let (trace, update, spatial, motion, reshade, split, temporal) = (
         t(&|r| r.trace),
         t(&|r| r.update),
         t(&|r| r.spatial),
         t(&|r| r.motion),
         t(&|r| r.reshade),
+        t(&|r| r.split),
         t(&|r| r.temporal),
     );
     let frame_atrous = trace + update + spatial;
-    let frame_temporal = trace + update + motion + reshade + temporal;
+    let frame_temporal = trace + update + motion + reshade + split + temporal;
     let _ = writeln!(s, "\n| stage (mean per frame) | ms |\n|---|---:|");
     for (name, v) in [
         ("trace (1 spp, G-buffer)", trace),
@@ -478,6 +483,10 @@ fn summary(rows: &[Row], settings: &RenderSettings, reference_spp: u32) -> Strin
         (
             "re-shading (1 path per 3×3 block, history rejection)",
             reshade,
+        ),
+        (
+            "direct-light split (its rays and the shadow ratio's filter)",
+            split,
         ),
         ("temporal filter (SVGF)", temporal),
     ] {

@@ -1,14 +1,16 @@
 //! The first hit's direct light split for temporal filtering, after the ratio estimator of
 //! Heitz, Hill and McGuire (2018, "Combining analytic direct illumination and stochastic
-//! shadows"): at a Lambertian first hit, the light of point, spot and directional lights is
-//! exact (one shadow ray each), the unshadowed light of constant-radiance emissive triangles has
-//! a closed form (`polygon_cosine_integral`), and only the *shadowing* of the latter stays
-//! stochastic — one light sample whose shadowed and unshadowed values a filter averages over
-//! space and time and divides. Where the light moves but the shadows do not, that ratio keeps
-//! its history; the direct light itself would not.
+//! shadows"): at a first hit whose BSDF has only smooth lobes, the light of point, spot and
+//! directional lights is exact (one shadow ray each); the *unshadowed* light of the other
+//! lights is computed without shadow rays — in closed form on Lambertian surfaces lit by
+//! constant-radiance triangles (`polygon_cosine_integral`), else as the mean of
+//! [`UNSHADOWED_SAMPLES`] light samples — and only the *shadowing* stays stochastic: one light
+//! sample whose shadowed and unshadowed values a filter averages over space and time and
+//! divides. Where a light moves but the shadows stay, that ratio keeps its history; the direct
+//! light itself would not.
 //!
-//! Everything else (other lights, non-Lambertian or emitting first hits, indirect light) is
-//! left to the caller's noisy image.
+//! Everything else (non-smooth or emitting first hits, indirect light) is left to the caller's
+//! noisy image.
 
 use glam::{Vec2, Vec3};
 use lumo_image::{luminance, Image};
@@ -21,30 +23,31 @@ use crate::render_scene::{RenderScene, Surface};
 use crate::sampler::PixelSampler;
 
 /// Emissive triangles above which the closed form is not used (it costs one polygon integral
-/// per triangle and pixel): their light then stays in `rest`.
+/// per triangle and pixel).
 pub const MAX_ANALYTIC_TRIANGLES: usize = 64;
 
-/// Decorrelates the split's light sample from the path tracer's (same pixel, same seed).
+/// Unshadowed light samples per pixel where there is no closed form (no rays: a BSDF and a
+/// light evaluation each).
+pub const UNSHADOWED_SAMPLES: usize = 8;
+
+/// Decorrelates the split's light samples from the path tracer's (same pixel, same seed).
 const SEED_SALT: u32 = 0x5bd1_e995;
 
 /// The first hit's direct light, split (see the module documentation). Radiance planes are RGB
 /// towards the camera; all are zero where `split` is false.
 #[derive(Clone, Debug)]
 pub struct DirectSplit {
-    /// The pixel-centre ray's first hit is a plain Lambertian surface that emits nothing
-    /// towards the camera: only there is the direct light split.
+    /// The pixel-centre ray's first hit has only smooth lobes (Lambertian, or plastic under a
+    /// rough coat) and emits nothing towards the camera: only there is the direct light split.
     pub split: Vec<bool>,
     /// Light of the point, spot and directional lights, shadowed, exact.
     pub exact: Image,
-    /// Unshadowed light of the constant-radiance emissive triangles, exact.
-    pub analytic: Image,
-    /// One light sample of those triangles, shadowed (channel 0) and unshadowed (channel 1),
-    /// each divided by `analytic`'s luminance: the ratio estimator's two halves, which a
-    /// filter averages alike; channel 1's expectation is 1 wherever `analytic` is not 0.
+    /// Unshadowed light of the other lights: exact, or a mean of [`UNSHADOWED_SAMPLES`].
+    pub unshadowed: Image,
+    /// One light sample of those lights, shadowed (channel 0) and unshadowed (channel 1), each
+    /// divided by `unshadowed`'s luminance: the ratio estimator's two halves, which a filter
+    /// averages alike; channel 1's expectation is about 1 wherever `unshadowed` is not 0.
     pub ratio: Image,
-    /// One light sample of the other non-Dirac lights (environment, emissive shapes,
-    /// textured triangles; all triangles past [`MAX_ANALYTIC_TRIANGLES`]), shadowed.
-    pub rest: Image,
 }
 
 /// One pixel's share of a [`DirectSplit`].
@@ -52,13 +55,12 @@ pub struct DirectSplit {
 struct PixelSplit {
     split: bool,
     exact: Vec3,
-    analytic: Vec3,
+    unshadowed: Vec3,
     ratio: [f32; 2],
-    rest: Vec3,
 }
 
 /// Splits the direct light at the first hit of every pixel-centre ray of `camera` (`w`×`h`),
-/// with the light sample drawn from `seed` (a frame's own seed gives a new sample each frame).
+/// with the light samples drawn from `seed` (a frame's own seed gives new samples each frame).
 pub fn direct_split(
     rs: &RenderScene,
     camera: &PinholeCamera,
@@ -71,35 +73,36 @@ pub fn direct_split(
         .constant_triangles()
         .map(|(_, c, l)| (c, l))
         .collect();
-    let analytic = triangles.len() <= MAX_ANALYTIC_TRIANGLES;
+    // The closed form covers every non-Dirac light, or none is used.
+    let closed_form =
+        rs.lights.only_constant_triangles() && triangles.len() <= MAX_ANALYTIC_TRIANGLES;
+    let closed = closed_form.then_some(&triangles[..]);
     let origin = camera.origin();
     let pixels = map_pixels(w, h, &|_| {}, |x, y| {
         let dir = camera.direction(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
         let mut sampler = PixelSampler::new(x as u32, y as u32, 0, seed ^ SEED_SALT);
-        split_pixel(rs, origin, dir, &triangles, analytic, &mut sampler)
+        split_pixel(rs, origin, dir, closed, &mut sampler)
     });
     let mut out = DirectSplit {
         split: pixels.iter().map(|p| p.split).collect(),
         exact: Image::new(w, h, 3, 0.0),
-        analytic: Image::new(w, h, 3, 0.0),
+        unshadowed: Image::new(w, h, 3, 0.0),
         ratio: Image::new(w, h, 2, 0.0),
-        rest: Image::new(w, h, 3, 0.0),
     };
     for (i, p) in pixels.iter().enumerate() {
         out.exact.data[i * 3..i * 3 + 3].copy_from_slice(&p.exact.to_array());
-        out.analytic.data[i * 3..i * 3 + 3].copy_from_slice(&p.analytic.to_array());
-        out.rest.data[i * 3..i * 3 + 3].copy_from_slice(&p.rest.to_array());
+        out.unshadowed.data[i * 3..i * 3 + 3].copy_from_slice(&p.unshadowed.to_array());
         out.ratio.data[i * 2..i * 2 + 2].copy_from_slice(&p.ratio);
     }
     out
 }
 
+/// One pixel's split; `closed` holds the emissive triangles when their closed form is used.
 fn split_pixel(
     rs: &RenderScene,
     origin: Vec3,
     dir: Vec3,
-    triangles: &[([Vec3; 3], Vec3)],
-    analytic: bool,
+    closed: Option<&[([Vec3; 3], Vec3)]>,
     sampler: &mut PixelSampler,
 ) -> PixelSplit {
     let none = PixelSplit::default();
@@ -107,50 +110,50 @@ fn split_pixel(
         return none;
     };
     let s = rs.surface(&hit, origin, dir);
-    let Some(albedo) = rs.bsdf(&s).lambert() else {
-        return none;
-    };
-    if rs.emission(&s, dir) != Vec3::ZERO || s.frame.to_local(-dir).z <= 0.0 {
+    let bsdf = rs.bsdf(&s);
+    let wo = s.frame.to_local(-dir);
+    if !bsdf.all_lobes_smooth() || rs.emission(&s, dir) != Vec3::ZERO || wo.z <= 0.0 {
         return none;
     }
-    let n = s.frame.n;
-    let brdf = albedo / std::f32::consts::PI;
-    // Irradiance of a light sample if its shadow ray is clear (the path tracer's test).
-    let lit = |ls: &LightSample| -> Option<(Vec3, bool)> {
-        let cos = n.dot(ls.wi);
-        if cos <= 0.0 {
-            return None;
-        }
-        Some((ls.weight * cos, !occluded(rs, &s, ls)))
-    };
+    // Reflected radiance of a light sample, as the path tracer weighs it without MIS.
+    let value = |ls: &LightSample| bsdf.eval(wo, s.frame.to_local(ls.wi)) * ls.weight;
     let mut out = PixelSplit {
         split: true,
         ..none
     };
     for ls in rs.lights.delta_samples(s.p) {
-        if let Some((e, true)) = lit(&ls) {
-            out.exact += brdf * e;
+        let v = value(&ls);
+        if v != Vec3::ZERO && !occluded(rs, &s, &ls) {
+            out.exact += v;
         }
     }
-    if analytic {
-        let e: Vec3 = triangles
-            .iter()
-            .map(|(c, l)| *l * polygon_cosine_integral(s.p, n, c))
-            .sum();
-        out.analytic = brdf * e;
-    }
-    let (u_choice, u) = (sampler.next_1d(), sampler.next_2d());
-    if let Some(ls) = rs.lights.sample_non_delta(s.p, u_choice, u) {
-        if let Some((e, clear)) = lit(&ls) {
-            if analytic && rs.lights.is_constant_triangle(ls.light) {
-                let a = luminance(out.analytic.to_array());
-                if a > 0.0 {
-                    let unshadowed = luminance((brdf * e).to_array()) / a;
-                    out.ratio = [if clear { unshadowed } else { 0.0 }, unshadowed];
+    out.unshadowed = match (closed, bsdf.lambert()) {
+        (Some(triangles), Some(albedo)) => {
+            let n = s.frame.n;
+            let e: Vec3 = triangles
+                .iter()
+                .map(|(c, l)| *l * polygon_cosine_integral(s.p, n, c))
+                .sum();
+            albedo / std::f32::consts::PI * e
+        }
+        _ => {
+            let mut sum = Vec3::ZERO;
+            for _ in 0..UNSHADOWED_SAMPLES {
+                let (uc, u) = (sampler.next_1d(), sampler.next_2d());
+                if let Some(ls) = rs.lights.sample_non_delta(s.p, uc, u) {
+                    sum += value(&ls);
                 }
-            } else if clear {
-                out.rest = brdf * e;
             }
+            sum / UNSHADOWED_SAMPLES as f32
+        }
+    };
+    let a = luminance(out.unshadowed.to_array());
+    let (uc, u) = (sampler.next_1d(), sampler.next_2d());
+    if let Some(ls) = rs.lights.sample_non_delta(s.p, uc, u) {
+        let v = luminance(value(&ls).to_array());
+        if a > 0.0 && v > 0.0 {
+            let clear = !occluded(rs, &s, &ls);
+            out.ratio = [if clear { v / a } else { 0.0 }, v / a];
         }
     }
     out
@@ -173,10 +176,10 @@ fn occluded(rs: &RenderScene, s: &Surface, ls: &LightSample) -> bool {
 mod tests {
     use super::*;
     use crate::{trace_path, PathSettings};
-    use lumo_scene::{builtin_scene, Light};
+    use lumo_scene::{builtin_scene, BsdfSpec, Light, Roughness, Scene};
 
     /// The Cornell box with a point light added beside its area light.
-    fn cornell_with_point() -> RenderScene {
+    fn cornell_with_point() -> Scene {
         let mut scene = builtin_scene("cornell").expect("built-in scene");
         let (lo, hi) = scene.bounds();
         let c = (lo + hi) * 0.5;
@@ -184,82 +187,108 @@ mod tests {
             position: Vec3::new(c.x + 0.2 * (hi.x - lo.x), c.y, c.z),
             intensity: Vec3::splat(2.0),
         });
-        RenderScene::new(scene).expect("scene")
+        scene
     }
 
-    /// Averaged over many light samples, the split (exact + analytic × the mean shadowed half
-    /// + the rest) carries the direct light the path tracer estimates (MIS-weighted light and
-    /// BSDF samples) at the same pixels; the unshadowed half averages to 1, which ties the
-    /// closed form to the light sampler; and a sample that reaches the light has equal halves.
-    #[test]
-    fn the_split_averages_to_the_path_tracers_direct_light() {
-        let rs = cornell_with_point();
-        let (w, h) = (20, 20);
+    /// Mean over `n` seeds of the split's estimate (exact + unshadowed × shadowed half) and
+    /// of its unshadowed half, per pixel; and the path tracer's direct light through the same
+    /// pixel centres (MIS-weighted light and BSDF samples), `n` paths each.
+    fn split_and_path(
+        rs: &RenderScene,
+        w: usize,
+        h: usize,
+        n: u32,
+    ) -> (Vec<f64>, Vec<f64>, Vec<f64>, Vec<bool>) {
         let camera = PinholeCamera::new(&rs.scene.camera, w, h);
-        let n = 256;
-        let mut s_sum = vec![0.0f64; w * h];
-        let mut u_sum = vec![0.0f64; w * h];
-        let mut rest = vec![Vec3::ZERO; w * h];
-        let first = direct_split(&rs, &camera, w, h, 0);
+        let first = direct_split(rs, &camera, w, h, 0);
+        let (mut est, mut half) = (vec![0.0f64; w * h], vec![0.0f64; w * h]);
         for seed in 0..n {
-            let d = direct_split(&rs, &camera, w, h, seed);
+            let d = direct_split(rs, &camera, w, h, seed);
             assert_eq!(d.split, first.split, "the mask does not depend on the seed");
-            assert_eq!(d.exact.data, first.exact.data, "exact is exact");
+            assert_eq!(d.exact.data, first.exact.data, "Dirac lights are exact");
             for i in 0..w * h {
                 let (s, u) = (d.ratio.data[i * 2], d.ratio.data[i * 2 + 1]);
                 assert!(
                     s == u || s == 0.0,
-                    "shadowed half is the unshadowed one or 0"
+                    "the shadowed half is the unshadowed one or 0"
                 );
-                s_sum[i] += s as f64;
-                u_sum[i] += u as f64;
-                rest[i] += Vec3::from_slice(&d.rest.data[i * 3..i * 3 + 3]);
+                let px = |img: &Image| Vec3::from_slice(&img.data[i * 3..i * 3 + 3]);
+                let v = px(&d.exact) + px(&d.unshadowed) * s;
+                est[i] += luminance(v.to_array()) as f64 / n as f64;
+                half[i] += u as f64 / n as f64;
             }
         }
-        // The path tracer's direct light through the same pixel centres.
         let settings = PathSettings::default();
         let origin = camera.origin();
-        let path_direct: Vec<Vec3> = (0..w * h)
+        let path = (0..w * h)
             .map(|i| {
                 let (x, y) = (i % w, i / w);
                 let dir = camera.direction(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
                 (0..n)
                     .map(|k| {
                         let mut sampler = PixelSampler::new(x as u32, y as u32, k, 3);
-                        trace_path(&rs, origin, dir, &mut sampler, &settings, None).direct
+                        let d = trace_path(rs, origin, dir, &mut sampler, &settings, None).direct;
+                        luminance(d.to_array()) as f64
                     })
-                    .sum::<Vec3>()
-                    / n as f32
+                    .sum::<f64>()
+                    / n as f64
             })
             .collect();
-        let (mut ours, mut path, mut u_all, mut count) = (0.0f64, 0.0f64, 0.0f64, 0usize);
-        for i in 0..w * h {
-            if !first.split[i] {
-                continue;
-            }
-            let a = Vec3::from_slice(&first.analytic.data[i * 3..i * 3 + 3]);
-            let e = Vec3::from_slice(&first.exact.data[i * 3..i * 3 + 3]);
-            let v = e + a * (s_sum[i] / n as f64) as f32 + rest[i] / n as f32;
-            ours += luminance(v.to_array()) as f64;
-            path += luminance(path_direct[i].to_array()) as f64;
-            if luminance(a.to_array()) > 0.0 {
-                u_all += u_sum[i] / n as f64;
-                count += 1;
-            }
-        }
-        assert!(count > w * h / 2, "{count} pixels see the light");
-        let u_mean = u_all / count as f64;
+        (est, half, path, first.split)
+    }
+
+    /// Averaged over many light samples, the split carries the direct light the path tracer
+    /// estimates at the same pixels; where the closed form is used the unshadowed half
+    /// averages to 1, which ties the closed form to the light sampler.
+    #[test]
+    fn the_closed_form_split_averages_to_the_path_tracers_direct_light() {
+        let rs = RenderScene::new(cornell_with_point()).expect("scene");
+        let (w, h) = (20, 20);
+        let (est, half, path, split) = split_and_path(&rs, w, h, 256);
+        let on: Vec<usize> = (0..w * h).filter(|&i| split[i]).collect();
+        assert!(on.len() > w * h / 2, "{} pixels split", on.len());
+        let lit: Vec<f64> = on.iter().map(|&i| half[i]).filter(|&u| u > 0.0).collect();
+        let u_mean = lit.iter().sum::<f64>() / lit.len() as f64;
         assert!(
             (u_mean - 1.0).abs() < 0.01,
             "unshadowed half averages {u_mean}"
         );
+        let (ours, theirs) = on
+            .iter()
+            .fold((0.0, 0.0), |(a, b), &i| (a + est[i], b + path[i]));
         assert!(
-            (ours / path - 1.0).abs() < 0.01,
-            "split {ours} against the path tracer's {path}"
+            (ours / theirs - 1.0).abs() < 0.01,
+            "split {ours}, path tracer {theirs}"
         );
+    }
+
+    /// The same with every material a plastic under a rough coat: no closed form, so the
+    /// unshadowed light is a mean of light samples through the BSDF.
+    #[test]
+    fn the_sampled_split_averages_to_the_path_tracers_direct_light_on_rough_plastic() {
+        let mut scene = cornell_with_point();
+        for m in &mut scene.materials {
+            if let BsdfSpec::Diffuse { reflectance } = &m.bsdf {
+                m.bsdf = BsdfSpec::Plastic {
+                    diffuse: reflectance.clone(),
+                    ior: 1.5,
+                    roughness: Roughness::ggx(0.3),
+                    nonlinear: false,
+                    exact_rough_coat: false,
+                };
+            }
+        }
+        let rs = RenderScene::new(scene).expect("scene");
+        let (w, h) = (20, 20);
+        let (est, _, path, split) = split_and_path(&rs, w, h, 256);
+        let on: Vec<usize> = (0..w * h).filter(|&i| split[i]).collect();
+        assert!(on.len() > w * h / 2, "{} pixels split", on.len());
+        let (ours, theirs) = on
+            .iter()
+            .fold((0.0, 0.0), |(a, b), &i| (a + est[i], b + path[i]));
         assert!(
-            first.exact.data.iter().any(|&v| v > 0.0),
-            "the point light lights"
+            (ours / theirs - 1.0).abs() < 0.01,
+            "split {ours}, path tracer {theirs}"
         );
     }
 }

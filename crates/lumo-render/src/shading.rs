@@ -110,6 +110,18 @@ impl ShadingBsdf {
         }
     }
 
+    /// Whether every lobe is smooth (no Dirac lobe, no adapter): a Lambertian surface or a
+    /// plastic under a rough coat, whose direct light is all reached by light sampling. The
+    /// direct-light split of temporal filtering (`crate::direct_split`) takes only these.
+    pub fn all_lobes_smooth(&self) -> bool {
+        self.plain
+            && match &self.bsdf {
+                Bsdf::Diffuse(_) => true,
+                Bsdf::Plastic(p) => p.mf.max_alpha() >= crate::bsdf::SMOOTH_ALPHA,
+                _ => false,
+            }
+    }
+
     /// The G-buffer "albedo" of the nested BSDF.
     pub fn albedo(&self) -> Vec3 {
         self.bsdf.albedo()

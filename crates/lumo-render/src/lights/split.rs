@@ -33,11 +33,14 @@ impl Lights {
         })
     }
 
-    /// Whether light `light` is a constant-radiance triangle (one of
-    /// [`Lights::constant_triangles`]).
-    pub(crate) fn is_constant_triangle(&self, light: u32) -> bool {
-        matches!(self.lights.get(light as usize),
-            Some(LightKind::Triangle(t)) if t.texture == NO_TEXTURE && t.area > 0.0)
+    /// Whether every light that is not a Dirac delta is a constant-radiance triangle (one of
+    /// [`Lights::constant_triangles`]), so their unshadowed light has a closed form.
+    pub(crate) fn only_constant_triangles(&self) -> bool {
+        self.lights.iter().all(|l| match l {
+            LightKind::Triangle(t) => t.texture == NO_TEXTURE,
+            LightKind::Shape { .. } | LightKind::Environment => false,
+            _ => true,
+        })
     }
 
     /// A point on a light that is not a Dirac delta (an emissive triangle or shape, or the
