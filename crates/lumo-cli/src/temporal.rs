@@ -106,6 +106,14 @@ impl TemporalSequence {
     /// Filters `frame`, traced from `rs` as it is posed now with a camera jittered by `jitter`
     /// pixels (see [`Self::camera`]) and random-number seed `seed`, one sample per pixel;
     /// returns the filtered image, which the TAA stage puts back on the unjittered pixel grid.
+    ///
+    /// With the direct-light split (the default; `lumo_render::direct_split`), pixels whose
+    /// first hit has only smooth lobes keep only their indirect light in the history: a moving
+    /// light changes the direct light far more than the indirect, and the history rejection
+    /// would throw the indirect light's history away with it. Their direct light is added back
+    /// after filtering from this frame alone — Dirac lights exactly, the other lights as their
+    /// unshadowed light times a shadow ratio that a second temporal filter accumulates, which
+    /// changes only where shadows move.
     pub fn filter(
         &mut self,
         rs: &RenderScene,
@@ -263,15 +271,29 @@ impl TemporalSequence {
 /// spheres 0.65, animated 0.97 → 0.96). A third round re-shades one sample per 3×3 block of the
 /// previous frame with its own random numbers (A-SVGF's temporal gradients, `crate::reshade`)
 /// and rejects history by that change (gain 3, radius 4) while scaling what is kept by it
-/// (animated 0.96 → 0.78, Cornell 0.59 → 0.57, spheres 0.65 → 0.66). Camera jitter, TAA,
+/// (animated 0.96 → 0.78, Cornell 0.59 → 0.57, spheres 0.65 → 0.66). A fifth round splits
+/// the first hit's direct light off the history ([`TemporalSequence::filter`]; animated 0.78 →
+/// 0.48, Cornell 0.57 → 0.54, spheres 0.66 → 0.62, a 40-frame atrium orbit 0.53 → 0.51) and
+/// then filters with 3 À-Trous levels (0.49, 0.51, 0.63, 0.45). Camera jitter, TAA,
 /// Catmull-Rom history reads, the neighbourhood clamp and the short-history levels are off:
 /// measured, they did not lower FLIP (docs/results/temporal.md).
 fn sequence_params() -> (TemporalParams, Option<(f32, f32)>) {
     let mut p = TemporalParams::sequence();
+    if tuned("ds") != Some(0.0) {
+        // With the direct light split off, the history holds smoother (indirect) light that
+        // a wider filter serves: 3 levels instead of 2 (round 5, tuning sequences only).
+        p.atrous.iterations = SPLIT_LEVELS;
+    }
     let mut taa = None;
     tune(&mut p, &mut taa);
     (p, taa)
 }
+
+/// À-Trous levels of the sequence's filters when the direct light is split.
+const SPLIT_LEVELS: usize = 3;
+
+/// À-Trous levels of the shadow ratio's filter (see [`ratio_params`]).
+const RATIO_LEVELS: usize = 1;
 
 /// The blend weight of the shadow ratio's history (see [`ratio_params`]).
 const RATIO_ALPHA: f32 = 0.2;
@@ -321,9 +343,10 @@ fn add_split_direct(image: &mut Image, d: &DirectSplit, shadow: &Image) {
 }
 
 /// The shadow ratio's filter: the sequence's parameters with α = 0.2 (SVGF's: shadows move with
-/// their objects and lights, and a ratio of 0 or 1 needs few frames), or the tuning hook's `ra`,
-/// and `rl` À-Trous levels if given. Tuned on the same sequences as the rest (α 0.05 / 0.2 /
-/// 0.4, 1–4 levels all within 0.001 FLIP; 0.2 was best on both, docs/results/temporal.md).
+/// their objects and lights, and a ratio of 0 or 1 needs few frames) and one À-Trous level, or
+/// the tuning hook's `ra` and `rl`. Tuned on the same sequences as the rest: α 0.05 / 0.2 / 0.4
+/// and 1–4 levels all within 0.001 FLIP, α 0.2 the best on both Cornell and the animated
+/// scene, one level as good as three and the cheapest (docs/results/temporal.md).
 fn ratio_params() -> TemporalParams {
     let (mut p, _) = sequence_params();
     p.alpha = RATIO_ALPHA;
@@ -332,9 +355,7 @@ fn ratio_params() -> TemporalParams {
         p.alpha = a;
         p.alpha_moments = a;
     }
-    if let Some(l) = tuned("rl") {
-        p.atrous.iterations = l as usize;
-    }
+    p.atrous.iterations = tuned("rl").map_or(RATIO_LEVELS, |l| l as usize);
     p
 }
 

@@ -3,7 +3,7 @@
 //! shadows"): at a first hit whose BSDF has only smooth lobes, the light of point, spot and
 //! directional lights is exact (one shadow ray each); the *unshadowed* light of the other
 //! lights is computed without shadow rays — in closed form on Lambertian surfaces lit by
-//! constant-radiance triangles (`polygon_cosine_integral`), else as the mean of
+//! constant-radiance triangles (`triangle_cosine_integral`), else as the mean of
 //! [`UNSHADOWED_SAMPLES`] light samples — and only the *shadowing* stays stochastic: one light
 //! sample whose shadowed and unshadowed values a filter averages over space and time and
 //! divides. Where a light moves but the shadows stay, that ratio keeps its history; the direct
@@ -15,23 +15,28 @@
 use glam::{Vec2, Vec3};
 use lumo_image::{luminance, Image};
 
+use crate::accel::packet::{RayPacket, LANES};
 use crate::camera::PinholeCamera;
 use crate::geometry::shadow_segment;
-use crate::lights::{polygon_cosine_integral, LightSample};
-use crate::render::map_pixels;
+use crate::lights::{triangle_cosine_integral, LightSample};
+use crate::render::map_rows;
 use crate::render_scene::{RenderScene, Surface};
-use crate::sampler::PixelSampler;
+use crate::sampler::{PixelSampler, RUN};
 
 /// Emissive triangles above which the closed form is not used (it costs one polygon integral
 /// per triangle and pixel).
 pub const MAX_ANALYTIC_TRIANGLES: usize = 64;
 
 /// Unshadowed light samples per pixel where there is no closed form (no rays: a BSDF and a
-/// light evaluation each).
-pub const UNSHADOWED_SAMPLES: usize = 8;
+/// light evaluation each), stratified as the first points of the pixel's Sobol sequence. On
+/// the animated tuning sequence 4 stratified samples beat 8 independent ones (FLIP 0.0460
+/// against 0.0471; 8 stratified: 0.0454 at twice the cost).
+pub const UNSHADOWED_SAMPLES: usize = 4;
 
-/// Decorrelates the split's light samples from the path tracer's (same pixel, same seed).
+/// Decorrelate the split's light samples from the path tracer's (same pixel, same seed) and
+/// from each other.
 const SEED_SALT: u32 = 0x5bd1_e995;
+const UNSHADOWED_SALT: u32 = 0x27d4_eb2f;
 
 /// The first hit's direct light, split (see the module documentation). Radiance planes are RGB
 /// towards the camera; all are zero where `split` is false.
@@ -61,6 +66,8 @@ struct PixelSplit {
 
 /// Splits the direct light at the first hit of every pixel-centre ray of `camera` (`w`×`h`),
 /// with the light samples drawn from `seed` (a frame's own seed gives new samples each frame).
+/// Rows in parallel; within a row, camera rays and shadow rays go through the BVH sixteen at
+/// a time (the packet traversal gives the bits of one ray at a time).
 pub fn direct_split(
     rs: &RenderScene,
     camera: &PinholeCamera,
@@ -77,12 +84,7 @@ pub fn direct_split(
     let closed_form =
         rs.lights.only_constant_triangles() && triangles.len() <= MAX_ANALYTIC_TRIANGLES;
     let closed = closed_form.then_some(&triangles[..]);
-    let origin = camera.origin();
-    let pixels = map_pixels(w, h, &|_| {}, |x, y| {
-        let dir = camera.direction(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
-        let mut sampler = PixelSampler::new(x as u32, y as u32, 0, seed ^ SEED_SALT);
-        split_pixel(rs, origin, dir, closed, &mut sampler)
-    });
+    let pixels = map_rows(h, &|_| {}, |y| split_row(rs, camera, w, y, seed, closed));
     let mut out = DirectSplit {
         split: pixels.iter().map(|p| p.split).collect(),
         exact: Image::new(w, h, 3, 0.0),
@@ -97,19 +99,82 @@ pub fn direct_split(
     out
 }
 
-/// One pixel's split; `closed` holds the emissive triangles when their closed form is used.
-fn split_pixel(
+/// What a shadow ray decides once traced.
+#[derive(Clone, Copy, Debug)]
+enum Pending {
+    /// Add this radiance to the pixel's `exact` if clear.
+    Exact(Vec3),
+    /// The ratio sample's unshadowed half: the shadowed one is it if clear, else 0.
+    Ratio(f32),
+}
+
+/// Row `y` of the split; `closed` holds the emissive triangles when their closed form is used.
+fn split_row(
+    rs: &RenderScene,
+    camera: &PinholeCamera,
+    w: usize,
+    y: usize,
+    seed: u32,
+    closed: Option<&[([Vec3; 3], Vec3)]>,
+) -> Vec<PixelSplit> {
+    let origin = camera.origin();
+    let mut out = vec![PixelSplit::default(); w];
+    let mut shadows: Vec<(usize, Pending, Vec3, Vec3, f32)> = Vec::new();
+    for x0 in (0..w).step_by(LANES) {
+        let n = LANES.min(w - x0);
+        let mut rays = RayPacket::default();
+        for lane in 0..n {
+            let x = x0 + lane;
+            let dir = camera.direction(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
+            rays.set(lane, origin, dir, 0.0, f32::INFINITY);
+        }
+        let mut hits = [None; LANES];
+        rs.accel.intersect_packet(&rays, &mut hits);
+        for (lane, hit) in hits.iter().enumerate().take(n) {
+            let x = x0 + lane;
+            let Some(hit) = hit else { continue };
+            let dir = Vec3::new(rays.d[0][lane], rays.d[1][lane], rays.d[2][lane]);
+            let at = ((x as u32, y as u32), seed);
+            out[x] = shade(rs, origin, dir, hit, closed, at, &mut |p, o, d, t| {
+                shadows.push((x, p, o, d, t))
+            });
+        }
+        // Shadow rays in packets once a packet's worth is waiting (and at the row's end).
+        if shadows.len() >= LANES || x0 + n == w {
+            for batch in shadows.chunks(LANES) {
+                let mut rays = RayPacket::default();
+                for (lane, &(_, _, o, d, t)) in batch.iter().enumerate() {
+                    rays.set(lane, o, d, 0.0, t);
+                }
+                let blocked = rs.accel.occluded_packet(&rays);
+                for (lane, &(x, pending, ..)) in batch.iter().enumerate() {
+                    let clear = blocked & (1 << lane) == 0;
+                    match pending {
+                        Pending::Exact(v) if clear => out[x].exact += v,
+                        Pending::Exact(_) => {}
+                        Pending::Ratio(u) => out[x].ratio = [if clear { u } else { 0.0 }, u],
+                    }
+                }
+            }
+            shadows.clear();
+        }
+    }
+    out
+}
+
+/// One pixel's split at `hit` of the camera ray `origin + t·dir`, without its shadow rays:
+/// those go to `shadow` (what they decide, origin, direction, length).
+fn shade(
     rs: &RenderScene,
     origin: Vec3,
     dir: Vec3,
+    hit: &crate::accel::Hit,
     closed: Option<&[([Vec3; 3], Vec3)]>,
-    sampler: &mut PixelSampler,
+    (pixel, seed): ((u32, u32), u32),
+    shadow: &mut dyn FnMut(Pending, Vec3, Vec3, f32),
 ) -> PixelSplit {
     let none = PixelSplit::default();
-    let Some(hit) = rs.accel.intersect(origin, dir, 0.0, f32::INFINITY) else {
-        return none;
-    };
-    let s = rs.surface(&hit, origin, dir);
+    let s = rs.surface(hit, origin, dir);
     let bsdf = rs.bsdf(&s);
     let wo = s.frame.to_local(-dir);
     if !bsdf.all_lobes_smooth() || rs.emission(&s, dir) != Vec3::ZERO || wo.z <= 0.0 {
@@ -117,59 +182,71 @@ fn split_pixel(
     }
     // Reflected radiance of a light sample, as the path tracer weighs it without MIS.
     let value = |ls: &LightSample| bsdf.eval(wo, s.frame.to_local(ls.wi)) * ls.weight;
-    let mut out = PixelSplit {
-        split: true,
-        ..none
+    let mut ray = |pending: Pending, ls: &LightSample| {
+        let (o, d, t) = shadow_ray(rs, &s, ls);
+        shadow(pending, o, d, t);
     };
     for ls in rs.lights.delta_samples(s.p) {
         let v = value(&ls);
-        if v != Vec3::ZERO && !occluded(rs, &s, &ls) {
-            out.exact += v;
+        if v != Vec3::ZERO {
+            ray(Pending::Exact(v), &ls);
         }
     }
-    out.unshadowed = match (closed, bsdf.lambert()) {
+    let unshadowed = match (closed, bsdf.lambert()) {
         (Some(triangles), Some(albedo)) => {
             let n = s.frame.n;
             let e: Vec3 = triangles
                 .iter()
-                .map(|(c, l)| *l * polygon_cosine_integral(s.p, n, c))
+                .map(|(c, l)| *l * triangle_cosine_integral(s.p, n, c))
                 .sum();
             albedo / std::f32::consts::PI * e
         }
         _ => {
+            // Samples 0..K of the pixel's own (Owen-scrambled Sobol) sequence: stratified
+            // over the light choice and the point on the light.
+            let k = UNSHADOWED_SAMPLES;
+            let mut ids = [(0u32, 0u32, 0u32); RUN];
+            for (i, id) in ids.iter_mut().enumerate().take(k) {
+                *id = (pixel.0, pixel.1, i as u32);
+            }
+            let mut samplers = [PixelSampler::new(0, 0, 0, 0); RUN];
+            PixelSampler::run(&ids[..k], seed ^ UNSHADOWED_SALT, &mut samplers[..k]);
             let mut sum = Vec3::ZERO;
-            for _ in 0..UNSHADOWED_SAMPLES {
-                let (uc, u) = (sampler.next_1d(), sampler.next_2d());
+            for sp in samplers.iter_mut().take(k) {
+                let (uc, u) = (sp.next_1d(), sp.next_2d());
                 if let Some(ls) = rs.lights.sample_non_delta(s.p, uc, u) {
                     sum += value(&ls);
                 }
             }
-            sum / UNSHADOWED_SAMPLES as f32
+            sum / k as f32
         }
     };
-    let a = luminance(out.unshadowed.to_array());
+    let a = luminance(unshadowed.to_array());
+    let mut sampler = PixelSampler::new(pixel.0, pixel.1, 0, seed ^ SEED_SALT);
     let (uc, u) = (sampler.next_1d(), sampler.next_2d());
     if let Some(ls) = rs.lights.sample_non_delta(s.p, uc, u) {
         let v = luminance(value(&ls).to_array());
         if a > 0.0 && v > 0.0 {
-            let clear = !occluded(rs, &s, &ls);
-            out.ratio = [if clear { v / a } else { 0.0 }, v / a];
+            ray(Pending::Ratio(v / a), &ls);
         }
     }
-    out
+    PixelSplit {
+        split: true,
+        unshadowed,
+        ..none
+    }
 }
 
-/// Whether the shadow ray from surface `s` towards light sample `ls` is blocked, tested as the
-/// path tracer tests its own.
-fn occluded(rs: &RenderScene, s: &Surface, ls: &LightSample) -> bool {
+/// The shadow ray from surface `s` towards light sample `ls` (origin, direction, length), as
+/// the path tracer builds its own.
+fn shadow_ray(rs: &RenderScene, s: &Surface, ls: &LightSample) -> (Vec3, Vec3, f32) {
     let o = rs.offset(s, ls.wi);
-    let (d, tmax) = if ls.distance.is_finite() {
+    if ls.distance.is_finite() {
         let (d, t) = shadow_segment(o.into(), ls.point.into(), ls.wi.into(), rs.ray_epsilon);
-        (Vec3::from(d), t)
+        (o, Vec3::from(d), t)
     } else {
-        (ls.wi, f32::INFINITY)
-    };
-    rs.accel.occluded(o, d, 0.0, tmax)
+        (o, ls.wi, f32::INFINITY)
+    }
 }
 
 #[cfg(test)]
