@@ -3,8 +3,9 @@
 //! traced frame); the same traced frame goes through the temporal filter, so both filters see
 //! identical input. A converged reference of every frame (--reference-spp, another seed)
 //! scores both with FLIP. Written into DIR: `frames.csv` (per frame), `summary.md` (means,
-//! flicker, time per stage, fps), `flip.png` (per-frame FLIP plot) and `strip.png` (frames as
-//! 1 spp, À-Trous, temporal, reference).
+//! flicker, time per stage, fps), `flip.png` (per-frame FLIP plot), `stability.png` (per-frame
+//! output change of both filters and of the references) and `strip.png` (frames as 1 spp,
+//! À-Trous, temporal, reference).
 //!
 //! Flicker is the mean absolute frame-to-frame change of the per-pixel FLIP error map,
 //! mean_p |E_t(p) − E_{t−1}(p)|: an error that stays put (a smooth bias) does not flicker, one
@@ -226,6 +227,7 @@ pub fn run(
     print!("{summary}");
     if reference_spp > 0 {
         write_image(&dir.join("flip.png"), &plot(&rows))?;
+        write_image(&dir.join("stability.png"), &stability_plot(&rows))?;
         if !strip.is_empty() {
             write_image(&dir.join("strip.png"), &tile(&strip))?;
         }
@@ -504,13 +506,44 @@ fn summary(rows: &[Row], settings: &RenderSettings, reference_spp: u32) -> Strin
 /// Per-frame FLIP: per-frame À-Trous in red, temporal in blue, the warm-up boundary in grey,
 /// on a dark ground with a grid line every 0.05.
 fn plot(rows: &[Row]) -> Image {
+    plot_series(
+        rows,
+        &[
+            (&|r: &Row| r.flip_atrous, [0.9, 0.1, 0.05]),
+            (&|r: &Row| r.flip_temporal, [0.1, 0.3, 1.0]),
+        ],
+        0.05,
+    )
+}
+
+/// The temporal-stability plot: the mean frame-to-frame change of the displayed image, per
+/// frame, for per-frame À-Trous (red), temporal (blue) and the references (white: the change
+/// the motion itself causes), grid every 0.01.
+fn stability_plot(rows: &[Row]) -> Image {
+    plot_series(
+        rows,
+        &[
+            (&|r: &Row| r.change_reference, [0.8, 0.8, 0.8]),
+            (&|r: &Row| r.change_atrous, [0.9, 0.1, 0.05]),
+            (&|r: &Row| r.change_temporal, [0.1, 0.3, 1.0]),
+        ],
+        0.01,
+    )
+}
+
+/// One line of a plot: its value per frame and its colour.
+type Series<'a> = (&'a dyn Fn(&Row) -> f64, [f32; 3]);
+
+/// A line per series over the frames, the warm-up boundary in grey, on a dark ground with a
+/// grid line every `step`.
+fn plot_series(rows: &[Row], series: &[Series], step: f64) -> Image {
     let (w, h, pad) = (720usize, 300usize, 10usize);
     let mut img = Image::new(w, h, 3, 0.01);
     let top = rows
         .iter()
-        .map(|r| r.flip_atrous.max(r.flip_temporal))
-        .fold(0.05f64, f64::max);
-    let top = (top / 0.05).ceil() * 0.05;
+        .flat_map(|r| series.iter().map(move |(f, _)| f(r)))
+        .fold(step, f64::max);
+    let top = (top / step).ceil() * step;
     let n = rows.len().max(2);
     let x_of = |i: usize| pad + i * (w - 2 * pad - 1) / (n - 1);
     let y_of =
@@ -525,18 +558,12 @@ fn plot(rows: &[Row]) -> Image {
         for x in pad..w - pad {
             set(&mut img, x, y_of(g), [0.05; 3]);
         }
-        g += 0.05;
+        g += step;
     }
     for y in pad..h - pad {
         set(&mut img, x_of(WARM_UP.min(n - 1)), y, [0.15; 3]);
     }
-    for (value, colour) in [
-        (
-            &(|r: &Row| r.flip_atrous) as &dyn Fn(&Row) -> f64,
-            [0.9, 0.1, 0.05],
-        ),
-        (&|r: &Row| r.flip_temporal, [0.1, 0.3, 1.0]),
-    ] {
+    for &(value, colour) in series {
         for i in 1..rows.len() {
             let (x0, x1) = (x_of(i - 1), x_of(i));
             let (y0, y1) = (y_of(value(&rows[i - 1])), y_of(value(&rows[i])));

@@ -208,7 +208,13 @@ fn temporal_sequences_filter_and_evaluate() {
     args.extend(size);
     let o = lumo(&dir, &args);
     assert!(o.status.success(), "{}", text(&o));
-    for f in ["frames.csv", "summary.md", "flip.png", "strip.png"] {
+    for f in [
+        "frames.csv",
+        "summary.md",
+        "flip.png",
+        "stability.png",
+        "strip.png",
+    ] {
         assert!(dir.join("eval").join(f).is_file(), "{f}");
     }
     let csv = std::fs::read_to_string(dir.join("eval/frames.csv")).unwrap();
