@@ -256,7 +256,8 @@ impl Sequence {
         let mut temporal = if job.args.temporal {
             let s = &job.settings;
             let reshade = (s.spp == 1).then_some(s.path);
-            Some(TemporalSequence::new(self.rig.is_some(), reshade).context("--temporal")?)
+            let split = !s.path.spectral;
+            Some(TemporalSequence::new(self.rig.is_some(), reshade, split).context("--temporal")?)
         } else {
             None
         };

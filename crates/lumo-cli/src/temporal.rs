@@ -73,7 +73,15 @@ impl TemporalSequence {
     /// With `reshade` (the path settings of frames traced at one sample per pixel) the history
     /// rejection re-traces a few of the previous frame's samples (A-SVGF), unless the tuning
     /// hook turns that off (`rs=0`); without, it uses the windowed statistical test.
-    pub fn new(object_motion: bool, reshade: Option<PathSettings>) -> Result<Self, FilterError> {
+    ///
+    /// `split_direct` turns the direct-light split on (see [`TemporalSequence::filter`]),
+    /// unless the tuning hook turns it off (`ds=0`); it computes RGB light, so frames traced
+    /// with spectral transport go without it.
+    pub fn new(
+        object_motion: bool,
+        reshade: Option<PathSettings>,
+        split_direct: bool,
+    ) -> Result<Self, FilterError> {
         let (params, taa) = sequence_params();
         Ok(Self {
             filter: TemporalFilter::new(params)?,
@@ -86,6 +94,7 @@ impl TemporalSequence {
             object_motion,
             reshade: reshade.filter(|_| tuned("rs") != Some(0.0)),
             ratio: match tuned("ds") {
+                _ if !split_direct => None,
                 Some(0.0) => None,
                 _ => Some(TemporalFilter::new(ratio_params())?),
             },
@@ -481,7 +490,8 @@ mod tests {
         };
         let (reference, _) = render(&rs, &settings(1024, 99), &|_| {});
         let run = |split: bool, base: u32| {
-            let mut seq = TemporalSequence::new(false, Some(PathSettings::default())).unwrap();
+            let mut seq =
+                TemporalSequence::new(false, Some(PathSettings::default()), true).unwrap();
             if !split {
                 seq.ratio = None;
             }

@@ -74,9 +74,12 @@ pub fn run(
     std::fs::create_dir_all(dir).with_context(|| format!("--temporal-eval {}", dir.display()))?;
     let settings = job.settings;
     let options = job.args.pipeline.options(settings.width, settings.height);
-    let mut temporal =
-        TemporalSequence::new(seq.animated(), (settings.spp == 1).then_some(settings.path))
-            .context("temporal filter")?;
+    let mut temporal = TemporalSequence::new(
+        seq.animated(),
+        (settings.spp == 1).then_some(settings.path),
+        !settings.path.spectral,
+    )
+    .context("temporal filter")?;
     let flip = FlipSettings::default();
     let mut rows = Vec::new();
     let mut prev: Option<Previous> = None;
