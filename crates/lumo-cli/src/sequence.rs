@@ -256,7 +256,7 @@ impl Sequence {
         let mut temporal = if job.args.temporal {
             let s = &job.settings;
             let reshade = (s.spp == 1).then_some(s.path);
-            let split = !s.path.spectral;
+            let split = crate::temporal::splits_direct_light(&s.path);
             Some(TemporalSequence::new(self.rig.is_some(), reshade, split).context("--temporal")?)
         } else {
             None

@@ -82,7 +82,8 @@ impl TemporalSequence {
         reshade: Option<PathSettings>,
         split_direct: bool,
     ) -> Result<Self, FilterError> {
-        let (params, taa) = sequence_params();
+        let split_direct = split_direct && tuned("ds") != Some(0.0);
+        let (params, taa) = sequence_params(split_direct);
         Ok(Self {
             filter: TemporalFilter::new(params)?,
             taa: match taa {
@@ -93,10 +94,9 @@ impl TemporalSequence {
             jitter: tuned("jit").is_some_and(|v| v != 0.0),
             object_motion,
             reshade: reshade.filter(|_| tuned("rs") != Some(0.0)),
-            ratio: match tuned("ds") {
-                _ if !split_direct => None,
-                Some(0.0) => None,
-                _ => Some(TemporalFilter::new(ratio_params())?),
+            ratio: match split_direct {
+                true => Some(TemporalFilter::new(ratio_params())?),
+                false => None,
             },
         })
     }
@@ -117,7 +117,7 @@ impl TemporalSequence {
     /// returns the filtered image, which the TAA stage puts back on the unjittered pixel grid.
     ///
     /// With the direct-light split (the default; `lumo_render::direct_split`), pixels whose
-    /// first hit has only smooth lobes keep only their indirect light in the history: a moving
+    /// first hit has only broad lobes keep only their indirect light in the history: a moving
     /// light changes the direct light far more than the indirect, and the history rejection
     /// would throw the indirect light's history away with it. Their direct light is added back
     /// after filtering from this frame alone — Dirac lights exactly, the other lights as their
@@ -157,10 +157,11 @@ impl TemporalSequence {
         });
         let motion_time = start.elapsed();
         let t = Instant::now();
-        let split = self
-            .ratio
-            .is_some()
-            .then(|| direct_split(rs, &PinholeCamera::new(c, w, h), w, h, seed));
+        let split = self.ratio.is_some().then(|| {
+            let mut d = direct_split(rs, &PinholeCamera::new(c, w, h), w, h, seed);
+            keep_rims_whole(&mut d, frame);
+            d
+        });
         let mut split_time = t.elapsed();
         let t = Instant::now();
         let changes = match (&self.reshade, &self.prev) {
@@ -286,9 +287,9 @@ impl TemporalSequence {
 /// then filters with 3 À-Trous levels (0.49, 0.51, 0.63, 0.45). Camera jitter, TAA,
 /// Catmull-Rom history reads, the neighbourhood clamp and the short-history levels are off:
 /// measured, they did not lower FLIP (docs/results/temporal.md).
-fn sequence_params() -> (TemporalParams, Option<(f32, f32)>) {
+fn sequence_params(split_direct: bool) -> (TemporalParams, Option<(f32, f32)>) {
     let mut p = TemporalParams::sequence();
-    if tuned("ds") != Some(0.0) {
+    if split_direct {
         // With the direct light split off, the history holds smoother (indirect) light that
         // a wider filter serves: 3 levels instead of 2 (round 5, tuning sequences only).
         p.atrous.iterations = SPLIT_LEVELS;
@@ -306,6 +307,24 @@ const RATIO_LEVELS: usize = 1;
 
 /// The blend weight of the shadow ratio's history (see [`ratio_params`]).
 const RATIO_ALPHA: f32 = 0.2;
+
+/// Whether the direct-light split can stand in for the direct light frames traced with `path`
+/// carry: they have direct light (depth 2 or more) and are RGB (the split computes RGB light).
+pub fn splits_direct_light(path: &PathSettings) -> bool {
+    path.max_depth >= 2 && !path.spectral
+}
+
+/// Leaves unsplit the pixels some of whose samples saw a light (with several samples per
+/// pixel, a light's rim): their colour is passed through with the light's share
+/// (`with_emitted`), which the split's indirect-only colour would not hold.
+fn keep_rims_whole(d: &mut DirectSplit, frame: &Frame) {
+    for (i, e) in frame.emitted.data.chunks_exact(3).enumerate() {
+        if d.split[i] && e.iter().any(|&v| v != 0.0) {
+            d.split[i] = false;
+            d.ratio.data[i * 2..i * 2 + 2].fill(0.0);
+        }
+    }
+}
 
 /// The frame's colour with the direct light taken out where it is split: indirect light
 /// there, the full colour elsewhere.
@@ -340,8 +359,13 @@ fn ratio_image(d: &DirectSplit) -> Image {
 fn add_split_direct(image: &mut Image, d: &DirectSplit, shadow: &Image) {
     for (i, _) in d.split.iter().enumerate().filter(|(_, &s)| s) {
         let r = &shadow.data[i * 3..i * 3 + 3];
+        let own = &d.ratio.data[i * 2..i * 2 + 2];
+        // Where the filter has nothing (no neighbour's sample reached a light), the pixel's own
+        // sample; without one, no direct light from these lights.
         let ratio = if r[2] > 1e-6 {
             (r[0] / r[2]).clamp(0.0, 1.0)
+        } else if own[1] > 0.0 {
+            own[0] / own[1]
         } else {
             0.0
         };
@@ -357,7 +381,7 @@ fn add_split_direct(image: &mut Image, d: &DirectSplit, shadow: &Image) {
 /// and 1–4 levels all within 0.001 FLIP, α 0.2 the best on both Cornell and the animated
 /// scene, one level as good as three and the cheapest (docs/results/temporal.md).
 fn ratio_params() -> TemporalParams {
-    let (mut p, _) = sequence_params();
+    let (mut p, _) = sequence_params(true);
     p.alpha = RATIO_ALPHA;
     p.alpha_moments = RATIO_ALPHA;
     if let Some(a) = tuned("ra") {
@@ -521,6 +545,42 @@ mod tests {
         assert!((ratio - 1.0).abs() < 0.05, "mean brightness ratio {ratio}");
         let (a, b) = (diff(&with[0], &with[1]), diff(&without[0], &without[1]));
         assert!(a < 0.85 * b, "noise {a} with the split, {b} without");
+    }
+
+    /// With several samples per pixel, the pixels on a light's rim (some samples saw the
+    /// light, the centre did not) are left unsplit, so their colour keeps its indirect light
+    /// when `with_emitted` passes the light's share through; and frames without direct light
+    /// (`--max-depth 1`) or with spectral transport are not split at all.
+    #[test]
+    fn light_rims_and_frames_without_rgb_direct_light_are_not_split() {
+        use lumo_render::{render, RenderSettings};
+        let (w, h) = (61, 61);
+        let rs = RenderScene::new(lumo_scene::builtin_scene("cornell").expect("scene")).unwrap();
+        let settings = RenderSettings {
+            width: w,
+            height: h,
+            spp: 8,
+            seed: 1,
+            path: PathSettings::default(),
+        };
+        let (frame, _) = render(&rs, &settings, &|_| {});
+        let mut d = direct_split(&rs, &PinholeCamera::new(&rs.scene.camera, w, h), w, h, 1);
+        let rims = |d: &DirectSplit| {
+            (0..w * h)
+                .filter(|&i| d.split[i] && frame.emitted.data[i * 3..i * 3 + 3] != [0.0; 3])
+                .count()
+        };
+        assert!(rims(&d) > 0, "the light's rim has split pixels before");
+        keep_rims_whole(&mut d, &frame);
+        assert_eq!(rims(&d), 0);
+        assert!(d.split.iter().filter(|&&s| s).count() > w * h / 2);
+        let mut p = PathSettings::default();
+        assert!(splits_direct_light(&p));
+        p.max_depth = 1;
+        assert!(!splits_direct_light(&p));
+        p.max_depth = 5;
+        p.spectral = true;
+        assert!(!splits_direct_light(&p));
     }
 
     /// The jittered camera's pixel centre x looks where the nominal camera's x + j looks (at

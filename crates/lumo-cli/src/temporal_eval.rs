@@ -77,7 +77,7 @@ pub fn run(
     let mut temporal = TemporalSequence::new(
         seq.animated(),
         (settings.spp == 1).then_some(settings.path),
-        !settings.path.spectral,
+        crate::temporal::splits_direct_light(&settings.path),
     )
     .context("temporal filter")?;
     let flip = FlipSettings::default();

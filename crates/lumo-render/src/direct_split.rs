@@ -1,6 +1,6 @@
 //! The first hit's direct light split for temporal filtering, after the ratio estimator of
 //! Heitz, Hill and McGuire (2018, "Combining analytic direct illumination and stochastic
-//! shadows"): at a first hit whose BSDF has only smooth lobes, the light of point, spot and
+//! shadows"): at a first hit whose BSDF has only broad lobes, the light of point, spot and
 //! directional lights is exact (one shadow ray each); the *unshadowed* light of the other
 //! lights is computed without shadow rays — in closed form on Lambertian surfaces lit by
 //! constant-radiance triangles (`triangle_cosine_integral`), else as the mean of
@@ -42,8 +42,9 @@ const UNSHADOWED_SALT: u32 = 0x27d4_eb2f;
 /// towards the camera; all are zero where `split` is false.
 #[derive(Clone, Debug)]
 pub struct DirectSplit {
-    /// The pixel-centre ray's first hit has only smooth lobes (Lambertian, or plastic under a
-    /// rough coat) and emits nothing towards the camera: only there is the direct light split.
+    /// The pixel-centre ray's first hit has only broad lobes (Lambertian, or plastic under a
+    /// rough coat: `ShadingBsdf::all_lobes_broad`) and emits nothing towards the camera: only
+    /// there is the direct light split.
     pub split: Vec<bool>,
     /// Light of the point, spot and directional lights, shadowed, exact.
     pub exact: Image,
@@ -75,15 +76,19 @@ pub fn direct_split(
     h: usize,
     seed: u32,
 ) -> DirectSplit {
-    let triangles: Vec<([Vec3; 3], Vec3)> = rs
-        .lights
-        .constant_triangles()
-        .map(|(_, c, l)| (c, l))
-        .collect();
     // The closed form covers every non-Dirac light, or none is used.
-    let closed_form =
-        rs.lights.only_constant_triangles() && triangles.len() <= MAX_ANALYTIC_TRIANGLES;
-    let closed = closed_form.then_some(&triangles[..]);
+    let only_triangles = rs.lights.only_constant_triangles();
+    let triangles: Vec<([Vec3; 3], Vec3)> = if only_triangles {
+        let t = rs
+            .lights
+            .constant_triangles()
+            .take(MAX_ANALYTIC_TRIANGLES + 1);
+        t.map(|(_, c, l)| (c, l)).collect()
+    } else {
+        Vec::new()
+    };
+    let closed =
+        (only_triangles && triangles.len() <= MAX_ANALYTIC_TRIANGLES).then_some(&triangles[..]);
     let pixels = map_rows(h, &|_| {}, |y| split_row(rs, camera, w, y, seed, closed));
     let mut out = DirectSplit {
         split: pixels.iter().map(|p| p.split).collect(),
@@ -177,7 +182,7 @@ fn shade(
     let s = rs.surface(hit, origin, dir);
     let bsdf = rs.bsdf(&s);
     let wo = s.frame.to_local(-dir);
-    if !bsdf.all_lobes_smooth() || rs.emission(&s, dir) != Vec3::ZERO || wo.z <= 0.0 {
+    if !bsdf.all_lobes_broad() || rs.emission(&s, dir) != Vec3::ZERO || wo.z <= 0.0 {
         return none;
     }
     // Reflected radiance of a light sample, as the path tracer weighs it without MIS.
@@ -255,6 +260,10 @@ mod tests {
     use crate::{trace_path, PathSettings};
     use lumo_scene::{builtin_scene, BsdfSpec, Light, Roughness, Scene};
 
+    /// How far one pixel's 256-sample mean may stray from the path tracer's, as a share of
+    /// the image's mean direct light (both are noisy means; a wrong pixel is off by more).
+    const PER_PIXEL: f64 = 0.35;
+
     /// The Cornell box with a point light added beside its area light.
     fn cornell_with_point() -> Scene {
         let mut scene = builtin_scene("cornell").expect("built-in scene");
@@ -267,18 +276,22 @@ mod tests {
         scene
     }
 
-    /// Mean over `n` seeds of the split's estimate (exact + unshadowed × shadowed half) and
-    /// of its unshadowed half, per pixel; and the path tracer's direct light through the same
-    /// pixel centres (MIS-weighted light and BSDF samples), `n` paths each.
-    fn split_and_path(
-        rs: &RenderScene,
-        w: usize,
-        h: usize,
-        n: u32,
-    ) -> (Vec<f64>, Vec<f64>, Vec<f64>, Vec<bool>) {
+    /// Per pixel, the mean over `n` seeds of the split's estimate (exact + unshadowed ×
+    /// shadowed half) and of its unshadowed half, and the path tracer's direct light through
+    /// the same pixel centre (MIS-weighted light and BSDF samples), `n` paths; and the mask.
+    struct Means {
+        split: Vec<f64>,
+        half: Vec<f64>,
+        path: Vec<f64>,
+        mask: Vec<bool>,
+        /// The unshadowed light is not 0 (the split's first seed).
+        lit: Vec<bool>,
+    }
+
+    fn means(rs: &RenderScene, w: usize, h: usize, n: u32) -> Means {
         let camera = PinholeCamera::new(&rs.scene.camera, w, h);
         let first = direct_split(rs, &camera, w, h, 0);
-        let (mut est, mut half) = (vec![0.0f64; w * h], vec![0.0f64; w * h]);
+        let (mut split, mut half) = (vec![0.0f64; w * h], vec![0.0f64; w * h]);
         for seed in 0..n {
             let d = direct_split(rs, &camera, w, h, seed);
             assert_eq!(d.split, first.split, "the mask does not depend on the seed");
@@ -291,7 +304,7 @@ mod tests {
                 );
                 let px = |img: &Image| Vec3::from_slice(&img.data[i * 3..i * 3 + 3]);
                 let v = px(&d.exact) + px(&d.unshadowed) * s;
-                est[i] += luminance(v.to_array()) as f64 / n as f64;
+                split[i] += luminance(v.to_array()) as f64 / n as f64;
                 half[i] += u as f64 / n as f64;
             }
         }
@@ -311,31 +324,59 @@ mod tests {
                     / n as f64
             })
             .collect();
-        (est, half, path, first.split)
+        let lit = first
+            .unshadowed
+            .data
+            .chunks_exact(3)
+            .map(|c| luminance([c[0], c[1], c[2]]) > 0.0)
+            .collect();
+        Means {
+            split,
+            half,
+            path,
+            mask: first.split,
+            lit,
+        }
+    }
+
+    /// Checks that most pixels are split, that none strays from the path tracer by more than
+    /// [`PER_PIXEL`] of the mean (a sum alone would let errors cancel), and that the sums
+    /// over the split pixels agree within 1 %.
+    fn agrees_with_the_path_tracer(m: &Means) {
+        let on: Vec<usize> = (0..m.mask.len()).filter(|&i| m.mask[i]).collect();
+        assert!(on.len() > m.mask.len() / 2, "{} pixels split", on.len());
+        let mean = on.iter().map(|&i| m.path[i]).sum::<f64>() / on.len() as f64;
+        let worst = on
+            .iter()
+            .map(|&i| (m.split[i] - m.path[i]).abs() / mean)
+            .fold(0.0, f64::max);
+        assert!(worst < PER_PIXEL, "a pixel is off by {worst} of the mean");
+        let (ours, theirs) = on
+            .iter()
+            .fold((0.0, 0.0), |(a, b), &i| (a + m.split[i], b + m.path[i]));
+        assert!(
+            (ours / theirs - 1.0).abs() < 0.01,
+            "split {ours}, path tracer {theirs}"
+        );
     }
 
     /// Averaged over many light samples, the split carries the direct light the path tracer
-    /// estimates at the same pixels; where the closed form is used the unshadowed half
-    /// averages to 1, which ties the closed form to the light sampler.
+    /// estimates at the same pixels; where the closed form is used, the unshadowed half
+    /// averages to 1 over the split pixels where the closed form is not 0 (which ties the
+    /// closed form to the light sampler).
     #[test]
     fn the_closed_form_split_averages_to_the_path_tracers_direct_light() {
         let rs = RenderScene::new(cornell_with_point()).expect("scene");
-        let (w, h) = (20, 20);
-        let (est, half, path, split) = split_and_path(&rs, w, h, 256);
-        let on: Vec<usize> = (0..w * h).filter(|&i| split[i]).collect();
-        assert!(on.len() > w * h / 2, "{} pixels split", on.len());
-        let lit: Vec<f64> = on.iter().map(|&i| half[i]).filter(|&u| u > 0.0).collect();
+        let m = means(&rs, 20, 20, 256);
+        agrees_with_the_path_tracer(&m);
+        let lit: Vec<f64> = (0..m.mask.len())
+            .filter(|&i| m.mask[i] && m.lit[i])
+            .map(|i| m.half[i])
+            .collect();
         let u_mean = lit.iter().sum::<f64>() / lit.len() as f64;
         assert!(
             (u_mean - 1.0).abs() < 0.01,
             "unshadowed half averages {u_mean}"
-        );
-        let (ours, theirs) = on
-            .iter()
-            .fold((0.0, 0.0), |(a, b), &i| (a + est[i], b + path[i]));
-        assert!(
-            (ours / theirs - 1.0).abs() < 0.01,
-            "split {ours}, path tracer {theirs}"
         );
     }
 
@@ -356,16 +397,31 @@ mod tests {
             }
         }
         let rs = RenderScene::new(scene).expect("scene");
-        let (w, h) = (20, 20);
-        let (est, _, path, split) = split_and_path(&rs, w, h, 256);
-        let on: Vec<usize> = (0..w * h).filter(|&i| split[i]).collect();
-        assert!(on.len() > w * h / 2, "{} pixels split", on.len());
-        let (ours, theirs) = on
-            .iter()
-            .fold((0.0, 0.0), |(a, b), &i| (a + est[i], b + path[i]));
-        assert!(
-            (ours / theirs - 1.0).abs() < 0.01,
-            "split {ours}, path tracer {theirs}"
-        );
+        agrees_with_the_path_tracer(&means(&rs, 20, 20, 256));
+    }
+
+    /// The same with a spot, a sun and a constant environment beside the area and point
+    /// lights (the environment has no closed form, so the unshadowed light is sampled).
+    #[test]
+    fn the_split_averages_to_the_path_tracers_direct_light_under_every_light_kind() {
+        let mut scene = cornell_with_point();
+        scene.lights.extend([
+            Light::Spot {
+                position: Vec3::new(-0.4, 0.8, 0.0),
+                direction: Vec3::new(0.2, -1.0, 0.1),
+                intensity: Vec3::new(3.0, 2.0, 1.0),
+                beam_width: 20.0,
+                cutoff: 35.0,
+            },
+            Light::Directional {
+                direction: Vec3::new(0.3, -1.0, -0.6),
+                irradiance: Vec3::splat(1.5),
+            },
+            Light::Constant {
+                radiance: Vec3::splat(0.3),
+            },
+        ]);
+        let rs = RenderScene::new(scene).expect("scene");
+        agrees_with_the_path_tracer(&means(&rs, 20, 20, 256));
     }
 }

@@ -14,6 +14,11 @@ use glam::{Vec2, Vec3};
 use crate::bsdf::{Bsdf, BsdfSample, TransportMode};
 use crate::geometry::Basis;
 
+/// The smallest coat roughness (GGX α; glTF roughness ≈ 0.22) of a plastic whose direct light
+/// the direct-light split estimates by light sampling alone: below it the coat's highlight of
+/// a small light is too sharp for light samples without MIS.
+pub const BROAD_COAT_ALPHA: f32 = 0.05;
+
 /// A shading point's BSDF with the adapters of its material applied.
 #[derive(Clone, Copy, Debug)]
 pub struct ShadingBsdf {
@@ -110,14 +115,15 @@ impl ShadingBsdf {
         }
     }
 
-    /// Whether every lobe is smooth (no Dirac lobe, no adapter): a Lambertian surface or a
-    /// plastic under a rough coat, whose direct light is all reached by light sampling. The
-    /// direct-light split of temporal filtering (`crate::direct_split`) takes only these.
-    pub fn all_lobes_smooth(&self) -> bool {
+    /// Whether every lobe is broad (no Dirac lobe, no adapter): a Lambertian surface or a
+    /// plastic under a coat of GGX α ≥ [`BROAD_COAT_ALPHA`], whose direct light light sampling
+    /// alone estimates without fireflies. The direct-light split of temporal filtering
+    /// (`crate::direct_split`) takes only these.
+    pub fn all_lobes_broad(&self) -> bool {
         self.plain
             && match &self.bsdf {
                 Bsdf::Diffuse(_) => true,
-                Bsdf::Plastic(p) => p.mf.max_alpha() >= crate::bsdf::SMOOTH_ALPHA,
+                Bsdf::Plastic(p) => p.mf.max_alpha() >= BROAD_COAT_ALPHA,
                 _ => false,
             }
     }

@@ -207,6 +207,9 @@ pub struct Lights {
     /// The choice among lights that are not Dirac deltas (triangles, shapes, environment), by
     /// the same power; `None` when there are none (the direct-light split samples these).
     area_choice: Option<Distribution1d>,
+    /// Index of the first light that is not an emissive triangle or shape: the point, spot
+    /// and directional lights and the environment come from here on.
+    first_punctual: usize,
     /// For each instance, the index of its first emissive triangle in `lights`, if emissive.
     instance_offset: Vec<Option<u32>>,
     /// Radiance textures of textured emissive triangles ([`EmissiveTriangle::texture`]).
@@ -294,6 +297,8 @@ impl Lights {
             }
         }
         let disk = PI * scene_radius * scene_radius;
+        // The scene's punctual lights (and the environment, last) follow the area lights.
+        let first_punctual = lights.len();
         let mut env = None;
         let mut constant = Vec3::ZERO;
         for light in &scene.lights {
@@ -393,6 +398,7 @@ impl Lights {
             .then(|| Distribution1d::new(&area_power));
         Lights {
             area_choice,
+            first_punctual,
             alias: AliasTable::new(&choice),
             emission_choice,
             choice,

@@ -11,15 +11,15 @@ impl Lights {
     /// is the intensity over the squared distance, or the irradiance), skipping spots whose
     /// cone does not reach `p`.
     pub(crate) fn delta_samples(&self, p: Vec3) -> impl Iterator<Item = LightSample> + '_ {
-        self.lights
-            .iter()
-            .enumerate()
-            .filter_map(move |(i, l)| match l {
-                LightKind::Point { .. }
-                | LightKind::Spot { .. }
-                | LightKind::Directional { .. } => self.sample_chosen(i, 1.0, l, p, Vec2::ZERO),
-                _ => None,
-            })
+        // Past the area lights only: a mesh light's thousands of triangles are not walked per
+        // pixel.
+        let punctual = self.lights.iter().enumerate().skip(self.first_punctual);
+        punctual.filter_map(move |(i, l)| match l {
+            LightKind::Point { .. } | LightKind::Spot { .. } | LightKind::Directional { .. } => {
+                self.sample_chosen(i, 1.0, l, p, Vec2::ZERO)
+            }
+            _ => None,
+        })
     }
 
     /// The corners and radiance of every emissive triangle whose radiance is one constant
