@@ -18,6 +18,8 @@ mod render;
 mod render_scene;
 pub mod sampler;
 pub mod shading;
+#[cfg(test)]
+mod test_lights;
 
 pub use direct_split::{direct_split, DirectSplit, MAX_ANALYTIC_TRIANGLES};
 pub use film::{Frame, AOV_NAMES};

@@ -686,28 +686,10 @@ mod tests {
     /// lanes' shadow rays come from the scalar light sample, the rest from the lanes.
     #[test]
     fn vector_bounce_equals_advance_with_other_lights() {
-        use lumo_scene::Light;
         let mut scene = lumo_scene::builtin_scene("cornell").expect("built-in");
-        scene.lights.extend([
-            Light::Point {
-                position: Vec3::new(0.3, 0.5, 0.2),
-                intensity: Vec3::splat(2.0),
-            },
-            Light::Spot {
-                position: Vec3::new(-0.4, 0.8, 0.0),
-                direction: Vec3::new(0.2, -1.0, 0.1),
-                intensity: Vec3::new(3.0, 2.0, 1.0),
-                beam_width: 20.0,
-                cutoff: 35.0,
-            },
-            Light::Directional {
-                direction: Vec3::new(0.3, -1.0, -0.2),
-                irradiance: Vec3::splat(1.5),
-            },
-            Light::Constant {
-                radiance: Vec3::splat(0.2),
-            },
-        ]);
+        scene
+            .lights
+            .extend(crate::test_lights::every_other_light_kind());
         let rs = RenderScene::new(scene).expect("valid scene");
         let settings = PathSettings {
             max_depth: 6,
