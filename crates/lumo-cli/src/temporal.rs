@@ -94,9 +94,10 @@ impl TemporalSequence {
             jitter: tuned("jit").is_some_and(|v| v != 0.0),
             object_motion,
             reshade: reshade.filter(|_| tuned("rs") != Some(0.0)),
-            ratio: match split_direct {
-                true => Some(TemporalFilter::new(ratio_params())?),
-                false => None,
+            ratio: if split_direct {
+                Some(TemporalFilter::new(ratio_params())?)
+            } else {
+                None
             },
         })
     }

@@ -21,7 +21,7 @@ use crate::geometry::shadow_segment;
 use crate::lights::{triangle_cosine_integral, LightSample};
 use crate::render::map_rows;
 use crate::render_scene::{RenderScene, Surface};
-use crate::sampler::{PixelSampler, RUN};
+use crate::sampler::PixelSampler;
 
 /// Emissive triangles above which the closed form is not used (it costs one polygon integral
 /// per triangle and pixel).
@@ -80,11 +80,8 @@ pub fn direct_split(
     // The closed form covers every non-Dirac light, or none is used.
     let only_triangles = rs.lights.only_constant_triangles();
     let triangles: Vec<([Vec3; 3], Vec3)> = if only_triangles {
-        let t = rs
-            .lights
-            .constant_triangles()
-            .take(MAX_ANALYTIC_TRIANGLES + 1);
-        t.map(|(_, c, l)| (c, l)).collect()
+        let t = rs.lights.constant_triangles();
+        t.take(MAX_ANALYTIC_TRIANGLES + 1).collect()
     } else {
         Vec::new()
     };
@@ -219,21 +216,15 @@ fn shade(
             // the light choice and the point on the light, and the ratio sample itself: with
             // it the estimate is not 0 where the ratio sample found light, which would lose
             // that sample (all K can miss, e.g. uniform environment samples below the horizon).
-            let k = UNSHADOWED_SAMPLES;
-            let mut ids = [(0u32, 0u32, 0u32); RUN];
-            for (i, id) in ids.iter_mut().enumerate().take(k) {
-                *id = (pixel.0, pixel.1, i as u32);
-            }
-            let mut samplers = [PixelSampler::new(0, 0, 0, 0); RUN];
-            PixelSampler::run(&ids[..k], seed ^ UNSHADOWED_SALT, &mut samplers[..k]);
             let mut sum = ratio_sample.as_ref().map_or(Vec3::ZERO, |(v, _)| *v);
-            for sp in samplers.iter_mut().take(k) {
+            for i in 0..UNSHADOWED_SAMPLES as u32 {
+                let mut sp = PixelSampler::new(pixel.0, pixel.1, i, seed ^ UNSHADOWED_SALT);
                 let (uc, u) = (sp.next_1d(), sp.next_2d());
                 if let Some(ls) = rs.lights.sample_non_delta(s.p, uc, u) {
                     sum += value(&ls);
                 }
             }
-            sum / (k + 1) as f32
+            sum / (UNSHADOWED_SAMPLES + 1) as f32
         }
     };
     let a = luminance(unshadowed.to_array());

@@ -23,11 +23,11 @@ impl Lights {
     }
 
     /// The corners and radiance of every emissive triangle whose radiance is one constant
-    /// (no texture), with its light index.
-    pub(crate) fn constant_triangles(&self) -> impl Iterator<Item = (u32, [Vec3; 3], Vec3)> + '_ {
-        self.lights.iter().enumerate().filter_map(|(i, l)| match l {
+    /// (no texture).
+    pub(crate) fn constant_triangles(&self) -> impl Iterator<Item = ([Vec3; 3], Vec3)> + '_ {
+        self.lights.iter().filter_map(|l| match l {
             LightKind::Triangle(t) if t.texture == NO_TEXTURE && t.area > 0.0 => {
-                Some((i as u32, [t.p0, t.p0 + t.e1, t.p0 + t.e2], t.radiance))
+                Some(([t.p0, t.p0 + t.e1, t.p0 + t.e2], t.radiance))
             }
             _ => None,
         })
