@@ -4,7 +4,7 @@
 use lumo_image::Image;
 use rayon::prelude::*;
 
-use crate::common::albedo::with_demodulation;
+use crate::common::albedo::{surface_albedo, with_demodulation};
 use crate::common::error::param;
 use crate::common::fastmath::exp_neg;
 use crate::common::gbuffer::{Features, Filtered, Prepared};
@@ -100,7 +100,8 @@ impl Denoiser for BilateralDenoiser {
     fn denoise(&mut self, input: &FilterInput) -> Result<Filtered, FilterError> {
         let features = &input.features;
         if self.demodulate {
-            let albedo = require(features.albedo, "albedo demodulation", "an albedo plane")?;
+            let albedo = surface_albedo(features);
+            let albedo = require(albedo.as_deref(), "albedo demodulation", "an albedo plane")?;
             with_demodulation(input.color, albedo, |c| {
                 bilateral(c, features, &self.params)
             })

@@ -4,7 +4,9 @@
 
 use std::time::Instant;
 
-use lumo_filter::{demodulate, BilateralDenoiser, Denoiser, Features, FilterInput};
+use std::borrow::Cow;
+
+use lumo_filter::{demodulate, surface_albedo, BilateralDenoiser, Denoiser, Features, FilterInput};
 
 use super::compose::{recompose, trace_full};
 use super::{PipelineError, PipelineOutput, Timings};
@@ -17,12 +19,15 @@ pub(super) fn run(
 ) -> Result<PipelineOutput, PipelineError> {
     let (_, frame, stats, trace) = trace_full(rs, settings, progress);
     let t = Instant::now();
-    let demod = demodulate(&frame.indirect, &frame.albedo)?;
     let features = Features {
         normal: Some(&frame.normal),
         depth: Some(&frame.depth),
+        albedo: Some(&frame.albedo),
         ..Features::default()
     };
+    // Background pixels (the centre ray missed) keep their raw light, as in `lumo denoise`.
+    let albedo = surface_albedo(&features).unwrap_or(Cow::Borrowed(&frame.albedo));
+    let demod = demodulate(&frame.indirect, &albedo)?;
     let filtered =
         BilateralDenoiser::default().denoise(&FilterInput::new(&demod.illumination, features))?;
     let filter = t.elapsed();

@@ -8,9 +8,12 @@
 use std::time::Instant;
 
 use glam::{Vec2, Vec3};
+use std::borrow::Cow;
+
 use lumo_filter::{
-    demodulate, most_similar_in_grid, neighbour_cells, Denoiser, DepthNorm, Features, FilterInput,
-    GuideKind, GuidedDenoiser, GuidedParams, DEFAULT_EPS_DEPTH, DEFAULT_EPS_NORMAL,
+    demodulate, most_similar_in_grid, neighbour_cells, surface_albedo, Denoiser, DepthNorm,
+    Features, FilterInput, GuideKind, GuidedDenoiser, GuidedParams, DEFAULT_EPS_DEPTH,
+    DEFAULT_EPS_NORMAL,
 };
 use lumo_image::Image;
 
@@ -90,12 +93,15 @@ pub(super) fn run(
     let trace = t.elapsed();
 
     let t = Instant::now();
-    let demod = demodulate(&frame.indirect, &frame.albedo)?;
     let features = Features {
         normal: Some(&frame.normal),
         depth: Some(&frame.depth),
+        albedo: Some(&frame.albedo),
         ..Features::default()
     };
+    // Background pixels (the centre ray missed) keep their raw light, as in `lumo denoise`.
+    let albedo = surface_albedo(&features).unwrap_or(Cow::Borrowed(&frame.albedo));
+    let demod = demodulate(&frame.indirect, &albedo)?;
     let mut denoiser = GuidedDenoiser {
         guide: kind,
         depth_norm: DepthNorm::Scale(depth_scale(rs)),

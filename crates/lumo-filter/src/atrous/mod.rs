@@ -30,6 +30,7 @@ pub use params::{
     AtrousParams, B3, DEFAULT_SIGMA_LUMINANCE, DEFAULT_SIGMA_NORMAL, DEFAULT_SIGMA_POSITION,
 };
 
+use crate::common::albedo::surface_albedo;
 use crate::common::gbuffer::{Features, Filtered};
 use crate::denoiser::{Denoiser, FilterInput, FilterKind};
 use crate::FilterError;
@@ -94,6 +95,11 @@ impl AtrousFilter {
         path: Path,
     ) -> Result<Filtered, FilterError> {
         validate(color, features, params)?;
+        let albedo = surface_albedo(features);
+        let features = &Features {
+            albedo: albedo.as_deref(),
+            ..*features
+        };
         let inp = Input::new(color, features, params);
         let lay = Layout::new(color.width, color.height);
         let (image, missing) = self.levels(&inp, lay, params, isa, path, None);

@@ -24,6 +24,7 @@ mod selfweight;
 use lumo_image::Image;
 use rayon::prelude::*;
 
+use crate::common::albedo::surface_albedo;
 use crate::common::boxsum::box_mean;
 use crate::common::gbuffer::{check_color, missing_pixels, Features, Filtered};
 use crate::denoiser::{Denoiser, FilterInput, FilterKind};
@@ -134,7 +135,8 @@ pub fn auto(
     })?;
     let (w, h) = (color.width, color.height);
     let n = w * h;
-    let demod = match (params.demodulate, features.albedo) {
+    let albedo = surface_albedo(features);
+    let demod = match (params.demodulate, albedo.as_deref()) {
         (true, Some(a)) => Some(demodulate(color, a)?),
         _ => None,
     };

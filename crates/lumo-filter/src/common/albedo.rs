@@ -1,9 +1,13 @@
 //! Albedo demodulation: filter illumination (colour / albedo) instead of colour, so texture
 //! detail, which the albedo plane holds noise-free, is not blurred; multiply back afterwards.
 
+use std::borrow::Cow;
+
 use lumo_image::{luminance, Image};
 
-use crate::common::gbuffer::{check_color, check_size, missing_pixels, Filtered};
+use crate::common::gbuffer::{
+    check_color, check_size, is_background, missing_pixels, Features, Filtered,
+};
 use crate::common::passthrough::passed;
 use crate::FilterError;
 
@@ -129,4 +133,34 @@ where
         image: d.remodulate(&filtered.image, color),
         missing: missing_pixels(color),
     })
+}
+
+/// The albedo to demodulate by: `features.albedo`, but 0 at background pixels (the
+/// pixel-centre ray missed), so that they are passed through unfiltered like any pixel
+/// without a usable albedo. Borrowed when no background pixel has a usable albedo.
+///
+/// Why: renderers (lumo, Mitsuba's `aov` integrator) average the albedo over a pixel's
+/// samples, misses counting 0. At more than one sample per pixel, a sky pixel that a wire
+/// crosses off-centre then has a small albedo — a quarter of the wire's at 4 spp — and its
+/// colour (mostly sky) divided by it is tens of times any neighbour's illumination. Filtered
+/// among the background pixels and multiplied back, it lost the wire's darkening and spread
+/// light onto other mixed pixels: on the tuning scene `tune-wires` at 4 spp, `auto` had
+/// 6× the unfiltered frame's error on the sky (docs/filters.md, "Background pixels").
+pub fn surface_albedo<'a>(features: &Features<'a>) -> Option<Cow<'a, Image>> {
+    let a = features.albedo?;
+    let n = a.pixel_count();
+    // Mismatched planes are the filter's validation to report, not this helper's to index.
+    let sized = |p: Option<&Image>| p.is_none_or(|p| p.pixel_count() == n);
+    if !sized(features.depth) || !sized(features.position) {
+        return Some(Cow::Borrowed(a));
+    }
+    let stray = |i: usize| is_background(features, i) && albedo_divisor(a, i).is_some();
+    if !(0..n).any(stray) {
+        return Some(Cow::Borrowed(a));
+    }
+    let mut masked = a.clone();
+    for i in (0..n).filter(|&i| stray(i)) {
+        masked.data[i * a.channels..][..a.channels].fill(0.0);
+    }
+    Some(Cow::Owned(masked))
 }

@@ -12,7 +12,7 @@ mod stream;
 use lumo_image::Image;
 use rayon::prelude::*;
 
-use crate::common::albedo::with_demodulation;
+use crate::common::albedo::{surface_albedo, with_demodulation};
 use crate::common::boxsum::box_mean;
 use crate::common::error::param;
 use crate::common::gbuffer::{
@@ -284,11 +284,8 @@ impl Denoiser for GuidedDenoiser {
             self.eps_depth,
         )?;
         if self.demodulate {
-            let albedo = require(
-                input.features.albedo,
-                "albedo demodulation",
-                "an albedo plane",
-            )?;
+            let albedo = surface_albedo(&input.features);
+            let albedo = require(albedo.as_deref(), "albedo demodulation", "an albedo plane")?;
             with_demodulation(input.color, albedo, |c| guided(c, &guide, &self.params))
         } else {
             guided(input.color, &guide, &self.params)

@@ -330,3 +330,81 @@ fn bad_inputs_are_typed_errors() {
     .unwrap_err();
     assert!(matches!(e, FilterError::Channels { .. }));
 }
+
+/// Sky above a noisy wall, crossed by a wire thinner than a pixel: at 4 spp a sky pixel the
+/// wire crosses off-centre is darker than the sky and has a quarter of the wire's albedo (the
+/// renderers average albedo over samples, misses counting 0). Every demodulating filter must
+/// pass such background pixels through: divided by that small albedo they were tens of times
+/// brighter than their neighbours, and filtering them erased the wire and spread its pixels'
+/// light (`tune-wires`, docs/filters.md "Background pixels").
+#[test]
+fn background_pixels_with_a_partial_albedo_are_passed_through_by_demodulating_filters() {
+    let (w, h) = (48, 32);
+    let sky = [0.8f32, 1.0, 1.4];
+    let mut next = rng(7);
+    let mut normal = Image::new(w, h, 3, 0.0);
+    let mut depth = Image::new(w, h, 1, f32::INFINITY);
+    let mut position = Image::new(w, h, 3, f32::NAN);
+    let mut albedo = Image::new(w, h, 3, 0.0);
+    let mut color = Image::new(w, h, 3, 0.0);
+    for y in 0..h {
+        for x in 0..w {
+            if y >= h / 2 {
+                normal.pixel_mut(x, y).copy_from_slice(&[0.0, 1.0, 0.0]);
+                depth.pixel_mut(x, y)[0] = 3.0;
+                let p = [x as f32 * 0.05, 0.0, y as f32 * 0.05];
+                position.pixel_mut(x, y).copy_from_slice(&p);
+                albedo.pixel_mut(x, y).fill(0.5);
+                let v = 0.5 * (0.2 + 0.4 * next());
+                color.pixel_mut(x, y).fill(v);
+            } else {
+                let wire = y == x / 3 % (h / 2);
+                let (k, a) = if wire {
+                    (0.55 + 0.1 * next(), 0.025)
+                } else {
+                    (1.0, 0.0)
+                };
+                for c in 0..3 {
+                    color.pixel_mut(x, y)[c] = sky[c] * k;
+                }
+                albedo.pixel_mut(x, y).fill(a);
+            }
+        }
+    }
+    let f = Features {
+        normal: Some(&normal),
+        position: Some(&position),
+        depth: Some(&depth),
+        albedo: Some(&albedo),
+        variance: None,
+    };
+    let mut filters: Vec<Box<dyn Denoiser>> = vec![
+        Box::new(AutoDenoiser::default()),
+        Box::new(GuidedDenoiser {
+            demodulate: true,
+            ..GuidedDenoiser::default()
+        }),
+        Box::new(BilateralDenoiser {
+            params: BilateralParams::default(),
+            demodulate: true,
+        }),
+        Box::new(AtrousDenoiser::new(AtrousParams {
+            demodulate: true,
+            ..AtrousParams::default()
+        })),
+    ];
+    for d in filters.iter_mut() {
+        let out = d.denoise(&FilterInput::new(&color, f)).unwrap().image;
+        for i in 0..w * h / 2 {
+            for c in 0..3 {
+                let (o, v) = (out.data[i * 3 + c], color.data[i * 3 + c]);
+                assert_eq!(
+                    o,
+                    v,
+                    "{}: background pixel {i} channel {c} changed",
+                    d.name()
+                );
+            }
+        }
+    }
+}
