@@ -116,9 +116,17 @@ pub struct DenoiseArgs {
     /// range of the image].
     #[arg(long)]
     pub depth_scale: Option<f32>,
-    /// auto: the candidate guided filters' radii, comma-separated [default: 2,4,8,16,32].
+    /// auto: the candidate guided filters' radii, comma-separated [default:
+    /// 2,4,8,12,16,24,32].
     #[arg(long, value_delimiter = ',')]
     pub auto_radii: Option<Vec<usize>>,
+    /// auto: radii of the candidates with a flatter model (ε = --auto-flat-eps on every guide
+    /// dimension), comma-separated; "" = none [default: 16,32].
+    #[arg(long, value_delimiter = ',', num_args = 0..)]
+    pub auto_flat_radii: Option<Vec<usize>>,
+    /// auto: ε of the flat candidates' guide [default: 0.01].
+    #[arg(long)]
+    pub auto_flat_eps: Option<f32>,
     /// auto: radius of the window its error estimates are averaged over [default: 12].
     #[arg(long)]
     pub auto_error_radius: Option<usize>,
@@ -344,6 +352,8 @@ fn configure(a: &DenoiseArgs, inp: &Inputs) -> anyhow::Result<Box<dyn Denoiser>>
     }
     let demod = inp.albedo.is_some() && !a.no_demodulate;
     let auto_flags = a.auto_radii.is_some()
+        || a.auto_flat_radii.is_some()
+        || a.auto_flat_eps.is_some()
         || a.auto_error_radius.is_some()
         || a.auto_softness.is_some()
         || a.no_auto_atrous
@@ -351,7 +361,8 @@ fn configure(a: &DenoiseArgs, inp: &Inputs) -> anyhow::Result<Box<dyn Denoiser>>
         || a.auto_firefly_spread.is_some();
     if auto_flags && a.filter != FilterKind::Auto {
         bail!(
-            "--auto-radii, --auto-error-radius, --auto-softness, --no-auto-atrous, \
+            "--auto-radii, --auto-flat-radii, --auto-flat-eps, --auto-error-radius, \
+             --auto-softness, --no-auto-atrous, \
              --auto-fireflies and --auto-firefly-spread apply to --filter auto only (this run uses --filter {})",
             a.filter.name()
         );
@@ -474,6 +485,8 @@ fn configure(a: &DenoiseArgs, inp: &Inputs) -> anyhow::Result<Box<dyn Denoiser>>
             Box::new(AutoDenoiser {
                 params: AutoParams {
                     radii: a.auto_radii.clone().unwrap_or(d.radii),
+                    flat_radii: a.auto_flat_radii.clone().unwrap_or(d.flat_radii),
+                    flat_eps: a.auto_flat_eps.unwrap_or(d.flat_eps),
                     eps_normal: a.eps_normal.unwrap_or(d.eps_normal),
                     eps_depth: a.eps_depth.unwrap_or(d.eps_depth),
                     error_radius: a.auto_error_radius.unwrap_or(d.error_radius),

@@ -448,7 +448,11 @@ fn auto_flags_set_its_parameters_and_are_checked() {
         "explicit",
         &[
             "--auto-radii",
-            "2,4,8,16,32",
+            "2,4,8,12,16,24,32",
+            "--auto-flat-radii",
+            "16,32",
+            "--auto-flat-eps",
+            "0.01",
             "--auto-error-radius",
             "12",
             "--auto-softness",
@@ -470,6 +474,7 @@ fn auto_flags_set_its_parameters_and_are_checked() {
             "--auto-softness",
             "0.2",
             "--no-auto-atrous",
+            "--auto-flat-radii",
         ],
     );
     assert!(o.status.success(), "{}", text(&o).1);
@@ -483,6 +488,17 @@ fn auto_flags_set_its_parameters_and_are_checked() {
     let (o, _) = run("zero", &["--auto-radii", "0,4"]);
     assert!(!o.status.success());
     assert!(text(&o).1.contains("radii"), "{}", text(&o).1);
+    // The flat candidates reach the filter, and a bad ε is refused by name.
+    let (o, few) = run("no-flat", &["--auto-flat-radii"]);
+    assert!(o.status.success(), "{}", text(&o).1);
+    assert_ne!(
+        read_image(&few).unwrap().data,
+        a.data,
+        "--auto-flat-radii did nothing"
+    );
+    let (o, _) = run("flat-eps", &["--auto-flat-eps=0"]);
+    assert!(!o.status.success());
+    assert!(text(&o).1.contains("flat ε"), "{}", text(&o).1);
     // The firefly threshold reaches the filter (this frame's ±50 % noise has no pixel above
     // the default 16 × its neighbourhood, but many above 1.2 ×); a spread radius of 0 is
     // refused by name.

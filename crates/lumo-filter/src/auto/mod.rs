@@ -28,7 +28,9 @@ use crate::common::albedo::surface_albedo;
 use crate::common::boxsum::box_mean;
 use crate::common::gbuffer::{check_color, missing_pixels, Features, Filtered};
 use crate::denoiser::{Denoiser, FilterInput, FilterKind};
-use crate::{build_guide, demodulate, guided, DepthNorm, FilterError, GuideKind, GuidedParams};
+use crate::{
+    build_guide, demodulate, guided, DepthNorm, FilterError, Guide, GuideKind, GuidedParams,
+};
 
 /// Parameters of [`auto`]; the defaults were chosen on the tuning set (scenes/tuning and the
 /// built-in scenes), never on scenes/heldout (docs/filters.md).
@@ -36,6 +38,11 @@ use crate::{build_guide, demodulate, guided, DepthNorm, FilterError, GuideKind, 
 pub struct AutoParams {
     /// Window radii of the candidate guided filters.
     pub radii: Vec<usize>,
+    /// Radii of further candidates whose guide has ε = [`Self::flat_eps`] on every dimension:
+    /// flatter per-window models, with less variance and more bias than the main ones'.
+    pub flat_radii: Vec<usize>,
+    /// ε of the [`Self::flat_radii`] candidates' guide.
+    pub flat_eps: f32,
     /// ε on the guide's normal dimensions.
     pub eps_normal: f32,
     /// ε on its depth dimension.
@@ -64,7 +71,9 @@ pub struct AutoParams {
 impl Default for AutoParams {
     fn default() -> Self {
         Self {
-            radii: vec![2, 4, 8, 16, 32],
+            radii: vec![2, 4, 8, 12, 16, 24, 32],
+            flat_radii: vec![16, 32],
+            flat_eps: 0.01,
             eps_normal: 0.001,
             eps_depth: 0.001,
             error_radius: 12,
@@ -87,10 +96,19 @@ pub fn auto(
     params: &AutoParams,
 ) -> Result<Filtered, FilterError> {
     check_color("color", color)?;
-    if params.radii.is_empty() || params.radii.contains(&0) {
+    if params.radii.is_empty() || params.radii.contains(&0) || params.flat_radii.contains(&0) {
         return Err(crate::common::error::param(
             "auto radii",
-            format!("{:?} (give one or more radii ≥ 1)", params.radii),
+            format!(
+                "{:?} and flat {:?} (give one or more radii ≥ 1, and flat radii ≥ 1)",
+                params.radii, params.flat_radii
+            ),
+        ));
+    }
+    if !(params.flat_eps > 0.0 && params.flat_eps.is_finite()) {
+        return Err(crate::common::error::param(
+            "auto flat ε",
+            format!("{} (must be finite and > 0)", params.flat_eps),
         ));
     }
     if !(params.firefly_k >= 0.0 && params.firefly_k.is_finite()) {
@@ -145,23 +163,35 @@ pub fn auto(
         .then(|| fireflies::split(y, params.firefly_k, params.firefly_radius))
         .filter(|f| f.count > 0);
     let y = fireflies.as_ref().map_or(y, |f| &f.clamped);
-    // A window larger than the image only costs time: cap the radii, drop repeats.
-    let mut radii: Vec<usize> = params.radii.iter().map(|&r| r.min(w.max(h))).collect();
-    radii.dedup();
-    let mut candidates = Vec::with_capacity(radii.len());
-    let mut errors = Vec::with_capacity(radii.len());
+    // A window larger than the image only costs time: cap the radii, drop repeats. Sorted
+    // by radius, so that a flat candidate follows the main one of its radius and shares its
+    // self-weight's window means.
+    let cap = |r: &usize| (*r).min(w.max(h));
+    let mut runs: Vec<(usize, bool)> = (params.radii.iter().map(cap).map(|r| (r, false)))
+        .chain(params.flat_radii.iter().map(cap).map(|r| (r, true)))
+        .collect();
+    runs.sort_unstable();
+    runs.dedup();
+    // The flat candidates' guide: the same planes, ε = flat_eps on every dimension.
+    let flat = Guide {
+        eps: vec![params.flat_eps; guide.dims],
+        ..guide.clone()
+    };
+    let mut candidates = Vec::with_capacity(runs.len() + 1);
+    let mut errors = Vec::with_capacity(runs.len() + 1);
     let mut self_weights = selfweight::SelfWeights::new(&guide);
-    for &r in &radii {
+    for &(r, is_flat) in &runs {
+        let g = if is_flat { &flat } else { &guide };
         let f = guided(
             y,
-            &guide,
+            g,
             &GuidedParams {
                 radius: r,
                 fast_subsample: 1,
             },
         )?
         .image;
-        let self_weight = self_weights.at_radius(r);
+        let self_weight = self_weights.at_radius_eps(r, &g.eps);
         errors.push(loo_error(y, &f, &self_weight, params.error_radius));
         candidates.push(f);
     }

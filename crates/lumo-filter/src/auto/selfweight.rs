@@ -34,7 +34,10 @@ pub(super) struct SelfWeights<'g> {
     guide: &'g Guide,
     /// Guide moments: g and the packed upper triangle of g gᵀ, per pixel (any radius).
     moments: Vec<f32>,
+    /// Box means of `moments` at radius `means_radius` (kept: candidates that differ only in
+    /// ε share them).
     means: Vec<f32>,
+    means_radius: Option<usize>,
     window: Vec<f32>,
     avg: Vec<f32>,
     tmp: Vec<f32>,
@@ -61,43 +64,56 @@ impl<'g> SelfWeights<'g> {
             guide,
             moments,
             means: Vec::new(),
+            means_radius: None,
             window: Vec::new(),
             avg: Vec::new(),
             tmp: Vec::new(),
         }
     }
 
-    /// The self-weight at every pixel for window radius `r`.
+    /// The self-weight at every pixel for window radius `r`, with the guide's own ε.
+    #[cfg(test)]
     pub(super) fn at_radius(&mut self, r: usize) -> Vec<f32> {
+        let eps = self.guide.eps.clone();
+        self.at_radius_eps(r, &eps)
+    }
+
+    /// The self-weight at every pixel for window radius `r` and regularisation `eps` (one
+    /// per guide dimension) instead of the guide's. Calls at the same radius share the
+    /// window means.
+    pub(super) fn at_radius_eps(&mut self, r: usize, eps: &[f32]) -> Vec<f32> {
+        assert_eq!(eps.len(), self.guide.dims, "one ε per guide dimension");
         // One copy per guide dimension (at most `crate::MAX_GUIDE_DIMS`).
         match self.guide.dims {
-            1 => self.weights::<1>(r),
-            2 => self.weights::<2>(r),
-            3 => self.weights::<3>(r),
-            4 => self.weights::<4>(r),
-            5 => self.weights::<5>(r),
-            6 => self.weights::<6>(r),
-            7 => self.weights::<7>(r),
-            _ => self.weights::<{ crate::MAX_GUIDE_DIMS }>(r),
+            1 => self.weights::<1>(r, eps),
+            2 => self.weights::<2>(r, eps),
+            3 => self.weights::<3>(r, eps),
+            4 => self.weights::<4>(r, eps),
+            5 => self.weights::<5>(r, eps),
+            6 => self.weights::<6>(r, eps),
+            7 => self.weights::<7>(r, eps),
+            _ => self.weights::<{ crate::MAX_GUIDE_DIMS }>(r, eps),
         }
     }
 
-    /// [`Self::at_radius`] for a guide of `D` dimensions.
-    fn weights<const D: usize>(&mut self, r: usize) -> Vec<f32> {
+    /// [`Self::at_radius_eps`] for a guide of `D` dimensions.
+    fn weights<const D: usize>(&mut self, r: usize, eps: &[f32]) -> Vec<f32> {
         let guide = self.guide;
         let (w, h) = (guide.width, guide.height);
         debug_assert_eq!(guide.dims, D);
         let n = w * h;
         let np = D * (D + 1) / 2;
         let k1 = D + np;
-        box_mean_into(&self.moments, w, h, k1, r, &mut self.tmp, &mut self.means);
+        if self.means_radius != Some(r) {
+            box_mean_into(&self.moments, w, h, k1, r, &mut self.tmp, &mut self.means);
+            self.means_radius = Some(r);
+        }
         let means = &self.means;
         // Per window: A/|ω| (packed), Aμ/|ω|, (1 + μᵀAμ)/|ω|.
         let k2 = np + D + 1;
         // Every element is written below: resized, not cleared (see `box_mean_into`).
         self.window.resize(n * k2, 0.0);
         let avx2 = lumo_simd::Isa::detect() >= lumo_simd::Isa::Avx2;
-        let eps = &guide.eps;
         self.window
             .par_chunks_mut(k2 * w)
             .enumerate()
@@ -317,6 +333,26 @@ mod tests {
                     "r {r} ({x}, {y}): {got} vs {want}"
                 );
             }
+        }
+    }
+    /// Calls that differ only in ε share the window means: each must still be the
+    /// self-weight of its own ε, whatever was computed before (the flat candidates of `auto`
+    /// follow the main candidate of their radius).
+    #[test]
+    fn another_eps_at_the_same_radius_is_its_own_guides_weight() {
+        let (w, h) = (29, 13);
+        let g = two_region_guide(w, h, 9);
+        let sharp = Guide::from_image(&g, vec![0.001, 0.001]).unwrap();
+        let flat = Guide::from_image(&g, vec![0.05, 0.05]).unwrap();
+        let mut shared = SelfWeights::new(&sharp);
+        for r in [2, 5] {
+            let a = shared.at_radius_eps(r, &sharp.eps);
+            let b = shared.at_radius_eps(r, &flat.eps);
+            assert_eq!(a, guided_self_weight(&sharp, r), "r {r}, sharp");
+            assert_eq!(b, guided_self_weight(&flat, r), "r {r}, flat");
+            // A flatter model keeps less of each pixel's own value.
+            let (sa, sb): (f32, f32) = (a.iter().sum(), b.iter().sum());
+            assert!(sb < sa, "r {r}: flat {sb} vs sharp {sa}");
         }
     }
 }
