@@ -200,26 +200,7 @@ pub fn auto(
         errors.push(loo_error(y, &f, &self_weight, params.error_radius));
         candidates.push(f);
     }
-    let mut blended = Image::new(w, h, 3, 0.0);
-    blended
-        .data
-        .par_chunks_mut(3)
-        .enumerate()
-        .for_each(|(i, out)| {
-            let best = errors.iter().map(|e| e[i]).fold(f32::INFINITY, f32::min);
-            let scale = params.softness * best.max(1e-12);
-            let mut total = 0.0f32;
-            for (f, e) in candidates.iter().zip(&errors) {
-                let wk = (-(e[i] - best) / scale).exp();
-                total += wk;
-                for c in 0..3 {
-                    out[c] += wk * f.data[i * 3 + c];
-                }
-            }
-            for v in out.iter_mut() {
-                *v /= total;
-            }
-        });
+    let mut blended = blend(&candidates, &errors, params.softness, w, h);
     debug_assert_eq!(blended.data.len(), n * 3);
     if let Some(f) = &fireflies {
         let spread = fireflies::spread(&f.excess, &guide, params.firefly_spread)?;
@@ -235,6 +216,31 @@ pub fn auto(
         image,
         missing: missing_pixels(color),
     })
+}
+
+/// The candidates blended per pixel with weights `exp(−(e_k − e_min) / (softness · e_min))`.
+fn blend(candidates: &[Image], errors: &[Vec<f32>], softness: f32, w: usize, h: usize) -> Image {
+    let mut blended = Image::new(w, h, 3, 0.0);
+    blended
+        .data
+        .par_chunks_mut(3)
+        .enumerate()
+        .for_each(|(i, out)| {
+            let best = errors.iter().map(|e| e[i]).fold(f32::INFINITY, f32::min);
+            let scale = softness * best.max(1e-12);
+            let mut total = 0.0f32;
+            for (f, e) in candidates.iter().zip(errors) {
+                let wk = (-(e[i] - best) / scale).exp();
+                total += wk;
+                for c in 0..3 {
+                    out[c] += wk * f.data[i * 3 + c];
+                }
+            }
+            for v in out.iter_mut() {
+                *v /= total;
+            }
+        });
+    blended
 }
 
 /// Squared leave-one-out prediction error `Σ_c ((y − F) / (1 − W_pp))²`, averaged over the
