@@ -99,10 +99,10 @@ pub struct DenoiseArgs {
     /// Window radius for guided / bilateral [default: 8 for both].
     #[arg(long)]
     pub radius: Option<usize>,
-    /// Guided filter ε on normal dimensions [default: 0.001].
+    /// Guided filter ε on normal dimensions [default: 0.001; auto: 0.0001].
     #[arg(long)]
     pub eps_normal: Option<f32>,
-    /// Guided filter ε on the depth dimension [default: 0.001].
+    /// Guided filter ε on the depth dimension [default: 0.001; auto: 0.00001].
     #[arg(long)]
     pub eps_depth: Option<f32>,
     /// Guide dimensions for the guided filter: 1 (grey normal), 3 (normal), 4 (normal + depth)
