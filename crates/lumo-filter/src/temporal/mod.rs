@@ -31,7 +31,7 @@ pub use reshade::ShadingChange;
 pub use taa::{TemporalAntialias, DEFAULT_TAA_ALPHA, DEFAULT_TAA_GAMMA};
 
 use crate::atrous::{AtrousFilter, AtrousParams};
-use crate::common::albedo::albedo_divisor;
+use crate::common::albedo::{albedo_divisor, surface_albedo};
 use crate::common::error::param;
 use crate::common::gbuffer::{check_color, check_size, missing_pixels, Features, Filtered};
 use crate::common::passthrough::passed;
@@ -333,6 +333,19 @@ impl TemporalFilter {
         changes: Option<&[ShadingChange]>,
     ) -> Result<Filtered, FilterError> {
         validate_frame(frame)?;
+        // Background pixels pass through whatever their sample-averaged albedo, as in every
+        // demodulating filter (`surface_albedo`).
+        let features = Features {
+            albedo: frame.albedo,
+            depth: Some(frame.depth),
+            position: frame.position,
+            ..Features::default()
+        };
+        let albedo = surface_albedo(&features);
+        let frame = &TemporalFrame {
+            albedo: albedo.as_deref(),
+            ..*frame
+        };
         if let Some(c) = changes {
             reshade::validate(c, frame.color.width, frame.color.height)?;
         }

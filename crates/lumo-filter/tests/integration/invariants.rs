@@ -336,7 +336,8 @@ fn bad_inputs_are_typed_errors() {
 /// renderers average albedo over samples, misses counting 0). Every demodulating filter must
 /// pass such background pixels through: divided by that small albedo they were tens of times
 /// brighter than their neighbours, and filtering them erased the wire and spread its pixels'
-/// light (`tune-wires`, docs/filters.md "Background pixels").
+/// light (`tune-wires`, docs/filters.md "Background pixels"). The temporal filter too, on its
+/// first frame and with a history.
 #[test]
 fn background_pixels_with_a_partial_albedo_are_passed_through_by_demodulating_filters() {
     let (w, h) = (48, 32);
@@ -392,7 +393,16 @@ fn background_pixels_with_a_partial_albedo_are_passed_through_by_demodulating_fi
             demodulate: true,
             ..AtrousParams::default()
         })),
+        // The temporal filter's first frame (no history yet) and a second one.
+        Box::new(TemporalFilter::new(TemporalParams::default()).unwrap()),
     ];
+    let second = filters.len() - 1;
+    filters.push(Box::new(
+        TemporalFilter::new(TemporalParams::default()).unwrap(),
+    ));
+    let _ = filters[second + 1]
+        .denoise(&FilterInput::new(&color, f))
+        .unwrap();
     for d in filters.iter_mut() {
         let out = d.denoise(&FilterInput::new(&color, f)).unwrap().image;
         for i in 0..w * h / 2 {
