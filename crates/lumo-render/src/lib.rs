@@ -18,6 +18,7 @@ mod render;
 mod render_scene;
 pub mod sampler;
 pub mod shading;
+mod specular_albedo;
 #[cfg(test)]
 mod test_lights;
 

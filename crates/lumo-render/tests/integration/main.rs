@@ -14,5 +14,6 @@ mod mitsuba_adapters;
 mod mitsuba_cornell;
 mod mitsuba_suite;
 mod spectral;
+mod specular_albedo;
 mod transport_modes;
 mod wavefront;

@@ -18,6 +18,7 @@ use crate::render_scene::RenderScene;
 use crate::render_scene::Surface;
 use crate::sampler::PixelSampler;
 use crate::shading::ShadingBsdf;
+use crate::specular_albedo;
 
 /// Integrator parameters.
 #[derive(Clone, Copy, Debug)]
@@ -344,17 +345,32 @@ impl PathState {
         bsdf: &Bsdf,
         le: Vec3,
     ) {
+        // The albedo plane: behind glass and mirrors, what they show (`specular_albedo`).
+        let albedo = |me: &mut Self| {
+            if bsdf.is_delta() {
+                let (a, rays) = specular_albedo::albedo_behind(rs, s, bsdf, me.dir);
+                me.radiance.rays += rays;
+                a
+            } else {
+                bsdf.albedo()
+            }
+        };
         if self.depth == 1 {
-            self.radiance.albedo = bsdf.albedo();
+            self.radiance.albedo = albedo(self);
             self.radiance.emitted = le;
         }
         if std::mem::take(&mut self.want_first_hit) {
             let n = s.frame.n;
+            let albedo = if self.depth == 1 {
+                self.radiance.albedo
+            } else {
+                albedo(self)
+            };
             self.first_hit = FirstHit {
                 normal: if n.dot(self.dir) > 0.0 { -n } else { n },
                 position: s.p,
                 depth: t,
-                albedo: bsdf.albedo(),
+                albedo,
                 emitted: le,
             };
         }
