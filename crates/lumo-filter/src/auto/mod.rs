@@ -87,9 +87,11 @@ impl Default for AutoParams {
     }
 }
 
-/// Denoises `color` (3 channels) with [`AutoParams::radii`] guided filters blended per pixel
-/// by their estimated error. Needs a normal plane; uses depth (4-D guide) and albedo when
-/// given. Missing (non-finite) colour pixels take no part in the error estimate.
+/// Denoises `color` (3 channels) with [`AutoParams::radii`] guided filters, the
+/// [`AutoParams::flat_radii`] ones and the À-Trous, blended per pixel by their estimated
+/// error. Needs a normal plane; uses depth (4-D guide) and albedo when given (background
+/// pixels pass through, [`crate::surface_albedo`]). Missing (non-finite) colour pixels take
+/// no part in the error estimate.
 pub fn auto(
     color: &Image,
     features: &Features,
