@@ -7,12 +7,12 @@ use lumo_pipeline::{Pipeline, PipelineError, PipelineOptions};
 /// Pipeline selection and parameters.
 #[derive(clap::Args, Debug, Clone)]
 pub struct PipelineArgs {
-    /// How traced paths become the image: atrous (À-Trous on the demodulated image; the
-    /// default, see docs/pipelines.md), none (plain path tracing), guided (guided filter on
+    /// How traced paths become the image: auto (guided filters at several radii and the
+    /// À-Trous blended per pixel by their estimated error, as `lumo denoise --filter auto`;
+    /// the default, see docs/pipelines.md), atrous (À-Trous on the demodulated image: about
+    /// a tenth of auto's filter time), none (plain path tracing), guided (guided filter on
     /// indirect light), jbu (sparse indirect + joint bilateral upsampling), bilateral
-    /// (cross-bilateral reference), auto (guided filters at four radii blended per pixel by
-    /// their estimated error, as `lumo denoise --filter auto`) [default: atrous; none with
-    /// --integrator light].
+    /// (cross-bilateral reference) [default: auto; none with --integrator light].
     #[arg(long, value_parser = parse_pipeline)]
     pub pipeline: Option<Pipeline>,
     /// atrous: trace every n-th pixel in x and y only (1, 2 or 4) and in-paint the rest.
@@ -42,14 +42,14 @@ pub const MAX_SIDE: usize = 16384;
 /// block size is already more work than 64 spp per pixel).
 pub const MAX_PATHS: u32 = 1 << 20;
 
-/// Samples per pixel of filtered pipelines when `--spp` is not given: with À-Trous, 4 spp at
-/// 512×512 is a clean image in about a second on 2 cores (docs/pipelines.md).
+/// Samples per pixel of filtered pipelines when `--spp` is not given: 4 spp at 512×512 is a
+/// clean image in about half a second on 2 cores (docs/pipelines.md).
 pub const FILTERED_DEFAULT_SPP: u32 = 4;
 
 impl PipelineArgs {
-    /// The pipeline asked for, or the default (À-Trous).
+    /// The pipeline asked for, or the default (`auto`).
     pub fn pipeline(&self) -> Pipeline {
-        self.pipeline.unwrap_or(Pipeline::Atrous)
+        self.pipeline.unwrap_or(Pipeline::Auto)
     }
 
     /// Checks the options, naming each as the command line spells it (the filters' own
@@ -57,6 +57,14 @@ impl PipelineArgs {
     pub fn check(&self) -> Result<()> {
         if ![1, 2, 4].contains(&self.subsample) {
             bail!("--subsample {}: use 1, 2 or 4", self.subsample);
+        }
+        if self.subsample != 1 && self.pipeline() != Pipeline::Atrous {
+            bail!(
+                "--subsample {} applies to --pipeline atrous only (this run uses --pipeline {}): \
+                 add --pipeline atrous",
+                self.subsample,
+                self.pipeline().name()
+            );
         }
         if ![1, 3, 4].contains(&self.guide_dims) {
             bail!("--guide-dims {}: use 1, 3 or 4", self.guide_dims);

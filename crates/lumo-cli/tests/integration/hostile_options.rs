@@ -173,6 +173,28 @@ fn ignored_options_are_warned_about_one_line_each() {
     );
 }
 
+/// `--subsample` is the À-Trous pipeline's: with the default pipeline (`auto`) it would do
+/// nothing, so it is refused with the fix, and works with `--pipeline atrous`.
+#[test]
+fn subsample_needs_the_atrous_pipeline() {
+    let dir = temp_dir("subsample");
+    let args = [
+        &["render", "cornell", "--subsample", "2"][..],
+        &TINY,
+        &["s.png"],
+    ]
+    .concat();
+    let (o, _) = lumo_in(&dir, &args, None);
+    assert!(!o.status.success());
+    let e = stderr(&o);
+    assert!(
+        e.contains("--subsample 2") && e.contains("add --pipeline atrous"),
+        "{e}"
+    );
+    let (o, _) = lumo_in(&dir, &[&args[..], &["--pipeline", "atrous"]].concat(), None);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
 #[test]
 fn an_unwritable_aov_directory_is_found_before_the_render() {
     let dir = temp_dir("aovs");
