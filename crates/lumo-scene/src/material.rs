@@ -229,6 +229,21 @@ impl Material {
         }
     }
 
+    /// A named smooth glass: a dielectric interface of relative index `ior`.
+    pub fn glass(name: &str, ior: f32) -> Self {
+        Self {
+            name: name.into(),
+            bsdf: BsdfSpec::Dielectric {
+                ior,
+                roughness: Roughness::SMOOTH,
+            },
+            emission: Vec3::ZERO,
+            two_sided: true,
+            emission_map: None,
+            spectra: Spectra::default(),
+        }
+    }
+
     /// This material with an emitted radiance.
     pub fn with_emission(mut self, radiance: Vec3) -> Self {
         self.emission = radiance;

@@ -5,7 +5,7 @@ use lumo_render::camera::PinholeCamera;
 use lumo_render::integrators::path::wavefront::render_pixels;
 use lumo_render::{PathSettings, RenderScene, RenderSettings};
 use lumo_scene::shapes::{rectangle, sphere};
-use lumo_scene::{BsdfSpec, Mat4, Material, Roughness, Vec3};
+use lumo_scene::{Mat4, Material, Vec3};
 
 use crate::common::empty_scene;
 
@@ -17,17 +17,7 @@ use crate::common::empty_scene;
 fn glass_shows_the_albedo_behind_it_weighted_by_its_transmittance() {
     let mut scene = empty_scene(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO);
     let wall = scene.add_material(Material::diffuse("wall", Vec3::splat(0.5)));
-    let glass = scene.add_material(Material {
-        name: "glass".into(),
-        bsdf: BsdfSpec::Dielectric {
-            ior: 1.5,
-            roughness: Roughness::SMOOTH,
-        },
-        emission: Vec3::ZERO,
-        two_sided: true,
-        emission_map: None,
-        spectra: Default::default(),
-    });
+    let glass = scene.add_material(Material::glass("glass", 1.5));
     scene.add_mesh(rectangle(
         &(Mat4::from_translation(Vec3::new(0.0, 0.0, -2.0)) * Mat4::from_scale(Vec3::splat(10.0))),
         wall,

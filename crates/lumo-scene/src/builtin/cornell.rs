@@ -134,17 +134,7 @@ pub(crate) fn cornell_spheres() -> Scene {
         emission_map: None,
         spectra: Default::default(),
     });
-    let glass = scene.add_material(Material {
-        name: "glass".into(),
-        bsdf: BsdfSpec::Dielectric {
-            ior: 1.5,
-            roughness: Roughness::SMOOTH,
-        },
-        emission: Vec3::ZERO,
-        two_sided: true,
-        emission_map: None,
-        spectra: Default::default(),
-    });
+    let glass = scene.add_material(Material::glass("glass", 1.5));
     let r = 0.35;
     let mut metal = sphere(
         &(Mat4::from_translation(Vec3::new(-0.42, -1.0 + r, -0.3))
