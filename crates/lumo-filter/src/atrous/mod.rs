@@ -23,6 +23,8 @@ mod pipeline;
 #[cfg(test)]
 mod tests;
 
+use std::borrow::Cow;
+
 use lumo_image::Image;
 use rayon::prelude::*;
 
@@ -95,7 +97,12 @@ impl AtrousFilter {
         path: Path,
     ) -> Result<Filtered, FilterError> {
         validate(color, features, params)?;
-        let albedo = surface_albedo(features);
+        // Only a demodulating run reads the albedo (and needs the background masked out of it).
+        let albedo = if params.demodulate {
+            surface_albedo(features)
+        } else {
+            features.albedo.map(Cow::Borrowed)
+        };
         let features = &Features {
             albedo: albedo.as_deref(),
             ..*features

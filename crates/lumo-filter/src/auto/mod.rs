@@ -155,11 +155,11 @@ pub fn auto(
     })?;
     let (w, h) = (color.width, color.height);
     let n = w * h;
-    let albedo = surface_albedo(features);
-    let demod = match (params.demodulate, albedo.as_deref()) {
-        (true, Some(a)) => Some(demodulate(color, a)?),
-        _ => None,
-    };
+    let albedo = params
+        .demodulate
+        .then(|| surface_albedo(features))
+        .flatten();
+    let demod = albedo.map(|a| demodulate(color, &a)).transpose()?;
     let y = demod.as_ref().map_or(color, |d| &d.illumination);
     let fireflies = (params.firefly_k > 0.0)
         .then(|| fireflies::split(y, params.firefly_k, params.firefly_radius))

@@ -345,32 +345,26 @@ impl PathState {
         bsdf: &Bsdf,
         le: Vec3,
     ) {
-        // The albedo plane: behind glass and mirrors, what they show (`specular_albedo`).
-        let albedo = |me: &mut Self| {
-            if bsdf.is_delta() {
-                let (a, rays) = specular_albedo::albedo_behind(rs, s, bsdf, me.dir);
-                me.radiance.rays += rays;
+        if self.depth == 1 {
+            // The albedo plane: behind glass and mirrors, what they show (`specular_albedo`).
+            self.radiance.albedo = if bsdf.is_delta() {
+                let (a, rays) = specular_albedo::albedo_behind(rs, s, bsdf, self.dir);
+                self.radiance.rays += rays;
                 a
             } else {
                 bsdf.albedo()
-            }
-        };
-        if self.depth == 1 {
-            self.radiance.albedo = albedo(self);
+            };
             self.radiance.emitted = le;
         }
         if std::mem::take(&mut self.want_first_hit) {
+            // Asked for by the camera ray only, so at its first hit.
+            debug_assert_eq!(self.depth, 1);
             let n = s.frame.n;
-            let albedo = if self.depth == 1 {
-                self.radiance.albedo
-            } else {
-                albedo(self)
-            };
             self.first_hit = FirstHit {
                 normal: if n.dot(self.dir) > 0.0 { -n } else { n },
                 position: s.p,
                 depth: t,
-                albedo,
+                albedo: self.radiance.albedo,
                 emitted: le,
             };
         }
