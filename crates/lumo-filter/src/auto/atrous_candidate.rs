@@ -129,7 +129,7 @@ mod tests {
     #[test]
     fn probe_matches_the_guided_filters_exact_self_weight() {
         let (w, h) = (64, 48);
-        let g = crate::auto::selfweight::two_region_guide(w, h, 30);
+        let g = crate::guided::self_weight::two_region_guide(w, h, 30);
         let mut y = Image::new(w, h, 3, 0.0);
         for yy in 0..h {
             for x in 0..w {
@@ -148,7 +148,7 @@ mod tests {
             };
             let (_, probed) =
                 probe_self_weight(&y, |c| Ok(guided(c, &guide, &params)?.image)).unwrap();
-            let exact = super::super::selfweight::SelfWeights::new(&guide).at_radius(r);
+            let (_, exact) = crate::guided::guided_self_weighted(&y, &guide, r).unwrap();
             let n = (w * h) as f64;
             let mean = |v: &[f32]| v.iter().map(|&x| x as f64).sum::<f64>() / n;
             let (mp, me) = (mean(&probed), mean(&exact));

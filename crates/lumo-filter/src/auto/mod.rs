@@ -19,7 +19,6 @@
 
 mod atrous_candidate;
 mod fireflies;
-mod selfweight;
 
 use lumo_image::Image;
 use rayon::prelude::*;
@@ -28,9 +27,8 @@ use crate::common::albedo::surface_albedo;
 use crate::common::boxsum::box_mean;
 use crate::common::gbuffer::{check_color, missing_pixels, Features, Filtered};
 use crate::denoiser::{Denoiser, FilterInput, FilterKind};
-use crate::{
-    build_guide, demodulate, guided, DepthNorm, FilterError, Guide, GuideKind, GuidedParams,
-};
+use crate::guided::guided_self_weighted;
+use crate::{build_guide, demodulate, DepthNorm, FilterError, Guide, GuideKind};
 
 /// Parameters of [`auto`]; the defaults were chosen on the tuning set (scenes/tuning and the
 /// built-in scenes), never on scenes/heldout (docs/filters.md).
@@ -165,9 +163,7 @@ pub fn auto(
         .then(|| fireflies::split(y, params.firefly_k, params.firefly_radius))
         .filter(|f| f.count > 0);
     let y = fireflies.as_ref().map_or(y, |f| &f.clamped);
-    // A window larger than the image only costs time: cap the radii, drop repeats. Sorted
-    // by radius, so that a flat candidate follows the main one of its radius and shares its
-    // self-weight's window means.
+    // A window larger than the image only costs time: cap the radii, drop repeats.
     let cap = |r: &usize| (*r).min(w.max(h));
     let mut runs: Vec<(usize, bool)> = (params.radii.iter().map(cap).map(|r| (r, false)))
         .chain(params.flat_radii.iter().map(cap).map(|r| (r, true)))
@@ -181,21 +177,11 @@ pub fn auto(
     };
     let mut candidates = Vec::with_capacity(runs.len() + 1);
     let mut errors = Vec::with_capacity(runs.len() + 1);
-    let mut self_weights = selfweight::SelfWeights::new(&guide);
     for &(r, is_flat) in &runs {
         let g = if is_flat { &flat } else { &guide };
-        let f = guided(
-            y,
-            g,
-            &GuidedParams {
-                radius: r,
-                fast_subsample: 1,
-            },
-        )?
-        .image;
-        let self_weight = self_weights.at_radius_eps(r, &g.eps);
-        errors.push(loo_error(y, &f, &self_weight, params.error_radius));
-        candidates.push(f);
+        let (f, self_weight) = guided_self_weighted(y, g, r)?;
+        errors.push(loo_error(y, &f.image, &self_weight, params.error_radius));
+        candidates.push(f.image);
     }
     if params.atrous {
         let (f, self_weight) = atrous_candidate::atrous_candidate(y, features)?;

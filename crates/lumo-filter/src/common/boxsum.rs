@@ -46,12 +46,9 @@ pub(crate) fn box_mean_finite(values: &[f32], w: usize, h: usize, r: usize) -> V
 }
 
 /// [`box_mean`] into `out`, with `tmp` as the intermediate: both are resized to the data's
-/// length, so a caller that filters several images of one size allocates (and page-faults)
-/// its buffers once. At 512² `auto`'s fresh buffers per radius cost it a third of its time in
-/// the kernel.
-///
-/// Panics if `data.len() != w*h*k` (a programming error inside the crate).
-pub fn box_mean_into(
+/// length (a caller that filters several images of one size could keep them, allocating and
+/// page-faulting its buffers once).
+fn box_mean_into(
     data: &[f32],
     w: usize,
     h: usize,
@@ -73,14 +70,12 @@ pub fn box_mean_into(
     // a buffer kept from an earlier call is only resized, not cleared: zeroing them was 5 % of
     // `auto`'s time at 512².
     tmp.resize(data.len(), 0.0);
-    // `auto`'s self-weights run it on 14 and 15 channels, its errors and the light search on 2:
-    // with the channel count a constant the per-channel loops unroll and vectorise (the same
-    // operations per channel, so the same bits).
+    // `auto`'s errors and the light search run it on 2 channels: with the channel count a
+    // constant the per-channel loops unroll and vectorise (the same operations per channel,
+    // so the same bits).
     let rows = tmp.par_chunks_mut(stride).zip(data.par_chunks(stride));
     match k {
         2 => rows.for_each(|(o, row)| row_means::<2>(row, o, &cx, r)),
-        14 => rows.for_each(|(o, row)| row_means::<14>(row, o, &cx, r)),
-        15 => rows.for_each(|(o, row)| row_means::<15>(row, o, &cx, r)),
         _ => rows.for_each_init(
             || vec![0.0f64; k],
             |acc, (o, row)| row_means_any(row, o, &cx, r, k, acc),

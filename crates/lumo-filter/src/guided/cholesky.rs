@@ -4,16 +4,16 @@
 pub(crate) const L: usize = 16;
 
 /// Solves `A x_c = b_c` for the 3 right-hand sides `b` with `A` symmetric positive definite
-/// (D×D), for L independent systems at once, stored lane-last (`a[i][j][lane]`) so that every
-/// step is a loop over lanes that vectorises. One Cholesky factorisation serves all three
-/// colour channels. Pivots are floored at a tiny positive value, so a matrix that rounding
-/// made slightly indefinite still gives a finite answer instead of NaN.
+/// (D×D), given A's Cholesky factor from [`factor_lanes`], for L independent systems at once,
+/// stored lane-last (`a[i][j][lane]`) so that every step is a loop over lanes that
+/// vectorises. One factorisation serves all three colour channels (and, for `auto`, the
+/// window's inverse).
 #[inline(always)]
-pub(super) fn solve_lanes<const D: usize>(
-    a: &[[[f32; L]; D]; D],
+pub(super) fn solve_factored<const D: usize>(
+    lo: &[[[f32; L]; D]; D],
+    inv_diag: &[[f32; L]; D],
     b: &[[[f32; L]; D]; 3],
 ) -> [[[f32; L]; D]; 3] {
-    let (lo, inv_diag) = factor_lanes(a);
     let mut x = [[[0.0f32; L]; D]; 3];
     for c in 0..3 {
         // Forward: L y = b.
@@ -47,7 +47,8 @@ pub(super) fn solve_lanes<const D: usize>(
 
 /// The lower Cholesky factor of L symmetric positive definite D×D systems (lanes last; only
 /// the lower triangle of `a` is read) and the reciprocals of its diagonal. Pivots are floored
-/// at a tiny positive value ([`solve_lanes`]).
+/// at a tiny positive value, so a matrix that rounding made slightly indefinite still gives a
+/// finite answer instead of NaN.
 #[inline(always)]
 pub(crate) fn factor_lanes<const D: usize>(
     a: &[[[f32; L]; D]; D],
@@ -166,7 +167,8 @@ mod tests {
                 }
             }
         }
-        let x = solve_lanes::<3>(&al, &bl);
+        let (lo, inv_diag) = factor_lanes::<3>(&al);
+        let x = solve_factored::<3>(&lo, &inv_diag, &bl);
         for l in 0..L {
             for c in 0..3 {
                 for i in 0..3 {

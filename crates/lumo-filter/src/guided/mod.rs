@@ -3,10 +3,12 @@
 //!
 //! Files: this one (guide building, parameters, the public entry point, the sub-sampled
 //! variant), stream.rs (the exact filter streamed row by row), cholesky.rs (its small window
-//! solves) and lookup.rs (the paper's geometry-aware lookup, used by the guided pipeline).
+//! solves), self_weight.rs (the exact `∂F_p/∂y_p` that `auto` needs, streamed with the filter)
+//! and lookup.rs (the paper's geometry-aware lookup, used by the guided pipeline).
 
 pub(crate) mod cholesky;
 mod lookup;
+pub(crate) mod self_weight;
 mod stream;
 
 use lumo_image::Image;
@@ -20,6 +22,7 @@ use crate::common::gbuffer::{
 };
 use crate::denoiser::{require, Denoiser, FilterInput, FilterKind};
 use crate::FilterError;
+use self_weight::{self_weight_at, terms};
 use stream::{stream, Problem};
 
 pub use lookup::{most_similar, most_similar_in_grid, neighbour_cells};
@@ -302,6 +305,106 @@ pub fn guided(
     guide: &Guide,
     params: &GuidedParams,
 ) -> Result<Filtered, FilterError> {
+    check_problem(color, guide, params)?;
+    let (w, h) = (color.width, color.height);
+    let s = params.fast_subsample;
+    let (mut p, valid, missing) = guided_input(color);
+    if missing > 0 {
+        fill_missing(&mut p, &valid, w, h, params.radius);
+    }
+    let d = guide.dims;
+    let image = if s == 1 {
+        let pb = Problem {
+            guide: &guide.data,
+            p: &p,
+            eps: &guide.eps,
+            w,
+            h,
+            r: params.radius,
+        };
+        let mut out = Image::new(w, h, 3, 0.0);
+        let g = &guide.data;
+        stream_dims::<false>(d, &pb, &mut out.data, 3 * w, &|y, ab, row| {
+            apply_row(&g[y * w * d..(y + 1) * w * d], d, 3 * d + 3, ab, row)
+        });
+        out
+    } else {
+        let (lw, lh) = (w.div_ceil(s), h.div_ceil(s));
+        let gl = downsample(&guide.data, w, h, d, s);
+        let pl = downsample(&p, w, h, 3, s);
+        let r = ((params.radius as f32 / s as f32).round() as usize).max(1);
+        let k2 = 3 * d + 3;
+        let pb = Problem {
+            guide: &gl,
+            p: &pl,
+            eps: &guide.eps,
+            w: lw,
+            h: lh,
+            r,
+        };
+        let mut ab = vec![0.0f32; lw * lh * k2];
+        stream_dims::<false>(d, &pb, &mut ab, lw * k2, &|_, m, row| {
+            row.copy_from_slice(m)
+        });
+        apply_upsampled(&guide.data, w, h, d, &ab, lw, lh, s)
+    };
+    Ok(Filtered { image, missing })
+}
+
+/// The exact guided filter at window radius `radius` and its self-weight `∂F_p/∂y_p` at every
+/// pixel ([`self_weight`]), in one pass: the terms of the weight are averaged over the same
+/// windows as the filter's coefficients, from the same factorisations (`auto`'s candidates).
+pub(crate) fn guided_self_weighted(
+    color: &Image,
+    guide: &Guide,
+    radius: usize,
+) -> Result<(Filtered, Vec<f32>), FilterError> {
+    let params = GuidedParams {
+        radius,
+        fast_subsample: 1,
+    };
+    check_problem(color, guide, &params)?;
+    let (w, h, d) = (color.width, color.height, guide.dims);
+    let (mut p, valid, missing) = guided_input(color);
+    if missing > 0 {
+        fill_missing(&mut p, &valid, w, h, radius);
+    }
+    let pb = Problem {
+        guide: &guide.data,
+        p: &p,
+        eps: &guide.eps,
+        w,
+        h,
+        r: radius,
+    };
+    // Row y of `out`: the filtered row (3w values), then its weights (w).
+    let mut out = vec![0.0f32; w * h * 4];
+    let (g, k0) = (&guide.data, 3 * d + 3);
+    let k2 = k0 + terms(d);
+    stream_dims::<true>(d, &pb, &mut out, 4 * w, &|y, ab, row| {
+        let gr = &g[y * w * d..(y + 1) * w * d];
+        let (rgb, weights) = row.split_at_mut(3 * w);
+        apply_row(gr, d, k2, ab, rgb);
+        for (x, wt) in weights.iter_mut().enumerate() {
+            *wt = self_weight_at(&gr[x * d..(x + 1) * d], &ab[x * k2 + k0..(x + 1) * k2]);
+        }
+    });
+    let mut image = Image::new(w, h, 3, 0.0);
+    let mut weights = vec![0.0f32; w * h];
+    image
+        .data
+        .par_chunks_mut(3 * w)
+        .zip(weights.par_chunks_mut(w))
+        .zip(out.par_chunks(4 * w))
+        .for_each(|((rgb, wt), row)| {
+            rgb.copy_from_slice(&row[..3 * w]);
+            wt.copy_from_slice(&row[3 * w..]);
+        });
+    Ok((Filtered { image, missing }, weights))
+}
+
+/// The checks [`guided`] makes of its inputs.
+fn check_problem(color: &Image, guide: &Guide, params: &GuidedParams) -> Result<(), FilterError> {
     check_color("color", color)?;
     let (w, h) = (color.width, color.height);
     if guide.width != w || guide.height != h {
@@ -331,47 +434,7 @@ pub fn guided(
     if s == 0 || s > 64 {
         return Err(param("fast_subsample", format!("{s} (use 1..=64)")));
     }
-    let (mut p, valid, missing) = guided_input(color);
-    if missing > 0 {
-        fill_missing(&mut p, &valid, w, h, params.radius);
-    }
-    let d = guide.dims;
-    let image = if s == 1 {
-        let pb = Problem {
-            guide: &guide.data,
-            p: &p,
-            eps: &guide.eps,
-            w,
-            h,
-            r: params.radius,
-        };
-        let mut out = Image::new(w, h, 3, 0.0);
-        let g = &guide.data;
-        stream_dims(d, &pb, &mut out.data, 3 * w, &|y, ab, row| {
-            apply_row(&g[y * w * d..(y + 1) * w * d], d, ab, row)
-        });
-        out
-    } else {
-        let (lw, lh) = (w.div_ceil(s), h.div_ceil(s));
-        let gl = downsample(&guide.data, w, h, d, s);
-        let pl = downsample(&p, w, h, 3, s);
-        let r = ((params.radius as f32 / s as f32).round() as usize).max(1);
-        let k2 = 3 * d + 3;
-        let pb = Problem {
-            guide: &gl,
-            p: &pl,
-            eps: &guide.eps,
-            w: lw,
-            h: lh,
-            r,
-        };
-        let mut ab = vec![0.0f32; lw * lh * k2];
-        stream_dims(d, &pb, &mut ab, lw * k2, &|_, m, row| {
-            row.copy_from_slice(m)
-        });
-        apply_upsampled(&guide.data, w, h, d, &ab, lw, lh, s)
-    };
-    Ok(Filtered { image, missing })
+    Ok(())
 }
 
 /// The colour as the filter reads it, in one pass over the rows (in parallel): pixel-major
@@ -513,23 +576,29 @@ fn apply_upsampled(
 type EmitRow<'a> = dyn Fn(usize, &[f32], &mut [f32]) + Sync + 'a;
 
 /// [`stream`] monomorphised per guide dimension, so the d×d solve is unrolled.
-fn stream_dims(d: usize, pb: &Problem, out: &mut [f32], row_len: usize, emit: &EmitRow<'_>) {
+fn stream_dims<const SW: bool>(
+    d: usize,
+    pb: &Problem,
+    out: &mut [f32],
+    row_len: usize,
+    emit: &EmitRow<'_>,
+) {
     match d {
-        1 => stream::<1, _>(pb, out, row_len, emit),
-        2 => stream::<2, _>(pb, out, row_len, emit),
-        3 => stream::<3, _>(pb, out, row_len, emit),
-        4 => stream::<4, _>(pb, out, row_len, emit),
-        5 => stream::<5, _>(pb, out, row_len, emit),
-        6 => stream::<6, _>(pb, out, row_len, emit),
-        7 => stream::<7, _>(pb, out, row_len, emit),
-        _ => stream::<8, _>(pb, out, row_len, emit),
+        1 => stream::<1, SW, _>(pb, out, row_len, emit),
+        2 => stream::<2, SW, _>(pb, out, row_len, emit),
+        3 => stream::<3, SW, _>(pb, out, row_len, emit),
+        4 => stream::<4, SW, _>(pb, out, row_len, emit),
+        5 => stream::<5, SW, _>(pb, out, row_len, emit),
+        6 => stream::<6, SW, _>(pb, out, row_len, emit),
+        7 => stream::<7, SW, _>(pb, out, row_len, emit),
+        _ => stream::<8, SW, _>(pb, out, row_len, emit),
     }
 }
 
 multiversion! {
-    /// One output row: q_c = Σ_i ā_ci I_i + b̄_c from the row's averaged coefficients.
-    fn apply_row(guide: &[f32], d: usize, ab: &[f32], row: &mut [f32]) as apply_row_impl {
-        let k2 = 3 * d + 3;
+    /// One output row: q_c = Σ_i ā_ci I_i + b̄_c from the row's averaged coefficients (`k2`
+    /// values per pixel, the 3d + 3 coefficients first).
+    fn apply_row(guide: &[f32], d: usize, k2: usize, ab: &[f32], row: &mut [f32]) as apply_row_impl {
         for (x, o) in row.chunks_exact_mut(3).enumerate() {
             let gi = &guide[x * d..(x + 1) * d];
             let c = &ab[x * k2..(x + 1) * k2];

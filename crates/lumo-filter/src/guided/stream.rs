@@ -9,15 +9,20 @@
 //!
 //! Band heights depend only on the image height and radius (not on the thread count), so
 //! results are identical for any number of threads.
+//!
+//! With `SW` the window's self-weight terms ([`super::self_weight`]) travel with its
+//! coefficients: the same factorisation, the same window sums, no second pass over the image.
 
 use rayon::prelude::*;
 
-use super::cholesky::{solve_lanes, L};
+use super::cholesky::{factor_lanes, solve_factored, L};
+use super::self_weight::{terms, window_terms};
 
 /// Largest number of product channels (D = 8: 8 + 36 + 3 + 24), padded to whole chunks.
 const MAX_K1: usize = 72;
-/// Largest number of coefficients per pixel (D = 8: 3·8 + 3), padded to whole chunks.
-const MAX_K2: usize = 28;
+/// Largest number of coefficients per pixel (D = 8 with the self-weight terms:
+/// 3·8 + 3 + 36 + 8 + 1), padded to whole chunks.
+const MAX_K2: usize = 72;
 
 /// Channels per chunk: the horizontal running sums keep each pixel's channels in chunks of
 /// four f64, which the compiler turns into vector operations (one ymm register per chunk
@@ -64,17 +69,23 @@ pub(super) struct Problem<'a> {
 }
 
 /// Computes, for every row y, the window-averaged coefficients [a_0 (D), a_1 (D), a_2 (D),
-/// b (3)] of each pixel and hands them to `emit(y, coefficients, out_row)`, where `out_row` is
-/// row y of `out` (`row_len` values per row).
-pub(super) fn stream<const D: usize, F>(pb: &Problem, out: &mut [f32], row_len: usize, emit: F)
-where
+/// b (3)] of each pixel — followed by the averaged self-weight terms
+/// ([`super::self_weight::terms`]) when `SW` — and hands them to
+/// `emit(y, coefficients, out_row)`, where `out_row` is row y of `out` (`row_len` values per
+/// row).
+pub(super) fn stream<const D: usize, const SW: bool, F>(
+    pb: &Problem,
+    out: &mut [f32],
+    row_len: usize,
+    emit: F,
+) where
     F: Fn(usize, &[f32], &mut [f32]) + Sync,
 {
-    stream_with::<D, F>(pb, out, row_len, emit, has_avx2())
+    stream_with::<D, SW, F>(pb, out, row_len, emit, has_avx2())
 }
 
 /// [`stream`], with the AVX2 copy of the band code on or off.
-fn stream_with<const D: usize, F>(
+fn stream_with<const D: usize, const SW: bool, F>(
     pb: &Problem,
     out: &mut [f32],
     row_len: usize,
@@ -94,8 +105,8 @@ fn stream_with<const D: usize, F>(
         .for_each(|(bi, rows)| {
             let y0 = bi * band;
             let y1 = (y0 + band).min(h);
-            let mut b = Band::<D>::new(pb, &cx, &cy);
-            let k2 = 3 * D + 3;
+            let mut b = Band::<D, SW>::new(pb, &cx, &cy);
+            let k2 = Band::<D, SW>::K2;
             let mut mean = vec![0.0f32; w * k2];
             for y in y0..y1 {
                 b.next_row(y, &mut mean, avx2);
@@ -109,7 +120,7 @@ fn stream_with<const D: usize, F>(
 }
 
 /// Running state of one band.
-struct Band<'a, const D: usize> {
+struct Band<'a, const D: usize, const SW: bool> {
     pb: &'a Problem<'a>,
     cx: &'a [f64],
     cy: &'a [f64],
@@ -134,7 +145,7 @@ fn has_avx2() -> bool {
     lumo_simd::Isa::detect() >= lumo_simd::Isa::Avx2
 }
 
-impl<'a, const D: usize> Band<'a, D> {
+impl<'a, const D: usize, const SW: bool> Band<'a, D, SW> {
     /// [`Self::window_coefficients`], in the AVX2 copy when `avx2` (twice the vector width;
     /// no fused multiply-adds, so the results are bit-identical to the baseline copy).
     fn next_row(&mut self, y: usize, mean: &mut [f32], avx2: bool) {
@@ -161,7 +172,7 @@ impl<'a, const D: usize> Band<'a, D> {
     }
 
     const K1: usize = D + D * (D + 1) / 2 + 3 + 3 * D;
-    const K2: usize = 3 * D + 3;
+    const K2: usize = 3 * D + 3 + if SW { terms(D) } else { 0 };
     /// K1 and K2 padded to whole chunks (the padding channels stay 0), and their chunk counts.
     const K1P: usize = Self::K1.next_multiple_of(CH);
     const K2P: usize = Self::K2.next_multiple_of(CH);
@@ -277,7 +288,20 @@ impl<'a, const D: usize> Band<'a, D> {
                     sub_chunks(&mut acc, &self.v[(x - r) * k1..(x - r + 1) * k1], n1);
                 }
             }
-            let a = solve_lanes::<D>(&sys.sigma, &sys.cov);
+            let (lo, inv_diag) = factor_lanes::<D>(&sys.sigma);
+            let a = solve_factored::<D>(&lo, &inv_diag, &sys.cov);
+            if SW {
+                let k0 = 3 * D + 3;
+                window_terms::<D>(&lo, &inv_diag, &sys.mi, |l, t| {
+                    if l < n {
+                        let inv_size = (inv_y / self.cx[x0 + l]) as f32;
+                        let o = &mut out[(x0 + l) * k2 + k0..(x0 + l) * k2 + k0 + terms(D)];
+                        for (o, v) in o.iter_mut().zip(t) {
+                            *o = v * inv_size;
+                        }
+                    }
+                });
+            }
             for l in 0..n {
                 let o = &mut out[(x0 + l) * k2..(x0 + l + 1) * k2];
                 for c in 0..3 {
@@ -417,7 +441,7 @@ mod tests {
         let k2 = 3 * d + 3;
         let run = |avx2| {
             let mut out = vec![0.0f32; w * h * k2];
-            stream_with::<3, _>(&pb, &mut out, w * k2, |_, m, o| o.copy_from_slice(m), avx2);
+            stream_with::<3, false, _>(&pb, &mut out, w * k2, |_, m, o| o.copy_from_slice(m), avx2);
             out
         };
         let (a, b) = (run(true), run(false));
