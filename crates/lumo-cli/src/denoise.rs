@@ -130,6 +130,10 @@ pub struct DenoiseArgs {
     /// auto: radius of the window its error estimates are averaged over [default: 12].
     #[arg(long)]
     pub auto_error_radius: Option<usize>,
+    /// auto: candidates of this radius and larger run the fast guided filter on a grid twice
+    /// as coarse; 0 = none [default: 16].
+    #[arg(long)]
+    pub auto_coarse_from: Option<usize>,
     /// auto: blend softness; a candidate whose error exceeds the best one's by this fraction
     /// gets e⁻¹ of its weight [default: 0.01].
     #[arg(long)]
@@ -355,13 +359,14 @@ fn configure(a: &DenoiseArgs, inp: &Inputs) -> anyhow::Result<Box<dyn Denoiser>>
         || a.auto_flat_radii.is_some()
         || a.auto_flat_eps.is_some()
         || a.auto_error_radius.is_some()
+        || a.auto_coarse_from.is_some()
         || a.auto_softness.is_some()
         || a.no_auto_atrous
         || a.auto_fireflies.is_some()
         || a.auto_firefly_spread.is_some();
     if auto_flags && a.filter != FilterKind::Auto {
         bail!(
-            "--auto-radii, --auto-flat-radii, --auto-flat-eps, --auto-error-radius, \
+            "--auto-radii, --auto-flat-radii, --auto-flat-eps, --auto-error-radius, --auto-coarse-from, \
              --auto-softness, --no-auto-atrous, \
              --auto-fireflies and --auto-firefly-spread apply to --filter auto only (this run uses --filter {})",
             a.filter.name()
@@ -490,6 +495,7 @@ fn configure(a: &DenoiseArgs, inp: &Inputs) -> anyhow::Result<Box<dyn Denoiser>>
                     eps_normal: a.eps_normal.unwrap_or(d.eps_normal),
                     eps_depth: a.eps_depth.unwrap_or(d.eps_depth),
                     error_radius: a.auto_error_radius.unwrap_or(d.error_radius),
+                    coarse_from: a.auto_coarse_from.unwrap_or(d.coarse_from),
                     softness: a.auto_softness.unwrap_or(d.softness),
                     demodulate: demod,
                     atrous: !a.no_auto_atrous,

@@ -148,7 +148,7 @@ mod tests {
             };
             let (_, probed) =
                 probe_self_weight(&y, |c| Ok(guided(c, &guide, &params)?.image)).unwrap();
-            let (_, exact) = crate::guided::guided_self_weighted(&y, &guide, r).unwrap();
+            let (_, exact) = crate::guided::guided_self_weighted(&y, &guide, &params).unwrap();
             let n = (w * h) as f64;
             let mean = |v: &[f32]| v.iter().map(|&x| x as f64).sum::<f64>() / n;
             let (mp, me) = (mean(&probed), mean(&exact));

@@ -22,7 +22,7 @@ use crate::common::gbuffer::{
 };
 use crate::denoiser::{require, Denoiser, FilterInput, FilterKind};
 use crate::FilterError;
-use self_weight::{self_weight_at, terms};
+use self_weight::{cross_weight_at, self_weight_at, terms};
 use stream::{stream, Problem};
 
 pub use lookup::{most_similar, most_similar_in_grid, neighbour_cells};
@@ -332,7 +332,7 @@ pub fn guided(
         let (lw, lh) = (w.div_ceil(s), h.div_ceil(s));
         let gl = downsample(&guide.data, w, h, d, s);
         let pl = downsample(&p, w, h, 3, s);
-        let r = ((params.radius as f32 / s as f32).round() as usize).max(1);
+        let r = coarse_radius(params.radius, s);
         let k2 = 3 * d + 3;
         let pb = Problem {
             guide: &gl,
@@ -351,23 +351,50 @@ pub fn guided(
     Ok(Filtered { image, missing })
 }
 
-/// The exact guided filter at window radius `radius` and its self-weight `∂F_p/∂y_p` at every
-/// pixel ([`self_weight`]), in one pass: the terms of the weight are averaged over the same
-/// windows as the filter's coefficients, from the same factorisations (`auto`'s candidates).
+/// The guided filter with `params` and its self-weight `∂F_p/∂y_p` at every pixel
+/// ([`self_weight`]), in one pass: the terms of the weight are averaged over the same windows
+/// as the filter's coefficients, from the same factorisations (`auto`'s candidates). Exact
+/// for the exact filter; for the fast filter (sub-sampling s > 1) the pixel's input reaches
+/// the coarse grid's filter with weight 1/s² through its block, and the weight is that
+/// block's effect on the pixel's interpolated model ([`apply_upsampled_weighted`]).
 pub(crate) fn guided_self_weighted(
     color: &Image,
     guide: &Guide,
-    radius: usize,
+    params: &GuidedParams,
 ) -> Result<(Filtered, Vec<f32>), FilterError> {
-    let params = GuidedParams {
-        radius,
-        fast_subsample: 1,
-    };
-    check_problem(color, guide, &params)?;
-    let (w, h, d) = (color.width, color.height, guide.dims);
+    check_problem(color, guide, params)?;
+    let (w, h, d, radius) = (color.width, color.height, guide.dims, params.radius);
     let (mut p, valid, missing) = guided_input(color);
     if missing > 0 {
         fill_missing(&mut p, &valid, w, h, radius);
+    }
+    let s = params.fast_subsample;
+    if s > 1 {
+        let (lw, lh) = (w.div_ceil(s), h.div_ceil(s));
+        let gl = downsample(&guide.data, w, h, d, s);
+        let pl = downsample(&p, w, h, 3, s);
+        let k2 = 3 * d + 3 + terms(d);
+        let pb = Problem {
+            guide: &gl,
+            p: &pl,
+            eps: &guide.eps,
+            w: lw,
+            h: lh,
+            r: coarse_radius(radius, s),
+        };
+        let mut ab = vec![0.0f32; lw * lh * k2];
+        stream_dims::<true>(d, &pb, &mut ab, lw * k2, &|_, m, row| {
+            row.copy_from_slice(m)
+        });
+        let coarse = Coarse {
+            guide: &gl,
+            ab: &ab,
+            w: lw,
+            h: lh,
+            s,
+        };
+        let (image, weights) = apply_upsampled_weighted(&guide.data, w, h, d, &coarse);
+        return Ok((Filtered { image, missing }, weights));
     }
     let pb = Problem {
         guide: &guide.data,
@@ -401,6 +428,11 @@ pub(crate) fn guided_self_weighted(
             wt.copy_from_slice(&row[3 * w..]);
         });
     Ok((Filtered { image, missing }, weights))
+}
+
+/// The fast filter's window radius on the grid `s` times coarser.
+fn coarse_radius(radius: usize, s: usize) -> usize {
+    ((radius as f32 / s as f32).round() as usize).max(1)
 }
 
 /// The checks [`guided`] makes of its inputs.
@@ -570,6 +602,75 @@ fn apply_upsampled(
             }
         });
     out
+}
+
+/// The fast filter's coarse grid: its guide (block means), its averaged coefficients and
+/// self-weight terms, its size and the sub-sampling factor.
+struct Coarse<'a> {
+    guide: &'a [f32],
+    ab: &'a [f32],
+    w: usize,
+    h: usize,
+    s: usize,
+}
+
+/// [`apply_upsampled`] for coefficients followed by the self-weight terms (from the stream
+/// with `SW`), which are interpolated with them: returns the image and each pixel's
+/// self-weight. The pixel's value enters its block's mean with weight 1/s², and the block's
+/// input moves the interpolated model by [`cross_weight_at`] of the pixel's guide and the
+/// block's (the windows around the interpolation's nodes taken as those around the block).
+fn apply_upsampled_weighted(
+    guide: &[f32],
+    w: usize,
+    h: usize,
+    d: usize,
+    coarse: &Coarse,
+) -> (Image, Vec<f32>) {
+    let Coarse {
+        guide: gl,
+        ab,
+        w: lw,
+        h: lh,
+        s,
+    } = *coarse;
+    let k0 = 3 * d + 3;
+    let k2 = k0 + terms(d);
+    let share = 1.0 / (s * s) as f32;
+    let mut out = Image::new(w, h, 3, 0.0);
+    let mut weights = vec![0.0f32; w * h];
+    out.data
+        .par_chunks_mut(3 * w)
+        .zip(weights.par_chunks_mut(w))
+        .enumerate()
+        .for_each(|(y, (row, wrow))| {
+            let (y0, y1, ty) = lerp_at(y, s, lh);
+            let (r0, r1) = (
+                &ab[y0 * lw * k2..][..lw * k2],
+                &ab[y1 * lw * k2..][..lw * k2],
+            );
+            let mut c = vec![0.0f32; k2];
+            for (x, (o, wt)) in row.chunks_exact_mut(3).zip(wrow.iter_mut()).enumerate() {
+                let (x0, x1, tx) = lerp_at(x, s, lw);
+                let (a, b) = (&r0[x0 * k2..][..k2], &r0[x1 * k2..][..k2]);
+                let (e, f) = (&r1[x0 * k2..][..k2], &r1[x1 * k2..][..k2]);
+                for i in 0..k2 {
+                    let top = a[i] + (b[i] - a[i]) * tx;
+                    let bot = e[i] + (f[i] - e[i]) * tx;
+                    c[i] = top + (bot - top) * ty;
+                }
+                let gi = &guide[(y * w + x) * d..][..d];
+                for ch in 0..3 {
+                    let mut q = c[3 * d + ch];
+                    for i in 0..d {
+                        q += c[ch * d + i] * gi[i];
+                    }
+                    o[ch] = q;
+                }
+                let gb = &gl[((y / s) * lw + x / s) * d..][..d];
+                *wt = cross_weight_at(gi, gb, &c[k0..]) * share;
+            }
+        });
+    (out, weights)
 }
 
 /// Consumer of one row of averaged coefficients: (row, coefficients, output row).
