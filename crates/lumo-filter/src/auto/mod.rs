@@ -29,6 +29,7 @@ use crate::common::gbuffer::{check_color, missing_pixels, Features, Filtered};
 use crate::denoiser::{Denoiser, FilterInput, FilterKind};
 use crate::guided::guided_self_weighted;
 use crate::{build_guide, demodulate, DepthNorm, FilterError, Guide, GuideKind, GuidedParams};
+use lumo_simd::fastmath::exp_neg;
 
 /// Parameters of [`auto`]; the defaults were chosen on the tuning set (scenes/tuning and the
 /// built-in scenes), never on scenes/heldout (docs/filters.md).
@@ -216,29 +217,66 @@ pub fn auto(
     })
 }
 
-/// The candidates blended per pixel with weights `exp(−(e_k − e_min) / (softness · e_min))`.
+/// The candidates blended per pixel with weights `exp(−(e_k − e_min) / (softness · e_min))`,
+/// row by row.
 fn blend(candidates: &[Image], errors: &[Vec<f32>], softness: f32, w: usize, h: usize) -> Image {
     let mut blended = Image::new(w, h, 3, 0.0);
     blended
         .data
-        .par_chunks_mut(3)
+        .par_chunks_mut(3 * w)
         .enumerate()
-        .for_each(|(i, out)| {
-            let best = errors.iter().map(|e| e[i]).fold(f32::INFINITY, f32::min);
-            let scale = softness * best.max(1e-12);
-            let mut total = 0.0f32;
-            for (f, e) in candidates.iter().zip(errors) {
-                let wk = (-(e[i] - best) / scale).exp();
-                total += wk;
+        .for_each_init(
+            || (vec![0.0f32; w], vec![0.0f32; w], vec![0.0f32; w]),
+            |(best, inv_scale, total), (y, out)| {
+                blend_row(candidates, errors, softness, y, out, best, inv_scale, total)
+            },
+        );
+    blended
+}
+
+multiversion! {
+    /// Row `y` of [`blend`] into `out` (3 values per pixel, zero on entry), with three
+    /// scratch rows. Loops over the row's pixels, so that the weights' exponentials
+    /// ([`exp_neg`]: a relative error below 1e-5, below 2e-9 exactly 0) vectorise.
+    fn blend_row(
+        candidates: &[Image],
+        errors: &[Vec<f32>],
+        softness: f32,
+        y: usize,
+        out: &mut [f32],
+        best: &mut [f32],
+        inv_scale: &mut [f32],
+        total: &mut [f32],
+    ) as blend_row_impl {
+        let w = best.len();
+        let row = y * w..(y + 1) * w;
+        best.fill(f32::INFINITY);
+        for e in errors {
+            for (b, &v) in best.iter_mut().zip(&e[row.clone()]) {
+                *b = b.min(v);
+            }
+        }
+        for (s, &b) in inv_scale.iter_mut().zip(best.iter()) {
+            *s = 1.0 / (softness * b.max(1e-12));
+        }
+        total.fill(0.0);
+        for (f, e) in candidates.iter().zip(errors) {
+            let (fr, er) = (&f.data[3 * row.start..3 * row.end], &e[row.clone()]);
+            for x in 0..w {
+                let wk = exp_neg(-(er[x] - best[x]) * inv_scale[x]);
+                total[x] += wk;
                 for c in 0..3 {
-                    out[c] += wk * f.data[i * 3 + c];
+                    out[3 * x + c] += wk * fr[3 * x + c];
                 }
             }
-            for v in out.iter_mut() {
-                *v /= total;
+        }
+        for x in 0..w {
+            let inv = 1.0 / total[x];
+            for c in 0..3 {
+                out[3 * x + c] *= inv;
             }
-        });
-    blended
+        }
+    }
 }
 
 /// Squared leave-one-out prediction error `Σ_c ((y − F) / (1 − W_pp))²`, averaged over the

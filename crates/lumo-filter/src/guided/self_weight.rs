@@ -231,7 +231,15 @@ mod tests {
                     .all(|(a, b)| (a - b).abs() <= 1e-6 * b.abs().max(1.0)),
                 "r {r}: the filtered image differs from the fast filter's"
             );
-            for &(x, y) in &[(3, 4), (10, 15), (19, 9), (20, 20), (21, 5), (30, 12), (39, 29)] {
+            for &(x, y) in &[
+                (3, 4),
+                (10, 15),
+                (19, 9),
+                (20, 20),
+                (21, 5),
+                (30, 12),
+                (39, 29),
+            ] {
                 let mut impulse = Image::new(w, h, 3, 0.0);
                 impulse.pixel_mut(x, y).fill(1.0);
                 let want = guided(&impulse, &guide, &params).unwrap().image.rgb(x, y)[0];
