@@ -238,6 +238,7 @@ multiversion! {
     /// Row `y` of [`blend`] into `out` (3 values per pixel, zero on entry), with three
     /// scratch rows. Loops over the row's pixels, so that the weights' exponentials
     /// ([`exp_neg`]: a relative error below 1e-5, below 2e-9 exactly 0) vectorise.
+    #[allow(clippy::too_many_arguments)]
     fn blend_row(
         candidates: &[Image],
         errors: &[Vec<f32>],
