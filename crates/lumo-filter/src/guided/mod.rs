@@ -642,35 +642,72 @@ fn apply_upsampled_weighted(
         .par_chunks_mut(3 * w)
         .zip(weights.par_chunks_mut(w))
         .enumerate()
-        .for_each(|(y, (row, wrow))| {
-            let (y0, y1, ty) = lerp_at(y, s, lh);
-            let (r0, r1) = (
-                &ab[y0 * lw * k2..][..lw * k2],
-                &ab[y1 * lw * k2..][..lw * k2],
-            );
-            let mut c = vec![0.0f32; k2];
-            for (x, (o, wt)) in row.chunks_exact_mut(3).zip(wrow.iter_mut()).enumerate() {
-                let (x0, x1, tx) = lerp_at(x, s, lw);
-                let (a, b) = (&r0[x0 * k2..][..k2], &r0[x1 * k2..][..k2]);
-                let (e, f) = (&r1[x0 * k2..][..k2], &r1[x1 * k2..][..k2]);
-                for i in 0..k2 {
-                    let top = a[i] + (b[i] - a[i]) * tx;
-                    let bot = e[i] + (f[i] - e[i]) * tx;
-                    c[i] = top + (bot - top) * ty;
+        .for_each_init(
+            || vec![0.0f32; lw * k2],
+            |between, (y, (row, wrow))| {
+                // The two coarse rows around this one, interpolated in y once for the row.
+                let (y0, y1, ty) = lerp_at(y, s, lh);
+                let (r0, r1) = (
+                    &ab[y0 * lw * k2..][..lw * k2],
+                    &ab[y1 * lw * k2..][..lw * k2],
+                );
+                for ((b, &a0), &a1) in between.iter_mut().zip(r0).zip(r1) {
+                    *b = a0 + (a1 - a0) * ty;
                 }
-                let gi = &guide[(y * w + x) * d..][..d];
-                for ch in 0..3 {
-                    let mut q = c[3 * d + ch];
-                    for i in 0..d {
-                        q += c[ch * d + i] * gi[i];
-                    }
-                    o[ch] = q;
-                }
-                let gb = &gl[((y / s) * lw + x / s) * d..][..d];
-                *wt = cross_weight_at(gi, gb, &c[k0..]) * share;
-            }
-        });
+                let rows = UpsampleRow {
+                    guide: &guide[y * w * d..(y + 1) * w * d],
+                    coarse_guide: &gl[(y / s) * lw * d..(y / s + 1) * lw * d],
+                    between,
+                    d,
+                    s,
+                    share,
+                };
+                upsample_row_weighted(&rows, row, wrow)
+            },
+        );
     (out, weights)
+}
+
+/// One output row of [`apply_upsampled_weighted`]: its guide, its coarse row's guide, the
+/// coarse coefficients and terms interpolated to its y, and the constants.
+struct UpsampleRow<'a> {
+    guide: &'a [f32],
+    coarse_guide: &'a [f32],
+    between: &'a [f32],
+    d: usize,
+    s: usize,
+    share: f32,
+}
+
+multiversion! {
+    /// [`apply_upsampled_weighted`]'s row: the coefficients and terms interpolated in x, the
+    /// filtered value and the self-weight of every pixel.
+    fn upsample_row_weighted(r: &UpsampleRow, out: &mut [f32], weights: &mut [f32])
+        as upsample_row_weighted_impl
+    {
+        let d = r.d;
+        let (k0, k2) = (3 * d + 3, 3 * d + 3 + terms(d));
+        let lw = r.between.len() / k2;
+        let mut c = [0.0f32; MAX_GUIDE_DIMS * 3 + 3 + terms(MAX_GUIDE_DIMS)];
+        let c = &mut c[..k2];
+        for (x, (o, wt)) in out.chunks_exact_mut(3).zip(weights.iter_mut()).enumerate() {
+            let (x0, x1, tx) = lerp_at(x, r.s, lw);
+            let (a, b) = (&r.between[x0 * k2..][..k2], &r.between[x1 * k2..][..k2]);
+            for i in 0..k2 {
+                c[i] = a[i] + (b[i] - a[i]) * tx;
+            }
+            let gi = &r.guide[x * d..][..d];
+            for ch in 0..3 {
+                let mut q = c[3 * d + ch];
+                for i in 0..d {
+                    q += c[ch * d + i] * gi[i];
+                }
+                o[ch] = q;
+            }
+            let gb = &r.coarse_guide[(x / r.s) * d..][..d];
+            *wt = cross_weight_at(gi, gb, &c[k0..]) * r.share;
+        }
+    }
 }
 
 /// Consumer of one row of averaged coefficients: (row, coefficients, output row).
