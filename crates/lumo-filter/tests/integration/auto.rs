@@ -259,3 +259,38 @@ fn a_tiny_frame_with_a_firefly_stays_finite() {
     let m_out = out.data.iter().sum::<f32>() / out.data.len() as f32;
     assert!((m_out / m_in - 1.0).abs() < 0.1, "{m_out} vs {m_in}");
 }
+
+/// Frames thinner or smaller than the windows, the coarse grid of the fast candidates
+/// included (a side of 17 keeps the radius-16 candidates, whose coarse grid is then 9 or 2
+/// pixels across): a constant frame stays constant and a noisy one finite.
+#[test]
+fn thin_and_tiny_frames_keep_a_constant_and_stay_finite() {
+    for (w, h) in [(1, 1), (17, 3), (3, 33), (40, 1), (2, 2)] {
+        let mut normal = Image::new(w, h, 3, 0.0);
+        for (i, px) in normal.data.chunks_exact_mut(3).enumerate() {
+            let a = i as f32 * 0.3;
+            px.copy_from_slice(&[a.sin() * 0.5, a.cos() * 0.5, 0.7]);
+        }
+        let depth = Image::new(w, h, 1, 2.0);
+        let f = Features {
+            normal: Some(&normal),
+            depth: Some(&depth),
+            ..Features::default()
+        };
+        let constant = Image::new(w, h, 3, 0.7);
+        let out = auto(&constant, &f, &AutoParams::default()).unwrap().image;
+        for v in &out.data {
+            assert!((v - 0.7).abs() < 1e-3, "{w}×{h}: {v}");
+        }
+        let mut noisy = Image::new(w, h, 3, 0.0);
+        for (i, v) in noisy.data.iter_mut().enumerate() {
+            *v = ((i as f32 * 12.9898).sin() * 43758.547).fract().abs();
+        }
+        let out = auto(&noisy, &f, &AutoParams::default()).unwrap().image;
+        assert!(
+            out.data.iter().all(|v| v.is_finite()),
+            "{w}×{h}: {:?}",
+            out.data
+        );
+    }
+}
