@@ -329,24 +329,8 @@ pub fn guided(
         });
         out
     } else {
-        let (lw, lh) = (w.div_ceil(s), h.div_ceil(s));
-        let gl = downsample(&guide.data, w, h, d, s);
-        let pl = downsample(&p, w, h, 3, s);
-        let r = coarse_radius(params.radius, s);
-        let k2 = 3 * d + 3;
-        let pb = Problem {
-            guide: &gl,
-            p: &pl,
-            eps: &guide.eps,
-            w: lw,
-            h: lh,
-            r,
-        };
-        let mut ab = vec![0.0f32; lw * lh * k2];
-        stream_dims::<false>(d, &pb, &mut ab, lw * k2, &|_, m, row| {
-            row.copy_from_slice(m)
-        });
-        apply_upsampled(&guide.data, w, h, d, &ab, lw, lh, s)
+        let c = coarse_grid::<false>(guide, &p, params.radius, s);
+        apply_upsampled(&guide.data, w, h, d, &c.ab, c.w, c.h, s)
     };
     Ok(Filtered { image, missing })
 }
@@ -370,29 +354,7 @@ pub(crate) fn guided_self_weighted(
     }
     let s = params.fast_subsample;
     if s > 1 {
-        let (lw, lh) = (w.div_ceil(s), h.div_ceil(s));
-        let gl = downsample(&guide.data, w, h, d, s);
-        let pl = downsample(&p, w, h, 3, s);
-        let k2 = 3 * d + 3 + terms(d);
-        let pb = Problem {
-            guide: &gl,
-            p: &pl,
-            eps: &guide.eps,
-            w: lw,
-            h: lh,
-            r: coarse_radius(radius, s),
-        };
-        let mut ab = vec![0.0f32; lw * lh * k2];
-        stream_dims::<true>(d, &pb, &mut ab, lw * k2, &|_, m, row| {
-            row.copy_from_slice(m)
-        });
-        let coarse = Coarse {
-            guide: &gl,
-            ab: &ab,
-            w: lw,
-            h: lh,
-            s,
-        };
+        let coarse = coarse_grid::<true>(guide, &p, radius, s);
         let (image, weights) = apply_upsampled_weighted(&guide.data, w, h, d, &coarse);
         return Ok((Filtered { image, missing }, weights));
     }
@@ -428,6 +390,36 @@ pub(crate) fn guided_self_weighted(
             wt.copy_from_slice(&row[3 * w..]);
         });
     Ok((Filtered { image, missing }, weights))
+}
+
+/// The fast filter's grid `s` times coarser for `guide` and the input `p` (full resolution,
+/// 3 channels): its guide and input as block means, and the stream's averaged coefficients
+/// there (followed by the self-weight terms when `SW`) at the coarse radius.
+fn coarse_grid<const SW: bool>(guide: &Guide, p: &[f32], radius: usize, s: usize) -> Coarse {
+    let (w, h, d) = (guide.width, guide.height, guide.dims);
+    let (lw, lh) = (w.div_ceil(s), h.div_ceil(s));
+    let gl = downsample(&guide.data, w, h, d, s);
+    let pl = downsample(p, w, h, 3, s);
+    let k2 = 3 * d + 3 + if SW { terms(d) } else { 0 };
+    let pb = Problem {
+        guide: &gl,
+        p: &pl,
+        eps: &guide.eps,
+        w: lw,
+        h: lh,
+        r: coarse_radius(radius, s),
+    };
+    let mut ab = vec![0.0f32; lw * lh * k2];
+    stream_dims::<SW>(d, &pb, &mut ab, lw * k2, &|_, m, row| {
+        row.copy_from_slice(m)
+    });
+    Coarse {
+        guide: gl,
+        ab,
+        w: lw,
+        h: lh,
+        s,
+    }
 }
 
 /// The fast filter's window radius on the grid `s` times coarser.
@@ -604,11 +596,11 @@ fn apply_upsampled(
     out
 }
 
-/// The fast filter's coarse grid: its guide (block means), its averaged coefficients and
-/// self-weight terms, its size and the sub-sampling factor.
-struct Coarse<'a> {
-    guide: &'a [f32],
-    ab: &'a [f32],
+/// The fast filter's coarse grid ([`coarse_grid`]): its guide (block means), its averaged
+/// coefficients (and self-weight terms), its size and the sub-sampling factor.
+struct Coarse {
+    guide: Vec<f32>,
+    ab: Vec<f32>,
     w: usize,
     h: usize,
     s: usize,
@@ -627,8 +619,8 @@ fn apply_upsampled_weighted(
     coarse: &Coarse,
 ) -> (Image, Vec<f32>) {
     let Coarse {
-        guide: gl,
-        ab,
+        guide: ref gl,
+        ref ab,
         w: lw,
         h: lh,
         s,
