@@ -6,7 +6,7 @@
 //! illumination smooth (an indirect-only room at 1 spp) a 32-pixel window is best; along
 //! shadow edges, contact shadows and glossy highlights a 4-pixel one is. The guided filter is
 //! linear in the colour for a fixed geometry guide, so its self-weight `W_pp = ∂F_p/∂y_p` is
-//! exact ([`selfweight`]), and `(y_p − F_p) / (1 − W_pp)` is the error of predicting the
+//! exact ([`crate::guided::self_weight`]), and `(y_p − F_p) / (1 − W_pp)` is the error of predicting the
 //! pixel from its neighbours alone. Its square estimates MSE + σ², and σ² — the noise, which
 //! nothing here knows — is the same for every candidate at a pixel, so it drops out of the
 //! comparison: no variance plane or noise model is needed, which matters for frames from other

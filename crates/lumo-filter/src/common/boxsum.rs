@@ -20,56 +20,15 @@ fn counts(n: usize, r: usize) -> Vec<f64> {
 ///
 /// Panics if `data.len() != w*h*k` (a programming error inside the crate).
 pub fn box_mean(data: &[f32], w: usize, h: usize, k: usize, r: usize) -> Vec<f32> {
-    let mut out = Vec::new();
-    box_mean_into(data, w, h, k, r, &mut Vec::new(), &mut out);
-    out
-}
-
-/// Mean of the finite values of the one-channel plane `values` over the (2r+1)×(2r+1) window
-/// around every pixel (clipped to the image); NaN where the window holds none. Non-finite
-/// values are missing pixels: they take no part, rather than poisoning the sums.
-pub(crate) fn box_mean_finite(values: &[f32], w: usize, h: usize, r: usize) -> Vec<f32> {
-    let mut pairs = vec![0.0f32; values.len() * 2];
-    pairs
-        .par_chunks_exact_mut(2)
-        .zip(values.par_iter())
-        .for_each(|(p, &v)| {
-            if v.is_finite() {
-                p[0] = v;
-                p[1] = 1.0;
-            }
-        });
-    box_mean(&pairs, w, h, 2, r)
-        .par_chunks_exact(2)
-        .map(|m| if m[1] > 0.0 { m[0] / m[1] } else { f32::NAN })
-        .collect()
-}
-
-/// [`box_mean`] into `out`, with `tmp` as the intermediate: both are resized to the data's
-/// length (a caller that filters several images of one size could keep them, allocating and
-/// page-faulting its buffers once).
-fn box_mean_into(
-    data: &[f32],
-    w: usize,
-    h: usize,
-    k: usize,
-    r: usize,
-    tmp: &mut Vec<f32>,
-    out: &mut Vec<f32>,
-) {
     assert_eq!(data.len(), w * h * k, "box_mean: data length");
     if w == 0 || h == 0 || k == 0 {
-        out.clear();
-        return;
+        return Vec::new();
     }
     let cx = counts(w, r);
     let cy = counts(h, r);
     let stride = w * k;
-
-    // Horizontal pass, one row per task. Both passes write every element of their buffer, so
-    // a buffer kept from an earlier call is only resized, not cleared: zeroing them was 5 % of
-    // `auto`'s time at 512².
-    tmp.resize(data.len(), 0.0);
+    // Horizontal pass, one row per task.
+    let mut tmp = vec![0.0f32; data.len()];
     // `auto`'s errors and the light search run it on 2 channels: with the channel count a
     // constant the per-channel loops unroll and vectorise (the same operations per channel,
     // so the same bits).
@@ -89,8 +48,8 @@ fn box_mean_into(
     // `auto`'s sharp blend whole pixels (it once did: `auto` gave other bits on one thread
     // than on two). Eight bands, the split two threads had before.
     let band = h.div_ceil(8).max(16);
-    let tmp: &[f32] = tmp;
-    out.resize(data.len(), 0.0);
+    let tmp: &[f32] = &tmp;
+    let mut out = vec![0.0f32; data.len()];
     out.par_chunks_mut(band * stride)
         .enumerate()
         .for_each(|(b, out_band)| {
@@ -121,6 +80,27 @@ fn box_mean_into(
                 }
             }
         });
+    out
+}
+
+/// Mean of the finite values of the one-channel plane `values` over the (2r+1)×(2r+1) window
+/// around every pixel (clipped to the image); NaN where the window holds none. Non-finite
+/// values are missing pixels: they take no part, rather than poisoning the sums.
+pub(crate) fn box_mean_finite(values: &[f32], w: usize, h: usize, r: usize) -> Vec<f32> {
+    let mut pairs = vec![0.0f32; values.len() * 2];
+    pairs
+        .par_chunks_exact_mut(2)
+        .zip(values.par_iter())
+        .for_each(|(p, &v)| {
+            if v.is_finite() {
+                p[0] = v;
+                p[1] = 1.0;
+            }
+        });
+    box_mean(&pairs, w, h, 2, r)
+        .par_chunks_exact(2)
+        .map(|m| if m[1] > 0.0 { m[0] / m[1] } else { f32::NAN })
+        .collect()
 }
 
 /// The horizontal pass over one row of `k` interleaved channels: `out` gets the mean of each

@@ -338,9 +338,10 @@ pub fn guided(
 /// The guided filter with `params` and its self-weight `∂F_p/∂y_p` at every pixel
 /// ([`self_weight`]), in one pass: the terms of the weight are averaged over the same windows
 /// as the filter's coefficients, from the same factorisations (`auto`'s candidates). Exact
-/// for the exact filter; for the fast filter (sub-sampling s > 1) the pixel's input reaches
-/// the coarse grid's filter with weight 1/s² through its block, and the weight is that
-/// block's effect on the pixel's interpolated model ([`apply_upsampled_weighted`]).
+/// for the exact filter; for the fast filter (sub-sampling s > 1) an approximation: the
+/// pixel's input reaches the coarse grid's filter through its block's mean, and the weight
+/// is that block's effect on the pixel's interpolated model, counting every window around
+/// the interpolation's nodes, also those that miss the block ([`apply_upsampled_weighted`]).
 pub(crate) fn guided_self_weighted(
     color: &Image,
     guide: &Guide,
@@ -627,7 +628,6 @@ fn apply_upsampled_weighted(
     } = *coarse;
     let k0 = 3 * d + 3;
     let k2 = k0 + terms(d);
-    let share = 1.0 / (s * s) as f32;
     let mut out = Image::new(w, h, 3, 0.0);
     let mut weights = vec![0.0f32; w * h];
     out.data
@@ -652,7 +652,8 @@ fn apply_upsampled_weighted(
                     between,
                     d,
                     s,
-                    share,
+                    // Pixels of this row's blocks: s, or fewer in the last block row.
+                    block_rows: s.min(h - (y / s) * s),
                 };
                 upsample_row_weighted(&rows, row, wrow)
             },
@@ -668,7 +669,7 @@ struct UpsampleRow<'a> {
     between: &'a [f32],
     d: usize,
     s: usize,
-    share: f32,
+    block_rows: usize,
 }
 
 multiversion! {
@@ -680,6 +681,7 @@ multiversion! {
         let d = r.d;
         let (k0, k2) = (3 * d + 3, 3 * d + 3 + terms(d));
         let lw = r.between.len() / k2;
+        let w = out.len() / 3;
         let mut c = [0.0f32; MAX_GUIDE_DIMS * 3 + 3 + terms(MAX_GUIDE_DIMS)];
         let c = &mut c[..k2];
         for (x, (o, wt)) in out.chunks_exact_mut(3).zip(weights.iter_mut()).enumerate() {
@@ -697,7 +699,10 @@ multiversion! {
                 o[ch] = q;
             }
             let gb = &r.coarse_guide[(x / r.s) * d..][..d];
-            *wt = cross_weight_at(gi, gb, &c[k0..]) * r.share;
+            // The pixel's share of its block's mean (a partial block at the right or bottom
+            // edge holds fewer pixels, `downsample`'s divisor).
+            let block = r.block_rows * r.s.min(w - (x / r.s) * r.s);
+            *wt = cross_weight_at(gi, gb, &c[k0..]) / block as f32;
         }
     }
 }

@@ -211,12 +211,17 @@ mod tests {
 
     /// On the coarse grid (fast filter, s = 2) the weight is an approximation: it counts every
     /// window around the interpolation's nodes, also those that miss the pixel's block, so it
-    /// runs 3–13 % high away from the guide's step (up to a third next to it). Away from the
-    /// step it must match the fast filter's response to a unit impulse within 15 %, and what
-    /// `auto` uses, the leave-one-out factor 1 / (1 − W), within 1 % everywhere.
+    /// runs 3–13 % high away from the guide's step (up to a third next to it, with this
+    /// guide's ε; with `auto`'s far smaller ε a window straddling a step has a much larger
+    /// inverse, and there the weight can run ~10× high, the leave-one-out factor ~8 %: on the
+    /// cautious side, it penalises the coarse candidate at edges). Away from the step it must
+    /// match the fast filter's response to a unit impulse within 20 %, and the leave-one-out
+    /// factor 1 / (1 − W) within 1 % everywhere. The frame has odd sides, so the right column
+    /// and bottom row sit in partial blocks (of 2 and 1 pixels), whose share of their block's
+    /// mean is larger.
     #[test]
     fn the_coarse_weight_approximates_the_fast_filters_impulse_response() {
-        let (w, h, split) = (40, 30, 21);
+        let (w, h, split) = (41, 31, 21);
         let guide = Guide::from_image(&two_region_guide(w, h, split), vec![0.01, 0.02]).unwrap();
         let color = some_color(w, h);
         for r in [4, 8] {
@@ -239,6 +244,9 @@ mod tests {
                 (21, 5),
                 (30, 12),
                 (39, 29),
+                (40, 12),
+                (17, 30),
+                (40, 30),
             ] {
                 let mut impulse = Image::new(w, h, 3, 0.0);
                 impulse.pixel_mut(x, y).fill(1.0);
@@ -248,7 +256,7 @@ mod tests {
                 let near_step = x.abs_diff(split) <= 2;
                 if !near_step {
                     assert!(
-                        (got - want).abs() < 0.15 * want,
+                        (got - want).abs() < 0.2 * want,
                         "r {r} ({x}, {y}): {got} vs {want}"
                     );
                 }
