@@ -91,6 +91,16 @@ pub(super) fn split(y: &Image, k: f32, r: usize) -> Split {
     }
 }
 
+/// The spreading filter runs on a grid this many times coarser (the fast guided filter): its
+/// window is wide (64 pixels by default), so the coarse grid changes nothing the tuning set
+/// sees (FLIP ratios to OIDN the same or lower, relMSE the same to 1 %) and cuts the step
+/// from ~150 to ~80 ms at 1080p. Frames with a side under [`SPREAD_COARSE_MIN`] pixels run
+/// it exactly: the coarse grid weighs a partial block at the right or bottom edge like a
+/// whole one, which on a frame a few blocks wide loses a visible share of the energy.
+const SPREAD_SUBSAMPLE: usize = 4;
+/// Shortest frame side at which the spread runs on the coarse grid.
+const SPREAD_COARSE_MIN: usize = 64;
+
 /// Spreads `excess` (0 at pixels that were not clamped, NaN at missing ones) with the guided
 /// filter of radius `r` over the frame's geometry guide, so a firefly's energy stays on the
 /// surface it fell on and near where it fell; the filter's local linear fit can dip below zero
@@ -98,7 +108,11 @@ pub(super) fn split(y: &Image, k: f32, r: usize) -> Split {
 pub(super) fn spread(excess: &Image, guide: &Guide, r: usize) -> Result<Image, FilterError> {
     let params = GuidedParams {
         radius: r,
-        fast_subsample: 1,
+        fast_subsample: if excess.width.min(excess.height) >= SPREAD_COARSE_MIN {
+            SPREAD_SUBSAMPLE
+        } else {
+            1
+        },
     };
     let mut out = guided(excess, guide, &params)?.image;
     for v in &mut out.data {
