@@ -22,7 +22,7 @@ use crate::common::gbuffer::{
 };
 use crate::denoiser::{require, Denoiser, FilterInput, FilterKind};
 use crate::FilterError;
-use self_weight::{cross_weight_at, self_weight_at, terms};
+use self_weight::{cross_weight_at, terms};
 use stream::{stream, Problem};
 
 pub use lookup::{most_similar, most_similar_in_grid, neighbour_cells};
@@ -305,13 +305,9 @@ pub fn guided(
     guide: &Guide,
     params: &GuidedParams,
 ) -> Result<Filtered, FilterError> {
-    check_problem(color, guide, params)?;
+    let (p, missing) = checked_input(color, guide, params)?;
     let (w, h) = (color.width, color.height);
     let s = params.fast_subsample;
-    let (mut p, valid, missing) = guided_input(color);
-    if missing > 0 {
-        fill_missing(&mut p, &valid, w, h, params.radius);
-    }
     let d = guide.dims;
     let image = if s == 1 {
         let pb = Problem {
@@ -347,12 +343,8 @@ pub(crate) fn guided_self_weighted(
     guide: &Guide,
     params: &GuidedParams,
 ) -> Result<(Filtered, Vec<f32>), FilterError> {
-    check_problem(color, guide, params)?;
+    let (p, missing) = checked_input(color, guide, params)?;
     let (w, h, d, radius) = (color.width, color.height, guide.dims, params.radius);
-    let (mut p, valid, missing) = guided_input(color);
-    if missing > 0 {
-        fill_missing(&mut p, &valid, w, h, radius);
-    }
     let s = params.fast_subsample;
     if s > 1 {
         let coarse = coarse_grid::<true>(guide, &p, radius, s);
@@ -376,7 +368,8 @@ pub(crate) fn guided_self_weighted(
         let (rgb, weights) = row.split_at_mut(3 * w);
         apply_row(gr, d, k2, ab, rgb);
         for (x, wt) in weights.iter_mut().enumerate() {
-            *wt = self_weight_at(&gr[x * d..(x + 1) * d], &ab[x * k2 + k0..(x + 1) * k2]);
+            let gx = &gr[x * d..(x + 1) * d];
+            *wt = cross_weight_at(gx, gx, &ab[x * k2 + k0..(x + 1) * k2]);
         }
     });
     let mut image = Image::new(w, h, 3, 0.0);
@@ -426,6 +419,21 @@ fn coarse_grid<const SW: bool>(guide: &Guide, p: &[f32], radius: usize, s: usize
 /// The fast filter's window radius on the grid `s` times coarser.
 fn coarse_radius(radius: usize, s: usize) -> usize {
     ((radius as f32 / s as f32).round() as usize).max(1)
+}
+
+/// The input as the filter reads it ([`guided_input`]) after the checks of [`check_problem`],
+/// missing pixels filled from their window ([`fill_missing`]), and their number.
+fn checked_input(
+    color: &Image,
+    guide: &Guide,
+    params: &GuidedParams,
+) -> Result<(Vec<f32>, usize), FilterError> {
+    check_problem(color, guide, params)?;
+    let (mut p, valid, missing) = guided_input(color);
+    if missing > 0 {
+        fill_missing(&mut p, &valid, color.width, color.height, params.radius);
+    }
+    Ok((p, missing))
 }
 
 /// The checks [`guided`] makes of its inputs.
@@ -609,9 +617,10 @@ struct Coarse {
 
 /// [`apply_upsampled`] for coefficients followed by the self-weight terms (from the stream
 /// with `SW`), which are interpolated with them: returns the image and each pixel's
-/// self-weight. The pixel's value enters its block's mean with weight 1/s², and the block's
-/// input moves the interpolated model by [`cross_weight_at`] of the pixel's guide and the
-/// block's (the windows around the interpolation's nodes taken as those around the block).
+/// self-weight. The pixel's value enters its block's mean with weight 1 / the block's pixel
+/// count (s², fewer in a partial block at the right or bottom edge), and the block's input
+/// moves the interpolated model by [`cross_weight_at`] of the pixel's guide and the block's
+/// (the windows around the interpolation's nodes taken as those around the block).
 fn apply_upsampled_weighted(
     guide: &[f32],
     w: usize,

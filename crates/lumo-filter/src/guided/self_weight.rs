@@ -92,8 +92,10 @@ pub(super) fn window_terms<const D: usize>(
 }
 
 /// The derivative of the filtered value of a pixel with guide `g` with respect to the input
-/// of a pixel with guide `gb` in the same windows, from the window means `s` of their terms:
-/// `s_c − (g + gb)ᵀ s_v + gᵀ S_M gb` (the fast filter: `gb` is the coarse pixel's guide).
+/// of a pixel with guide `gb` in the same windows, from the window means `s` of their terms
+/// (already divided by the windows' sizes): `s_c − (g + gb)ᵀ s_v + gᵀ S_M gb`, clamped to
+/// [0, 1]. With `gb = g` it is the pixel's self-weight `s_c − 2 gᵀ s_v + gᵀ S_M g`; for the
+/// fast filter `gb` is the coarse pixel's guide.
 #[inline(always)]
 pub(super) fn cross_weight_at(g: &[f32], gb: &[f32], s: &[f32]) -> f32 {
     let d = g.len();
@@ -108,23 +110,6 @@ pub(super) fn cross_weight_at(g: &[f32], gb: &[f32], s: &[f32]) -> f32 {
             } else {
                 (g[a] as f64 * gb[b] as f64 + g[b] as f64 * gb[a] as f64) * m
             };
-        }
-    }
-    v.clamp(0.0, 1.0) as f32
-}
-
-/// The self-weight of the pixel with guide `g` from the window means `s` of its windows'
-/// terms (already divided by their sizes): `s_c − 2 gᵀ s_v + gᵀ S_M g`, clamped to [0, 1].
-#[inline(always)]
-pub(super) fn self_weight_at(g: &[f32], s: &[f32]) -> f32 {
-    let d = g.len();
-    let np = d * (d + 1) / 2;
-    let mut v = s[np + d] as f64;
-    for a in 0..d {
-        v -= 2.0 * g[a] as f64 * s[np + a] as f64;
-        for b in a..d {
-            let t = g[a] as f64 * g[b] as f64 * s[packed(d, a, b)] as f64;
-            v += if a == b { t } else { 2.0 * t };
         }
     }
     v.clamp(0.0, 1.0) as f32
