@@ -15,6 +15,7 @@
 //! s = 1 only, exactly as the path tracer weighs them.
 
 mod connect;
+mod diffuse_walk;
 mod mis;
 mod subpath;
 #[cfg(test)]

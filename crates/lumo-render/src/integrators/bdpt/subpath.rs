@@ -4,6 +4,7 @@
 
 use glam::{Vec2, Vec3};
 
+use super::diffuse_walk::{diffuse_steps, Walks};
 use super::vertex::{
     area_density_along, bsdf_pdf, lambert_sample, light_origin_density, surface_local, Context,
     Kind, Vertex,
@@ -101,15 +102,19 @@ pub(super) fn light_start(
 /// A random walk between two vertices: the ray it traces next and what it carries.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Walk {
-    origin: Vec3,
-    dir: Vec3,
-    beta: Vec3,
+    /// Origin of the next ray (offset off the vertex it leaves).
+    pub origin: Vec3,
+    /// Its unit direction.
+    pub dir: Vec3,
+    /// Throughput of the subpath so far.
+    pub beta: Vec3,
     /// Density of `dir` at the last vertex of the path (solid angle; per unit area of the
     /// disk for a directional light).
-    pdf_dir: f32,
-    mode: TransportMode,
+    pub pdf_dir: f32,
+    /// Radiance for camera subpaths, importance for light subpaths.
+    pub mode: TransportMode,
     /// Product of the squared relative indices crossed (Russian roulette's correction).
-    eta_scale: f32,
+    pub eta_scale: f32,
 }
 
 /// The camera subpath through film position `film` traced alone (the tests' form of
@@ -203,7 +208,16 @@ pub(super) fn random_walks(
         next = lanes[n - 1] + 1;
         rays += n as u32;
         ctx.rs.accel.intersect_packet(&packet, &mut hits);
+        // Hits on simple diffuse surfaces step together in vector lanes, the others one by
+        // one (walks share nothing, so the order of their steps changes nothing).
+        let mut simple = [(0usize, Hit::default()); LANES];
+        let mut m = 0;
         for (&k, &hit) in lanes[..n].iter().zip(&hits[..n]) {
+            if let Some(h) = hit.filter(|h| ctx.rs.is_simple_diffuse(h.instance)) {
+                simple[m] = (k, h);
+                m += 1;
+                continue;
+            }
             let Some(walk) = walks[k].as_mut() else {
                 continue;
             };
@@ -219,12 +233,21 @@ pub(super) fn random_walks(
                 walks[k] = None;
             }
         }
+        if m > 0 {
+            let mut w = Walks {
+                walks,
+                samplers,
+                max_vertices,
+                paths,
+            };
+            diffuse_steps(ctx, settings, &simple[..m], &mut w);
+        }
     }
 }
 
 /// One step of a walk whose ray found `hit`: records the vertex and samples the direction
 /// that leaves it. Returns whether the walk goes on.
-fn step(
+pub(super) fn step(
     ctx: &Context,
     walk: &mut Walk,
     hit: Option<Hit>,
