@@ -222,6 +222,7 @@ pub(super) fn prepare(
             dist2,
             w_pt,
             w_q,
+            reverse: None,
         }),
     )
 }

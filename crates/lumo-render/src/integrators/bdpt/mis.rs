@@ -32,6 +32,10 @@ pub(super) struct Segment {
     pub w_pt: Vec3,
     /// `qs.local(-w)`.
     pub w_q: Vec3,
+    /// The four reverse densities next to the connection (`pt`, `pt−1`, `qs`, `qs−1`),
+    /// where the caller computed them with the connection's value
+    /// ([`super::diffuse_connect`]); `None`: the weight computes them.
+    pub reverse: Option<[f32; 4]>,
 }
 
 /// The ratio of a vertex's reverse to forward density; 0 where the forward density is 0
@@ -73,6 +77,7 @@ pub(super) fn weight(ctx: &Context, c: &Connection) -> f32 {
                 dist2,
                 w_pt,
                 w_q,
+                reverse,
             } = c.segment.unwrap_or_else(|| {
                 let (w, dist2) = pt.towards(q);
                 Segment {
@@ -80,8 +85,12 @@ pub(super) fn weight(ctx: &Context, c: &Connection) -> f32 {
                     dist2,
                     w_pt: pt.local(w),
                     w_q: q.local(-w),
+                    reverse: None,
                 }
             });
+            if let Some([pt_rev, pt_minus_rev, qs_rev, qs_minus_rev]) = reverse {
+                return sum_weight(light, camera, (pt_rev, pt_minus_rev, qs_rev, qs_minus_rev));
+            }
             let pt_rev = q.pdf_onward(ctx, pt, -w, w_q, dist2);
             let qs_rev = pt.pdf_onward(ctx, q, w, w_pt, dist2);
             let pt_minus_rev = pt_minus.map_or(0.0, |m| pt.pdf_back(ctx, w, w_pt, m));
@@ -94,6 +103,18 @@ pub(super) fn weight(ctx: &Context, c: &Connection) -> f32 {
             (pt_rev, pt_minus_rev, 0.0, 0.0)
         }
     };
+    sum_weight(light, camera, (pt_rev, pt_minus_rev, qs_rev, qs_minus_rev))
+}
+
+/// The weight of strategy (s, t) given the reverse densities of the four vertices next to
+/// its connection (`pt`, `pt−1`, `qs`, `qs−1`; 0 where a vertex does not exist).
+#[inline(always)]
+fn sum_weight(
+    light: &[Vertex],
+    camera: &[Vertex],
+    (pt_rev, pt_minus_rev, qs_rev, qs_minus_rev): (f32, f32, f32, f32),
+) -> f32 {
+    let (s, t) = (light.len(), camera.len());
     let mut sum = 0.0f32;
     // Strategies with fewer camera vertices: the two next to the connection with the
     // recomputed densities, the others with the subpath's own ratios ([`set_ratios`]).

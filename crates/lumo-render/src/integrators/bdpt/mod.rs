@@ -15,6 +15,7 @@
 //! s = 1 only, exactly as the path tracer weighs them.
 
 mod connect;
+mod diffuse_connect;
 mod diffuse_walk;
 mod mis;
 mod subpath;
@@ -31,6 +32,7 @@ use crate::integrators::path::{PathRadiance, PathSettings};
 use crate::render_scene::RenderScene;
 use crate::sampler::PixelSampler;
 use connect::{finish, prepare, Contribution, Pending, Prepared};
+use diffuse_connect::{diffuse_joins, is_diffuse_join, placeholder, DiffuseJoin};
 use mis::set_ratios;
 use subpath::{camera_start, light_start, random_walks};
 use vertex::{Context, Vertex};
@@ -55,8 +57,11 @@ pub struct BdptScratch {
     paths: Vec<Vec<Vertex>>,
     /// The group's strategies waiting for their shadow rays, sample by sample.
     pending: Vec<Pending>,
-    /// Bit `i % LANES` of entry `i / LANES`: the shadow ray of `pending[i]` is blocked.
-    occluded: Vec<u32>,
+    /// Per entry of `pending`: its shadow ray is blocked, or it has nothing to add.
+    blocked: Vec<bool>,
+    /// The strategies among `pending` that join two Lambertian vertices, computed together
+    /// in vector lanes once the group's strategies are listed.
+    joins: Vec<DiffuseJoin>,
 }
 
 /// Most samples [`trace_bdpt_samples`] takes at once (one ray packet).
@@ -168,24 +173,59 @@ pub fn trace_bdpt_samples(
     // were prepared (the order of tracing one sample alone).
     let (cams, lights) = scratch.paths.split_at(GROUP);
     scratch.pending.clear();
+    scratch.joins.clear();
     let mut ends = [0usize; GROUP];
     for (k, o) in out[..n].iter_mut().enumerate() {
-        *o = prepare_all(&ctx, &lights[k], &cams[k], settings, &mut scratch.pending);
+        *o = prepare_all(
+            &ctx,
+            (k, &lights[k], &cams[k]),
+            settings,
+            &mut scratch.pending,
+            &mut scratch.joins,
+        );
         ends[k] = scratch.pending.len();
     }
-    scratch.occluded.clear();
-    for chunk in scratch.pending.chunks(LANES) {
-        let mut rays = RayPacket::default();
-        for (lane, p) in chunk.iter().enumerate() {
-            rays.set(lane, p.ray.origin, p.ray.dir, 0.0, p.ray.tmax);
+    diffuse_joins(
+        rs.ray_epsilon,
+        cams,
+        lights,
+        &scratch.joins,
+        &mut scratch.pending,
+    );
+    // The group's shadow rays in full packets, skipping the joins with nothing to add
+    // (`s = 0`); each sample counts its own.
+    scratch.blocked.clear();
+    scratch.blocked.resize(scratch.pending.len(), true);
+    let mut rays = RayPacket::default();
+    let mut lanes = [0usize; LANES];
+    let mut filled = 0;
+    let mut start = 0;
+    for (k, o) in out[..n].iter_mut().enumerate() {
+        for i in start..ends[k] {
+            let p = &scratch.pending[i];
+            if p.s == 0 {
+                continue;
+            }
+            o.rays += 1;
+            rays.set(filled, p.ray.origin, p.ray.dir, 0.0, p.ray.tmax);
+            lanes[filled] = i;
+            filled += 1;
+            if filled == LANES {
+                trace_shadows(rs, &rays, &lanes[..filled], &mut scratch.blocked);
+                rays = RayPacket::default();
+                filled = 0;
+            }
         }
-        scratch.occluded.push(rs.accel.occluded_packet(&rays));
+        start = ends[k];
+    }
+    if filled > 0 {
+        trace_shadows(rs, &rays, &lanes[..filled], &mut scratch.blocked);
     }
     let unweighted = settings.only.is_some();
     let mut start = 0;
     for (k, o) in out[..n].iter_mut().enumerate() {
         for i in start..ends[k] {
-            if scratch.occluded[i / LANES] & (1 << (i % LANES)) != 0 {
+            if scratch.blocked[i] {
                 continue;
             }
             let p = &scratch.pending[i];
@@ -197,6 +237,16 @@ pub fn trace_bdpt_samples(
     // The subpaths' rays, counted with the group's first sample.
     if n > 0 {
         out[0].rays += total_rays;
+    }
+}
+
+/// Traces a packet of shadow rays, lane `l` the ray of pending strategy `lanes[l]`, and marks
+/// in `blocked` whether each is occluded (entries not traced stay blocked).
+#[inline]
+fn trace_shadows(rs: &RenderScene, rays: &RayPacket, lanes: &[usize], blocked: &mut [bool]) {
+    let occluded = rs.accel.occluded_packet(rays);
+    for (lane, &i) in lanes.iter().enumerate() {
+        blocked[i] = occluded & (1 << lane) != 0;
     }
 }
 
@@ -215,20 +265,19 @@ fn add(
     }
 }
 
-/// Every strategy of one sample's subpaths up to its shadow ray: returns the radiance of
-/// those that need none (s = 0) and the count of shadow rays, and appends the others to
-/// `pending` in order.
+/// Every strategy of sample `k`'s subpaths up to its shadow ray: returns the radiance of
+/// those that need none (s = 0) and appends the others to `pending` in order, the joins of
+/// two Lambertian vertices as placeholders listed in `joins` ([`diffuse_joins`] fills them).
 fn prepare_all(
     ctx: &Context,
-    light: &[Vertex],
-    cam: &[Vertex],
+    (k, light, cam): (usize, &[Vertex], &[Vertex]),
     settings: &BdptSettings,
     pending: &mut Vec<Pending>,
+    joins: &mut Vec<DiffuseJoin>,
 ) -> PathRadiance {
     let max_depth = settings.path.max_depth.max(1) as usize;
     let mut radiance = PathRadiance::default();
     let unweighted = settings.only.is_some();
-    let first = pending.len();
     for t in 1..=cam.len() {
         // Only the strategies that exist: s + t ≥ 2 and depth s + t − 1 ≤ `max_depth`.
         let s_last = light.len().max(1).min((max_depth + 1).saturating_sub(t));
@@ -241,6 +290,16 @@ fn prepare_all(
             if s > light.len() && !(s == 1 && t >= 2) {
                 continue;
             }
+            if s >= 2 && t >= 2 && is_diffuse_join(&cam[t - 1], &light[s - 1]) {
+                joins.push(DiffuseJoin {
+                    slot: pending.len() as u32,
+                    k: k as u32,
+                    s: s as u32,
+                    t: t as u32,
+                });
+                pending.push(placeholder());
+                continue;
+            }
             match prepare(ctx, light, cam, (s, t), unweighted) {
                 Prepared::Nothing => {}
                 Prepared::Done(c) => add(&mut radiance, depth, c, &mut |_| {}),
@@ -248,6 +307,5 @@ fn prepare_all(
             }
         }
     }
-    radiance.rays += (pending.len() - first) as u32;
     radiance
 }

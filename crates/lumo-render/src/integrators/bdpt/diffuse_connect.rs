@@ -1,0 +1,500 @@
+//! The strategies that join two Lambertian surface vertices (s, t ≥ 2), sixteen at a time in
+//! vector lanes: the connection's value, its shadow ray and the four reverse densities next
+//! to it that the weight needs. The counterpart of [`super::diffuse_walk`] for connections.
+//!
+//! Why: on the Cornell box most of a bidirectional sample's strategies are such joins, and
+//! preparing them one at a time (two BSDF values, a square root and three divisions in
+//! series, two ray offsets, the shadow segment) and weighing them (four densities with a
+//! division each) was about a fifth of its time.
+//!
+//! Per lane it computes exactly what [`super::connect::prepare`] and the weight's densities
+//! compute for two Lambertian vertices, the same operations in the same order, so a test
+//! compares the two strategy by strategy, bit for bit. The weight's ratio sums stay scalar
+//! ([`super::mis`]), fed with these densities.
+
+// Lane loops index several arrays in lockstep by lane: the form the vectoriser turns into one
+// vector operation per statement.
+#![allow(clippy::needless_range_loop)]
+
+use glam::Vec3;
+use lumo_simd::Isa;
+
+use super::connect::{Contribution, Pending, ShadowRay};
+use super::mis::Segment;
+use super::vertex::{Kind, Vertex};
+use crate::accel::packet::LANES;
+use crate::geometry::{cosine_pdf, shadow_segment};
+
+const N: usize = LANES;
+type L = [f32; N];
+type L3 = [L; 3];
+
+/// A join of two Lambertian vertices waiting for its value: strategy (`s`, `t`) of sample
+/// `k`, whose entry in the pending list is `slot` (until then a placeholder, [`placeholder`]).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct DiffuseJoin {
+    /// Index in the pending list.
+    pub slot: u32,
+    /// The sample in its group.
+    pub k: u32,
+    /// Light vertices.
+    pub s: u32,
+    /// Camera vertices.
+    pub t: u32,
+}
+
+/// Whether strategy (s, t ≥ 2) joining camera vertex `pt` and light vertex `qs` is one that
+/// [`diffuse_joins`] computes: both plain Lambertian surfaces, neither black.
+#[inline(always)]
+pub(super) fn is_diffuse_join(pt: &Vertex, qs: &Vertex) -> bool {
+    let lambertian = |v: &Vertex| {
+        matches!(
+            v.kind,
+            Kind::Surface {
+                lambert: Some(_),
+                black: false,
+                ..
+            }
+        )
+    };
+    lambertian(pt) && lambertian(qs)
+}
+
+/// The pending entry a join holds until [`diffuse_joins`] fills it (`s = 0` marks an entry
+/// with nothing to add, which no other pending strategy has: s = 0 needs no shadow ray).
+pub(super) fn placeholder() -> Pending {
+    Pending {
+        contribution: Contribution::Pixel(Vec3::ZERO),
+        ray: ShadowRay {
+            origin: Vec3::ZERO,
+            dir: Vec3::ZERO,
+            tmax: -1.0,
+        },
+        s: 0,
+        t: 0,
+        nee: None,
+        segment: None,
+    }
+}
+
+/// `a · b` in glam's order.
+#[inline(always)]
+fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
+    (a[0] * b[0]) + (a[1] * b[1]) + (a[2] * b[2])
+}
+
+/// Lane `i` of a three-component array.
+#[inline(always)]
+fn at(v: &L3, i: usize) -> [f32; 3] {
+    [v[0][i], v[1][i], v[2][i]]
+}
+
+/// `x` if `c`, else `y` (written as a select for the vectoriser).
+#[inline(always)]
+fn sel(c: bool, x: f32, y: f32) -> f32 {
+    if c {
+        x
+    } else {
+        y
+    }
+}
+
+/// A Lambertian density from the two cosines (`vertex::lambert_pdf`).
+#[inline(always)]
+fn lambert_pdf(zo: f32, zi: f32) -> f32 {
+    let neg = zo < 0.0;
+    let (zo, zi) = (sel(neg, -zo, zo), sel(neg, -zi, zi));
+    sel(zo <= 0.0, 0.0, cosine_pdf(zi))
+}
+
+/// The scalar factor of a Lambertian value `albedo · cosine_pdf(zi)` (`vertex::lambert_eval`),
+/// 0 where it is black.
+#[inline(always)]
+fn lambert_factor(zo: f32, zi: f32) -> (bool, f32) {
+    let neg = zo < 0.0;
+    let (zo, zi) = (sel(neg, -zo, zo), sel(neg, -zi, zi));
+    (!(zo <= 0.0 || zi <= 0.0), cosine_pdf(zi))
+}
+
+/// `|ng · w|`, 1 for a vertex without a normal (`Vertex::arrival_cos`).
+#[inline(always)]
+fn arrival_cos(ng: [f32; 3], w: [f32; 3]) -> f32 {
+    let zero = ng[0] == 0.0 && ng[1] == 0.0 && ng[2] == 0.0;
+    sel(zero, 1.0, dot(ng, w).abs())
+}
+
+/// One side of a join, gathered: the vertex and what its neighbour on its own subpath
+/// contributes.
+#[derive(Default)]
+struct Side {
+    p: L3,
+    ng: L3,
+    /// Shading normal.
+    n: L3,
+    beta: L3,
+    albedo: L3,
+    wo_z: L,
+    wp_z: L,
+    cos_ng_wo: L,
+    off: L,
+    w_prev: L3,
+    d2_prev: L,
+    /// The neighbour's normal.
+    prev_ng: L3,
+}
+
+impl Side {
+    /// Loads vertex `v` (a Lambertian surface) and its predecessor's normal into lane `i`.
+    #[inline(always)]
+    fn load(&mut self, i: usize, v: &Vertex, prev: &Vertex) {
+        let Kind::Surface {
+            ref s,
+            wo_local,
+            wp_local,
+            cos_ng_wo,
+            lambert,
+            ..
+        } = v.kind
+        else {
+            return;
+        };
+        let albedo = lambert.unwrap_or(Vec3::ZERO);
+        for a in 0..3 {
+            self.p[a][i] = v.p[a];
+            self.ng[a][i] = v.ng[a];
+            self.n[a][i] = s.frame.n[a];
+            self.beta[a][i] = v.beta[a];
+            self.albedo[a][i] = albedo[a];
+            self.w_prev[a][i] = v.w_prev[a];
+            self.prev_ng[a][i] = prev.ng[a];
+        }
+        self.wo_z[i] = wo_local.z;
+        self.wp_z[i] = wp_local.z;
+        self.cos_ng_wo[i] = cos_ng_wo;
+        self.off[i] = v.off_scale;
+        self.d2_prev[i] = v.d2_prev;
+    }
+
+    /// `Vertex::origin_off` of lane `i` towards `w`.
+    #[inline(always)]
+    fn origin_off(&self, i: usize, w: [f32; 3]) -> [f32; 3] {
+        let (p, ng) = (at(&self.p, i), at(&self.ng, i));
+        let k = sel(dot(ng, w) >= 0.0, self.off[i], -self.off[i]);
+        [p[0] + ng[0] * k, p[1] + ng[1] * k, p[2] + ng[2] * k]
+    }
+}
+
+/// Fills the pending entries of `joins` (every one a pair [`is_diffuse_join`] accepts, of
+/// the camera subpaths `cams` and light subpaths `lights` of a group): the strategy, ready
+/// for its shadow ray, or `s = 0` where its value is zero or not finite.
+pub(super) fn diffuse_joins(
+    eps: f32,
+    cams: &[Vec<Vertex>],
+    lights: &[Vec<Vertex>],
+    joins: &[DiffuseJoin],
+    pending: &mut [Pending],
+) {
+    for chunk in joins.chunks(N) {
+        joins_at(Isa::detect(), eps, cams, lights, chunk, pending);
+    }
+}
+
+/// Up to sixteen joins compiled for `level` (at most what this CPU runs; tests run each).
+fn joins_at(
+    level: Isa,
+    eps: f32,
+    cams: &[Vec<Vertex>],
+    lights: &[Vec<Vertex>],
+    joins: &[DiffuseJoin],
+    pending: &mut [Pending],
+) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: each variant runs only at or below the detected level.
+    unsafe {
+        match level.min(Isa::detect()) {
+            Isa::Avx512 => return joins_avx512(eps, cams, lights, joins, pending),
+            Isa::Avx2 => return joins_avx2(eps, cams, lights, joins, pending),
+            Isa::Baseline => {}
+        }
+    }
+    let _ = level;
+    joins_lanes(eps, cams, lights, joins, pending)
+}
+
+/// # Safety
+/// The CPU must support AVX-512 F/VL and AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx2")]
+unsafe fn joins_avx512(
+    eps: f32,
+    cams: &[Vec<Vertex>],
+    lights: &[Vec<Vertex>],
+    joins: &[DiffuseJoin],
+    pending: &mut [Pending],
+) {
+    joins_lanes(eps, cams, lights, joins, pending)
+}
+
+/// # Safety
+/// The CPU must support AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn joins_avx2(
+    eps: f32,
+    cams: &[Vec<Vertex>],
+    lights: &[Vec<Vertex>],
+    joins: &[DiffuseJoin],
+    pending: &mut [Pending],
+) {
+    joins_lanes(eps, cams, lights, joins, pending)
+}
+
+/// The joins themselves, compiled once per instruction set by the wrappers above.
+#[inline(always)]
+fn joins_lanes(
+    eps: f32,
+    cams: &[Vec<Vertex>],
+    lights: &[Vec<Vertex>],
+    joins: &[DiffuseJoin],
+    pending: &mut [Pending],
+) {
+    let n = joins.len().min(N);
+    let (mut cam, mut light) = (Side::default(), Side::default());
+    for (i, j) in joins.iter().enumerate().take(n) {
+        let (c, l) = (&cams[j.k as usize], &lights[j.k as usize]);
+        let (s, t) = (j.s as usize, j.t as usize);
+        cam.load(i, &c[t - 1], &c[t - 2]);
+        light.load(i, &l[s - 1], &l[s - 2]);
+    }
+
+    // `connect::prepare` for s, t ≥ 2, and the four densities of `mis::weight`.
+    let (mut value, mut origin, mut dir) = ([[0.0f32; N]; 3], [[0.0f32; N]; 3], [[0.0f32; N]; 3]);
+    let (mut w_out, mut dist2_out, mut w_pt_out, mut w_q_out) =
+        ([[0.0f32; N]; 3], [0.0f32; N], [0.0f32; N], [0.0f32; N]);
+    let (mut tmax, mut ok) = ([0.0f32; N], [false; N]);
+    let mut rev = [[0.0f32; N]; 4];
+    for i in 0..N {
+        let (pp, qp) = (at(&cam.p, i), at(&light.p, i));
+        let d = [qp[0] - pp[0], qp[1] - pp[1], qp[2] - pp[2]];
+        let dist2 = dot(d, d);
+        let len = dist2.sqrt();
+        let w = [d[0] / len, d[1] / len, d[2] / len];
+        let nw = [-w[0], -w[1], -w[2]];
+        // The shading-frame cosines of the connection (`Vertex::local`).
+        let w_pt = dot(w, at(&cam.n, i));
+        let w_q = dot(nw, at(&light.n, i));
+        // The camera side's value, f(wo, w)·|cos|, and the light side's adjoint one with the
+        // shading-normal correction (`Vertex::scatter_local`).
+        let (front_pt, f_pt) = lambert_factor(cam.wo_z[i], w_pt);
+        let (front_q, f_q) = lambert_factor(w_q, light.wo_z[i]);
+        let cos_ng_w = dot(at(&light.ng, i), nw).abs();
+        let q_live = !(light.wo_z[i] == 0.0 || light.cos_ng_wo[i] == 0.0);
+        let mut v = [0.0f32; 3];
+        let mut finite = true;
+        for a in 0..3 {
+            let fp = sel(front_pt, cam.albedo[a][i] * f_pt, 0.0);
+            let fq = sel(front_q, light.albedo[a][i] * f_q, 0.0);
+            let fq = sel(q_live, fq / light.cos_ng_wo[i] * cos_ng_w, 0.0);
+            v[a] = cam.beta[a][i] * fp * fq * light.beta[a][i] / dist2;
+            finite &= v[a].is_finite();
+        }
+        ok[i] = finite && !(v[0] == 0.0 && v[1] == 0.0 && v[2] == 0.0);
+        let a = cam.origin_off(i, w);
+        let b = light.origin_off(i, nw);
+        let (sd, st) = shadow_segment(a, b, w, eps);
+        // The reverse densities next to the connection (`Vertex::pdf_onward`, `pdf_back`).
+        let area = |pdf: f32, ng: [f32; 3], w: [f32; 3], d2: f32| {
+            sel(d2 == 0.0, 0.0, pdf * arrival_cos(ng, w) / d2)
+        };
+        rev[0][i] = area(lambert_pdf(light.wp_z[i], w_q), at(&cam.ng, i), nw, dist2);
+        rev[1][i] = area(
+            lambert_pdf(w_pt, cam.wp_z[i]),
+            at(&cam.prev_ng, i),
+            at(&cam.w_prev, i),
+            cam.d2_prev[i],
+        );
+        rev[2][i] = area(lambert_pdf(cam.wp_z[i], w_pt), at(&light.ng, i), w, dist2);
+        rev[3][i] = area(
+            lambert_pdf(w_q, light.wp_z[i]),
+            at(&light.prev_ng, i),
+            at(&light.w_prev, i),
+            light.d2_prev[i],
+        );
+        for c in 0..3 {
+            value[c][i] = v[c];
+            origin[c][i] = a[c];
+            dir[c][i] = sd[c];
+            w_out[c][i] = w[c];
+        }
+        tmax[i] = st;
+        dist2_out[i] = dist2;
+        w_pt_out[i] = w_pt;
+        w_q_out[i] = w_q;
+    }
+
+    // Scatter into the pending entries.
+    for (i, j) in joins.iter().enumerate().take(n) {
+        let entry = &mut pending[j.slot as usize];
+        if !ok[i] {
+            entry.s = 0;
+            continue;
+        }
+        *entry = Pending {
+            contribution: Contribution::Pixel(Vec3::new(value[0][i], value[1][i], value[2][i])),
+            ray: ShadowRay {
+                origin: Vec3::new(origin[0][i], origin[1][i], origin[2][i]),
+                dir: Vec3::new(dir[0][i], dir[1][i], dir[2][i]),
+                tmax: tmax[i],
+            },
+            s: j.s as usize,
+            t: j.t as usize,
+            nee: None,
+            segment: Some(Segment {
+                w: Vec3::new(w_out[0][i], w_out[1][i], w_out[2][i]),
+                dist2: dist2_out[i],
+                w_pt: Vec3::new(0.0, 0.0, w_pt_out[i]),
+                w_q: Vec3::new(0.0, 0.0, w_q_out[i]),
+                reverse: Some([rev[0][i], rev[1][i], rev[2][i], rev[3][i]]),
+            }),
+        };
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::PinholeCamera;
+    use crate::integrators::bdpt::connect::{prepare, Prepared};
+    use crate::integrators::bdpt::mis::{set_ratios, weight, Connection};
+    use crate::integrators::bdpt::subpath::{camera_start, light_start, random_walks};
+    use crate::integrators::bdpt::vertex::Context;
+    use crate::integrators::path::PathSettings;
+    use crate::render_scene::RenderScene;
+    use crate::sampler::PixelSampler;
+
+    /// Every join of two Lambertian vertices gets from the lanes exactly the pending entry
+    /// `connect::prepare` makes (or none where it makes none), and the weight from the lanes'
+    /// densities is the weight from the scalar densities, bit for bit, at every compiled
+    /// level: on the Cornell box, on `cornell-spheres` (a checkerboard floor, glass and
+    /// mirror vertices that are not joined) and beside a point, a spot and a directional
+    /// light (light vertices without a normal before a join).
+    #[test]
+    fn vector_joins_equal_scalar_joins() {
+        let cornell = lumo_scene::builtin_scene("cornell").expect("built-in");
+        let spheres = lumo_scene::builtin_scene("cornell-spheres").expect("built-in");
+        let mut lights = lumo_scene::builtin_scene("cornell").expect("built-in");
+        lights
+            .lights
+            .extend(crate::test_lights::every_other_light_kind());
+        for scene in [cornell, spheres, lights] {
+            let rs = RenderScene::new(scene).expect("valid scene");
+            for level in Isa::detect().up_to() {
+                check_level(&rs, level);
+            }
+        }
+    }
+
+    fn check_level(rs: &RenderScene, level: Isa) {
+        let settings = PathSettings {
+            max_depth: 6,
+            rr_depth: 3,
+            ..Default::default()
+        };
+        let camera = PinholeCamera::new(&rs.scene.camera, 32, 32);
+        let ctx = Context {
+            rs,
+            camera: &camera,
+        };
+        let max_depth = settings.max_depth as usize;
+        let (mut joined, mut dropped) = (0usize, 0usize);
+        for y in 0..8u32 {
+            // Eight samples: camera subpaths at 0..8, light subpaths at 8..16.
+            let mut walks = vec![None; 16];
+            let mut samplers = vec![PixelSampler::new(0, 0, 0, 0); 16];
+            let mut paths = vec![Vec::new(); 16];
+            let mut max_vertices = vec![0; 16];
+            for x in 0..8usize {
+                let film = glam::Vec2::new(4.0 * x as f32 + 0.5, 4.0 * y as f32 + 0.5);
+                walks[x] = camera_start(&ctx, film, max_depth + 1, &mut paths[x]);
+                samplers[x] = PixelSampler::new(x as u32, y, 0, 3);
+                max_vertices[x] = max_depth + 1;
+                let mut light_sampler = PixelSampler::new(x as u32, y, 0, 4);
+                walks[8 + x] = light_start(&ctx, &mut light_sampler, max_depth, &mut paths[8 + x]);
+                samplers[8 + x] = light_sampler;
+                max_vertices[8 + x] = max_depth;
+            }
+            random_walks(
+                &ctx,
+                &mut walks,
+                &mut samplers,
+                &settings,
+                &max_vertices,
+                &mut paths,
+            );
+            for p in &mut paths {
+                set_ratios(p);
+            }
+            let (cams, lights) = paths.split_at(8);
+            let (mut joins, mut want) = (vec![], vec![]);
+            let mut pending = vec![];
+            for k in 0..8 {
+                let (cam, light) = (&cams[k], &lights[k]);
+                for t in 2..=cam.len() {
+                    for s in 2..=light.len() {
+                        if !is_diffuse_join(&cam[t - 1], &light[s - 1]) {
+                            continue;
+                        }
+                        joins.push(DiffuseJoin {
+                            slot: pending.len() as u32,
+                            k: k as u32,
+                            s: s as u32,
+                            t: t as u32,
+                        });
+                        pending.push(placeholder());
+                        want.push(prepare(&ctx, light, cam, (s, t), false));
+                    }
+                }
+            }
+            for chunk in joins.chunks(N) {
+                joins_at(level, rs.ray_epsilon, cams, lights, chunk, &mut pending);
+            }
+            for (j, want) in joins.iter().zip(want) {
+                let (k, s, t) = (j.k as usize, j.s as usize, j.t as usize);
+                let got = pending[j.slot as usize];
+                let at = format!("{} {level:?} row {y} sample {k} ({s}, {t})", rs.scene.name);
+                let Prepared::Pending(want) = want else {
+                    assert_eq!(got.s, 0, "{at}: the scalar join adds nothing");
+                    dropped += 1;
+                    continue;
+                };
+                let mut plain = got;
+                if let Some(seg) = &mut plain.segment {
+                    seg.reverse = None;
+                }
+                assert_eq!(format!("{plain:?}"), format!("{want:?}"), "{at}");
+                let weigh = |segment| {
+                    weight(
+                        &ctx,
+                        &Connection {
+                            light: &lights[k][..s],
+                            camera: &cams[k][..t],
+                            segment,
+                        },
+                    )
+                };
+                assert_eq!(
+                    weigh(got.segment).to_bits(),
+                    weigh(want.segment).to_bits(),
+                    "{at}: weight"
+                );
+                joined += 1;
+            }
+        }
+        assert!(
+            joined > 100,
+            "{} {level:?}: {joined} joins checked",
+            rs.scene.name
+        );
+        let _ = dropped;
+    }
+}
