@@ -497,6 +497,23 @@ impl Lights {
         }
     }
 
+    /// Light `light` if it is an emissive triangle of constant radiance (the lights that the
+    /// lane loops sample themselves, as [`Lights::choose_triangle`] hands them out).
+    pub(crate) fn untextured_triangle(&self, light: u32) -> Option<&EmissiveTriangle> {
+        match self.lights.get(light as usize)? {
+            LightKind::Triangle(tri) if tri.texture == NO_TEXTURE => Some(tri),
+            _ => None,
+        }
+    }
+
+    /// The probability with which [`Lights::sample_emission`] picks light `light`, the
+    /// `pick` of [`Lights::emission_pdf_of`] (0 where no light emits particles).
+    pub(crate) fn emission_pick(&self, light: u32) -> f32 {
+        self.emission_choice
+            .as_ref()
+            .map_or(0.0, |c| c.pmf(light as usize))
+    }
+
     /// The light chosen for `u_choice` in proportion to power, with its probability; `None`
     /// without lights or where the chosen one cannot be picked.
     #[inline(always)]

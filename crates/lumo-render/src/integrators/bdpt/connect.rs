@@ -66,11 +66,19 @@ pub(super) struct Pending {
 /// The light point of next-event estimation, as [`light_vertex`] takes it.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct NeePoint {
-    light: u32,
-    point: Vec3,
-    normal: Vec3,
-    towards: Vec3,
-    environment: Option<Vec3>,
+    /// The light.
+    pub light: u32,
+    /// The point on it (on its disk for a directional light).
+    pub point: Vec3,
+    /// Its unit normal there (zero for lights without one).
+    pub normal: Vec3,
+    /// The unit direction from the point towards the shading point.
+    pub towards: Vec3,
+    /// For the environment: the direction towards it.
+    pub environment: Option<Vec3>,
+    /// The light vertex's own density where the caller computed it
+    /// ([`super::diffuse_nee`], triangles only); `None`: [`light_vertex`] computes it.
+    pub origin_density: Option<f32>,
 }
 
 /// What [`prepare`] found for one strategy.
@@ -191,6 +199,7 @@ pub(super) fn prepare(
             normal: ls.normal,
             towards: -ls.wi,
             environment,
+            origin_density: None,
         };
         return pending(Contribution::Pixel(value), ray, Some(nee), None);
     }
@@ -240,15 +249,26 @@ pub(super) fn finish(
         return p.contribution;
     }
     let camera = &camera[..p.t];
-    let nee = p.nee.map(|n| {
-        light_vertex(
+    let nee = p.nee.map(|n| match n.origin_density {
+        // What `light_vertex` makes of an emissive triangle, its density known.
+        Some(pdf) => {
+            let kind = Kind::Light {
+                light: n.light,
+                delta_position: false,
+                directional: false,
+            };
+            let mut v = Vertex::new(kind, n.point, n.normal, Vec3::ONE);
+            v.pdf_fwd = pdf;
+            v
+        }
+        None => light_vertex(
             &ctx.rs.lights,
             n.light,
             n.point,
             n.normal,
             n.towards,
             n.environment,
-        )
+        ),
     });
     let light = match &nee {
         Some(v) => std::slice::from_ref(v),

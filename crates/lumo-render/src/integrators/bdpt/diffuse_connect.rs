@@ -20,14 +20,13 @@ use glam::Vec3;
 use lumo_simd::Isa;
 
 use super::connect::{Contribution, Pending, ShadowRay};
+use super::lanes::{arrival_cos, at, dot, is_lambertian, lambert_factor, lambert_pdf, sel, Side};
 use super::mis::Segment;
-use super::vertex::{Kind, Vertex};
+use super::vertex::Vertex;
 use crate::accel::packet::LANES;
-use crate::geometry::{cosine_pdf, shadow_segment};
+use crate::geometry::shadow_segment;
 
 const N: usize = LANES;
-type L = [f32; N];
-type L3 = [L; 3];
 
 /// A join of two Lambertian vertices waiting for its value: strategy (`s`, `t`) of sample
 /// `k`, whose entry in the pending list is `slot` (until then a placeholder, [`placeholder`]).
@@ -47,17 +46,7 @@ pub(super) struct DiffuseJoin {
 /// [`diffuse_joins`] computes: both plain Lambertian surfaces, neither black.
 #[inline(always)]
 pub(super) fn is_diffuse_join(pt: &Vertex, qs: &Vertex) -> bool {
-    let lambertian = |v: &Vertex| {
-        matches!(
-            v.kind,
-            Kind::Surface {
-                lambert: Some(_),
-                black: false,
-                ..
-            }
-        )
-    };
-    lambertian(pt) && lambertian(qs)
+    is_lambertian(pt) && is_lambertian(qs)
 }
 
 /// The pending entry a join holds until [`diffuse_joins`] fills it (`s = 0` marks an entry
@@ -74,113 +63,6 @@ pub(super) fn placeholder() -> Pending {
         t: 0,
         nee: None,
         segment: None,
-    }
-}
-
-/// `a · b` in glam's order.
-#[inline(always)]
-fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
-    (a[0] * b[0]) + (a[1] * b[1]) + (a[2] * b[2])
-}
-
-/// Lane `i` of a three-component array.
-#[inline(always)]
-fn at(v: &L3, i: usize) -> [f32; 3] {
-    [v[0][i], v[1][i], v[2][i]]
-}
-
-/// `x` if `c`, else `y` (written as a select for the vectoriser).
-#[inline(always)]
-fn sel(c: bool, x: f32, y: f32) -> f32 {
-    if c {
-        x
-    } else {
-        y
-    }
-}
-
-/// A Lambertian density from the two cosines (`vertex::lambert_pdf`).
-#[inline(always)]
-fn lambert_pdf(zo: f32, zi: f32) -> f32 {
-    let neg = zo < 0.0;
-    let (zo, zi) = (sel(neg, -zo, zo), sel(neg, -zi, zi));
-    sel(zo <= 0.0, 0.0, cosine_pdf(zi))
-}
-
-/// The scalar factor of a Lambertian value `albedo · cosine_pdf(zi)` (`vertex::lambert_eval`),
-/// 0 where it is black.
-#[inline(always)]
-fn lambert_factor(zo: f32, zi: f32) -> (bool, f32) {
-    let neg = zo < 0.0;
-    let (zo, zi) = (sel(neg, -zo, zo), sel(neg, -zi, zi));
-    (!(zo <= 0.0 || zi <= 0.0), cosine_pdf(zi))
-}
-
-/// `|ng · w|`, 1 for a vertex without a normal (`Vertex::arrival_cos`).
-#[inline(always)]
-fn arrival_cos(ng: [f32; 3], w: [f32; 3]) -> f32 {
-    let zero = ng[0] == 0.0 && ng[1] == 0.0 && ng[2] == 0.0;
-    sel(zero, 1.0, dot(ng, w).abs())
-}
-
-/// One side of a join, gathered: the vertex and what its neighbour on its own subpath
-/// contributes.
-#[derive(Default)]
-struct Side {
-    p: L3,
-    ng: L3,
-    /// Shading normal.
-    n: L3,
-    beta: L3,
-    albedo: L3,
-    wo_z: L,
-    wp_z: L,
-    cos_ng_wo: L,
-    off: L,
-    w_prev: L3,
-    d2_prev: L,
-    /// The neighbour's normal.
-    prev_ng: L3,
-}
-
-impl Side {
-    /// Loads vertex `v` (a Lambertian surface) and its predecessor's normal into lane `i`.
-    #[inline(always)]
-    fn load(&mut self, i: usize, v: &Vertex, prev: &Vertex) {
-        let Kind::Surface {
-            ref s,
-            wo_local,
-            wp_local,
-            cos_ng_wo,
-            lambert,
-            ..
-        } = v.kind
-        else {
-            return;
-        };
-        let albedo = lambert.unwrap_or(Vec3::ZERO);
-        for a in 0..3 {
-            self.p[a][i] = v.p[a];
-            self.ng[a][i] = v.ng[a];
-            self.n[a][i] = s.frame.n[a];
-            self.beta[a][i] = v.beta[a];
-            self.albedo[a][i] = albedo[a];
-            self.w_prev[a][i] = v.w_prev[a];
-            self.prev_ng[a][i] = prev.ng[a];
-        }
-        self.wo_z[i] = wo_local.z;
-        self.wp_z[i] = wp_local.z;
-        self.cos_ng_wo[i] = cos_ng_wo;
-        self.off[i] = v.off_scale;
-        self.d2_prev[i] = v.d2_prev;
-    }
-
-    /// `Vertex::origin_off` of lane `i` towards `w`.
-    #[inline(always)]
-    fn origin_off(&self, i: usize, w: [f32; 3]) -> [f32; 3] {
-        let (p, ng) = (at(&self.p, i), at(&self.ng, i));
-        let k = sel(dot(ng, w) >= 0.0, self.off[i], -self.off[i]);
-        [p[0] + ng[0] * k, p[1] + ng[1] * k, p[2] + ng[2] * k]
     }
 }
 
@@ -365,12 +247,11 @@ mod tests {
     use super::*;
     use crate::camera::PinholeCamera;
     use crate::integrators::bdpt::connect::{prepare, Prepared};
-    use crate::integrators::bdpt::mis::{set_ratios, weight, Connection};
-    use crate::integrators::bdpt::subpath::{camera_start, light_start, random_walks};
+    use crate::integrators::bdpt::mis::{weight, Connection};
+    use crate::integrators::bdpt::tests::walked_group;
     use crate::integrators::bdpt::vertex::Context;
     use crate::integrators::path::PathSettings;
     use crate::render_scene::RenderScene;
-    use crate::sampler::PixelSampler;
 
     /// Every join of two Lambertian vertices gets from the lanes exactly the pending entry
     /// `connect::prepare` makes (or none where it makes none), and the weight from the lanes'
@@ -405,35 +286,9 @@ mod tests {
             rs,
             camera: &camera,
         };
-        let max_depth = settings.max_depth as usize;
         let (mut joined, mut dropped) = (0usize, 0usize);
-        for y in 0..8u32 {
-            // Eight samples: camera subpaths at 0..8, light subpaths at 8..16.
-            let mut walks = vec![None; 16];
-            let mut samplers = vec![PixelSampler::new(0, 0, 0, 0); 16];
-            let mut paths = vec![Vec::new(); 16];
-            let mut max_vertices = vec![0; 16];
-            for x in 0..8usize {
-                let film = glam::Vec2::new(4.0 * x as f32 + 0.5, 4.0 * y as f32 + 0.5);
-                walks[x] = camera_start(&ctx, film, max_depth + 1, &mut paths[x]);
-                samplers[x] = PixelSampler::new(x as u32, y, 0, 3);
-                max_vertices[x] = max_depth + 1;
-                let mut light_sampler = PixelSampler::new(x as u32, y, 0, 4);
-                walks[8 + x] = light_start(&ctx, &mut light_sampler, max_depth, &mut paths[8 + x]);
-                samplers[8 + x] = light_sampler;
-                max_vertices[8 + x] = max_depth;
-            }
-            random_walks(
-                &ctx,
-                &mut walks,
-                &mut samplers,
-                &settings,
-                &max_vertices,
-                &mut paths,
-            );
-            for p in &mut paths {
-                set_ratios(p);
-            }
+        for y in 0..16u32 {
+            let paths = walked_group(&ctx, &settings, y);
             let (cams, lights) = paths.split_at(8);
             let (mut joins, mut want) = (vec![], vec![]);
             let mut pending = vec![];

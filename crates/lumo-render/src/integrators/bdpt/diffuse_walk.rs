@@ -23,6 +23,7 @@
 use glam::{Vec2, Vec3};
 use lumo_simd::Isa;
 
+use super::lanes::{at, dot, sel, L3};
 use super::subpath::Walk;
 use super::vertex::{Context, Kind, Vertex};
 use crate::accel::packet::LANES;
@@ -36,30 +37,6 @@ use crate::render_scene::Surface;
 use crate::sampler::PixelSampler;
 
 const N: usize = LANES;
-type L = [f32; N];
-type L3 = [L; 3];
-
-/// `a · b` in glam's order.
-#[inline(always)]
-fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
-    (a[0] * b[0]) + (a[1] * b[1]) + (a[2] * b[2])
-}
-
-/// Lane `i` of a three-component array.
-#[inline(always)]
-fn at(v: &L3, i: usize) -> [f32; 3] {
-    [v[0][i], v[1][i], v[2][i]]
-}
-
-/// `x` if `c`, else `y` (written as a select for the vectoriser).
-#[inline(always)]
-fn sel(c: bool, x: f32, y: f32) -> f32 {
-    if c {
-        x
-    } else {
-        y
-    }
-}
 
 /// The walks and their subpaths that [`diffuse_steps`] advances: walk `k` with
 /// `samplers[k]` into `paths[k]`, up to `max_vertices[k]` vertices (the arguments of

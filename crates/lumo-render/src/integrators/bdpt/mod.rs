@@ -16,7 +16,9 @@
 
 mod connect;
 mod diffuse_connect;
+mod diffuse_nee;
 mod diffuse_walk;
+mod lanes;
 mod mis;
 mod subpath;
 #[cfg(test)]
@@ -33,6 +35,8 @@ use crate::render_scene::RenderScene;
 use crate::sampler::PixelSampler;
 use connect::{finish, prepare, Contribution, Pending, Prepared};
 use diffuse_connect::{diffuse_joins, is_diffuse_join, placeholder, DiffuseJoin};
+use diffuse_nee::{diffuse_nees, NeeJob};
+use lanes::is_lambertian;
 use mis::set_ratios;
 use subpath::{camera_start, light_start, random_walks};
 use vertex::{Context, Vertex};
@@ -62,6 +66,9 @@ pub struct BdptScratch {
     /// The strategies among `pending` that join two Lambertian vertices, computed together
     /// in vector lanes once the group's strategies are listed.
     joins: Vec<DiffuseJoin>,
+    /// The next-event strategies among `pending` from Lambertian vertices to emissive
+    /// triangles, computed together in vector lanes likewise.
+    nees: Vec<NeeJob>,
 }
 
 /// Most samples [`trace_bdpt_samples`] takes at once (one ray packet).
@@ -174,6 +181,7 @@ pub fn trace_bdpt_samples(
     let (cams, lights) = scratch.paths.split_at(GROUP);
     scratch.pending.clear();
     scratch.joins.clear();
+    scratch.nees.clear();
     let mut ends = [0usize; GROUP];
     for (k, o) in out[..n].iter_mut().enumerate() {
         *o = prepare_all(
@@ -181,10 +189,11 @@ pub fn trace_bdpt_samples(
             (k, &lights[k], &cams[k]),
             settings,
             &mut scratch.pending,
-            &mut scratch.joins,
+            (&mut scratch.joins, &mut scratch.nees),
         );
         ends[k] = scratch.pending.len();
     }
+    diffuse_nees(&ctx, cams, &scratch.nees, &mut scratch.pending);
     diffuse_joins(
         rs.ray_epsilon,
         cams,
@@ -267,13 +276,15 @@ fn add(
 
 /// Every strategy of sample `k`'s subpaths up to its shadow ray: returns the radiance of
 /// those that need none (s = 0) and appends the others to `pending` in order, the joins of
-/// two Lambertian vertices as placeholders listed in `joins` ([`diffuse_joins`] fills them).
+/// two Lambertian vertices and the next-event strategies from Lambertian vertices to emissive
+/// triangles as placeholders listed in `joins` and `nees` ([`diffuse_joins`] and
+/// [`diffuse_nees`] fill them).
 fn prepare_all(
     ctx: &Context,
     (k, light, cam): (usize, &[Vertex], &[Vertex]),
     settings: &BdptSettings,
     pending: &mut Vec<Pending>,
-    joins: &mut Vec<DiffuseJoin>,
+    (joins, nees): (&mut Vec<DiffuseJoin>, &mut Vec<NeeJob>),
 ) -> PathRadiance {
     let max_depth = settings.path.max_depth.max(1) as usize;
     let mut radiance = PathRadiance::default();
@@ -289,6 +300,20 @@ fn prepare_all(
             // s = 1 with t ≥ 2 samples its own light point (next-event estimation).
             if s > light.len() && !(s == 1 && t >= 2) {
                 continue;
+            }
+            if s == 1 && t >= 2 && is_lambertian(&cam[t - 1]) {
+                if let Some((pick, _, light)) = ctx.rs.lights.choose_triangle(cam[t - 1].u_light.0)
+                {
+                    nees.push(NeeJob {
+                        slot: pending.len() as u32,
+                        k: k as u32,
+                        t: t as u32,
+                        light,
+                        pick,
+                    });
+                    pending.push(placeholder());
+                    continue;
+                }
             }
             if s >= 2 && t >= 2 && is_diffuse_join(&cam[t - 1], &light[s - 1]) {
                 joins.push(DiffuseJoin {

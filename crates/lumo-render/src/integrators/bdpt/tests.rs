@@ -4,7 +4,7 @@ use lumo_scene::shapes::{cube, rectangle};
 use lumo_scene::{builtin_scene, Camera, FovAxis, Light, Material, Scene};
 
 use super::mis::{set_ratios, weight, Connection};
-use super::subpath::camera_subpath;
+use super::subpath::{camera_start, camera_subpath, light_start, random_walks};
 use super::vertex::{light_vertex, Context, Kind, Vertex};
 use super::*;
 use crate::{render, render_bdpt, RenderSettings};
@@ -317,4 +317,37 @@ fn same_bits_on_any_thread_count() {
     };
     let (a, b) = (run(1), run(2));
     assert_eq!(a.data, b.data);
+}
+
+/// The subpaths of eight samples on row `y % 32` of a 32² film (sample index `y / 32`),
+/// walked together and with their ratios set: camera subpaths at 0..8, light subpaths at
+/// 8..16 (for the lane loops' tests).
+pub(super) fn walked_group(ctx: &Context, settings: &PathSettings, y: u32) -> Vec<Vec<Vertex>> {
+    let max_depth = settings.max_depth as usize;
+    let mut walks = vec![None; 16];
+    let mut samplers = vec![PixelSampler::new(0, 0, 0, 0); 16];
+    let mut paths = vec![Vec::new(); 16];
+    let mut max_vertices = vec![0; 16];
+    for x in 0..8usize {
+        let film = Vec2::new(4.0 * x as f32 + 0.5, (y % 32) as f32 + 0.5);
+        walks[x] = camera_start(ctx, film, max_depth + 1, &mut paths[x]);
+        samplers[x] = PixelSampler::new(x as u32, y % 32, y / 32, 3);
+        max_vertices[x] = max_depth + 1;
+        let mut light_sampler = PixelSampler::new(x as u32, y % 32, y / 32, 4);
+        walks[8 + x] = light_start(ctx, &mut light_sampler, max_depth, &mut paths[8 + x]);
+        samplers[8 + x] = light_sampler;
+        max_vertices[8 + x] = max_depth;
+    }
+    random_walks(
+        ctx,
+        &mut walks,
+        &mut samplers,
+        settings,
+        &max_vertices,
+        &mut paths,
+    );
+    for p in &mut paths {
+        set_ratios(p);
+    }
+    paths
 }
