@@ -7,18 +7,24 @@ use lumo_scene::Camera;
 
 /// A pinhole camera for one image size: precomputed basis, film extent and importance.
 #[derive(Clone, Copy, Debug)]
+// The fields are the crate's so that lane loops (the bidirectional splats) can repeat
+// `project_point` and `direction_pdf` operation for operation.
 pub struct PinholeCamera {
-    origin: Vec3,
-    forward: Vec3,
-    /// Unit right and up axes.
-    right: Vec3,
-    up: Vec3,
+    /// Eye position.
+    pub(crate) origin: Vec3,
+    /// Unit view axis.
+    pub(crate) forward: Vec3,
+    /// Unit right axis.
+    pub(crate) right: Vec3,
+    /// Unit up axis.
+    pub(crate) up: Vec3,
     /// Right and up scaled by the film's half-extents at distance 1.
     right_extent: Vec3,
     up_extent: Vec3,
     /// Half-extents of the film at distance 1.
-    half: Vec2,
-    size: Vec2,
+    pub(crate) half: Vec2,
+    /// Film size in pixels.
+    pub(crate) size: Vec2,
     inv_size: Vec2,
     /// Pixels per unit film area at distance 1 ([`PinholeCamera::pixel_importance`]).
     pixel_importance: f32,

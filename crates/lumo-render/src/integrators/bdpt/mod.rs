@@ -17,6 +17,7 @@
 mod connect;
 mod diffuse_connect;
 mod diffuse_nee;
+mod diffuse_splat;
 mod diffuse_walk;
 mod lanes;
 mod mis;
@@ -36,6 +37,7 @@ use crate::sampler::PixelSampler;
 use connect::{finish, prepare, Contribution, Pending, Prepared};
 use diffuse_connect::{diffuse_joins, is_diffuse_join, placeholder, DiffuseJoin};
 use diffuse_nee::{diffuse_nees, NeeJob};
+use diffuse_splat::{diffuse_splats, SplatJob};
 use lanes::is_lambertian;
 use mis::set_ratios;
 use subpath::{camera_start, light_start, random_walks};
@@ -69,6 +71,9 @@ pub struct BdptScratch {
     /// The next-event strategies among `pending` from Lambertian vertices to emissive
     /// triangles, computed together in vector lanes likewise.
     nees: Vec<NeeJob>,
+    /// The strategies among `pending` that show a Lambertian light vertex to the camera
+    /// (t = 1), computed together in vector lanes likewise.
+    splats: Vec<SplatJob>,
 }
 
 /// Most samples [`trace_bdpt_samples`] takes at once (one ray packet).
@@ -182,6 +187,7 @@ pub fn trace_bdpt_samples(
     scratch.pending.clear();
     scratch.joins.clear();
     scratch.nees.clear();
+    scratch.splats.clear();
     let mut ends = [0usize; GROUP];
     for (k, o) in out[..n].iter_mut().enumerate() {
         *o = prepare_all(
@@ -189,11 +195,12 @@ pub fn trace_bdpt_samples(
             (k, &lights[k], &cams[k]),
             settings,
             &mut scratch.pending,
-            (&mut scratch.joins, &mut scratch.nees),
+            (&mut scratch.joins, &mut scratch.nees, &mut scratch.splats),
         );
         ends[k] = scratch.pending.len();
     }
     diffuse_nees(&ctx, cams, &scratch.nees, &mut scratch.pending);
+    diffuse_splats(&ctx, lights, &scratch.splats, &mut scratch.pending);
     diffuse_joins(
         rs.ray_epsilon,
         cams,
@@ -276,15 +283,16 @@ fn add(
 
 /// Every strategy of sample `k`'s subpaths up to its shadow ray: returns the radiance of
 /// those that need none (s = 0) and appends the others to `pending` in order, the joins of
-/// two Lambertian vertices and the next-event strategies from Lambertian vertices to emissive
-/// triangles as placeholders listed in `joins` and `nees` ([`diffuse_joins`] and
-/// [`diffuse_nees`] fill them).
+/// two Lambertian vertices, the next-event strategies from Lambertian vertices to emissive
+/// triangles and the Lambertian light vertices seen by the camera as placeholders listed in
+/// `joins`, `nees` and `splats` ([`diffuse_joins`], [`diffuse_nees`] and [`diffuse_splats`]
+/// fill them).
 fn prepare_all(
     ctx: &Context,
     (k, light, cam): (usize, &[Vertex], &[Vertex]),
     settings: &BdptSettings,
     pending: &mut Vec<Pending>,
-    (joins, nees): (&mut Vec<DiffuseJoin>, &mut Vec<NeeJob>),
+    (joins, nees, splats): (&mut Vec<DiffuseJoin>, &mut Vec<NeeJob>, &mut Vec<SplatJob>),
 ) -> PathRadiance {
     let max_depth = settings.path.max_depth.max(1) as usize;
     let mut radiance = PathRadiance::default();
@@ -301,8 +309,28 @@ fn prepare_all(
             if s > light.len() && !(s == 1 && t >= 2) {
                 continue;
             }
+            if t == 1 && s >= 2 && is_lambertian(&light[s - 1]) {
+                // Off the film: nothing, as `prepare` decides first.
+                if let Some((film, cos_cam)) = ctx.camera.project_point(light[s - 1].p) {
+                    splats.push(SplatJob {
+                        slot: pending.len() as u32,
+                        k: k as u32,
+                        s: s as u32,
+                        film,
+                        cos_cam,
+                    });
+                    pending.push(placeholder());
+                }
+                continue;
+            }
             if s == 1 && t >= 2 && is_lambertian(&cam[t - 1]) {
-                if let Some((pick, _, light)) = ctx.rs.lights.choose_triangle(cam[t - 1].u_light.0)
+                let pt = &cam[t - 1];
+                // Points behind the triangle's plane take the scalar strategy, which ends at
+                // the light sample's back-facing test before any other work (the test here
+                // only routes: either way the result is the scalar one).
+                let chosen = ctx.rs.lights.choose_triangle(pt.u_light.0);
+                if let Some((pick, _, light)) =
+                    chosen.filter(|(_, tri, _)| tri.normal.dot(pt.p - tri.p0) > 0.0)
                 {
                     nees.push(NeeJob {
                         slot: pending.len() as u32,
