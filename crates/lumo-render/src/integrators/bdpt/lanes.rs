@@ -9,6 +9,12 @@ use crate::accel::packet::LANES;
 use crate::geometry::cosine_pdf;
 
 const N: usize = LANES;
+
+/// Fewest live lanes for which the lane loops run; below it the scalar code does the same work
+/// (the same bits) for less, since a lane loop costs sixteen lanes however few are live. The
+/// server's streams trace one sample at a time, so their walks and strategies stay scalar.
+pub(super) const MIN_VECTOR_LANES: usize = 4;
+
 /// One `f32` per lane.
 pub(super) type L = [f32; N];
 /// Three components, each one `f32` per lane.

@@ -38,7 +38,7 @@ use connect::{finish, prepare, Contribution, Pending, Prepared};
 use diffuse_connect::{diffuse_joins, is_diffuse_join, placeholder, DiffuseJoin};
 use diffuse_nee::{diffuse_nees, NeeJob};
 use diffuse_splat::{diffuse_splats, SplatJob};
-use lanes::is_lambertian;
+use lanes::{is_lambertian, MIN_VECTOR_LANES};
 use mis::set_ratios;
 use subpath::{camera_start, light_start, random_walks};
 use vertex::{Context, Vertex};
@@ -193,6 +193,7 @@ pub fn trace_bdpt_samples(
         *o = prepare_all(
             &ctx,
             (k, &lights[k], &cams[k]),
+            n >= MIN_VECTOR_LANES,
             settings,
             &mut scratch.pending,
             (&mut scratch.joins, &mut scratch.nees, &mut scratch.splats),
@@ -286,10 +287,11 @@ fn add(
 /// two Lambertian vertices, the next-event strategies from Lambertian vertices to emissive
 /// triangles and the Lambertian light vertices seen by the camera as placeholders listed in
 /// `joins`, `nees` and `splats` ([`diffuse_joins`], [`diffuse_nees`] and [`diffuse_splats`]
-/// fill them).
+/// fill them) when `lanes` (a group large enough for lane loops to pay).
 fn prepare_all(
     ctx: &Context,
     (k, light, cam): (usize, &[Vertex], &[Vertex]),
+    lanes: bool,
     settings: &BdptSettings,
     pending: &mut Vec<Pending>,
     (joins, nees, splats): (&mut Vec<DiffuseJoin>, &mut Vec<NeeJob>, &mut Vec<SplatJob>),
@@ -309,7 +311,7 @@ fn prepare_all(
             if s > light.len() && !(s == 1 && t >= 2) {
                 continue;
             }
-            if t == 1 && s >= 2 && is_lambertian(&light[s - 1]) {
+            if lanes && t == 1 && s >= 2 && is_lambertian(&light[s - 1]) {
                 // Off the film: nothing, as `prepare` decides first.
                 if let Some((film, cos_cam)) = ctx.camera.project_point(light[s - 1].p) {
                     splats.push(SplatJob {
@@ -323,7 +325,7 @@ fn prepare_all(
                 }
                 continue;
             }
-            if s == 1 && t >= 2 && is_lambertian(&cam[t - 1]) {
+            if lanes && s == 1 && t >= 2 && is_lambertian(&cam[t - 1]) {
                 let pt = &cam[t - 1];
                 // Points behind the triangle's plane take the scalar strategy, which ends at
                 // the light sample's back-facing test before any other work (the test here
@@ -343,7 +345,7 @@ fn prepare_all(
                     continue;
                 }
             }
-            if s >= 2 && t >= 2 && is_diffuse_join(&cam[t - 1], &light[s - 1]) {
+            if lanes && s >= 2 && t >= 2 && is_diffuse_join(&cam[t - 1], &light[s - 1]) {
                 joins.push(DiffuseJoin {
                     slot: pending.len() as u32,
                     k: k as u32,

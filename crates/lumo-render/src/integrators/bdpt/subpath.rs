@@ -5,6 +5,7 @@
 use glam::{Vec2, Vec3};
 
 use super::diffuse_walk::{diffuse_steps, Walks};
+use super::lanes::MIN_VECTOR_LANES;
 use super::vertex::{
     area_density_along, bsdf_pdf, lambert_sample, light_origin_density, surface_local, Context,
     Kind, Vertex,
@@ -209,13 +210,19 @@ pub(super) fn random_walks(
         rays += n as u32;
         ctx.rs.accel.intersect_packet(&packet, &mut hits);
         // Hits on simple diffuse surfaces step together in vector lanes, the others one by
-        // one (walks share nothing, so the order of their steps changes nothing).
+        // one (walks share nothing, so the order of their steps changes nothing); with too
+        // few such hits for the lanes to pay, all step one by one (the same bits either way).
         let mut simple = [(0usize, Hit::default()); LANES];
         let mut m = 0;
         for (&k, &hit) in lanes[..n].iter().zip(&hits[..n]) {
             if let Some(h) = hit.filter(|h| ctx.rs.is_simple_diffuse(h.instance)) {
                 simple[m] = (k, h);
                 m += 1;
+            }
+        }
+        let vector = m >= MIN_VECTOR_LANES;
+        for (&k, &hit) in lanes[..n].iter().zip(&hits[..n]) {
+            if vector && hit.is_some_and(|h| ctx.rs.is_simple_diffuse(h.instance)) {
                 continue;
             }
             let Some(walk) = walks[k].as_mut() else {
@@ -233,7 +240,7 @@ pub(super) fn random_walks(
                 walks[k] = None;
             }
         }
-        if m > 0 {
+        if vector {
             let mut w = Walks {
                 walks,
                 samplers,
