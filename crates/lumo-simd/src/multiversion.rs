@@ -13,8 +13,68 @@
 /// [`Isa::detect`]: crate::Isa::detect
 /// The body itself becomes `$imp`, an `#[inline(always)]` function with the same signature,
 /// compiled into each copy (and callable directly: the tests compare it with the dispatcher).
+///
+/// The form `fn $name(args) as $imp, at $at { body }` also defines `$at(level, args)`, which
+/// runs the copy for `level` capped at what the CPU runs (`$name` is `$at(Isa::detect(), …)`):
+/// tests call it at every level to compare the copies with each other and with scalar code.
 #[macro_export]
 macro_rules! multiversion {
+    (
+        $(#[$meta:meta])*
+        $vis:vis fn $name:ident ($($arg:ident: $ty:ty),* $(,)?) $(-> $ret:ty)?
+            as $imp:ident, at $at:ident $body:block
+    ) => {
+        #[doc = concat!(
+            "The body of [`", stringify!($name), "`], compiled into each of its copies."
+        )]
+        #[inline(always)]
+        #[allow(clippy::too_many_arguments)]
+        $vis fn $imp ($($arg: $ty),*) $(-> $ret)? $body
+
+        #[doc = concat!(
+            "[`", stringify!($name), "`] in its copy for `level` (at most what this CPU runs)."
+        )]
+        #[allow(clippy::too_many_arguments)]
+        $vis fn $at (level: $crate::Isa, $($arg: $ty),*) $(-> $ret)? {
+            #[cfg(target_arch = "x86_64")]
+            {
+                /// The AVX-512 copy.
+                ///
+                /// # Safety
+                /// The CPU must support AVX-512F and AVX-512VL.
+                #[target_feature(enable = "avx512f,avx512vl,avx2")]
+                #[allow(clippy::too_many_arguments)]
+                unsafe fn avx512 ($($arg: $ty),*) $(-> $ret)? {
+                    $imp ($($arg),*)
+                }
+                /// The AVX2 copy.
+                ///
+                /// # Safety
+                /// The CPU must support AVX2.
+                #[target_feature(enable = "avx2")]
+                #[allow(clippy::too_many_arguments)]
+                unsafe fn avx2 ($($arg: $ty),*) $(-> $ret)? {
+                    $imp ($($arg),*)
+                }
+                match level.min($crate::Isa::detect()) {
+                    // SAFETY: capped at Isa::detect, which reports AVX-512 only where F, VL
+                    // and AVX2 exist.
+                    $crate::Isa::Avx512 => return unsafe { avx512 ($($arg),*) },
+                    // SAFETY: capped at Isa::detect, which reports AVX2 only where it exists.
+                    $crate::Isa::Avx2 => return unsafe { avx2 ($($arg),*) },
+                    $crate::Isa::Baseline => {}
+                }
+            }
+            let _ = level;
+            $imp ($($arg),*)
+        }
+
+        $(#[$meta])*
+        #[allow(clippy::too_many_arguments)]
+        $vis fn $name ($($arg: $ty),*) $(-> $ret)? {
+            $at($crate::Isa::detect(), $($arg),*)
+        }
+    };
     (
         $(#[$meta:meta])*
         $vis:vis fn $name:ident $(<$(const $g:ident: $gt:ty),*>)?

@@ -17,6 +17,8 @@
 #![allow(clippy::needless_range_loop)]
 
 use glam::Vec3;
+use lumo_simd::multiversion;
+#[cfg(test)]
 use lumo_simd::Isa;
 
 use super::connect::{Contribution, Pending, ShadowRay};
@@ -77,168 +79,119 @@ pub(super) fn diffuse_joins(
     pending: &mut [Pending],
 ) {
     for chunk in joins.chunks(N) {
-        joins_at(Isa::detect(), eps, cams, lights, chunk, pending);
+        join_chunk(eps, cams, lights, chunk, pending);
     }
 }
 
-/// Up to sixteen joins compiled for `level` (at most what this CPU runs; tests run each).
-fn joins_at(
-    level: Isa,
-    eps: f32,
-    cams: &[Vec<Vertex>],
-    lights: &[Vec<Vertex>],
-    joins: &[DiffuseJoin],
-    pending: &mut [Pending],
-) {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: each variant runs only at or below the detected level.
-    unsafe {
-        match level.min(Isa::detect()) {
-            Isa::Avx512 => return joins_avx512(eps, cams, lights, joins, pending),
-            Isa::Avx2 => return joins_avx2(eps, cams, lights, joins, pending),
-            Isa::Baseline => {}
+multiversion! {
+    /// Fills the pending entries of up to sixteen `joins` (see [`diffuse_joins`]).
+    fn join_chunk(
+        eps: f32,
+        cams: &[Vec<Vertex>],
+        lights: &[Vec<Vertex>],
+        joins: &[DiffuseJoin],
+        pending: &mut [Pending],
+    ) as join_lanes, at join_chunk_at {
+        let n = joins.len().min(N);
+        let (mut cam, mut light) = (Side::default(), Side::default());
+        for (i, j) in joins.iter().enumerate().take(n) {
+            let (c, l) = (&cams[j.k as usize], &lights[j.k as usize]);
+            let (s, t) = (j.s as usize, j.t as usize);
+            cam.load(i, &c[t - 1], &c[t - 2]);
+            light.load(i, &l[s - 1], &l[s - 2]);
         }
-    }
-    let _ = level;
-    joins_lanes(eps, cams, lights, joins, pending)
-}
 
-/// # Safety
-/// The CPU must support AVX-512 F/VL and AVX2.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl,avx2")]
-unsafe fn joins_avx512(
-    eps: f32,
-    cams: &[Vec<Vertex>],
-    lights: &[Vec<Vertex>],
-    joins: &[DiffuseJoin],
-    pending: &mut [Pending],
-) {
-    joins_lanes(eps, cams, lights, joins, pending)
-}
-
-/// # Safety
-/// The CPU must support AVX2.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-unsafe fn joins_avx2(
-    eps: f32,
-    cams: &[Vec<Vertex>],
-    lights: &[Vec<Vertex>],
-    joins: &[DiffuseJoin],
-    pending: &mut [Pending],
-) {
-    joins_lanes(eps, cams, lights, joins, pending)
-}
-
-/// The joins themselves, compiled once per instruction set by the wrappers above.
-#[inline(always)]
-fn joins_lanes(
-    eps: f32,
-    cams: &[Vec<Vertex>],
-    lights: &[Vec<Vertex>],
-    joins: &[DiffuseJoin],
-    pending: &mut [Pending],
-) {
-    let n = joins.len().min(N);
-    let (mut cam, mut light) = (Side::default(), Side::default());
-    for (i, j) in joins.iter().enumerate().take(n) {
-        let (c, l) = (&cams[j.k as usize], &lights[j.k as usize]);
-        let (s, t) = (j.s as usize, j.t as usize);
-        cam.load(i, &c[t - 1], &c[t - 2]);
-        light.load(i, &l[s - 1], &l[s - 2]);
-    }
-
-    // `connect::prepare` for s, t ≥ 2, and the four densities of `mis::weight`.
-    let (mut value, mut origin, mut dir) = ([[0.0f32; N]; 3], [[0.0f32; N]; 3], [[0.0f32; N]; 3]);
-    let (mut w_out, mut dist2_out, mut w_pt_out, mut w_q_out) =
-        ([[0.0f32; N]; 3], [0.0f32; N], [0.0f32; N], [0.0f32; N]);
-    let (mut tmax, mut ok) = ([0.0f32; N], [false; N]);
-    let mut rev = [[0.0f32; N]; 4];
-    for i in 0..N {
-        let (pp, qp) = (at(&cam.p, i), at(&light.p, i));
-        let d = [qp[0] - pp[0], qp[1] - pp[1], qp[2] - pp[2]];
-        let dist2 = dot(d, d);
-        let len = dist2.sqrt();
-        let w = [d[0] / len, d[1] / len, d[2] / len];
-        let nw = [-w[0], -w[1], -w[2]];
-        // The shading-frame cosines of the connection (`Vertex::local`).
-        let w_pt = dot(w, at(&cam.n, i));
-        let w_q = dot(nw, at(&light.n, i));
-        // The camera side's value, f(wo, w)·|cos|, and the light side's adjoint one with the
-        // shading-normal correction (`Vertex::scatter_local`).
-        let (front_pt, f_pt) = lambert_factor(cam.wo_z[i], w_pt);
-        let (front_q, f_q) = lambert_factor(w_q, light.wo_z[i]);
-        let cos_ng_w = dot(at(&light.ng, i), nw).abs();
-        let q_live = !(light.wo_z[i] == 0.0 || light.cos_ng_wo[i] == 0.0);
-        let mut v = [0.0f32; 3];
-        let mut finite = true;
-        for a in 0..3 {
-            let fp = sel(front_pt, cam.albedo[a][i] * f_pt, 0.0);
-            let fq = sel(front_q, light.albedo[a][i] * f_q, 0.0);
-            let fq = sel(q_live, fq / light.cos_ng_wo[i] * cos_ng_w, 0.0);
-            v[a] = cam.beta[a][i] * fp * fq * light.beta[a][i] / dist2;
-            finite &= v[a].is_finite();
+        // `connect::prepare` for s, t ≥ 2, and the four densities of `mis::weight`.
+        let (mut value, mut origin, mut dir) = ([[0.0f32; N]; 3], [[0.0f32; N]; 3], [[0.0f32; N]; 3]);
+        let (mut w_out, mut dist2_out, mut w_pt_out, mut w_q_out) =
+            ([[0.0f32; N]; 3], [0.0f32; N], [0.0f32; N], [0.0f32; N]);
+        let (mut tmax, mut ok) = ([0.0f32; N], [false; N]);
+        let mut rev = [[0.0f32; N]; 4];
+        for i in 0..N {
+            let (pp, qp) = (at(&cam.p, i), at(&light.p, i));
+            let d = [qp[0] - pp[0], qp[1] - pp[1], qp[2] - pp[2]];
+            let dist2 = dot(d, d);
+            let len = dist2.sqrt();
+            let w = [d[0] / len, d[1] / len, d[2] / len];
+            let nw = [-w[0], -w[1], -w[2]];
+            // The shading-frame cosines of the connection (`Vertex::local`).
+            let w_pt = dot(w, at(&cam.n, i));
+            let w_q = dot(nw, at(&light.n, i));
+            // The camera side's value, f(wo, w)·|cos|, and the light side's adjoint one with the
+            // shading-normal correction (`Vertex::scatter_local`).
+            let (front_pt, f_pt) = lambert_factor(cam.wo_z[i], w_pt);
+            let (front_q, f_q) = lambert_factor(w_q, light.wo_z[i]);
+            let cos_ng_w = dot(at(&light.ng, i), nw).abs();
+            let q_live = !(light.wo_z[i] == 0.0 || light.cos_ng_wo[i] == 0.0);
+            let mut v = [0.0f32; 3];
+            let mut finite = true;
+            for a in 0..3 {
+                let fp = sel(front_pt, cam.albedo[a][i] * f_pt, 0.0);
+                let fq = sel(front_q, light.albedo[a][i] * f_q, 0.0);
+                let fq = sel(q_live, fq / light.cos_ng_wo[i] * cos_ng_w, 0.0);
+                v[a] = cam.beta[a][i] * fp * fq * light.beta[a][i] / dist2;
+                finite &= v[a].is_finite();
+            }
+            ok[i] = finite && !(v[0] == 0.0 && v[1] == 0.0 && v[2] == 0.0);
+            let a = cam.origin_off(i, w);
+            let b = light.origin_off(i, nw);
+            let (sd, st) = shadow_segment(a, b, w, eps);
+            // The reverse densities next to the connection (`Vertex::pdf_onward`, `pdf_back`).
+            let area = |pdf: f32, ng: [f32; 3], w: [f32; 3], d2: f32| {
+                sel(d2 == 0.0, 0.0, pdf * arrival_cos(ng, w) / d2)
+            };
+            rev[0][i] = area(lambert_pdf(light.wp_z[i], w_q), at(&cam.ng, i), nw, dist2);
+            rev[1][i] = area(
+                lambert_pdf(w_pt, cam.wp_z[i]),
+                at(&cam.prev_ng, i),
+                at(&cam.w_prev, i),
+                cam.d2_prev[i],
+            );
+            rev[2][i] = area(lambert_pdf(cam.wp_z[i], w_pt), at(&light.ng, i), w, dist2);
+            rev[3][i] = area(
+                lambert_pdf(w_q, light.wp_z[i]),
+                at(&light.prev_ng, i),
+                at(&light.w_prev, i),
+                light.d2_prev[i],
+            );
+            for c in 0..3 {
+                value[c][i] = v[c];
+                origin[c][i] = a[c];
+                dir[c][i] = sd[c];
+                w_out[c][i] = w[c];
+            }
+            tmax[i] = st;
+            dist2_out[i] = dist2;
+            w_pt_out[i] = w_pt;
+            w_q_out[i] = w_q;
         }
-        ok[i] = finite && !(v[0] == 0.0 && v[1] == 0.0 && v[2] == 0.0);
-        let a = cam.origin_off(i, w);
-        let b = light.origin_off(i, nw);
-        let (sd, st) = shadow_segment(a, b, w, eps);
-        // The reverse densities next to the connection (`Vertex::pdf_onward`, `pdf_back`).
-        let area = |pdf: f32, ng: [f32; 3], w: [f32; 3], d2: f32| {
-            sel(d2 == 0.0, 0.0, pdf * arrival_cos(ng, w) / d2)
-        };
-        rev[0][i] = area(lambert_pdf(light.wp_z[i], w_q), at(&cam.ng, i), nw, dist2);
-        rev[1][i] = area(
-            lambert_pdf(w_pt, cam.wp_z[i]),
-            at(&cam.prev_ng, i),
-            at(&cam.w_prev, i),
-            cam.d2_prev[i],
-        );
-        rev[2][i] = area(lambert_pdf(cam.wp_z[i], w_pt), at(&light.ng, i), w, dist2);
-        rev[3][i] = area(
-            lambert_pdf(w_q, light.wp_z[i]),
-            at(&light.prev_ng, i),
-            at(&light.w_prev, i),
-            light.d2_prev[i],
-        );
-        for c in 0..3 {
-            value[c][i] = v[c];
-            origin[c][i] = a[c];
-            dir[c][i] = sd[c];
-            w_out[c][i] = w[c];
-        }
-        tmax[i] = st;
-        dist2_out[i] = dist2;
-        w_pt_out[i] = w_pt;
-        w_q_out[i] = w_q;
-    }
 
-    // Scatter into the pending entries.
-    for (i, j) in joins.iter().enumerate().take(n) {
-        let entry = &mut pending[j.slot as usize];
-        if !ok[i] {
-            entry.s = 0;
-            continue;
+        // Scatter into the pending entries.
+        for (i, j) in joins.iter().enumerate().take(n) {
+            let entry = &mut pending[j.slot as usize];
+            if !ok[i] {
+                entry.s = 0;
+                continue;
+            }
+            *entry = Pending {
+                contribution: Contribution::Pixel(Vec3::new(value[0][i], value[1][i], value[2][i])),
+                ray: ShadowRay {
+                    origin: Vec3::new(origin[0][i], origin[1][i], origin[2][i]),
+                    dir: Vec3::new(dir[0][i], dir[1][i], dir[2][i]),
+                    tmax: tmax[i],
+                },
+                s: j.s as usize,
+                t: j.t as usize,
+                nee: None,
+                segment: Some(Segment {
+                    w: Vec3::new(w_out[0][i], w_out[1][i], w_out[2][i]),
+                    dist2: dist2_out[i],
+                    w_pt: Vec3::new(0.0, 0.0, w_pt_out[i]),
+                    w_q: Vec3::new(0.0, 0.0, w_q_out[i]),
+                    reverse: Some([rev[0][i], rev[1][i], rev[2][i], rev[3][i]]),
+                }),
+            };
         }
-        *entry = Pending {
-            contribution: Contribution::Pixel(Vec3::new(value[0][i], value[1][i], value[2][i])),
-            ray: ShadowRay {
-                origin: Vec3::new(origin[0][i], origin[1][i], origin[2][i]),
-                dir: Vec3::new(dir[0][i], dir[1][i], dir[2][i]),
-                tmax: tmax[i],
-            },
-            s: j.s as usize,
-            t: j.t as usize,
-            nee: None,
-            segment: Some(Segment {
-                w: Vec3::new(w_out[0][i], w_out[1][i], w_out[2][i]),
-                dist2: dist2_out[i],
-                w_pt: Vec3::new(0.0, 0.0, w_pt_out[i]),
-                w_q: Vec3::new(0.0, 0.0, w_q_out[i]),
-                reverse: Some([rev[0][i], rev[1][i], rev[2][i], rev[3][i]]),
-            }),
-        };
     }
 }
 
@@ -311,7 +264,7 @@ mod tests {
                 }
             }
             for chunk in joins.chunks(N) {
-                joins_at(level, rs.ray_epsilon, cams, lights, chunk, &mut pending);
+                join_chunk_at(level, rs.ray_epsilon, cams, lights, chunk, &mut pending);
             }
             for (j, want) in joins.iter().zip(want) {
                 let (k, s, t) = (j.k as usize, j.s as usize, j.t as usize);

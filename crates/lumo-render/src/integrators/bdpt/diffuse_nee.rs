@@ -19,6 +19,8 @@
 #![allow(clippy::needless_range_loop)]
 
 use glam::Vec3;
+use lumo_simd::multiversion;
+#[cfg(test)]
 use lumo_simd::Isa;
 
 use super::connect::{Contribution, NeePoint, Pending, ShadowRay};
@@ -57,211 +59,175 @@ pub(super) fn diffuse_nees(
     pending: &mut [Pending],
 ) {
     for chunk in jobs.chunks(N) {
-        nees_at(Isa::detect(), ctx, cams, chunk, pending);
+        nee_chunk(ctx, cams, chunk, pending);
     }
 }
 
-/// Up to sixteen jobs compiled for `level` (at most what this CPU runs; tests run each).
-fn nees_at(
-    level: Isa,
-    ctx: &Context,
-    cams: &[Vec<Vertex>],
-    jobs: &[NeeJob],
-    pending: &mut [Pending],
-) {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: each variant runs only at or below the detected level.
-    unsafe {
-        match level.min(Isa::detect()) {
-            Isa::Avx512 => return nees_avx512(ctx, cams, jobs, pending),
-            Isa::Avx2 => return nees_avx2(ctx, cams, jobs, pending),
-            Isa::Baseline => {}
+multiversion! {
+    /// Fills the pending entries of up to sixteen `jobs` (see [`diffuse_nees`]).
+    fn nee_chunk(
+        ctx: &Context,
+        cams: &[Vec<Vertex>],
+        jobs: &[NeeJob],
+        pending: &mut [Pending],
+    ) as nee_lanes, at nee_chunk_at {
+        let n = jobs.len().min(N);
+        let lights = &ctx.rs.lights;
+        let eps = ctx.rs.ray_epsilon;
+        let mut cam = Side::default();
+        let (mut p0, mut e1, mut e2, mut tn, mut radiance): (L3, L3, L3, L3, L3) = Default::default();
+        let (mut area, mut pick, mut pick_e): (L, L, L) = Default::default();
+        let (mut u0, mut u1): (L, L) = Default::default();
+        for (i, j) in jobs.iter().enumerate().take(n) {
+            let c = &cams[j.k as usize];
+            let t = j.t as usize;
+            let pt = &c[t - 1];
+            cam.load(i, pt, &c[t - 2]);
+            let Some(tri) = lights.untextured_triangle(j.light) else {
+                continue;
+            };
+            for a in 0..3 {
+                p0[a][i] = tri.p0[a];
+                e1[a][i] = tri.e1[a];
+                e2[a][i] = tri.e2[a];
+                tn[a][i] = tri.normal[a];
+                radiance[a][i] = tri.radiance[a];
+            }
+            area[i] = tri.area;
+            pick[i] = j.pick;
+            pick_e[i] = lights.emission_pick(j.light);
+            (u0[i], u1[i]) = (pt.u_light.1.x, pt.u_light.1.y);
         }
-    }
-    let _ = level;
-    nees_lanes(ctx, cams, jobs, pending)
-}
 
-/// # Safety
-/// The CPU must support AVX-512 F/VL and AVX2.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl,avx2")]
-unsafe fn nees_avx512(
-    ctx: &Context,
-    cams: &[Vec<Vertex>],
-    jobs: &[NeeJob],
-    pending: &mut [Pending],
-) {
-    nees_lanes(ctx, cams, jobs, pending)
-}
-
-/// # Safety
-/// The CPU must support AVX2.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-unsafe fn nees_avx2(ctx: &Context, cams: &[Vec<Vertex>], jobs: &[NeeJob], pending: &mut [Pending]) {
-    nees_lanes(ctx, cams, jobs, pending)
-}
-
-/// The jobs themselves, compiled once per instruction set by the wrappers above.
-#[inline(always)]
-fn nees_lanes(ctx: &Context, cams: &[Vec<Vertex>], jobs: &[NeeJob], pending: &mut [Pending]) {
-    let n = jobs.len().min(N);
-    let lights = &ctx.rs.lights;
-    let eps = ctx.rs.ray_epsilon;
-    let mut cam = Side::default();
-    let (mut p0, mut e1, mut e2, mut tn, mut radiance): (L3, L3, L3, L3, L3) = Default::default();
-    let (mut area, mut pick, mut pick_e): (L, L, L) = Default::default();
-    let (mut u0, mut u1): (L, L) = Default::default();
-    for (i, j) in jobs.iter().enumerate().take(n) {
-        let c = &cams[j.k as usize];
-        let t = j.t as usize;
-        let pt = &c[t - 1];
-        cam.load(i, pt, &c[t - 2]);
-        let Some(tri) = lights.untextured_triangle(j.light) else {
-            continue;
-        };
-        for a in 0..3 {
-            p0[a][i] = tri.p0[a];
-            e1[a][i] = tri.e1[a];
-            e2[a][i] = tri.e2[a];
-            tn[a][i] = tri.normal[a];
-            radiance[a][i] = tri.radiance[a];
+        let (mut value, mut origin, mut dir, mut point, mut wi_out): (L3, L3, L3, L3, L3) =
+            Default::default();
+        let (mut w_out, mut dist2_out, mut w_pt_out, mut tmax, mut origin_pdf): (L3, L, L, L, L) =
+            Default::default();
+        let mut rev: [L; 3] = Default::default();
+        let mut ok = [false; N];
+        for i in 0..N {
+            let pp = at(&cam.p, i);
+            let ng_l = at(&tn, i);
+            // `Lights::sample` of a triangle.
+            let (bx, by) = triangle_map(u0[i], u1[i]);
+            let q = [
+                p0[0][i] + e1[0][i] * bx + e2[0][i] * by,
+                p0[1][i] + e1[1][i] * bx + e2[1][i] * by,
+                p0[2][i] + e1[2][i] * bx + e2[2][i] * by,
+            ];
+            let d = [q[0] - pp[0], q[1] - pp[1], q[2] - pp[2]];
+            let dist2 = dot(d, d);
+            let distance = dist2.sqrt();
+            let inv = 1.0 / distance;
+            let wi = [d[0] * inv, d[1] * inv, d[2] * inv];
+            let towards = [-wi[0], -wi[1], -wi[2]];
+            let cos = dot(ng_l, towards);
+            let sampled = !(cos <= 0.0 || area[i] <= 0.0);
+            let (num, den) = (pick[i] * dist2, area[i] * cos);
+            let r = den / num;
+            // The camera side's value towards the light (`Vertex::scatter_towards`).
+            let (front, f) = lambert_factor(cam.wo_z[i], dot(wi, at(&cam.n, i)));
+            let mut v = [0.0f32; 3];
+            let mut finite = true;
+            for a in 0..3 {
+                let fa = sel(front, cam.albedo[a][i] * f, 0.0);
+                v[a] = cam.beta[a][i] * fa * (radiance[a][i] * r);
+                finite &= v[a].is_finite();
+            }
+            ok[i] = sampled && finite && !(v[0] == 0.0 && v[1] == 0.0 && v[2] == 0.0);
+            let o = cam.origin_off(i, wi);
+            let (sd, st) = shadow_segment(o, q, wi, eps);
+            // The light vertex's own density (`light_vertex`: `emission_pdf_of` towards the
+            // shading point, the chance of the triangle over its area).
+            let density = |dir: [f32; 3]| {
+                let a = pick_e[i] / area[i];
+                let solid = dot(ng_l, dir) / std::f32::consts::PI;
+                // (`emission_pdf_of` rejects `pick <= 0`: written as its test is.)
+                let rejected = pick_e[i] <= 0.0;
+                let valid = !rejected && a > 0.0 && a.is_finite() && solid > 0.0;
+                (valid, a, solid)
+            };
+            let (valid, a, _) = density(towards);
+            origin_pdf[i] = sel(valid, a, 0.0);
+            // The weight's connection geometry, from the two positions (`Vertex::towards`).
+            let dw = [q[0] - pp[0], q[1] - pp[1], q[2] - pp[2]];
+            let d2w = dot(dw, dw);
+            let len = d2w.sqrt();
+            let none = d2w == 0.0;
+            let w = [
+                sel(none, 0.0, dw[0] / len),
+                sel(none, 0.0, dw[1] / len),
+                sel(none, 0.0, dw[2] / len),
+            ];
+            let nw = [-w[0], -w[1], -w[2]];
+            let w_pt = dot(w, at(&cam.n, i));
+            // `pt_rev`: the light emitting towards the camera vertex, in its area.
+            let (valid, _, solid) = density(nw);
+            let emit = sel(valid, solid, 0.0);
+            rev[0][i] = sel(
+                d2w == 0.0,
+                0.0,
+                emit * arrival_cos(at(&cam.ng, i), nw) / d2w,
+            );
+            // `pt_minus_rev`: the camera vertex scattering back to its predecessor.
+            rev[1][i] = sel(
+                cam.d2_prev[i] == 0.0,
+                0.0,
+                lambert_pdf(w_pt, cam.wp_z[i]) * arrival_cos(at(&cam.prev_ng, i), at(&cam.w_prev, i))
+                    / cam.d2_prev[i],
+            );
+            // `qs_rev`: the camera vertex scattering to the light point, in its area.
+            rev[2][i] = sel(
+                d2w == 0.0,
+                0.0,
+                lambert_pdf(cam.wp_z[i], w_pt) * arrival_cos(ng_l, w) / d2w,
+            );
+            for c in 0..3 {
+                value[c][i] = v[c];
+                origin[c][i] = o[c];
+                dir[c][i] = sd[c];
+                point[c][i] = q[c];
+                wi_out[c][i] = wi[c];
+                w_out[c][i] = w[c];
+            }
+            tmax[i] = st;
+            dist2_out[i] = d2w;
+            w_pt_out[i] = w_pt;
         }
-        area[i] = tri.area;
-        pick[i] = j.pick;
-        pick_e[i] = lights.emission_pick(j.light);
-        (u0[i], u1[i]) = (pt.u_light.1.x, pt.u_light.1.y);
-    }
 
-    let (mut value, mut origin, mut dir, mut point, mut wi_out): (L3, L3, L3, L3, L3) =
-        Default::default();
-    let (mut w_out, mut dist2_out, mut w_pt_out, mut tmax, mut origin_pdf): (L3, L, L, L, L) =
-        Default::default();
-    let mut rev: [L; 3] = Default::default();
-    let mut ok = [false; N];
-    for i in 0..N {
-        let pp = at(&cam.p, i);
-        let ng_l = at(&tn, i);
-        // `Lights::sample` of a triangle.
-        let (bx, by) = triangle_map(u0[i], u1[i]);
-        let q = [
-            p0[0][i] + e1[0][i] * bx + e2[0][i] * by,
-            p0[1][i] + e1[1][i] * bx + e2[1][i] * by,
-            p0[2][i] + e1[2][i] * bx + e2[2][i] * by,
-        ];
-        let d = [q[0] - pp[0], q[1] - pp[1], q[2] - pp[2]];
-        let dist2 = dot(d, d);
-        let distance = dist2.sqrt();
-        let inv = 1.0 / distance;
-        let wi = [d[0] * inv, d[1] * inv, d[2] * inv];
-        let towards = [-wi[0], -wi[1], -wi[2]];
-        let cos = dot(ng_l, towards);
-        let sampled = !(cos <= 0.0 || area[i] <= 0.0);
-        let (num, den) = (pick[i] * dist2, area[i] * cos);
-        let r = den / num;
-        // The camera side's value towards the light (`Vertex::scatter_towards`).
-        let (front, f) = lambert_factor(cam.wo_z[i], dot(wi, at(&cam.n, i)));
-        let mut v = [0.0f32; 3];
-        let mut finite = true;
-        for a in 0..3 {
-            let fa = sel(front, cam.albedo[a][i] * f, 0.0);
-            v[a] = cam.beta[a][i] * fa * (radiance[a][i] * r);
-            finite &= v[a].is_finite();
+        for (i, j) in jobs.iter().enumerate().take(n) {
+            let entry = &mut pending[j.slot as usize];
+            if !ok[i] {
+                entry.s = 0;
+                continue;
+            }
+            let v3 = |a: &L3| Vec3::new(a[0][i], a[1][i], a[2][i]);
+            *entry = Pending {
+                contribution: Contribution::Pixel(v3(&value)),
+                ray: ShadowRay {
+                    origin: v3(&origin),
+                    dir: v3(&dir),
+                    tmax: tmax[i],
+                },
+                s: 1,
+                t: j.t as usize,
+                nee: Some(NeePoint {
+                    light: j.light,
+                    point: v3(&point),
+                    normal: v3(&tn),
+                    towards: -v3(&wi_out),
+                    environment: None,
+                    origin_density: Some(origin_pdf[i]),
+                }),
+                segment: Some(Segment {
+                    w: v3(&w_out),
+                    dist2: dist2_out[i],
+                    w_pt: Vec3::new(0.0, 0.0, w_pt_out[i]),
+                    w_q: Vec3::ZERO,
+                    reverse: Some([rev[0][i], rev[1][i], rev[2][i], 0.0]),
+                }),
+            };
         }
-        ok[i] = sampled && finite && !(v[0] == 0.0 && v[1] == 0.0 && v[2] == 0.0);
-        let o = cam.origin_off(i, wi);
-        let (sd, st) = shadow_segment(o, q, wi, eps);
-        // The light vertex's own density (`light_vertex`: `emission_pdf_of` towards the
-        // shading point, the chance of the triangle over its area).
-        let density = |dir: [f32; 3]| {
-            let a = pick_e[i] / area[i];
-            let solid = dot(ng_l, dir) / std::f32::consts::PI;
-            // (`emission_pdf_of` rejects `pick <= 0`: written as its test is.)
-            let rejected = pick_e[i] <= 0.0;
-            let valid = !rejected && a > 0.0 && a.is_finite() && solid > 0.0;
-            (valid, a, solid)
-        };
-        let (valid, a, _) = density(towards);
-        origin_pdf[i] = sel(valid, a, 0.0);
-        // The weight's connection geometry, from the two positions (`Vertex::towards`).
-        let dw = [q[0] - pp[0], q[1] - pp[1], q[2] - pp[2]];
-        let d2w = dot(dw, dw);
-        let len = d2w.sqrt();
-        let none = d2w == 0.0;
-        let w = [
-            sel(none, 0.0, dw[0] / len),
-            sel(none, 0.0, dw[1] / len),
-            sel(none, 0.0, dw[2] / len),
-        ];
-        let nw = [-w[0], -w[1], -w[2]];
-        let w_pt = dot(w, at(&cam.n, i));
-        // `pt_rev`: the light emitting towards the camera vertex, in its area.
-        let (valid, _, solid) = density(nw);
-        let emit = sel(valid, solid, 0.0);
-        rev[0][i] = sel(
-            d2w == 0.0,
-            0.0,
-            emit * arrival_cos(at(&cam.ng, i), nw) / d2w,
-        );
-        // `pt_minus_rev`: the camera vertex scattering back to its predecessor.
-        rev[1][i] = sel(
-            cam.d2_prev[i] == 0.0,
-            0.0,
-            lambert_pdf(w_pt, cam.wp_z[i]) * arrival_cos(at(&cam.prev_ng, i), at(&cam.w_prev, i))
-                / cam.d2_prev[i],
-        );
-        // `qs_rev`: the camera vertex scattering to the light point, in its area.
-        rev[2][i] = sel(
-            d2w == 0.0,
-            0.0,
-            lambert_pdf(cam.wp_z[i], w_pt) * arrival_cos(ng_l, w) / d2w,
-        );
-        for c in 0..3 {
-            value[c][i] = v[c];
-            origin[c][i] = o[c];
-            dir[c][i] = sd[c];
-            point[c][i] = q[c];
-            wi_out[c][i] = wi[c];
-            w_out[c][i] = w[c];
-        }
-        tmax[i] = st;
-        dist2_out[i] = d2w;
-        w_pt_out[i] = w_pt;
-    }
-
-    for (i, j) in jobs.iter().enumerate().take(n) {
-        let entry = &mut pending[j.slot as usize];
-        if !ok[i] {
-            entry.s = 0;
-            continue;
-        }
-        let v3 = |a: &L3| Vec3::new(a[0][i], a[1][i], a[2][i]);
-        *entry = Pending {
-            contribution: Contribution::Pixel(v3(&value)),
-            ray: ShadowRay {
-                origin: v3(&origin),
-                dir: v3(&dir),
-                tmax: tmax[i],
-            },
-            s: 1,
-            t: j.t as usize,
-            nee: Some(NeePoint {
-                light: j.light,
-                point: v3(&point),
-                normal: v3(&tn),
-                towards: -v3(&wi_out),
-                environment: None,
-                origin_density: Some(origin_pdf[i]),
-            }),
-            segment: Some(Segment {
-                w: v3(&w_out),
-                dist2: dist2_out[i],
-                w_pt: Vec3::new(0.0, 0.0, w_pt_out[i]),
-                w_q: Vec3::ZERO,
-                reverse: Some([rev[0][i], rev[1][i], rev[2][i], 0.0]),
-            }),
-        };
     }
 }
 
@@ -335,7 +301,7 @@ mod tests {
                 }
             }
             for chunk in jobs.chunks(N) {
-                nees_at(level, &ctx, cams, chunk, &mut pending);
+                nee_chunk_at(level, &ctx, cams, chunk, &mut pending);
             }
             for (j, want) in jobs.iter().zip(want) {
                 let (k, t) = (j.k as usize, j.t as usize);

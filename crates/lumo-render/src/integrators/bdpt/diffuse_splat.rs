@@ -16,6 +16,8 @@
 #![allow(clippy::needless_range_loop)]
 
 use glam::{Vec2, Vec3};
+use lumo_simd::multiversion;
+#[cfg(test)]
 use lumo_simd::Isa;
 
 use super::connect::{Contribution, Pending, ShadowRay};
@@ -55,55 +57,8 @@ pub(super) fn diffuse_splats(
     pending: &mut [Pending],
 ) {
     for chunk in jobs.chunks(N) {
-        splats_at(Isa::detect(), ctx, lights, chunk, pending);
+        splat_chunk(ctx, lights, chunk, pending);
     }
-}
-
-/// Up to sixteen jobs compiled for `level` (at most what this CPU runs; tests run each).
-fn splats_at(
-    level: Isa,
-    ctx: &Context,
-    lights: &[Vec<Vertex>],
-    jobs: &[SplatJob],
-    pending: &mut [Pending],
-) {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: each variant runs only at or below the detected level.
-    unsafe {
-        match level.min(Isa::detect()) {
-            Isa::Avx512 => return splats_avx512(ctx, lights, jobs, pending),
-            Isa::Avx2 => return splats_avx2(ctx, lights, jobs, pending),
-            Isa::Baseline => {}
-        }
-    }
-    let _ = level;
-    splats_lanes(ctx, lights, jobs, pending)
-}
-
-/// # Safety
-/// The CPU must support AVX-512 F/VL and AVX2.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl,avx2")]
-unsafe fn splats_avx512(
-    ctx: &Context,
-    lights: &[Vec<Vertex>],
-    jobs: &[SplatJob],
-    pending: &mut [Pending],
-) {
-    splats_lanes(ctx, lights, jobs, pending)
-}
-
-/// # Safety
-/// The CPU must support AVX2.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-unsafe fn splats_avx2(
-    ctx: &Context,
-    lights: &[Vec<Vertex>],
-    jobs: &[SplatJob],
-    pending: &mut [Pending],
-) {
-    splats_lanes(ctx, lights, jobs, pending)
 }
 
 /// Where direction `d` from the eye crosses the film at distance 1 and its depth
@@ -119,116 +74,122 @@ fn on_film(ctx: &Context, d: [f32; 3]) -> (bool, f32, f32, f32) {
     (!behind && inside, sx, sy, z)
 }
 
-/// The jobs themselves, compiled once per instruction set by the wrappers above.
-#[inline(always)]
-fn splats_lanes(ctx: &Context, lights: &[Vec<Vertex>], jobs: &[SplatJob], pending: &mut [Pending]) {
-    let n = jobs.len().min(N);
-    let eps = ctx.rs.ray_epsilon;
-    let cam = ctx.camera;
-    let eye: [f32; 3] = cam.origin.into();
-    let mut q = Side::default();
-    let mut cos_cams: L = [0.0; N];
-    for (i, j) in jobs.iter().enumerate().take(n) {
-        let l = &lights[j.k as usize];
-        let s = j.s as usize;
-        q.load(i, &l[s - 1], &l[s - 2]);
-        cos_cams[i] = j.cos_cam;
-    }
+multiversion! {
+    /// Fills the pending entries of up to sixteen `jobs` (see [`diffuse_splats`]).
+    fn splat_chunk(
+        ctx: &Context,
+        lights: &[Vec<Vertex>],
+        jobs: &[SplatJob],
+        pending: &mut [Pending],
+    ) as splat_lanes, at splat_chunk_at {
+        let n = jobs.len().min(N);
+        let eps = ctx.rs.ray_epsilon;
+        let cam = ctx.camera;
+        let eye: [f32; 3] = cam.origin.into();
+        let mut q = Side::default();
+        let mut cos_cams: L = [0.0; N];
+        for (i, j) in jobs.iter().enumerate().take(n) {
+            let l = &lights[j.k as usize];
+            let s = j.s as usize;
+            q.load(i, &l[s - 1], &l[s - 2]);
+            cos_cams[i] = j.cos_cam;
+        }
 
-    let (mut value, mut origin, mut dir, mut w_out): (L3, L3, L3, L3) = Default::default();
-    let (mut tmax, mut dist2_out, mut w_q_out): (L, L, L) = Default::default();
-    let mut rev: [L; 3] = Default::default();
-    let mut ok = [false; N];
-    for i in 0..N {
-        let qp = at(&q.p, i);
-        let d = [qp[0] - eye[0], qp[1] - eye[1], qp[2] - eye[2]];
-        let cos_cam = cos_cams[i];
-        // Towards the eye.
-        let to_cam = [eye[0] - qp[0], eye[1] - qp[1], eye[2] - qp[2]];
-        let dist2 = dot(to_cam, to_cam);
-        let len = dist2.sqrt();
-        let wc = [to_cam[0] / len, to_cam[1] / len, to_cam[2] / len];
-        // The light side's adjoint value towards the eye (`Vertex::scatter_local`).
-        let wc_z = dot(wc, at(&q.n, i));
-        let (front, f) = lambert_factor(wc_z, q.wo_z[i]);
-        let cos_ng_w = dot(at(&q.ng, i), wc).abs();
-        let live = !(q.wo_z[i] == 0.0 || q.cos_ng_wo[i] == 0.0);
-        // G·We of the pinhole (`powi(3)` is two multiplications in this order).
-        let scale = dist2 * (cos_cam * cos_cam * cos_cam);
-        let importance = cam.pixel_importance();
-        let mut v = [0.0f32; 3];
-        let mut finite = true;
-        for a in 0..3 {
-            let fa = sel(front, q.albedo[a][i] * f, 0.0);
-            let fa = sel(live, fa / q.cos_ng_wo[i] * cos_ng_w, 0.0);
-            v[a] = q.beta[a][i] * fa * importance / scale;
-            finite &= v[a].is_finite();
+        let (mut value, mut origin, mut dir, mut w_out): (L3, L3, L3, L3) = Default::default();
+        let (mut tmax, mut dist2_out, mut w_q_out): (L, L, L) = Default::default();
+        let mut rev: [L; 3] = Default::default();
+        let mut ok = [false; N];
+        for i in 0..N {
+            let qp = at(&q.p, i);
+            let d = [qp[0] - eye[0], qp[1] - eye[1], qp[2] - eye[2]];
+            let cos_cam = cos_cams[i];
+            // Towards the eye.
+            let to_cam = [eye[0] - qp[0], eye[1] - qp[1], eye[2] - qp[2]];
+            let dist2 = dot(to_cam, to_cam);
+            let len = dist2.sqrt();
+            let wc = [to_cam[0] / len, to_cam[1] / len, to_cam[2] / len];
+            // The light side's adjoint value towards the eye (`Vertex::scatter_local`).
+            let wc_z = dot(wc, at(&q.n, i));
+            let (front, f) = lambert_factor(wc_z, q.wo_z[i]);
+            let cos_ng_w = dot(at(&q.ng, i), wc).abs();
+            let live = !(q.wo_z[i] == 0.0 || q.cos_ng_wo[i] == 0.0);
+            // G·We of the pinhole (`powi(3)` is two multiplications in this order).
+            let scale = dist2 * (cos_cam * cos_cam * cos_cam);
+            let importance = cam.pixel_importance();
+            let mut v = [0.0f32; 3];
+            let mut finite = true;
+            for a in 0..3 {
+                let fa = sel(front, q.albedo[a][i] * f, 0.0);
+                let fa = sel(live, fa / q.cos_ng_wo[i] * cos_ng_w, 0.0);
+                v[a] = q.beta[a][i] * fa * importance / scale;
+                finite &= v[a].is_finite();
+            }
+            ok[i] = finite && !(v[0] == 0.0 && v[1] == 0.0 && v[2] == 0.0);
+            let o = q.origin_off(i, wc);
+            let (sd, st) = shadow_segment(o, eye, wc, eps);
+            // The weight's geometry from the eye to the vertex (`Vertex::towards`) and the three
+            // reverse densities next to the connection (the eye has no predecessor).
+            let dist2_w = dot(d, d);
+            let lw = dist2_w.sqrt();
+            let none = dist2_w == 0.0;
+            let w = [
+                sel(none, 0.0, d[0] / lw),
+                sel(none, 0.0, d[1] / lw),
+                sel(none, 0.0, d[2] / lw),
+            ];
+            let nw = [-w[0], -w[1], -w[2]];
+            let w_q = dot(nw, at(&q.n, i));
+            // `pt_rev`: the vertex scattering towards the eye (no normal: its arrival cosine is 1).
+            rev[0][i] = sel(none, 0.0, lambert_pdf(q.wp_z[i], w_q) / dist2_w);
+            // `qs_rev`: the camera's direction density, in the vertex's area.
+            let (in_view, _, _, cz) = on_film(ctx, w);
+            let film_area = 4.0 * cam.half.x * cam.half.y;
+            let pdf_dir = sel(in_view, 1.0 / (film_area * cz * cz * cz), 0.0);
+            rev[1][i] = sel(none, 0.0, pdf_dir * arrival_cos(at(&q.ng, i), w) / dist2_w);
+            // `qs_minus_rev`: the vertex scattering back to its predecessor.
+            rev[2][i] = sel(
+                q.d2_prev[i] == 0.0,
+                0.0,
+                lambert_pdf(w_q, q.wp_z[i]) * arrival_cos(at(&q.prev_ng, i), at(&q.w_prev, i))
+                    / q.d2_prev[i],
+            );
+            for c in 0..3 {
+                value[c][i] = v[c];
+                origin[c][i] = o[c];
+                dir[c][i] = sd[c];
+                w_out[c][i] = w[c];
+            }
+            tmax[i] = st;
+            dist2_out[i] = dist2_w;
+            w_q_out[i] = w_q;
         }
-        ok[i] = finite && !(v[0] == 0.0 && v[1] == 0.0 && v[2] == 0.0);
-        let o = q.origin_off(i, wc);
-        let (sd, st) = shadow_segment(o, eye, wc, eps);
-        // The weight's geometry from the eye to the vertex (`Vertex::towards`) and the three
-        // reverse densities next to the connection (the eye has no predecessor).
-        let dist2_w = dot(d, d);
-        let lw = dist2_w.sqrt();
-        let none = dist2_w == 0.0;
-        let w = [
-            sel(none, 0.0, d[0] / lw),
-            sel(none, 0.0, d[1] / lw),
-            sel(none, 0.0, d[2] / lw),
-        ];
-        let nw = [-w[0], -w[1], -w[2]];
-        let w_q = dot(nw, at(&q.n, i));
-        // `pt_rev`: the vertex scattering towards the eye (no normal: its arrival cosine is 1).
-        rev[0][i] = sel(none, 0.0, lambert_pdf(q.wp_z[i], w_q) / dist2_w);
-        // `qs_rev`: the camera's direction density, in the vertex's area.
-        let (in_view, _, _, cz) = on_film(ctx, w);
-        let film_area = 4.0 * cam.half.x * cam.half.y;
-        let pdf_dir = sel(in_view, 1.0 / (film_area * cz * cz * cz), 0.0);
-        rev[1][i] = sel(none, 0.0, pdf_dir * arrival_cos(at(&q.ng, i), w) / dist2_w);
-        // `qs_minus_rev`: the vertex scattering back to its predecessor.
-        rev[2][i] = sel(
-            q.d2_prev[i] == 0.0,
-            0.0,
-            lambert_pdf(w_q, q.wp_z[i]) * arrival_cos(at(&q.prev_ng, i), at(&q.w_prev, i))
-                / q.d2_prev[i],
-        );
-        for c in 0..3 {
-            value[c][i] = v[c];
-            origin[c][i] = o[c];
-            dir[c][i] = sd[c];
-            w_out[c][i] = w[c];
-        }
-        tmax[i] = st;
-        dist2_out[i] = dist2_w;
-        w_q_out[i] = w_q;
-    }
 
-    for (i, j) in jobs.iter().enumerate().take(n) {
-        let entry = &mut pending[j.slot as usize];
-        if !ok[i] {
-            entry.s = 0;
-            continue;
+        for (i, j) in jobs.iter().enumerate().take(n) {
+            let entry = &mut pending[j.slot as usize];
+            if !ok[i] {
+                entry.s = 0;
+                continue;
+            }
+            let v3 = |a: &L3| Vec3::new(a[0][i], a[1][i], a[2][i]);
+            *entry = Pending {
+                contribution: Contribution::Splat(j.film, v3(&value)),
+                ray: ShadowRay {
+                    origin: v3(&origin),
+                    dir: v3(&dir),
+                    tmax: tmax[i],
+                },
+                s: j.s as usize,
+                t: 1,
+                nee: None,
+                segment: Some(Segment {
+                    w: v3(&w_out),
+                    dist2: dist2_out[i],
+                    w_pt: Vec3::ZERO,
+                    w_q: Vec3::new(0.0, 0.0, w_q_out[i]),
+                    reverse: Some([rev[0][i], 0.0, rev[1][i], rev[2][i]]),
+                }),
+            };
         }
-        let v3 = |a: &L3| Vec3::new(a[0][i], a[1][i], a[2][i]);
-        *entry = Pending {
-            contribution: Contribution::Splat(j.film, v3(&value)),
-            ray: ShadowRay {
-                origin: v3(&origin),
-                dir: v3(&dir),
-                tmax: tmax[i],
-            },
-            s: j.s as usize,
-            t: 1,
-            nee: None,
-            segment: Some(Segment {
-                w: v3(&w_out),
-                dist2: dist2_out[i],
-                w_pt: Vec3::ZERO,
-                w_q: Vec3::new(0.0, 0.0, w_q_out[i]),
-                reverse: Some([rev[0][i], 0.0, rev[1][i], rev[2][i]]),
-            }),
-        };
     }
 }
 
@@ -303,7 +264,7 @@ mod tests {
                 }
             }
             for chunk in jobs.chunks(N) {
-                splats_at(level, &ctx, lights, chunk, &mut pending);
+                splat_chunk_at(level, &ctx, lights, chunk, &mut pending);
             }
             for (j, want) in jobs.iter().zip(want) {
                 let (k, s) = (j.k as usize, j.s as usize);
