@@ -88,6 +88,58 @@ pub(crate) fn disk_map(u0: f32, u1: f32) -> (f32, f32) {
     (dx, dy)
 }
 
+/// The shading frame of a simple diffuse hit, on plain numbers with selects:
+/// [`crate::RenderScene::surface`]'s shading normal (the corner normals `nv` interpolated at
+/// barycentrics (`u`, `v`) and normalised where `interpolate`, else or where that fails the
+/// geometric normal `ng`; turned to `ng`'s side) and [`Basis::new`]'s tangents around it.
+/// The one formula of the lane loops that reconstruct hits (the path tracer's vector bounce,
+/// the bidirectional walk steps). Returns (normal, tangent, bitangent).
+#[inline(always)]
+pub(crate) fn shading_frame_lane(
+    nv: [[f32; 3]; 3],
+    (u, v): (f32, f32),
+    ng: [f32; 3],
+    interpolate: bool,
+) -> ([f32; 3], [f32; 3], [f32; 3]) {
+    let dot = |a: [f32; 3], b: [f32; 3]| (a[0] * b[0]) + (a[1] * b[1]) + (a[2] * b[2]);
+    let sel = |c: bool, x: f32, y: f32| if c { x } else { y };
+    let w = 1.0 - u - v;
+    let m = [
+        nv[0][0] * w + nv[1][0] * u + nv[2][0] * v,
+        nv[0][1] * w + nv[1][1] * u + nv[2][1] * v,
+        nv[0][2] * w + nv[1][2] * u + nv[2][2] * v,
+    ];
+    let rcp = 1.0 / dot(m, m).sqrt();
+    let unit = rcp.is_finite() && rcp > 0.0;
+    let mn = [
+        sel(unit, m[0] * rcp, 0.0),
+        sel(unit, m[1] * rcp, 0.0),
+        sel(unit, m[2] * rcp, 0.0),
+    ];
+    let usable = !(mn[0] == 0.0 && mn[1] == 0.0 && mn[2] == 0.0)
+        && mn[0].is_finite()
+        && mn[1].is_finite()
+        && mn[2].is_finite();
+    let take = interpolate && usable;
+    let mut n = [
+        sel(take, mn[0], ng[0]),
+        sel(take, mn[1], ng[1]),
+        sel(take, mn[2], ng[2]),
+    ];
+    let back = dot(n, ng) < 0.0;
+    for c in &mut n {
+        *c = sel(back, -*c, *c);
+    }
+    // Basis::new.
+    let [nx, ny, nz] = n;
+    let sign = 1.0f32.copysign(nz);
+    let a = -1.0 / (sign + nz);
+    let b = nx * ny * a;
+    let s = [1.0 + sign * nx * nx * a, sign * b, -sign * nx];
+    let t = [b, sign + ny * ny * a, -ny];
+    (n, s, t)
+}
+
 /// The height over the unit disk's point (`x`, `y`) of the hemisphere above it: the z of
 /// [`square_to_cosine_hemisphere`].
 #[inline(always)]

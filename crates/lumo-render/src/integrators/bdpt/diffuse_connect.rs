@@ -199,29 +199,20 @@ multiversion! {
 mod tests {
     use super::*;
     use crate::camera::PinholeCamera;
-    use crate::integrators::bdpt::connect::{prepare, Prepared};
-    use crate::integrators::bdpt::mis::{weight, Connection};
-    use crate::integrators::bdpt::tests::walked_group;
+    use crate::integrators::bdpt::connect::prepare;
+    use crate::integrators::bdpt::tests::{
+        assert_same_strategy, lane_test_scenes, walked_group, LANE_TEST_SETTINGS,
+    };
     use crate::integrators::bdpt::vertex::Context;
-    use crate::integrators::path::PathSettings;
     use crate::render_scene::RenderScene;
 
     /// Every join of two Lambertian vertices gets from the lanes exactly the pending entry
     /// `connect::prepare` makes (or none where it makes none), and the weight from the lanes'
     /// densities is the weight from the scalar densities, bit for bit, at every compiled
-    /// level: on the Cornell box, on `cornell-spheres` (a checkerboard floor, glass and
-    /// mirror vertices that are not joined) and beside a point, a spot and a directional
-    /// light (light vertices without a normal before a join).
+    /// level, on the lane test scenes (`tests::lane_test_scenes`).
     #[test]
     fn vector_joins_equal_scalar_joins() {
-        let cornell = lumo_scene::builtin_scene("cornell").expect("built-in");
-        let spheres = lumo_scene::builtin_scene("cornell-spheres").expect("built-in");
-        let mut lights = lumo_scene::builtin_scene("cornell").expect("built-in");
-        lights
-            .lights
-            .extend(crate::test_lights::every_other_light_kind());
-        for scene in [cornell, spheres, lights] {
-            let rs = RenderScene::new(scene).expect("valid scene");
+        for rs in lane_test_scenes() {
             for level in Isa::detect().up_to() {
                 check_level(&rs, level);
             }
@@ -229,19 +220,14 @@ mod tests {
     }
 
     fn check_level(rs: &RenderScene, level: Isa) {
-        let settings = PathSettings {
-            max_depth: 6,
-            rr_depth: 3,
-            ..Default::default()
-        };
         let camera = PinholeCamera::new(&rs.scene.camera, 32, 32);
         let ctx = Context {
             rs,
             camera: &camera,
         };
-        let (mut joined, mut dropped) = (0usize, 0usize);
+        let mut joined = 0usize;
         for y in 0..16u32 {
-            let paths = walked_group(&ctx, &settings, y);
+            let paths = walked_group(&ctx, &LANE_TEST_SETTINGS, y);
             let (cams, lights) = paths.split_at(8);
             let (mut joins, mut want) = (vec![], vec![]);
             let mut pending = vec![];
@@ -268,34 +254,15 @@ mod tests {
             }
             for (j, want) in joins.iter().zip(want) {
                 let (k, s, t) = (j.k as usize, j.s as usize, j.t as usize);
-                let got = pending[j.slot as usize];
                 let at = format!("{} {level:?} row {y} sample {k} ({s}, {t})", rs.scene.name);
-                let Prepared::Pending(want) = want else {
-                    assert_eq!(got.s, 0, "{at}: the scalar join adds nothing");
-                    dropped += 1;
-                    continue;
-                };
-                let mut plain = got;
-                if let Some(seg) = &mut plain.segment {
-                    seg.reverse = None;
-                }
-                assert_eq!(format!("{plain:?}"), format!("{want:?}"), "{at}");
-                let weigh = |segment| {
-                    weight(
-                        &ctx,
-                        &Connection {
-                            light: &lights[k][..s],
-                            camera: &cams[k][..t],
-                            segment,
-                        },
-                    )
-                };
-                assert_eq!(
-                    weigh(got.segment).to_bits(),
-                    weigh(want.segment).to_bits(),
-                    "{at}: weight"
-                );
-                joined += 1;
+                let pair = (&lights[k][..s], &cams[k][..t]);
+                joined += usize::from(assert_same_strategy(
+                    &ctx,
+                    pair,
+                    pending[j.slot as usize],
+                    want,
+                    &at,
+                ));
             }
         }
         assert!(
@@ -303,6 +270,5 @@ mod tests {
             "{} {level:?}: {joined} joins checked",
             rs.scene.name
         );
-        let _ = dropped;
     }
 }

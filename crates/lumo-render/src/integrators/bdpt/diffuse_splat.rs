@@ -197,28 +197,22 @@ multiversion! {
 mod tests {
     use super::*;
     use crate::camera::PinholeCamera;
-    use crate::integrators::bdpt::connect::{finish, prepare, Prepared};
+    use crate::integrators::bdpt::connect::{prepare, Prepared};
     use crate::integrators::bdpt::diffuse_connect::placeholder;
     use crate::integrators::bdpt::lanes::is_lambertian;
-    use crate::integrators::bdpt::tests::walked_group;
-    use crate::integrators::path::PathSettings;
+    use crate::integrators::bdpt::tests::{
+        assert_same_strategy, lane_test_scenes, walked_group, LANE_TEST_SETTINGS,
+    };
     use crate::render_scene::RenderScene;
 
     /// Every Lambertian light vertex that lands on the film gets from the lanes exactly the
     /// pending splat `connect::prepare` makes (or none where it makes none), and its weighted
-    /// contribution is the scalar one, bit for bit, at every compiled level: on the Cornell
-    /// box, on `cornell-spheres` and with light subpaths from a point, a spot and a
-    /// directional light (predecessors without a normal; parallel rays).
+    /// contribution is the scalar one, bit for bit, at every compiled level, on the lane test
+    /// scenes (`tests::lane_test_scenes`); the scalar strategy makes nothing of the vertices
+    /// off the film, which never reach the lanes.
     #[test]
     fn vector_splats_equal_scalar_splats() {
-        let cornell = lumo_scene::builtin_scene("cornell").expect("built-in");
-        let spheres = lumo_scene::builtin_scene("cornell-spheres").expect("built-in");
-        let mut lights = lumo_scene::builtin_scene("cornell").expect("built-in");
-        lights
-            .lights
-            .extend(crate::test_lights::every_other_light_kind());
-        for scene in [cornell, spheres, lights] {
-            let rs = RenderScene::new(scene).expect("valid scene");
+        for rs in lane_test_scenes() {
             for level in Isa::detect().up_to() {
                 check_level(&rs, level);
             }
@@ -226,11 +220,6 @@ mod tests {
     }
 
     fn check_level(rs: &RenderScene, level: Isa) {
-        let settings = PathSettings {
-            max_depth: 6,
-            rr_depth: 3,
-            ..Default::default()
-        };
         let camera = PinholeCamera::new(&rs.scene.camera, 32, 32);
         let ctx = Context {
             rs,
@@ -238,7 +227,7 @@ mod tests {
         };
         let (mut visible, mut off_film) = (0usize, 0usize);
         for y in 0..16u32 {
-            let paths = walked_group(&ctx, &settings, y);
+            let paths = walked_group(&ctx, &LANE_TEST_SETTINGS, y);
             let (cams, lights) = paths.split_at(8);
             let (mut jobs, mut want, mut pending) = (vec![], vec![], vec![]);
             for (k, light) in lights.iter().enumerate() {
@@ -268,21 +257,15 @@ mod tests {
             }
             for (j, want) in jobs.iter().zip(want) {
                 let (k, s) = (j.k as usize, j.s as usize);
-                let got = pending[j.slot as usize];
                 let at = format!("{} {level:?} row {y} sample {k} s = {s}", rs.scene.name);
-                let Prepared::Pending(want) = want else {
-                    assert_eq!(got.s, 0, "{at}: the scalar strategy adds nothing");
-                    continue;
-                };
-                // The lanes' connection geometry, which the scalar strategy leaves to the
-                // weight.
-                let mut plain = got;
-                plain.segment = None;
-                assert_eq!(format!("{plain:?}"), format!("{want:?}"), "{at}");
-                let weighed =
-                    |p: &Pending| format!("{:?}", finish(&ctx, &lights[k], &cams[k], p, false));
-                assert_eq!(weighed(&got), weighed(&want), "{at}: weighted");
-                visible += 1;
+                let pair = (&lights[k][..s], &cams[k][..1]);
+                visible += usize::from(assert_same_strategy(
+                    &ctx,
+                    pair,
+                    pending[j.slot as usize],
+                    want,
+                    &at,
+                ));
             }
         }
         assert!(

@@ -32,7 +32,8 @@ use crate::accel::packet::LANES;
 use crate::accel::Hit;
 use crate::bsdf::{Bsdf, Diffuse, TransportMode};
 use crate::geometry::{
-    cosine_pdf, disk_map, hemisphere_z, max3_abs, offset_point, survival_probability, vmax, Basis,
+    cosine_pdf, disk_map, hemisphere_z, max3_abs, offset_point, shading_frame_lane,
+    survival_probability, vmax, Basis,
 };
 use crate::integrators::path::PathSettings;
 use crate::render_scene::Surface;
@@ -161,42 +162,9 @@ multiversion! {
                 o[1][i] + d[1][i] * t[i],
                 o[2][i] + d[2][i] * t[i],
             ];
-            let (u, v) = (bu[i], bv[i]);
-            let wb = 1.0 - u - v;
-            let m = [
-                nv0[0][i] * wb + nv1[0][i] * u + nv2[0][i] * v,
-                nv0[1][i] * wb + nv1[1][i] * u + nv2[1][i] * v,
-                nv0[2][i] * wb + nv1[2][i] * u + nv2[2][i] * v,
-            ];
-            let rcp = 1.0 / dot(m, m).sqrt();
-            let unit = rcp.is_finite() && rcp > 0.0;
-            let mn = [
-                sel(unit, m[0] * rcp, 0.0),
-                sel(unit, m[1] * rcp, 0.0),
-                sel(unit, m[2] * rcp, 0.0),
-            ];
-            let usable = !(mn[0] == 0.0 && mn[1] == 0.0 && mn[2] == 0.0)
-                && mn[0].is_finite()
-                && mn[1].is_finite()
-                && mn[2].is_finite();
             let g = at(&ng, i);
-            let take = interpolate[i] && usable;
-            let mut sn = [
-                sel(take, mn[0], g[0]),
-                sel(take, mn[1], g[1]),
-                sel(take, mn[2], g[2]),
-            ];
-            let back = dot(sn, g) < 0.0;
-            for c in &mut sn {
-                *c = sel(back, -*c, *c);
-            }
-            // Basis::new.
-            let [nx, ny, nz] = sn;
-            let sign = 1.0f32.copysign(nz);
-            let a = -1.0 / (sign + nz);
-            let b = nx * ny * a;
-            let s_axis = [1.0 + sign * nx * nx * a, sign * b, -sign * nx];
-            let t_axis = [b, sign + ny * ny * a, -ny];
+            let nv = [at(&nv0, i), at(&nv1, i), at(&nv2, i)];
+            let (sn, s_axis, t_axis) = shading_frame_lane(nv, (bu[i], bv[i]), g, interpolate[i]);
             let nd = [-d[0][i], -d[1][i], -d[2][i]];
             let wo_l = [dot(nd, s_axis), dot(nd, t_axis), dot(nd, sn)];
             // The segment from the previous vertex (its reverse is the vertex's `w_prev`).
@@ -394,32 +362,17 @@ mod tests {
     use super::*;
     use crate::camera::PinholeCamera;
     use crate::integrators::bdpt::subpath::{camera_start, light_start, step};
+    use crate::integrators::bdpt::tests::{lane_test_scenes, LANE_TEST_SETTINGS};
     use crate::render_scene::RenderScene;
 
     /// The vector step leaves every vertex, reverse density, walk and sampler exactly as the
     /// scalar step does, for camera and light walks in the same lanes, at every compiled
-    /// level, on the Cornell box (vertex normals, an emitter, one area light).
+    /// level, on the lane test scenes (`tests::lane_test_scenes`: vertex normals, a
+    /// checkerboard floor looked up per lane, light subpaths from a point, a spot and a
+    /// directional light).
     #[test]
-    fn vector_steps_equal_scalar_steps_on_the_cornell_box() {
-        let rs = RenderScene::new(lumo_scene::builtin_scene("cornell").expect("built-in"))
-            .expect("valid scene");
-        for level in Isa::detect().up_to() {
-            check_level(&rs, level);
-        }
-    }
-
-    /// The same on a textured floor (`cornell-spheres`' checkerboard, looked up per lane) and
-    /// with light subpaths that start on a point, a spot and a directional light (a previous
-    /// vertex without a normal; parallel rays' forward density) beside the area light.
-    #[test]
-    fn vector_steps_equal_scalar_steps_with_textures_and_delta_lights() {
-        let spheres = lumo_scene::builtin_scene("cornell-spheres").expect("built-in");
-        let mut lights = lumo_scene::builtin_scene("cornell").expect("built-in");
-        lights
-            .lights
-            .extend(crate::test_lights::every_other_light_kind());
-        for scene in [spheres, lights] {
-            let rs = RenderScene::new(scene).expect("valid scene");
+    fn vector_steps_equal_scalar_steps() {
+        for rs in lane_test_scenes() {
             for level in Isa::detect().up_to() {
                 check_level(&rs, level);
             }
@@ -429,11 +382,7 @@ mod tests {
     /// Walks 16 rows of 8 camera and 8 light subpaths step by step; before each vector step
     /// the scalar step runs on copies of its lanes' walks, and the two must agree to the bit.
     fn check_level(rs: &RenderScene, level: Isa) {
-        let settings = PathSettings {
-            max_depth: 6,
-            rr_depth: 3,
-            ..Default::default()
-        };
+        let settings = LANE_TEST_SETTINGS;
         let camera = PinholeCamera::new(&rs.scene.camera, 32, 32);
         let ctx = Context {
             rs,

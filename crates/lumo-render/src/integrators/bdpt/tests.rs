@@ -3,6 +3,7 @@ use lumo_image::luminance;
 use lumo_scene::shapes::{cube, rectangle};
 use lumo_scene::{builtin_scene, Camera, FovAxis, Light, Material, Scene};
 
+use super::connect::{finish, Pending, Prepared};
 use super::mis::{set_ratios, weight, Connection};
 use super::subpath::{camera_start, camera_subpath, light_start, random_walks};
 use super::vertex::{light_vertex, Context, Kind, Vertex};
@@ -350,4 +351,61 @@ pub(super) fn walked_group(ctx: &Context, settings: &PathSettings, y: u32) -> Ve
         set_ratios(p);
     }
     paths
+}
+
+/// The scenes the lane loops' tests run on: the Cornell box (vertex normals, an emitter, one
+/// area light), `cornell-spheres` (a checkerboard floor, glass and gold spheres whose vertices
+/// stay scalar) and the Cornell box with a point, a spot, a directional and an environment
+/// light added (light subpaths from delta lights, choices the lanes do not take).
+pub(super) fn lane_test_scenes() -> Vec<crate::render_scene::RenderScene> {
+    let cornell = builtin_scene("cornell").expect("built-in");
+    let spheres = builtin_scene("cornell-spheres").expect("built-in");
+    let mut lights = builtin_scene("cornell").expect("built-in");
+    lights
+        .lights
+        .extend(crate::test_lights::every_other_light_kind());
+    [cornell, spheres, lights]
+        .into_iter()
+        .map(|s| crate::render_scene::RenderScene::new(s).expect("valid scene"))
+        .collect()
+}
+
+/// The path settings of the lane loops' tests: short paths that reach both Russian roulette
+/// and the depth limit.
+pub(super) const LANE_TEST_SETTINGS: PathSettings = PathSettings {
+    max_depth: 6,
+    rr_depth: 3,
+    nee: true,
+    bsdf_emission: true,
+    spectral: false,
+};
+
+/// Asserts that the pending entry `got` a lane loop made for a strategy of `light` and
+/// `camera` is the one `connect::prepare` made (`want`; the lanes' extra fields — the
+/// precomputed densities — left out), and that both weigh to the same contribution
+/// (`connect::finish`). Returns whether the strategy adds anything.
+pub(super) fn assert_same_strategy(
+    ctx: &Context,
+    (light, camera): (&[Vertex], &[Vertex]),
+    got: Pending,
+    want: Prepared,
+    at: &str,
+) -> bool {
+    let Prepared::Pending(want) = want else {
+        assert_eq!(got.s, 0, "{at}: the scalar strategy adds nothing");
+        return false;
+    };
+    let mut plain = got;
+    match (&mut plain.segment, want.segment) {
+        (Some(seg), Some(_)) => seg.reverse = None,
+        (seg, None) => *seg = None,
+        _ => {}
+    }
+    if let Some(nee) = &mut plain.nee {
+        nee.origin_density = None;
+    }
+    assert_eq!(format!("{plain:?}"), format!("{want:?}"), "{at}");
+    let weighed = |p: &Pending| format!("{:?}", finish(ctx, light, camera, p, false));
+    assert_eq!(weighed(&got), weighed(&want), "{at}: weighted");
+    true
 }

@@ -29,8 +29,8 @@ use crate::accel::packet::LANES;
 use crate::accel::Hit;
 use crate::bsdf::{Bsdf, Diffuse};
 use crate::geometry::{
-    cosine_pdf, disk_map, hemisphere_z, offset_point, power_heuristic, shadow_segment,
-    survival_probability, triangle_map, vmax, Basis,
+    cosine_pdf, disk_map, hemisphere_z, offset_point, power_heuristic, shading_frame_lane,
+    shadow_segment, survival_probability, triangle_map, vmax, Basis,
 };
 use crate::integrators::path::{Arrival, BounceNumbers, PathSettings, PathState, ShadowRay};
 use crate::render_scene::{RenderScene, Surface};
@@ -296,47 +296,13 @@ fn bounce(
     let mut ns: L3 = [[0.0; N]; 3];
     let (mut fs, mut ft, mut wo) = ([[0.0; N]; 3], [[0.0; N]; 3], [[0.0; N]; 3]);
     for i in 0..N {
-        let (u, v) = (bu[i], bv[i]);
-        let w = 1.0 - u - v;
-        let m = [
-            nv0[0][i] * w + nv1[0][i] * u + nv2[0][i] * v,
-            nv0[1][i] * w + nv1[1][i] * u + nv2[1][i] * v,
-            nv0[2][i] * w + nv1[2][i] * u + nv2[2][i] * v,
-        ];
-        let rcp = 1.0 / dot(m, m).sqrt();
-        let unit = rcp.is_finite() && rcp > 0.0;
-        let mn = [
-            sel(unit, m[0] * rcp, 0.0),
-            sel(unit, m[1] * rcp, 0.0),
-            sel(unit, m[2] * rcp, 0.0),
-        ];
-        let usable = !(mn[0] == 0.0 && mn[1] == 0.0 && mn[2] == 0.0)
-            && mn[0].is_finite()
-            && mn[1].is_finite()
-            && mn[2].is_finite();
-        let g = at(&ng, i);
-        let take = interpolate[i] && usable;
-        let mut sn = [
-            sel(take, mn[0], g[0]),
-            sel(take, mn[1], g[1]),
-            sel(take, mn[2], g[2]),
-        ];
-        let back = dot(sn, g) < 0.0;
-        for c in &mut sn {
-            *c = sel(back, -*c, *c);
-        }
-        let [nx, ny, nz] = sn;
-        let sign = 1.0f32.copysign(nz);
-        let a = -1.0 / (sign + nz);
-        let b = nx * ny * a;
-        fs[0][i] = 1.0 + sign * nx * nx * a;
-        fs[1][i] = sign * b;
-        fs[2][i] = -sign * nx;
-        ft[0][i] = b;
-        ft[1][i] = sign + ny * ny * a;
-        ft[2][i] = -ny;
+        let nv = [at(&nv0, i), at(&nv1, i), at(&nv2, i)];
+        let (sn, s_axis, t_axis) =
+            shading_frame_lane(nv, (bu[i], bv[i]), at(&ng, i), interpolate[i]);
         for c in 0..3 {
             ns[c][i] = sn[c];
+            fs[c][i] = s_axis[c];
+            ft[c][i] = t_axis[c];
         }
         let nd = [-d[0][i], -d[1][i], -d[2][i]];
         wo[0][i] = dot(nd, at(&fs, i));
