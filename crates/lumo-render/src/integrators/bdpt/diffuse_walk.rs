@@ -230,7 +230,11 @@ multiversion! {
             let z = hemisphere_z(dx, dy);
             let pdf = cosine_pdf(z);
             let wi = [sel(flip, -dx, dx), sel(flip, -dy, dy), sel(flip, -z, z)];
-            let mut ok = room[i] && !black[i] && wo_z != 0.0 && pdf > 0.0;
+            // (`lambert_sample` also asks for a finite reflectance: a bitmap's bilinear
+            // filter can overflow even where every texel is finite.)
+            let finite_albedo =
+                albedo[0][i].is_finite() && albedo[1][i].is_finite() && albedo[2][i].is_finite();
+            let mut ok = room[i] && !black[i] && wo_z != 0.0 && pdf > 0.0 && finite_albedo;
             ok &= !(importance[i] && cos_ng_l == 0.0);
             // Basis::to_world, then normalize.
             let wv = [

@@ -1,5 +1,5 @@
 //! Helpers of the bidirectional lane loops ([`super::diffuse_walk`], [`super::diffuse_connect`],
-//! [`super::diffuse_nee`]): per-lane arithmetic written as the scalar code writes it (glam's
+//! [`super::diffuse_nee`], [`super::diffuse_splat`]): per-lane arithmetic written as the scalar code writes it (glam's
 //! operand order, selects for branches) and a Lambertian surface vertex gathered into lanes.
 
 use glam::Vec3;

@@ -180,9 +180,10 @@ pub fn trace_bdpt_samples(
         set_ratios(&mut scratch.paths[k]);
         set_ratios(&mut scratch.paths[GROUP + k]);
     }
-    // Every sample's strategies up to their shadow rays, then all the group's shadow rays in
+    // Every sample's strategies up to their shadow rays (the Lambertian ones as placeholders
+    // that the lane loops then fill for the whole group), then all the group's shadow rays in
     // full packets, then each sample's visible strategies weighed and added in the order they
-    // were prepared (the order of tracing one sample alone).
+    // were listed (the order of tracing one sample alone).
     let (cams, lights) = scratch.paths.split_at(GROUP);
     scratch.pending.clear();
     scratch.joins.clear();
@@ -209,8 +210,8 @@ pub fn trace_bdpt_samples(
         &scratch.joins,
         &mut scratch.pending,
     );
-    // The group's shadow rays in full packets, skipping the joins with nothing to add
-    // (`s = 0`); each sample counts its own.
+    // The group's shadow rays in full packets, skipping the placeholders the lane loops left
+    // empty (`s = 0`: nothing to add); each sample counts its own.
     scratch.blocked.clear();
     scratch.blocked.resize(scratch.pending.len(), true);
     let mut rays = RayPacket::default();
