@@ -198,13 +198,11 @@ multiversion! {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::camera::PinholeCamera;
     use crate::integrators::bdpt::connect::prepare;
     use crate::integrators::bdpt::tests::{
-        assert_same_strategy, lane_test_scenes, walked_group, LANE_TEST_SETTINGS,
+        assert_same_strategy, for_each_lane_case, walked_group, LANE_TEST_SETTINGS,
     };
     use crate::integrators::bdpt::vertex::Context;
-    use crate::render_scene::RenderScene;
 
     /// Every join of two Lambertian vertices gets from the lanes exactly the pending entry
     /// `connect::prepare` makes (or none where it makes none), and the weight from the lanes'
@@ -212,22 +210,14 @@ mod tests {
     /// level, on the lane test scenes (`tests::lane_test_scenes`).
     #[test]
     fn vector_joins_equal_scalar_joins() {
-        for rs in lane_test_scenes() {
-            for level in Isa::detect().up_to() {
-                check_level(&rs, level);
-            }
-        }
+        for_each_lane_case(check_level);
     }
 
-    fn check_level(rs: &RenderScene, level: Isa) {
-        let camera = PinholeCamera::new(&rs.scene.camera, 32, 32);
-        let ctx = Context {
-            rs,
-            camera: &camera,
-        };
+    fn check_level(ctx: &Context, level: Isa) {
+        let rs = ctx.rs;
         let mut joined = 0usize;
         for y in 0..16u32 {
-            let paths = walked_group(&ctx, &LANE_TEST_SETTINGS, y);
+            let paths = walked_group(ctx, &LANE_TEST_SETTINGS, y);
             let (cams, lights) = paths.split_at(8);
             let (mut joins, mut want) = (vec![], vec![]);
             let mut pending = vec![];
@@ -245,7 +235,7 @@ mod tests {
                             t: t as u32,
                         });
                         pending.push(placeholder());
-                        want.push(prepare(&ctx, light, cam, (s, t), false));
+                        want.push(prepare(ctx, light, cam, (s, t), false));
                     }
                 }
             }
@@ -257,7 +247,7 @@ mod tests {
                 let at = format!("{} {level:?} row {y} sample {k} ({s}, {t})", rs.scene.name);
                 let pair = (&lights[k][..s], &cams[k][..t]);
                 joined += usize::from(assert_same_strategy(
-                    &ctx,
+                    ctx,
                     pair,
                     pending[j.slot as usize],
                     want,

@@ -234,14 +234,12 @@ multiversion! {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::camera::PinholeCamera;
     use crate::integrators::bdpt::connect::prepare;
     use crate::integrators::bdpt::diffuse_connect::placeholder;
     use crate::integrators::bdpt::lanes::is_lambertian;
     use crate::integrators::bdpt::tests::{
-        assert_same_strategy, lane_test_scenes, walked_group, LANE_TEST_SETTINGS,
+        assert_same_strategy, for_each_lane_case, walked_group, LANE_TEST_SETTINGS,
     };
-    use crate::render_scene::RenderScene;
 
     /// Every next-event strategy from a Lambertian camera vertex to an emissive triangle gets
     /// from the lanes exactly the pending entry `connect::prepare` makes (or none where it
@@ -250,22 +248,14 @@ mod tests {
     /// level, on the lane test scenes (`tests::lane_test_scenes`).
     #[test]
     fn vector_next_events_equal_scalar_ones() {
-        for rs in lane_test_scenes() {
-            for level in Isa::detect().up_to() {
-                check_level(&rs, level);
-            }
-        }
+        for_each_lane_case(check_level);
     }
 
-    fn check_level(rs: &RenderScene, level: Isa) {
-        let camera = PinholeCamera::new(&rs.scene.camera, 32, 32);
-        let ctx = Context {
-            rs,
-            camera: &camera,
-        };
+    fn check_level(ctx: &Context, level: Isa) {
+        let rs = ctx.rs;
         let (mut visible, mut jobs_seen) = (0usize, 0usize);
         for y in 0..32u32 {
-            let paths = walked_group(&ctx, &LANE_TEST_SETTINGS, y);
+            let paths = walked_group(ctx, &LANE_TEST_SETTINGS, y);
             let (cams, lights) = paths.split_at(8);
             let (mut jobs, mut want, mut pending) = (vec![], vec![], vec![]);
             for (k, cam) in cams.iter().enumerate() {
@@ -285,18 +275,18 @@ mod tests {
                         pick,
                     });
                     pending.push(placeholder());
-                    want.push(prepare(&ctx, &lights[k][..0], cam, (1, t), false));
+                    want.push(prepare(ctx, &lights[k][..0], cam, (1, t), false));
                 }
             }
             for chunk in jobs.chunks(N) {
-                nee_chunk_at(level, &ctx, cams, chunk, &mut pending);
+                nee_chunk_at(level, ctx, cams, chunk, &mut pending);
             }
             for (j, want) in jobs.iter().zip(want) {
                 let (k, t) = (j.k as usize, j.t as usize);
                 let at = format!("{} {level:?} row {y} sample {k} t = {t}", rs.scene.name);
                 let pair = (&lights[k][..], &cams[k][..]);
                 visible += usize::from(assert_same_strategy(
-                    &ctx,
+                    ctx,
                     pair,
                     pending[j.slot as usize],
                     want,

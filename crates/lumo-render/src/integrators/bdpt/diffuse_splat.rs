@@ -196,14 +196,12 @@ multiversion! {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::camera::PinholeCamera;
     use crate::integrators::bdpt::connect::{prepare, Prepared};
     use crate::integrators::bdpt::diffuse_connect::placeholder;
     use crate::integrators::bdpt::lanes::is_lambertian;
     use crate::integrators::bdpt::tests::{
-        assert_same_strategy, lane_test_scenes, walked_group, LANE_TEST_SETTINGS,
+        assert_same_strategy, for_each_lane_case, walked_group, LANE_TEST_SETTINGS,
     };
-    use crate::render_scene::RenderScene;
 
     /// Every Lambertian light vertex that lands on the film gets from the lanes exactly the
     /// pending splat `connect::prepare` makes (or none where it makes none), and its weighted
@@ -212,22 +210,14 @@ mod tests {
     /// off the film, which never reach the lanes.
     #[test]
     fn vector_splats_equal_scalar_splats() {
-        for rs in lane_test_scenes() {
-            for level in Isa::detect().up_to() {
-                check_level(&rs, level);
-            }
-        }
+        for_each_lane_case(check_level);
     }
 
-    fn check_level(rs: &RenderScene, level: Isa) {
-        let camera = PinholeCamera::new(&rs.scene.camera, 32, 32);
-        let ctx = Context {
-            rs,
-            camera: &camera,
-        };
+    fn check_level(ctx: &Context, level: Isa) {
+        let rs = ctx.rs;
         let (mut visible, mut off_film) = (0usize, 0usize);
         for y in 0..16u32 {
-            let paths = walked_group(&ctx, &LANE_TEST_SETTINGS, y);
+            let paths = walked_group(ctx, &LANE_TEST_SETTINGS, y);
             let (cams, lights) = paths.split_at(8);
             let (mut jobs, mut want, mut pending) = (vec![], vec![], vec![]);
             for (k, light) in lights.iter().enumerate() {
@@ -235,8 +225,8 @@ mod tests {
                     if !is_lambertian(&light[s - 1]) {
                         continue;
                     }
-                    let scalar = prepare(&ctx, light, &cams[k], (s, 1), false);
-                    let Some((film, cos_cam)) = camera.project_point(light[s - 1].p) else {
+                    let scalar = prepare(ctx, light, &cams[k], (s, 1), false);
+                    let Some((film, cos_cam)) = ctx.camera.project_point(light[s - 1].p) else {
                         assert!(matches!(scalar, Prepared::Nothing));
                         off_film += 1;
                         continue;
@@ -253,14 +243,14 @@ mod tests {
                 }
             }
             for chunk in jobs.chunks(N) {
-                splat_chunk_at(level, &ctx, lights, chunk, &mut pending);
+                splat_chunk_at(level, ctx, lights, chunk, &mut pending);
             }
             for (j, want) in jobs.iter().zip(want) {
                 let (k, s) = (j.k as usize, j.s as usize);
                 let at = format!("{} {level:?} row {y} sample {k} s = {s}", rs.scene.name);
                 let pair = (&lights[k][..s], &cams[k][..1]);
                 visible += usize::from(assert_same_strategy(
-                    &ctx,
+                    ctx,
                     pair,
                     pending[j.slot as usize],
                     want,

@@ -364,10 +364,8 @@ multiversion! {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::camera::PinholeCamera;
     use crate::integrators::bdpt::subpath::{camera_start, light_start, step};
-    use crate::integrators::bdpt::tests::{lane_test_scenes, LANE_TEST_SETTINGS};
-    use crate::render_scene::RenderScene;
+    use crate::integrators::bdpt::tests::{for_each_lane_case, LANE_TEST_SETTINGS};
 
     /// The vector step leaves every vertex, reverse density, walk and sampler exactly as the
     /// scalar step does, for camera and light walks in the same lanes, at every compiled
@@ -376,22 +374,14 @@ mod tests {
     /// directional light).
     #[test]
     fn vector_steps_equal_scalar_steps() {
-        for rs in lane_test_scenes() {
-            for level in Isa::detect().up_to() {
-                check_level(&rs, level);
-            }
-        }
+        for_each_lane_case(check_level);
     }
 
     /// Walks 16 rows of 8 camera and 8 light subpaths step by step; before each vector step
     /// the scalar step runs on copies of its lanes' walks, and the two must agree to the bit.
-    fn check_level(rs: &RenderScene, level: Isa) {
+    fn check_level(ctx: &Context, level: Isa) {
+        let rs = ctx.rs;
         let settings = LANE_TEST_SETTINGS;
-        let camera = PinholeCamera::new(&rs.scene.camera, 32, 32);
-        let ctx = Context {
-            rs,
-            camera: &camera,
-        };
         let max_depth = settings.max_depth as usize;
         // Steps checked: [camera, light] × [went on, ended].
         let mut checked = [[0usize; 2]; 2];
@@ -402,12 +392,12 @@ mod tests {
                 let mut sampler = PixelSampler::new(x, y, 1, 9);
                 let mut path = Vec::new();
                 let film = glam::Vec2::new(4.0 * x as f32 + 0.5, 2.0 * y as f32 + 0.5);
-                walks.push(camera_start(&ctx, film, max_depth + 1, &mut path));
+                walks.push(camera_start(ctx, film, max_depth + 1, &mut path));
                 paths.push(path);
                 samplers.push(sampler);
                 max_vertices.push(max_depth + 1);
                 let mut path = Vec::new();
-                walks.push(light_start(&ctx, &mut sampler, max_depth, &mut path));
+                walks.push(light_start(ctx, &mut sampler, max_depth, &mut path));
                 paths.push(path);
                 samplers.push(sampler);
                 max_vertices.push(max_depth);
@@ -428,7 +418,7 @@ mod tests {
                         .intersect(walk.origin, walk.dir, 0.0, f32::INFINITY);
                     let (mut alone, mut sampler, mut path) = (walk, samplers[k], paths[k].clone());
                     let on = step(
-                        &ctx,
+                        ctx,
                         &mut alone,
                         hit,
                         &mut sampler,
@@ -455,7 +445,7 @@ mod tests {
                         max_vertices: &max_vertices,
                         paths: &mut paths,
                     };
-                    diffuse_steps_at(level, &ctx, &settings, chunk, &mut w);
+                    diffuse_steps_at(level, ctx, &settings, chunk, &mut w);
                 }
                 for (k, walk, mut sampler, path) in want {
                     let at = format!("level {level:?}, row {y}, walk {k}");

@@ -409,3 +409,18 @@ pub(super) fn assert_same_strategy(
     assert_eq!(weighed(&got), weighed(&want), "{at}: weighted");
     true
 }
+
+/// Runs `check` on every lane test scene ([`lane_test_scenes`]) with its camera at 32², at
+/// every instruction set the CPU runs (AVX-512, AVX2, baseline).
+pub(super) fn for_each_lane_case(check: impl Fn(&Context, lumo_simd::Isa)) {
+    for rs in lane_test_scenes() {
+        let camera = crate::camera::PinholeCamera::new(&rs.scene.camera, 32, 32);
+        let ctx = Context {
+            rs: &rs,
+            camera: &camera,
+        };
+        for level in lumo_simd::Isa::detect().up_to() {
+            check(&ctx, level);
+        }
+    }
+}
