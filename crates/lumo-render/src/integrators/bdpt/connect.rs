@@ -5,7 +5,7 @@
 
 use glam::{Vec2, Vec3};
 
-use super::mis::{weight, Connection, Segment};
+use super::mis::{weight, Connection, Reverse, Segment};
 use super::vertex::{light_vertex, Context, Kind, Vertex};
 use crate::geometry::shadow_segment;
 
@@ -61,6 +61,30 @@ pub(super) struct Pending {
     pub nee: Option<NeePoint>,
     /// For `s, t ≥ 2`: the connection's geometry, for the weight.
     pub segment: Option<Segment>,
+    /// The reverse densities next to the connection where a lane loop computed them (the
+    /// weight then needs neither `segment` nor the light vertex's densities).
+    pub reverse: Option<Reverse>,
+}
+
+impl Pending {
+    /// An entry that holds a strategy's place in the list until a lane loop fills it (`s = 0`
+    /// marks one left with nothing to add, which no other pending strategy has: s = 0 needs
+    /// no shadow ray).
+    pub fn placeholder() -> Self {
+        Pending {
+            contribution: Contribution::Pixel(Vec3::ZERO),
+            ray: ShadowRay {
+                origin: Vec3::ZERO,
+                dir: Vec3::ZERO,
+                tmax: -1.0,
+            },
+            s: 0,
+            t: 0,
+            nee: None,
+            segment: None,
+            reverse: None,
+        }
+    }
 }
 
 /// The light point of next-event estimation, as [`light_vertex`] takes it.
@@ -113,6 +137,7 @@ pub(super) fn prepare(
             t,
             nee,
             segment,
+            reverse: None,
         })
     };
     if s == 0 {
@@ -130,6 +155,7 @@ pub(super) fn prepare(
                     light,
                     camera,
                     segment: None,
+                    reverse: None,
                 },
             )
         };
@@ -231,7 +257,6 @@ pub(super) fn prepare(
             dist2,
             w_pt,
             w_q,
-            reverse: None,
         }),
     )
 }
@@ -280,6 +305,7 @@ pub(super) fn finish(
             light,
             camera,
             segment: p.segment,
+            reverse: p.reverse,
         },
     );
     match p.contribution {

@@ -16,14 +16,14 @@
 // vector operation per statement.
 #![allow(clippy::needless_range_loop)]
 
-use glam::Vec3;
 use lumo_simd::multiversion;
 #[cfg(test)]
 use lumo_simd::Isa;
 
 use super::connect::{Contribution, Pending, ShadowRay};
-use super::lanes::{arrival_cos, at, dot, is_lambertian, lambert_factor, lambert_pdf, sel, Side};
-use super::mis::Segment;
+use super::lanes::{
+    arrival_cos, at, dot, is_lambertian, lambert_factor, lambert_pdf, sel, vec3_at, Side,
+};
 use super::vertex::Vertex;
 use crate::accel::packet::LANES;
 use crate::geometry::shadow_segment;
@@ -31,7 +31,7 @@ use crate::geometry::shadow_segment;
 const N: usize = LANES;
 
 /// A join of two Lambertian vertices waiting for its value: strategy (`s`, `t`) of sample
-/// `k`, whose entry in the pending list is `slot` (until then a placeholder, [`placeholder`]).
+/// `k`, whose entry in the pending list is `slot` (until then [`Pending::placeholder`]).
 #[derive(Clone, Copy, Debug)]
 pub(super) struct DiffuseJoin {
     /// Index in the pending list.
@@ -49,23 +49,6 @@ pub(super) struct DiffuseJoin {
 #[inline(always)]
 pub(super) fn is_diffuse_join(pt: &Vertex, qs: &Vertex) -> bool {
     is_lambertian(pt) && is_lambertian(qs)
-}
-
-/// The pending entry a join holds until [`diffuse_joins`] fills it (`s = 0` marks an entry
-/// with nothing to add, which no other pending strategy has: s = 0 needs no shadow ray).
-pub(super) fn placeholder() -> Pending {
-    Pending {
-        contribution: Contribution::Pixel(Vec3::ZERO),
-        ray: ShadowRay {
-            origin: Vec3::ZERO,
-            dir: Vec3::ZERO,
-            tmax: -1.0,
-        },
-        s: 0,
-        t: 0,
-        nee: None,
-        segment: None,
-    }
 }
 
 /// Fills the pending entries of `joins` (every one a pair [`is_diffuse_join`] accepts, of
@@ -101,10 +84,8 @@ multiversion! {
             light.load(i, &l[s - 1], &l[s - 2]);
         }
 
-        // `connect::prepare` for s, t ≥ 2, and the four densities of `mis::weight`.
+        // `connect::prepare` for s, t ≥ 2, and the four reverse densities of `mis::weight`.
         let (mut value, mut origin, mut dir) = ([[0.0f32; N]; 3], [[0.0f32; N]; 3], [[0.0f32; N]; 3]);
-        let (mut w_out, mut dist2_out, mut w_pt_out, mut w_q_out) =
-            ([[0.0f32; N]; 3], [0.0f32; N], [0.0f32; N], [0.0f32; N]);
         let (mut tmax, mut ok) = ([0.0f32; N], [false; N]);
         let mut rev = [[0.0f32; N]; 4];
         for i in 0..N {
@@ -158,12 +139,8 @@ multiversion! {
                 value[c][i] = v[c];
                 origin[c][i] = a[c];
                 dir[c][i] = sd[c];
-                w_out[c][i] = w[c];
             }
             tmax[i] = st;
-            dist2_out[i] = dist2;
-            w_pt_out[i] = w_pt;
-            w_q_out[i] = w_q;
         }
 
         // Scatter into the pending entries.
@@ -174,22 +151,17 @@ multiversion! {
                 continue;
             }
             *entry = Pending {
-                contribution: Contribution::Pixel(Vec3::new(value[0][i], value[1][i], value[2][i])),
+                contribution: Contribution::Pixel(vec3_at(&value, i)),
                 ray: ShadowRay {
-                    origin: Vec3::new(origin[0][i], origin[1][i], origin[2][i]),
-                    dir: Vec3::new(dir[0][i], dir[1][i], dir[2][i]),
+                    origin: vec3_at(&origin, i),
+                    dir: vec3_at(&dir, i),
                     tmax: tmax[i],
                 },
                 s: j.s as usize,
                 t: j.t as usize,
                 nee: None,
-                segment: Some(Segment {
-                    w: Vec3::new(w_out[0][i], w_out[1][i], w_out[2][i]),
-                    dist2: dist2_out[i],
-                    w_pt: Vec3::new(0.0, 0.0, w_pt_out[i]),
-                    w_q: Vec3::new(0.0, 0.0, w_q_out[i]),
-                    reverse: Some([rev[0][i], rev[1][i], rev[2][i], rev[3][i]]),
-                }),
+                segment: None,
+                reverse: Some([rev[0][i], rev[1][i], rev[2][i], rev[3][i]]),
             };
         }
     }
@@ -234,7 +206,7 @@ mod tests {
                             s: s as u32,
                             t: t as u32,
                         });
-                        pending.push(placeholder());
+                        pending.push(Pending::placeholder());
                         want.push(prepare(ctx, light, cam, (s, t), false));
                     }
                 }

@@ -18,14 +18,12 @@
 // vector operation per statement.
 #![allow(clippy::needless_range_loop)]
 
-use glam::Vec3;
 use lumo_simd::multiversion;
 #[cfg(test)]
 use lumo_simd::Isa;
 
 use super::connect::{Contribution, NeePoint, Pending, ShadowRay};
-use super::lanes::{arrival_cos, at, dot, lambert_factor, lambert_pdf, sel, Side, L, L3};
-use super::mis::Segment;
+use super::lanes::{arrival_cos, at, dot, lambert_factor, lambert_pdf, sel, vec3_at, Side, L, L3};
 use super::vertex::{Context, Vertex};
 use crate::accel::packet::LANES;
 use crate::geometry::{shadow_segment, triangle_map};
@@ -101,8 +99,7 @@ multiversion! {
 
         let (mut value, mut origin, mut dir, mut point, mut wi_out): (L3, L3, L3, L3, L3) =
             Default::default();
-        let (mut w_out, mut dist2_out, mut w_pt_out, mut tmax, mut origin_pdf): (L3, L, L, L, L) =
-            Default::default();
+        let (mut tmax, mut origin_pdf): (L, L) = Default::default();
         let mut rev: [L; 3] = Default::default();
         let mut ok = [false; N];
         for i in 0..N {
@@ -149,26 +146,20 @@ multiversion! {
             };
             let (valid, a, _) = density(towards);
             origin_pdf[i] = sel(valid, a, 0.0);
-            // The weight's connection geometry, from the two positions (`Vertex::towards`).
-            let dw = [q[0] - pp[0], q[1] - pp[1], q[2] - pp[2]];
-            let d2w = dot(dw, dw);
-            let len = d2w.sqrt();
-            let none = d2w == 0.0;
+            // The weight's connection geometry (`Vertex::towards`: the same offset and distance
+            // as the light sample's, but a division where the sample multiplies by 1/distance).
+            let none = dist2 == 0.0;
             let w = [
-                sel(none, 0.0, dw[0] / len),
-                sel(none, 0.0, dw[1] / len),
-                sel(none, 0.0, dw[2] / len),
+                sel(none, 0.0, d[0] / distance),
+                sel(none, 0.0, d[1] / distance),
+                sel(none, 0.0, d[2] / distance),
             ];
             let nw = [-w[0], -w[1], -w[2]];
             let w_pt = dot(w, at(&cam.n, i));
             // `pt_rev`: the light emitting towards the camera vertex, in its area.
             let (valid, _, solid) = density(nw);
             let emit = sel(valid, solid, 0.0);
-            rev[0][i] = sel(
-                d2w == 0.0,
-                0.0,
-                emit * arrival_cos(at(&cam.ng, i), nw) / d2w,
-            );
+            rev[0][i] = sel(none, 0.0, emit * arrival_cos(at(&cam.ng, i), nw) / dist2);
             // `pt_minus_rev`: the camera vertex scattering back to its predecessor.
             rev[1][i] = sel(
                 cam.d2_prev[i] == 0.0,
@@ -178,9 +169,9 @@ multiversion! {
             );
             // `qs_rev`: the camera vertex scattering to the light point, in its area.
             rev[2][i] = sel(
-                d2w == 0.0,
+                none,
                 0.0,
-                lambert_pdf(cam.wp_z[i], w_pt) * arrival_cos(ng_l, w) / d2w,
+                lambert_pdf(cam.wp_z[i], w_pt) * arrival_cos(ng_l, w) / dist2,
             );
             for c in 0..3 {
                 value[c][i] = v[c];
@@ -188,11 +179,8 @@ multiversion! {
                 dir[c][i] = sd[c];
                 point[c][i] = q[c];
                 wi_out[c][i] = wi[c];
-                w_out[c][i] = w[c];
             }
             tmax[i] = st;
-            dist2_out[i] = d2w;
-            w_pt_out[i] = w_pt;
         }
 
         for (i, j) in jobs.iter().enumerate().take(n) {
@@ -201,7 +189,7 @@ multiversion! {
                 entry.s = 0;
                 continue;
             }
-            let v3 = |a: &L3| Vec3::new(a[0][i], a[1][i], a[2][i]);
+            let v3 = |a: &L3| vec3_at(a, i);
             *entry = Pending {
                 contribution: Contribution::Pixel(v3(&value)),
                 ray: ShadowRay {
@@ -219,13 +207,8 @@ multiversion! {
                     environment: None,
                     origin_density: Some(origin_pdf[i]),
                 }),
-                segment: Some(Segment {
-                    w: v3(&w_out),
-                    dist2: dist2_out[i],
-                    w_pt: Vec3::new(0.0, 0.0, w_pt_out[i]),
-                    w_q: Vec3::ZERO,
-                    reverse: Some([rev[0][i], rev[1][i], rev[2][i], 0.0]),
-                }),
+                segment: None,
+                reverse: Some([rev[0][i], rev[1][i], rev[2][i], 0.0]),
             };
         }
     }
@@ -235,7 +218,6 @@ multiversion! {
 mod tests {
     use super::*;
     use crate::integrators::bdpt::connect::prepare;
-    use crate::integrators::bdpt::diffuse_connect::placeholder;
     use crate::integrators::bdpt::lanes::is_lambertian;
     use crate::integrators::bdpt::tests::{
         assert_same_strategy, for_each_lane_case, walked_group, LANE_TEST_SETTINGS,
@@ -274,7 +256,7 @@ mod tests {
                         light,
                         pick,
                     });
-                    pending.push(placeholder());
+                    pending.push(Pending::placeholder());
                     want.push(prepare(ctx, &lights[k][..0], cam, (1, t), false));
                 }
             }

@@ -15,14 +15,13 @@
 // vector operation per statement.
 #![allow(clippy::needless_range_loop)]
 
-use glam::{Vec2, Vec3};
+use glam::Vec2;
 use lumo_simd::multiversion;
 #[cfg(test)]
 use lumo_simd::Isa;
 
 use super::connect::{Contribution, Pending, ShadowRay};
-use super::lanes::{arrival_cos, at, dot, lambert_factor, lambert_pdf, sel, Side, L, L3};
-use super::mis::Segment;
+use super::lanes::{arrival_cos, at, dot, lambert_factor, lambert_pdf, sel, vec3_at, Side, L, L3};
 use super::vertex::{Context, Vertex};
 use crate::accel::packet::LANES;
 use crate::geometry::shadow_segment;
@@ -95,8 +94,8 @@ multiversion! {
             cos_cams[i] = j.cos_cam;
         }
 
-        let (mut value, mut origin, mut dir, mut w_out): (L3, L3, L3, L3) = Default::default();
-        let (mut tmax, mut dist2_out, mut w_q_out): (L, L, L) = Default::default();
+        let (mut value, mut origin, mut dir): (L3, L3, L3) = Default::default();
+        let mut tmax: L = Default::default();
         let mut rev: [L; 3] = Default::default();
         let mut ok = [false; N];
         for i in 0..N {
@@ -127,25 +126,25 @@ multiversion! {
             ok[i] = finite && !(v[0] == 0.0 && v[1] == 0.0 && v[2] == 0.0);
             let o = q.origin_off(i, wc);
             let (sd, st) = shadow_segment(o, eye, wc, eps);
-            // The weight's geometry from the eye to the vertex (`Vertex::towards`) and the three
-            // reverse densities next to the connection (the eye has no predecessor).
-            let dist2_w = dot(d, d);
-            let lw = dist2_w.sqrt();
-            let none = dist2_w == 0.0;
+            // The weight's geometry from the eye to the vertex (`Vertex::towards`: the offset
+            // is `-to_cam`, component by component the exact negation, so its squared length is
+            // `dist2`) and the three reverse densities next to the connection (the eye has no
+            // predecessor).
+            let none = dist2 == 0.0;
             let w = [
-                sel(none, 0.0, d[0] / lw),
-                sel(none, 0.0, d[1] / lw),
-                sel(none, 0.0, d[2] / lw),
+                sel(none, 0.0, d[0] / len),
+                sel(none, 0.0, d[1] / len),
+                sel(none, 0.0, d[2] / len),
             ];
             let nw = [-w[0], -w[1], -w[2]];
             let w_q = dot(nw, at(&q.n, i));
             // `pt_rev`: the vertex scattering towards the eye (no normal: its arrival cosine is 1).
-            rev[0][i] = sel(none, 0.0, lambert_pdf(q.wp_z[i], w_q) / dist2_w);
+            rev[0][i] = sel(none, 0.0, lambert_pdf(q.wp_z[i], w_q) / dist2);
             // `qs_rev`: the camera's direction density, in the vertex's area.
             let (in_view, _, _, cz) = on_film(ctx, w);
             let film_area = 4.0 * cam.half.x * cam.half.y;
             let pdf_dir = sel(in_view, 1.0 / (film_area * cz * cz * cz), 0.0);
-            rev[1][i] = sel(none, 0.0, pdf_dir * arrival_cos(at(&q.ng, i), w) / dist2_w);
+            rev[1][i] = sel(none, 0.0, pdf_dir * arrival_cos(at(&q.ng, i), w) / dist2);
             // `qs_minus_rev`: the vertex scattering back to its predecessor.
             rev[2][i] = sel(
                 q.d2_prev[i] == 0.0,
@@ -157,11 +156,8 @@ multiversion! {
                 value[c][i] = v[c];
                 origin[c][i] = o[c];
                 dir[c][i] = sd[c];
-                w_out[c][i] = w[c];
             }
             tmax[i] = st;
-            dist2_out[i] = dist2_w;
-            w_q_out[i] = w_q;
         }
 
         for (i, j) in jobs.iter().enumerate().take(n) {
@@ -170,24 +166,18 @@ multiversion! {
                 entry.s = 0;
                 continue;
             }
-            let v3 = |a: &L3| Vec3::new(a[0][i], a[1][i], a[2][i]);
             *entry = Pending {
-                contribution: Contribution::Splat(j.film, v3(&value)),
+                contribution: Contribution::Splat(j.film, vec3_at(&value, i)),
                 ray: ShadowRay {
-                    origin: v3(&origin),
-                    dir: v3(&dir),
+                    origin: vec3_at(&origin, i),
+                    dir: vec3_at(&dir, i),
                     tmax: tmax[i],
                 },
                 s: j.s as usize,
                 t: 1,
                 nee: None,
-                segment: Some(Segment {
-                    w: v3(&w_out),
-                    dist2: dist2_out[i],
-                    w_pt: Vec3::ZERO,
-                    w_q: Vec3::new(0.0, 0.0, w_q_out[i]),
-                    reverse: Some([rev[0][i], 0.0, rev[1][i], rev[2][i]]),
-                }),
+                segment: None,
+                reverse: Some([rev[0][i], 0.0, rev[1][i], rev[2][i]]),
             };
         }
     }
@@ -197,7 +187,6 @@ multiversion! {
 mod tests {
     use super::*;
     use crate::integrators::bdpt::connect::{prepare, Prepared};
-    use crate::integrators::bdpt::diffuse_connect::placeholder;
     use crate::integrators::bdpt::lanes::is_lambertian;
     use crate::integrators::bdpt::tests::{
         assert_same_strategy, for_each_lane_case, walked_group, LANE_TEST_SETTINGS,
@@ -238,7 +227,7 @@ mod tests {
                         film,
                         cos_cam,
                     });
-                    pending.push(placeholder());
+                    pending.push(Pending::placeholder());
                     want.push(scalar);
                 }
             }

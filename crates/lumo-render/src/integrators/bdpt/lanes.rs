@@ -32,6 +32,12 @@ pub(super) fn at(v: &L3, i: usize) -> [f32; 3] {
     [v[0][i], v[1][i], v[2][i]]
 }
 
+/// Lane `i` of a three-component array as a vector.
+#[inline(always)]
+pub(super) fn vec3_at(v: &L3, i: usize) -> Vec3 {
+    Vec3::new(v[0][i], v[1][i], v[2][i])
+}
+
 /// `x` if `c`, else `y` (written as a select for the vectoriser).
 #[inline(always)]
 pub(super) fn sel(c: bool, x: f32, y: f32) -> f32 {

@@ -18,7 +18,15 @@ pub(super) struct Connection<'a> {
     pub camera: &'a [Vertex],
     /// The connection's geometry where the caller has it.
     pub segment: Option<Segment>,
+    /// The four reverse densities next to the connection where the caller computed them
+    /// ([`Reverse`]); `None`: the weight computes them.
+    pub reverse: Option<Reverse>,
 }
+
+/// The reverse densities of the four vertices next to a strategy's connection, in the order
+/// `pt`, `pt−1`, `qs`, `qs−1` (0 where a vertex does not exist): what a weight needs beyond
+/// the subpaths' own densities. The lane loops compute them with the strategy's value.
+pub(super) type Reverse = [f32; 4];
 
 /// The edge between the last camera vertex `pt` and the last light vertex `qs` of a
 /// strategy, as computed for its value.
@@ -32,10 +40,6 @@ pub(super) struct Segment {
     pub w_pt: Vec3,
     /// `qs.local(-w)`.
     pub w_q: Vec3,
-    /// The four reverse densities next to the connection (`pt`, `pt−1`, `qs`, `qs−1`),
-    /// where the caller computed them with the connection's value
-    /// ([`super::diffuse_connect`]); `None`: the weight computes them.
-    pub reverse: Option<[f32; 4]>,
 }
 
 /// The ratio of a vertex's reverse to forward density; 0 where the forward density is 0
@@ -63,6 +67,9 @@ pub(super) fn set_ratios(path: &mut [Vertex]) {
 /// the path its vertices form. Pure function of the vertices.
 pub(super) fn weight(ctx: &Context, c: &Connection) -> f32 {
     let (light, camera) = (c.light, c.camera);
+    if let Some(reverse) = c.reverse {
+        return sum_weight(light, camera, reverse);
+    }
     let (s, t) = (light.len(), camera.len());
     let pt = &camera[t - 1];
     let qs = s.checked_sub(1).map(|i| &light[i]);
@@ -77,7 +84,6 @@ pub(super) fn weight(ctx: &Context, c: &Connection) -> f32 {
                 dist2,
                 w_pt,
                 w_q,
-                reverse,
             } = c.segment.unwrap_or_else(|| {
                 let (w, dist2) = pt.towards(q);
                 Segment {
@@ -85,12 +91,8 @@ pub(super) fn weight(ctx: &Context, c: &Connection) -> f32 {
                     dist2,
                     w_pt: pt.local(w),
                     w_q: q.local(-w),
-                    reverse: None,
                 }
             });
-            if let Some([pt_rev, pt_minus_rev, qs_rev, qs_minus_rev]) = reverse {
-                return sum_weight(light, camera, (pt_rev, pt_minus_rev, qs_rev, qs_minus_rev));
-            }
             let pt_rev = q.pdf_onward(ctx, pt, -w, w_q, dist2);
             let qs_rev = pt.pdf_onward(ctx, q, w, w_pt, dist2);
             let pt_minus_rev = pt_minus.map_or(0.0, |m| pt.pdf_back(ctx, w, w_pt, m));
@@ -103,7 +105,7 @@ pub(super) fn weight(ctx: &Context, c: &Connection) -> f32 {
             (pt_rev, pt_minus_rev, 0.0, 0.0)
         }
     };
-    sum_weight(light, camera, (pt_rev, pt_minus_rev, qs_rev, qs_minus_rev))
+    sum_weight(light, camera, [pt_rev, pt_minus_rev, qs_rev, qs_minus_rev])
 }
 
 /// The weight of strategy (s, t) given the reverse densities of the four vertices next to
@@ -112,7 +114,7 @@ pub(super) fn weight(ctx: &Context, c: &Connection) -> f32 {
 fn sum_weight(
     light: &[Vertex],
     camera: &[Vertex],
-    (pt_rev, pt_minus_rev, qs_rev, qs_minus_rev): (f32, f32, f32, f32),
+    [pt_rev, pt_minus_rev, qs_rev, qs_minus_rev]: Reverse,
 ) -> f32 {
     let (s, t) = (light.len(), camera.len());
     let mut sum = 0.0f32;

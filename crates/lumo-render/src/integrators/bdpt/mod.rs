@@ -35,7 +35,7 @@ use crate::integrators::path::{PathRadiance, PathSettings};
 use crate::render_scene::RenderScene;
 use crate::sampler::PixelSampler;
 use connect::{finish, prepare, Contribution, Pending, Prepared};
-use diffuse_connect::{diffuse_joins, is_diffuse_join, placeholder, DiffuseJoin};
+use diffuse_connect::{diffuse_joins, is_diffuse_join, DiffuseJoin};
 use diffuse_nee::{diffuse_nees, NeeJob};
 use diffuse_splat::{diffuse_splats, SplatJob};
 use lanes::{is_lambertian, MIN_VECTOR_LANES};
@@ -268,6 +268,14 @@ fn trace_shadows(rs: &RenderScene, rays: &RayPacket, lanes: &[usize], blocked: &
     }
 }
 
+/// Appends a placeholder to `pending` for a strategy a lane loop will fill, and returns its
+/// slot.
+#[inline]
+fn reserve(pending: &mut Vec<Pending>) -> u32 {
+    pending.push(Pending::placeholder());
+    (pending.len() - 1) as u32
+}
+
 /// Adds one strategy's contribution: radiance to the sample, a splat through `splat`.
 #[inline]
 fn add(
@@ -316,13 +324,12 @@ fn prepare_all(
                 // Off the film: nothing, as `prepare` decides first.
                 if let Some((film, cos_cam)) = ctx.camera.project_point(light[s - 1].p) {
                     splats.push(SplatJob {
-                        slot: pending.len() as u32,
+                        slot: reserve(pending),
                         k: k as u32,
                         s: s as u32,
                         film,
                         cos_cam,
                     });
-                    pending.push(placeholder());
                 }
                 continue;
             }
@@ -336,24 +343,22 @@ fn prepare_all(
                     chosen.filter(|(_, tri, _)| tri.normal.dot(pt.p - tri.p0) > 0.0)
                 {
                     nees.push(NeeJob {
-                        slot: pending.len() as u32,
+                        slot: reserve(pending),
                         k: k as u32,
                         t: t as u32,
                         light,
                         pick,
                     });
-                    pending.push(placeholder());
                     continue;
                 }
             }
             if lanes && s >= 2 && t >= 2 && is_diffuse_join(&cam[t - 1], &light[s - 1]) {
                 joins.push(DiffuseJoin {
-                    slot: pending.len() as u32,
+                    slot: reserve(pending),
                     k: k as u32,
                     s: s as u32,
                     t: t as u32,
                 });
-                pending.push(placeholder());
                 continue;
             }
             match prepare(ctx, light, cam, (s, t), unweighted) {

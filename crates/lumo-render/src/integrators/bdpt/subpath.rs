@@ -213,16 +213,18 @@ pub(super) fn random_walks(
         // one (walks share nothing, so the order of their steps changes nothing); with too
         // few such hits for the lanes to pay, all step one by one (the same bits either way).
         let mut simple = [(0usize, Hit::default()); LANES];
+        let mut is_simple = [false; LANES];
         let mut m = 0;
-        for (&k, &hit) in lanes[..n].iter().zip(&hits[..n]) {
+        for (lane, (&k, &hit)) in lanes[..n].iter().zip(&hits[..n]).enumerate() {
             if let Some(h) = hit.filter(|h| ctx.rs.is_simple_diffuse(h.instance)) {
                 simple[m] = (k, h);
+                is_simple[lane] = true;
                 m += 1;
             }
         }
         let vector = m >= MIN_VECTOR_LANES;
-        for (&k, &hit) in lanes[..n].iter().zip(&hits[..n]) {
-            if vector && hit.is_some_and(|h| ctx.rs.is_simple_diffuse(h.instance)) {
+        for (lane, (&k, &hit)) in lanes[..n].iter().zip(&hits[..n]).enumerate() {
+            if vector && is_simple[lane] {
                 continue;
             }
             let Some(walk) = walks[k].as_mut() else {

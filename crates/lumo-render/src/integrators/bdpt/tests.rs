@@ -193,6 +193,7 @@ fn check_weights_on(scene: &str, wanted: usize) -> (usize, usize) {
                     light: &light,
                     camera: &cam,
                     segment: None,
+                    reverse: None,
                 },
             );
             let expected = density(t).powi(2) / sum_sq;
@@ -381,8 +382,8 @@ pub(super) const LANE_TEST_SETTINGS: PathSettings = PathSettings {
 };
 
 /// Asserts that the pending entry `got` a lane loop made for a strategy of `light` and
-/// `camera` is the one `connect::prepare` made (`want`; the lanes' extra fields — the
-/// precomputed densities — left out), and that both weigh to the same contribution
+/// `camera` is the one `connect::prepare` made (`want`; what only the lanes carry — the
+/// weight's densities in place of the connection's geometry — left out), and that both weigh to the same contribution
 /// (`connect::finish`). Returns whether the strategy adds anything.
 pub(super) fn assert_same_strategy(
     ctx: &Context,
@@ -395,12 +396,10 @@ pub(super) fn assert_same_strategy(
         assert_eq!(got.s, 0, "{at}: the scalar strategy adds nothing");
         return false;
     };
+    // The lanes carry the weight's densities instead of the connection's geometry.
     let mut plain = got;
-    match (&mut plain.segment, want.segment) {
-        (Some(seg), Some(_)) => seg.reverse = None,
-        (seg, None) => *seg = None,
-        _ => {}
-    }
+    plain.segment = want.segment;
+    plain.reverse = None;
     if let Some(nee) = &mut plain.nee {
         nee.origin_density = None;
     }
