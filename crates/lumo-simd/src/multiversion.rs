@@ -19,6 +19,45 @@
 /// tests call it at every level to compare the copies with each other and with scalar code.
 #[macro_export]
 macro_rules! multiversion {
+    // The dispatch both forms share: the AVX-512 and AVX2 copies of `$imp` and the choice
+    // among them for `$level` capped at what the CPU runs. `$gen` and `$turbo` are the
+    // function's const generics as declared and as passed.
+    (@run $level:expr; $imp:ident; [$($gen:tt)*]; [$($turbo:tt)*];
+        ($($arg:ident: $ty:ty),*) $(-> $ret:ty)?
+    ) => {{
+        #[cfg(target_arch = "x86_64")]
+        {
+            /// The AVX-512 copy.
+            ///
+            /// # Safety
+            /// The CPU must support AVX-512F and AVX-512VL.
+            #[target_feature(enable = "avx512f,avx512vl,avx2")]
+            #[allow(clippy::too_many_arguments)]
+            unsafe fn avx512 $($gen)* ($($arg: $ty),*) $(-> $ret)? {
+                $imp $($turbo)* ($($arg),*)
+            }
+            /// The AVX2 copy.
+            ///
+            /// # Safety
+            /// The CPU must support AVX2.
+            #[target_feature(enable = "avx2")]
+            #[allow(clippy::too_many_arguments)]
+            unsafe fn avx2 $($gen)* ($($arg: $ty),*) $(-> $ret)? {
+                $imp $($turbo)* ($($arg),*)
+            }
+            match $level.min($crate::Isa::detect()) {
+                // SAFETY: capped at Isa::detect, which reports AVX-512 only where F, VL and
+                // AVX2 exist.
+                $crate::Isa::Avx512 => return unsafe { avx512 $($turbo)* ($($arg),*) },
+                // SAFETY: capped at Isa::detect, which reports AVX2 only where it exists.
+                $crate::Isa::Avx2 => return unsafe { avx2 $($turbo)* ($($arg),*) },
+                $crate::Isa::Baseline => {}
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = $level;
+        $imp $($turbo)* ($($arg),*)
+    }};
     (
         $(#[$meta:meta])*
         $vis:vis fn $name:ident ($($arg:ident: $ty:ty),* $(,)?) $(-> $ret:ty)?
@@ -36,37 +75,7 @@ macro_rules! multiversion {
         )]
         #[allow(clippy::too_many_arguments)]
         $vis fn $at (level: $crate::Isa, $($arg: $ty),*) $(-> $ret)? {
-            #[cfg(target_arch = "x86_64")]
-            {
-                /// The AVX-512 copy.
-                ///
-                /// # Safety
-                /// The CPU must support AVX-512F and AVX-512VL.
-                #[target_feature(enable = "avx512f,avx512vl,avx2")]
-                #[allow(clippy::too_many_arguments)]
-                unsafe fn avx512 ($($arg: $ty),*) $(-> $ret)? {
-                    $imp ($($arg),*)
-                }
-                /// The AVX2 copy.
-                ///
-                /// # Safety
-                /// The CPU must support AVX2.
-                #[target_feature(enable = "avx2")]
-                #[allow(clippy::too_many_arguments)]
-                unsafe fn avx2 ($($arg: $ty),*) $(-> $ret)? {
-                    $imp ($($arg),*)
-                }
-                match level.min($crate::Isa::detect()) {
-                    // SAFETY: capped at Isa::detect, which reports AVX-512 only where F, VL
-                    // and AVX2 exist.
-                    $crate::Isa::Avx512 => return unsafe { avx512 ($($arg),*) },
-                    // SAFETY: capped at Isa::detect, which reports AVX2 only where it exists.
-                    $crate::Isa::Avx2 => return unsafe { avx2 ($($arg),*) },
-                    $crate::Isa::Baseline => {}
-                }
-            }
-            let _ = level;
-            $imp ($($arg),*)
+            $crate::multiversion!(@run level; $imp; []; []; ($($arg: $ty),*) $(-> $ret)?)
         }
 
         $(#[$meta])*
@@ -89,35 +98,13 @@ macro_rules! multiversion {
 
         $(#[$meta])*
         $vis fn $name $(<$(const $g: $gt),*>)? ($($arg: $ty),*) $(-> $ret)? {
-            #[cfg(target_arch = "x86_64")]
-            {
-                /// The AVX-512 copy.
-                ///
-                /// # Safety
-                /// The CPU must support AVX-512F and AVX-512VL.
-                #[target_feature(enable = "avx512f,avx512vl,avx2")]
-                #[allow(clippy::too_many_arguments)]
-                unsafe fn avx512 $(<$(const $g: $gt),*>)? ($($arg: $ty),*) $(-> $ret)? {
-                    $imp $(::<$($g),*>)? ($($arg),*)
-                }
-                /// The AVX2 copy.
-                ///
-                /// # Safety
-                /// The CPU must support AVX2.
-                #[target_feature(enable = "avx2")]
-                #[allow(clippy::too_many_arguments)]
-                unsafe fn avx2 $(<$(const $g: $gt),*>)? ($($arg: $ty),*) $(-> $ret)? {
-                    $imp $(::<$($g),*>)? ($($arg),*)
-                }
-                match $crate::Isa::detect() {
-                    // SAFETY: Isa::detect reports AVX-512 only where F, VL and AVX2 exist.
-                    $crate::Isa::Avx512 => return unsafe { avx512 $(::<$($g),*>)? ($($arg),*) },
-                    // SAFETY: Isa::detect reports AVX2 only where it exists.
-                    $crate::Isa::Avx2 => return unsafe { avx2 $(::<$($g),*>)? ($($arg),*) },
-                    $crate::Isa::Baseline => {}
-                }
-            }
-            $imp $(::<$($g),*>)? ($($arg),*)
+            $crate::multiversion!(
+                @run $crate::Isa::detect();
+                $imp;
+                [$(<$(const $g: $gt),*>)?];
+                [$(::<$($g),*>)?];
+                ($($arg: $ty),*) $(-> $ret)?
+            )
         }
     };
 }
