@@ -306,7 +306,8 @@ multiversion! {
                     t: Vec3::new(ft[0][i], ft[1][i], ft[2][i]),
                     n: Vec3::new(ns[0][i], ns[1][i], ns[2][i]),
                 },
-                uv: rs.simple_uv(sd, &hit),
+                // Not read: the reflectance is in `lambert` (see `Kind::Surface`).
+                uv: Vec2::ZERO,
                 color: Vec3::ONE,
                 material,
                 instance: hit.instance,
@@ -428,6 +429,12 @@ mod tests {
                     );
                     match hit.filter(|h| rs.is_simple_diffuse(h.instance)) {
                         Some(h) => {
+                            // The lanes leave texture coordinates out (see `Kind::Surface`).
+                            if let Some(Kind::Surface { s, .. }) =
+                                path.last_mut().map(|v| &mut v.kind)
+                            {
+                                s.uv = Vec2::ZERO;
+                            }
                             lanes.push((k, h));
                             want.push((k, on.then_some(alone), sampler, path));
                         }

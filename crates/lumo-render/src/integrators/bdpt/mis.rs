@@ -1,8 +1,10 @@
 //! Multiple importance weights of bidirectional strategies with the power heuristic (β = 2),
 //! in Veach's ratio form: walking from the connection edge towards either end, each step
 //! multiplies the density ratio of the strategy one vertex further along by
-//! `(pdf_rev / pdf_fwd)²` of the vertex it moves across, so a weight costs O(s + t) without
-//! re-evaluating any strategy's full density.
+//! `(pdf_rev / pdf_fwd)²` of the vertex it moves across, so a weight needs no strategy's
+//! full density. Only the two vertices on either side of the connection take densities that
+//! depend on it; the products beyond them are the subpaths' own and are summed once per
+//! subpath ([`Vertex::tail`]), so each weight is O(1).
 
 use glam::Vec3;
 
@@ -54,12 +56,38 @@ fn ratio(rev: f32, fwd: f32) -> f32 {
     }
 }
 
-/// Stores in every vertex of a subpath the squared ratio of its reverse to its forward
-/// density, which the weights of all strategies that do not connect next to it share. Call
-/// once the subpath's densities are final.
-pub(super) fn set_ratios(path: &mut [Vertex]) {
-    for v in path {
-        v.ratio = ratio(v.pdf_rev, v.pdf_fwd);
+/// Stores in every vertex of a camera subpath the squared ratio of its reverse to its
+/// forward density and its [`Vertex::tail`], which the weights of all strategies that do
+/// not connect next to it share. Call once the subpath's densities are final.
+pub(super) fn set_camera_ratios(path: &mut [Vertex]) {
+    // The camera's own vertex starts no strategy (t = 0 does not exist): its tail is empty.
+    let mut tail = 0.0f32;
+    for i in 0..path.len() {
+        let r = ratio(path[i].pdf_rev, path[i].pdf_fwd);
+        if i > 0 {
+            let counts = !path[i].delta && !path[i - 1].delta;
+            tail = r * (f32::from(u8::from(counts)) + tail);
+        }
+        path[i].ratio = r;
+        path[i].tail = tail;
+    }
+}
+
+/// [`set_camera_ratios`] for a light subpath (its first vertex is the light: the strategy
+/// with no light vertex exists where the light is not a Dirac delta).
+pub(super) fn set_light_ratios(path: &mut [Vertex]) {
+    let mut tail = 0.0f32;
+    for i in 0..path.len() {
+        let r = ratio(path[i].pdf_rev, path[i].pdf_fwd);
+        let before = if i > 0 {
+            path[i - 1].delta
+        } else {
+            path[0].is_delta_light()
+        };
+        let counts = !path[i].delta && !before;
+        tail = r * (f32::from(u8::from(counts)) + tail);
+        path[i].ratio = r;
+        path[i].tail = tail;
     }
 }
 
@@ -119,7 +147,7 @@ fn sum_weight(
     let (s, t) = (light.len(), camera.len());
     let mut sum = 0.0f32;
     // Strategies with fewer camera vertices: the two next to the connection with the
-    // recomputed densities, the others with the subpath's own ratios ([`set_ratios`]).
+    // recomputed densities, the others with the subpath's own ratios ([`set_camera_ratios`], [`set_light_ratios`]).
     let mut r = 1.0f32;
     if t >= 2 {
         r *= ratio(pt_rev, camera[t - 1].pdf_fwd);
@@ -133,11 +161,10 @@ fn sum_weight(
             sum += r;
         }
     }
-    for i in (1..t.saturating_sub(2)).rev() {
-        r *= camera[i].ratio;
-        if !camera[i].delta && !camera[i - 1].delta {
-            sum += r;
-        }
+    // The farther ones: the running product times the subpath's tail where it reaches them
+    // ([`Vertex::tail`]; an empty tail is skipped, so that an infinite product adds nothing).
+    if t >= 4 && camera[t - 3].tail != 0.0 {
+        sum += r * camera[t - 3].tail;
     }
     // Strategies with fewer light vertices.
     let delta_before = |i: usize| {
@@ -160,11 +187,8 @@ fn sum_weight(
             sum += r;
         }
     }
-    for i in (0..s.saturating_sub(2)).rev() {
-        r *= light[i].ratio;
-        if !light[i].delta && !delta_before(i) {
-            sum += r;
-        }
+    if s >= 3 && light[s - 3].tail != 0.0 {
+        sum += r * light[s - 3].tail;
     }
     let w = 1.0 / (1.0 + sum);
     if w.is_finite() {

@@ -39,7 +39,7 @@ use diffuse_connect::{diffuse_joins, is_diffuse_join, DiffuseJoin};
 use diffuse_nee::{diffuse_nees, NeeJob};
 use diffuse_splat::{diffuse_splats, SplatJob};
 use lanes::{is_lambertian, MIN_VECTOR_LANES};
-use mis::set_ratios;
+use mis::{set_camera_ratios, set_light_ratios};
 use subpath::{camera_start, light_start, random_walks};
 use vertex::{Context, Vertex};
 
@@ -177,8 +177,8 @@ pub fn trace_bdpt_samples(
     );
     for k in 0..n {
         samplers[k] = (subpath_samplers[k], subpath_samplers[GROUP + k]);
-        set_ratios(&mut scratch.paths[k]);
-        set_ratios(&mut scratch.paths[GROUP + k]);
+        set_camera_ratios(&mut scratch.paths[k]);
+        set_light_ratios(&mut scratch.paths[GROUP + k]);
     }
     // Every sample's strategies up to their shadow rays (the Lambertian ones as placeholders
     // that the lane loops then fill for the whole group), then all the group's shadow rays in

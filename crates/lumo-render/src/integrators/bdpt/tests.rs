@@ -4,7 +4,7 @@ use lumo_scene::shapes::{cube, rectangle};
 use lumo_scene::{builtin_scene, Camera, FovAxis, Light, Material, Scene};
 
 use super::connect::{finish, Pending, Prepared};
-use super::mis::{set_ratios, weight, Connection};
+use super::mis::{set_camera_ratios, set_light_ratios, weight, Connection};
 use super::subpath::{camera_start, camera_subpath, light_start, random_walks};
 use super::vertex::{light_vertex, Context, Kind, Vertex};
 use super::*;
@@ -185,8 +185,8 @@ fn check_weights_on(scene: &str, wanted: usize) -> (usize, usize) {
                 v.pdf_fwd = p_light[n - j];
                 v.pdf_rev = p_cam[n - j];
             }
-            set_ratios(&mut cam);
-            set_ratios(&mut light);
+            set_camera_ratios(&mut cam);
+            set_light_ratios(&mut light);
             let w = weight(
                 &ctx,
                 &Connection {
@@ -348,8 +348,12 @@ pub(super) fn walked_group(ctx: &Context, settings: &PathSettings, y: u32) -> Ve
         &max_vertices,
         &mut paths,
     );
-    for p in &mut paths {
-        set_ratios(p);
+    for (k, p) in paths.iter_mut().enumerate() {
+        if k < 8 {
+            set_camera_ratios(p);
+        } else {
+            set_light_ratios(p);
+        }
     }
     paths
 }

@@ -43,7 +43,9 @@ pub(super) enum Kind {
     },
     /// A scattering point on a surface.
     Surface {
-        /// The surface.
+        /// The surface. Its texture coordinates are left zero on the Lambertian vertices
+        /// that the lane walk makes ([`super::diffuse_walk`]): the reflectance, the only
+        /// texture such a vertex has, is already in `lambert`, and nothing else reads them.
         s: Surface,
         /// Its BSDF.
         bsdf: ShadingBsdf,
@@ -83,8 +85,15 @@ pub(super) struct Vertex {
     pub pdf_rev: f32,
     /// Its own subpath left it through a Dirac lobe.
     pub delta: bool,
-    /// `(pdf_rev / pdf_fwd)²` once the subpath is complete ([`super::mis::set_ratios`]).
+    /// `(pdf_rev / pdf_fwd)²` once the subpath is complete ([`super::mis::set_camera_ratios`]).
     pub ratio: f32,
+    /// What the strategies that move the connection two or more vertices back along this
+    /// vertex's subpath add to a weight, per unit of the running density product there: the
+    /// sum over the vertices `i ≤` this one that may start a strategy (no Dirac lobe next to
+    /// them) of `Π ratio` from `i` to this one. Summed once per subpath
+    /// ([`super::mis::set_camera_ratios`]), so that a weight is O(1) instead of a loop down
+    /// both subpaths.
+    pub tail: f32,
     /// Scene vertices: the unit direction towards the previous vertex of its own subpath and
     /// the squared distance to it, exactly as [`Vertex::towards`] computes them (the weights
     /// need them for every strategy that ends here; zero for subpath origins).
@@ -113,6 +122,7 @@ impl Vertex {
             pdf_rev: 0.0,
             delta: false,
             ratio: 0.0,
+            tail: 0.0,
             w_prev: Vec3::ZERO,
             d2_prev: 0.0,
             u_light: (0.0, Vec2::ZERO),
