@@ -65,10 +65,12 @@ pub(super) enum Kind {
 }
 
 /// One vertex of a subpath.
+// The scalar fields that the weights and the lane loops read come first and the large `kind`
+// last (`repr(C)` keeps that order): a group's subpaths outgrow the L1 cache, and with the
+// default layout a weight's few reads touched more lines (1.5 % of a `cornell` sample).
 #[derive(Clone, Copy, Debug)]
+#[repr(C)]
 pub(super) struct Vertex {
-    /// What it is.
-    pub kind: Kind,
     /// Position (the light's position for point and spot lights; unused for the environment).
     pub p: Vec3,
     /// Unit geometric normal of surfaces and area lights (zero for the others).
@@ -107,6 +109,8 @@ pub(super) struct Vertex {
     /// geometric normal ([`crate::geometry::offset_point`]'s scale, computed once per vertex
     /// instead of once per strategy; [`Vertex::new`] leaves it 0, [`Vertex::set_offset`]).
     pub off_scale: f32,
+    /// What it is.
+    pub kind: Kind,
 }
 
 impl Vertex {
