@@ -172,7 +172,8 @@ mod tests {
     use super::*;
     use crate::integrators::bdpt::connect::prepare;
     use crate::integrators::bdpt::tests::{
-        assert_same_strategy, for_each_lane_case, walked_group, LANE_TEST_SETTINGS,
+        assert_same_strategy, assert_scalar_made_covered, for_each_lane_case, scalar_made,
+        walked_group, LANE_TEST_SETTINGS,
     };
     use crate::integrators::bdpt::vertex::Context;
 
@@ -187,7 +188,7 @@ mod tests {
 
     fn check_level(ctx: &Context, level: Isa) {
         let rs = ctx.rs;
-        let mut joined = 0usize;
+        let (mut joined, mut scalar_side) = (0usize, 0usize);
         for y in 0..16u32 {
             let paths = walked_group(ctx, &LANE_TEST_SETTINGS, y);
             let (cams, lights) = paths.split_at(8);
@@ -218,15 +219,13 @@ mod tests {
                 let (k, s, t) = (j.k as usize, j.s as usize, j.t as usize);
                 let at = format!("{} {level:?} row {y} sample {k} ({s}, {t})", rs.scene.name);
                 let pair = (&lights[k][..s], &cams[k][..t]);
-                joined += usize::from(assert_same_strategy(
-                    ctx,
-                    pair,
-                    pending[j.slot as usize],
-                    want,
-                    &at,
-                ));
+                let adds = assert_same_strategy(ctx, pair, pending[j.slot as usize], want, &at);
+                joined += usize::from(adds);
+                let scalar = scalar_made(rs, &cams[k][t - 1]) || scalar_made(rs, &lights[k][s - 1]);
+                scalar_side += usize::from(adds && scalar);
             }
         }
+        assert_scalar_made_covered(ctx, scalar_side, "joins");
         assert!(
             joined > 100,
             "{} {level:?}: {joined} joins checked",

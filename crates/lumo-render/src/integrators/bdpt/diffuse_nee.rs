@@ -220,7 +220,8 @@ mod tests {
     use crate::integrators::bdpt::connect::prepare;
     use crate::integrators::bdpt::lanes::is_lambertian;
     use crate::integrators::bdpt::tests::{
-        assert_same_strategy, for_each_lane_case, walked_group, LANE_TEST_SETTINGS,
+        assert_same_strategy, assert_scalar_made_covered, for_each_lane_case, scalar_made,
+        walked_group, LANE_TEST_SETTINGS,
     };
 
     /// Every next-event strategy from a Lambertian camera vertex to an emissive triangle gets
@@ -235,7 +236,7 @@ mod tests {
 
     fn check_level(ctx: &Context, level: Isa) {
         let rs = ctx.rs;
-        let (mut visible, mut jobs_seen) = (0usize, 0usize);
+        let (mut visible, mut jobs_seen, mut scalar_side) = (0usize, 0usize, 0usize);
         for y in 0..32u32 {
             let paths = walked_group(ctx, &LANE_TEST_SETTINGS, y);
             let (cams, lights) = paths.split_at(8);
@@ -267,16 +268,13 @@ mod tests {
                 let (k, t) = (j.k as usize, j.t as usize);
                 let at = format!("{} {level:?} row {y} sample {k} t = {t}", rs.scene.name);
                 let pair = (&lights[k][..], &cams[k][..]);
-                visible += usize::from(assert_same_strategy(
-                    ctx,
-                    pair,
-                    pending[j.slot as usize],
-                    want,
-                    &at,
-                ));
+                let adds = assert_same_strategy(ctx, pair, pending[j.slot as usize], want, &at);
+                visible += usize::from(adds);
+                scalar_side += usize::from(adds && scalar_made(rs, &cams[k][t - 1]));
                 jobs_seen += 1;
             }
         }
+        assert_scalar_made_covered(ctx, scalar_side, "next-event strategies");
         // Some strategies add nothing (the light's back, a black BSDF value).
         assert!(
             visible > 50 && jobs_seen > visible,

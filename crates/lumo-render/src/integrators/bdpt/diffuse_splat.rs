@@ -189,7 +189,8 @@ mod tests {
     use crate::integrators::bdpt::connect::{prepare, Prepared};
     use crate::integrators::bdpt::lanes::is_lambertian;
     use crate::integrators::bdpt::tests::{
-        assert_same_strategy, for_each_lane_case, walked_group, LANE_TEST_SETTINGS,
+        assert_same_strategy, assert_scalar_made_covered, for_each_lane_case, scalar_made,
+        walked_group, LANE_TEST_SETTINGS,
     };
 
     /// Every Lambertian light vertex that lands on the film gets from the lanes exactly the
@@ -204,7 +205,7 @@ mod tests {
 
     fn check_level(ctx: &Context, level: Isa) {
         let rs = ctx.rs;
-        let (mut visible, mut off_film) = (0usize, 0usize);
+        let (mut visible, mut off_film, mut scalar_side) = (0usize, 0usize, 0usize);
         for y in 0..16u32 {
             let paths = walked_group(ctx, &LANE_TEST_SETTINGS, y);
             let (cams, lights) = paths.split_at(8);
@@ -238,15 +239,12 @@ mod tests {
                 let (k, s) = (j.k as usize, j.s as usize);
                 let at = format!("{} {level:?} row {y} sample {k} s = {s}", rs.scene.name);
                 let pair = (&lights[k][..s], &cams[k][..1]);
-                visible += usize::from(assert_same_strategy(
-                    ctx,
-                    pair,
-                    pending[j.slot as usize],
-                    want,
-                    &at,
-                ));
+                let adds = assert_same_strategy(ctx, pair, pending[j.slot as usize], want, &at);
+                visible += usize::from(adds);
+                scalar_side += usize::from(adds && scalar_made(rs, &lights[k][s - 1]));
             }
         }
+        assert_scalar_made_covered(ctx, scalar_side, "splats");
         assert!(
             visible > 50,
             "{} {level:?}: {visible} splats compared ({off_film} off the film)",

@@ -360,8 +360,10 @@ pub(super) fn walked_group(ctx: &Context, settings: &PathSettings, y: u32) -> Ve
 
 /// The scenes the lane loops' tests run on: the Cornell box (vertex normals, an emitter, one
 /// area light), `cornell-spheres` (a checkerboard floor, glass and gold spheres whose vertices
-/// stay scalar) and the Cornell box with a point, a spot, a directional and an environment
-/// light added (light subpaths from delta lights, choices the lanes do not take).
+/// stay scalar), the Cornell box with a point, a spot, a directional and an environment
+/// light added (light subpaths from delta lights, choices the lanes do not take), and the
+/// Cornell box with Lambertian surfaces that the walk takes one at a time but the strategy
+/// lanes take ([`scalar_lambertian_cornell`]).
 pub(super) fn lane_test_scenes() -> Vec<crate::render_scene::RenderScene> {
     let cornell = builtin_scene("cornell").expect("built-in");
     let spheres = builtin_scene("cornell-spheres").expect("built-in");
@@ -369,10 +371,64 @@ pub(super) fn lane_test_scenes() -> Vec<crate::render_scene::RenderScene> {
     lights
         .lights
         .extend(crate::test_lights::every_other_light_kind());
-    [cornell, spheres, lights]
+    [cornell, spheres, lights, scalar_lambertian_cornell()]
         .into_iter()
         .map(|s| crate::render_scene::RenderScene::new(s).expect("valid scene"))
         .collect()
+}
+
+/// The Cornell box with Lambertian surfaces that are not simple diffuse ones
+/// ([`crate::render_scene::RenderScene::is_simple_diffuse`]): the large box with vertex
+/// colours, the small box placed by an instance transform and an analytic sphere. Their
+/// vertices come from the scalar walk step, and the strategy lanes then take them like any
+/// other Lambertian vertex.
+fn scalar_lambertian_cornell() -> Scene {
+    let mut scene = builtin_scene("cornell").expect("built-in");
+    scene.name = SCALAR_LAMBERTIAN.into();
+    let large = scene.meshes.iter().position(|m| m.name == "large-box");
+    let small = scene.meshes.iter().position(|m| m.name == "small-box");
+    let (Some(large), Some(small)) = (large, small) else {
+        panic!("the Cornell box has lost its boxes");
+    };
+    let colours = scene.meshes[large].positions.len();
+    scene.meshes[large].colors = (0..colours)
+        .map(|i| Vec3::new(0.5 + 0.1 * (i % 5) as f32, 0.9, 0.4 + 0.15 * (i % 3) as f32))
+        .collect();
+    for inst in scene.instances.iter_mut().filter(|i| i.mesh == small) {
+        inst.transform = Mat4::from_translation(Vec3::new(0.0, 0.0, -0.1));
+    }
+    let white = scene.meshes[small].material;
+    let placed =
+        Mat4::from_translation(Vec3::new(0.4, -0.75, -0.4)) * Mat4::from_scale(Vec3::splat(0.25));
+    let mut ball = lumo_scene::shapes::sphere(&placed, white, 12, 24);
+    ball.name = "analytic-ball".into();
+    ball.analytic = Some(lumo_scene::Analytic {
+        kind: lumo_scene::AnalyticKind::Sphere,
+        to_mesh: placed,
+        flip_normals: false,
+    });
+    scene.add_mesh(ball);
+    scene
+}
+
+/// The name of [`scalar_lambertian_cornell`]'s scene.
+const SCALAR_LAMBERTIAN: &str = "cornell-scalar-lambertian";
+
+/// Whether `v` lies on an instance that is not a simple diffuse surface (the scalar walk
+/// step made it).
+pub(super) fn scalar_made(rs: &crate::render_scene::RenderScene, v: &Vertex) -> bool {
+    matches!(v.kind, Kind::Surface { ref s, .. } if !rs.is_simple_diffuse(s.instance))
+}
+
+/// Asserts, on [`scalar_lambertian_cornell`]'s scene, that a lane test compared enough
+/// strategies with an added value at a vertex the scalar walk step made (`count`).
+pub(super) fn assert_scalar_made_covered(ctx: &Context, count: usize, what: &str) {
+    if ctx.rs.scene.name == SCALAR_LAMBERTIAN {
+        assert!(
+            count > 20,
+            "{SCALAR_LAMBERTIAN}: only {count} {what} at vertices of the scalar walk step"
+        );
+    }
 }
 
 /// The path settings of the lane loops' tests: short paths that reach both Russian roulette
