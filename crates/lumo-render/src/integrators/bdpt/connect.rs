@@ -5,7 +5,7 @@
 
 use glam::{Vec2, Vec3};
 
-use super::mis::{weight, Connection, Reverse, Segment};
+use super::mis::{weight, Connection, Segment};
 use super::vertex::{light_vertex, Context, Kind, Vertex};
 use crate::geometry::shadow_segment;
 
@@ -61,9 +61,9 @@ pub(super) struct Pending {
     pub nee: Option<NeePoint>,
     /// For `s, t ≥ 2`: the connection's geometry, for the weight.
     pub segment: Option<Segment>,
-    /// The reverse densities next to the connection where a lane loop computed them (the
-    /// weight then needs neither `segment` nor the light vertex's densities).
-    pub reverse: Option<Reverse>,
+    /// The weight, where a lane loop computed it with the value (`nee` and `segment`, which
+    /// only the weight reads, are then left out).
+    pub weight: Option<f32>,
 }
 
 impl Pending {
@@ -82,7 +82,7 @@ impl Pending {
             t: 0,
             nee: None,
             segment: None,
-            reverse: None,
+            weight: None,
         }
     }
 }
@@ -100,9 +100,6 @@ pub(super) struct NeePoint {
     pub towards: Vec3,
     /// For the environment: the direction towards it.
     pub environment: Option<Vec3>,
-    /// The light vertex's own density where the caller computed it
-    /// ([`super::diffuse_nee`], triangles only); `None`: [`light_vertex`] computes it.
-    pub origin_density: Option<f32>,
 }
 
 /// What [`prepare`] found for one strategy.
@@ -137,7 +134,7 @@ pub(super) fn prepare(
             t,
             nee,
             segment,
-            reverse: None,
+            weight: None,
         })
     };
     if s == 0 {
@@ -155,7 +152,6 @@ pub(super) fn prepare(
                     light,
                     camera,
                     segment: None,
-                    reverse: None,
                 },
             )
         };
@@ -225,7 +221,6 @@ pub(super) fn prepare(
             normal: ls.normal,
             towards: -ls.wi,
             environment,
-            origin_density: None,
         };
         return pending(Contribution::Pixel(value), ray, Some(nee), None);
     }
@@ -273,43 +268,39 @@ pub(super) fn finish(
     if unweighted {
         return p.contribution;
     }
+    let w = match p.weight {
+        Some(w) => w,
+        None => weight_of(ctx, light, camera, p),
+    };
+    match p.contribution {
+        Contribution::Pixel(v) => Contribution::Pixel(v * w),
+        Contribution::Splat(film, v) => Contribution::Splat(film, v * w),
+    }
+}
+
+/// The weight of a pending strategy that came without one (from [`prepare`]).
+fn weight_of(ctx: &Context, light: &[Vertex], camera: &[Vertex], p: &Pending) -> f32 {
     let camera = &camera[..p.t];
-    let nee = p.nee.map(|n| match n.origin_density {
-        // What `light_vertex` makes of an emissive triangle, its density known.
-        Some(pdf) => {
-            let kind = Kind::Light {
-                light: n.light,
-                delta_position: false,
-                directional: false,
-            };
-            let mut v = Vertex::new(kind, n.point, n.normal, Vec3::ONE);
-            v.pdf_fwd = pdf;
-            v
-        }
-        None => light_vertex(
+    let nee = p.nee.map(|n| {
+        light_vertex(
             &ctx.rs.lights,
             n.light,
             n.point,
             n.normal,
             n.towards,
             n.environment,
-        ),
+        )
     });
     let light = match &nee {
         Some(v) => std::slice::from_ref(v),
         None => &light[..p.s],
     };
-    let w = weight(
+    weight(
         ctx,
         &Connection {
             light,
             camera,
             segment: p.segment,
-            reverse: p.reverse,
         },
-    );
-    match p.contribution {
-        Contribution::Pixel(v) => Contribution::Pixel(v * w),
-        Contribution::Splat(film, v) => Contribution::Splat(film, v * w),
-    }
+    )
 }

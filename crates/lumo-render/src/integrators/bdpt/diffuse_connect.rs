@@ -22,8 +22,9 @@ use lumo_simd::Isa;
 
 use super::connect::{Contribution, Pending, ShadowRay};
 use super::lanes::{
-    arrival_cos, at, dot, is_lambertian, lambert_factor, lambert_pdf, sel, vec3_at, Side,
+    arrival_cos, at, dot, is_lambertian, lambert_factor, lambert_pdf, sel, vec3_at, NearLanes, Side,
 };
+use super::mis::{near_weight, Near};
 use super::vertex::Vertex;
 use crate::accel::packet::LANES;
 use crate::geometry::shadow_segment;
@@ -77,11 +78,14 @@ multiversion! {
     ) as join_lanes, at join_chunk_at {
         let n = joins.len().min(N);
         let (mut cam, mut light) = (Side::default(), Side::default());
+        let (mut cam_near, mut light_near) = (NearLanes::default(), NearLanes::default());
         for (i, j) in joins.iter().enumerate().take(n) {
             let (c, l) = (&cams[j.k as usize], &lights[j.k as usize]);
             let (s, t) = (j.s as usize, j.t as usize);
             cam.load(i, &c[t - 1], &c[t - 2]);
             light.load(i, &l[s - 1], &l[s - 2]);
+            cam_near.set(i, Near::camera(c, t - 1));
+            light_near.set(i, Near::light(l, s - 1));
         }
 
         // `connect::prepare` for s, t ≥ 2, and the four reverse densities of `mis::weight`.
@@ -143,6 +147,13 @@ multiversion! {
             tmax[i] = st;
         }
 
+        // The weights (`mis::weight` from these densities), in a loop of their own.
+        let mut weight = [0.0f32; N];
+        for i in 0..N {
+            let rev_i = [rev[0][i], rev[1][i], rev[2][i], rev[3][i]];
+            weight[i] = near_weight(&cam_near.at(i), &light_near.at(i), rev_i);
+        }
+
         // Scatter into the pending entries.
         for (i, j) in joins.iter().enumerate().take(n) {
             let entry = &mut pending[j.slot as usize];
@@ -161,7 +172,7 @@ multiversion! {
                 t: j.t as usize,
                 nee: None,
                 segment: None,
-                reverse: Some([rev[0][i], rev[1][i], rev[2][i], rev[3][i]]),
+                weight: Some(weight[i]),
             };
         }
     }

@@ -22,8 +22,11 @@ use lumo_simd::multiversion;
 #[cfg(test)]
 use lumo_simd::Isa;
 
-use super::connect::{Contribution, NeePoint, Pending, ShadowRay};
-use super::lanes::{arrival_cos, at, dot, lambert_factor, lambert_pdf, sel, vec3_at, Side, L, L3};
+use super::connect::{Contribution, Pending, ShadowRay};
+use super::lanes::{
+    arrival_cos, at, dot, lambert_factor, lambert_pdf, sel, vec3_at, NearLanes, Side, L, L3,
+};
+use super::mis::{near_weight, Near};
 use super::vertex::{Context, Vertex};
 use crate::accel::packet::LANES;
 use crate::geometry::{shadow_segment, triangle_map};
@@ -73,6 +76,7 @@ multiversion! {
         let lights = &ctx.rs.lights;
         let eps = ctx.rs.ray_epsilon;
         let mut cam = Side::default();
+        let mut cam_near = NearLanes::default();
         let (mut p0, mut e1, mut e2, mut tn, mut radiance): (L3, L3, L3, L3, L3) = Default::default();
         let (mut area, mut pick, mut pick_e): (L, L, L) = Default::default();
         let (mut u0, mut u1): (L, L) = Default::default();
@@ -81,6 +85,7 @@ multiversion! {
             let t = j.t as usize;
             let pt = &c[t - 1];
             cam.load(i, pt, &c[t - 2]);
+            cam_near.set(i, Near::camera(c, t - 1));
             let Some(tri) = lights.untextured_triangle(j.light) else {
                 continue;
             };
@@ -97,8 +102,7 @@ multiversion! {
             (u0[i], u1[i]) = (pt.u_light.1.x, pt.u_light.1.y);
         }
 
-        let (mut value, mut origin, mut dir, mut point, mut wi_out): (L3, L3, L3, L3, L3) =
-            Default::default();
+        let (mut value, mut origin, mut dir): (L3, L3, L3) = Default::default();
         let (mut tmax, mut origin_pdf): (L, L) = Default::default();
         let mut rev: [L; 3] = Default::default();
         let mut ok = [false; N];
@@ -177,10 +181,22 @@ multiversion! {
                 value[c][i] = v[c];
                 origin[c][i] = o[c];
                 dir[c][i] = sd[c];
-                point[c][i] = q[c];
-                wi_out[c][i] = wi[c];
             }
             tmax[i] = st;
+        }
+
+        // The weights (`mis::weight` with the light point as a subpath of its own: a triangle,
+        // no Dirac delta), in a loop of their own.
+        let mut weight = [0.0f32; N];
+        for i in 0..N {
+            let light_side = Near {
+                fwd: origin_pdf[i],
+                first: true,
+                first_counts: true,
+                ..Near::NONE
+            };
+            let rev_i = [rev[0][i], rev[1][i], rev[2][i], 0.0];
+            weight[i] = near_weight(&cam_near.at(i), &light_side, rev_i);
         }
 
         for (i, j) in jobs.iter().enumerate().take(n) {
@@ -199,16 +215,9 @@ multiversion! {
                 },
                 s: 1,
                 t: j.t as usize,
-                nee: Some(NeePoint {
-                    light: j.light,
-                    point: v3(&point),
-                    normal: v3(&tn),
-                    towards: -v3(&wi_out),
-                    environment: None,
-                    origin_density: Some(origin_pdf[i]),
-                }),
+                nee: None,
                 segment: None,
-                reverse: Some([rev[0][i], rev[1][i], rev[2][i], 0.0]),
+                weight: Some(weight[i]),
             };
         }
     }

@@ -21,7 +21,10 @@ use lumo_simd::multiversion;
 use lumo_simd::Isa;
 
 use super::connect::{Contribution, Pending, ShadowRay};
-use super::lanes::{arrival_cos, at, dot, lambert_factor, lambert_pdf, sel, vec3_at, Side, L, L3};
+use super::lanes::{
+    arrival_cos, at, dot, lambert_factor, lambert_pdf, sel, vec3_at, NearLanes, Side, L, L3,
+};
+use super::mis::{near_weight, Near};
 use super::vertex::{Context, Vertex};
 use crate::accel::packet::LANES;
 use crate::geometry::shadow_segment;
@@ -86,11 +89,13 @@ multiversion! {
         let cam = ctx.camera;
         let eye: [f32; 3] = cam.origin.into();
         let mut q = Side::default();
+        let mut q_near = NearLanes::default();
         let mut cos_cams: L = [0.0; N];
         for (i, j) in jobs.iter().enumerate().take(n) {
             let l = &lights[j.k as usize];
             let s = j.s as usize;
             q.load(i, &l[s - 1], &l[s - 2]);
+            q_near.set(i, Near::light(l, s - 1));
             cos_cams[i] = j.cos_cam;
         }
 
@@ -160,6 +165,14 @@ multiversion! {
             tmax[i] = st;
         }
 
+        // The weights (`mis::weight`; the pinhole has no strategy behind it), in a loop of
+        // their own.
+        let mut weight = [0.0f32; N];
+        for i in 0..N {
+            let rev_i = [rev[0][i], 0.0, rev[1][i], rev[2][i]];
+            weight[i] = near_weight(&Near::NONE, &q_near.at(i), rev_i);
+        }
+
         for (i, j) in jobs.iter().enumerate().take(n) {
             let entry = &mut pending[j.slot as usize];
             if !ok[i] {
@@ -177,7 +190,7 @@ multiversion! {
                 t: 1,
                 nee: None,
                 segment: None,
-                reverse: Some([rev[0][i], 0.0, rev[1][i], rev[2][i]]),
+                weight: Some(weight[i]),
             };
         }
     }

@@ -4,6 +4,7 @@
 
 use glam::Vec3;
 
+use super::mis::Near;
 use super::vertex::{Kind, Vertex};
 use crate::accel::packet::LANES;
 use crate::geometry::cosine_pdf;
@@ -154,5 +155,52 @@ impl Side {
         let (p, ng) = (at(&self.p, i), at(&self.ng, i));
         let k = sel(dot(ng, w) >= 0.0, self.off[i], -self.off[i]);
         [p[0] + ng[0] * k, p[1] + ng[1] * k, p[2] + ng[2] * k]
+    }
+}
+
+/// [`Near`] in lanes, one array per field (so that the weight loops vectorise).
+#[derive(Default)]
+pub(super) struct NearLanes {
+    /// [`Near::fwd`].
+    pub fwd: L,
+    /// [`Near::prev_fwd`].
+    pub prev_fwd: L,
+    /// [`Near::far_tail`].
+    pub far_tail: L,
+    /// [`Near::first`].
+    pub first: [bool; N],
+    /// [`Near::first_counts`].
+    pub first_counts: [bool; N],
+    /// [`Near::second`].
+    pub second: [bool; N],
+    /// [`Near::second_counts`].
+    pub second_counts: [bool; N],
+}
+
+impl NearLanes {
+    /// Stores `n` in lane `i`.
+    #[inline(always)]
+    pub fn set(&mut self, i: usize, n: Near) {
+        self.fwd[i] = n.fwd;
+        self.prev_fwd[i] = n.prev_fwd;
+        self.far_tail[i] = n.far_tail;
+        self.first[i] = n.first;
+        self.first_counts[i] = n.first_counts;
+        self.second[i] = n.second;
+        self.second_counts[i] = n.second_counts;
+    }
+
+    /// Lane `i`.
+    #[inline(always)]
+    pub fn at(&self, i: usize) -> Near {
+        Near {
+            fwd: self.fwd[i],
+            prev_fwd: self.prev_fwd[i],
+            far_tail: self.far_tail[i],
+            first: self.first[i],
+            first_counts: self.first_counts[i],
+            second: self.second[i],
+            second_counts: self.second_counts[i],
+        }
     }
 }

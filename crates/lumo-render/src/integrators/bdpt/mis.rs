@@ -8,6 +8,7 @@
 
 use glam::Vec3;
 
+use super::lanes::sel;
 use super::vertex::{Context, Vertex};
 
 /// The two subpaths of strategy (s, t), as connected: for `s = 1` the light vertex is the
@@ -20,9 +21,6 @@ pub(super) struct Connection<'a> {
     pub camera: &'a [Vertex],
     /// The connection's geometry where the caller has it.
     pub segment: Option<Segment>,
-    /// The four reverse densities next to the connection where the caller computed them
-    /// ([`Reverse`]); `None`: the weight computes them.
-    pub reverse: Option<Reverse>,
 }
 
 /// The reverse densities of the four vertices next to a strategy's connection, in the order
@@ -46,14 +44,12 @@ pub(super) struct Segment {
 
 /// The ratio of a vertex's reverse to forward density; 0 where the forward density is 0
 /// (a vertex no strategy could have made that way).
-#[inline]
+#[inline(always)]
 fn ratio(rev: f32, fwd: f32) -> f32 {
-    if fwd > 0.0 && rev.is_finite() {
-        let r = rev / fwd;
-        r * r
-    } else {
-        0.0
-    }
+    // Computed either way and selected, for the lane loops (the quotient of a rejected pair
+    // is never used).
+    let r = rev / fwd;
+    sel(fwd > 0.0 && rev.is_finite(), r * r, 0.0)
 }
 
 /// Stores in every vertex of a camera subpath the squared ratio of its reverse to its
@@ -95,9 +91,6 @@ pub(super) fn set_light_ratios(path: &mut [Vertex]) {
 /// the path its vertices form. Pure function of the vertices.
 pub(super) fn weight(ctx: &Context, c: &Connection) -> f32 {
     let (light, camera) = (c.light, c.camera);
-    if let Some(reverse) = c.reverse {
-        return sum_weight(light, camera, reverse);
-    }
     let (s, t) = (light.len(), camera.len());
     let pt = &camera[t - 1];
     let qs = s.checked_sub(1).map(|i| &light[i]);
@@ -139,61 +132,131 @@ pub(super) fn weight(ctx: &Context, c: &Connection) -> f32 {
 /// The weight of strategy (s, t) given the reverse densities of the four vertices next to
 /// its connection (`pt`, `pt−1`, `qs`, `qs−1`; 0 where a vertex does not exist).
 #[inline(always)]
-fn sum_weight(
-    light: &[Vertex],
-    camera: &[Vertex],
+fn sum_weight(light: &[Vertex], camera: &[Vertex], reverse: Reverse) -> f32 {
+    let pt = Near::camera(camera, camera.len() - 1);
+    let qs = match light.len() {
+        0 => Near::NONE,
+        s => Near::light(light, s - 1),
+    };
+    near_weight(&pt, &qs, reverse)
+}
+
+/// What a weight needs of one connection vertex's own subpath: the forward densities of the
+/// vertex and of the one before it, which of the two strategies that move the connection
+/// one and two vertices back along that subpath exist and count (none next to a Dirac
+/// lobe), and the farther strategies' share (the [`Vertex::tail`] of the vertex two back).
+/// Plain values, so that the lane loops weigh sixteen strategies at once with the scalar
+/// weight's operations ([`near_weight`]).
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct Near {
+    /// The vertex's forward density.
+    pub fwd: f32,
+    /// Its predecessor's forward density (read only where `second`).
+    pub prev_fwd: f32,
+    /// The tail of the vertex two back (0 where there is none).
+    pub far_tail: f32,
+    /// The strategy one vertex back exists.
+    pub first: bool,
+    /// …and counts.
+    pub first_counts: bool,
+    /// The strategy two vertices back exists.
+    pub second: bool,
+    /// …and counts.
+    pub second_counts: bool,
+}
+
+impl Near {
+    /// A side with no vertex (s = 0) or none behind it that starts a strategy: no terms.
+    pub const NONE: Near = Near {
+        fwd: 0.0,
+        prev_fwd: 0.0,
+        far_tail: 0.0,
+        first: false,
+        first_counts: false,
+        second: false,
+        second_counts: false,
+    };
+
+    /// Camera vertex `j` (t = j + 1) of `path`, whose ratios are set
+    /// ([`set_camera_ratios`]): strategies with one and two camera vertices fewer exist from
+    /// t ≥ 2 and t ≥ 3.
+    #[inline(always)]
+    pub fn camera(path: &[Vertex], j: usize) -> Near {
+        let mut n = Near {
+            fwd: path[j].pdf_fwd,
+            ..Near::NONE
+        };
+        if j >= 1 {
+            n.first = true;
+            n.first_counts = !path[j - 1].delta;
+        }
+        if j >= 2 {
+            n.second = true;
+            n.second_counts = !path[j - 1].delta && !path[j - 2].delta;
+            n.prev_fwd = path[j - 1].pdf_fwd;
+            n.far_tail = path[j - 2].tail;
+        }
+        n
+    }
+
+    /// Light vertex `j` (s = j + 1) of `path`, whose ratios are set ([`set_light_ratios`];
+    /// a light point next-event estimation chose is a path of its own): strategies with one
+    /// and two light vertices fewer exist from s ≥ 1 and s ≥ 2, the one without light
+    /// vertices where the light is not a Dirac delta.
+    #[inline(always)]
+    pub fn light(path: &[Vertex], j: usize) -> Near {
+        let delta_before = |i: usize| {
+            if i > 0 {
+                path[i - 1].delta
+            } else {
+                path[0].is_delta_light()
+            }
+        };
+        let mut n = Near {
+            fwd: path[j].pdf_fwd,
+            first: true,
+            first_counts: !delta_before(j),
+            ..Near::NONE
+        };
+        if j >= 1 {
+            n.second = true;
+            n.second_counts = !path[j - 1].delta && !delta_before(j - 1);
+            n.prev_fwd = path[j - 1].pdf_fwd;
+        }
+        if j >= 2 {
+            n.far_tail = path[j - 2].tail;
+        }
+        n
+    }
+}
+
+/// The weight of a strategy from its two connection vertices' [`Near`] and the reverse
+/// densities of the four vertices next to its connection (`pt`, `pt−1`, `qs`, `qs−1`; 0
+/// where a vertex does not exist). Selects instead of branches, so that a lane loop that
+/// calls it per lane vectorises.
+#[inline(always)]
+pub(super) fn near_weight(
+    pt: &Near,
+    qs: &Near,
     [pt_rev, pt_minus_rev, qs_rev, qs_minus_rev]: Reverse,
 ) -> f32 {
-    let (s, t) = (light.len(), camera.len());
-    let mut sum = 0.0f32;
-    // Strategies with fewer camera vertices: the two next to the connection with the
-    // recomputed densities, the others with the subpath's own ratios ([`set_camera_ratios`], [`set_light_ratios`]).
-    let mut r = 1.0f32;
-    if t >= 2 {
-        r *= ratio(pt_rev, camera[t - 1].pdf_fwd);
-        if !camera[t - 2].delta {
-            sum += r;
-        }
-    }
-    if t >= 3 {
-        r *= ratio(pt_minus_rev, camera[t - 2].pdf_fwd);
-        if !camera[t - 2].delta && !camera[t - 3].delta {
-            sum += r;
-        }
-    }
-    // The farther ones: the running product times the subpath's tail where it reaches them
-    // ([`Vertex::tail`]; an empty tail is skipped, so that an infinite product adds nothing).
-    if t >= 4 && camera[t - 3].tail != 0.0 {
-        sum += r * camera[t - 3].tail;
-    }
-    // Strategies with fewer light vertices.
-    let delta_before = |i: usize| {
-        if i > 0 {
-            light[i - 1].delta
-        } else {
-            light[0].is_delta_light()
-        }
-    };
-    let mut r = 1.0f32;
-    if s >= 1 {
-        r *= ratio(qs_rev, light[s - 1].pdf_fwd);
-        if !delta_before(s - 1) {
-            sum += r;
-        }
-    }
-    if s >= 2 {
-        r *= ratio(qs_minus_rev, light[s - 2].pdf_fwd);
-        if !light[s - 2].delta && !delta_before(s - 2) {
-            sum += r;
-        }
-    }
-    if s >= 3 && light[s - 3].tail != 0.0 {
-        sum += r * light[s - 3].tail;
-    }
+    // The camera side's strategies, then the light side's, nearest first.
+    let sum = side_sum(0.0, pt, pt_rev, pt_minus_rev);
+    let sum = side_sum(sum, qs, qs_rev, qs_minus_rev);
     let w = 1.0 / (1.0 + sum);
-    if w.is_finite() {
-        w
-    } else {
-        0.0
-    }
+    sel(w.is_finite(), w, 0.0)
+}
+
+/// Adds to `sum` one side's strategies with fewer vertices on that side: the two next to
+/// the connection with its recomputed densities `rev` and `rev_prev` (the running product
+/// starts at the first one's ratio, as `1 · ratio` would), then the farther ones as the
+/// running product times the subpath's tail (an empty tail is skipped, so that an infinite
+/// product adds nothing there).
+#[inline(always)]
+fn side_sum(sum: f32, n: &Near, rev: f32, rev_prev: f32) -> f32 {
+    let r = sel(n.first, ratio(rev, n.fwd), 1.0);
+    let sum = sel(n.first && n.first_counts, sum + r, sum);
+    let r = sel(n.second, r * ratio(rev_prev, n.prev_fwd), r);
+    let sum = sel(n.second && n.second_counts, sum + r, sum);
+    sel(n.far_tail != 0.0, sum + r * n.far_tail, sum)
 }

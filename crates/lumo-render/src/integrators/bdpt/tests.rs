@@ -193,7 +193,6 @@ fn check_weights_on(scene: &str, wanted: usize) -> (usize, usize) {
                     light: &light,
                     camera: &cam,
                     segment: None,
-                    reverse: None,
                 },
             );
             let expected = density(t).powi(2) / sum_sq;
@@ -459,10 +458,8 @@ pub(super) fn assert_same_strategy(
     // The lanes carry the weight's densities instead of the connection's geometry.
     let mut plain = got;
     plain.segment = want.segment;
-    plain.reverse = None;
-    if let Some(nee) = &mut plain.nee {
-        nee.origin_density = None;
-    }
+    plain.weight = None;
+    plain.nee = want.nee;
     assert_eq!(format!("{plain:?}"), format!("{want:?}"), "{at}");
     let weighed = |p: &Pending| format!("{:?}", finish(ctx, light, camera, p, false));
     assert_eq!(weighed(&got), weighed(&want), "{at}: weighted");
