@@ -67,6 +67,26 @@ pub(super) struct Pending {
 }
 
 impl Pending {
+    /// The entry of a strategy a lane loop computed whole: its value, shadow ray and weight
+    /// (nothing that only the scalar weight reads).
+    #[inline(always)]
+    pub fn weighed(
+        contribution: Contribution,
+        ray: ShadowRay,
+        (s, t): (usize, usize),
+        weight: f32,
+    ) -> Self {
+        Pending {
+            contribution,
+            ray,
+            s,
+            t,
+            nee: None,
+            segment: None,
+            weight: Some(weight),
+        }
+    }
+
     /// An entry that holds a strategy's place in the list until a lane loop fills it (`s = 0`
     /// marks one left with nothing to add, which no other pending strategy has: s = 0 needs
     /// no shadow ray).
@@ -258,6 +278,7 @@ pub(super) fn prepare(
 
 /// The contribution of a pending strategy whose shadow ray was unoccluded, weighted by MIS
 /// unless `unweighted`.
+#[inline]
 pub(super) fn finish(
     ctx: &Context,
     light: &[Vertex],
@@ -278,7 +299,10 @@ pub(super) fn finish(
     }
 }
 
-/// The weight of a pending strategy that came without one (from [`prepare`]).
+/// The weight of a pending strategy that came without one (from [`prepare`]); out of line,
+/// so that [`finish`] stays small enough to inline for the lane strategies, which come
+/// weighted.
+#[inline(never)]
 fn weight_of(ctx: &Context, light: &[Vertex], camera: &[Vertex], p: &Pending) -> f32 {
     let camera = &camera[..p.t];
     let nee = p.nee.map(|n| {

@@ -20,9 +20,10 @@ use lumo_simd::multiversion;
 #[cfg(test)]
 use lumo_simd::Isa;
 
-use super::connect::{Contribution, Pending, ShadowRay};
+use super::connect::{Contribution, Pending};
 use super::lanes::{
-    arrival_cos, at, dot, is_lambertian, lambert_factor, lambert_pdf, sel, vec3_at, NearLanes, Side,
+    arrival_cos, at, dot, is_lambertian, lambert_factor, lambert_pdf, ray_at, sel, vec3_at,
+    NearLanes, Side,
 };
 use super::mis::{near_weight, Near};
 use super::vertex::Vertex;
@@ -161,19 +162,12 @@ multiversion! {
                 entry.s = 0;
                 continue;
             }
-            *entry = Pending {
-                contribution: Contribution::Pixel(vec3_at(&value, i)),
-                ray: ShadowRay {
-                    origin: vec3_at(&origin, i),
-                    dir: vec3_at(&dir, i),
-                    tmax: tmax[i],
-                },
-                s: j.s as usize,
-                t: j.t as usize,
-                nee: None,
-                segment: None,
-                weight: Some(weight[i]),
-            };
+            *entry = Pending::weighed(
+                Contribution::Pixel(vec3_at(&value, i)),
+                ray_at(&origin, &dir, &tmax, i),
+                (j.s as usize, j.t as usize),
+                weight[i],
+            );
         }
     }
 }

@@ -22,9 +22,9 @@ use lumo_simd::multiversion;
 #[cfg(test)]
 use lumo_simd::Isa;
 
-use super::connect::{Contribution, Pending, ShadowRay};
+use super::connect::{Contribution, Pending};
 use super::lanes::{
-    arrival_cos, at, dot, lambert_factor, lambert_pdf, sel, vec3_at, NearLanes, Side, L, L3,
+    arrival_cos, at, dot, lambert_factor, lambert_pdf, ray_at, sel, vec3_at, NearLanes, Side, L, L3,
 };
 use super::mis::{near_weight, Near};
 use super::vertex::{Context, Vertex};
@@ -189,12 +189,7 @@ multiversion! {
         // no Dirac delta), in a loop of their own.
         let mut weight = [0.0f32; N];
         for i in 0..N {
-            let light_side = Near {
-                fwd: origin_pdf[i],
-                first: true,
-                first_counts: true,
-                ..Near::NONE
-            };
+            let light_side = Near::light_origin(origin_pdf[i], false);
             let rev_i = [rev[0][i], rev[1][i], rev[2][i], 0.0];
             weight[i] = near_weight(&cam_near.at(i), &light_side, rev_i);
         }
@@ -205,20 +200,12 @@ multiversion! {
                 entry.s = 0;
                 continue;
             }
-            let v3 = |a: &L3| vec3_at(a, i);
-            *entry = Pending {
-                contribution: Contribution::Pixel(v3(&value)),
-                ray: ShadowRay {
-                    origin: v3(&origin),
-                    dir: v3(&dir),
-                    tmax: tmax[i],
-                },
-                s: 1,
-                t: j.t as usize,
-                nee: None,
-                segment: None,
-                weight: Some(weight[i]),
-            };
+            *entry = Pending::weighed(
+                Contribution::Pixel(vec3_at(&value, i)),
+                ray_at(&origin, &dir, &tmax, i),
+                (1, j.t as usize),
+                weight[i],
+            );
         }
     }
 }

@@ -20,9 +20,9 @@ use lumo_simd::multiversion;
 #[cfg(test)]
 use lumo_simd::Isa;
 
-use super::connect::{Contribution, Pending, ShadowRay};
+use super::connect::{Contribution, Pending};
 use super::lanes::{
-    arrival_cos, at, dot, lambert_factor, lambert_pdf, sel, vec3_at, NearLanes, Side, L, L3,
+    arrival_cos, at, dot, lambert_factor, lambert_pdf, ray_at, sel, vec3_at, NearLanes, Side, L, L3,
 };
 use super::mis::{near_weight, Near};
 use super::vertex::{Context, Vertex};
@@ -179,19 +179,12 @@ multiversion! {
                 entry.s = 0;
                 continue;
             }
-            *entry = Pending {
-                contribution: Contribution::Splat(j.film, vec3_at(&value, i)),
-                ray: ShadowRay {
-                    origin: vec3_at(&origin, i),
-                    dir: vec3_at(&dir, i),
-                    tmax: tmax[i],
-                },
-                s: j.s as usize,
-                t: 1,
-                nee: None,
-                segment: None,
-                weight: Some(weight[i]),
-            };
+            *entry = Pending::weighed(
+                Contribution::Splat(j.film, vec3_at(&value, i)),
+                ray_at(&origin, &dir, &tmax, i),
+                (j.s as usize, 1),
+                weight[i],
+            );
         }
     }
 }

@@ -4,6 +4,7 @@
 
 use glam::Vec3;
 
+use super::connect::ShadowRay;
 use super::mis::Near;
 use super::vertex::{Kind, Vertex};
 use crate::accel::packet::LANES;
@@ -37,6 +38,16 @@ pub(super) fn at(v: &L3, i: usize) -> [f32; 3] {
 #[inline(always)]
 pub(super) fn vec3_at(v: &L3, i: usize) -> Vec3 {
     Vec3::new(v[0][i], v[1][i], v[2][i])
+}
+
+/// Lane `i`'s shadow ray, from its origin, direction and largest parameter in lanes.
+#[inline(always)]
+pub(super) fn ray_at(origin: &L3, dir: &L3, tmax: &L, i: usize) -> ShadowRay {
+    ShadowRay {
+        origin: vec3_at(origin, i),
+        dir: vec3_at(dir, i),
+        tmax: tmax[i],
+    }
 }
 
 /// `x` if `c`, else `y` (written as a select for the vectoriser).

@@ -52,9 +52,9 @@ fn ratio(rev: f32, fwd: f32) -> f32 {
     sel(fwd > 0.0 && rev.is_finite(), r * r, 0.0)
 }
 
-/// Stores in every vertex of a camera subpath the squared ratio of its reverse to its
-/// forward density and its [`Vertex::tail`], which the weights of all strategies that do
-/// not connect next to it share. Call once the subpath's densities are final.
+/// Stores in every vertex of a camera subpath its [`Vertex::tail`] (built from the squared
+/// ratios of reverse to forward density), which the weights of all strategies that do not
+/// connect next to it share. Call once the subpath's densities are final.
 pub(super) fn set_camera_ratios(path: &mut [Vertex]) {
     // The camera's own vertex starts no strategy (t = 0 does not exist): its tail is empty.
     let mut tail = 0.0f32;
@@ -64,7 +64,6 @@ pub(super) fn set_camera_ratios(path: &mut [Vertex]) {
             let counts = !path[i].delta && !path[i - 1].delta;
             tail = r * (f32::from(u8::from(counts)) + tail);
         }
-        path[i].ratio = r;
         path[i].tail = tail;
     }
 }
@@ -75,15 +74,20 @@ pub(super) fn set_light_ratios(path: &mut [Vertex]) {
     let mut tail = 0.0f32;
     for i in 0..path.len() {
         let r = ratio(path[i].pdf_rev, path[i].pdf_fwd);
-        let before = if i > 0 {
-            path[i - 1].delta
-        } else {
-            path[0].is_delta_light()
-        };
-        let counts = !path[i].delta && !before;
+        let counts = !path[i].delta && !delta_before(path, i);
         tail = r * (f32::from(u8::from(counts)) + tail);
-        path[i].ratio = r;
         path[i].tail = tail;
+    }
+}
+
+/// Whether light vertex `i` of `path` was reached through a Dirac delta: the lobe of the
+/// vertex before it, or for the light's own vertex a delta light (no strategy joins there).
+#[inline(always)]
+fn delta_before(path: &[Vertex], i: usize) -> bool {
+    if i > 0 {
+        path[i - 1].delta
+    } else {
+        path[0].is_delta_light()
     }
 }
 
@@ -177,6 +181,19 @@ impl Near {
         second_counts: false,
     };
 
+    /// A light vertex with nothing behind it on its subpath (of a light subpath or a light
+    /// point next-event estimation chose), of forward density `fwd`: only the strategy one
+    /// vertex back, which counts unless the vertex was reached through a Dirac delta.
+    #[inline(always)]
+    pub fn light_origin(fwd: f32, delta_before: bool) -> Near {
+        Near {
+            fwd,
+            first: true,
+            first_counts: !delta_before,
+            ..Near::NONE
+        }
+    }
+
     /// Camera vertex `j` (t = j + 1) of `path`, whose ratios are set
     /// ([`set_camera_ratios`]): strategies with one and two camera vertices fewer exist from
     /// t ≥ 2 and t ≥ 3.
@@ -205,22 +222,10 @@ impl Near {
     /// vertices where the light is not a Dirac delta.
     #[inline(always)]
     pub fn light(path: &[Vertex], j: usize) -> Near {
-        let delta_before = |i: usize| {
-            if i > 0 {
-                path[i - 1].delta
-            } else {
-                path[0].is_delta_light()
-            }
-        };
-        let mut n = Near {
-            fwd: path[j].pdf_fwd,
-            first: true,
-            first_counts: !delta_before(j),
-            ..Near::NONE
-        };
+        let mut n = Near::light_origin(path[j].pdf_fwd, delta_before(path, j));
         if j >= 1 {
             n.second = true;
-            n.second_counts = !path[j - 1].delta && !delta_before(j - 1);
+            n.second_counts = !path[j - 1].delta && !delta_before(path, j - 1);
             n.prev_fwd = path[j - 1].pdf_fwd;
         }
         if j >= 2 {

@@ -441,8 +441,8 @@ pub(super) const LANE_TEST_SETTINGS: PathSettings = PathSettings {
 };
 
 /// Asserts that the pending entry `got` a lane loop made for a strategy of `light` and
-/// `camera` is the one `connect::prepare` made (`want`; what only the lanes carry — the
-/// weight's densities in place of the connection's geometry — left out), and that both weigh to the same contribution
+/// `camera` is the one `connect::prepare` made (`want`; the lanes' weight, and what only the
+/// scalar weight reads, left out), and that both weigh to the same contribution
 /// (`connect::finish`). Returns whether the strategy adds anything.
 pub(super) fn assert_same_strategy(
     ctx: &Context,
@@ -455,7 +455,7 @@ pub(super) fn assert_same_strategy(
         assert_eq!(got.s, 0, "{at}: the scalar strategy adds nothing");
         return false;
     };
-    // The lanes carry the weight's densities instead of the connection's geometry.
+    // The lanes carry the weight itself instead of what the scalar weight reads.
     let mut plain = got;
     plain.segment = want.segment;
     plain.weight = None;

@@ -87,12 +87,10 @@ pub(super) struct Vertex {
     pub pdf_rev: f32,
     /// Its own subpath left it through a Dirac lobe.
     pub delta: bool,
-    /// `(pdf_rev / pdf_fwd)²` once the subpath is complete ([`super::mis::set_camera_ratios`]).
-    pub ratio: f32,
     /// What the strategies that move the connection two or more vertices back along this
     /// vertex's subpath add to a weight, per unit of the running density product there: the
     /// sum over the vertices `i ≤` this one that may start a strategy (no Dirac lobe next to
-    /// them) of `Π ratio` from `i` to this one. Summed once per subpath
+    /// them) of `Π (pdf_rev / pdf_fwd)²` from `i` to this one. Summed once per subpath
     /// ([`super::mis::set_camera_ratios`]), so that a weight is O(1) instead of a loop down
     /// both subpaths.
     pub tail: f32,
@@ -125,7 +123,6 @@ impl Vertex {
             pdf_fwd: 0.0,
             pdf_rev: 0.0,
             delta: false,
-            ratio: 0.0,
             tail: 0.0,
             w_prev: Vec3::ZERO,
             d2_prev: 0.0,
