@@ -478,6 +478,19 @@ impl RenderScene {
         }
     }
 
+    /// The vertex normals of triangle `triangle` of simple diffuse surface `sd`, which its
+    /// shading normal interpolates; `None` for a flat mesh (the gather of the vector bounce
+    /// and of the bidirectional walk lanes).
+    #[inline(always)]
+    pub(crate) fn simple_normals(&self, sd: &SimpleDiffuse, triangle: u32) -> Option<[Vec3; 3]> {
+        let mesh = &self.scene.meshes[sd.mesh];
+        if mesh.normals.is_empty() {
+            return None;
+        }
+        let [i0, i1, i2] = mesh.indices[triangle as usize].map(|v| v as usize);
+        Some([mesh.normals[i0], mesh.normals[i1], mesh.normals[i2]])
+    }
+
     /// The texture coordinates of simple diffuse surface `sd` at `hit`, as
     /// [`Self::surface`] computes them.
     pub(crate) fn simple_uv(&self, sd: &SimpleDiffuse, hit: &Hit) -> Vec2 {

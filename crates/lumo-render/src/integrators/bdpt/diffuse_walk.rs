@@ -92,14 +92,10 @@ multiversion! {
             let Some(walk) = &w.walks[k] else { continue };
             let sd = rs.simple_diffuse_ref(hit.instance);
             let normal = rs.unit_normal(sd.mesh, hit.triangle);
-            let mesh = &rs.scene.meshes[sd.mesh];
-            if !mesh.normals.is_empty() {
+            if let Some([n0, n1, n2]) = rs.simple_normals(sd, hit.triangle) {
                 interpolate[i] = true;
-                let [i0, i1, i2] = mesh.indices[hit.triangle as usize].map(|v| v as usize);
                 for a in 0..3 {
-                    nv0[a][i] = mesh.normals[i0][a];
-                    nv1[a][i] = mesh.normals[i1][a];
-                    nv2[a][i] = mesh.normals[i2][a];
+                    (nv0[a][i], nv1[a][i], nv2[a][i]) = (n0[a], n1[a], n2[a]);
                 }
             }
             let lane_albedo = rs.simple_albedo(sd, &hit);

@@ -227,14 +227,10 @@ fn bounce(
         let path = &mut paths[p as usize];
         path.radiance.rays += 1;
         let normal = rs.unit_normal(sd.mesh, hit.triangle);
-        let mesh = &rs.scene.meshes[sd.mesh];
-        if !mesh.normals.is_empty() {
+        if let Some([n0, n1, n2]) = rs.simple_normals(sd, hit.triangle) {
             interpolate[i] = true;
-            let [i0, i1, i2] = mesh.indices[hit.triangle as usize].map(|v| v as usize);
             for a in 0..3 {
-                nv0[a][i] = mesh.normals[i0][a];
-                nv1[a][i] = mesh.normals[i1][a];
-                nv2[a][i] = mesh.normals[i2][a];
+                (nv0[a][i], nv1[a][i], nv2[a][i]) = (n0[a], n1[a], n2[a]);
             }
         }
         bu[i] = hit.u;
@@ -243,7 +239,7 @@ fn bounce(
         // (Textured reflectances are looked up after this loop.)
         let lane_albedo = match &path.wl {
             None => sd.albedo,
-            Some(wl) => rs.spectral_reflectance(sd.albedo, mesh.material, wl),
+            Some(wl) => rs.spectral_reflectance(sd.albedo, rs.scene.meshes[sd.mesh].material, wl),
         };
         for a in 0..3 {
             o[a][i] = path.origin[a];
