@@ -10,12 +10,13 @@ use super::lanes::albedo_row;
 use super::layout::{Layout, M, QW};
 use crate::common::albedo::{albedo_divisor, ALBEDO_EPS};
 use crate::common::passthrough::passed;
+use crate::common::zeroed::zeroed_image;
 
 /// Copies the filtered colour out of `src` into an image; with demodulation, multiplies the
 /// albedo back and puts the pass-through pixels' own colour back (0 where not finite).
 pub(super) fn output(inp: &Input, lay: Layout, src: &[f32]) -> Image {
     let (w, h) = (lay.w, lay.h);
-    let mut out = Image::new(w, h, 3, 0.0);
+    let mut out = zeroed_image(w, h, 3);
     out.data
         .par_chunks_mut(3 * w)
         .enumerate()

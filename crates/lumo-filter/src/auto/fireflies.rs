@@ -14,6 +14,7 @@ use lumo_image::{luminance, Image};
 use rayon::prelude::*;
 
 use crate::common::boxsum::box_mean_finite;
+use crate::common::zeroed::zeroed_image;
 use crate::{guided, FilterError, Guide, GuidedParams};
 
 /// The colour split into what the candidates filter and what is spread.
@@ -60,7 +61,7 @@ pub(super) fn split(y: &Image, k: f32, r: usize) -> Split {
         .collect();
     let threshold: Vec<f32> = window_mean(&pre).into_par_iter().map(|m| k * m).collect();
     let mut clamped = y.clone();
-    let mut excess = Image::new(w, h, 3, 0.0);
+    let mut excess = zeroed_image(w, h, 3);
     let count = clamped
         .data
         .par_chunks_mut(3)

@@ -26,9 +26,10 @@ use rayon::prelude::*;
 use crate::common::albedo::surface_albedo;
 use crate::common::boxsum::box_mean;
 use crate::common::gbuffer::{check_color, missing_pixels, Features, Filtered};
+use crate::common::zeroed::{zeroed, zeroed_image};
 use crate::denoiser::{Denoiser, FilterInput, FilterKind};
-use crate::guided::guided_self_weighted;
-use crate::{build_guide, demodulate, DepthNorm, FilterError, Guide, GuideKind, GuidedParams};
+use crate::guided::SharedInput;
+use crate::{build_guide, demodulate, DepthNorm, FilterError, GuideKind, GuidedParams};
 use lumo_simd::fastmath::exp_neg;
 
 /// Parameters of [`auto`]; the defaults were chosen on the tuning set (scenes/tuning and the
@@ -176,21 +177,19 @@ pub fn auto(
         .collect();
     runs.sort_unstable();
     runs.dedup();
-    // The flat candidates' guide: the same planes, ε = flat_eps on every dimension.
-    let flat = Guide {
-        eps: vec![params.flat_eps; guide.dims],
-        ..guide.clone()
-    };
+    // The flat candidates' ε: flat_eps on every dimension of the same guide planes.
+    let flat_eps = vec![params.flat_eps; guide.dims];
+    let mut shared = SharedInput::new(y, &guide)?;
     let mut candidates = Vec::with_capacity(runs.len() + 1);
     let mut errors = Vec::with_capacity(runs.len() + 1);
     for &(r, is_flat) in &runs {
-        let g = if is_flat { &flat } else { &guide };
+        let eps = if is_flat { &flat_eps } else { &guide.eps };
         let subsampled = params.coarse_from > 0 && r >= params.coarse_from;
         let gp = GuidedParams {
             radius: r,
             fast_subsample: if subsampled { 2 } else { 1 },
         };
-        let (f, self_weight) = guided_self_weighted(y, g, &gp)?;
+        let (f, self_weight) = shared.self_weighted(eps, &gp)?;
         errors.push(loo_error(y, &f.image, &self_weight, params.error_radius));
         candidates.push(f.image);
     }
@@ -220,7 +219,7 @@ pub fn auto(
 /// The candidates blended per pixel with weights `exp(−(e_k − e_min) / (softness · e_min))`,
 /// row by row.
 fn blend(candidates: &[Image], errors: &[Vec<f32>], softness: f32, w: usize, h: usize) -> Image {
-    let mut blended = Image::new(w, h, 3, 0.0);
+    let mut blended = zeroed_image(w, h, 3);
     blended
         .data
         .par_chunks_mut(3 * w)
@@ -285,7 +284,7 @@ multiversion! {
 /// candidate, so the blend there is uniform).
 fn loo_error(y: &Image, f: &Image, self_weight: &[f32], r: usize) -> Vec<f32> {
     let (w, h) = (y.width, y.height);
-    let mut sq = vec![0.0f32; w * h * 2];
+    let mut sq = zeroed(w * h * 2);
     sq.par_chunks_mut(2).enumerate().for_each(|(i, s)| {
         // A pixel that is all its own estimate predicts nothing: floor the denominator.
         let k = 1.0 / (1.0 - self_weight[i]).max(0.05);

@@ -9,6 +9,7 @@ use crate::common::gbuffer::{
     check_color, check_size, is_background, missing_pixels, Features, Filtered,
 };
 use crate::common::passthrough::passed;
+use crate::common::zeroed::zeroed_image;
 use crate::FilterError;
 
 /// Albedo below this (in every channel) cannot be divided by safely: such pixels (black
@@ -61,7 +62,7 @@ pub fn demodulate(color: &Image, albedo: &Image) -> Result<Demodulated, FilterEr
         });
     }
     let n = color.pixel_count();
-    let mut illum = Image::new(color.width, color.height, 3, 0.0);
+    let mut illum = zeroed_image(color.width, color.height, 3);
     let mut used = Image::new(color.width, color.height, 3, 1.0);
     let mut passthrough = vec![false; n];
     for i in 0..n {

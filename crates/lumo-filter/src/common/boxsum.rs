@@ -7,6 +7,8 @@
 
 use rayon::prelude::*;
 
+use crate::common::zeroed::zeroed;
+
 /// Window sizes for every position along an axis of length `n`: the window [i−r, i+r] clipped
 /// to the axis (the normalisation of He et al.'s `boxfilter(ones)`).
 fn counts(n: usize, r: usize) -> Vec<f64> {
@@ -28,7 +30,7 @@ pub fn box_mean(data: &[f32], w: usize, h: usize, k: usize, r: usize) -> Vec<f32
     let cy = counts(h, r);
     let stride = w * k;
     // Horizontal pass, one row per task.
-    let mut tmp = vec![0.0f32; data.len()];
+    let mut tmp = zeroed(data.len());
     // `auto`'s errors and the light search run it on 2 channels: with the channel count a
     // constant the per-channel loops unroll and vectorise (the same operations per channel,
     // so the same bits).
@@ -49,7 +51,7 @@ pub fn box_mean(data: &[f32], w: usize, h: usize, k: usize, r: usize) -> Vec<f32
     // than on two). Eight bands, the split two threads had before.
     let band = h.div_ceil(8).max(16);
     let tmp: &[f32] = &tmp;
-    let mut out = vec![0.0f32; data.len()];
+    let mut out = zeroed(data.len());
     out.par_chunks_mut(band * stride)
         .enumerate()
         .for_each(|(b, out_band)| {

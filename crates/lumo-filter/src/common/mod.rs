@@ -17,3 +17,4 @@ pub(crate) mod gbuffer;
 pub(crate) mod noise;
 pub(crate) mod outliers;
 pub(crate) mod passthrough;
+pub(crate) mod zeroed;

@@ -3,12 +3,13 @@
 //!
 //! Files: this one (guide building, parameters, the public entry point, the sub-sampled
 //! variant), stream.rs (the exact filter streamed row by row), cholesky.rs (its small window
-//! solves), self_weight.rs (the exact `∂F_p/∂y_p` that `auto` needs, streamed with the filter)
-//! and lookup.rs (the paper's geometry-aware lookup, used by the guided pipeline).
+//! solves), self_weight.rs (the exact `∂F_p/∂y_p` that `auto` needs, streamed with the filter),
+//! shared.rs (the input prepared once for several runs) and lookup.rs (the paper's geometry-aware lookup, used by the guided pipeline).
 
 pub(crate) mod cholesky;
 mod lookup;
 pub(crate) mod self_weight;
+mod shared;
 mod stream;
 
 use lumo_image::Image;
@@ -20,9 +21,11 @@ use crate::common::error::param;
 use crate::common::gbuffer::{
     background_mask, check_color, check_features, check_size, flush, plane0, Features, Filtered,
 };
+use crate::common::zeroed::{zeroed, zeroed_image};
 use crate::denoiser::{require, Denoiser, FilterInput, FilterKind};
 use crate::FilterError;
 use self_weight::{cross_weight_at, terms};
+pub(crate) use shared::SharedInput;
 use stream::{stream, Problem};
 
 pub use lookup::{most_similar, most_similar_in_grid, neighbour_cells};
@@ -305,30 +308,7 @@ pub fn guided(
     guide: &Guide,
     params: &GuidedParams,
 ) -> Result<Filtered, FilterError> {
-    let (p, missing) = checked_input(color, guide, params)?;
-    let (w, h) = (color.width, color.height);
-    let s = params.fast_subsample;
-    let d = guide.dims;
-    let image = if s == 1 {
-        let pb = Problem {
-            guide: &guide.data,
-            p: &p,
-            eps: &guide.eps,
-            w,
-            h,
-            r: params.radius,
-        };
-        let mut out = Image::new(w, h, 3, 0.0);
-        let g = &guide.data;
-        stream_dims::<false>(d, &pb, &mut out.data, 3 * w, &|y, ab, row| {
-            apply_row(&g[y * w * d..(y + 1) * w * d], d, 3 * d + 3, ab, row)
-        });
-        out
-    } else {
-        let c = coarse_grid::<false>(guide, &p, params.radius, s);
-        apply_upsampled(&guide.data, w, h, d, &c.ab, c.w, c.h, s)
-    };
-    Ok(Filtered { image, missing })
+    SharedInput::new(color, guide)?.filter(&guide.eps, params)
 }
 
 /// The guided filter with `params` and its self-weight `∂F_p/∂y_p` at every pixel
@@ -338,32 +318,33 @@ pub fn guided(
 /// pixel's input reaches the coarse grid's filter through its block's mean, and the weight
 /// is that block's effect on the pixel's interpolated model, counting every window around
 /// the interpolation's nodes, also those that miss the block ([`apply_upsampled_weighted`]).
+/// (Several runs on the same colour and guide planes: [`SharedInput::self_weighted`].)
+#[cfg(test)]
 pub(crate) fn guided_self_weighted(
     color: &Image,
     guide: &Guide,
     params: &GuidedParams,
 ) -> Result<(Filtered, Vec<f32>), FilterError> {
-    let (p, missing) = checked_input(color, guide, params)?;
-    let (w, h, d, radius) = (color.width, color.height, guide.dims, params.radius);
-    let s = params.fast_subsample;
-    if s > 1 {
-        let coarse = coarse_grid::<true>(guide, &p, radius, s);
-        let (image, weights) = apply_upsampled_weighted(&guide.data, w, h, d, &coarse);
-        return Ok((Filtered { image, missing }, weights));
+    SharedInput::new(color, guide)?.self_weighted(&guide.eps, params)
+}
+
+/// The exact filter's output (the coefficients applied to the guide) and, when `SW`, each
+/// pixel's self-weight, for the colour `p` as the filter reads it ([`guided_input`], missing
+/// pixels filled); the self-weights are empty unless `SW`.
+fn exact<const SW: bool>(pb: &Problem, d: usize) -> (Image, Vec<f32>) {
+    let (w, h, g) = (pb.w, pb.h, pb.guide);
+    if !SW {
+        let mut out = zeroed_image(w, h, 3);
+        stream_dims::<false>(d, pb, &mut out.data, 3 * w, &|y, ab, row| {
+            apply_row(&g[y * w * d..(y + 1) * w * d], d, 3 * d + 3, ab, row)
+        });
+        return (out, Vec::new());
     }
-    let pb = Problem {
-        guide: &guide.data,
-        p: &p,
-        eps: &guide.eps,
-        w,
-        h,
-        r: radius,
-    };
     // Row y of `out`: the filtered row (3w values), then its weights (w).
-    let mut out = vec![0.0f32; w * h * 4];
-    let (g, k0) = (&guide.data, 3 * d + 3);
+    let mut out = zeroed(w * h * 4);
+    let k0 = 3 * d + 3;
     let k2 = k0 + terms(d);
-    stream_dims::<true>(d, &pb, &mut out, 4 * w, &|y, ab, row| {
+    stream_dims::<true>(d, pb, &mut out, 4 * w, &|y, ab, row| {
         let gr = &g[y * w * d..(y + 1) * w * d];
         let (rgb, weights) = row.split_at_mut(3 * w);
         apply_row(gr, d, k2, ab, rgb);
@@ -372,8 +353,8 @@ pub(crate) fn guided_self_weighted(
             *wt = cross_weight_at(gx, gx, &ab[x * k2 + k0..(x + 1) * k2]);
         }
     });
-    let mut image = Image::new(w, h, 3, 0.0);
-    let mut weights = vec![0.0f32; w * h];
+    let mut image = zeroed_image(w, h, 3);
+    let mut weights = zeroed(w * h);
     image
         .data
         .par_chunks_mut(3 * w)
@@ -383,22 +364,25 @@ pub(crate) fn guided_self_weighted(
             rgb.copy_from_slice(&row[..3 * w]);
             wt.copy_from_slice(&row[3 * w..]);
         });
-    Ok((Filtered { image, missing }, weights))
+    (image, weights)
 }
 
-/// The fast filter's grid `s` times coarser for `guide` and the input `p` (full resolution,
-/// 3 channels): its guide and input as block means, and the stream's averaged coefficients
-/// there (followed by the self-weight terms when `SW`) at the coarse radius.
-fn coarse_grid<const SW: bool>(guide: &Guide, p: &[f32], radius: usize, s: usize) -> Coarse {
-    let (w, h, d) = (guide.width, guide.height, guide.dims);
-    let (lw, lh) = (w.div_ceil(s), h.div_ceil(s));
-    let gl = downsample(&guide.data, w, h, d, s);
-    let pl = downsample(p, w, h, 3, s);
+/// The fast filter's coarse grid for the block means `gl` (guide) and `pl` (input) of an
+/// `s`-times coarser grid: the stream's averaged coefficients there at the coarse radius
+/// (followed by the self-weight terms when `SW`).
+fn coarse_grid<'a, const SW: bool>(
+    (gl, pl): (&'a [f32], &[f32]),
+    (lw, lh): (usize, usize),
+    eps: &[f32],
+    radius: usize,
+    s: usize,
+) -> Coarse<'a> {
+    let d = eps.len();
     let k2 = 3 * d + 3 + if SW { terms(d) } else { 0 };
     let pb = Problem {
-        guide: &gl,
-        p: &pl,
-        eps: &guide.eps,
+        guide: gl,
+        p: pl,
+        eps,
         w: lw,
         h: lh,
         r: coarse_radius(radius, s),
@@ -421,23 +405,8 @@ fn coarse_radius(radius: usize, s: usize) -> usize {
     ((radius as f32 / s as f32).round() as usize).max(1)
 }
 
-/// The input as the filter reads it ([`guided_input`]) after the checks of [`check_problem`],
-/// missing pixels filled from their window ([`fill_missing`]), and their number.
-fn checked_input(
-    color: &Image,
-    guide: &Guide,
-    params: &GuidedParams,
-) -> Result<(Vec<f32>, usize), FilterError> {
-    check_problem(color, guide, params)?;
-    let (mut p, valid, missing) = guided_input(color);
-    if missing > 0 {
-        fill_missing(&mut p, &valid, color.width, color.height, params.radius);
-    }
-    Ok((p, missing))
-}
-
-/// The checks [`guided`] makes of its inputs.
-fn check_problem(color: &Image, guide: &Guide, params: &GuidedParams) -> Result<(), FilterError> {
+/// The checks [`guided`] makes of the colour and the guide planes.
+fn check_planes(color: &Image, guide: &Guide) -> Result<(), FilterError> {
     check_color("color", color)?;
     let (w, h) = (color.width, color.height);
     if guide.width != w || guide.height != h {
@@ -457,7 +426,12 @@ fn check_problem(color: &Image, guide: &Guide, params: &GuidedParams) -> Result<
             expected: "1..=8 with width*height*dims values",
         });
     }
-    if guide.eps.len() != guide.dims || guide.eps.iter().any(|e| !(*e > 0.0)) {
+    Ok(())
+}
+
+/// The checks [`guided`] makes of a run's ε (one per guide dimension) and parameters.
+fn check_run(dims: usize, eps: &[f32], params: &GuidedParams) -> Result<(), FilterError> {
+    if eps.len() != dims || eps.iter().any(|e| !(*e > 0.0)) {
         return Err(param("eps", "one value > 0 per guide dimension"));
     }
     if params.radius == 0 {
@@ -476,8 +450,8 @@ fn check_problem(color: &Image, guide: &Guide, params: &GuidedParams) -> Result<
 /// of missing pixels.
 fn guided_input(color: &Image) -> (Vec<f32>, Vec<f32>, usize) {
     let w = color.width;
-    let mut p = vec![0.0f32; color.data.len()];
-    let mut valid = vec![0.0f32; w * color.height];
+    let mut p = zeroed(color.data.len());
+    let mut valid = zeroed(w * color.height);
     let missing = p
         .par_chunks_mut(3 * w)
         .zip(valid.par_chunks_mut(w))
@@ -559,20 +533,17 @@ fn lerp_at(i: usize, s: usize, n: usize) -> (usize, usize, f32) {
 }
 
 /// The fast filter's output: per pixel, the bilinearly upsampled coefficients of the
-/// `lw`×`lh` grid `ab` applied to the full-resolution guide, q_c = Σ_i a_ci I_i + b_c.
-#[allow(clippy::too_many_arguments)]
-fn apply_upsampled(
-    guide: &[f32],
-    w: usize,
-    h: usize,
-    d: usize,
-    ab: &[f32],
-    lw: usize,
-    lh: usize,
-    s: usize,
-) -> Image {
+/// coarse grid's coefficients applied to the full-resolution guide, q_c = Σ_i a_ci I_i + b_c.
+fn apply_upsampled(guide: &[f32], w: usize, h: usize, d: usize, coarse: &Coarse) -> Image {
+    let Coarse {
+        ref ab,
+        w: lw,
+        h: lh,
+        s,
+        ..
+    } = *coarse;
     let k2 = 3 * d + 3;
-    let mut out = Image::new(w, h, 3, 0.0);
+    let mut out = zeroed_image(w, h, 3);
     out.data
         .par_chunks_mut(3 * w)
         .enumerate()
@@ -607,8 +578,8 @@ fn apply_upsampled(
 
 /// The fast filter's coarse grid ([`coarse_grid`]): its guide (block means), its averaged
 /// coefficients (and self-weight terms), its size and the sub-sampling factor.
-struct Coarse {
-    guide: Vec<f32>,
+struct Coarse<'a> {
+    guide: &'a [f32],
     ab: Vec<f32>,
     w: usize,
     h: usize,
@@ -629,7 +600,7 @@ fn apply_upsampled_weighted(
     coarse: &Coarse,
 ) -> (Image, Vec<f32>) {
     let Coarse {
-        guide: ref gl,
+        guide: gl,
         ref ab,
         w: lw,
         h: lh,
@@ -637,8 +608,8 @@ fn apply_upsampled_weighted(
     } = *coarse;
     let k0 = 3 * d + 3;
     let k2 = k0 + terms(d);
-    let mut out = Image::new(w, h, 3, 0.0);
-    let mut weights = vec![0.0f32; w * h];
+    let mut out = zeroed_image(w, h, 3);
+    let mut weights = zeroed(w * h);
     out.data
         .par_chunks_mut(3 * w)
         .zip(weights.par_chunks_mut(w))
