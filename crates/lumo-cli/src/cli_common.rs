@@ -97,10 +97,29 @@ pub fn bytes(n: u64) -> String {
     }
 }
 
-/// Refuses `--max-depth 0` (Mitsuba's convention starts at 1).
+/// Refuses `--max-depth 0` (Mitsuba's convention starts at 1) and depths beyond what a scene
+/// file may ask for ([`lumo_scene::DEPTH_LIMIT`]: a closed mirror box would trace for hours).
 pub fn check_max_depth(max_depth: Option<u32>) -> Result<()> {
-    if max_depth == Some(0) {
-        bail!("--max-depth must be at least 1 (1 = emitters seen directly)");
+    let limit = lumo_scene::DEPTH_LIMIT;
+    match max_depth {
+        Some(0) => bail!("--max-depth must be at least 1 (1 = emitters seen directly)"),
+        Some(d) if d > limit => bail!(
+            "--max-depth {d} is beyond the limit {limit} (Mitsuba's unbounded depth; Russian \
+             roulette ends long paths: use --max-depth {limit} for 'unbounded')"
+        ),
+        _ => Ok(()),
     }
-    Ok(())
+}
+
+/// Refuses `--rr-depth` outside 1..=[`lumo_scene::DEPTH_LIMIT`], the range a scene file's
+/// `rr_depth` has.
+pub fn check_rr_depth(rr_depth: Option<u32>) -> Result<()> {
+    let limit = lumo_scene::DEPTH_LIMIT;
+    match rr_depth {
+        Some(d) if d == 0 || d > limit => bail!(
+            "--rr-depth {d} must be 1..={limit} (the depth from which Russian roulette may end \
+             paths; 1 = from the first bounce)"
+        ),
+        _ => Ok(()),
+    }
 }

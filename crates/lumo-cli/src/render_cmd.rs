@@ -66,7 +66,7 @@ pub struct RenderArgs {
     #[arg(long)]
     pub camera: Option<usize>,
     /// glTF: pose the animated nodes at time T seconds [default: the rest pose].
-    #[arg(long, value_name = "T")]
+    #[arg(long, value_name = "T", value_parser = parse_time)]
     pub time: Option<f32>,
     /// Render frames A to B (both included) as a numbered sequence, OUT_0000.exr …: an animated
     /// glTF scene is posed at t = frame / --fps; with --orbit the camera turns (see
@@ -213,6 +213,17 @@ pub fn parse_size(s: &str) -> Result<(usize, usize), String> {
         return Err(err());
     }
     Ok((w, h))
+}
+
+/// Parses `--time T`: seconds, a finite number (a NaN would reach the animation as a
+/// transform that is "not finite", naming an instance instead of the option).
+pub fn parse_time(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(t) if t.is_finite() => Ok(t),
+        _ => Err(format!(
+            "invalid time {s:?}: expected a finite number of seconds, e.g. 0.5"
+        )),
+    }
 }
 
 /// Parses `NAME=VALUE` for `-D`.
@@ -416,6 +427,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         _ => {}
     }
     crate::cli_common::check_max_depth(args.max_depth)?;
+    crate::cli_common::check_rr_depth(args.rr_depth)?;
     // Command-line options win over the scene file's settings, which win over the defaults.
     let (width, height) = args
         .size

@@ -31,6 +31,18 @@ pub struct Camera {
 }
 
 impl Camera {
+    /// Whether the camera has a basis: finite eye, target and up, the target away from the
+    /// eye and the up hint not along the view direction ([`Camera::basis`] is NaN otherwise,
+    /// and every ray with it: a black image).
+    pub fn is_well_formed(&self) -> bool {
+        let forward = self.target - self.origin;
+        let finite = self.origin.is_finite() && self.target.is_finite() && self.up.is_finite();
+        let side = forward
+            .normalize_or_zero()
+            .cross(self.up.normalize_or_zero());
+        finite && forward.length_squared() > 0.0 && side.length_squared() > 1e-12
+    }
+
     /// Orthonormal (right, up, forward) basis of the camera.
     pub fn basis(&self) -> (Vec3, Vec3, Vec3) {
         let forward = (self.target - self.origin).normalize();

@@ -2,6 +2,11 @@ use glam::{Vec3, Vec4Swizzles};
 
 use crate::{Camera, Instance, Light, Material, Mesh, SceneError};
 
+/// The longest path depth and Russian-roulette depth a scene file or the command line may ask
+/// for: Mitsuba's "unbounded" (`max_depth = -1`) maps to it, and Russian roulette ends such
+/// paths long before (a larger limit only lets a closed mirror box run for hours).
+pub const DEPTH_LIMIT: u32 = 1 << 16;
+
 /// Resolution and sampling a scene asks for; command-line options override them.
 #[derive(Clone, Debug)]
 pub struct RenderDefaults {

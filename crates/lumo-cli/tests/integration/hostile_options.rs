@@ -76,6 +76,14 @@ fn unbounded_options_are_refused_naming_the_option() {
             "--block 0",
         ),
         (&["render", "--subsample", "3"], "--subsample 3"),
+        // Beyond a scene file's own limit a closed mirror box traces for hours.
+        (
+            &["render", "--max-depth", "4294967295"],
+            "--max-depth 4294967295",
+        ),
+        (&["render", "--rr-depth", "0"], "--rr-depth 0"),
+        (&["render", "--rr-depth", "65537"], "--rr-depth 65537"),
+        (&["render", "--time", "nan"], "finite number of seconds"),
         (&["render", "--guide-dims", "2"], "--guide-dims 2"),
         (
             &["compare", "--ppd", "1e30", "a.png", "b.png"],

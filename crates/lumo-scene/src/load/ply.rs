@@ -373,5 +373,25 @@ fn parse(path: &Path, bytes: &[u8], diag: &mut Diagnostics) -> Result<Mesh, Load
             format!("{skipped_faces} faces with fewer than 3 vertices skipped"),
         )?;
     }
+    // A colour cannot be negative (nor NaN): read as 0 with a warning, as OBJ's `Kd` and
+    // glTF's factors are, instead of rendering negative light.
+    let bad_colours = mesh
+        .colors
+        .iter()
+        // (Not `min_element`: it skips NaN.)
+        .filter(|c| !(c.x >= 0.0 && c.y >= 0.0 && c.z >= 0.0))
+        .count();
+    if bad_colours > 0 {
+        for c in &mut mesh.colors {
+            *c = Vec3::new(c.x.max(0.0), c.y.max(0.0), c.z.max(0.0));
+        }
+        diag.warn(
+            Location::item(path, "element vertex"),
+            format!(
+                "{bad_colours} vertex colours have a negative or NaN value; a colour cannot be \
+                 negative, so those values are read as 0"
+            ),
+        )?;
+    }
     Ok(mesh)
 }

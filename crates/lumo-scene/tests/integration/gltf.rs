@@ -184,6 +184,16 @@ fn bad_gltf_is_a_clear_error() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("missing.bin"), "{e}");
+    // A zero scale on the camera's node collapses its view direction: refused, not a black
+    // image (the XML loader refuses a singular camera transform likewise).
+    let flat = edited("\"camera\": 0,", "\"camera\": 0, \"scale\": [0, 0, 0],");
+    let e = load(&write(&dir, "flat.gltf", flat))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("flat.gltf") && e.contains("camera 0") && e.contains("singular"),
+        "{e}"
+    );
 }
 
 /// scenes/animated.gltf (scripts/make_animated_scene.py): instances, the area light's

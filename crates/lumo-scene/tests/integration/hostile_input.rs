@@ -259,8 +259,10 @@ fn missing_files_are_named_once_with_their_cause_once() {
     let text = error_of(bad("texture_missing.xml"));
     assert!(text.contains("texture_missing.xml:3: image"), "{text}");
     assert_says_once(&text, "no_such_texture.png", fix);
-    // The mesh reader names the mesh (the scene's line is not passed to it).
+    // A missing mesh is named at the shape element that names it.
     let text = error_text(bad("missing_mesh.xml"));
+    assert!(text.contains("missing_mesh.xml:"), "{text}");
+    assert!(text.contains(": cannot read mesh file"), "{text}");
     assert_says_once(&text, "no_such_mesh.ply", fix);
     let text = load(&bad("no_such_scene.xml")).unwrap_err().to_string();
     assert_says_once(&text, "no_such_scene.xml", fix);

@@ -239,3 +239,42 @@ fn ply_header_claiming_10_to_the_12_vertices_allocates_nothing_up_front() {
         );
     }
 }
+
+/// Negative or NaN PLY vertex colours are read as 0 with one warning naming the file, as OBJ
+/// `Kd` and glTF colours are: a colour cannot be negative, and the renderer would otherwise
+/// emit negative light from the surface.
+#[test]
+fn negative_ply_vertex_colours_are_read_as_zero_with_a_warning() {
+    let ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+               property float z\nproperty float red\nproperty float green\nproperty float blue\n\
+               element face 1\nproperty list uchar int vertex_indices\nend_header\n\
+               0 0 0 -5 0.5 0.5\n1 0 0 0.2 nan 0.3\n0 1 0 0.1 0.2 0.3\n3 0 1 2\n";
+    let loaded = load_ply_bytes(
+        ply.as_bytes(),
+        Path::new("neg.ply"),
+        &LoadOptions::default(),
+    )
+    .expect("loads");
+    let colors = &loaded.scene.meshes[0].colors;
+    assert_eq!(colors.len(), 3);
+    assert!(
+        colors
+            .iter()
+            .all(|c| c.x >= 0.0 && c.y >= 0.0 && c.z >= 0.0),
+        "{colors:?}"
+    );
+    assert_eq!(colors[0].x, 0.0);
+    assert_eq!(colors[1].y, 0.0);
+    assert_eq!(colors[2].z, 0.3);
+    let w: Vec<_> = loaded.warnings.iter().map(|w| w.to_string()).collect();
+    assert_eq!(w.len(), 1, "{w:?}");
+    assert!(
+        w[0].contains("neg.ply") && w[0].contains("2 vertex colours"),
+        "{w:?}"
+    );
+    let strict = LoadOptions {
+        strict: true,
+        ..LoadOptions::default()
+    };
+    assert!(load_ply_bytes(ply.as_bytes(), Path::new("neg.ply"), &strict).is_err());
+}

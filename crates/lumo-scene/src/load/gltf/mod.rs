@@ -151,6 +151,15 @@ fn load_unguarded(
     }
     let mut rig = std::mem::take(&mut r.rig);
     rig.pose(&mut r.scene, options.time);
+    if let Some((_, camera)) = chosen.filter(|_| !r.scene.camera.is_well_formed()) {
+        // A zero scale on the camera's node (or one of its parents) collapses its view
+        // direction: every ray would be NaN, a black image.
+        return Err(LoadError::invalid(
+            Location::item(path, format!("camera {camera}")),
+            "the camera node's transform is singular or not finite (a zero scale, or up along \
+             the view direction): give the node and its parents a non-zero scale",
+        ));
+    }
     let mut scene = r.scene;
     if chosen.is_none() {
         let (lo, hi) = scene.bounds();

@@ -19,7 +19,7 @@ const SPHERE_SEGMENTS: u32 = 128;
 const ROUND_SEGMENTS: u32 = 128;
 
 /// Mitsuba's `max_depth = -1` (unbounded); Russian roulette ends such paths.
-const UNBOUNDED_DEPTH: u32 = 1 << 16;
+const UNBOUNDED_DEPTH: u32 = crate::DEPTH_LIMIT;
 
 impl<'a> Builder<'a, '_> {
     /// `<sensor>`: camera, film size, sample count and seed.
@@ -243,14 +243,14 @@ impl<'a> Builder<'a, '_> {
             d => {
                 return Err(LoadError::invalid(
                     at,
-                    format!("max_depth {d} must be -1 (unbounded) or at least 1"),
+                    format!("max_depth {d} must be -1 (unbounded) or 1..={UNBOUNDED_DEPTH}"),
                 ))
             }
         };
         if !(1..=UNBOUNDED_DEPTH as i64).contains(&rr_depth) {
             return Err(LoadError::invalid(
                 at,
-                format!("rr_depth {rr_depth} must be at least 1"),
+                format!("rr_depth {rr_depth} must be 1..={UNBOUNDED_DEPTH}"),
             ));
         }
         self.settings.max_depth = Some(max_depth);
@@ -447,8 +447,21 @@ impl<'a> Builder<'a, '_> {
                     LoadError::invalid(at.clone(), format!("{kind} shape needs a filename"))
                 })?;
                 let path = self.file_path(el, &file)?;
+                // A mesh file that cannot be read is named at the element that names it (its
+                // own errors name the mesh file and its line instead).
+                let at_shape = |e: LoadError| match e {
+                    LoadError::Io { path, error } => LoadError::invalid(
+                        at.clone(),
+                        format!(
+                            "cannot read mesh file {}: {}",
+                            path.display(),
+                            lumo_image::describe_io_error(&error)
+                        ),
+                    ),
+                    e => e,
+                };
                 let mut mesh = if kind == "obj" {
-                    let (meshes, _) = obj::read(&path, self.diag)?;
+                    let (meshes, _) = obj::read(&path, self.diag).map_err(at_shape)?;
                     let mut all = Mesh::default();
                     for m in &meshes {
                         all.append(m);
@@ -461,7 +474,7 @@ impl<'a> Builder<'a, '_> {
                     }
                     all
                 } else {
-                    let mut mesh = ply::read(&path, self.diag)?;
+                    let mut mesh = ply::read(&path, self.diag).map_err(at_shape)?;
                     // Mitsuba uses vertex colours only through a mesh_attribute texture.
                     mesh.colors.clear();
                     mesh
