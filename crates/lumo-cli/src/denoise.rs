@@ -262,6 +262,9 @@ fn read_inputs(a: &DenoiseArgs) -> anyhow::Result<Inputs> {
                     img.channels
                 );
             }
+            if what == "depth" {
+                lumo_filter::check_depth_plane(img).with_context(|| p.display().to_string())?;
+            }
         }
     }
     Ok(inputs)

@@ -63,7 +63,7 @@ pub use common::boxsum::box_mean;
 pub use common::emitters::{detect_emitters, EmitterMask, EmitterParams};
 pub use common::error::FilterError;
 pub use common::fastmath::exp_neg;
-pub use common::gbuffer::{missing_pixels, Features, Filtered};
+pub use common::gbuffer::{check_depth_plane, missing_pixels, Features, Filtered};
 pub use common::noise::spatial_variance;
 pub use common::outliers::remove_outliers;
 pub use common::passthrough::{with_emitted, with_hidden, with_passthrough};

@@ -66,6 +66,18 @@ pub(crate) fn read(path: &Path, file_bytes: u64) -> Result<Image, ImageError> {
     let scale: f32 = tokens[3]
         .parse()
         .map_err(|_| format_err(path, format!("bad PFM scale {:?}", tokens[3])))?;
+    // Its sign is the byte order; zero or NaN says neither, and reading on would turn the
+    // pixels into garbage (a zero scale once decoded as big-endian values near ±3e38).
+    if !(scale.is_finite() && scale != 0.0) {
+        return Err(format_err(
+            path,
+            format!(
+                "PFM scale {:?} must be a non-zero finite number (negative: little-endian \
+                 pixels, positive: big-endian; most writers use -1)",
+                tokens[3]
+            ),
+        ));
+    }
     let little = scale < 0.0;
     let n = width
         .checked_mul(height)

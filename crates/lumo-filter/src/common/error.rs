@@ -19,6 +19,22 @@ pub enum FilterError {
         /// Height of the reference.
         ref_height: usize,
     },
+    /// A depth plane with several channels that differ: depth is one value per pixel, stored
+    /// as 1 channel or 3 equal ones; anything else is most likely another plane given as depth.
+    #[error(
+        "depth has {channels} channels that differ (at pixel ({x}, {y}): {values:?}); depth is \
+         1 channel or 3 equal ones: is this the normal or the position plane?"
+    )]
+    DepthChannelsDiffer {
+        /// The plane's channel count.
+        channels: usize,
+        /// Column of the first pixel whose channels differ.
+        x: usize,
+        /// Its row.
+        y: usize,
+        /// Its first three channels.
+        values: [f32; 3],
+    },
     /// A plane has a channel count the filter cannot interpret.
     #[error("{name} has {got} channels, expected {expected}")]
     Channels {

@@ -160,6 +160,7 @@ pub(crate) fn check_features(f: &Features, w: usize, h: usize) -> Result<(), Fil
     }
     if let Some(d) = f.depth {
         check_feature("depth", d, w, h, 1, "1 (or 3 equal ones)")?;
+        check_depth_plane(d)?;
     }
     if let Some(a) = f.albedo {
         if a.channels == 2 {
@@ -182,6 +183,37 @@ pub(crate) fn check_features(f: &Features, w: usize, h: usize) -> Result<(), Fil
         check_feature("variance", v, w, h, 1, "1 or 3")?;
     }
     Ok(())
+}
+
+/// A depth plane with more than one channel must hold the same value in its first three
+/// (the filters read the first): a normal or position plane given as depth would otherwise
+/// steer them with one coordinate (a light once lost 90 % of its value that way). NaN
+/// pixels (background) are not compared. (Every filter checks this; callers that know the
+/// plane's file check it first to name the file.)
+pub fn check_depth_plane(d: &Image) -> Result<(), FilterError> {
+    if d.channels < 2 {
+        return Ok(());
+    }
+    let k = d.channels.min(3);
+    let differs = |p: &[f32]| {
+        p[1..k]
+            .iter()
+            .any(|&v| v != p[0] && !(v.is_nan() && p[0].is_nan()))
+    };
+    match d.data.chunks_exact(d.channels).position(differs) {
+        None => Ok(()),
+        Some(i) => {
+            let p = &d.data[i * d.channels..][..k];
+            let mut values = [p[0]; 3];
+            values[..k].copy_from_slice(p);
+            Err(FilterError::DepthChannelsDiffer {
+                channels: d.channels,
+                x: i % d.width,
+                y: i / d.width,
+                values,
+            })
+        }
+    }
 }
 
 /// Whether pixel `i` is background: depth 0 or not finite, or position not finite.

@@ -418,3 +418,56 @@ fn background_pixels_with_a_partial_albedo_are_passed_through_by_demodulating_fi
         }
     }
 }
+
+/// A depth plane is 1 channel or 3 equal ones; a plane whose channels differ (a normal or
+/// position plane given as depth) is refused by every filter, naming the first pixel that
+/// differs, instead of steering the filter with one coordinate.
+#[test]
+fn a_depth_plane_whose_channels_differ_is_refused() {
+    let (w, h) = (6, 5);
+    let color = Image::new(w, h, 3, 0.5);
+    let normal = Image::new(w, h, 3, 0.577);
+    let one = Image::new(w, h, 1, 2.0);
+    let mut equal = Image::new(w, h, 3, 2.0);
+    // Background: NaN in every channel is not a difference.
+    equal.pixel_mut(0, 0).fill(f32::NAN);
+    assert!(check_depth_plane(&one).is_ok());
+    assert!(check_depth_plane(&equal).is_ok());
+    let mut differ = equal.clone();
+    differ.pixel_mut(4, 3)[2] = 2.5;
+    let e = check_depth_plane(&differ).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            FilterError::DepthChannelsDiffer {
+                x: 4,
+                y: 3,
+                channels: 3,
+                ..
+            }
+        ),
+        "{e:?}"
+    );
+    assert!(
+        e.to_string().contains("normal or the position plane"),
+        "{e}"
+    );
+    for mut f in [
+        Box::new(GuidedDenoiser::default()) as Box<dyn Denoiser>,
+        Box::new(AutoDenoiser::default()),
+        Box::new(BilateralDenoiser::default()),
+    ] {
+        let features = Features {
+            normal: Some(&normal),
+            depth: Some(&differ),
+            ..Features::default()
+        };
+        let input = FilterInput::new(&color, features);
+        let e = f.denoise(&input).unwrap_err();
+        assert!(
+            matches!(e, FilterError::DepthChannelsDiffer { .. }),
+            "{}: {e:?}",
+            f.name()
+        );
+    }
+}

@@ -135,3 +135,31 @@ fn fifos_devices_and_directories_are_refused_without_opening_them() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A PFM scale of zero, NaN or infinity names no byte order: refused naming the file and the
+/// fix, not decoded as big-endian garbage (values near ±3e38 once).
+#[test]
+fn a_pfm_scale_that_is_zero_or_not_finite_is_an_error() {
+    let dir = std::env::temp_dir().join(format!("lumo-pfm-scale-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for (i, scale) in ["0", "0.0", "nan", "inf", "-0"].iter().enumerate() {
+        let path = dir.join(format!("scale{i}.pfm"));
+        let mut bytes = format!("PF\n2 1\n{scale}\n").into_bytes();
+        bytes.extend(std::iter::repeat_n(0u8, 2 * 3 * 4));
+        std::fs::write(&path, bytes).unwrap();
+        let text = read_within_time(path.clone())
+            .expect_err("refused")
+            .to_string();
+        assert!(
+            text.contains(&format!("scale{i}.pfm")) && text.contains("non-zero finite"),
+            "{scale}: {text}"
+        );
+    }
+    // A usual scale still reads.
+    let path = dir.join("ok.pfm");
+    let mut bytes = b"PF\n2 1\n-1.0\n".to_vec();
+    bytes.extend(std::iter::repeat_n(0u8, 2 * 3 * 4));
+    std::fs::write(&path, bytes).unwrap();
+    assert!(read_within_time(path).is_ok());
+    let _ = std::fs::remove_dir_all(&dir);
+}
