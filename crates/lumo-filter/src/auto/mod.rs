@@ -26,6 +26,7 @@ use rayon::prelude::*;
 use crate::common::albedo::surface_albedo;
 use crate::common::boxsum::box_mean;
 use crate::common::gbuffer::{check_color, missing_pixels, Features, Filtered};
+use crate::common::nonnegative::clamp_negative;
 use crate::common::zeroed::{zeroed, zeroed_image};
 use crate::denoiser::{Denoiser, FilterInput, FilterKind};
 use crate::guided::SharedInput;
@@ -206,10 +207,11 @@ pub fn auto(
             *b += s;
         }
     }
-    let image = match &demod {
+    let mut image = match &demod {
         Some(d) => d.remodulate(&blended, color),
         None => blended,
     };
+    clamp_negative(&mut image);
     Ok(Filtered {
         image,
         missing: missing_pixels(color),

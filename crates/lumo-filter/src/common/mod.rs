@@ -15,6 +15,7 @@ pub(crate) mod emitters;
 pub(crate) mod error;
 pub(crate) mod gbuffer;
 pub(crate) mod noise;
+pub(crate) mod nonnegative;
 pub(crate) mod outliers;
 pub(crate) mod passthrough;
 pub(crate) mod zeroed;

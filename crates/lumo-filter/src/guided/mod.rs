@@ -21,6 +21,7 @@ use crate::common::error::param;
 use crate::common::gbuffer::{
     background_mask, check_color, check_features, check_size, flush, plane0, Features, Filtered,
 };
+use crate::common::nonnegative::clamp_negative;
 use crate::common::zeroed::{zeroed, zeroed_image};
 use crate::denoiser::{require, Denoiser, FilterInput, FilterKind};
 use crate::FilterError;
@@ -280,7 +281,9 @@ impl Denoiser for GuidedDenoiser {
         FilterKind::Guided.name()
     }
 
-    /// [`build_guide`] from the input's features, then [`guided`], demodulated when asked.
+    /// [`build_guide`] from the input's features, then [`guided`], demodulated when asked;
+    /// negative output values are set to 0 (the pure [`guided`] keeps them, as OpenCV's
+    /// does).
     fn denoise(&mut self, input: &FilterInput) -> Result<Filtered, FilterError> {
         let guide = build_guide(
             self.guide,
@@ -289,13 +292,16 @@ impl Denoiser for GuidedDenoiser {
             self.eps_normal,
             self.eps_depth,
         )?;
-        if self.demodulate {
+        let mut out = if self.demodulate {
             let albedo = surface_albedo(&input.features);
             let albedo = require(albedo.as_deref(), "albedo demodulation", "an albedo plane")?;
             with_demodulation(input.color, albedo, |c| guided(c, &guide, &self.params))
         } else {
             guided(input.color, &guide, &self.params)
-        }
+        }?;
+        // The linear model overshoots below 0 beside bright edges: no light to that.
+        clamp_negative(&mut out.image);
+        Ok(out)
     }
 }
 

@@ -471,3 +471,64 @@ fn a_depth_plane_whose_channels_differ_is_refused() {
         );
     }
 }
+
+/// Beside a bright edge the guided filter's linear model overshoots below zero (a step in the
+/// colour over a ramp in the guide is fitted by a line); as denoisers of light the guided
+/// filter and `auto` clamp such values at 0, while the pure `guided` keeps them.
+#[test]
+fn guided_and_auto_denoisers_give_no_negative_light() {
+    let (w, h) = (48, 8);
+    let mut color = Image::new(w, h, 3, 0.0);
+    let mut normal = Image::new(w, h, 3, 0.0);
+    for y in 0..h {
+        for x in 0..w {
+            // Noisy on both sides, so that `auto` prefers wide windows there too.
+            let n = (((x * 7 + y * 13) * 2654435761usize) % 1000) as f32 / 1000.0;
+            let v = if x < w / 2 {
+                0.02 * n
+            } else {
+                100.0 * (0.5 + n)
+            };
+            color.pixel_mut(x, y).fill(v);
+            // A ramp across the whole frame: every window sees the step as a slope.
+            let t = x as f32 / w as f32;
+            normal
+                .pixel_mut(x, y)
+                .copy_from_slice(&[t, 0.0, (1.0 - t * t).sqrt()]);
+        }
+    }
+    let guide = build_guide(
+        GuideKind::Normal,
+        &Features {
+            normal: Some(&normal),
+            ..Features::default()
+        },
+        DepthNorm::Range,
+        0.001,
+        0.001,
+    )
+    .unwrap();
+    let params = GuidedParams {
+        radius: 8,
+        ..GuidedParams::default()
+    };
+    let raw = guided(&color, &guide, &params).unwrap();
+    let min = raw.image.data.iter().copied().fold(f32::INFINITY, f32::min);
+    assert!(min < 0.0, "the case must overshoot: min {min}");
+    for mut f in [
+        Box::new(GuidedDenoiser {
+            guide: GuideKind::Normal,
+            params,
+            ..GuidedDenoiser::default()
+        }) as Box<dyn Denoiser>,
+        Box::new(AutoDenoiser::default()),
+    ] {
+        let features = Features {
+            normal: Some(&normal),
+            ..Features::default()
+        };
+        let out = f.denoise(&FilterInput::new(&color, features)).unwrap();
+        let min = out.image.data.iter().copied().fold(f32::INFINITY, f32::min);
+        assert!(min >= 0.0, "{}: min {min}", f.name());
+    }
+}
