@@ -190,6 +190,26 @@ struct Inputs {
     depth: Option<(PathBuf, Image)>,
     variance: Option<(PathBuf, Image)>,
     emission: Option<(PathBuf, Image)>,
+    /// Colour pixels with a value beyond ±[`MAX_COLOR`], set to NaN (missing).
+    huge: usize,
+}
+
+/// Largest colour magnitude the filters take: their window sums of squared values (625 of
+/// them in `auto`'s error windows) stay far from f32's 3.4e38, where a value of 1e37 or more
+/// made every output pixel NaN, Inf or 0 without a word.
+const MAX_COLOR: f32 = 1e15;
+
+/// Marks the pixels of `img` with a finite value beyond ±[`MAX_COLOR`] as missing (NaN, as
+/// the filters treat non-finite pixels) and returns how many there were.
+fn drop_huge_values(img: &mut Image) -> usize {
+    let mut count = 0;
+    for p in img.data.chunks_exact_mut(img.channels) {
+        if p.iter().any(|v| v.is_finite() && v.abs() > MAX_COLOR) {
+            p.fill(f32::NAN);
+            count += 1;
+        }
+    }
+    count
 }
 
 /// The explicit path, else `<dir>/<name>.exr` or `.pfm` if it exists.
@@ -235,6 +255,7 @@ fn read_inputs(a: &DenoiseArgs) -> anyhow::Result<Inputs> {
         4 => color.1.to_channels(3),
         n => bail!("{}: {n} channels; expected 1, 3 or 4", color_path.display()),
     };
+    let huge = drop_huge_values(&mut color.1);
     let inputs = Inputs {
         color,
         albedo: opt(&a.albedo, "albedo")?,
@@ -243,6 +264,7 @@ fn read_inputs(a: &DenoiseArgs) -> anyhow::Result<Inputs> {
         depth: opt(&a.depth, "depth")?,
         variance: opt(&a.variance, "variance")?,
         emission: opt(&a.emission, "emission")?,
+        huge,
     };
     let (cp, c) = &inputs.color;
     for (what, plane, min_ch) in [
@@ -650,10 +672,19 @@ pub fn run(args: DenoiseArgs) -> anyhow::Result<()> {
         );
     }
     let t_read = t0.elapsed();
-    let missing = missing_pixels(&inputs.color.1);
+    let missing = missing_pixels(&inputs.color.1) - inputs.huge;
     if missing > 0 {
         eprintln!(
             "warning: {missing} pixel(s) of {} are NaN or infinite; treated as missing",
+            inputs.color.0.display()
+        );
+    }
+    if inputs.huge > 0 {
+        eprintln!(
+            "warning: {} pixel(s) of {} have a value beyond ±{MAX_COLOR:e}, more than the \
+             filters' sums of squares can hold; treated as missing (scale the image down if \
+             they are real light)",
+            inputs.huge,
             inputs.color.0.display()
         );
     }

@@ -220,6 +220,42 @@ fn nan_pixels_warn_with_their_count_and_output_is_finite() {
     }
 }
 
+/// Finite values too large for the filters' sums of squares (1e37 once made `auto` write NaN
+/// everywhere and bilateral Inf) are treated as missing with a warning, and the output is
+/// finite and no larger than the input's plausible range.
+#[test]
+fn huge_finite_pixels_are_treated_as_missing_with_a_warning() {
+    let dir = temp_dir("huge");
+    write_scene(&dir, 24, 16);
+    let mut c = read_image(&dir.join("color.exr")).unwrap();
+    c.pixel_mut(3, 3)[0] = 1e37;
+    c.pixel_mut(12, 7).fill(-3e38);
+    write_image(&dir.join("color.pfm"), &c).unwrap();
+    std::fs::remove_file(dir.join("color.exr")).unwrap();
+    for filter in ["atrous", "guided", "bilateral", "auto"] {
+        let out = dir.join(format!("out-{filter}.pfm"));
+        let o = lumo(&[
+            "--input-dir",
+            dir.to_str().unwrap(),
+            "--filter",
+            filter,
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        let (_, stderr) = text(&o);
+        assert!(o.status.success(), "{filter}: {stderr}");
+        assert!(
+            stderr.contains("warning: 2 pixel(s)") && stderr.contains("beyond ±1e15"),
+            "{filter}: {stderr}"
+        );
+        assert!(!stderr.contains("NaN or infinite"), "{filter}: {stderr}");
+        let img = read_image(&out).unwrap();
+        assert_eq!(img.non_finite_count(), 0, "{filter}");
+        let max = img.data.iter().fold(0.0f32, |m, v| m.max(v.abs()));
+        assert!(max < 10.0, "{filter}: max {max}");
+    }
+}
+
 #[test]
 fn unreadable_input_names_the_file_and_reason() {
     let dir = temp_dir("unreadable");
