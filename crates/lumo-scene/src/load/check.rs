@@ -19,8 +19,9 @@ pub(crate) fn check_mesh(
         return Err(LoadError::invalid(
             at.clone(),
             format!(
-                "mesh {:?}: vertex {i} has a non-finite position {:?}; fix or remove that vertex",
-                mesh.name, mesh.positions[i]
+                "mesh {:?}: vertex {i} has a non-finite position ({}, {}, {}); fix or remove \
+                 that vertex",
+                mesh.name, mesh.positions[i].x, mesh.positions[i].y, mesh.positions[i].z
             ),
         ));
     }
@@ -120,6 +121,45 @@ pub(crate) fn check_scene(
                 ),
             )?;
         }
+    }
+    check_extent(path, scene, diag)
+}
+
+/// Smallest scene size (largest side of its bounds) the renderer's ray offsets suit: they
+/// move a ray's origin by 1e-4 units near the origin, a tenth of a 1e-3 object (whose box
+/// rendered 14 % off; from 1e-2 to 1e8 the same box gives the same pixels).
+const MIN_EXTENT: f32 = 1e-2;
+/// Largest distance from the origin a scene may reach: at 1e10 the box above rendered
+/// mostly black, and past about 1e19 squared distances overflow single precision.
+const MAX_REACH: f32 = 1e8;
+
+/// Warns when the scene's size or its distance from the origin is outside the range the
+/// renderer's single-precision rays and offsets suit, instead of a silently wrong image.
+fn check_extent(path: &Path, scene: &Scene, diag: &mut Diagnostics) -> Result<(), LoadError> {
+    let (lo, hi) = scene.bounds();
+    if !(lo.is_finite() && hi.is_finite()) {
+        return Ok(());
+    }
+    let size = (hi - lo).max_element();
+    let reach = lo.abs().max(hi.abs()).max_element();
+    if size < MIN_EXTENT {
+        diag.warn(
+            Location::file(path),
+            format!(
+                "the scene is only {size:e} units across; lumo's ray offsets suit scenes from \
+                 {MIN_EXTENT:e} to {MAX_REACH:e} units, so shadows and contacts would be wrong: \
+                 scale it up (e.g. a <scale> in the shapes' to_world, or in the modelling tool)"
+            ),
+        )?;
+    } else if reach > MAX_REACH {
+        diag.warn(
+            Location::file(path),
+            format!(
+                "the scene reaches {reach:e} units from the origin; lumo's single-precision rays \
+                 suit scenes within {MAX_REACH:e} units, so surfaces may turn black or vanish: \
+                 scale it down or move it to the origin"
+            ),
+        )?;
     }
     Ok(())
 }

@@ -278,3 +278,44 @@ fn negative_ply_vertex_colours_are_read_as_zero_with_a_warning() {
     };
     assert!(load_ply_bytes(ply.as_bytes(), Path::new("neg.ply"), &strict).is_err());
 }
+
+/// A scene far smaller or farther out than the renderer's ray offsets and single-precision
+/// rays suit is warned about naming the file and the fix, instead of rendering plain sky or
+/// black surfaces without a word; a scene of ordinary size is not.
+#[test]
+fn scenes_outside_the_supported_extent_are_warned_about() {
+    let tri = |scale: f32, offset: f32| {
+        format!(
+            "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+             property float z\nelement face 1\nproperty list uchar int vertex_indices\n\
+             end_header\n{o} 0 0\n{} 0 0\n{o} {s} 0\n3 0 1 2\n",
+            offset + scale,
+            o = offset,
+            s = scale
+        )
+    };
+    let warnings = |text: String| -> Vec<String> {
+        load_ply_bytes(text.as_bytes(), Path::new("t.ply"), &LoadOptions::default())
+            .expect("loads")
+            .warnings
+            .iter()
+            .map(|w| w.to_string())
+            .collect()
+    };
+    let w = warnings(tri(1e-4, 0.0));
+    assert!(
+        w.iter()
+            .any(|w| w.contains("t.ply") && w.contains("scale it up")),
+        "{w:?}"
+    );
+    let w = warnings(tri(1.0, 1e10));
+    assert!(
+        w.iter()
+            .any(|w| w.contains("1e10") && w.contains("scale it down")),
+        "{w:?}"
+    );
+    for (scale, offset) in [(1.0, 0.0), (0.02, 0.0), (1e6, 5e7)] {
+        let w = warnings(tri(scale, offset));
+        assert!(w.is_empty(), "{scale} at {offset}: {w:?}");
+    }
+}
