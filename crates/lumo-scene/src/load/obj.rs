@@ -43,6 +43,7 @@ pub(crate) fn read(
         warned: vec![],
         mtl_files: vec![],
         mtl_bytes: 0,
+        skipped_faces: (0, 0),
     };
     r.groups.push(Group::new("default", None));
     for (i, line) in text.lines().enumerate() {
@@ -87,6 +88,8 @@ struct ObjReader<'p, 'd> {
     mtl_files: Vec<std::path::PathBuf>,
     /// Bytes of MTL read so far (see [`MAX_MTL_BYTES`]).
     mtl_bytes: u64,
+    /// Faces with fewer than 3 vertices skipped, and the line of the first.
+    skipped_faces: (usize, usize),
 }
 
 impl ObjReader<'_, '_> {
@@ -276,6 +279,10 @@ impl ObjReader<'_, '_> {
             corners.push((v, vt, vn));
         }
         if corners.len() < 3 {
+            if self.skipped_faces.0 == 0 {
+                self.skipped_faces.1 = n;
+            }
+            self.skipped_faces.0 += 1;
             return self.diag.warn(
                 self.at(n),
                 format!(
@@ -342,10 +349,17 @@ impl ObjReader<'_, '_> {
             meshes.push(mesh);
         }
         if meshes.is_empty() {
-            return Err(LoadError::invalid(
-                Location::file(self.path),
-                "the OBJ file has no faces",
-            ));
+            let (skipped, line) = self.skipped_faces;
+            return Err(match skipped {
+                0 => LoadError::invalid(Location::file(self.path), "the OBJ file has no faces"),
+                _ => LoadError::invalid(
+                    self.at(line),
+                    format!(
+                        "the OBJ file has no faces with 3 or more vertices ({skipped} with fewer \
+                         skipped, the first here); a face lists at least 3 vertex indices"
+                    ),
+                ),
+            });
         }
         Ok((meshes, self.materials))
     }

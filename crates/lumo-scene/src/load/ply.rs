@@ -367,6 +367,15 @@ fn parse(path: &Path, bytes: &[u8], diag: &mut Diagnostics) -> Result<Mesh, Load
             "the PLY file has no faces (point clouds are not renderable)",
         ));
     }
+    if mesh.indices.is_empty() {
+        return Err(LoadError::invalid(
+            Location::item(path, "element face"),
+            format!(
+                "the PLY file has no faces with 3 or more vertices ({skipped_faces} with fewer \
+                 skipped); a face lists at least 3 vertex indices"
+            ),
+        ));
+    }
     if skipped_faces > 0 {
         diag.warn(
             Location::item(path, "element face"),

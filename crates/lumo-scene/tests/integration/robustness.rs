@@ -319,3 +319,53 @@ fn scenes_outside_the_supported_extent_are_warned_about() {
         assert!(w.is_empty(), "{scale} at {offset}: {w:?}");
     }
 }
+
+/// Slips in a scene file get a message that says what is missing, not that a feature is
+/// unsupported: a `<shape>` without a type is an error, a value element without a name a
+/// warning; a mesh whose every face has fewer than 3 vertices is an error that says so (with
+/// the OBJ line of the first), not "no faces".
+#[test]
+fn missing_attributes_and_short_faces_are_named_as_such() {
+    let scene = |body: &str| {
+        format!(
+            "<scene version=\"3.0.0\"><sensor type=\"perspective\"><transform name=\"to_world\">\
+             <lookat origin=\"0,0,4\" target=\"0,0,0\" up=\"0,1,0\"/></transform></sensor>\
+             {body}<emitter type=\"constant\"/></scene>"
+        )
+    };
+    let opts = LoadOptions::default();
+    let e = load_mitsuba_str(&scene("<shape/>"), Path::new("s.xml"), &opts)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("s.xml") && e.contains("no type attribute"),
+        "{e}"
+    );
+    let loaded = load_mitsuba_str(
+        &scene("<shape type=\"sphere\"><float value=\"2\"/></shape>"),
+        Path::new("s.xml"),
+        &opts,
+    )
+    .unwrap();
+    let w: Vec<_> = loaded.warnings.iter().map(|w| w.to_string()).collect();
+    assert!(w.iter().any(|w| w.contains("no name attribute")), "{w:?}");
+    assert!(!w.iter().any(|w| w.contains("not supported")), "{w:?}");
+
+    let ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+               property float z\nelement face 1\nproperty list uchar int vertex_indices\n\
+               end_header\n0 0 0\n1 0 0\n0 1 0\n2 0 1\n";
+    let e = load_ply_bytes(ply.as_bytes(), Path::new("two.ply"), &opts)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("two.ply") && e.contains("3 or more vertices"),
+        "{e}"
+    );
+    let dir = temp_dir("short-faces");
+    let obj = write(&dir, "two.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n\nf 1 2\n");
+    let e = load(&obj).unwrap_err().to_string();
+    assert!(
+        e.contains("two.obj:5") && e.contains("3 or more vertices"),
+        "{e}"
+    );
+}

@@ -482,6 +482,13 @@ impl<'a> Builder<'a, '_> {
                 mesh.material = material;
                 mesh.transformed(&to_world)
             }
+            "" => {
+                return Err(LoadError::invalid(
+                    at,
+                    "<shape> has no type attribute; give one, e.g. type=\"obj\", \"ply\", \
+                     \"rectangle\" or \"sphere\"",
+                ))
+            }
             other => {
                 self.diag.warn(
                     at,

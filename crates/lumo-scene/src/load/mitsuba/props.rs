@@ -114,6 +114,30 @@ impl<'a> Props<'a> {
             }
             let what = match c.attr("name") {
                 Some(n) => format!("parameter {n:?} ({})", c.describe()),
+                // A value element without a name is a slip, not a feature lumo lacks.
+                None if matches!(
+                    c.tag.as_str(),
+                    "float"
+                        | "integer"
+                        | "boolean"
+                        | "string"
+                        | "rgb"
+                        | "spectrum"
+                        | "point"
+                        | "vector"
+                ) =>
+                {
+                    diag.warn(
+                        c.at(),
+                        format!(
+                            "{} in {} has no name attribute, so it sets nothing; add \
+                             name=\"...\" (the parameter it is for)",
+                            c.describe(),
+                            self.el.describe()
+                        ),
+                    )?;
+                    continue;
+                }
                 None => c.describe(),
             };
             diag.warn(
@@ -183,8 +207,8 @@ impl<'a> Props<'a> {
         let c = parse_color(el)?;
         if has_negative_value(el) {
             let message = format!(
-                "{name}: {} in {} has a negative value; a colour (reflectance, radiance, \
-                 intensity) cannot be negative, so it is read as 0",
+                "{name}: {} in {} has a negative value; {name} cannot be negative (a \
+                 colour, intensity or roughness), so it is read as 0",
                 el.describe(),
                 self.el.describe()
             );
