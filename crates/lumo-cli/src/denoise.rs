@@ -397,6 +397,24 @@ fn configure(a: &DenoiseArgs, inp: &Inputs) -> anyhow::Result<Box<dyn Denoiser>>
             a.filter.name()
         );
     }
+    // Options another filter reads: say so in one line each instead of ignoring them silently.
+    if a.iterations.is_some() && a.filter != FilterKind::Atrous {
+        eprintln!(
+            "warning: --iterations applies to --filter atrous; --filter {} ignores it",
+            a.filter.name()
+        );
+    }
+    if a.radius.is_some() && !matches!(a.filter, FilterKind::Guided | FilterKind::Bilateral) {
+        eprintln!(
+            "warning: --radius applies to --filter guided and bilateral; --filter {} ignores it{}",
+            a.filter.name(),
+            if a.filter == FilterKind::Auto {
+                " (its radii: --auto-radii)"
+            } else {
+                ""
+            }
+        );
+    }
     Ok(match a.filter {
         FilterKind::Atrous => {
             let needs = |flag: &str, has: bool, feat: &str| -> anyhow::Result<()> {

@@ -295,6 +295,13 @@ fn builtin_names() -> String {
 /// Fails early (before rendering) if `path` cannot be written.
 pub fn check_writable(path: &Path) -> Result<()> {
     ImageFormat::from_path(path)?;
+    if path.is_dir() {
+        bail!(
+            "cannot write {}: it is a directory; name a file in it, e.g. {}",
+            path.display(),
+            path.join("image.exr").display()
+        );
+    }
     let dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),

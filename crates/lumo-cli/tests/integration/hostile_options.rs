@@ -179,6 +179,55 @@ fn ignored_options_are_warned_about_one_line_each() {
         lines[0].contains("-D sppp=") && lines[0].contains("$sppp"),
         "{e}"
     );
+
+    // lumo denoise: an option of another filter is warned about, not silently dropped.
+    let (o, _) = lumo_in(
+        &dir,
+        &[
+            "render",
+            "--size",
+            "8x8",
+            "--spp",
+            "1",
+            "--pipeline",
+            "none",
+            "--aovs",
+            "aovs",
+            "-o",
+            "n.exr",
+        ],
+        None,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    for (filter, flag, count) in [
+        ("guided", "--iterations", 1),
+        ("auto", "--radius", 1),
+        ("atrous", "--iterations", 0),
+    ] {
+        let value = if flag == "--radius" { "4" } else { "3" };
+        let (o, _) = lumo_in(
+            &dir,
+            &[
+                "denoise",
+                "--input-dir",
+                "aovs",
+                "--filter",
+                filter,
+                flag,
+                value,
+                "-o",
+                "d.exr",
+            ],
+            None,
+        );
+        let e = stderr(&o);
+        assert!(o.status.success(), "{e}");
+        let warnings = e
+            .lines()
+            .filter(|l| l.starts_with("warning:") && l.contains(flag))
+            .count();
+        assert_eq!(warnings, count, "{filter} {flag}: {e}");
+    }
 }
 
 /// `--subsample` is the À-Trous pipeline's: with the default pipeline (`auto`) it would do
@@ -201,6 +250,26 @@ fn subsample_needs_the_atrous_pipeline() {
     );
     let (o, _) = lumo_in(&dir, &[&args[..], &["--pipeline", "atrous"]].concat(), None);
     assert!(o.status.success(), "{}", stderr(&o));
+}
+
+/// An output path that is a directory is refused before any work (it used to be found only
+/// when the finished image was written).
+#[test]
+fn an_output_that_is_a_directory_is_refused_before_the_render() {
+    let dir = temp_dir("outdir");
+    std::fs::create_dir_all(dir.join("out.png")).unwrap();
+    let (o, _) = lumo_in(
+        &dir,
+        &["render", "--size", "8x8", "--spp", "1", "-o", "out.png"],
+        None,
+    );
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(e.contains("out.png") && e.contains("is a directory"), "{e}");
+    assert!(
+        !e.contains("triangles"),
+        "refused only after loading and rendering: {e}"
+    );
 }
 
 #[test]
