@@ -410,12 +410,25 @@ fn read_mtl(
                 _ if count == 3 && args.len() == 1 => {
                     let g = args[0].parse::<f32>().ok().filter(|x| x.is_finite());
                     g.map(|g| vec![g; 3]).ok_or_else(|| {
-                        LoadError::invalid(at.clone(), format!("{kw}: expected numbers"))
+                        LoadError::invalid(
+                            at.clone(),
+                            format!("{kw}: {:?} is not a finite number", args[0]),
+                        )
                     })
                 }
+                // Say which value is wrong: a NaN is "a number" to whoever wrote it.
                 _ => Err(LoadError::invalid(
                     at.clone(),
-                    format!("{kw}: expected {count} numbers"),
+                    match args
+                        .iter()
+                        .take(count)
+                        .find(|a| !a.parse::<f32>().is_ok_and(|x| x.is_finite()))
+                    {
+                        Some(bad) => format!(
+                            "{kw}: {bad:?} is not a finite number (expected {count} numbers)"
+                        ),
+                        None => format!("{kw}: expected {count} numbers, got {}", args.len()),
+                    },
                 )),
             }
         };

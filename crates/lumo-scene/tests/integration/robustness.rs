@@ -369,3 +369,21 @@ fn missing_attributes_and_short_faces_are_named_as_such() {
         "{e}"
     );
 }
+
+/// A material value that is not a finite number is named as such (a NaN `Kd` used to be
+/// reported as "expected 3 numbers", which it has).
+#[test]
+fn a_nan_material_value_is_named() {
+    let dir = temp_dir("mtl-nan");
+    write(&dir, "k.mtl", "newmtl m\nKd nan 0 0\n");
+    let obj = write(
+        &dir,
+        "k.obj",
+        "mtllib k.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl m\nf 1 2 3\n",
+    );
+    let e = load(&obj).unwrap_err().to_string();
+    assert!(
+        e.contains("k.mtl:2") && e.contains("\"nan\" is not a finite number"),
+        "{e}"
+    );
+}

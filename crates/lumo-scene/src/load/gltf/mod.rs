@@ -302,14 +302,26 @@ impl GltfReader<'_, '_> {
         }
         let need = acc.offset() + stride * (acc.count() - 1) + elem;
         let buffer_len = self.buffers.get(view.buffer().index()).map_or(0, Vec::len);
-        if need > view.length() || view.offset() + view.length() > buffer_len {
+        if need > view.length() {
             return Err(LoadError::invalid(
                 at,
                 format!(
                     "reads past the end of its data (needs {need} bytes of buffer view {}, which \
-                     has {}; buffer {} has {buffer_len})",
+                     has {})",
                     view.index(),
                     view.length(),
+                ),
+            ));
+        }
+        if view.offset() + view.length() > buffer_len {
+            return Err(LoadError::invalid(
+                at,
+                format!(
+                    "reads past the end of its data (buffer view {} spans bytes {}..{} of \
+                     buffer {}, which has {buffer_len})",
+                    view.index(),
+                    view.offset(),
+                    view.offset() + view.length(),
                     view.buffer().index()
                 ),
             ));
