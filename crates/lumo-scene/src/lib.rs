@@ -22,7 +22,9 @@ pub use error::SceneError;
 pub use light::{EnvMap, Light};
 pub use material::{BsdfSpec, Distribution, Material, Roughness, RoughnessMaps, Spectra};
 pub use mesh::{Analytic, AnalyticKind, Instance, Mesh};
-pub use scene::{RenderDefaults, Scene, DEPTH_LIMIT};
+pub use scene::{
+    box_reach, positions_box, reach_error, RenderDefaults, Scene, COORDINATE_LIMIT, DEPTH_LIMIT,
+};
 pub use texture::{Texture, TextureFilter, WrapMode};
 
 pub use glam::{Mat4, Vec2, Vec3};

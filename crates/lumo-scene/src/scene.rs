@@ -1,4 +1,4 @@
-use glam::{Vec3, Vec4Swizzles};
+use glam::{Mat4, Vec3, Vec4Swizzles};
 
 use crate::{Camera, Instance, Light, Material, Mesh, SceneError};
 
@@ -6,6 +6,50 @@ use crate::{Camera, Instance, Light, Material, Mesh, SceneError};
 /// for: Mitsuba's "unbounded" (`max_depth = -1`) maps to it, and Russian roulette ends such
 /// paths long before (a larger limit only lets a closed mirror box run for hours).
 pub const DEPTH_LIMIT: u32 = 1 << 16;
+
+/// The largest coordinate magnitude instanced geometry may reach: beyond it squared
+/// distances overflow single precision and the acceleration structure's boxes stop bounding
+/// anything (a glTF node scaled by 1e20 once crashed the renderer). [`Scene::validate`] and
+/// every re-pose of an animated scene check it.
+pub const COORDINATE_LIMIT: f32 = 1e18;
+
+/// The largest coordinate magnitude of the box `lo..hi` after `transform` (its eight corners);
+/// NaN when the transform makes it non-finite.
+pub fn box_reach(lo: Vec3, hi: Vec3, transform: &Mat4) -> f32 {
+    let mut reach = 0.0f32;
+    for i in 0..8 {
+        let corner = Vec3::new(
+            if i & 1 == 0 { lo.x } else { hi.x },
+            if i & 2 == 0 { lo.y } else { hi.y },
+            if i & 4 == 0 { lo.z } else { hi.z },
+        );
+        let w = transform.transform_point3(corner);
+        if !w.is_finite() {
+            return f32::NAN;
+        }
+        reach = reach.max(w.abs().max_element());
+    }
+    reach
+}
+
+/// The local bounding box of `positions` (`None` when empty).
+pub fn positions_box(positions: &[Vec3]) -> Option<(Vec3, Vec3)> {
+    let first = *positions.first()?;
+    Some(
+        positions
+            .iter()
+            .fold((first, first), |(lo, hi), p| (lo.min(*p), hi.max(*p))),
+    )
+}
+
+/// The error for an instance whose geometry reaches `reach` (beyond [`COORDINATE_LIMIT`]).
+pub fn reach_error(instance: usize, mesh: &str, reach: f32) -> SceneError {
+    SceneError::Invalid(format!(
+        "instance {instance} (mesh {mesh:?}): its geometry reaches {reach:e} units from the \
+         origin, beyond the {COORDINATE_LIMIT:e} that single-precision rays can handle; scale \
+         it down (a transform or animation with a huge scale?)"
+    ))
+}
 
 /// Resolution and sampling a scene asks for; command-line options override them.
 #[derive(Clone, Debug)]
@@ -182,6 +226,19 @@ impl Scene {
                 return Err(SceneError::Invalid(format!(
                     "instance {ii}: transform is singular or not finite"
                 )));
+            }
+        }
+        let boxes: Vec<_> = self
+            .meshes
+            .iter()
+            .map(|m| positions_box(&m.positions))
+            .collect();
+        for (ii, inst) in self.instances.iter().enumerate() {
+            if let Some((lo, hi)) = boxes[inst.mesh] {
+                let reach = box_reach(lo, hi, &inst.transform);
+                if !(reach <= COORDINATE_LIMIT) {
+                    return Err(reach_error(ii, &self.meshes[inst.mesh].name, reach));
+                }
             }
         }
         Ok(())

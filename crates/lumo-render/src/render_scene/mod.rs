@@ -82,6 +82,9 @@ pub struct RenderScene {
     /// identity instances read it instead of re-deriving it with a cross product, square
     /// root and division per hit (~3 % of render time).
     unit_normals: Vec<Vec<Vec3>>,
+    /// Per mesh, the bounding box of its positions in object space: each pose checks how far
+    /// its instances reach ([`lumo_scene::COORDINATE_LIMIT`]) without a pass over every vertex.
+    mesh_boxes: Vec<Option<(Vec3, Vec3)>>,
     /// Whether the meshes are too big to stay in the cache between hits, so that the
     /// wavefront prefetches what [`Self::surface`] reads ([`Self::prefetch_indices`]).
     prefetch_surfaces: bool,
@@ -341,6 +344,11 @@ impl RenderScene {
             .collect();
         let (placements, shapes, simple_diffuse) = instance_tables(&scene, &finite_textures);
         let unit_normals = scene.meshes.iter().map(unit_normals).collect();
+        let mesh_boxes = scene
+            .meshes
+            .iter()
+            .map(|m| lumo_scene::positions_box(&m.positions))
+            .collect();
         Ok(Self {
             prefetch_surfaces: surface_bytes(&scene) > PREFETCH_ABOVE_BYTES,
             structure: Structure::of(&scene),
@@ -362,6 +370,7 @@ impl RenderScene {
             placements,
             shapes,
             unit_normals,
+            mesh_boxes,
         })
     }
 
@@ -390,6 +399,7 @@ impl RenderScene {
         };
         for &m in moved_meshes {
             self.unit_normals[m] = unit_normals(&self.scene.meshes[m]);
+            self.mesh_boxes[m] = lumo_scene::positions_box(&self.scene.meshes[m].positions);
         }
         (self.placements, self.shapes, self.simple_diffuse) =
             instance_tables(&self.scene, &self.finite_textures);
@@ -419,6 +429,32 @@ impl RenderScene {
                     "instance {ii}: transform is singular or not finite"
                 )));
             }
+            let mesh = inst.mesh;
+            let bounds = if moved_meshes.contains(&mesh) {
+                self.scene
+                    .meshes
+                    .get(mesh)
+                    .and_then(|m| lumo_scene::positions_box(&m.positions))
+            } else {
+                self.mesh_boxes.get(mesh).copied().flatten()
+            };
+            if let Some((lo, hi)) = bounds {
+                let reach = lumo_scene::box_reach(lo, hi, &inst.transform);
+                if !(reach <= lumo_scene::COORDINATE_LIMIT) {
+                    let name = self.scene.meshes.get(mesh).map_or("", |m| m.name.as_str());
+                    return Err(lumo_scene::reach_error(ii, name, reach));
+                }
+            }
+        }
+        // A keyframed camera can collapse too (a zero scale on its node at some time): its rays
+        // would all be NaN, a black frame.
+        if !self.scene.camera.is_well_formed() {
+            return Err(SceneError::Invalid(
+                "the camera is singular at this pose (a zero scale on its node, or up along the \
+                 view direction): give the camera node and its parents a non-zero scale at every \
+                 keyframe"
+                    .into(),
+            ));
         }
         for &m in moved_meshes {
             let Some(mesh) = self.scene.meshes.get(m) else {

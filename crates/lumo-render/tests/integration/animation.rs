@@ -130,6 +130,29 @@ fn invalid_updates_are_errors() {
     assert!(e.contains("position"), "{e}");
     let e = rs.update(&[999]).unwrap_err().to_string();
     assert!(e.contains("999"), "{e}");
+    rs.scene.meshes[deforming].positions[0].x = 0.0;
+    // A huge scale: beyond single precision's reach the trees once made a ray traversal index
+    // out of bounds (a panic); now the pose is refused naming the instance.
+    rs.scene.instances[n - 3].transform = Mat4::from_scale(Vec3::splat(1e20));
+    let e = rs.update(&[]).unwrap_err().to_string();
+    assert!(
+        e.contains(&format!("instance {}", n - 3)) && e.contains("1e18"),
+        "{e}"
+    );
+    // The same as a scene to build.
+    let e = RenderScene::new(rs.scene.clone())
+        .err()
+        .expect("refused")
+        .to_string();
+    assert!(e.contains("reaches 1e20"), "{e}");
+    rs.scene.instances[n - 3].transform = Mat4::IDENTITY;
+    // A collapsed camera (a keyframed zero scale) is refused, not rendered black.
+    let camera = rs.scene.camera.clone();
+    rs.scene.camera.target = rs.scene.camera.origin;
+    let e = rs.update(&[]).unwrap_err().to_string();
+    assert!(e.contains("camera is singular"), "{e}");
+    rs.scene.camera = camera;
+    assert!(rs.update(&[]).is_ok());
 }
 
 /// The atrium with its placed instances (columns and drapes) moved: every instance with a
