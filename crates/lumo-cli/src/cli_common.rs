@@ -123,3 +123,33 @@ pub fn check_rr_depth(rr_depth: Option<u32>) -> Result<()> {
         _ => Ok(()),
     }
 }
+
+/// Parses a samples-per-pixel option: 1..=[`crate::render_cmd::MAX_SPP`] (a typo such as
+/// 4294967295 once made the benchmarks ask for a terabyte and abort).
+pub fn parse_spp(s: &str) -> std::result::Result<u32, String> {
+    let max = crate::render_cmd::MAX_SPP;
+    match s.trim().parse::<u64>() {
+        Ok(n) if (1..=max as u64).contains(&n) => Ok(n as u32),
+        _ => Err(format!(
+            "invalid sample count {s:?}: expected 1..={max} samples per pixel"
+        )),
+    }
+}
+
+/// [`parse_spp`] where 0 means "none" (a reference that is not rendered).
+pub fn parse_spp_or_zero(s: &str) -> std::result::Result<u32, String> {
+    match s.trim() {
+        "0" => Ok(0),
+        _ => parse_spp(s),
+    }
+}
+
+/// Parses a positive, finite number of seconds.
+pub fn parse_seconds(s: &str) -> std::result::Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(t) if t.is_finite() && t > 0.0 && t <= 1e7 => Ok(t),
+        _ => Err(format!(
+            "invalid time {s:?}: expected a number of seconds > 0 (at most 1e7)"
+        )),
+    }
+}

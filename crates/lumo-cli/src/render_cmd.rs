@@ -97,7 +97,8 @@ pub struct RenderArgs {
         long,
         value_name = "N",
         default_value_t = 256,
-        requires = "temporal_eval"
+        requires = "temporal_eval",
+        value_parser = crate::cli_common::parse_spp_or_zero
     )]
     pub reference_spp: u32,
     /// List the built-in scenes and exit.
@@ -292,9 +293,15 @@ fn builtin_names() -> String {
         .join(", ")
 }
 
-/// Fails early (before rendering) if `path` cannot be written.
+/// Fails early (before rendering) if `path` cannot be written as an image.
 pub fn check_writable(path: &Path) -> Result<()> {
     ImageFormat::from_path(path)?;
+    check_output_file(path)
+}
+
+/// Fails early (before the work) if the file `path` cannot be written: it is a directory, its
+/// directory does not exist or is not writable.
+pub fn check_output_file(path: &Path) -> Result<()> {
     if path.is_dir() {
         bail!(
             "cannot write {}: it is a directory; name a file in it, e.g. {}",

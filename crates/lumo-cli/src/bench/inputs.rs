@@ -20,7 +20,7 @@ pub struct InputsArgs {
     #[arg(long, value_parser = parse_size, default_value = "256x256")]
     pub size: (usize, usize),
     /// Samples per pixel.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, value_parser = crate::cli_common::parse_spp)]
     pub spp: u32,
     /// Seed, as given to `lumo bench quality`.
     #[arg(long, default_value_t = 0)]

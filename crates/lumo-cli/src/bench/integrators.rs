@@ -58,7 +58,7 @@ pub struct IntegratorsArgs {
     )]
     integrators: Vec<BenchIntegrator>,
     /// Seconds of bidirectional rendering for each scene's reference (cached).
-    #[arg(long, default_value_t = 600.0)]
+    #[arg(long, default_value_t = 600.0, value_parser = crate::cli_common::parse_seconds)]
     reference_seconds: f64,
     /// A region of interest as fractions of the image `X0,Y0,X1,Y1`: its relMSE gets its own
     /// column (e.g. the caustic under a glass sphere).

@@ -31,7 +31,7 @@ pub struct QualityArgs {
     #[arg(long, value_parser = parse_size)]
     pub size: Option<(usize, usize)>,
     /// Samples per pixel of the test images, comma-separated.
-    #[arg(long, value_delimiter = ',', default_value = "1,4")]
+    #[arg(long, value_delimiter = ',', default_value = "1,4", value_parser = crate::cli_common::parse_spp)]
     pub spp: Vec<u32>,
     /// Pipelines, comma-separated, in column order.
     #[arg(long, value_delimiter = ',', value_parser = parse_pipeline,
@@ -50,7 +50,7 @@ pub struct QualityArgs {
     pub integrators: Vec<BenchIntegrator>,
     /// Samples per pixel of the converged reference (`--pipeline none`) [default: 1024; 512
     /// with --set].
-    #[arg(long)]
+    #[arg(long, value_parser = crate::cli_common::parse_spp)]
     pub reference_spp: Option<u32>,
     /// Seed of the test images; the reference uses SEED + 1 so its noise is independent.
     #[arg(long, default_value_t = 0)]

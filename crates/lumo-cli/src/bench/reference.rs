@@ -23,7 +23,7 @@ pub struct ReferenceArgs {
     #[arg(long, value_parser = parse_size, default_value = "256x256")]
     pub size: (usize, usize),
     /// Samples per pixel of the reference.
-    #[arg(long, default_value_t = 1024)]
+    #[arg(long, default_value_t = 1024, value_parser = crate::cli_common::parse_spp)]
     pub reference_spp: u32,
     /// Seed of the *test* images, as given to `lumo bench quality`; the reference uses SEED + 1.
     #[arg(long, default_value_t = 0)]

@@ -5,7 +5,7 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use anyhow::Result;
+use anyhow::{Context, Result};
 use lumo_render::{PathSettings, RenderScene, RenderSettings};
 
 use super::integrators::{render_with, BenchIntegrator};
@@ -22,7 +22,7 @@ pub struct RenderBenchArgs {
     #[arg(long, value_parser = parse_size, default_value = "512x512")]
     size: (usize, usize),
     /// Samples per pixel per run.
-    #[arg(long, default_value_t = 4)]
+    #[arg(long, default_value_t = 4, value_parser = crate::cli_common::parse_spp)]
     spp: u32,
     /// Maximum path depth.
     #[arg(long, default_value_t = 5)]
@@ -53,6 +53,11 @@ pub fn run(args: RenderBenchArgs) -> Result<()> {
 fn run_render(args: RenderBenchArgs) -> Result<()> {
     if args.repeats == 0 {
         eprintln!("warning: --repeats 0: timing each scene once");
+    }
+    crate::cli_common::check_max_depth(Some(args.max_depth))?;
+    if let Some(path) = &args.markdown {
+        // Found before the benchmark runs, not after.
+        crate::render_cmd::check_output_file(path).context("--markdown")?;
     }
     let names = super::scenes::scene_names(&args.scenes);
     let pool = crate::cli_common::worker_pool(args.threads)?;

@@ -27,7 +27,7 @@ pub struct SpeedArgs {
     #[arg(long, value_parser = parse_size, default_value = "256x256")]
     pub size: (usize, usize),
     /// Samples per pixel, comma-separated.
-    #[arg(long, value_delimiter = ',', default_value = "1,4")]
+    #[arg(long, value_delimiter = ',', default_value = "1,4", value_parser = crate::cli_common::parse_spp)]
     pub spp: Vec<u32>,
     /// Indirect bounces, comma-separated (max depth = bounces + 2, Mitsuba's convention).
     #[arg(long, value_delimiter = ',', default_value = "0,1,2")]

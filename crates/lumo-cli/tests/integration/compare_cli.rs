@@ -240,3 +240,27 @@ fn mismatched_inputs_fail_with_one_line_and_code_2() {
     assert_eq!(o.status.code(), Some(2));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A `--diff` path that names an input is refused before anything is written: it once
+/// replaced the reference with the false-colour diff (exit 0, the data gone).
+#[test]
+fn a_diff_over_an_input_is_refused_and_the_input_kept() {
+    let dir = temp_dir("diff-over-input");
+    let reference = write(&dir, "ref.exr", &scene(24, 20, 1.0));
+    let test = write(&dir, "img.exr", &scene(24, 20, 1.1));
+    let before = std::fs::read(&reference).unwrap();
+    // The reference itself, the test image, and the reference through another spelling.
+    let other = dir.join(".").join("ref.exr");
+    for diff in [&reference, &test, &other] {
+        let o = lumo(&[&reference, &test, Path::new("--diff"), diff]);
+        let (_, stderr) = text(&o);
+        assert_eq!(o.status.code(), Some(2), "{}: {stderr}", diff.display());
+        assert!(stderr.contains("would overwrite the input"), "{stderr}");
+    }
+    assert_eq!(std::fs::read(&reference).unwrap(), before);
+    // A fresh name still works.
+    let ok = dir.join("diff.png");
+    let o = lumo(&[&reference, &test, Path::new("--diff"), &ok]);
+    assert!(o.status.success(), "{}", text(&o).1);
+    assert!(ok.exists());
+}

@@ -84,6 +84,50 @@ fn unbounded_options_are_refused_naming_the_option() {
         (&["render", "--rr-depth", "0"], "--rr-depth 0"),
         (&["render", "--rr-depth", "65537"], "--rr-depth 65537"),
         (&["render", "--time", "nan"], "finite number of seconds"),
+        // The benchmarks' sample counts and times: 4294967295 samples once asked for a
+        // terabyte and aborted; 0 printed NaN ratios.
+        (
+            &[
+                "bench",
+                "inputs",
+                "cornell",
+                "--size",
+                "16x16",
+                "--spp",
+                "4294967295",
+                "--out",
+                "d",
+            ],
+            "invalid sample count",
+        ),
+        (
+            &[
+                "bench",
+                "reference",
+                "cornell",
+                "--reference-spp",
+                "4294967295",
+                "--cache",
+                "c",
+            ],
+            "invalid sample count",
+        ),
+        (
+            &["bench", "render", "cornell", "--spp", "0"],
+            "invalid sample count",
+        ),
+        (
+            &["bench", "render", "cornell", "--max-depth", "0"],
+            "--max-depth",
+        ),
+        (
+            &["bench", "render", "cornell", "--markdown", "nodir/x.md"],
+            "directory nodir does not exist",
+        ),
+        (
+            &["bench", "integrators", "--reference-seconds", "NaN"],
+            "invalid time",
+        ),
         (&["render", "--guide-dims", "2"], "--guide-dims 2"),
         (
             &["compare", "--ppd", "1e30", "a.png", "b.png"],
