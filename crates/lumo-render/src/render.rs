@@ -522,13 +522,18 @@ pub struct PpmStats {
 /// photons enter the map) does not depend on the thread count.
 const PHOTON_BLOCK: u64 = 2048;
 
+/// Blocks traced in parallel before the batch is checked against the map's capacity: enough
+/// to keep every thread busy, few enough that a pass far larger than the map stops early.
+const PHOTON_CHUNK_BLOCKS: u64 = 64;
+
 /// Renders with one-pass progressive photon mapping: `spp` passes, each first tracing a
 /// batch of photon paths (`ppm.photons_per_pass`, by default one per pixel) into the shared
 /// map, then camera sample `k` of every pixel gathering from it at pass `k`'s radius; the
 /// image is the mean of the passes.
 ///
-/// Photon paths run in parallel in fixed blocks whose photons enter the map in path order,
-/// and each camera sample is a pure function of the map and its pixel: the image is the same
+/// Photon paths run in parallel in fixed blocks whose photons enter the map in path order
+/// (a pass stops tracing once it holds more photons than the map can keep), and each camera
+/// sample is a pure function of the map and its pixel: the image is the same
 /// bits on any number of threads. `progress` receives the fraction of passes done.
 pub fn render_ppm(
     rs: &RenderScene,
@@ -549,17 +554,29 @@ pub fn render_ppm(
         let t = Instant::now();
         let first = k as u64 * per_pass;
         let blocks = per_pass.div_ceil(PHOTON_BLOCK);
-        let parts: Vec<PhotonBatch> = (0..blocks)
-            .into_par_iter()
-            .map(|b| {
-                let start = first + b * PHOTON_BLOCK;
-                let end = (start + PHOTON_BLOCK).min(first + per_pass);
-                PhotonBatch::trace(rs, &settings.path, settings.seed, start..end)
-            })
-            .collect();
         let mut batch = PhotonBatch::default();
-        for p in parts {
-            batch.append(p);
+        let mut next = 0;
+        while next < blocks {
+            let chunk = next..(next + PHOTON_CHUNK_BLOCKS).min(blocks);
+            next = chunk.end;
+            let parts: Vec<PhotonBatch> = chunk
+                .into_par_iter()
+                .map(|b| {
+                    let start = first + b * PHOTON_BLOCK;
+                    let end = (start + PHOTON_BLOCK).min(first + per_pass);
+                    PhotonBatch::trace(rs, &settings.path, settings.seed, start..end)
+                })
+                .collect();
+            for p in parts {
+                batch.append(p);
+            }
+            // The map keeps at most `max_photons` of a batch, its longest prefix of whole
+            // paths that fits: past that, the pass's remaining paths could never enter it, and
+            // tracing them would hold memory that --max-photons is there to bound (a pass of
+            // 4294967295 paths grew by 135 MB/s). The kept photons are the same either way.
+            if batch.photons.len() > ppm.max_photons {
+                break;
+            }
         }
         stats.rays += batch.rays;
         stats.photon_paths += batch.paths();
