@@ -19,21 +19,25 @@ pub struct PipelineArgs {
     #[arg(long, default_value_t = 1)]
     pub subsample: usize,
     /// guided: guide dimensions, 1 (grey), 3 (normal) or 4 (normal + depth).
-    #[arg(long, default_value_t = 4)]
+    #[arg(long, default_value_t = DEFAULT_GUIDE_DIMS)]
     pub guide_dims: usize,
     /// guided: filter window radius in pixels.
     #[arg(long, default_value_t = lumo_filter::DEFAULT_RADIUS)]
     pub radius: usize,
     /// jbu: one indirect sample point per k×k pixel block.
-    #[arg(long, default_value_t = 16)]
+    #[arg(long, default_value_t = DEFAULT_BLOCK)]
     pub block: usize,
     /// jbu: indirect paths per sample point.
-    #[arg(long, default_value_t = 100)]
+    #[arg(long, default_value_t = DEFAULT_PATHS)]
     pub paths: u32,
     /// jbu: bilateral pre-filter of the low-resolution buffer.
     #[arg(long)]
     pub prefilter: bool,
 }
+
+const DEFAULT_GUIDE_DIMS: usize = 4;
+const DEFAULT_BLOCK: usize = 16;
+const DEFAULT_PATHS: u32 = 100;
 
 /// Largest image side (`--size`), which also bounds `--radius` and `--block`.
 pub const MAX_SIDE: usize = 16384;
@@ -53,18 +57,53 @@ impl PipelineArgs {
     }
 
     /// Checks the options, naming each as the command line spells it (the filters' own
-    /// errors use their internal names).
-    pub fn check(&self) -> Result<()> {
+    /// errors use their internal names). `effective` is the pipeline the run uses, and
+    /// `integrator` the integrator's name when it renders without one (light, bdpt, ppm).
+    pub fn check(&self, effective: Pipeline, integrator: Option<&str>) -> Result<()> {
         if ![1, 2, 4].contains(&self.subsample) {
             bail!("--subsample {}: use 1, 2 or 4", self.subsample);
         }
-        if self.subsample != 1 && self.pipeline() != Pipeline::Atrous {
-            bail!(
-                "--subsample {} applies to --pipeline atrous only (this run uses --pipeline {}): \
-                 add --pipeline atrous",
-                self.subsample,
-                self.pipeline().name()
-            );
+        // A pipeline's knob given to a run of another is said in one line, not dropped
+        // silently (a value other than the default counts as given).
+        let ignored = [
+            (
+                self.guide_dims != DEFAULT_GUIDE_DIMS,
+                "--guide-dims",
+                Pipeline::Guided,
+            ),
+            (
+                self.radius != lumo_filter::DEFAULT_RADIUS,
+                "--radius",
+                Pipeline::Guided,
+            ),
+            (self.block != DEFAULT_BLOCK, "--block", Pipeline::Jbu),
+            (self.paths != DEFAULT_PATHS, "--paths", Pipeline::Jbu),
+            (self.prefilter, "--prefilter", Pipeline::Jbu),
+        ];
+        for (given, flag, owner) in ignored {
+            if given && effective != owner {
+                eprintln!(
+                    "warning: {flag} applies to --pipeline {}; this run uses --pipeline {}, \
+                     ignored",
+                    owner.name(),
+                    effective.name()
+                );
+            }
+        }
+        if self.subsample != 1 && effective != Pipeline::Atrous {
+            match integrator {
+                Some(i) => bail!(
+                    "--subsample {} applies to the path tracer's --pipeline atrous; --integrator \
+                     {i} renders without a pipeline: drop --subsample",
+                    self.subsample
+                ),
+                None => bail!(
+                    "--subsample {} applies to --pipeline atrous only (this run uses --pipeline \
+                     {}): add --pipeline atrous",
+                    self.subsample,
+                    effective.name()
+                ),
+            }
         }
         if ![1, 3, 4].contains(&self.guide_dims) {
             bail!("--guide-dims {}: use 1, 3 or 4", self.guide_dims);

@@ -152,9 +152,9 @@ pub struct RenderArgs {
     /// --integrator ppm: gather radius of the first pass as a fraction of the scene's
     /// bounding-box diagonal at 262144 photon paths per pass (scaled by the square root of
     /// 262144 / paths per pass, so a gather finds as many photons at any image size); later
-    /// passes shrink it (α = 2/3).
-    #[arg(long, value_name = "FRACTION", default_value_t = 0.0025)]
-    pub photon_radius: f32,
+    /// passes shrink it (α = 2/3) [default: 0.0025].
+    #[arg(long, value_name = "FRACTION")]
+    pub photon_radius: Option<f32>,
     /// The filtered-GI pipeline and its options.
     #[command(flatten)]
     pub pipeline: crate::pipeline_args::PipelineArgs,
@@ -181,11 +181,9 @@ fn ppm_settings(args: &RenderArgs) -> Result<PpmSettings> {
     if args.photons_per_pass == Some(0) {
         bail!("--photons-per-pass must be at least 1");
     }
-    if !(args.photon_radius > 0.0 && args.photon_radius <= 1.0) {
-        bail!(
-            "--photon-radius {}: expected a fraction of the scene diagonal in (0, 1]",
-            args.photon_radius
-        );
+    let radius = args.photon_radius.unwrap_or(PpmSettings::default().radius);
+    if !(radius > 0.0 && radius <= 1.0) {
+        bail!("--photon-radius {radius}: expected a fraction of the scene diagonal in (0, 1]");
     }
     if args.integrator == RenderIntegrator::Ppm {
         crate::cli_common::check_memory(
@@ -197,7 +195,7 @@ fn ppm_settings(args: &RenderArgs) -> Result<PpmSettings> {
     Ok(PpmSettings {
         photons_per_pass: args.photons_per_pass.unwrap_or(0),
         max_photons,
-        radius: args.photon_radius,
+        radius,
         ..Default::default()
     })
 }
@@ -392,9 +390,11 @@ pub fn run(args: RenderArgs) -> Result<()> {
         lumo_spectrum::coefficient_table();
     }
     if args.integrator != RenderIntegrator::Ppm
-        && (args.max_photons.is_some() || args.photons_per_pass.is_some())
+        && (args.max_photons.is_some()
+            || args.photons_per_pass.is_some()
+            || args.photon_radius.is_some())
     {
-        bail!("--max-photons and --photons-per-pass apply to --integrator ppm");
+        bail!("--max-photons, --photons-per-pass and --photon-radius apply to --integrator ppm");
     }
     let ppm = ppm_settings(&args)?;
     let options = LoadOptions {
@@ -475,7 +475,8 @@ pub fn run(args: RenderArgs) -> Result<()> {
             settings.spp
         );
     }
-    args.pipeline.check()?;
+    let unfiltered = args.integrator.unfiltered().then_some(integrator.as_str());
+    args.pipeline.check(pipeline, unfiltered)?;
     let per_pixel = pipeline.bytes_per_pixel();
     crate::cli_common::check_memory(
         (width as u64 * height as u64).saturating_mul(per_pixel),

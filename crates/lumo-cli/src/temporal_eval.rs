@@ -71,6 +71,12 @@ pub fn run(
     dir: &Path,
     reference_spp: u32,
 ) -> Result<()> {
+    if dir.exists() && !dir.is_dir() {
+        anyhow::bail!(
+            "--temporal-eval {}: a file of that name exists; name a directory for the results",
+            dir.display()
+        );
+    }
     std::fs::create_dir_all(dir).with_context(|| format!("--temporal-eval {}", dir.display()))?;
     let settings = job.settings;
     let options = job.args.pipeline.options(settings.width, settings.height);

@@ -42,6 +42,15 @@ pub fn positions_box(positions: &[Vec3]) -> Option<(Vec3, Vec3)> {
     )
 }
 
+/// The error for an instance whose transform is singular or not finite.
+pub fn singular_instance(instance: usize, mesh: &str) -> SceneError {
+    SceneError::Invalid(format!(
+        "instance {instance} (mesh {mesh:?}): transform is singular or not finite (a zero \
+         scale flattens the object, and lumo does not hide objects that way: give the node and \
+         its parents a non-zero scale at every time)"
+    ))
+}
+
 /// The error for an instance whose geometry reaches `reach` (beyond [`COORDINATE_LIMIT`]).
 pub fn reach_error(instance: usize, mesh: &str, reach: f32) -> SceneError {
     SceneError::Invalid(format!(
@@ -223,9 +232,7 @@ impl Scene {
                 });
             }
             if !inst.transform.is_finite() || inst.transform.determinant() == 0.0 {
-                return Err(SceneError::Invalid(format!(
-                    "instance {ii}: transform is singular or not finite"
-                )));
+                return Err(singular_instance(ii, &self.meshes[inst.mesh].name));
             }
         }
         let boxes: Vec<_> = self
@@ -236,7 +243,7 @@ impl Scene {
         for (ii, inst) in self.instances.iter().enumerate() {
             if let Some((lo, hi)) = boxes[inst.mesh] {
                 let reach = box_reach(lo, hi, &inst.transform);
-                if !(reach <= COORDINATE_LIMIT) {
+                if reach.is_nan() || reach > COORDINATE_LIMIT {
                     return Err(reach_error(ii, &self.meshes[inst.mesh].name, reach));
                 }
             }

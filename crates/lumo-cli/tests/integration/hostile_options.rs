@@ -128,6 +128,15 @@ fn unbounded_options_are_refused_naming_the_option() {
             &["bench", "integrators", "--reference-seconds", "NaN"],
             "invalid time",
         ),
+        // An integrator without a pipeline is not told to add one.
+        (
+            &["render", "--integrator", "bdpt", "--subsample", "2"],
+            "--integrator bdpt renders without a pipeline: drop --subsample",
+        ),
+        (
+            &["render", "--integrator", "light", "--photon-radius", "0.5"],
+            "--photon-radius apply to --integrator ppm",
+        ),
         (&["render", "--guide-dims", "2"], "--guide-dims 2"),
         (
             &["compare", "--ppd", "1e30", "a.png", "b.png"],
@@ -221,6 +230,33 @@ fn ignored_options_are_warned_about_one_line_each() {
     assert_eq!(lines.len(), 1, "only the undeclared name: {e}");
     assert!(
         lines[0].contains("-D sppp=") && lines[0].contains("$sppp"),
+        "{e}"
+    );
+
+    // A pipeline's knob on a run of another pipeline: one line.
+    let (o, _) = lumo_in(
+        &dir,
+        &[
+            "render",
+            "--pipeline",
+            "none",
+            "--radius",
+            "3",
+            "--size",
+            "8x8",
+            "--spp",
+            "1",
+            "-o",
+            "r.png",
+        ],
+        None,
+    );
+    let e = stderr(&o);
+    assert!(o.status.success(), "{e}");
+    let warnings: Vec<&str> = e.lines().filter(|l| l.starts_with("warning:")).collect();
+    assert_eq!(warnings.len(), 1, "{e}");
+    assert!(
+        warnings[0].contains("--radius applies to --pipeline guided"),
         "{e}"
     );
 

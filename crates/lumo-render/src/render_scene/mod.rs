@@ -424,12 +424,11 @@ impl RenderScene {
     /// build.
     fn check_update(&self, moved_meshes: &[usize]) -> Result<(), SceneError> {
         for (ii, inst) in self.scene.instances.iter().enumerate() {
-            if !inst.transform.is_finite() || inst.transform.determinant() == 0.0 {
-                return Err(SceneError::Invalid(format!(
-                    "instance {ii}: transform is singular or not finite"
-                )));
-            }
             let mesh = inst.mesh;
+            if !inst.transform.is_finite() || inst.transform.determinant() == 0.0 {
+                let name = self.scene.meshes.get(mesh).map_or("", |m| m.name.as_str());
+                return Err(lumo_scene::singular_instance(ii, name));
+            }
             let bounds = if moved_meshes.contains(&mesh) {
                 self.scene
                     .meshes
@@ -440,7 +439,7 @@ impl RenderScene {
             };
             if let Some((lo, hi)) = bounds {
                 let reach = lumo_scene::box_reach(lo, hi, &inst.transform);
-                if !(reach <= lumo_scene::COORDINATE_LIMIT) {
+                if reach.is_nan() || reach > lumo_scene::COORDINATE_LIMIT {
                     let name = self.scene.meshes.get(mesh).map_or("", |m| m.name.as_str());
                     return Err(lumo_scene::reach_error(ii, name, reach));
                 }
