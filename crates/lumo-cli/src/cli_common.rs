@@ -153,3 +153,22 @@ pub fn parse_seconds(s: &str) -> std::result::Result<f64, String> {
         )),
     }
 }
+
+/// Parses `--seed`: 0..=4294967295, with a message that gives the range (clap's own says
+/// only "number too large to fit in target type").
+pub fn parse_seed(s: &str) -> std::result::Result<u32, String> {
+    s.trim().parse::<u32>().map_err(|_| {
+        format!(
+            "invalid seed {s:?}: expected a whole number in 0..={}",
+            u32::MAX
+        )
+    })
+}
+
+/// Parses `--threads`: a whole number (0 = all cores, with a warning; more than the cores
+/// allow is capped by [`worker_pool`]), with a message that says so.
+pub fn parse_threads(s: &str) -> std::result::Result<usize, String> {
+    s.trim().parse::<usize>().map_err(|_| {
+        format!("invalid thread count {s:?}: expected a whole number ≥ 0 (0 = all cores)")
+    })
+}

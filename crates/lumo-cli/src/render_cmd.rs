@@ -120,7 +120,7 @@ pub struct RenderArgs {
     pub size: Option<(usize, usize)>,
     /// Random seed; the same seed gives the same image on any number of threads
     /// [default: the scene's, 0].
-    #[arg(long)]
+    #[arg(long, value_parser = crate::cli_common::parse_seed)]
     pub seed: Option<u32>,
     /// Spectral transport: paths carry three hero-rotated wavelengths (RGB inputs upsampled
     /// to smooth spectra, emitters × D65, measured conductors, dispersive glasses) and the
@@ -128,7 +128,7 @@ pub struct RenderArgs {
     #[arg(long)]
     pub spectral: bool,
     /// Worker threads [default: all cores].
-    #[arg(long)]
+    #[arg(long, value_parser = crate::cli_common::parse_threads)]
     pub threads: Option<usize>,
     /// Output file (.exr float32 RGB, .pfm, .png 8-bit sRGB) [default: SCENE.exr and SCENE.png].
     #[arg(short, long)]

@@ -25,7 +25,7 @@ pub struct ServeArgs {
     #[arg(long, default_value = "127.0.0.1")]
     pub bind: IpAddr,
     /// Render threads [default: all cores].
-    #[arg(long)]
+    #[arg(long, value_parser = crate::cli_common::parse_threads)]
     pub threads: Option<usize>,
     /// Sample streams: path (camera stream), light (light stream), both (each weighted ½),
     /// bdpt (bidirectional: both streams),
@@ -43,7 +43,7 @@ pub struct ServeArgs {
     #[arg(long)]
     pub max_depth: Option<u32>,
     /// Random seed.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, value_parser = crate::cli_common::parse_seed)]
     pub seed: u32,
     /// Spectral transport for the path tracer (camera stream, filtered frames) and the light
     /// tracer (light stream): samples carry three wavelengths and are sent as the XYZ of their

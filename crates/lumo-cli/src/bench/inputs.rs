@@ -23,7 +23,7 @@ pub struct InputsArgs {
     #[arg(long, default_value_t = 1, value_parser = crate::cli_common::parse_spp)]
     pub spp: u32,
     /// Seed, as given to `lumo bench quality`.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, value_parser = crate::cli_common::parse_seed)]
     pub seed: u32,
     /// Longest path depth [default: the scene's].
     #[arg(long)]
@@ -32,7 +32,7 @@ pub struct InputsArgs {
     #[arg(long)]
     pub out: PathBuf,
     /// Worker threads [default: all cores].
-    #[arg(long)]
+    #[arg(long, value_parser = crate::cli_common::parse_threads)]
     pub threads: Option<usize>,
 }
 

@@ -68,7 +68,7 @@ pub struct IntegratorsArgs {
     #[arg(long, default_value = "target/lumo-bench-integrators")]
     out_dir: PathBuf,
     /// Worker threads [default: all cores].
-    #[arg(long)]
+    #[arg(long, value_parser = crate::cli_common::parse_threads)]
     threads: Option<usize>,
 }
 

@@ -53,7 +53,7 @@ pub struct QualityArgs {
     #[arg(long, value_parser = crate::cli_common::parse_spp)]
     pub reference_spp: Option<u32>,
     /// Seed of the test images; the reference uses SEED + 1 so its noise is independent.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, value_parser = crate::cli_common::parse_seed)]
     pub seed: u32,
     /// Longest path depth [default: the scene's, 8 for the built-ins].
     #[arg(long)]
@@ -75,7 +75,7 @@ pub struct QualityArgs {
     #[arg(long)]
     pub note: Option<String>,
     /// Worker threads [default: all cores].
-    #[arg(long)]
+    #[arg(long, value_parser = crate::cli_common::parse_threads)]
     pub threads: Option<usize>,
     /// Score lumo's filters (`lumo denoise` defaults, no emission plane) on whole frames of
     /// the scenes in scenes/SET/ (`heldout` or `tuning`) instead of the pipelines; writes

@@ -26,7 +26,7 @@ pub struct ReferenceArgs {
     #[arg(long, default_value_t = 1024, value_parser = crate::cli_common::parse_spp)]
     pub reference_spp: u32,
     /// Seed of the *test* images, as given to `lumo bench quality`; the reference uses SEED + 1.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, value_parser = crate::cli_common::parse_seed)]
     pub seed: u32,
     /// Longest path depth [default: the scene's].
     #[arg(long)]
@@ -35,7 +35,7 @@ pub struct ReferenceArgs {
     #[arg(long, default_value = "target/lumo-bench-cache")]
     pub cache: PathBuf,
     /// Worker threads [default: all cores].
-    #[arg(long)]
+    #[arg(long, value_parser = crate::cli_common::parse_threads)]
     pub threads: Option<usize>,
 }
 

@@ -31,7 +31,7 @@ pub struct RenderBenchArgs {
     #[arg(long, default_value_t = 3)]
     repeats: usize,
     /// Worker threads [default: all cores].
-    #[arg(long)]
+    #[arg(long, value_parser = crate::cli_common::parse_threads)]
     threads: Option<usize>,
     /// Integrators to measure, comma-separated (samples are light paths for `light`).
     #[arg(long, value_enum, value_delimiter = ',', default_value = "path")]

@@ -64,7 +64,7 @@ pub struct SpeedArgs {
     #[arg(long)]
     pub note: Option<String>,
     /// Worker threads [default: all cores].
-    #[arg(long)]
+    #[arg(long, value_parser = crate::cli_common::parse_threads)]
     pub threads: Option<usize>,
 }
 

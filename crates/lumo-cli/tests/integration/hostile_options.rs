@@ -128,6 +128,11 @@ fn unbounded_options_are_refused_naming_the_option() {
             &["bench", "integrators", "--reference-seconds", "NaN"],
             "invalid time",
         ),
+        (
+            &["render", "--seed", "18446744073709551615"],
+            "expected a whole number in 0..=4294967295",
+        ),
+        (&["render", "--threads=-1"], "(0 = all cores)"),
         // An integrator without a pipeline is not told to add one.
         (
             &["render", "--integrator", "bdpt", "--subsample", "2"],
