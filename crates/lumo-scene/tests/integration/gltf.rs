@@ -267,3 +267,37 @@ fn animated_scene_poses_at_keyframes() {
         scene.camera.origin
     );
 }
+
+/// An animation channel names what is wrong with it: times that do not increase, or a value
+/// that is not finite (which used to be reported as bad times).
+#[test]
+fn a_bad_animation_channel_says_which_part_is_wrong() {
+    let dir = temp_dir("gltf-anim");
+    let gltf = r#"{"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}],
+        "nodes": [{"name": "n"}],
+        "animations": [{"samplers": [{"input": 0, "output": 1}],
+                        "channels": [{"sampler": 0, "target": {"node": 0, "path": "translation"}}]}],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 3, "type": "SCALAR", "min": [0], "max": [2]},
+            {"bufferView": 1, "componentType": 5126, "count": 3, "type": "VEC3"}],
+        "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 12},
+                        {"buffer": 0, "byteOffset": 12, "byteLength": 36}],
+        "buffers": [{"byteLength": 48, "uri": "anim.bin"}]}"#;
+    let path = write(&dir, "anim.gltf", gltf);
+    let bin = |times: [f32; 3], values: [f32; 9]| -> Vec<u8> {
+        times
+            .iter()
+            .chain(&values)
+            .flat_map(|v| v.to_le_bytes())
+            .collect()
+    };
+    let ok_values = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 2.0, 0.0, 0.0];
+    let mut nan_values = ok_values;
+    nan_values[4] = f32::NAN;
+    std::fs::write(dir.join("anim.bin"), bin([0.0, 1.0, 2.0], nan_values)).unwrap();
+    let e = load(&path).unwrap_err().to_string();
+    assert!(e.contains("value 1 is not finite"), "{e}");
+    std::fs::write(dir.join("anim.bin"), bin([0.0, 2.0, 1.0], ok_values)).unwrap();
+    let e = load(&path).unwrap_err().to_string();
+    assert!(e.contains("key times must be finite and increase"), "{e}");
+}

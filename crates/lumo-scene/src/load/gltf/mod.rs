@@ -595,18 +595,27 @@ impl GltfReader<'_, '_> {
                     .windows(2)
                     .any(|w| w[1].partial_cmp(&w[0]) != Some(std::cmp::Ordering::Greater))
                     || times.iter().any(|t| !t.is_finite());
-                if bad_times
-                    || values.len() != times.len() * per_key
-                    || values.iter().any(|v| !v.is_finite())
-                {
-                    return Err(LoadError::invalid(
-                        self.at(label),
-                        format!(
-                            "{} key times (must increase) and {} values do not form a valid {interpolation:?} track",
-                            times.len(),
-                            values.len()
-                        ),
-                    ));
+                // Say which part is wrong: the times, the count, or a value.
+                let problem = if bad_times {
+                    Some(format!(
+                        "its {} key times must be finite and increase",
+                        times.len()
+                    ))
+                } else if values.len() != times.len() * per_key {
+                    Some(format!(
+                        "{} key times and {} values do not form a valid {interpolation:?} track \
+                         ({per_key} value(s) per key)",
+                        times.len(),
+                        values.len()
+                    ))
+                } else {
+                    values
+                        .iter()
+                        .position(|v| !v.is_finite())
+                        .map(|i| format!("value {i} is not finite; give every key a finite value"))
+                };
+                if let Some(problem) = problem {
+                    return Err(LoadError::invalid(self.at(label), problem));
                 }
                 let mut values = values;
                 if property == AnimatedProperty::Rotation {
