@@ -430,6 +430,18 @@ pub fn run(args: RenderArgs) -> Result<()> {
         if dir.exists() && !dir.is_dir() {
             bail!("--aovs {}: exists and is not a directory", dir.display());
         }
+        // `--aovs planes.exr` makes a directory of that name: likely meant as a file.
+        let image_like = dir
+            .extension()
+            .and_then(|e| e.to_str())
+            .is_some_and(|e| ["exr", "pfm", "png"].contains(&e.to_ascii_lowercase().as_str()));
+        if image_like && !dir.exists() {
+            eprintln!(
+                "warning: --aovs {} names a directory (one file per plane goes into it), \
+                 created with an image extension; the image itself is -o",
+                dir.display()
+            );
+        }
         std::fs::create_dir_all(dir)
             .with_context(|| format!("--aovs {}: cannot create the directory", dir.display()))?;
         check_writable(&dir.join("color.exr"))

@@ -265,6 +265,32 @@ fn ignored_options_are_warned_about_one_line_each() {
         "{e}"
     );
 
+    // An AOV directory named like an image: made, with a warning that it is a directory.
+    let (o, _) = lumo_in(
+        &dir,
+        &[
+            "render",
+            "--size",
+            "8x8",
+            "--spp",
+            "1",
+            "--pipeline",
+            "none",
+            "--aovs",
+            "planes.exr",
+            "-o",
+            "p.png",
+        ],
+        None,
+    );
+    let e = stderr(&o);
+    assert!(o.status.success(), "{e}");
+    assert!(
+        e.contains("warning: --aovs planes.exr names a directory"),
+        "{e}"
+    );
+    assert!(dir.join("planes.exr").join("color.exr").is_file());
+
     // lumo denoise: an option of another filter is warned about, not silently dropped.
     let (o, _) = lumo_in(
         &dir,
