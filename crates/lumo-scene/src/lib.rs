@@ -23,8 +23,8 @@ pub use light::{EnvMap, Light};
 pub use material::{BsdfSpec, Distribution, Material, Roughness, RoughnessMaps, Spectra};
 pub use mesh::{Analytic, AnalyticKind, Instance, Mesh};
 pub use scene::{
-    box_reach, positions_box, reach_error, singular_instance, RenderDefaults, Scene,
-    COORDINATE_LIMIT, DEPTH_LIMIT,
+    box_reach, positions_box, reach_error, singular_instance, transformed_box, RenderDefaults,
+    Scene, COORDINATE_LIMIT, DEPTH_LIMIT,
 };
 pub use texture::{Texture, TextureFilter, WrapMode};
 

@@ -13,10 +13,11 @@ pub const DEPTH_LIMIT: u32 = 1 << 16;
 /// every re-pose of an animated scene check it.
 pub const COORDINATE_LIMIT: f32 = 1e18;
 
-/// The largest coordinate magnitude of the box `lo..hi` after `transform` (its eight corners);
-/// NaN when the transform makes it non-finite.
-pub fn box_reach(lo: Vec3, hi: Vec3, transform: &Mat4) -> f32 {
-    let mut reach = 0.0f32;
+/// The axis-aligned box around the box `lo..hi` after `transform`: its eight corners
+/// transformed (a bound, not the tightest box, under rotation); NaN when a corner is not
+/// finite.
+pub fn transformed_box(lo: Vec3, hi: Vec3, transform: &Mat4) -> (Vec3, Vec3) {
+    let mut b = (Vec3::INFINITY, Vec3::NEG_INFINITY);
     for i in 0..8 {
         let corner = Vec3::new(
             if i & 1 == 0 { lo.x } else { hi.x },
@@ -25,11 +26,20 @@ pub fn box_reach(lo: Vec3, hi: Vec3, transform: &Mat4) -> f32 {
         );
         let w = transform.transform_point3(corner);
         if !w.is_finite() {
-            return f32::NAN;
+            return (Vec3::NAN, Vec3::NAN);
         }
-        reach = reach.max(w.abs().max_element());
+        b = (b.0.min(w), b.1.max(w));
     }
-    reach
+    b
+}
+
+/// The largest coordinate magnitude of the box `(lo, hi)`; NaN when it is not finite.
+pub fn box_reach((lo, hi): (Vec3, Vec3)) -> f32 {
+    if lo.is_finite() && hi.is_finite() {
+        lo.abs().max(hi.abs()).max_element()
+    } else {
+        f32::NAN
+    }
 }
 
 /// The local bounding box of `positions` (`None` when empty).
@@ -137,6 +147,25 @@ impl Scene {
             .sum()
     }
 
+    /// Per instance, a world box around its geometry: [`transformed_box`] of its mesh's own
+    /// box (`None` for a mesh without vertices or out of range). One pass over each mesh's
+    /// vertices, however many instances place it, where [`Scene::bounds`] transforms every
+    /// vertex of every instance.
+    pub fn instance_boxes(&self) -> Vec<Option<(Vec3, Vec3)>> {
+        let boxes: Vec<_> = self
+            .meshes
+            .iter()
+            .map(|m| positions_box(&m.positions))
+            .collect();
+        self.instances
+            .iter()
+            .map(|inst| {
+                let (lo, hi) = boxes.get(inst.mesh).copied().flatten()?;
+                Some(transformed_box(lo, hi, &inst.transform))
+            })
+            .collect()
+    }
+
     /// World-space bounding box (min, max) of all instanced geometry.
     pub fn bounds(&self) -> (Vec3, Vec3) {
         let mut lo = Vec3::splat(f32::INFINITY);
@@ -235,17 +264,11 @@ impl Scene {
                 return Err(singular_instance(ii, &self.meshes[inst.mesh].name));
             }
         }
-        let boxes: Vec<_> = self
-            .meshes
-            .iter()
-            .map(|m| positions_box(&m.positions))
-            .collect();
-        for (ii, inst) in self.instances.iter().enumerate() {
-            if let Some((lo, hi)) = boxes[inst.mesh] {
-                let reach = box_reach(lo, hi, &inst.transform);
-                if reach.is_nan() || reach > COORDINATE_LIMIT {
-                    return Err(reach_error(ii, &self.meshes[inst.mesh].name, reach));
-                }
+        for (ii, b) in self.instance_boxes().into_iter().enumerate() {
+            let reach = b.map_or(0.0, box_reach);
+            if reach.is_nan() || reach > COORDINATE_LIMIT {
+                let mesh = &self.meshes[self.instances[ii].mesh].name;
+                return Err(reach_error(ii, mesh, reach));
             }
         }
         Ok(())

@@ -4,7 +4,8 @@
 //! Files: this one (guide building, parameters, the public entry point, the sub-sampled
 //! variant), stream.rs (the exact filter streamed row by row), cholesky.rs (its small window
 //! solves), self_weight.rs (the exact `∂F_p/∂y_p` that `auto` needs, streamed with the filter),
-//! shared.rs (the input prepared once for several runs) and lookup.rs (the paper's geometry-aware lookup, used by the guided pipeline).
+//! shared.rs (the input prepared once for several runs) and lookup.rs (the paper's
+//! geometry-aware lookup, used by the guided pipeline).
 
 pub(crate) mod cholesky;
 mod lookup;

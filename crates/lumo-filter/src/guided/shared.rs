@@ -93,8 +93,15 @@ impl<'a> SharedInput<'a> {
         let p = filled.as_deref().unwrap_or(&self.p);
         let (image, weights) = if let Some(i) = blocks {
             let b = &self.blocks[i];
-            let fresh = b.p.is_none().then(|| downsample(p, w, h, 3, s));
-            let pl = b.p.as_deref().or(fresh.as_deref()).unwrap_or_default();
+            // With missing pixels the input's block means depend on this run's filling.
+            let fresh;
+            let pl = match &b.p {
+                Some(pl) => pl.as_slice(),
+                None => {
+                    fresh = downsample(p, w, h, 3, s);
+                    &fresh
+                }
+            };
             let size = (w.div_ceil(s), h.div_ceil(s));
             let coarse = coarse_grid::<SW>((&b.guide, pl), size, eps, radius, s);
             if SW {

@@ -264,16 +264,9 @@ impl Accel {
                     };
                     (*blas.bvh2.nodes[0].aabb(), transform)
                 };
-                let mut b = Aabb::empty();
-                for i in 0..8 {
-                    let corner = Vec3::new(
-                        if i & 1 == 0 { lb.min.x } else { lb.max.x },
-                        if i & 2 == 0 { lb.min.y } else { lb.max.y },
-                        if i & 4 == 0 { lb.min.z } else { lb.max.z },
-                    );
-                    b.extend(Vec3A::from(transform.transform_point3(corner)));
-                }
-                b
+                let (lo, hi) =
+                    lumo_scene::transformed_box(lb.min.into(), lb.max.into(), &transform);
+                Aabb::new(lo.into(), hi.into())
             })
             .collect()
     }

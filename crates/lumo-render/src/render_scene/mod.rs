@@ -438,7 +438,8 @@ impl RenderScene {
                 self.mesh_boxes.get(mesh).copied().flatten()
             };
             if let Some((lo, hi)) = bounds {
-                let reach = lumo_scene::box_reach(lo, hi, &inst.transform);
+                let world = lumo_scene::transformed_box(lo, hi, &inst.transform);
+                let reach = lumo_scene::box_reach(world);
                 if reach.is_nan() || reach > lumo_scene::COORDINATE_LIMIT {
                     let name = self.scene.meshes.get(mesh).map_or("", |m| m.name.as_str());
                     return Err(lumo_scene::reach_error(ii, name, reach));

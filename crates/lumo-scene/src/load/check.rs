@@ -6,6 +6,7 @@ use std::path::Path;
 
 use super::{Diagnostics, LoadError, Location};
 use crate::{Mesh, Scene};
+use glam::Vec3;
 
 /// Validates a freshly read mesh: indices in range and finite positions are errors (with the
 /// triangle or vertex number), zero-area triangles are removed with one warning per mesh.
@@ -136,7 +137,17 @@ const MAX_REACH: f32 = 1e8;
 /// Warns when the scene's size or its distance from the origin is outside the range the
 /// renderer's single-precision rays and offsets suit, instead of a silently wrong image.
 fn check_extent(path: &Path, scene: &Scene, diag: &mut Diagnostics) -> Result<(), LoadError> {
-    let (lo, hi) = scene.bounds();
+    // The instances' boxes (a bound under rotation) rather than every placed vertex: a
+    // scene of many instances of a large mesh is checked in one pass over the mesh.
+    let mut lo = Vec3::INFINITY;
+    let mut hi = Vec3::NEG_INFINITY;
+    for (l, h) in scene.instance_boxes().into_iter().flatten() {
+        if !(l.is_finite() && h.is_finite()) {
+            // Not finite: `Scene::validate` refuses the scene with the instance's name.
+            return Ok(());
+        }
+        (lo, hi) = (lo.min(l), hi.max(h));
+    }
     if !(lo.is_finite() && hi.is_finite()) {
         return Ok(());
     }
