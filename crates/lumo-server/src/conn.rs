@@ -4,6 +4,8 @@
 //!
 //! [`GuardedListener`] wraps the TCP listener; each connection is a [`GuardedStream`] that
 //! fails its reads and writes once the deadline passes, so hyper drops the connection. A
+//! request over the size cap is answered here, below HTTP (414, 431 or 413: [`crate::oversize`]),
+//! and the rest of it is read and dropped, bounded in bytes and by the deadline. A
 //! WebSocket viewer marks its connection upgraded ([`ConnHandle::mark_upgraded`]): it may then
 //! stay silent as long as it likes (its writes are bounded by the viewer's stall timeout in
 //! [`crate::http`]) and is never closed to make room.
@@ -24,6 +26,7 @@ use tokio::io::{AsyncRead, AsyncWrite, ReadBuf};
 use tokio::net::{TcpListener, TcpStream};
 use tokio::time::{Instant, Sleep};
 
+use crate::oversize::{refusal_response, HeadScan};
 use crate::Limits;
 
 /// What a connection shares with the registry and with request handlers.
@@ -176,6 +179,8 @@ impl Listener for GuardedListener {
                 timeout: self.limits.request_timeout,
                 max_request_bytes: self.limits.max_request_bytes,
                 unanswered: 0,
+                scan: HeadScan::default(),
+                refusal: None,
             };
             return (io, addr);
         }
@@ -196,6 +201,35 @@ pub struct GuardedStream {
     max_request_bytes: usize,
     /// Bytes read since the server last wrote.
     unanswered: usize,
+    /// How far those bytes got in a request.
+    scan: HeadScan,
+    /// A request over the size cap, being refused.
+    refusal: Option<Refusal>,
+}
+
+/// The answer to a request over the size cap, and what was done with it.
+struct Refusal {
+    /// The complete HTTP response.
+    response: Vec<u8>,
+    /// Bytes of it written.
+    written: usize,
+    /// The write side is shut (the client sees the end of the answer).
+    shut: bool,
+    /// Bytes of the request read and dropped since.
+    drained: usize,
+}
+
+/// Bytes of an oversized request read and dropped after the refusal, at most: enough for the
+/// rest of a large header block, so that closing with unread input (a TCP reset) does not
+/// destroy the answer in flight, without reading a flood for ever.
+const DRAIN_LIMIT: usize = 1 << 20;
+
+/// The error that ends a refused connection.
+fn refused() -> io::Error {
+    io::Error::new(
+        io::ErrorKind::InvalidData,
+        "request larger than the request size cap",
+    )
 }
 
 impl GuardedStream {
@@ -236,18 +270,64 @@ impl AsyncRead for GuardedStream {
         buf: &mut ReadBuf<'_>,
     ) -> Poll<io::Result<()>> {
         self.check(cx)?;
+        if self.refusal.is_some() {
+            return self.poll_refuse(cx);
+        }
         let before = buf.filled().len();
         ready!(Pin::new(&mut self.inner).poll_read(cx, buf))?;
         if !self.upgraded() {
-            self.unanswered += buf.filled().len() - before;
+            let new = &buf.filled()[before..];
+            // How far the request got within the cap decides the answer (one read may hold
+            // all of it).
+            let room = self.max_request_bytes.saturating_sub(self.unanswered);
+            self.scan.feed(&new[..new.len().min(room)]);
+            self.unanswered += new.len();
             if self.unanswered > self.max_request_bytes {
-                return Poll::Ready(Err(io::Error::new(
-                    io::ErrorKind::InvalidData,
-                    "request larger than the request size cap",
-                )));
+                // Hyper never sees these bytes: the request is answered here.
+                buf.set_filled(before);
+                self.refusal = Some(Refusal {
+                    response: refusal_response(&self.scan, self.max_request_bytes),
+                    written: 0,
+                    shut: false,
+                    drained: 0,
+                });
+                return self.poll_refuse(cx);
             }
         }
         Poll::Ready(Ok(()))
+    }
+}
+
+impl GuardedStream {
+    /// Writes the refusal, shuts the write side, then reads and drops the rest of the request
+    /// until the client closes or [`DRAIN_LIMIT`] is passed (or the deadline, in
+    /// [`GuardedStream::check`]); then fails, so that hyper drops the connection. Pending
+    /// while any of that waits on the socket.
+    fn poll_refuse(&mut self, cx: &mut Context<'_>) -> Poll<io::Result<()>> {
+        let Some(r) = self.refusal.as_mut() else {
+            return Poll::Ready(Err(refused()));
+        };
+        let inner = &mut self.inner;
+        while r.written < r.response.len() {
+            match ready!(Pin::new(&mut *inner).poll_write(cx, &r.response[r.written..]))? {
+                0 => return Poll::Ready(Err(refused())),
+                n => r.written += n,
+            }
+        }
+        if !r.shut {
+            ready!(Pin::new(&mut *inner).poll_shutdown(cx))?;
+            r.shut = true;
+        }
+        let mut scratch = [0u8; 4096];
+        loop {
+            let mut rb = ReadBuf::new(&mut scratch);
+            ready!(Pin::new(&mut *inner).poll_read(cx, &mut rb))?;
+            let n = rb.filled().len();
+            r.drained += n;
+            if n == 0 || r.drained > DRAIN_LIMIT {
+                return Poll::Ready(Err(refused()));
+            }
+        }
     }
 }
 
@@ -265,6 +345,7 @@ impl AsyncWrite for GuardedStream {
             let at = Instant::now() + self.timeout;
             self.deadline.as_mut().reset(at);
             self.unanswered = 0;
+            self.scan = HeadScan::default();
         }
         Poll::Ready(Ok(n))
     }

@@ -18,6 +18,7 @@ pub mod frames;
 pub mod http;
 pub mod hub;
 pub mod outbox;
+mod oversize;
 pub mod protocol;
 pub mod scene_edit;
 pub mod streams;
@@ -73,7 +74,8 @@ pub struct Limits {
     /// Time an HTTP connection has to send a complete request, counted from accept and again
     /// from each write of the server: bounds slow header senders and idle keep-alive alike.
     pub request_timeout: Duration,
-    /// Bytes a connection may send before the server answers (request line and headers).
+    /// Bytes a connection may send before the server answers (request line and headers);
+    /// a larger request gets 414, 431 or 413 by how far it got, and its connection is closed.
     pub max_request_bytes: usize,
     /// A viewer whose socket accepts nothing for this long is closed.
     pub write_stall_timeout: Duration,
