@@ -27,6 +27,7 @@ pub(crate) mod analytic;
 pub(crate) mod blas;
 mod bvh4;
 pub(crate) mod bvh8;
+mod median;
 pub mod packet;
 mod robust;
 pub(crate) mod stack;

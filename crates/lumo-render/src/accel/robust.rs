@@ -7,7 +7,11 @@
 //! * identical boxes (N copies of one triangle: 100,000 took over 2 minutes), and
 //! * costs that overflow to +∞ (geometry around 1e30: every surface area is infinite).
 //!
-//! [`build_bvh2`] removes both causes before PLOC sees the boxes: more than
+//! A third cause is boxes that nearly all cover one another (a triangle fan): merges then cost
+//! about the same, few are mutual, and such input goes to a median build instead
+//! ([`super::median`]).
+//!
+//! [`build_bvh2`] removes the first two causes before PLOC sees the boxes: more than
 //! [`MAX_PLAIN_DUPLICATES`] identical boxes become one cluster (a multi-primitive leaf, which
 //! the wide collapse splits into a balanced subtree), and geometry too large for finite f32
 //! areas is scaled by a power of two for the build. Ordinary input (extent ≤ 1e18, at most a
@@ -21,6 +25,8 @@ use obvhs::aabb::Aabb;
 use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
 use obvhs::bvh2::Bvh2;
 use obvhs::ploc::{PlocBuilder, PlocSearchDistance, SortPrecision};
+
+use super::median::{median_build, overlaps_heavily};
 
 /// Largest extent the build takes unscaled: the half area of a box this size (3·1e36) stays
 /// well inside f32's range (3.4e38), so no merge cost overflows.
@@ -118,8 +124,12 @@ pub(crate) fn build_bvh2(boxes: &[Aabb], options: BuildOptions) -> Bvh2 {
     bvh
 }
 
-/// Plain obvhs PLOC (+ reinsertion) over `boxes`.
+/// Plain obvhs PLOC (+ reinsertion) over `boxes`, or the median build where they overlap so
+/// much that PLOC would take quadratic time ([`super::median`]).
 fn ploc(boxes: &[Aabb], options: BuildOptions) -> Bvh2 {
+    if overlaps_heavily(boxes) {
+        return median_build(boxes);
+    }
     let mut bvh = PlocBuilder::with_capacity(boxes.len()).build(
         PlocSearchDistance::Medium,
         boxes,
@@ -231,6 +241,24 @@ mod tests {
         let mut seen: Vec<u32> = bvh.primitive_indices.clone();
         seen.sort_unstable();
         assert!(seen.iter().copied().eq(0..boxes.len() as u32));
+    }
+
+    /// A 200,000-triangle fan (a triangulated n-gon) took PLOC quadratic time; it now goes to
+    /// the median build and comes out balanced.
+    #[test]
+    fn a_triangle_fan_builds_a_shallow_tree() {
+        let n = 200_000;
+        let at = |i: usize| {
+            let a = std::f32::consts::TAU * i as f32 / n as f32;
+            Vec3A::new(a.cos(), a.sin(), 0.0)
+        };
+        let boxes: Vec<Aabb> = (1..n - 1)
+            .map(|i| tri_box(at(0), at(i), at(i + 1)))
+            .collect();
+        let bvh = build_bvh2(&boxes, OPTIONS);
+        let (depth, prims) = depth_and_prims(&bvh);
+        assert_eq!(prims, boxes.len());
+        assert!(depth <= 20, "depth {depth}");
     }
 
     #[test]
