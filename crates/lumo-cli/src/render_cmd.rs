@@ -418,15 +418,19 @@ pub fn run(args: RenderArgs) -> Result<()> {
             PathBuf::from(format!("{}.png", scene.name)),
         ],
     };
-    for o in &outputs {
-        check_writable(o)?;
-        if let Some(seq) = &sequence {
-            // The numbered name must be writable too (a long name may not be).
-            check_writable(&seq.frame_path(o, seq.frames.first))?;
-        }
-    }
-    // Every output location is checked before the render, which may take hours.
+    // Every output location is checked before the render, which may take hours; the AOV
+    // directory first, since `-o` may name a file in it.
     if let Some(dir) = &args.aovs {
+        for o in &outputs {
+            if let Some(plane) = aov_plane_named_by(o, dir) {
+                bail!(
+                    "-o {}: the --aovs plane {plane}.exr would overwrite the image; write the \
+                     image outside {} or under another name",
+                    o.display(),
+                    dir.display()
+                );
+            }
+        }
         if dir.exists() && !dir.is_dir() {
             bail!("--aovs {}: exists and is not a directory", dir.display());
         }
@@ -446,6 +450,13 @@ pub fn run(args: RenderArgs) -> Result<()> {
             .with_context(|| format!("--aovs {}: cannot create the directory", dir.display()))?;
         check_writable(&dir.join("color.exr"))
             .with_context(|| format!("--aovs {}", dir.display()))?;
+    }
+    for o in &outputs {
+        check_writable(o)?;
+        if let Some(seq) = &sequence {
+            // The numbered name must be writable too (a long name may not be).
+            check_writable(&seq.frame_path(o, seq.frames.first))?;
+        }
     }
     match args.spp {
         Some(0) => bail!("--spp must be at least 1"),
@@ -732,4 +743,36 @@ impl<'a> Job<'a> {
         }
         Ok(())
     }
+}
+
+/// The name of the `--aovs` plane that output `o` would be overwritten by: `o` is
+/// `<dir>/<plane>.exr` for a plane of the frame or of a pipeline.
+fn aov_plane_named_by(o: &Path, dir: &Path) -> Option<&'static str> {
+    // Lexically where the directories do not exist yet (`./av` is `av`).
+    let lexical = |p: &Path| -> PathBuf {
+        p.components()
+            .filter(|c| !matches!(c, std::path::Component::CurDir))
+            .collect()
+    };
+    let same_dir = |parent: &Path| match (parent.canonicalize(), dir.canonicalize()) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => lexical(parent) == lexical(dir),
+    };
+    let parent = o.parent().map(|p| {
+        if p.as_os_str().is_empty() {
+            Path::new(".")
+        } else {
+            p
+        }
+    })?;
+    let exr = o.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+    let stem = o.file_stem()?.to_str()?;
+    if !exr || !same_dir(parent) {
+        return None;
+    }
+    lumo_render::AOV_NAMES
+        .iter()
+        .chain(lumo_pipeline::PLANE_NAMES)
+        .find(|&&n| n == stem)
+        .copied()
 }

@@ -155,6 +155,19 @@ impl fmt::Display for Timings {
     }
 }
 
+/// Every name a pipeline's intermediate planes ([`PipelineOutput::planes`]) may have: `lumo
+/// render --aovs` writes them as `<name>.exr` next to the frame's planes
+/// ([`lumo_render::AOV_NAMES`]), and refuses an `-o` that one of them would overwrite.
+pub const PLANE_NAMES: &[&str] = &[
+    "indirect_raw",
+    "illumination_raw",
+    "illumination_filtered",
+    "illumination_upsampled",
+    "low_illumination",
+    "low_indirect",
+    "lookup_misses",
+];
+
 /// What a pipeline produced.
 pub struct PipelineOutput {
     /// The final image (3 channels, linear RGB).

@@ -55,17 +55,18 @@ impl Frame {
 
     /// All planes with their file names.
     pub fn planes(&self) -> [(&'static str, &Image); 9] {
-        [
-            ("color", &self.color),
-            ("albedo", &self.albedo),
-            ("normal", &self.normal),
-            ("position", &self.position),
-            ("depth", &self.depth),
-            ("direct", &self.direct),
-            ("indirect", &self.indirect),
-            ("variance", &self.variance),
-            ("emission", &self.emission),
-        ]
+        let images = [
+            &self.color,
+            &self.albedo,
+            &self.normal,
+            &self.position,
+            &self.depth,
+            &self.direct,
+            &self.indirect,
+            &self.variance,
+            &self.emission,
+        ];
+        std::array::from_fn(|i| (AOV_NAMES[i], images[i]))
     }
 
     /// Writes every plane as `DIR/<name>.exr` (float32), creating DIR if needed.

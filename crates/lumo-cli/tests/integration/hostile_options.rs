@@ -413,6 +413,53 @@ fn an_unwritable_aov_directory_is_found_before_the_render() {
     assert!(!dir.join("a.png").exists());
 }
 
+/// `-o av/color.exr --aovs av` used to write the image, then overwrite it with the noisy colour
+/// plane, and report success. An output that a frame or pipeline plane would overwrite is
+/// refused before the render; another name in the same directory is fine.
+#[test]
+fn an_output_that_an_aov_plane_would_overwrite_is_refused() {
+    let dir = temp_dir("aov-clash");
+    for (out, plane) in [
+        ("av/color.exr", "color.exr"),
+        (
+            "./av/illumination_filtered.EXR",
+            "illumination_filtered.exr",
+        ),
+    ] {
+        let (o, _) = lumo_in(
+            &dir,
+            &[
+                "render", "--aovs", "av", "--size", "8x8", "--spp", "1", "-o", out,
+            ],
+            None,
+        );
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{out}: {e}");
+        assert!(
+            e.contains(out) && e.contains(plane) && e.contains("would overwrite"),
+            "{out}: {e}"
+        );
+        assert!(!e.contains("triangles"), "refused only after loading: {e}");
+    }
+    let (o, _) = lumo_in(
+        &dir,
+        &[
+            "render",
+            "--aovs",
+            "av",
+            "--size",
+            "8x8",
+            "--spp",
+            "1",
+            "-o",
+            "av/beauty.exr",
+        ],
+        None,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(dir.join("av/beauty.exr").is_file() && dir.join("av/color.exr").is_file());
+}
+
 #[test]
 fn bench_repeats_zero_is_warned_about() {
     let dir = temp_dir("repeats");

@@ -174,7 +174,8 @@ fn errors_fall_with_spp_and_sit_far_below_the_unfiltered_error() {
 }
 
 /// `lumo render --aovs` writes every plane a pipeline reports; each must be an image the
-/// output formats take (the guided pipeline's 2-channel lookup plane once failed as EXR).
+/// output formats take (the guided pipeline's 2-channel lookup plane once failed as EXR), and
+/// each is named in `PLANE_NAMES`.
 #[test]
 fn every_reported_plane_writes_as_exr_and_pfm() {
     let rs = RenderScene::new(small_room()).expect("scene");
@@ -183,6 +184,10 @@ fn every_reported_plane_writes_as_exr_and_pfm() {
     for p in Pipeline::ALL {
         let out = run(&rs, p, &settings(16, 16, 2, 3), &small_options());
         for (name, plane) in &out.planes {
+            assert!(
+                lumo_pipeline::PLANE_NAMES.contains(name),
+                "{p}: plane {name} missing from PLANE_NAMES (render --aovs checks -o against it)"
+            );
             for ext in ["exr", "pfm"] {
                 let path = dir.join(format!("{p}-{name}.{ext}"));
                 lumo_image::write_image(&path, plane)
