@@ -172,3 +172,12 @@ pub fn parse_threads(s: &str) -> std::result::Result<usize, String> {
         format!("invalid thread count {s:?}: expected a whole number ≥ 0 (0 = all cores)")
     })
 }
+
+/// Whether `a` and `b` name the same file (compared as canonical paths when both exist, else
+/// as written).
+pub fn same_file(a: &std::path::Path, b: &std::path::Path) -> bool {
+    match (a.canonicalize(), b.canonicalize()) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => a == b,
+    }
+}

@@ -90,7 +90,10 @@ pub fn run(args: CompareArgs) -> Result<()> {
             let diff = diff_path(out, i, args.images.len());
             crate::render_cmd::check_writable(&diff).context("--diff")?;
             // Writing a diff over an input would destroy it (it once replaced the reference).
-            if let Some(input) = inputs.iter().find(|p| same_file(p, &diff)) {
+            if let Some(input) = inputs
+                .iter()
+                .find(|p| crate::cli_common::same_file(p, &diff))
+            {
                 bail!(
                     "--diff {}: the diff image would overwrite the input {}; name another file",
                     diff.display(),
@@ -180,15 +183,6 @@ fn describe(ref_path: &Path, path: &Path, e: MetricError) -> anyhow::Error {
 }
 
 /// `out` itself for a single image, else `stem-N.ext` with N counted from 1.
-/// Whether `a` and `b` name the same file (compared as canonical paths when both exist, else
-/// as written).
-fn same_file(a: &Path, b: &Path) -> bool {
-    match (a.canonicalize(), b.canonicalize()) {
-        (Ok(a), Ok(b)) => a == b,
-        _ => a == b,
-    }
-}
-
 fn diff_path(out: &Path, index: usize, count: usize) -> PathBuf {
     if count == 1 {
         return out.to_path_buf();

@@ -670,6 +670,99 @@ pub fn denoise_dir(dir: &Path, filter: FilterKind) -> anyhow::Result<(Image, std
     Ok((filtered.image, times[0]))
 }
 
+/// Refuses outputs that would overwrite an input plane or each other (`--light-mask` once
+/// overwrote the denoised image with a black mask, `-o` an input plane, without a word).
+fn check_outputs_spare_inputs(a: &DenoiseArgs, inputs: &Inputs) -> anyhow::Result<()> {
+    use crate::cli_common::same_file;
+    let planes = [
+        ("color", Some(&inputs.color)),
+        ("albedo", inputs.albedo.as_ref()),
+        ("normal", inputs.normal.as_ref()),
+        ("position", inputs.position.as_ref()),
+        ("depth", inputs.depth.as_ref()),
+        ("variance", inputs.variance.as_ref()),
+        ("emission", inputs.emission.as_ref()),
+    ];
+    let outputs = [
+        ("-o", Some(&a.output)),
+        ("--light-mask", a.light_mask.as_ref()),
+    ];
+    for (option, out) in outputs {
+        let Some(out) = out else { continue };
+        for (what, plane) in planes {
+            if let Some((path, _)) = plane.filter(|(p, _)| same_file(p, out)) {
+                bail!(
+                    "{option} {}: that is the {what} plane being read ({}); write to another file",
+                    out.display(),
+                    path.display()
+                );
+            }
+        }
+    }
+    if let Some(mask) = a.light_mask.as_ref().filter(|m| same_file(m, &a.output)) {
+        bail!(
+            "--light-mask {}: the same file as -o; the mask would replace the denoised image",
+            mask.display()
+        );
+    }
+    Ok(())
+}
+
+/// Refuses a variance plane with values no variance has, and warns when the albedo or the
+/// emission plane passes most pixels through unfiltered: each used to switch filtering off
+/// without a word (a variance of +∞, NaN or −1 read as 0, noise-free; an all-zero albedo from
+/// another renderer, or an all-NaN emission plane, left every pixel as it was).
+fn check_plane_values(a: &DenoiseArgs, inputs: &Inputs) -> anyhow::Result<()> {
+    if let Some((path, v)) = &inputs.variance {
+        let bad = |x: f32| !x.is_finite() || x < 0.0;
+        let first = v.data.iter().position(|&x| bad(x));
+        if let Some(at) = first {
+            let count = v.data.iter().filter(|&&x| bad(x)).count();
+            let pixel = at / v.channels;
+            bail!(
+                "{}: the variance plane has {count} value(s) that are negative, NaN or infinite \
+                 (first at pixel ({}, {}): {}); a variance must be finite and ≥ 0",
+                path.display(),
+                pixel % v.width,
+                pixel / v.width,
+                v.data[at]
+            );
+        }
+    }
+    let total = inputs.color.1.pixel_count().max(1);
+    let share = |n: usize| n as f64 / total as f64;
+    if let Some((path, albedo)) = inputs.albedo.as_ref().filter(|_| !a.no_demodulate) {
+        let passed = (0..albedo.pixel_count())
+            .filter(|&i| {
+                let p = &albedo.data[i * albedo.channels..][..albedo.channels.min(3)];
+                let max = p.iter().fold(0.0f32, |m, &x| m.max(x));
+                !(p.iter().all(|x| x.is_finite()) && max >= lumo_filter::ALBEDO_EPS)
+            })
+            .count();
+        if share(passed) > 0.5 {
+            eprintln!(
+                "warning: {}: {passed} of {total} albedo pixels are black (below {:e}) or not \
+                 finite; demodulation passes them through unfiltered (if the plane is not a \
+                 real albedo, drop it or add --no-demodulate)",
+                path.display(),
+                lumo_filter::ALBEDO_EPS
+            );
+        }
+    }
+    if let Some((path, emission)) = &inputs.emission {
+        let lit = emitting(emission).iter().filter(|&&e| e).count();
+        if share(lit) > 0.5 {
+            eprintln!(
+                "warning: {}: {lit} of {total} pixels count as emitting (any channel non-zero \
+                 or NaN) and are passed through unfiltered; an emission plane is zero except on \
+                 lights seen directly",
+                path.display()
+            );
+        }
+    }
+    Ok(())
+}
+
 /// Runs `lumo denoise`.
 pub fn run(args: DenoiseArgs) -> anyhow::Result<()> {
     // Named as the command line spells them: the filter's own error calls --subsample
@@ -689,6 +782,8 @@ pub fn run(args: DenoiseArgs) -> anyhow::Result<()> {
              the lights); drop --light-mask or the emission plane"
         );
     }
+    check_outputs_spare_inputs(&args, &inputs)?;
+    check_plane_values(&args, &inputs)?;
     let t_read = t0.elapsed();
     let missing = missing_pixels(&inputs.color.1) - inputs.huge;
     if missing > 0 {

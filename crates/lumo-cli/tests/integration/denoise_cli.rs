@@ -560,3 +560,110 @@ fn auto_flags_set_its_parameters_and_are_checked() {
     assert!(!o.status.success());
     assert!(text(&o).1.contains("--filter auto only"), "{}", text(&o).1);
 }
+
+/// `--light-mask` naming the output, or `-o` naming an input plane, overwrote a file without a
+/// word (the denoised image with a black mask, the normal plane with the result). Both are
+/// refused before any filtering, naming the option and the plane.
+#[test]
+fn outputs_that_would_overwrite_an_input_or_each_other_are_refused() {
+    let dir = temp_dir("clobber");
+    write_scene(&dir, 16, 12);
+    let d = |n: &str| dir.join(n).to_str().unwrap().to_owned();
+    let input = ["--input-dir".to_owned(), d("")];
+    let cases: [(Vec<String>, &str); 3] = [
+        (vec!["-o".into(), d("normal.exr")], "the normal plane"),
+        (
+            vec![
+                "-o".into(),
+                d("out.exr"),
+                "--light-mask".into(),
+                d("out.exr"),
+            ],
+            "the same file as -o",
+        ),
+        (
+            vec![
+                "-o".into(),
+                d("out.exr"),
+                "--light-mask".into(),
+                d("color.exr"),
+            ],
+            "the color plane",
+        ),
+    ];
+    let before = std::fs::read(dir.join("normal.exr")).unwrap();
+    for (args, why) in cases {
+        let all: Vec<&str> = input.iter().chain(&args).map(String::as_str).collect();
+        let o = lumo(&all);
+        let (_, stderr) = text(&o);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {stderr}");
+        assert!(stderr.contains(why), "{args:?}: {stderr}");
+    }
+    assert_eq!(std::fs::read(dir.join("normal.exr")).unwrap(), before);
+    assert!(!dir.join("out.exr").exists());
+}
+
+/// A variance plane of +∞, NaN or −1 used to read as 0 (noise-free): filtering switched off
+/// without a word. Such a plane is refused, naming the file and the first bad pixel.
+#[test]
+fn a_variance_plane_with_impossible_values_is_refused() {
+    for bad in [f32::INFINITY, f32::NAN, -1.0] {
+        let dir = temp_dir("variance");
+        write_scene(&dir, 16, 12);
+        let mut v = Image::new(16, 12, 1, 0.01);
+        v.pixel_mut(3, 2)[0] = bad;
+        write_image(&dir.join("variance.pfm"), &v).unwrap();
+        let o = lumo(&[
+            "--input-dir",
+            dir.to_str().unwrap(),
+            "--variance",
+            dir.join("variance.pfm").to_str().unwrap(),
+            "-o",
+            dir.join("out.exr").to_str().unwrap(),
+        ]);
+        let (_, stderr) = text(&o);
+        assert_eq!(o.status.code(), Some(2), "{bad}: {stderr}");
+        assert!(
+            stderr.contains("variance.pfm") && stderr.contains("(3, 2)"),
+            "{bad}: {stderr}"
+        );
+    }
+}
+
+/// An all-black albedo plane (or an emission plane lit everywhere) passes every pixel through
+/// unfiltered; that now comes with a warning saying so and how to avoid it.
+#[test]
+fn planes_that_pass_most_pixels_through_are_warned_about() {
+    let dir = temp_dir("passthrough");
+    write_scene(&dir, 16, 12);
+    write_image(&dir.join("black.exr"), &Image::new(16, 12, 3, 0.0)).unwrap();
+    write_image(&dir.join("lit.exr"), &Image::new(16, 12, 3, f32::NAN)).unwrap();
+    for (option, file, says) in [
+        ("--albedo", "black.exr", "--no-demodulate"),
+        ("--emission", "lit.exr", "count as emitting"),
+    ] {
+        let o = lumo(&[
+            "--input-dir",
+            dir.to_str().unwrap(),
+            option,
+            dir.join(file).to_str().unwrap(),
+            "-o",
+            dir.join("out.exr").to_str().unwrap(),
+        ]);
+        let (_, stderr) = text(&o);
+        assert!(o.status.success(), "{option}: {stderr}");
+        assert!(
+            stderr.contains("warning") && stderr.contains(file) && stderr.contains(says),
+            "{option}: {stderr}"
+        );
+    }
+    // The scene's own albedo (0.5 everywhere) gets no such warning.
+    let o = lumo(&[
+        "--input-dir",
+        dir.to_str().unwrap(),
+        "-o",
+        dir.join("out.exr").to_str().unwrap(),
+    ]);
+    let (_, stderr) = text(&o);
+    assert!(!stderr.contains("passes them through"), "{stderr}");
+}
