@@ -467,7 +467,23 @@ fn read_mtl(
                 }
             }
             "Ns" => m.ns = nums(1)?[0],
-            "Ni" => m.ni = Some(nums(1)?[0]),
+            "Ni" => {
+                let ni = nums(1)?[0];
+                // An index of refraction at or below 0 has no meaning (and made a transparent
+                // material vanish); 1 is "no refraction", which some exporters write for opaque
+                // materials.
+                if ni > 0.0 {
+                    m.ni = Some(ni);
+                } else {
+                    diag.warn(
+                        at,
+                        format!(
+                            "Ni {ni}: an index of refraction must be above 0; ignored (glass \
+                             takes 1.5)"
+                        ),
+                    )?;
+                }
+            }
             "d" => m.dissolve = nums(1)?[0],
             "Tr" => m.dissolve = 1.0 - nums(1)?[0],
             "map_Kd" => {

@@ -290,3 +290,94 @@ fn negative_gltf_colours_are_warned_about_and_read_as_zero() {
     };
     assert!(c.min_element() >= 0.0, "{c}");
 }
+
+/// Lights that cannot emit as written used to render black (or as something else) without a
+/// word: a spot with a zero cone or a singular transform, a negative cone, an envmap with a
+/// negative scale, a glTF spot outside KHR_lights_punctual's cone limits. Each is an error
+/// naming the element and the rule; an envmap scale of 0 is a warning.
+#[test]
+fn lights_that_cannot_emit_as_written_are_refused() {
+    let dir = temp_dir("light-limits");
+    let spot = |inner: &str| {
+        common::mitsuba(&format!(
+            r#"<emitter type="spot">{inner}<rgb name="intensity" value="10"/></emitter>"#
+        ))
+    };
+    let mut one = Vec::from(&b"PF\n2 1\n-1.0\n"[..]);
+    for _ in 0..6 {
+        one.extend_from_slice(&1.0f32.to_le_bytes());
+    }
+    write(&dir, "one.pfm", &one);
+    let env = |scale: &str| {
+        common::mitsuba(&format!(
+            r#"<emitter type="envmap"><string name="filename" value="one.pfm"/><float name="scale" value="{scale}"/></emitter>"#
+        ))
+    };
+    for (name, xml, says) in [
+        (
+            "cone0.xml",
+            spot(r#"<float name="cutoff_angle" value="0"/>"#),
+            "cutoff_angle 0",
+        ),
+        (
+            "cone-30.xml",
+            spot(r#"<float name="cutoff_angle" value="-30"/>"#),
+            "cutoff_angle -30",
+        ),
+        (
+            "beam.xml",
+            spot(r#"<float name="beam_width" value="-5"/>"#),
+            "beam_width -5",
+        ),
+        (
+            "flat.xml",
+            spot(r#"<transform name="to_world"><scale value="0"/></transform>"#),
+            "singular",
+        ),
+        ("env.xml", env("-2"), "envmap scale -2"),
+    ] {
+        let text = error_of(write(&dir, name, xml));
+        assert!(text.contains(says), "{name}: {text}");
+    }
+    let scene = load(&write(&dir, "env0.xml", env("0"))).expect("loads");
+    assert!(warnings(&scene).join("\n").contains("envmap scale 0"));
+
+    let gltf = std::fs::read_to_string(common::scenes().join("hierarchy.gltf")).unwrap();
+    for (inner, outer) in [("0.3", "0.0"), ("0.3", "2.0"), ("0.6", "0.5")] {
+        let edited = gltf.replace(
+            r#""innerConeAngle": 0.3,"#,
+            &format!(r#""innerConeAngle": {inner},"#),
+        );
+        let edited = edited.replace(
+            r#""outerConeAngle": 0.5"#,
+            &format!(r#""outerConeAngle": {outer}"#),
+        );
+        assert_ne!(
+            edited, gltf,
+            "the spot's angles are where the test expects them"
+        );
+        let text = error_of(write(&dir, "spot.gltf", edited));
+        assert!(text.contains("0 < outer ≤ π/2"), "{inner} {outer}: {text}");
+    }
+}
+
+/// MTL `Ni 0` (or below) on a transparent material made the object vanish (glass of index
+/// 0); it is now ignored with a warning and the glass takes 1.5.
+#[test]
+fn an_mtl_index_of_refraction_at_or_below_zero_is_ignored_with_a_warning() {
+    let dir = temp_dir("mtl-ni");
+    write(&dir, "x.mtl", "newmtl a\nKd 0.5 0.5 0.5\nNi 0\nd 0.2\n");
+    let obj = write(
+        &dir,
+        "x.obj",
+        "mtllib x.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl a\nf 1 2 3\n",
+    );
+    let scene = load(&obj).expect("loads");
+    let w = warnings(&scene).join("\n");
+    assert!(w.contains("x.mtl:3:") && w.contains("Ni 0"), "{w}");
+    let ior = scene.scene.materials.iter().find_map(|m| match m.bsdf {
+        lumo_scene::BsdfSpec::Dielectric { ior, .. } => Some(ior),
+        _ => None,
+    });
+    assert_eq!(ior, Some(1.5));
+}

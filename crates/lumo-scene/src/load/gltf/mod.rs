@@ -477,6 +477,21 @@ impl GltfReader<'_, '_> {
             Kind::Spot {
                 inner_cone_angle,
                 outer_cone_angle,
+            } if !(outer_cone_angle > 0.0
+                && outer_cone_angle <= std::f32::consts::FRAC_PI_2
+                && (0.0..=outer_cone_angle).contains(&inner_cone_angle)) =>
+            {
+                return Err(LoadError::invalid(
+                    self.at(format!("light {}", light.index())),
+                    format!(
+                        "spot cone angles inner {inner_cone_angle}, outer {outer_cone_angle}: \
+                         KHR_lights_punctual needs 0 < outer ≤ π/2 and 0 ≤ inner ≤ outer"
+                    ),
+                ));
+            }
+            Kind::Spot {
+                inner_cone_angle,
+                outer_cone_angle,
             } => Light::Spot {
                 position: Vec3::ZERO,
                 direction: -Vec3::Z,

@@ -556,10 +556,35 @@ impl<'a> Builder<'a, '_> {
             }
             "spot" => {
                 let cutoff = props.float("cutoff_angle", 20.0)?;
+                if !(cutoff > 0.0 && cutoff <= 180.0) {
+                    return Err(LoadError::invalid(
+                        at,
+                        format!(
+                            "spot cutoff_angle {cutoff}: the cone's half-angle must be above 0 \
+                             and at most 180 degrees"
+                        ),
+                    ));
+                }
                 let beam_width = props.float("beam_width", cutoff * 0.75)?;
+                if beam_width < 0.0 {
+                    return Err(LoadError::invalid(
+                        at,
+                        format!("spot beam_width {beam_width}: an angle cannot be negative"),
+                    ));
+                }
+                let direction = to_world
+                    .transform_vector3(Vec3::Z)
+                    .try_normalize()
+                    .ok_or_else(|| {
+                        LoadError::invalid(
+                            at.clone(),
+                            "spot emitter: its to_world maps the z axis (the cone's axis) to \
+                             zero; the transform is singular (a zero scale?)",
+                        )
+                    })?;
                 Light::Spot {
                     position: to_world.transform_point3(Vec3::ZERO),
-                    direction: to_world.transform_vector3(Vec3::Z).normalize_or_zero(),
+                    direction,
                     intensity: self.color_param(&props, "intensity", Vec3::ONE)?,
                     beam_width,
                     cutoff,
@@ -592,9 +617,23 @@ impl<'a> Builder<'a, '_> {
                 }
                 self.has_environment = true;
                 props.accept(&["filter_type", "mis_compensation"]);
+                let scale = props.float("scale", 1.0)?;
+                if scale < 0.0 {
+                    return Err(LoadError::invalid(
+                        at,
+                        format!(
+                            "envmap scale {scale}: an environment cannot emit negative light; \
+                             use a scale ≥ 0"
+                        ),
+                    ));
+                }
+                if scale == 0.0 {
+                    self.diag
+                        .warn(at.clone(), "envmap scale 0: the environment emits nothing")?;
+                }
                 Light::Environment(EnvMap {
                     image: Arc::clone(&image),
-                    scale: props.float("scale", 1.0)?,
+                    scale,
                     to_world,
                 })
             }
