@@ -52,7 +52,9 @@ pub struct CompareArgs {
     pub exposure: f32,
     /// Pixels per degree of visual angle assumed by FLIP [default: 67.02, a 0.7 m wide 4K
     /// monitor at 0.7 m].
-    #[arg(long)]
+    // Negative numbers parse as values, so `--ppd -5` gets the range message, not clap's
+    // advice to write `-- -5` (which would pass -5 as an image).
+    #[arg(long, allow_negative_numbers = true)]
     pub ppd: Option<f32>,
 }
 

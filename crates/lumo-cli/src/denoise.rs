@@ -529,6 +529,13 @@ fn configure(a: &DenoiseArgs, inp: &Inputs) -> anyhow::Result<Box<dyn Denoiser>>
             })
         }
         FilterKind::Auto => {
+            // Said here, in the command's terms: the library names a plane, not the option.
+            if normal.is_none() {
+                bail!(
+                    "the auto filter needs a normal plane: --normal FILE (or normal.exr in \
+                     --input-dir); without one, use --filter atrous"
+                );
+            }
             let d = AutoParams::default();
             Box::new(AutoDenoiser {
                 params: AutoParams {

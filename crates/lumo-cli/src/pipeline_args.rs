@@ -113,8 +113,12 @@ impl PipelineArgs {
         if self.radius == 0 || self.radius > MAX_SIDE {
             bail!("--radius {}: use 1 to {MAX_SIDE}", self.radius);
         }
-        if self.block == 0 || self.block > MAX_SIDE {
-            bail!("--block {}: use 1 to {MAX_SIDE}", self.block);
+        if self.block == 0 || self.block > lumo_pipeline::MAX_BLOCK {
+            bail!(
+                "--block {}: use 1 to {} pixels (the paper uses 16)",
+                self.block,
+                lumo_pipeline::MAX_BLOCK
+            );
         }
         if self.paths == 0 || self.paths > MAX_PATHS {
             bail!("--paths {}: use 1 to {MAX_PATHS}", self.paths);

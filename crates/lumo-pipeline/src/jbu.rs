@@ -20,6 +20,9 @@ use lumo_render::camera::PinholeCamera;
 use lumo_render::{map_pixels, render_pixel};
 use lumo_render::{RenderScene, RenderSettings};
 
+/// Largest block side of the sparse indirect trace, in pixels (the paper uses 16).
+pub const MAX_BLOCK: usize = 64;
+
 pub(super) fn run(
     rs: &RenderScene,
     settings: &RenderSettings,
@@ -27,7 +30,7 @@ pub(super) fn run(
     progress: &(dyn Fn(f32) + Sync),
 ) -> Result<PipelineOutput, PipelineError> {
     let k = options.block;
-    if !(1..=64).contains(&k) {
+    if !(1..=MAX_BLOCK).contains(&k) {
         return Err(PipelineError::Option {
             option: "block",
             value: k.to_string(),

@@ -12,6 +12,8 @@ mod compose;
 mod guided;
 mod jbu;
 
+pub use jbu::MAX_BLOCK;
+
 use std::fmt;
 use std::time::Duration;
 

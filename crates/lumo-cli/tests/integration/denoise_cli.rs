@@ -190,6 +190,19 @@ fn missing_feature_lists_what_the_filter_needs() {
     ]);
     assert_eq!(o.status.code(), Some(2));
     assert!(text(&o).1.contains("--albedo"), "{}", text(&o).1);
+    // The default filter (auto) names the option and the filter that needs no normals.
+    let o = lumo(&[
+        "--color",
+        dir.join("color.exr").to_str().unwrap(),
+        "-o",
+        dir.join("out.exr").to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let (_, stderr) = text(&o);
+    assert!(
+        stderr.contains("--normal") && stderr.contains("--filter atrous"),
+        "{stderr}"
+    );
 }
 
 #[test]

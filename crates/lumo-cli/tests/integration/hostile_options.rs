@@ -75,6 +75,11 @@ fn unbounded_options_are_refused_naming_the_option() {
             &["render", "--pipeline", "jbu", "--block", "0"],
             "--block 0",
         ),
+        // The range --block 0 states is the one --block 1000 is checked against.
+        (
+            &["render", "--pipeline", "jbu", "--block", "1000"],
+            "--block 1000: use 1 to 64",
+        ),
         (&["render", "--subsample", "3"], "--subsample 3"),
         // Beyond a scene file's own limit a closed mirror box traces for hours.
         (
@@ -146,6 +151,11 @@ fn unbounded_options_are_refused_naming_the_option() {
         (
             &["compare", "--ppd", "1e30", "a.png", "b.png"],
             "--ppd 1e30",
+        ),
+        // A negative value gets the range message, not clap's advice to write `-- -5`.
+        (
+            &["compare", "--ppd", "-5", "a.png", "b.png"],
+            "--ppd must be a positive number",
         ),
         (
             &[

@@ -381,3 +381,24 @@ fn an_mtl_index_of_refraction_at_or_below_zero_is_ignored_with_a_warning() {
     });
     assert_eq!(ior, Some(1.5));
 }
+
+/// Messages that blamed the wrong thing: a blackbody spectrum said a "value" attribute was
+/// missing, and a sample count of 0 was reported together with the seed.
+#[test]
+fn unsupported_spectra_and_bad_sample_counts_say_what_is_wrong() {
+    let dir = temp_dir("messages");
+    let blackbody = common::mitsuba(
+        r#"<shape type="sphere"><emitter type="area"><spectrum name="radiance" type="blackbody"><float name="temperature" value="6500"/></spectrum></emitter></shape>"#,
+    );
+    let text = error_of(write(&dir, "bb.xml", blackbody));
+    assert!(
+        text.contains(r#"<spectrum type="blackbody"> is not supported"#),
+        "{text}"
+    );
+    let sampler = r#"<scene version="3.0.0"><sensor type="perspective"><sampler type="independent"><integer name="sample_count" value="0"/></sampler></sensor></scene>"#;
+    let text = error_of(write(&dir, "spp.xml", sampler));
+    assert!(
+        text.contains("sample_count 0: use 1 to") && !text.contains("seed"),
+        "{text}"
+    );
+}

@@ -135,10 +135,19 @@ impl<'a> Builder<'a, '_> {
                     let s = Props::new(c);
                     let spp = s.int("sample_count", 4)?;
                     let seed = s.int("seed", 0)?;
-                    if spp < 1 || spp > u32::MAX as i64 || seed < 0 || seed > u32::MAX as i64 {
+                    if spp < 1 || spp > u32::MAX as i64 {
                         return Err(LoadError::invalid(
                             c.at(),
-                            format!("sample_count {spp} / seed {seed} out of range"),
+                            format!(
+                                "sample_count {spp}: use 1 to {} samples per pixel",
+                                u32::MAX
+                            ),
+                        ));
+                    }
+                    if seed < 0 || seed > u32::MAX as i64 {
+                        return Err(LoadError::invalid(
+                            c.at(),
+                            format!("seed {seed}: use 0 to {}", u32::MAX),
                         ));
                     }
                     self.settings.spp = Some(spp as u32);

@@ -53,10 +53,16 @@ impl Element {
     /// The attribute `name`, or an error naming the element.
     pub fn required(&self, name: &str) -> Result<&str, LoadError> {
         self.attr(name).ok_or_else(|| {
-            LoadError::invalid(
-                self.at(),
-                format!("<{}> needs a {name:?} attribute", self.tag),
-            )
+            // A typed spectrum (Mitsuba's `blackbody`, `d65`, …) has parameters instead of a
+            // value: say what is unsupported rather than that a value is missing.
+            let message = match self.attr("type") {
+                Some(kind) if self.tag == "spectrum" && name == "value" => format!(
+                    "<spectrum type={kind:?}> is not supported by lumo; give the spectrum as \
+                     value=\"wavelength:value, …\" pairs, or use <rgb>"
+                ),
+                _ => format!("<{}> needs a {name:?} attribute", self.tag),
+            };
+            LoadError::invalid(self.at(), message)
         })
     }
 
