@@ -51,7 +51,7 @@ pub struct SpeedArgs {
     #[arg(long)]
     pub no_render: bool,
     /// Skip Table 2 (filters).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "no_render")]
     pub no_filters: bool,
     /// Where speed.md go [default: target/lumo-bench, or docs/results with --publish].
     #[arg(long)]

@@ -152,6 +152,11 @@ fn unbounded_options_are_refused_naming_the_option() {
             &["compare", "--ppd", "1e30", "a.png", "b.png"],
             "--ppd 1e30",
         ),
+        // Both tables skipped wrote an empty speed.md and reported success.
+        (
+            &["bench", "speed", "--no-render", "--no-filters"],
+            "cannot be used with",
+        ),
         // A negative value gets the range message, not clap's advice to write `-- -5`.
         (
             &["compare", "--ppd", "-5", "a.png", "b.png"],

@@ -402,3 +402,43 @@ fn unsupported_spectra_and_bad_sample_counts_say_what_is_wrong() {
         "{text}"
     );
 }
+
+/// An exact sphere of radius 0, or a sphere or disk scaled by 0, was refused with "mesh 0
+/// ("sphere"): analytic shape transform is singular" — no line, no fix. Now the shape's
+/// element is named with what to change.
+#[test]
+fn exact_shapes_of_zero_size_are_refused_at_their_element() {
+    let dir = temp_dir("zero-shapes");
+    for (name, body, says) in [
+        (
+            "r0.xml",
+            r#"<shape type="sphere"><float name="radius" value="0"/></shape>"#,
+            "sphere radius 0",
+        ),
+        (
+            "s0.xml",
+            r#"<shape type="disk"><transform name="to_world"><scale value="1,0,1"/></transform></shape>"#,
+            "disk: its to_world is singular",
+        ),
+    ] {
+        let text = error_of(write(&dir, name, common::mitsuba(body)));
+        assert!(
+            text.contains(&format!("{name}:3:")) && text.contains(says),
+            "{text}"
+        );
+    }
+}
+
+/// Two `<bsdf>` in one `<shape>`: the last one won without a word; Mitsuba refuses it.
+#[test]
+fn a_shape_with_two_bsdfs_is_refused_at_the_second() {
+    let dir = temp_dir("two-bsdfs");
+    let body = r#"<shape type="sphere">
+<bsdf type="diffuse"/>
+<bsdf type="conductor"/></shape>"#;
+    let text = error_of(write(&dir, "two.xml", common::mitsuba(body)));
+    assert!(
+        text.contains("two.xml:5:") && text.contains("a second <bsdf>"),
+        "{text}"
+    );
+}

@@ -383,6 +383,14 @@ impl<'a> Builder<'a, '_> {
             match r.tag.as_str() {
                 "bsdf" => {
                     props.mark(i);
+                    // Mitsuba refuses this too: which one was meant is ambiguous.
+                    if bsdf.is_some() {
+                        return Err(LoadError::invalid(
+                            c.at(),
+                            "a second <bsdf> in one <shape>; a shape has one BSDF (keep one, \
+                             or nest them in a blend or two-sided BSDF)",
+                        ));
+                    }
                     bsdf = Some(r);
                 }
                 "emitter" => {
@@ -414,6 +422,12 @@ impl<'a> Builder<'a, '_> {
             "sphere" => {
                 let center = props.vec3("center")?.unwrap_or(Vec3::ZERO);
                 let radius = props.float("radius", 1.0)?;
+                if radius <= 0.0 {
+                    return Err(LoadError::invalid(
+                        at,
+                        format!("sphere radius {radius}: use a radius > 0"),
+                    ));
+                }
                 // lumo's UV sphere has its poles on y; Mitsuba's on local z, with u = φ/2π
                 // around z. Turning y onto z makes u, and so the tangent dp/du that orients
                 // anisotropic roughness, Mitsuba's.
@@ -521,6 +535,18 @@ impl<'a> Builder<'a, '_> {
             }
         }
         mesh.name = el.attr("id").unwrap_or(kind).to_string();
+        if let Some(a) = &mesh.analytic {
+            if !a.to_mesh.is_finite() || a.to_mesh.determinant() == 0.0 {
+                return Err(LoadError::invalid(
+                    at,
+                    format!(
+                        "{kind}: its to_world is singular (a zero scale?) or not finite; an \
+                         exact {kind} needs a non-zero size on every axis (to hide the shape, \
+                         remove it)"
+                    ),
+                ));
+            }
+        }
         check_mesh(&mut mesh, &at, self.diag)?;
         props.finish(self.diag)?;
         Ok(Some(mesh))
