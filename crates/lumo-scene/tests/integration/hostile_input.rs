@@ -442,3 +442,21 @@ fn a_shape_with_two_bsdfs_is_refused_at_the_second() {
         "{text}"
     );
 }
+
+/// A diffuse reflectance of 5 was accepted without a word; it creates energy. It still loads
+/// (Mitsuba accepts it), with a warning naming the element.
+#[test]
+fn a_reflectance_above_one_is_warned_about() {
+    let dir = temp_dir("bright");
+    let body = r#"<shape type="sphere"><bsdf type="diffuse"><rgb name="reflectance" value="5,5,5"/></bsdf></shape>"#;
+    let scene = load(&write(&dir, "bright.xml", common::mitsuba(body))).expect("loads");
+    let w = warnings(&scene).join("\n");
+    assert!(
+        w.contains("bright.xml:3: warning: reflectance") && w.contains("above 1"),
+        "{w}"
+    );
+    let body = r#"<shape type="sphere"><bsdf type="diffuse"><rgb name="reflectance" value="1,0.5,0"/></bsdf></shape>"#;
+    let scene = load(&write(&dir, "ok.xml", common::mitsuba(body))).expect("loads");
+    let w = warnings(&scene).join("\n");
+    assert!(!w.contains("above 1"), "{w}");
+}

@@ -220,6 +220,24 @@ impl<'a> Props<'a> {
                 });
             }
         }
+        // A reflectance above 1 is accepted (Mitsuba accepts it) but reflects more light than
+        // arrives: said once, since the image then converges to no physical one.
+        let reflectance = name.contains("reflectance") || name == "base_color";
+        if reflectance && c.max_element() > 1.0 {
+            let message = format!(
+                "{name}: {} in {} is above 1; the surface reflects more light than reaches \
+                 it (energy is created), so the image matches no physical renderer's",
+                el.describe(),
+                self.el.describe()
+            );
+            let mut pending = self.pending.borrow_mut();
+            if !pending.iter().any(|w| w.message == message) {
+                pending.push(Warning {
+                    at: el.at(),
+                    message,
+                });
+            }
+        }
         Ok(Some(c.max(Vec3::ZERO)))
     }
 
