@@ -756,6 +756,31 @@ fn check_plane_values(a: &DenoiseArgs, inputs: &Inputs) -> anyhow::Result<()> {
             );
         }
     }
+    if let Some((path, normal)) = &inputs.normal {
+        // Unit normals, or zero where nothing was hit (lumo's own planes); an 8-bit normal map
+        // (0..1 encoding) or a NaN plane steers the filters by nonsense.
+        let (mut set, mut off) = (0usize, 0usize);
+        for px in normal.data.chunks_exact(normal.channels) {
+            let n = &px[..3.min(px.len())];
+            let len2: f32 = n.iter().map(|v| v * v).sum();
+            if len2 == 0.0 {
+                continue;
+            }
+            set += 1;
+            if !len2.is_finite() || !(0.5625..=1.5625).contains(&len2) {
+                off += 1;
+            }
+        }
+        if set == 0 || off * 2 > set {
+            eprintln!(
+                "warning: {}: {} of {total} normals are not unit vectors (zero, NaN or of \
+                 another length); the filters expect world-space unit normals with components \
+                 in [-1, 1], not an encoded normal map",
+                path.display(),
+                if set == 0 { total } else { off }
+            );
+        }
+    }
     if let Some((path, emission)) = &inputs.emission {
         let lit = emitting(emission).iter().filter(|&&e| e).count();
         if share(lit) > 0.5 {

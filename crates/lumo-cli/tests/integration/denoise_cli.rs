@@ -644,16 +644,21 @@ fn a_variance_plane_with_impossible_values_is_refused() {
 }
 
 /// An all-black albedo plane (or an emission plane lit everywhere) passes every pixel through
-/// unfiltered; that now comes with a warning saying so and how to avoid it.
+/// unfiltered, and an encoded or NaN normal plane steers the filters by nonsense; each now
+/// comes with a warning saying so and how to avoid it.
 #[test]
 fn planes_that_pass_most_pixels_through_are_warned_about() {
     let dir = temp_dir("passthrough");
     write_scene(&dir, 16, 12);
     write_image(&dir.join("black.exr"), &Image::new(16, 12, 3, 0.0)).unwrap();
     write_image(&dir.join("lit.exr"), &Image::new(16, 12, 3, f32::NAN)).unwrap();
+    // An 8-bit normal map's encoding (0.5, 0.5, 1) has length 1.22, a NaN plane none.
+    write_image(&dir.join("encoded.exr"), &Image::new(16, 12, 3, 0.75)).unwrap();
     for (option, file, says) in [
         ("--albedo", "black.exr", "--no-demodulate"),
         ("--emission", "lit.exr", "count as emitting"),
+        ("--normal", "encoded.exr", "not unit vectors"),
+        ("--normal", "lit.exr", "not unit vectors"),
     ] {
         let o = lumo(&[
             "--input-dir",
@@ -679,4 +684,5 @@ fn planes_that_pass_most_pixels_through_are_warned_about() {
     ]);
     let (_, stderr) = text(&o);
     assert!(!stderr.contains("passes them through"), "{stderr}");
+    assert!(!stderr.contains("not unit vectors"), "{stderr}");
 }

@@ -460,3 +460,16 @@ fn a_reflectance_above_one_is_warned_about() {
     let w = warnings(&scene).join("\n");
     assert!(!w.contains("above 1"), "{w}");
 }
+
+/// A `<matrix>` with a projective bottom row was read as affine without a word (its bottom row
+/// dropped); it is refused, naming the row.
+#[test]
+fn a_projective_matrix_is_refused() {
+    let dir = temp_dir("matrix");
+    let body = r#"<shape type="sphere"><transform name="to_world"><matrix value="1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 0"/></transform></shape>"#;
+    let text = error_of(write(&dir, "proj.xml", common::mitsuba(body)));
+    assert!(
+        text.contains("bottom row") && text.contains("0 0 0 1"),
+        "{text}"
+    );
+}

@@ -472,7 +472,18 @@ pub(crate) fn parse_transform(el: &Element) -> Result<Mat4, LoadError> {
             "matrix" => {
                 let v = parse_list(op, op.required("value")?)?;
                 match v.len() {
-                    // Row-major in the file; glam is column-major.
+                    // Row-major in the file; glam is column-major. Only affine transforms
+                    // place geometry (a projective bottom row was silently dropped).
+                    16 if v[12..] != [0.0, 0.0, 0.0, 1.0] => {
+                        return Err(LoadError::invalid(
+                            op.at(),
+                            format!(
+                                "<matrix>: the bottom row is {:?}; lumo takes affine transforms, \
+                                 whose bottom row is 0 0 0 1",
+                                &v[12..]
+                            ),
+                        ))
+                    }
                     16 => Mat4::from_cols_array(&v.try_into().unwrap_or([0.0; 16])).transpose(),
                     9 => Mat4::from_mat3(
                         glam::Mat3::from_cols_array(&v.try_into().unwrap_or([0.0; 9])).transpose(),
