@@ -321,7 +321,9 @@ pub fn check_output_file(path: &Path) -> Result<()> {
     let probe = dir.join(format!(".lumo-write-test-{}", std::process::id()));
     std::fs::write(&probe, b"").with_context(|| {
         format!(
-            "cannot write {}: directory {} is not writable",
+            // The cause follows (permission denied, read-only file system, or /proc's "no
+            // such file"): "not writable" alone misread the last.
+            "cannot write {}: cannot create a file in {}",
             path.display(),
             dir.display()
         )

@@ -473,3 +473,28 @@ fn a_projective_matrix_is_refused() {
         "{text}"
     );
 }
+
+/// A glTF camera's aspectRatio of 0 or below was ignored, and one of 1e9 clamped to a
+/// 16384-pixel width, without a word; both now warn.
+#[test]
+fn odd_gltf_aspect_ratios_are_warned_about() {
+    let dir = temp_dir("aspect");
+    let gltf = std::fs::read_to_string(common::scenes().join("hierarchy.gltf")).unwrap();
+    for (aspect, says) in [
+        ("0", "not a positive number"),
+        ("-2", "not a positive number"),
+        ("1e9", "clamped to 16384"),
+    ] {
+        let edited = gltf.replace(
+            r#""aspectRatio": 1.5"#,
+            &format!(r#""aspectRatio": {aspect}"#),
+        );
+        assert_ne!(edited, gltf);
+        let scene = load(&write(&dir, "cam.gltf", edited)).expect("loads");
+        let w = warnings(&scene).join("\n");
+        assert!(
+            w.contains("aspectRatio") && w.contains(says),
+            "{aspect}: {w}"
+        );
+    }
+}

@@ -539,11 +539,31 @@ impl GltfReader<'_, '_> {
                     fov,
                     fov_axis: FovAxis::Y,
                 };
-                if let Some(aspect) = p.aspect_ratio().filter(|a| a.is_finite() && *a > 0.0) {
-                    let h = self.scene.defaults.height;
-                    let w = ((h as f32 * aspect).round() as usize).clamp(1, 16384);
-                    self.scene.defaults.width = w;
-                    settings.size = Some((w, h));
+                match p.aspect_ratio() {
+                    Some(aspect) if aspect.is_finite() && aspect > 0.0 => {
+                        let h = self.scene.defaults.height;
+                        let exact = (h as f32 * aspect).round();
+                        let w = (exact as usize).clamp(1, 16384);
+                        if w as f32 != exact {
+                            self.diag.warn(
+                                at.clone(),
+                                format!(
+                                    "aspectRatio {aspect} asks for a {exact}×{h} image; the \
+                                     width is clamped to {w} (give --size to choose)"
+                                ),
+                            )?;
+                        }
+                        self.scene.defaults.width = w;
+                        settings.size = Some((w, h));
+                    }
+                    Some(aspect) => self.diag.warn(
+                        at.clone(),
+                        format!(
+                            "aspectRatio {aspect} is not a positive number; ignored (the image \
+                             keeps its default size)"
+                        ),
+                    )?,
+                    None => {}
                 }
             }
             gltf::camera::Projection::Orthographic(_) => {
