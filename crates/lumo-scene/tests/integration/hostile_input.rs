@@ -498,3 +498,17 @@ fn odd_gltf_aspect_ratios_are_warned_about() {
         );
     }
 }
+
+/// A spectrum with light only outside 360–830 nm converts to black; the loader said only "the
+/// scene has no emitters", though one was given. The element is now named with the reason.
+#[test]
+fn an_invisible_spectrum_is_named_at_its_element() {
+    let dir = temp_dir("invisible");
+    let body = r#"<shape type="sphere"><emitter type="area"><spectrum name="radiance" value="100:1, 200:1"/></emitter></shape>"#;
+    let scene = load(&write(&dir, "uv.xml", common::mitsuba(body))).expect("loads");
+    let w = warnings(&scene).join("\n");
+    assert!(
+        w.contains("uv.xml:3: warning: radiance") && w.contains("outside the visible range"),
+        "{w}"
+    );
+}

@@ -220,6 +220,25 @@ impl<'a> Props<'a> {
                 });
             }
         }
+        // Light only outside the visible range converts to black: said here, at the element,
+        // not later as "the scene has no emitters".
+        let pairs_text = el
+            .attr("value")
+            .filter(|t| el.tag == "spectrum" && t.contains(':'));
+        if let Some(text) = pairs_text.filter(|_| c == Vec3::ZERO) {
+            if parse_pairs(el, text)?.iter().any(|&(_, v)| v > 0.0) {
+                let message = format!(
+                    "{name}: {} in {} has values only outside the visible range (360–830 nm); \
+                     it converts to black",
+                    el.describe(),
+                    self.el.describe()
+                );
+                self.pending.borrow_mut().push(Warning {
+                    at: el.at(),
+                    message,
+                });
+            }
+        }
         // A reflectance above 1 is accepted (Mitsuba accepts it) but reflects more light than
         // arrives: said once, since the image then converges to no physical one.
         let reflectance = name.contains("reflectance") || name == "base_color";
