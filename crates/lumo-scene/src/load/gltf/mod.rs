@@ -370,13 +370,14 @@ impl GltfReader<'_, '_> {
                 self.check_accessor(&a, &[Dimensions::Vec2], "TEXCOORD_0")?;
             }
             if let Some(a) = prim.indices() {
-                self.check_accessor(&a, &[Dimensions::Scalar], "indices")?;
+                // The type first: a float accessor is wrong whatever its view holds.
                 if a.data_type() == DataType::F32 {
                     return Err(LoadError::invalid(
                         self.at(format!("accessor {} (indices)", a.index())),
                         "indices must be unsigned integers",
                     ));
                 }
+                self.check_accessor(&a, &[Dimensions::Scalar], "indices")?;
             }
             if let Some(a) = prim.get(&gltf::Semantic::Colors(0)) {
                 self.check_accessor(&a, &[Dimensions::Vec3, Dimensions::Vec4], "COLOR_0")?;
