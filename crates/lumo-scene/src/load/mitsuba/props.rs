@@ -205,20 +205,16 @@ impl<'a> Props<'a> {
             return Ok(None);
         };
         let c = parse_color(el)?;
+        // What the element names, for each warning below: `name: <rgb> in <bsdf …>`.
+        let what = format!("{name}: {} in {}", el.describe(), self.el.describe());
         if has_negative_value(el) {
-            let message = format!(
-                "{name}: {} in {} has a negative value; {name} cannot be negative (a \
-                 colour, intensity or roughness), so it is read as 0",
-                el.describe(),
-                self.el.describe()
+            self.warn_once(
+                el,
+                format!(
+                    "{what} has a negative value; {name} cannot be negative (a colour, \
+                     intensity or roughness), so it is read as 0"
+                ),
             );
-            let mut pending = self.pending.borrow_mut();
-            if !pending.iter().any(|w| w.message == message) {
-                pending.push(Warning {
-                    at: el.at(),
-                    message,
-                });
-            }
         }
         // Light only outside the visible range converts to black: said here, at the element,
         // not later as "the scene has no emitters".
@@ -227,37 +223,39 @@ impl<'a> Props<'a> {
             .filter(|t| el.tag == "spectrum" && t.contains(':'));
         if let Some(text) = pairs_text.filter(|_| c == Vec3::ZERO) {
             if parse_pairs(el, text)?.iter().any(|&(_, v)| v > 0.0) {
-                let message = format!(
-                    "{name}: {} in {} has values only outside the visible range (360–830 nm); \
-                     it converts to black",
-                    el.describe(),
-                    self.el.describe()
+                self.warn_once(
+                    el,
+                    format!(
+                        "{what} has values only outside the visible range (360–830 nm); it \
+                         converts to black"
+                    ),
                 );
-                self.pending.borrow_mut().push(Warning {
-                    at: el.at(),
-                    message,
-                });
             }
         }
         // A reflectance above 1 is accepted (Mitsuba accepts it) but reflects more light than
         // arrives: said once, since the image then converges to no physical one.
         let reflectance = name.contains("reflectance") || name == "base_color";
         if reflectance && c.max_element() > 1.0 {
-            let message = format!(
-                "{name}: {} in {} is above 1; the surface reflects more light than reaches \
-                 it (energy is created), so the image matches no physical renderer's",
-                el.describe(),
-                self.el.describe()
+            self.warn_once(
+                el,
+                format!(
+                    "{what} is above 1; the surface reflects more light than reaches it \
+                     (energy is created), so the image matches no physical renderer's"
+                ),
             );
-            let mut pending = self.pending.borrow_mut();
-            if !pending.iter().any(|w| w.message == message) {
-                pending.push(Warning {
-                    at: el.at(),
-                    message,
-                });
-            }
         }
         Ok(Some(c.max(Vec3::ZERO)))
+    }
+
+    /// Queues a warning at `el` for [`Props::finish`], unless the same one is queued already.
+    fn warn_once(&self, el: &Element, message: String) {
+        let mut pending = self.pending.borrow_mut();
+        if !pending.iter().any(|w| w.message == message) {
+            pending.push(Warning {
+                at: el.at(),
+                message,
+            });
+        }
     }
 
     /// The spectrum `name` when the file gives it as `<spectrum>` wavelength:value pairs (kept
