@@ -420,11 +420,19 @@ pub fn run(args: RenderArgs) -> Result<()> {
             PathBuf::from(format!("{}.png", scene.name)),
         ],
     };
-    // Every output location is checked before the render, which may take hours; the AOV
-    // directory first, since `-o` may name a file in it.
+    // Every output location is checked before the render, which may take hours, and before
+    // anything is created: the AOV directory is made only once every other check has passed.
     if let Some(dir) = &args.aovs {
         for o in &outputs {
-            if let Some(plane) = aov_plane_named_by(o, dir) {
+            // In a sequence both the image and the planes' directory carry the frame number.
+            let (image, planes) = match &sequence {
+                Some(seq) => (
+                    seq.frame_path(o, seq.frames.first),
+                    seq.frame_aov_dir(dir, seq.frames.first),
+                ),
+                None => (o.clone(), dir.clone()),
+            };
+            if let Some(plane) = aov_plane_named_by(&image, &planes) {
                 bail!(
                     "-o {}: the --aovs plane {plane}.exr would overwrite the image; write the \
                      image outside {} or under another name",
@@ -448,17 +456,48 @@ pub fn run(args: RenderArgs) -> Result<()> {
                 dir.display()
             );
         }
-        std::fs::create_dir_all(dir)
-            .with_context(|| format!("--aovs {}: cannot create the directory", dir.display()))?;
-        check_writable(&dir.join("color.exr"))
-            .with_context(|| format!("--aovs {}", dir.display()))?;
     }
-    for o in &outputs {
+    // Outputs in an AOV directory that does not exist yet are checked once it is made.
+    let in_new_aovs = |o: &Path| {
+        args.aovs
+            .as_ref()
+            .is_some_and(|d| !d.exists() && parent_is(o, d))
+    };
+    let check_output = |o: &Path| -> Result<()> {
         check_writable(o)?;
         if let Some(seq) = &sequence {
             // The numbered name must be writable too (a long name may not be).
             check_writable(&seq.frame_path(o, seq.frames.first))?;
         }
+        Ok(())
+    };
+    let deferred: Vec<&PathBuf> = outputs.iter().filter(|o| in_new_aovs(o)).collect();
+    for o in outputs.iter().filter(|o| !in_new_aovs(o)) {
+        check_output(o)?;
+    }
+    if let Some(dir) = &args.aovs {
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("--aovs {}: cannot create the directory", dir.display()))?;
+        // The first frame's planes: DIR itself, or DIR/<frame> in a sequence (made at write
+        // time, so only something in its way can fail it).
+        let planes = match &sequence {
+            Some(seq) => seq.frame_aov_dir(dir, seq.frames.first),
+            None => dir.clone(),
+        };
+        if planes.exists() && !planes.is_dir() {
+            bail!(
+                "--aovs {}: {} exists and is not a directory (the first frame's planes go \
+                 there)",
+                dir.display(),
+                planes.display()
+            );
+        }
+        let probe = if planes.is_dir() { &planes } else { dir };
+        check_writable(&probe.join("color.exr"))
+            .with_context(|| format!("--aovs {}", dir.display()))?;
+    }
+    for o in deferred {
+        check_output(o)?;
     }
     match args.spp {
         Some(0) => bail!("--spp must be at least 1"),
@@ -750,26 +789,9 @@ impl<'a> Job<'a> {
 /// The name of the `--aovs` plane that output `o` would be overwritten by: `o` is
 /// `<dir>/<plane>.exr` for a plane of the frame or of a pipeline.
 fn aov_plane_named_by(o: &Path, dir: &Path) -> Option<&'static str> {
-    // Lexically where the directories do not exist yet (`./av` is `av`).
-    let lexical = |p: &Path| -> PathBuf {
-        p.components()
-            .filter(|c| !matches!(c, std::path::Component::CurDir))
-            .collect()
-    };
-    let same_dir = |parent: &Path| match (parent.canonicalize(), dir.canonicalize()) {
-        (Ok(a), Ok(b)) => a == b,
-        _ => lexical(parent) == lexical(dir),
-    };
-    let parent = o.parent().map(|p| {
-        if p.as_os_str().is_empty() {
-            Path::new(".")
-        } else {
-            p
-        }
-    })?;
     let exr = o.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
     let stem = o.file_stem()?.to_str()?;
-    if !exr || !same_dir(parent) {
+    if !exr || !parent_is(o, dir) {
         return None;
     }
     lumo_render::AOV_NAMES
@@ -777,4 +799,26 @@ fn aov_plane_named_by(o: &Path, dir: &Path) -> Option<&'static str> {
         .chain(lumo_pipeline::PLANE_NAMES)
         .find(|&&n| n == stem)
         .copied()
+}
+
+/// Whether file `o` lies directly in directory `dir` (compared as canonical paths where both
+/// exist, else lexically: `./av` is `av`).
+fn parent_is(o: &Path, dir: &Path) -> bool {
+    let lexical = |p: &Path| -> PathBuf {
+        p.components()
+            .filter(|c| !matches!(c, std::path::Component::CurDir))
+            .collect()
+    };
+    let Some(parent) = o.parent() else {
+        return false;
+    };
+    let parent = if parent.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        parent
+    };
+    match (parent.canonicalize(), dir.canonicalize()) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => lexical(parent) == lexical(dir),
+    }
 }

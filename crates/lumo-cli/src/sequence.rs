@@ -239,6 +239,11 @@ impl Sequence {
         frame_file(base, frame, frame_digits(self.frames.last))
     }
 
+    /// The directory of `frame`'s AOV planes under `--aovs dir`.
+    pub fn frame_aov_dir(&self, dir: &Path, frame: u32) -> PathBuf {
+        dir.join(format!("{frame:0w$}", w = frame_digits(self.frames.last)))
+    }
+
     /// Renders every frame of the sequence; `rs` is built at the first frame's pose, which
     /// took `build`.
     pub fn run(self, job: &Job, mut rs: RenderScene, build: Duration) -> Result<()> {
@@ -302,11 +307,7 @@ impl Sequence {
                 .iter()
                 .map(|o| self.frame_path(o, frame))
                 .collect();
-            let aovs = job
-                .args
-                .aovs
-                .as_ref()
-                .map(|d| d.join(format!("{frame:0w$}", w = frame_digits(self.frames.last))));
+            let aovs = job.args.aovs.as_ref().map(|d| self.frame_aov_dir(d, frame));
             job.write(&out, &files, aovs.as_deref())
                 .with_context(|| format!("frame {frame}"))?;
         }

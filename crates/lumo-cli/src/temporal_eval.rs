@@ -80,6 +80,7 @@ pub fn run(
     std::fs::create_dir_all(dir).with_context(|| format!("--temporal-eval {}", dir.display()))?;
     let settings = job.settings;
     let options = job.args.pipeline.options(settings.width, settings.height);
+    let scene_id = scene_identity(job.args);
     let mut temporal = TemporalSequence::new(
         seq.animated(),
         (settings.spp == 1).then_some(settings.path),
@@ -160,9 +161,12 @@ pub fn run(
                 ..settings
             };
             // Kept in DIR/references/ and reused by a later run of the same sequence (the
-            // references cost far more than everything else).
+            // references cost far more than everything else). The name carries a hash of
+            // everything the image depends on: a name of frame, size and spp alone once
+            // scored another scene against this one's references without a word.
+            let key = reference_key(&scene_id, &reference, &options, &rs);
             let cached = dir.join("references").join(format!(
-                "{frame:06}_{}x{}_{reference_spp}spp.exr",
+                "{frame:06}_{}x{}_{reference_spp}spp_{key:016x}.exr",
                 settings.width, settings.height
             ));
             let r = match read_image(&cached) {
@@ -331,8 +335,45 @@ fn class_means(map: &Image, classes: &[PixelClass]) -> [f64; 3] {
 
 /// The seed of frame `frame` of a temporally filtered sequence: a different randomisation of
 /// the samples every frame (the multiplier is odd, so frames never share a seed).
+/// What names the scene a run renders, for [`reference_key`]: the scene argument, its file's
+/// size and modification time where it is a file, and the `-D` definitions.
+fn scene_identity(args: &crate::render_cmd::RenderArgs) -> String {
+    let stamp = std::fs::metadata(&args.scene)
+        .ok()
+        .map(|m| (m.len(), m.modified().ok()));
+    format!("{:?} {stamp:?} {:?}", args.scene, args.defines)
+}
+
+/// A hash of what a reference frame depends on: the scene (`scene_id`), the reference's
+/// settings and pipeline options, and the frame's pose (camera and instance placements).
+fn reference_key(
+    scene_id: &str,
+    reference: &RenderSettings,
+    options: &lumo_pipeline::PipelineOptions,
+    rs: &RenderScene,
+) -> u64 {
+    use std::hash::{Hash, Hasher};
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    scene_id.hash(&mut h);
+    format!("{reference:?} {options:?} {:?}", rs.scene.camera).hash(&mut h);
+    for instance in &rs.scene.instances {
+        instance.mesh.hash(&mut h);
+        for v in instance.transform.to_cols_array() {
+            v.to_bits().hash(&mut h);
+        }
+    }
+    h.finish()
+}
+
+/// The seed of frame `frame` of a sequence rendered with `seed`: a hash of both, so that no
+/// two (seed, frame) pairs share their noise by construction (`seed + frame·k`, used before,
+/// gave seed 5's frame 1 the noise of seed 5 + k's frame 0: the same images, shifted).
 pub fn frame_seed(seed: u32, frame: u32) -> u32 {
-    seed.wrapping_add(frame.wrapping_mul(0x9e37_79b9))
+    let mut z = (u64::from(seed) << 32 | u64::from(frame)).wrapping_add(0x9e37_79b9_7f4a_7c15);
+    // splitmix64's finaliser: every input bit reaches every output bit.
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    (z ^ (z >> 31)) as u32
 }
 
 fn ms(d: Duration) -> f64 {

@@ -245,3 +245,153 @@ fn temporal_sequences_filter_and_evaluate() {
         text(&o)
     );
 }
+
+/// `--temporal-eval` keeps its references for reuse; they were named by frame, size and spp
+/// alone, so a second run of another scene (or another orbit) into the same directory was
+/// scored against the first one's references without a word. A reused directory now gives
+/// the scores of a fresh one.
+#[test]
+fn temporal_eval_reuses_only_its_own_references() {
+    let dir = temp_dir("eval-cache");
+    let run = |scene: &str, out: &str| {
+        let o = lumo(
+            &dir,
+            &[
+                "render",
+                scene,
+                "--frames",
+                "0..1",
+                "--orbit",
+                "60",
+                "--temporal-eval",
+                out,
+                "--reference-spp",
+                "4",
+                "--size",
+                "24x24",
+                "--spp",
+                "1",
+            ],
+        );
+        assert!(o.status.success(), "{}", text(&o));
+        // The FLIP columns (the rest are times).
+        std::fs::read_to_string(dir.join(out).join("frames.csv"))
+            .unwrap()
+            .lines()
+            .map(|l| l.split(',').take(4).collect::<Vec<_>>().join(","))
+            .collect::<Vec<_>>()
+    };
+    run("cornell", "shared");
+    let reused = run("cornell-spheres", "shared");
+    let fresh = run("cornell-spheres", "fresh");
+    assert_eq!(reused, fresh);
+    let references = std::fs::read_dir(dir.join("shared/references"))
+        .unwrap()
+        .count();
+    assert_eq!(references, 4, "two frames of each scene");
+    // The same run again reuses its own (no new files).
+    run("cornell-spheres", "shared");
+    assert_eq!(
+        std::fs::read_dir(dir.join("shared/references"))
+            .unwrap()
+            .count(),
+        4
+    );
+}
+
+/// Two seeds must not share a frame's noise: with `seed + frame·k` per frame, seed 5's frame 1
+/// was seed 5 + k's frame 0, byte for byte.
+#[test]
+fn temporal_frame_seeds_of_different_seeds_do_not_coincide() {
+    let dir = temp_dir("frame-seeds");
+    let scene = "cornell";
+    let render = |frames: &str, seed: &str, out: &str| {
+        let o = lumo(
+            &dir,
+            &[
+                "render",
+                scene,
+                "--frames",
+                frames,
+                "--orbit",
+                "30",
+                "--temporal",
+                "--size",
+                "24x24",
+                "--spp",
+                "1",
+                "--seed",
+                seed,
+                "-o",
+                out,
+            ],
+        );
+        assert!(o.status.success(), "{}", text(&o));
+    };
+    render("1..2", "5", "e.pfm");
+    render("0..1", &5u32.wrapping_add(0x9e37_79b9).to_string(), "f.pfm");
+    let read = |n: &str| std::fs::read(dir.join(n)).unwrap();
+    assert_ne!(read("e_0001.pfm"), read("f_0000.pfm"));
+}
+
+/// The first frame's AOV directory is checked before anything renders, a refused run creates
+/// no AOV directory, and in a sequence `-o av/color.exr --aovs av` is fine (the image is
+/// `av/color_0000.exr`, the planes `av/0000/color.exr`).
+#[test]
+fn sequence_aov_directories_are_checked_first_and_numbered_names_do_not_clash() {
+    let dir = temp_dir("seq-aovs");
+    let scene = animated();
+    std::fs::create_dir_all(dir.join("bv")).unwrap();
+    std::fs::write(dir.join("bv/0000"), b"").unwrap();
+    let mut args = vec![
+        "render", &scene, "--frames", "0..1", "-o", "b.pfm", "--aovs", "bv",
+    ];
+    args.extend(TINY);
+    let o = lumo(&dir, &args);
+    assert!(
+        !o.status.success() && text(&o).contains("bv/0000"),
+        "{}",
+        text(&o)
+    );
+    assert!(
+        !dir.join("b_0000.pfm").exists(),
+        "refused only after rendering frame 0"
+    );
+
+    let mut args = vec![
+        "render",
+        &scene,
+        "--frames",
+        "0..1",
+        "-o",
+        "nodir/a.pfm",
+        "--aovs",
+        "newaov",
+    ];
+    args.extend(TINY);
+    let o = lumo(&dir, &args);
+    assert!(
+        !o.status.success() && text(&o).contains("nodir"),
+        "{}",
+        text(&o)
+    );
+    assert!(
+        !dir.join("newaov").exists(),
+        "a refused run created its AOV directory"
+    );
+
+    let mut args = vec![
+        "render",
+        &scene,
+        "--frames",
+        "0..1",
+        "-o",
+        "av/color.exr",
+        "--aovs",
+        "av",
+    ];
+    args.extend(TINY);
+    let o = lumo(&dir, &args);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(dir.join("av/color_0001.exr").is_file() && dir.join("av/0001/color.exr").is_file());
+}
