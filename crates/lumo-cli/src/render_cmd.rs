@@ -358,15 +358,21 @@ pub fn run(args: RenderArgs) -> Result<()> {
         .to_possible_value()
         .map_or_else(String::new, |v| v.get_name().to_owned());
     let temporal = args.temporal || args.temporal_eval.is_some();
+    // The option as typed, for the messages below.
+    let temporal_flag = if args.temporal_eval.is_some() {
+        "--temporal-eval"
+    } else {
+        "--temporal"
+    };
     let pipeline = match (args.integrator, args.pipeline.pipeline) {
         (i, Some(p)) if i.unfiltered() && p != Pipeline::None => bail!(
             "--integrator {integrator} renders without a filtering pipeline: drop --pipeline {p} (or use --pipeline none)"
         ),
         (i, _) if i.unfiltered() && temporal => bail!(
-            "--temporal: --integrator {integrator} makes no G-buffer for the temporal filter; use --integrator path"
+            "{temporal_flag}: --integrator {integrator} makes no G-buffer for the temporal filter; use --integrator path"
         ),
         (_, Some(p)) if temporal && p != Pipeline::None => bail!(
-            "--temporal filters each frame itself: drop --pipeline {p}"
+            "{temporal_flag} filters each frame with the temporal filter itself: drop --pipeline {p}"
         ),
         // Traced without a pipeline; the temporal filter takes its place.
         _ if args.temporal => Pipeline::None,

@@ -219,11 +219,17 @@ pub fn run(
             }
             prev = Some(Previous { maps, shown });
         }
+        // Without references there is no FLIP to show (zeros read as perfect scores).
+        let flip = if reference_spp > 0 {
+            format!(
+                "FLIP 1 spp {:.4} · À-Trous {:.4} · temporal {:.4}",
+                row.flip_raw, row.flip_atrous, row.flip_temporal
+            )
+        } else {
+            "FLIP n/a (--reference-spp 0)".to_string()
+        };
         eprintln!(
-            "frame {frame}: FLIP 1 spp {:.4} · À-Trous {:.4} · temporal {:.4} · trace {:.1} ms · update {:.2} ms · spatial {:.1} ms · temporal {:.1} ms (+{:.1} ms motion, +{:.1} ms re-shading, +{:.1} ms direct split)",
-            row.flip_raw,
-            row.flip_atrous,
-            row.flip_temporal,
+            "frame {frame}: {flip} · trace {:.1} ms · update {:.2} ms · spatial {:.1} ms · temporal {:.1} ms (+{:.1} ms motion, +{:.1} ms re-shading, +{:.1} ms direct split)",
             ms(row.trace),
             ms(row.update),
             ms(row.spatial),
@@ -477,12 +483,23 @@ fn summary(rows: &[Row], settings: &RenderSettings, reference_spp: u32) -> Strin
             String::new()
         }
     );
-    if reference_spp > 0 {
+    // The frame the averages start at (the rows are frames in order from the range's first).
+    let from = after.first().map(|r| r.frame);
+    if reference_spp > 0 && from.is_none() {
+        let _ = writeln!(
+            s,
+            "\nNo quality summary: it averages the frames after the first {WARM_UP} (the \
+             temporal history's warm-up), and this run has {}; render more frames for it \
+             (frames.csv has each frame's scores).",
+            rows.len()
+        );
+    }
+    if let (true, Some(from)) = (reference_spp > 0, from) {
         let (fa, ft) = (
             avg(&|r| r.flip_atrous, &after),
             avg(&|r| r.flip_temporal, &after),
         );
-        let _ = writeln!(s, "\n| after frame {WARM_UP} | 1 spp | per-frame À-Trous | temporal | temporal / À-Trous |\n|---|---:|---:|---:|---:|");
+        let _ = writeln!(s, "\n| from frame {from} | 1 spp | per-frame À-Trous | temporal | temporal / À-Trous |\n|---|---:|---:|---:|---:|");
         let _ = writeln!(
             s,
             "| mean FLIP | {:.4} | {fa:.4} | {ft:.4} | {:.2} |",
@@ -507,7 +524,7 @@ fn summary(rows: &[Row], settings: &RenderSettings, reference_spp: u32) -> Strin
         );
         let _ = writeln!(
             s,
-            "\n| share of the mean FLIP after frame {WARM_UP} | light rim | edges | flat |\n|---|---:|---:|---:|"
+            "\n| share of the mean FLIP from frame {from} | light rim | edges | flat |\n|---|---:|---:|---:|"
         );
         for (k, name) in ["per-frame À-Trous", "temporal"].iter().enumerate() {
             let c = |j: usize| avg(&|r| r.by_class[k][j], &after);

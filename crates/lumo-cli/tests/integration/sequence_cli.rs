@@ -395,3 +395,46 @@ fn sequence_aov_directories_are_checked_first_and_numbered_names_do_not_clash() 
     assert!(o.status.success(), "{}", text(&o));
     assert!(dir.join("av/color_0001.exr").is_file() && dir.join("av/0001/color.exr").is_file());
 }
+
+/// With eight frames or fewer `summary.md` averaged nothing (NaN ratios, -0.0000 means), and
+/// `--reference-spp 0` printed FLIP 0.0000 per frame, which reads as a perfect score.
+#[test]
+fn short_or_unreferenced_evaluations_say_what_they_cannot_score() {
+    let dir = temp_dir("eval-short");
+    let eval = |out: &str, spp: &str| {
+        let o = lumo(
+            &dir,
+            &[
+                "render",
+                "cornell",
+                "--frames",
+                "0..3",
+                "--orbit",
+                "60",
+                "--temporal-eval",
+                out,
+                "--reference-spp",
+                spp,
+                "--size",
+                "24x24",
+                "--spp",
+                "1",
+            ],
+        );
+        assert!(o.status.success(), "{}", text(&o));
+        (
+            text(&o),
+            std::fs::read_to_string(dir.join(out).join("summary.md")).unwrap(),
+        )
+    };
+    let (_, summary) = eval("short", "4");
+    assert!(
+        summary.contains("No quality summary") && !summary.contains("NaN"),
+        "{summary}"
+    );
+    let (log, _) = eval("none", "0");
+    assert!(
+        log.contains("FLIP n/a") && !log.contains("FLIP 1 spp 0.0000"),
+        "{log}"
+    );
+}
