@@ -151,6 +151,22 @@ impl Sequence {
             .is_some_and(|r| r.items.iter().any(|(_, i)| *i == NodeItem::Camera));
         let rig = rig.filter(AnimatedScene::is_animated);
         let range = format!("--frames {}..{}", frames.first, frames.last);
+        // An orbit of 0° moves nothing: the same frames as no orbit at all.
+        let orbits = args.orbit.is_some_and(|deg| deg != 0.0);
+        if rig.is_none() && args.orbit == Some(0.0) {
+            bail!(
+                "--orbit 0: scene {:?} has no animation, so every frame would be the same; give \
+                 the orbit an angle (e.g. --orbit 360), or drop --frames to render a still",
+                scene.name
+            );
+        }
+        if rig.is_none() && args.fps.is_some() && orbits {
+            eprintln!(
+                "warning: --fps has no effect: scene {:?} has no animation, and an orbit is \
+                 spread over the frames whatever the rate",
+                scene.name
+            );
+        }
         if rig.is_none() && args.orbit.is_none() {
             let why = if is_gltf {
                 "the glTF file has no animation clips"

@@ -120,6 +120,11 @@ fn bad_sequence_options_name_the_flag_and_render_nothing() {
             &["--orbit", "keyframed"],
         ),
         (&["cornell", "--orbit", "90"], &["--frames"]),
+        // An orbit of 0° on a static scene: every frame the same, as without --orbit.
+        (
+            &["cornell", "--frames", "0..3", "--orbit", "0"],
+            &["--orbit 0", "every frame would be the same"],
+        ),
         (
             &[&scene, "--frames", "0..3", "--time", "1"],
             &["--frames", "--time"],
