@@ -65,6 +65,9 @@ struct Row {
     diff: Option<PathBuf>,
 }
 
+/// Most stops `--exposure` accepts either way.
+const MAX_EXPOSURE: f32 = 64.0;
+
 /// Most pixels per degree `--ppd` accepts. FLIP's filters are as wide as a fixed visual
 /// angle, so their size in pixels grows with the ppd (1e30 would allocate without end);
 /// 1000 ppd is beyond any display viewed by a person (FLIP's default, 67, is a 0.7 m
@@ -73,8 +76,13 @@ pub const MAX_PPD: f32 = 1000.0;
 
 /// Runs `lumo compare`.
 pub fn run(args: CompareArgs) -> Result<()> {
-    if !args.exposure.is_finite() {
-        bail!("--exposure must be a finite number of stops");
+    // f32 spans 2^±127: beyond ±64 stops every pixel of any real image is 0 or 1 after the
+    // clamp, and PSNR, SSIM and FLIP then report a perfect match of two blank images.
+    if !(args.exposure.is_finite() && args.exposure.abs() <= MAX_EXPOSURE) {
+        bail!(
+            "--exposure {}: use a finite number of stops from -{MAX_EXPOSURE} to {MAX_EXPOSURE}",
+            args.exposure
+        );
     }
     let ppd = args.ppd.unwrap_or(FLIP_DEFAULT_PPD);
     if !(ppd.is_finite() && ppd > 0.0) {

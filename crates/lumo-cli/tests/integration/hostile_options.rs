@@ -157,6 +157,11 @@ fn unbounded_options_are_refused_naming_the_option() {
             &["bench", "speed", "--no-render", "--no-filters"],
             "cannot be used with",
         ),
+        // 2^1e9 saturated every pixel: PSNR inf and SSIM 1 for any two images.
+        (
+            &["compare", "--exposure", "1e9", "a.png", "b.png"],
+            "--exposure 1000000000: use a finite number of stops from -64 to 64",
+        ),
         // A negative value gets the range message, not clap's advice to write `-- -5`.
         (
             &["compare", "--ppd", "-5", "a.png", "b.png"],

@@ -512,3 +512,35 @@ fn an_invisible_spectrum_is_named_at_its_element() {
         "{w}"
     );
 }
+
+/// A glTF base-colour texture on a primitive without TEXCOORD_0 reads one texel everywhere;
+/// that now comes with a warning naming the primitive.
+#[test]
+fn a_texture_without_texture_coordinates_is_warned_about() {
+    let dir = temp_dir("no-uvs");
+    let gltf = std::fs::read_to_string(common::scenes().join("hierarchy.gltf")).unwrap();
+    // The gold material (on the primitive that has only POSITION) gets a 1×1 PNG texture.
+    let png = "data:image/png;base64,iVBORw0KGgoAAAANSUhEUgAAAAEAAAABCAIAAACQd1PeAAAADElEQVR4nGNoaGgAAAMEAYFL09IQAAAAAElFTkSuQmCC";
+    let edited = gltf
+        .replacen(
+            "{\n",
+            &format!(
+                "{{\n \"images\": [{{\"uri\": \"{png}\"}}],\n \"textures\": [{{\"source\": 0}}],\n"
+            ),
+            1,
+        )
+        .replace(
+            "    \"metallicFactor\": 1,\n    \"roughnessFactor\": 0.4",
+            "    \"metallicFactor\": 1,\n    \"roughnessFactor\": 0.4,\n    \"baseColorTexture\": {\"index\": 0}",
+        );
+    assert!(
+        edited.contains("baseColorTexture"),
+        "the gold material is where the test expects it"
+    );
+    let scene = load(&write(&dir, "tex.gltf", edited)).expect("loads");
+    let w = warnings(&scene).join("\n");
+    assert!(w.contains("no TEXCOORD_0"), "{w}");
+    // The unedited file (its textured-free materials) gets no such warning.
+    let scene = load(&common::scenes().join("hierarchy.gltf")).expect("loads");
+    assert!(!warnings(&scene).join("\n").contains("TEXCOORD_0"));
+}

@@ -423,6 +423,20 @@ impl GltfReader<'_, '_> {
                     .collect(),
             };
             let material = self.material(prim.material())?;
+            // A base-colour texture needs texture coordinates to vary: without TEXCOORD_0 every
+            // point reads the texel at (0, 0).
+            let textured = prim
+                .material()
+                .pbr_metallic_roughness()
+                .base_color_texture()
+                .is_some();
+            if textured && uvs.is_empty() {
+                self.diag.warn(
+                    self.at(label.clone()),
+                    "its material has a base-colour texture but the primitive has no TEXCOORD_0; \
+                     every point takes the texel at (0, 0)",
+                )?;
+            }
             let mut m = Mesh {
                 name: mesh
                     .name()
