@@ -740,11 +740,7 @@ fn check_plane_values(a: &DenoiseArgs, inputs: &Inputs) -> anyhow::Result<()> {
     let share = |n: usize| n as f64 / total as f64;
     if let Some((path, albedo)) = inputs.albedo.as_ref().filter(|_| !a.no_demodulate) {
         let passed = (0..albedo.pixel_count())
-            .filter(|&i| {
-                let p = &albedo.data[i * albedo.channels..][..albedo.channels.min(3)];
-                let max = p.iter().fold(0.0f32, |m, &x| m.max(x));
-                !(p.iter().all(|x| x.is_finite()) && max >= lumo_filter::ALBEDO_EPS)
-            })
+            .filter(|&i| lumo_filter::albedo_passes_through(albedo, i))
             .count();
         if share(passed) > 0.5 {
             eprintln!(

@@ -375,11 +375,9 @@ fn reference_key(
 /// two (seed, frame) pairs share their noise by construction (`seed + frame·k`, used before,
 /// gave seed 5's frame 1 the noise of seed 5 + k's frame 0: the same images, shifted).
 pub fn frame_seed(seed: u32, frame: u32) -> u32 {
-    let mut z = (u64::from(seed) << 32 | u64::from(frame)).wrapping_add(0x9e37_79b9_7f4a_7c15);
-    // splitmix64's finaliser: every input bit reaches every output bit.
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    (z ^ (z >> 31)) as u32
+    // splitmix64's step: every input bit reaches every output bit.
+    let z = (u64::from(seed) << 32 | u64::from(frame)).wrapping_add(0x9e37_79b9_7f4a_7c15);
+    lumo_render::sampler::mix64(z) as u32
 }
 
 fn ms(d: Duration) -> f64 {

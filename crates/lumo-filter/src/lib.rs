@@ -58,7 +58,9 @@ pub use auto::{auto, AutoDenoiser, AutoParams};
 pub use bench::synthetic::{synthetic_frame, SyntheticFrame};
 pub use bench::{synthetic, table2};
 pub use bilateral::{bilateral, BilateralDenoiser, BilateralParams};
-pub use common::albedo::{demodulate, surface_albedo, with_demodulation, Demodulated, ALBEDO_EPS};
+pub use common::albedo::{
+    albedo_passes_through, demodulate, surface_albedo, with_demodulation, Demodulated, ALBEDO_EPS,
+};
 pub use common::boxsum::box_mean;
 pub use common::emitters::{detect_emitters, EmitterMask, EmitterParams};
 pub use common::error::FilterError;

@@ -46,9 +46,10 @@ const PCG_MULT: u64 = 6_364_136_223_846_793_005;
 /// PCG32's default increment (odd).
 const PCG_INC: u64 = 1_442_695_040_888_963_407;
 
-/// 64-bit finaliser (splitmix64) that spreads a seed over the PCG state.
+/// 64-bit finaliser (splitmix64) that spreads a seed over the PCG state (and, in `lumo
+/// render --temporal`, a sequence's seed and frame over the frame's seed).
 #[inline]
-fn mix64(mut z: u64) -> u64 {
+pub fn mix64(mut z: u64) -> u64 {
     z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
     z ^ (z >> 31)

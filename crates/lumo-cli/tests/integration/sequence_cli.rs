@@ -346,13 +346,16 @@ fn temporal_frame_seeds_of_different_seeds_do_not_coincide() {
 fn sequence_aov_directories_are_checked_first_and_numbered_names_do_not_clash() {
     let dir = temp_dir("seq-aovs");
     let scene = animated();
+    let sequence = |out: &str, aovs: &str| {
+        let mut args = vec![
+            "render", &scene, "--frames", "0..1", "-o", out, "--aovs", aovs,
+        ];
+        args.extend(TINY);
+        lumo(&dir, &args)
+    };
     std::fs::create_dir_all(dir.join("bv")).unwrap();
     std::fs::write(dir.join("bv/0000"), b"").unwrap();
-    let mut args = vec![
-        "render", &scene, "--frames", "0..1", "-o", "b.pfm", "--aovs", "bv",
-    ];
-    args.extend(TINY);
-    let o = lumo(&dir, &args);
+    let o = sequence("b.pfm", "bv");
     assert!(
         !o.status.success() && text(&o).contains("bv/0000"),
         "{}",
@@ -363,18 +366,7 @@ fn sequence_aov_directories_are_checked_first_and_numbered_names_do_not_clash() 
         "refused only after rendering frame 0"
     );
 
-    let mut args = vec![
-        "render",
-        &scene,
-        "--frames",
-        "0..1",
-        "-o",
-        "nodir/a.pfm",
-        "--aovs",
-        "newaov",
-    ];
-    args.extend(TINY);
-    let o = lumo(&dir, &args);
+    let o = sequence("nodir/a.pfm", "newaov");
     assert!(
         !o.status.success() && text(&o).contains("nodir"),
         "{}",
@@ -385,18 +377,7 @@ fn sequence_aov_directories_are_checked_first_and_numbered_names_do_not_clash() 
         "a refused run created its AOV directory"
     );
 
-    let mut args = vec![
-        "render",
-        &scene,
-        "--frames",
-        "0..1",
-        "-o",
-        "av/color.exr",
-        "--aovs",
-        "av",
-    ];
-    args.extend(TINY);
-    let o = lumo(&dir, &args);
+    let o = sequence("av/color.exr", "av");
     assert!(o.status.success(), "{}", text(&o));
     assert!(dir.join("av/color_0001.exr").is_file() && dir.join("av/0001/color.exr").is_file());
 }

@@ -31,6 +31,13 @@ pub(crate) fn albedo_divisor(a: &Image, i: usize) -> Option<[f32; 3]> {
     usable.then(|| v.map(|x| x.max(ALBEDO_EPS)))
 }
 
+/// Whether albedo pixel `i` of `a` is passed through unfiltered by demodulation (not finite, or
+/// below [`ALBEDO_EPS`] in every channel): [`albedo_divisor`]'s rule, for callers that warn
+/// about it.
+pub fn albedo_passes_through(a: &Image, i: usize) -> bool {
+    albedo_divisor(a, i).is_none()
+}
+
 /// Variance of the illumination of a pixel whose variance is `v` and which was divided by
 /// `albedo`: v / luminance(albedo)².
 pub(crate) fn illumination_variance(v: f32, albedo: [f32; 3]) -> f32 {
