@@ -74,23 +74,29 @@ const MAX_EXPOSURE: f32 = 64.0;
 /// viewing distance from a 24-inch 4K monitor).
 pub const MAX_PPD: f32 = 1000.0;
 
-/// Runs `lumo compare`.
-pub fn run(args: CompareArgs) -> Result<()> {
+/// The metric settings of `--exposure` and `--ppd`, checked (also `lumo.compare`'s in Python).
+pub fn compare_settings(exposure: f32, ppd: Option<f32>) -> Result<CompareSettings> {
     // f32 spans 2^±127: beyond ±64 stops every pixel of any real image is 0 or 1 after the
     // clamp, and PSNR, SSIM and FLIP then report a perfect match of two blank images.
-    if !(args.exposure.is_finite() && args.exposure.abs() <= MAX_EXPOSURE) {
-        bail!(
-            "--exposure {}: use a finite number of stops from -{MAX_EXPOSURE} to {MAX_EXPOSURE}",
-            args.exposure
-        );
+    if !(exposure.is_finite() && exposure.abs() <= MAX_EXPOSURE) {
+        bail!("--exposure {exposure}: use a finite number of stops from -{MAX_EXPOSURE} to {MAX_EXPOSURE}");
     }
-    let ppd = args.ppd.unwrap_or(FLIP_DEFAULT_PPD);
+    let ppd = ppd.unwrap_or(FLIP_DEFAULT_PPD);
     if !(ppd.is_finite() && ppd > 0.0) {
         bail!("--ppd must be a positive number");
     }
     if ppd > MAX_PPD {
         bail!("--ppd {ppd:e}: use at most {MAX_PPD} pixels per degree (FLIP's default is {FLIP_DEFAULT_PPD})");
     }
+    Ok(CompareSettings {
+        exposure,
+        flip_ppd: ppd,
+    })
+}
+
+/// Runs `lumo compare`.
+pub fn run(args: CompareArgs) -> Result<()> {
+    let settings = compare_settings(args.exposure, args.ppd)?;
     // The diff images are the only outputs: check where they go before reading anything.
     if let Some(out) = &args.diff {
         let inputs: Vec<&Path> = std::iter::once(args.reference.as_path())
@@ -112,10 +118,6 @@ pub fn run(args: CompareArgs) -> Result<()> {
             }
         }
     }
-    let settings = CompareSettings {
-        exposure: args.exposure,
-        flip_ppd: ppd,
-    };
     let reference = read_image(&args.reference)?;
 
     // Read and check every image before printing anything, so that a bad argument fails fast
@@ -162,8 +164,13 @@ pub fn run(args: CompareArgs) -> Result<()> {
     Ok(())
 }
 
-/// A one-line error naming both files when `test` cannot be compared with `reference`.
-fn check_comparable(ref_path: &Path, reference: &Image, path: &Path, test: &Image) -> Result<()> {
+/// A one-line error naming both images when `test` cannot be compared with `reference`.
+pub fn check_comparable(
+    ref_path: &Path,
+    reference: &Image,
+    path: &Path,
+    test: &Image,
+) -> Result<()> {
     if (reference.width, reference.height) != (test.width, test.height) {
         bail!(
             "size mismatch: {} is {}x{} but {} is {}x{}",

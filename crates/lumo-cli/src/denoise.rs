@@ -36,6 +36,24 @@ pub enum VarianceSource {
     None,
 }
 
+/// The words after `lumo denoise`, parsed by the command's own parser.
+#[derive(clap::Parser)]
+#[command(name = "lumo denoise", no_binary_name = true)]
+struct DenoiseLine {
+    #[command(flatten)]
+    args: DenoiseArgs,
+}
+
+/// Runs `lumo denoise WORDS…` (the words after `denoise`): the Python package's `lumo.denoise`,
+/// which writes its arrays as planes first, so that they get every check of the command.
+pub fn run_words(words: &[String]) -> anyhow::Result<()> {
+    use clap::Parser;
+    let args = DenoiseLine::try_parse_from(words)
+        .map_err(|e| anyhow::anyhow!("{}", e.render().to_string().trim_end()))?
+        .args;
+    run(args)
+}
+
 /// Arguments of `lumo denoise`.
 #[derive(clap::Args, Debug)]
 pub struct DenoiseArgs {

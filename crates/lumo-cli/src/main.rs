@@ -1,17 +1,7 @@
 //! The `lumo` command.
 #![forbid(unsafe_code)]
 
-mod bench;
-mod cli_common;
-mod compare_cmd;
-mod denoise;
-mod pipeline_args;
-mod render_cmd;
-mod reshade;
-mod sequence;
-mod serve_cmd;
-mod temporal;
-mod temporal_eval;
+use lumo_cli::{bench, compare_cmd, denoise, render_cmd, serve_cmd};
 
 use clap::{Parser, Subcommand};
 

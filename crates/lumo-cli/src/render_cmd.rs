@@ -7,13 +7,13 @@ use anyhow::{bail, Context, Result};
 use clap::ValueEnum;
 use indicatif::{ProgressBar, ProgressStyle};
 use lumo_image::{write_image, Image, ImageFormat};
-use lumo_pipeline::{run_pipeline, Pipeline};
+use lumo_pipeline::{run_pipeline, run_pipeline_on_sums, Pipeline};
 use lumo_render::camera::PinholeCamera;
 use lumo_render::integrators::bdpt::BdptSettings;
 use lumo_render::integrators::photon::{scene_warning, KdTree, DEFAULT_MAX_PHOTONS};
 use lumo_render::{
-    render_bdpt, render_light, render_ppm, Frame, PathSettings, PpmSettings, RenderScene,
-    RenderSettings, RenderStats,
+    render_bdpt, render_light, render_ppm, Frame, PathSettings, PixelSums, PpmSettings,
+    RenderScene, RenderSettings, RenderStats,
 };
 use lumo_scene::load::{FileSettings, LoadOptions};
 use lumo_scene::{builtin_scene, AnimatedScene, Scene, BUILTIN_SCENES};
@@ -353,241 +353,19 @@ pub fn run(args: RenderArgs) -> Result<()> {
         }
         return Ok(());
     }
-    let integrator = args
-        .integrator
-        .to_possible_value()
-        .map_or_else(String::new, |v| v.get_name().to_owned());
-    let temporal = args.temporal || args.temporal_eval.is_some();
-    // The option as typed, for the messages below.
-    let temporal_flag = if args.temporal_eval.is_some() {
-        "--temporal-eval"
-    } else {
-        "--temporal"
-    };
-    let pipeline = match (args.integrator, args.pipeline.pipeline) {
-        (i, Some(p)) if i.unfiltered() && p != Pipeline::None => bail!(
-            "--integrator {integrator} renders without a filtering pipeline: drop --pipeline {p} (or use --pipeline none)"
-        ),
-        (i, _) if i.unfiltered() && temporal => bail!(
-            "{temporal_flag}: --integrator {integrator} makes no G-buffer for the temporal filter; use --integrator path"
-        ),
-        (_, Some(p)) if temporal && p != Pipeline::None => bail!(
-            "{temporal_flag} filters each frame with the temporal filter itself: drop --pipeline {p}"
-        ),
-        // Traced without a pipeline; the temporal filter takes its place.
-        _ if args.temporal => Pipeline::None,
-        (i, _) if i.unfiltered() => Pipeline::None,
-        _ => args.pipeline.pipeline(),
-    };
-    if args.integrator.unfiltered() && args.aovs.is_some() {
-        bail!("--aovs: --integrator {integrator} makes no G-buffer; use --integrator path for AOV planes");
-    }
-    if args.integrator == RenderIntegrator::Ppm && args.aovs.is_some() {
-        bail!("--aovs: the photon mapper makes no G-buffer; use --integrator path for AOV planes");
-    }
-    if args.spectral
-        && !matches!(
-            args.integrator,
-            RenderIntegrator::Path | RenderIntegrator::Light
-        )
-    {
-        bail!("--spectral: spectral transport runs in the path and light tracers; use --integrator path or light (bdpt and ppm transport RGB)");
-    }
-    if args.spectral {
-        // Fitted once per process (about a second on two cores), before the progress bar.
-        lumo_spectrum::coefficient_table();
-    }
-    if args.integrator != RenderIntegrator::Ppm
-        && (args.max_photons.is_some()
-            || args.photons_per_pass.is_some()
-            || args.photon_radius.is_some())
-    {
-        bail!("--max-photons, --photons-per-pass and --photon-radius apply to --integrator ppm");
-    }
-    let ppm = ppm_settings(&args)?;
-    let options = LoadOptions {
-        defines: args.defines.clone(),
-        strict: args.strict,
-        camera: args.camera,
-        time: args.time,
-    };
-    let (mut scene, file, rig) = load_scene_animated(&args.scene, &options)?;
-    // With --frames, what moves (checked before anything is written or rendered).
-    let sequence = match args.frames {
-        Some(frames) => Some(crate::sequence::Sequence::plan(
-            &args, frames, &mut scene, rig,
-        )?),
-        None => None,
-    };
-    let outputs: Vec<PathBuf> = match &args.output {
-        Some(p) => vec![p.clone()],
-        None => vec![
-            PathBuf::from(format!("{}.exr", scene.name)),
-            PathBuf::from(format!("{}.png", scene.name)),
-        ],
-    };
-    // Every output location is checked before the render, which may take hours, and before
-    // anything is created: the AOV directory is made only once every other check has passed.
-    if let Some(dir) = &args.aovs {
-        for o in &outputs {
-            // In a sequence both the image and the planes' directory carry the frame number.
-            let (image, planes) = match &sequence {
-                Some(seq) => (
-                    seq.frame_path(o, seq.frames.first),
-                    seq.frame_aov_dir(dir, seq.frames.first),
-                ),
-                None => (o.clone(), dir.clone()),
-            };
-            if let Some(plane) = aov_plane_named_by(&image, &planes) {
-                bail!(
-                    "-o {}: the --aovs plane {plane}.exr would overwrite the image; write the \
-                     image outside {} or under another name",
-                    o.display(),
-                    dir.display()
-                );
-            }
-        }
-        if dir.exists() && !dir.is_dir() {
-            bail!("--aovs {}: exists and is not a directory", dir.display());
-        }
-        // `--aovs planes.exr` makes a directory of that name: likely meant as a file.
-        let image_like = dir
-            .extension()
-            .and_then(|e| e.to_str())
-            .is_some_and(|e| ["exr", "pfm", "png"].contains(&e.to_ascii_lowercase().as_str()));
-        if image_like && !dir.exists() {
-            eprintln!(
-                "warning: --aovs {} names a directory (one file per plane goes into it), \
-                 created with an image extension; the image itself is -o",
-                dir.display()
-            );
-        }
-    }
-    // Outputs in an AOV directory that does not exist yet are checked once it is made.
-    let in_new_aovs = |o: &Path| {
-        args.aovs
-            .as_ref()
-            .is_some_and(|d| !d.exists() && parent_is(o, d))
-    };
-    let check_output = |o: &Path| -> Result<()> {
-        check_writable(o)?;
-        if let Some(seq) = &sequence {
-            // The numbered name must be writable too (a long name may not be).
-            check_writable(&seq.frame_path(o, seq.frames.first))?;
-        }
-        Ok(())
-    };
-    let deferred: Vec<&PathBuf> = outputs.iter().filter(|o| in_new_aovs(o)).collect();
-    for o in outputs.iter().filter(|o| !in_new_aovs(o)) {
-        check_output(o)?;
-    }
-    if let Some(dir) = &args.aovs {
-        std::fs::create_dir_all(dir)
-            .with_context(|| format!("--aovs {}: cannot create the directory", dir.display()))?;
-        // The first frame's planes: DIR itself, or DIR/<frame> in a sequence (made at write
-        // time, so only something in its way can fail it).
-        let planes = match &sequence {
-            Some(seq) => seq.frame_aov_dir(dir, seq.frames.first),
-            None => dir.clone(),
-        };
-        if planes.exists() && !planes.is_dir() {
-            bail!(
-                "--aovs {}: {} exists and is not a directory (the first frame's planes go \
-                 there)",
-                dir.display(),
-                planes.display()
-            );
-        }
-        let probe = if planes.is_dir() { &planes } else { dir };
-        check_writable(&probe.join("color.exr"))
-            .with_context(|| format!("--aovs {}", dir.display()))?;
-    }
-    for o in deferred {
-        check_output(o)?;
-    }
-    match args.spp {
-        Some(0) => bail!("--spp must be at least 1"),
-        Some(n) if n > MAX_SPP => bail!("--spp {n}: at most {MAX_SPP} samples per pixel"),
-        _ => {}
-    }
-    crate::cli_common::check_max_depth(args.max_depth)?;
-    crate::cli_common::check_rr_depth(args.rr_depth)?;
-    // Command-line options win over the scene file's settings, which win over the defaults.
-    let (width, height) = args
-        .size
-        .or(file.size)
-        .unwrap_or((scene.defaults.width, scene.defaults.height));
-    let settings = RenderSettings {
-        width,
-        height,
-        spp: args
-            .spp
-            .or(file.spp)
-            .unwrap_or(if pipeline == Pipeline::None && !temporal {
-                scene.defaults.spp
-            } else {
-                crate::pipeline_args::FILTERED_DEFAULT_SPP
-            }),
-        seed: args.seed.or(file.seed).unwrap_or(0),
-        path: PathSettings {
-            max_depth: args
-                .max_depth
-                .or(file.max_depth)
-                .unwrap_or(scene.defaults.max_depth),
-            rr_depth: args.rr_depth.or(file.rr_depth).unwrap_or(5),
-            spectral: args.spectral,
-            ..Default::default()
-        },
-    };
-    if settings.spp > MAX_SPP {
-        bail!(
-            "the scene asks for {} samples per pixel; at most {MAX_SPP} (use --spp)",
-            settings.spp
-        );
-    }
-    let unfiltered = args.integrator.unfiltered().then_some(integrator.as_str());
-    args.pipeline.check(pipeline, unfiltered)?;
-    let per_pixel = pipeline.bytes_per_pixel();
-    crate::cli_common::check_memory(
-        (width as u64 * height as u64).saturating_mul(per_pixel),
-        &format!(
-            "a {width}x{height} render with --pipeline {} (about {per_pixel} bytes per pixel)",
-            pipeline
-        ),
-        "use a smaller --size",
-    )?;
-    let pool = crate::cli_common::worker_pool(args.threads)?;
-    let threads = pool.current_num_threads();
-    let tris = scene.triangle_count();
-    let name = scene.name.clone();
-    // Timed inside the pool, like a sequence's per-frame updates (see sequence.rs).
-    let (rs, build) = pool.install(|| {
-        let build_start = Instant::now();
-        (RenderScene::new(scene), build_start.elapsed())
-    });
-    let rs = rs?;
-    let method = match args.integrator {
-        RenderIntegrator::Path => format!("pipeline {pipeline}"),
-        RenderIntegrator::Light => format!(
-            "light tracer ({} light paths)",
-            settings.spp as u64 * (width * height) as u64
-        ),
-        RenderIntegrator::Bdpt => "bidirectional path tracer".to_owned(),
-        RenderIntegrator::Ppm => format!(
-            "photon mapping (at most {} photons, {} MB)",
-            ppm.max_photons,
-            ppm_map_bytes(ppm.max_photons) >> 20
-        ),
-    };
-    eprintln!(
-        "{name}: {tris} triangles (BVH {:.0} ms), {width}x{height}, {} spp, max depth {}, {method}, {threads} threads",
-        build.as_secs_f64() * 1e3,
-        settings.spp,
-        settings.path.max_depth
-    );
-    if args.integrator == RenderIntegrator::Bdpt && rs.lights.emits_no_particles() {
-        eprintln!("warning: {name}: no light emits particles (environment lights do not): --integrator bdpt runs as a path tracer here");
-    }
+    let plan = Plan::new(&args)?;
+    plan.check_outputs(&args)?;
+    let Ready {
+        pipeline,
+        settings,
+        ppm,
+        sequence,
+        outputs,
+        pool,
+        rs,
+        build,
+    } = plan.build(&args, true)?;
+    let (width, height) = (settings.width, settings.height);
     let job = Job {
         args: &args,
         pipeline,
@@ -664,6 +442,331 @@ pub fn run(args: RenderArgs) -> Result<()> {
             .unwrap_or_default()
     );
     Ok(())
+}
+
+/// A `lumo render` command line checked and its scene loaded, before anything is written or
+/// built: what the command and a distributed render's workers (`lumo-py`) share.
+pub struct Plan {
+    /// The pipeline (`None` for the unfiltered integrators).
+    pub pipeline: Pipeline,
+    /// Resolution, samples, seed and path settings.
+    pub settings: RenderSettings,
+    /// Photon-mapping settings.
+    pub ppm: PpmSettings,
+    /// With `--frames`, what moves from frame to frame.
+    pub sequence: Option<crate::sequence::Sequence>,
+    /// The image files.
+    pub outputs: Vec<PathBuf>,
+    /// The scene, posed at the first frame.
+    pub scene: Scene,
+}
+
+/// A [`Plan`] with its render scene built and its thread pool.
+pub struct Ready {
+    /// See [`Plan::pipeline`].
+    pub pipeline: Pipeline,
+    /// See [`Plan::settings`].
+    pub settings: RenderSettings,
+    /// See [`Plan::ppm`].
+    pub ppm: PpmSettings,
+    /// See [`Plan::sequence`].
+    pub sequence: Option<crate::sequence::Sequence>,
+    /// See [`Plan::outputs`].
+    pub outputs: Vec<PathBuf>,
+    /// The worker threads.
+    pub pool: rayon::ThreadPool,
+    /// The scene with its BVH and lights.
+    pub rs: RenderScene,
+    /// How long building `rs` took.
+    pub build: std::time::Duration,
+}
+
+impl Plan {
+    /// Checks the options of `args` against each other and the scene, loads the scene and works
+    /// out the settings; writes nothing.
+    pub fn new(args: &RenderArgs) -> Result<Plan> {
+        let integrator = args
+            .integrator
+            .to_possible_value()
+            .map_or_else(String::new, |v| v.get_name().to_owned());
+        let temporal = args.temporal || args.temporal_eval.is_some();
+        // The option as typed, for the messages below.
+        let temporal_flag = if args.temporal_eval.is_some() {
+            "--temporal-eval"
+        } else {
+            "--temporal"
+        };
+        let pipeline = match (args.integrator, args.pipeline.pipeline) {
+            (i, Some(p)) if i.unfiltered() && p != Pipeline::None => bail!(
+                "--integrator {integrator} renders without a filtering pipeline: drop --pipeline {p} (or use --pipeline none)"
+            ),
+            (i, _) if i.unfiltered() && temporal => bail!(
+                "{temporal_flag}: --integrator {integrator} makes no G-buffer for the temporal filter; use --integrator path"
+            ),
+            (_, Some(p)) if temporal && p != Pipeline::None => bail!(
+                "{temporal_flag} filters each frame with the temporal filter itself: drop --pipeline {p}"
+            ),
+            // Traced without a pipeline; the temporal filter takes its place.
+            _ if args.temporal => Pipeline::None,
+            (i, _) if i.unfiltered() => Pipeline::None,
+            _ => args.pipeline.pipeline(),
+        };
+        if args.integrator.unfiltered() && args.aovs.is_some() {
+            bail!("--aovs: --integrator {integrator} makes no G-buffer; use --integrator path for AOV planes");
+        }
+        if args.integrator == RenderIntegrator::Ppm && args.aovs.is_some() {
+            bail!(
+                "--aovs: the photon mapper makes no G-buffer; use --integrator path for AOV planes"
+            );
+        }
+        if args.spectral
+            && !matches!(
+                args.integrator,
+                RenderIntegrator::Path | RenderIntegrator::Light
+            )
+        {
+            bail!("--spectral: spectral transport runs in the path and light tracers; use --integrator path or light (bdpt and ppm transport RGB)");
+        }
+        if args.spectral {
+            // Fitted once per process (about a second on two cores), before the progress bar.
+            lumo_spectrum::coefficient_table();
+        }
+        if args.integrator != RenderIntegrator::Ppm
+            && (args.max_photons.is_some()
+                || args.photons_per_pass.is_some()
+                || args.photon_radius.is_some())
+        {
+            bail!(
+                "--max-photons, --photons-per-pass and --photon-radius apply to --integrator ppm"
+            );
+        }
+        let ppm = ppm_settings(&args)?;
+        let options = LoadOptions {
+            defines: args.defines.clone(),
+            strict: args.strict,
+            camera: args.camera,
+            time: args.time,
+        };
+        let (mut scene, file, rig) = load_scene_animated(&args.scene, &options)?;
+        // With --frames, what moves (checked before anything is written or rendered).
+        let sequence = match args.frames {
+            Some(frames) => Some(crate::sequence::Sequence::plan(
+                &args, frames, &mut scene, rig,
+            )?),
+            None => None,
+        };
+        let outputs: Vec<PathBuf> = match &args.output {
+            Some(p) => vec![p.clone()],
+            None => vec![
+                PathBuf::from(format!("{}.exr", scene.name)),
+                PathBuf::from(format!("{}.png", scene.name)),
+            ],
+        };
+        match args.spp {
+            Some(0) => bail!("--spp must be at least 1"),
+            Some(n) if n > MAX_SPP => bail!("--spp {n}: at most {MAX_SPP} samples per pixel"),
+            _ => {}
+        }
+        crate::cli_common::check_max_depth(args.max_depth)?;
+        crate::cli_common::check_rr_depth(args.rr_depth)?;
+        // Command-line options win over the scene file's settings, which win over the defaults.
+        let (width, height) = args
+            .size
+            .or(file.size)
+            .unwrap_or((scene.defaults.width, scene.defaults.height));
+        let settings = RenderSettings {
+            width,
+            height,
+            spp: args
+                .spp
+                .or(file.spp)
+                .unwrap_or(if pipeline == Pipeline::None && !temporal {
+                    scene.defaults.spp
+                } else {
+                    crate::pipeline_args::FILTERED_DEFAULT_SPP
+                }),
+            seed: args.seed.or(file.seed).unwrap_or(0),
+            path: PathSettings {
+                max_depth: args
+                    .max_depth
+                    .or(file.max_depth)
+                    .unwrap_or(scene.defaults.max_depth),
+                rr_depth: args.rr_depth.or(file.rr_depth).unwrap_or(5),
+                spectral: args.spectral,
+                ..Default::default()
+            },
+        };
+        if settings.spp > MAX_SPP {
+            bail!(
+                "the scene asks for {} samples per pixel; at most {MAX_SPP} (use --spp)",
+                settings.spp
+            );
+        }
+        let unfiltered = args.integrator.unfiltered().then_some(integrator.as_str());
+        args.pipeline.check(pipeline, unfiltered)?;
+        Ok(Plan {
+            pipeline,
+            settings,
+            ppm,
+            sequence,
+            outputs,
+            scene,
+        })
+    }
+
+    /// Checks every output location before the render, which may take hours, and makes the
+    /// `--aovs` directory once every other check has passed.
+    pub fn check_outputs(&self, args: &RenderArgs) -> Result<()> {
+        let (outputs, sequence) = (&self.outputs, &self.sequence);
+        // Every output location is checked before the render, which may take hours, and before
+        // anything is created: the AOV directory is made only once every other check has passed.
+        if let Some(dir) = &args.aovs {
+            for o in outputs {
+                // In a sequence both the image and the planes' directory carry the frame number.
+                let (image, planes) = match &sequence {
+                    Some(seq) => (
+                        seq.frame_path(o, seq.frames.first),
+                        seq.frame_aov_dir(dir, seq.frames.first),
+                    ),
+                    None => (o.clone(), dir.clone()),
+                };
+                if let Some(plane) = aov_plane_named_by(&image, &planes) {
+                    bail!(
+                        "-o {}: the --aovs plane {plane}.exr would overwrite the image; write the \
+                         image outside {} or under another name",
+                        o.display(),
+                        dir.display()
+                    );
+                }
+            }
+            if dir.exists() && !dir.is_dir() {
+                bail!("--aovs {}: exists and is not a directory", dir.display());
+            }
+            // `--aovs planes.exr` makes a directory of that name: likely meant as a file.
+            let image_like = dir
+                .extension()
+                .and_then(|e| e.to_str())
+                .is_some_and(|e| ["exr", "pfm", "png"].contains(&e.to_ascii_lowercase().as_str()));
+            if image_like && !dir.exists() {
+                eprintln!(
+                    "warning: --aovs {} names a directory (one file per plane goes into it), \
+                     created with an image extension; the image itself is -o",
+                    dir.display()
+                );
+            }
+        }
+        // Outputs in an AOV directory that does not exist yet are checked once it is made.
+        let in_new_aovs = |o: &Path| {
+            args.aovs
+                .as_ref()
+                .is_some_and(|d| !d.exists() && parent_is(o, d))
+        };
+        let check_output = |o: &Path| -> Result<()> {
+            check_writable(o)?;
+            if let Some(seq) = &sequence {
+                // The numbered name must be writable too (a long name may not be).
+                check_writable(&seq.frame_path(o, seq.frames.first))?;
+            }
+            Ok(())
+        };
+        let deferred: Vec<&PathBuf> = outputs.iter().filter(|o| in_new_aovs(o)).collect();
+        for o in outputs.iter().filter(|o| !in_new_aovs(o)) {
+            check_output(o)?;
+        }
+        if let Some(dir) = &args.aovs {
+            std::fs::create_dir_all(dir).with_context(|| {
+                format!("--aovs {}: cannot create the directory", dir.display())
+            })?;
+            // The first frame's planes: DIR itself, or DIR/<frame> in a sequence (made at write
+            // time, so only something in its way can fail it).
+            let planes = match &sequence {
+                Some(seq) => seq.frame_aov_dir(dir, seq.frames.first),
+                None => dir.clone(),
+            };
+            if planes.exists() && !planes.is_dir() {
+                bail!(
+                    "--aovs {}: {} exists and is not a directory (the first frame's planes go \
+                     there)",
+                    dir.display(),
+                    planes.display()
+                );
+            }
+            let probe = if planes.is_dir() { &planes } else { dir };
+            check_writable(&probe.join("color.exr"))
+                .with_context(|| format!("--aovs {}", dir.display()))?;
+        }
+        for o in deferred {
+            check_output(o)?;
+        }
+        Ok(())
+    }
+
+    /// Checks the memory the render needs, makes the thread pool and builds the render scene;
+    /// with `announce`, says what will be rendered on stderr.
+    pub fn build(self, args: &RenderArgs, announce: bool) -> Result<Ready> {
+        let Plan {
+            pipeline,
+            settings,
+            ppm,
+            sequence,
+            outputs,
+            scene,
+        } = self;
+        let (width, height) = (settings.width, settings.height);
+        let per_pixel = pipeline.bytes_per_pixel();
+        crate::cli_common::check_memory(
+            (width as u64 * height as u64).saturating_mul(per_pixel),
+            &format!(
+                "a {width}x{height} render with --pipeline {} (about {per_pixel} bytes per pixel)",
+                pipeline
+            ),
+            "use a smaller --size",
+        )?;
+        let pool = crate::cli_common::worker_pool(args.threads)?;
+        let threads = pool.current_num_threads();
+        let tris = scene.triangle_count();
+        let name = scene.name.clone();
+        // Timed inside the pool, like a sequence's per-frame updates (see sequence.rs).
+        let (rs, build) = pool.install(|| {
+            let build_start = Instant::now();
+            (RenderScene::new(scene), build_start.elapsed())
+        });
+        let rs = rs?;
+        let method = match args.integrator {
+            RenderIntegrator::Path => format!("pipeline {pipeline}"),
+            RenderIntegrator::Light => format!(
+                "light tracer ({} light paths)",
+                settings.spp as u64 * (width * height) as u64
+            ),
+            RenderIntegrator::Bdpt => "bidirectional path tracer".to_owned(),
+            RenderIntegrator::Ppm => format!(
+                "photon mapping (at most {} photons, {} MB)",
+                ppm.max_photons,
+                ppm_map_bytes(ppm.max_photons) >> 20
+            ),
+        };
+        if announce {
+            eprintln!(
+            "{name}: {tris} triangles (BVH {:.0} ms), {width}x{height}, {} spp, max depth {}, {method}, {threads} threads",
+            build.as_secs_f64() * 1e3,
+            settings.spp,
+            settings.path.max_depth
+        );
+        }
+        if args.integrator == RenderIntegrator::Bdpt && rs.lights.emits_no_particles() {
+            eprintln!("warning: {name}: no light emits particles (environment lights do not): --integrator bdpt runs as a path tracer here");
+        }
+        Ok(Ready {
+            pipeline,
+            settings,
+            ppm,
+            sequence,
+            outputs,
+            pool,
+            rs,
+            build,
+        })
+    }
 }
 
 /// What every frame of one `lumo render` shares: the options, the pool and the outputs.
@@ -767,12 +870,35 @@ impl<'a> Job<'a> {
                 )
             })
             .map_err(crate::pipeline_args::describe_pipeline_error)?;
-        Ok(Rendered {
+        Ok(self.rendered(out))
+    }
+
+    /// What [`Job::render`] gives for the path tracer, from the exact sums of every pixel's
+    /// samples traced elsewhere (a distributed render's chunks, added up): the same bits.
+    pub fn render_sums(&self, rs: &RenderScene, sums: Vec<PixelSums>) -> Result<Rendered> {
+        let settings = &self.settings;
+        let out = self
+            .pool
+            .install(|| {
+                run_pipeline_on_sums(
+                    rs,
+                    self.pipeline,
+                    settings,
+                    &self.args.pipeline.options(settings.width, settings.height),
+                    sums,
+                )
+            })
+            .map_err(crate::pipeline_args::describe_pipeline_error)?;
+        Ok(self.rendered(out))
+    }
+
+    fn rendered(&self, out: lumo_pipeline::PipelineOutput) -> Rendered {
+        Rendered {
             image: out.image,
             stats: out.stats,
             timings: (self.pipeline != Pipeline::None).then(|| out.timings.to_string()),
             aovs: Some((out.frame, out.planes)),
-        })
+        }
     }
 
     /// Writes the image to `outputs` and, with `aovs`, the AOV planes into that directory.

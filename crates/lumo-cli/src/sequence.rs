@@ -224,12 +224,25 @@ impl Sequence {
         i: usize,
         frame: u32,
     ) -> Result<Option<(SceneUpdate, Duration)>> {
+        self.pose_in(job.pool, rs, i, frame, i > 0)
+    }
+
+    /// [`Sequence::pose`] in `pool`, posing the animation also at the first frame when
+    /// `animate` (a distributed render's worker may render the frames in any order).
+    pub fn pose_in(
+        &self,
+        pool: &rayon::ThreadPool,
+        rs: &mut RenderScene,
+        i: usize,
+        frame: u32,
+        animate: bool,
+    ) -> Result<Option<(SceneUpdate, Duration)>> {
         let t = frame as f32 / self.fps;
         let mut updated = None;
-        if let (Some(rig), true) = (&self.rig, i > 0) {
+        if let (Some(rig), true) = (&self.rig, animate) {
             // Timed inside the pool: handing the call to a sleeping worker thread takes
             // longer than the update itself (a few µs vs about 2 ms measured).
-            let (kind, took) = job.pool.install(|| {
+            let (kind, took) = pool.install(|| {
                 let posing = Instant::now();
                 (rs.pose(rig, t), posing.elapsed())
             });

@@ -13,13 +13,14 @@ use super::{PipelineError, PipelineOptions, PipelineOutput, Timings};
 use lumo_render::camera::PinholeCamera;
 use lumo_render::integrators::path::wavefront::render_pixels;
 use lumo_render::{map_pixels, map_rows, render_pixel};
-use lumo_render::{RenderScene, RenderSettings, RenderStats};
+use lumo_render::{PixelSums, RenderScene, RenderSettings, RenderStats};
 
 pub(super) fn run(
     rs: &RenderScene,
     settings: &RenderSettings,
     options: &PipelineOptions,
     progress: &(dyn Fn(f32) + Sync),
+    given: Option<Vec<PixelSums>>,
 ) -> Result<PipelineOutput, PipelineError> {
     let n = options.subsample;
     if ![1, 2, 4].contains(&n) {
@@ -30,7 +31,7 @@ pub(super) fn run(
         });
     }
     let (estimates, mut frame, stats, trace) = if n == 1 {
-        trace_full(rs, settings, progress)
+        trace_full(rs, settings, progress, given)
     } else {
         trace_sparse(rs, settings, n, progress)
     };

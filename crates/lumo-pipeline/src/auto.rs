@@ -10,14 +10,15 @@ use lumo_filter::{with_emitted, AutoDenoiser, Denoiser, Features, FilterInput};
 
 use super::compose::trace_full;
 use super::{PipelineError, PipelineOutput, Timings};
-use lumo_render::{RenderScene, RenderSettings};
+use lumo_render::{PixelSums, RenderScene, RenderSettings};
 
 pub(super) fn run(
     rs: &RenderScene,
     settings: &RenderSettings,
     progress: &(dyn Fn(f32) + Sync),
+    given: Option<Vec<PixelSums>>,
 ) -> Result<PipelineOutput, PipelineError> {
-    let (estimates, frame, stats, trace) = trace_full(rs, settings, progress);
+    let (estimates, frame, stats, trace) = trace_full(rs, settings, progress, given);
     let t = Instant::now();
     let emitter: Vec<bool> = estimates
         .iter()

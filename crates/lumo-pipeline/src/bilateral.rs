@@ -10,14 +10,15 @@ use lumo_filter::{demodulate, surface_albedo, BilateralDenoiser, Denoiser, Featu
 
 use super::compose::{recompose, trace_full};
 use super::{PipelineError, PipelineOutput, Timings};
-use lumo_render::{RenderScene, RenderSettings};
+use lumo_render::{PixelSums, RenderScene, RenderSettings};
 
 pub(super) fn run(
     rs: &RenderScene,
     settings: &RenderSettings,
     progress: &(dyn Fn(f32) + Sync),
+    given: Option<Vec<PixelSums>>,
 ) -> Result<PipelineOutput, PipelineError> {
-    let (_, frame, stats, trace) = trace_full(rs, settings, progress);
+    let (_, frame, stats, trace) = trace_full(rs, settings, progress, given);
     let t = Instant::now();
     let features = Features {
         normal: Some(&frame.normal),

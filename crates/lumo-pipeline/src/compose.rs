@@ -7,23 +7,22 @@ use lumo_filter::Demodulated;
 use lumo_image::Image;
 
 use super::{PipelineOutput, Timings};
-use lumo_render::camera::PinholeCamera;
-use lumo_render::integrators::path::wavefront::render_pixels;
-use lumo_render::{frame_from_estimates, map_rows};
-use lumo_render::{Frame, PixelEstimate, RenderScene, RenderSettings, RenderStats};
+use lumo_render::{frame_from_estimates, render_sums};
+use lumo_render::{Frame, PixelEstimate, PixelSums, RenderScene, RenderSettings, RenderStats};
 
-/// Traces every pixel with `settings`, reporting progress as a fraction of rows.
+/// Traces every pixel with `settings`, reporting progress as a fraction of rows, or takes the
+/// exact sums of the same samples traced elsewhere (`given`: a distributed render's chunks,
+/// added up).
 pub(super) fn trace_full(
     rs: &RenderScene,
     settings: &RenderSettings,
     progress: &(dyn Fn(f32) + Sync),
+    given: Option<Vec<PixelSums>>,
 ) -> (Vec<PixelEstimate>, Frame, RenderStats, Duration) {
     let t = Instant::now();
     let (w, h) = (settings.width, settings.height);
-    let camera = PinholeCamera::new(&rs.scene.camera, w, h);
-    let rows = |done: usize| progress(done as f32 / h.max(1) as f32);
-    // Whole rows through the wavefront renderer: packets of many pixels' paths stay full.
-    let estimates = map_rows(h, &rows, |y| render_pixels(rs, &camera, settings, y, 0..w));
+    let sums = given.unwrap_or_else(|| render_sums(rs, settings, 0, settings.spp, progress));
+    let estimates: Vec<PixelEstimate> = sums.iter().map(PixelSums::estimate).collect();
     let frame = frame_with_variance(w, h, settings.spp, &estimates);
     let stats = RenderStats {
         samples: (w * h) as u64 * settings.spp as u64,
@@ -53,8 +52,9 @@ pub(super) fn plain(
     rs: &RenderScene,
     settings: &RenderSettings,
     progress: &(dyn Fn(f32) + Sync),
+    given: Option<Vec<PixelSums>>,
 ) -> PipelineOutput {
-    let (_, frame, stats, trace) = trace_full(rs, settings, progress);
+    let (_, frame, stats, trace) = trace_full(rs, settings, progress, given);
     PipelineOutput {
         image: frame.color.clone(),
         frame,

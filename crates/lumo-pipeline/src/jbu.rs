@@ -47,7 +47,7 @@ pub(super) fn run(
     let (w, h) = (settings.width, settings.height);
     // Pass 1: G-buffer and direct light for every pixel (half the progress bar).
     let half = |f: f32| progress(0.5 * f);
-    let (_, mut frame, mut stats, gbuffer) = trace_full(rs, &direct_only(settings), &half);
+    let (_, mut frame, mut stats, gbuffer) = trace_full(rs, &direct_only(settings), &half, None);
 
     // Pass 2: indirect light at the centre pixel of every block.
     let t = Instant::now();

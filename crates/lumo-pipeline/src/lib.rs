@@ -21,7 +21,7 @@ use lumo_filter::FilterError;
 use lumo_image::Image;
 use thiserror::Error;
 
-use lumo_render::{Frame, RenderScene, RenderSettings, RenderStats};
+use lumo_render::{Frame, PixelSums, RenderScene, RenderSettings, RenderStats};
 
 /// A way of turning traced paths into an image.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -51,6 +51,16 @@ impl Pipeline {
         Pipeline::Jbu,
         Pipeline::Auto,
     ];
+
+    /// Whether the pipeline traces nothing but full paths at every pixel, so that it can
+    /// filter samples traced elsewhere ([`run_pipeline_on_sums`]).
+    pub fn takes_sums(self, options: &PipelineOptions) -> bool {
+        match self {
+            Pipeline::None | Pipeline::Bilateral | Pipeline::Auto => true,
+            Pipeline::Atrous => options.subsample == 1,
+            Pipeline::Guided | Pipeline::Jbu => false,
+        }
+    }
 
     /// The name used on the command line.
     pub fn name(self) -> &'static str {
@@ -210,12 +220,53 @@ pub fn run_pipeline(
     options: &PipelineOptions,
     progress: &(dyn Fn(f32) + Sync),
 ) -> Result<PipelineOutput, PipelineError> {
+    run(rs, pipeline, settings, options, progress, None)
+}
+
+/// Runs `pipeline` on samples traced elsewhere: `sums` holds, per pixel in row-major order,
+/// the exact sums of samples `0..settings.spp` (a distributed render's chunks added up). The
+/// output is bit for bit [`run_pipeline`]'s, which traces the same sums itself. Only pipelines
+/// that trace one full frame of paths take this ([`Pipeline::takes_sums`]).
+pub fn run_pipeline_on_sums(
+    rs: &RenderScene,
+    pipeline: Pipeline,
+    settings: &RenderSettings,
+    options: &PipelineOptions,
+    sums: Vec<PixelSums>,
+) -> Result<PipelineOutput, PipelineError> {
+    if !pipeline.takes_sums(options) {
+        return Err(PipelineError::Option {
+            option: "pipeline",
+            value: pipeline.name().to_owned(),
+            fix: "this pipeline traces more than full paths per pixel (guide rays, a sparse or \
+                  subsampled grid) and cannot take samples traced elsewhere; use none, atrous \
+                  (without subsample), bilateral or auto",
+        });
+    }
+    if sums.len() != settings.width * settings.height {
+        return Err(PipelineError::Option {
+            option: "sums",
+            value: format!("{} pixels", sums.len()),
+            fix: "give one PixelSums per pixel of the frame",
+        });
+    }
+    run(rs, pipeline, settings, options, &|_| {}, Some(sums))
+}
+
+fn run(
+    rs: &RenderScene,
+    pipeline: Pipeline,
+    settings: &RenderSettings,
+    options: &PipelineOptions,
+    progress: &(dyn Fn(f32) + Sync),
+    given: Option<Vec<PixelSums>>,
+) -> Result<PipelineOutput, PipelineError> {
     match pipeline {
-        Pipeline::None => Ok(compose::plain(rs, settings, progress)),
-        Pipeline::Atrous => atrous::run(rs, settings, options, progress),
+        Pipeline::None => Ok(compose::plain(rs, settings, progress, given)),
+        Pipeline::Atrous => atrous::run(rs, settings, options, progress, given),
         Pipeline::Guided => guided::run(rs, settings, options, progress),
         Pipeline::Jbu => jbu::run(rs, settings, options, progress),
-        Pipeline::Bilateral => bilateral::run(rs, settings, progress),
-        Pipeline::Auto => auto::run(rs, settings, progress),
+        Pipeline::Bilateral => bilateral::run(rs, settings, progress, given),
+        Pipeline::Auto => auto::run(rs, settings, progress, given),
     }
 }

@@ -14,6 +14,7 @@ mod film;
 pub mod geometry;
 pub mod integrators;
 pub mod lights;
+mod pixel_sums;
 mod render;
 mod render_scene;
 pub mod sampler;
@@ -26,9 +27,10 @@ pub use direct_split::{direct_split, DirectSplit, MAX_ANALYTIC_TRIANGLES};
 pub use film::{Frame, AOV_NAMES};
 pub use integrators::path::{trace_path, trace_path_xyz, FirstHit, PathRadiance, PathSettings};
 pub use integrators::photon::PpmSettings;
+pub use pixel_sums::PixelSums;
 pub use render::{
     frame_from_estimates, instance_ids, map_pixels, map_rows, render, render_bdpt, render_light,
-    render_pixel, render_pixel_one_ray, render_ppm, trace_sample, PixelEstimate, PpmStats,
-    RenderSettings, RenderStats, LIGHT_STREAM_X,
+    render_pixel, render_pixel_one_ray, render_ppm, render_sums, trace_sample, PixelEstimate,
+    PpmStats, RenderSettings, RenderStats, LIGHT_STREAM_X,
 };
 pub use render_scene::{RenderScene, SceneUpdate, Surface};

@@ -9,8 +9,9 @@ use rayon::prelude::*;
 
 use crate::camera::PinholeCamera;
 use crate::film::Frame;
-use crate::integrators::path::wavefront::{estimate, render_pixels};
+use crate::integrators::path::wavefront::{estimate, render_pixel_sums, render_pixels};
 use crate::integrators::path::{trace_path, FirstHit, PathRadiance, PathSettings};
+use crate::pixel_sums::PixelSums;
 use crate::render_scene::RenderScene;
 use crate::sampler::PixelSampler;
 
@@ -139,7 +140,32 @@ pub fn render_pixel_one_ray(
             trace_sample(rs, camera, settings, (x, y), i, first).0
         })
         .collect();
-    estimate(radiance.into_iter(), first_hit, settings.spp as usize)
+    estimate(radiance.into_iter(), first_hit)
+}
+
+/// The exact sums ([`PixelSums`]) of camera samples `first..first + count` of every pixel of
+/// the frame `settings` describes (its `spp` is ignored), row-major, rows in parallel. Sums of
+/// disjoint sample ranges add up, bit for bit, to the sums of their union, so a frame may be
+/// rendered in chunks anywhere and added up in any order (lumo's Python package and its Ray
+/// cluster renderer do); `progress` gets the fraction of rows finished.
+pub fn render_sums(
+    rs: &RenderScene,
+    settings: &RenderSettings,
+    first: u32,
+    count: u32,
+    progress: &(dyn Fn(f32) + Sync),
+) -> Vec<PixelSums> {
+    let (w, h) = (settings.width, settings.height);
+    let camera = PinholeCamera::new(&rs.scene.camera, w, h);
+    let chunk = RenderSettings {
+        spp: count,
+        ..*settings
+    };
+    let rows = |done: usize| progress(done as f32 / h.max(1) as f32);
+    // Whole rows through the wavefront renderer: packets of many pixels' paths stay full.
+    map_rows(h, &rows, |y| {
+        render_pixel_sums(rs, &camera, &chunk, first, y, 0..w)
+    })
 }
 
 /// Evaluates `f(y)` (a row's results, left to right) for every row of an image of `height`

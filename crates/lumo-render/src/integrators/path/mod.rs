@@ -49,7 +49,7 @@ impl Default for PathSettings {
 }
 
 /// What the first hit of a camera ray looks like, for the G-buffer.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct FirstHit {
     /// Shading normal facing the camera (zero on a miss).
     pub normal: Vec3,

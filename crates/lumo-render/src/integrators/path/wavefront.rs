@@ -13,14 +13,12 @@
 
 use std::ops::Range;
 
-use glam::DVec3;
-use lumo_image::luminance;
-
 use crate::accel::packet::{RayPacket, LANES};
 use crate::accel::Hit;
 use crate::camera::PinholeCamera;
 use crate::integrators::path::vector_bounce::{self, diffuse_bounce, SimpleLane};
 use crate::integrators::path::{FirstHit, PathRadiance, PathState, ShadowRay};
+use crate::pixel_sums::PixelSums;
 use crate::render::{camera_sample_with, PixelEstimate, RenderSettings};
 use crate::render_scene::RenderScene;
 use crate::sampler::{PixelSampler, RUN};
@@ -57,6 +55,22 @@ pub fn render_pixels_from(
     y: usize,
     xs: Range<usize>,
 ) -> Vec<PixelEstimate> {
+    render_pixel_sums(rs, camera, settings, first, y, xs)
+        .iter()
+        .map(PixelSums::estimate)
+        .collect()
+}
+
+/// The exact sums ([`PixelSums`]) of samples `first..first + spp` of pixels `xs` of row `y`:
+/// sums of disjoint sample ranges add up, bit for bit, to the sums of their union.
+pub fn render_pixel_sums(
+    rs: &RenderScene,
+    camera: &PinholeCamera,
+    settings: &RenderSettings,
+    first: u32,
+    y: usize,
+    xs: Range<usize>,
+) -> Vec<PixelSums> {
     let spp = settings.spp as usize;
     let per_batch = (BATCH_PATHS / spp.max(1)).max(1);
     let mut out = Vec::with_capacity(xs.len());
@@ -66,8 +80,12 @@ pub fn render_pixels_from(
         let x1 = (x0 + per_batch).min(xs.end);
         batch.run(rs, camera, settings, first, y, x0..x1);
         for paths in batch.paths.chunks(spp.max(1)) {
-            let first_hit = paths.first().map(|p| p.first_hit).unwrap_or_default();
-            out.push(estimate(paths.iter().map(|p| p.result()), first_hit, spp));
+            let first_hit = paths.first().filter(|_| first == 0).map(|p| p.first_hit);
+            let mut sums = PixelSums::new(first_hit);
+            for p in paths {
+                sums.add_sample(&p.result());
+            }
+            out.push(sums);
         }
         x0 = x1;
     }
@@ -209,47 +227,15 @@ impl Batch {
     }
 }
 
-/// A pixel's estimate from the radiance of its paths in sample order (the order fixes the
-/// rounding of the sums, so it never depends on scheduling) and its first hit. `radiance`
-/// yields exactly `spp` values and is walked twice.
+/// A pixel's estimate from the radiance of its samples and its first hit, through the exact
+/// sums every render uses ([`PixelSums`]).
 pub(crate) fn estimate(
-    radiance: impl Iterator<Item = PathRadiance> + Clone,
+    radiance: impl Iterator<Item = PathRadiance>,
     first_hit: FirstHit,
-    spp: usize,
 ) -> PixelEstimate {
-    let mut est = PixelEstimate {
-        first_hit,
-        ..Default::default()
-    };
-    let (mut sum_d, mut sum_i, mut sum_a) = (DVec3::ZERO, DVec3::ZERO, DVec3::ZERO);
-    let mut sum_e = DVec3::ZERO;
-    let lum = |r: &PathRadiance| luminance((r.direct + r.indirect).into()) as f64;
-    let mut sum_l = 0.0f64;
-    for r in radiance.clone() {
-        est.rays += r.rays as u64;
-        sum_d += r.direct.as_dvec3();
-        sum_i += r.indirect.as_dvec3();
-        sum_a += r.albedo.as_dvec3();
-        sum_e += r.emitted.as_dvec3();
-        sum_l += lum(&r);
+    let mut sums = PixelSums::new(Some(first_hit));
+    for r in radiance {
+        sums.add_sample(&r);
     }
-    // Luminance variance in a second pass around the mean: no division per sample and no
-    // chain from one sample to the next, unlike Welford's update (measured +2 % on the
-    // Cornell box), and as accurate in f64.
-    let mean = sum_l / spp.max(1) as f64;
-    let m2: f64 = radiance.map(|r| (lum(&r) - mean).powi(2)).sum();
-    let n = spp.max(1) as f64;
-    est.direct = (sum_d / n).as_vec3();
-    est.indirect = (sum_i / n).as_vec3();
-    // The albedo plane averages the same samples as the colour (the other G-buffer planes
-    // stay the pixel-centre ray's: a guide must not blur across edges). With one sample it is
-    // exactly the first hit's.
-    est.first_hit.albedo = (sum_a / n).as_vec3();
-    est.emitted = (sum_e / n).as_vec3();
-    est.luminance_variance = if spp > 1 {
-        (m2 / (n - 1.0)) as f32
-    } else {
-        0.0
-    };
-    est
+    sums.estimate()
 }

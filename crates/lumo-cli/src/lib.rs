@@ -1,0 +1,17 @@
+//! The `lumo` command's subcommands as a library: the binary (`main.rs`) parses the command
+//! line into them, and lumo's Python package (`python/`) runs `lumo render`'s plan, its chunked
+//! rendering and its outputs through the same code ([`chunked`]).
+#![forbid(unsafe_code)]
+
+pub mod bench;
+pub mod chunked;
+pub mod cli_common;
+pub mod compare_cmd;
+pub mod denoise;
+pub mod pipeline_args;
+pub mod render_cmd;
+pub mod reshade;
+pub mod sequence;
+pub mod serve_cmd;
+pub mod temporal;
+pub mod temporal_eval;
