@@ -1,0 +1,249 @@
+"""Rendering on a Ray cluster.
+
+``render(words, workers=N)`` runs the ``lumo render`` command line ``words`` (scene first, then
+its options, ``-o`` included) with the frame's sample passes cut into chunks, each a Ray task
+on whatever node has a free CPU. Chunks come back as exact per-pixel sums (128-bit fixed-point
+integers), which the driver checks (lumo version, plan, frame, sample range, image size) and
+adds up, so the files written are byte for byte those of ``lumo render`` with the same options,
+whatever the number of workers, the chunk size or the order in which chunks finish. A worker or
+node that dies mid-chunk is survived through Ray's task retries: the chunk is rendered again
+elsewhere and gives the same bits.
+
+Scene distribution: every node reads the scene from the same path (a shared file system, or the
+same files copied to each node); built-in scenes need no file. A worker that cannot read the
+scene, or reads another file there (the plan fingerprint covers the command line, the scene
+file's bytes and lumo's version), fails its task with a message naming its node, and nothing it
+rendered reaches the image.
+
+From the shell: ``python -m lumo.ray render SCENE [lumo render options] --workers N -o OUT``
+(``--address`` joins a running cluster, ``--chunk-spp`` sets the chunk size).
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import time
+from typing import Dict, List, Optional, Sequence
+
+from .. import LumoError, _native
+
+__all__ = ["render", "default_chunk_spp"]
+
+#: Task retries after a worker or node dies (Ray's ``max_retries``).
+MAX_RETRIES = 4
+
+_PLANS: Dict[tuple, object] = {}
+
+
+def _worker_plan(words: tuple):
+    """The plan of ``words`` in this worker process, kept between tasks: Ray reuses worker
+    processes, so the scene is loaded and its BVH built once per process, not per chunk."""
+    plan = _PLANS.get(words)
+    if plan is None:
+        plan = _native.RenderPlan(list(words))
+        _PLANS.clear()
+        _PLANS[words] = plan
+    return plan
+
+
+def _render_chunk(words: tuple, plan_id: int, version: str, frame: int, first: int, count: int):
+    """A Ray task: renders samples ``first..first + count`` of ``frame``; returns
+    ``(node, chunk bytes)``."""
+    import ray
+
+    node = ray.get_runtime_context().get_node_id()[:12]
+    if _native.version() != version:
+        raise LumoError(
+            f"worker on node {node}: lumo {_native.version()}, the driver runs lumo {version}; "
+            f"install the same lumo on every node"
+        )
+    try:
+        plan = _worker_plan(words)
+    except LumoError as e:
+        raise LumoError(f"worker on node {node} cannot plan the render: {e}") from None
+    if plan.plan_id != plan_id:
+        raise LumoError(
+            f"worker on node {node}: the scene {words[0]!r} is not the driver's (another file at "
+            f"that path, or other assets); every node must read the same scene file"
+        )
+    return node, plan.render_chunk(frame, first, count)
+
+
+def default_chunk_spp(spp: int, frames: int, cpus: int) -> int:
+    """Samples per chunk: whole frames when there are at least two frames per CPU, else about
+    four chunks per CPU (to even out nodes of different speed), never under one sample."""
+    if frames >= 2 * cpus:
+        return spp
+    chunks_per_frame = max(1, -(-4 * cpus // frames))
+    return max(1, -(-spp // chunks_per_frame))
+
+
+def _progress(done: int, total: int, started: float) -> None:
+    if not sys.stderr.isatty():
+        return
+    width = 40
+    filled = width * done // max(total, 1)
+    elapsed = time.monotonic() - started
+    sys.stderr.write(
+        f"\r{'█' * filled}{'░' * (width - filled)} {done}/{total} chunks  {elapsed:.1f} s"
+    )
+    if done == total:
+        sys.stderr.write("\n")
+    sys.stderr.flush()
+
+
+def render(
+    words: Sequence[str],
+    workers: Optional[int] = None,
+    address: Optional[str] = None,
+    chunk_spp: Optional[int] = None,
+) -> Dict[str, object]:
+    """Runs ``lumo render WORDS…`` on a Ray cluster and writes what ``lumo render`` writes.
+
+    ``words`` are the words after ``lumo render`` (the scene, then its options). ``workers``
+    caps the chunks rendered at once (default: every CPU of the cluster); ``address`` joins a
+    running cluster (else a local one is started with ``workers`` CPUs, or the one this
+    process already joined is used); ``chunk_spp`` is the samples per chunk (see
+    :func:`default_chunk_spp`). Returns the files written, the counts and the timings.
+    Raises :class:`lumo.LumoError` with lumo's message for a bad command line, or naming the
+    worker's node when a worker fails."""
+    import ray
+
+    words = [str(w) for w in words]
+    if workers is not None and workers < 1:
+        raise LumoError(f"--workers {workers}: at least 1")
+    if chunk_spp is not None and chunk_spp < 1:
+        raise LumoError(f"--chunk-spp {chunk_spp}: at least 1")
+    t0 = time.monotonic()
+    plan = _native.RenderPlan(words, driver=True)
+    started_ray = False
+    if not ray.is_initialized():
+        if address is None:
+            ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
+        else:
+            ray.init(address=address, log_to_driver=False)
+        started_ray = True
+    try:
+        cpus = int(ray.cluster_resources().get("CPU", 1))
+        slots = min(workers, cpus) if workers else cpus
+        frames = plan.frames
+        step = chunk_spp or default_chunk_spp(plan.spp, len(frames), slots)
+        chunks = plan.chunks(step)
+        # Each task renders on one thread: Ray runs as many tasks per node as it has CPUs.
+        worker_words = tuple(words) + ("--threads", "1")
+        task = ray.remote(num_cpus=1, max_retries=MAX_RETRIES)(_render_chunk)
+        version = _native.version()
+        pending = {}
+        queue = list(chunks)
+
+        def submit():
+            while queue and len(pending) < slots:
+                c = queue.pop(0)
+                ref = task.remote(worker_words, plan.plan_id, version, *c)
+                pending[ref] = c
+
+        submit()
+        t_plan = time.monotonic() - t0
+        per_frame: Dict[int, List[bytes]] = {f: [] for f in frames}
+        left = {f: sum(1 for c in chunks if c[0] == f) for f in frames}
+        written: List[str] = []
+        nodes: Dict[str, int] = {}
+        samples = rays = 0
+        finish_s = 0.0
+        done = 0
+        while pending:
+            ready, _ = ray.wait(list(pending), num_returns=1)
+            ref = ready[0]
+            frame, first, count = pending.pop(ref)
+            submit()
+            try:
+                node, data = ray.get(ref)
+            except ray.exceptions.RayTaskError as e:
+                cause = e.cause if isinstance(e.cause, LumoError) else e
+                raise LumoError(f"chunk frame {frame} samples {first}..{first + count}: {cause}") from None
+            try:
+                got = plan.check_chunk(data)
+            except LumoError as e:
+                raise LumoError(f"chunk from worker on node {node} refused: {e}") from None
+            if tuple(got) != (frame, first, count):
+                raise LumoError(
+                    f"worker on node {node} sent frame {got[0]} samples {got[1]}..+{got[2]} "
+                    f"for frame {frame} samples {first}..+{count}; refused"
+                )
+            nodes[node] = nodes.get(node, 0) + 1
+            per_frame[frame].append(data)
+            left[frame] -= 1
+            done += 1
+            _progress(done, len(chunks), t0)
+            if left[frame] == 0:
+                tf = time.monotonic()
+                out = plan.finish(frame, per_frame.pop(frame))
+                finish_s += time.monotonic() - tf
+                written += out["files"]
+                samples += out["samples"]
+                rays += out["rays"]
+        total = time.monotonic() - t0
+        return {
+            "files": written,
+            "frames": len(frames),
+            "chunks": len(chunks),
+            "chunk_spp": step,
+            "workers": slots,
+            "chunks_per_node": nodes,
+            "samples": samples,
+            "rays": rays,
+            "seconds": total,
+            "plan_seconds": t_plan,
+            "finish_seconds": finish_s,
+        }
+    finally:
+        if started_ray:
+            ray.shutdown()
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    """``python -m lumo.ray render SCENE [lumo render options] --workers N -o OUT``."""
+    args = list(sys.argv[1:] if argv is None else argv)
+    usage = (
+        "usage: python -m lumo.ray render SCENE [lumo render options] [--workers N] "
+        "[--address ADDR] [--chunk-spp N]"
+    )
+    if not args or args[0] in ("-h", "--help"):
+        print(usage)
+        print(__doc__)
+        return 0
+    if args[0] != "render":
+        print(f"error: unknown command {args[0]!r}\n{usage}", file=sys.stderr)
+        return 2
+    words: List[str] = []
+    opts = {"--workers": None, "--address": None, "--chunk-spp": None}
+    it = iter(args[1:])
+    for w in it:
+        name, eq, value = w.partition("=")
+        if name in opts:
+            if not eq:
+                value = next(it, None)
+                if value is None:
+                    print(f"error: {name} needs a value\n{usage}", file=sys.stderr)
+                    return 2
+            opts[name] = value
+        else:
+            words.append(w)
+    try:
+        workers = int(opts["--workers"]) if opts["--workers"] is not None else None
+        chunk = int(opts["--chunk-spp"]) if opts["--chunk-spp"] is not None else None
+    except ValueError:
+        print("error: --workers and --chunk-spp take whole numbers", file=sys.stderr)
+        return 2
+    try:
+        out = render(words, workers=workers, address=opts["--address"], chunk_spp=chunk)
+    except LumoError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    print(
+        f"done in {out['seconds']:.2f} s · {out['samples'] / out['seconds'] / 1e6:.2f} Msamples/s · "
+        f"{out['chunks']} chunks of {out['chunk_spp']} spp on {out['workers']} workers → "
+        f"{', '.join(out['files'])}"
+    )
+    return 0
