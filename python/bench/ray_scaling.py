@@ -14,11 +14,13 @@ import subprocess
 import tempfile
 import time
 
-import ray
-from ray.cluster_utils import Cluster
-
 import lumo.ray as lray
-from lumo import _native
+
+lray.loopback_only()
+
+import ray  # noqa: E402
+from ray.cluster_utils import Cluster  # noqa: E402
+from lumo import _native  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 LUMO = os.environ.get("LUMO_BIN", os.path.join(ROOT, "target", "release", "lumo"))

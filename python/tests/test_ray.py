@@ -19,6 +19,7 @@ from lumo import LumoError, _native  # noqa: E402
 
 @pytest.fixture(scope="module")
 def cluster():
+    lray.loopback_only()
     c = Cluster(initialize_head=True, head_node_args={"num_cpus": 1, "include_dashboard": False})
     for _ in range(2):
         c.add_node(num_cpus=1)

@@ -28,7 +28,7 @@ from typing import Dict, List, Optional, Sequence
 
 from .. import LumoError, _native
 
-__all__ = ["render", "default_chunk_spp"]
+__all__ = ["render", "default_chunk_spp", "loopback_only"]
 
 #: Task retries after a worker or node dies (Ray's ``max_retries``).
 MAX_RETRIES = 4
@@ -68,6 +68,18 @@ def _render_chunk(words: tuple, plan_id: int, version: str, frame: int, first: i
             f"that path, or other assets); every node must read the same scene file"
         )
     return node, plan.render_chunk(frame, first, count)
+
+
+def loopback_only() -> None:
+    """Keeps a Ray cluster started from this process on the loopback interface: Ray otherwise
+    binds its services to the machine's network address, where a local render has no business.
+    Call before starting a local cluster (``ray.init()`` without an address, or
+    ``ray.cluster_utils.Cluster``); its worker processes inherit the setting."""
+    os.environ["RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER"] = "0"
+    constants = sys.modules.get("ray._private.ray_constants")
+    if constants is not None:
+        # Already imported: the flag was read at import time.
+        constants.ENABLE_RAY_CLUSTER = False
 
 
 def default_chunk_spp(spp: int, frames: int, cpus: int) -> int:
@@ -120,6 +132,7 @@ def render(
     started_ray = False
     if not ray.is_initialized():
         if address is None:
+            loopback_only()
             ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
         else:
             ray.init(address=address, log_to_driver=False)
