@@ -57,7 +57,9 @@ def time_local_chunks(words, chunk_spp, out):
         datas.append(plan.render_chunk(*c))
         render += time.monotonic() - r
     f = time.monotonic()
-    plan.finish(0, datas)
+    for d in datas:
+        plan.add_chunk(d)
+    plan.finish(0)
     finish = time.monotonic() - f
     return time.monotonic() - t, render, finish, len(datas), len(datas[0])
 

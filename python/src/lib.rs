@@ -6,7 +6,7 @@
 
 use std::path::PathBuf;
 
-use lumo_cli::chunked::{Chunk, ChunkSums, ChunkedRender, Role};
+use lumo_cli::chunked::{Chunk, ChunkedRender, Role};
 use lumo_image::Image;
 use lumo_render::{frame_from_estimates, PixelSums};
 use pyo3::create_exception;
@@ -133,39 +133,44 @@ impl RenderPlan {
         Ok(PyBytes::new(py, &bytes))
     }
 
-    /// Checks a chunk's bytes against this plan; returns its `(frame, first, count)`.
-    fn check_chunk(&self, py: Python<'_>, data: &[u8]) -> PyResult<(u32, u32, u32)> {
-        let inner = &self.inner;
-        let c = py
-            .allow_threads(|| inner.read_chunk(data))
-            .map_err(lumo_err)?;
-        Ok((c.chunk.frame, c.chunk.first, c.chunk.count))
-    }
-
-    /// Adds up a frame's chunks (covering samples `0..spp` once), runs the pipeline and writes
-    /// what `lumo render` writes; returns what was written.
-    fn finish<'py>(
+    /// Checks a chunk's bytes against this plan (and against `expect`, the
+    /// `(frame, first, count)` the task was given) and adds them to their frame's sums (exact:
+    /// the order of arrival does not matter); returns the chunk's `(frame, first, count)`.
+    #[pyo3(signature = (data, expect = None))]
+    fn add_chunk(
         &mut self,
-        py: Python<'py>,
-        frame: u32,
-        chunks: Vec<Bound<'py, PyBytes>>,
-    ) -> PyResult<Bound<'py, PyDict>> {
-        let data: Vec<&[u8]> = chunks.iter().map(|b| b.as_bytes()).collect();
+        py: Python<'_>,
+        data: &[u8],
+        expect: Option<(u32, u32, u32)>,
+    ) -> PyResult<(u32, u32, u32)> {
         let inner = &mut self.inner;
-        let done = py
+        let c = py
             .allow_threads(|| {
-                let parsed = data
-                    .iter()
-                    .enumerate()
-                    .map(|(i, b)| {
-                        inner
-                            .read_chunk(b)
-                            .map_err(|e| e.context(format!("chunk {i} of frame {frame}")))
-                    })
-                    .collect::<anyhow::Result<Vec<ChunkSums>>>()?;
-                inner.finish(frame, parsed)
+                let c = inner.read_chunk(data)?;
+                let got = (c.chunk.frame, c.chunk.first, c.chunk.count);
+                if let Some(want) = expect.filter(|&w| w != got) {
+                    anyhow::bail!(
+                        "it holds frame {} samples {}..+{} where frame {} samples {}..+{} were \
+                         asked for",
+                        got.0,
+                        got.1,
+                        got.2,
+                        want.0,
+                        want.1,
+                        want.2
+                    );
+                }
+                inner.add(c)
             })
             .map_err(lumo_err)?;
+        Ok((c.frame, c.first, c.count))
+    }
+
+    /// Runs the pipeline on a frame's added-up chunks (covering samples `0..spp`) and writes
+    /// what `lumo render` writes; returns what was written.
+    fn finish<'py>(&mut self, py: Python<'py>, frame: u32) -> PyResult<Bound<'py, PyDict>> {
+        let inner = &mut self.inner;
+        let done = py.allow_threads(|| inner.finish(frame)).map_err(lumo_err)?;
         let d = PyDict::new(py);
         let files: Vec<String> = done.files.iter().map(|p| p.display().to_string()).collect();
         d.set_item("files", files)?;

@@ -45,9 +45,9 @@ def test_a_distributed_still_is_the_single_process_render(cluster, lumo_cli, tmp
 
 
 def test_chunks_spread_over_the_nodes(cluster, tmp_path):
-    res = lray.render(["cornell", "--size", "48x48", "--spp", "12", "--pipeline", "none",
-                       "-o", str(tmp_path / "x.exr")], chunk_spp=1)
-    assert sum(res["chunks_per_node"].values()) == 12
+    res = lray.render(["cornell", "--size", "64x64", "--spp", "12", "--pipeline", "none",
+                       "-o", str(tmp_path / "x.exr")], chunk_spp=2)
+    assert sum(res["chunks_per_node"].values()) == 6
     assert len(res["chunks_per_node"]) >= 2, res["chunks_per_node"]
 
 
@@ -100,10 +100,18 @@ def test_foreign_garbage_and_mislabelled_chunks_are_refused(cluster, tmp_path):
     words = ["cornell", "--size", "8x8", "--spp", "4", "-o", str(tmp_path / "x.exr")]
     plan = _native.RenderPlan(words, driver=True)
     with pytest.raises(LumoError, match="not a lumo chunk"):
-        plan.check_chunk(b"garbage" * 100)
+        plan.add_chunk(b"garbage" * 100)
     other = _native.RenderPlan(["cornell", "--size", "8x8", "--spp", "4", "--seed", "2"])
     with pytest.raises(LumoError, match="another plan"):
-        plan.check_chunk(other.render_chunk(0, 0, 2))
+        plan.add_chunk(other.render_chunk(0, 0, 2))
+    mine = _native.RenderPlan(words).render_chunk(0, 2, 2)
+    with pytest.raises(LumoError, match="were asked for"):
+        plan.add_chunk(mine, (0, 0, 2))
+    plan.add_chunk(mine, (0, 2, 2))
+    with pytest.raises(LumoError, match="given twice"):
+        plan.add_chunk(mine)
+    with pytest.raises(LumoError, match="samples 0..2 are missing"):
+        plan.finish(0)
     with pytest.raises(LumoError, match="frame 3"):
         _native.RenderPlan(["cornell", "--size", "8x8", "--spp", "4"]).render_chunk(3, 0, 2)
     bad_words = tuple(words)

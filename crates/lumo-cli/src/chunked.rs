@@ -3,8 +3,9 @@
 //! A distributed render (the Python package's `lumo.ray`) plans the same command line on a
 //! driver and on every worker: workers render chunks (frame, samples `first..first + count`)
 //! into exact per-pixel sums ([`PixelSums`]) and ship them as bytes; the driver checks each
-//! chunk, adds a frame's chunks up and runs the pipeline and the writes of `lumo render` on
-//! the sums. Sums are integers, so the result is bit for bit the single-process render's,
+//! chunk and adds it to its frame's sums as it arrives ([`ChunkedRender::add`]), and once a
+//! frame's samples are all in runs the pipeline and the writes of `lumo render` on the sums
+//! ([`ChunkedRender::finish`]). Sums are integers, so the result is bit for bit the single-process render's,
 //! however the samples were cut and in whatever order the chunks arrive.
 //!
 //! What cannot be added up per pixel is refused when planning: the light tracer, BDPT and
@@ -85,6 +86,15 @@ pub struct ChunkedRender {
     plan_id: u64,
     /// The frame the render scene is posed at.
     posed: u32,
+    /// Frames whose chunks are being added up.
+    pending: std::collections::HashMap<u32, FrameSums>,
+}
+
+/// A frame's chunks added up so far.
+struct FrameSums {
+    /// Sample ranges added, in order of arrival.
+    ranges: Vec<(u32, u32)>,
+    sums: Vec<PixelSums>,
 }
 
 impl ChunkedRender {
@@ -123,6 +133,7 @@ impl ChunkedRender {
             ready,
             plan_id,
             posed,
+            pending: Default::default(),
         })
     }
 
@@ -182,63 +193,81 @@ impl ChunkedRender {
         })
     }
 
-    /// Adds up the chunks of `frame` (which must cover samples `0..spp` exactly once), runs
-    /// the pipeline on the sums and writes what `lumo render` writes for that frame.
-    pub fn finish(&mut self, frame: u32, mut chunks: Vec<ChunkSums>) -> Result<Finished> {
+    /// Adds a chunk to its frame's sums (the reduction: exact, so the order of arrival does
+    /// not matter) and returns what it was. Refused: another plan, a frame or sample range
+    /// outside the render, or samples already added.
+    pub fn add(&mut self, c: ChunkSums) -> Result<Chunk> {
+        if c.plan_id != self.plan_id {
+            bail!(
+                "a chunk of frame {} (samples {}..{}) was rendered for another plan: another \
+                 lumo version, other options, or another file at the scene's path {:?}",
+                c.chunk.frame,
+                c.chunk.first,
+                c.chunk.first + c.chunk.count,
+                self.args.scene
+            );
+        }
+        self.check_chunk(&c.chunk)?;
+        let Chunk {
+            frame,
+            first,
+            count,
+        } = c.chunk;
+        let pixels = self.size().0 * self.size().1;
+        if c.sums.len() != pixels {
+            bail!("a chunk of {} pixels for {pixels}", c.sums.len());
+        }
+        let acc = self.pending.entry(frame).or_insert_with(|| FrameSums {
+            ranges: Vec::new(),
+            sums: vec![PixelSums::default(); pixels],
+        });
+        if let Some(&(a, b)) = acc
+            .ranges
+            .iter()
+            .find(|&&(a, b)| first < b && a < first + count)
+        {
+            bail!(
+                "frame {frame}: samples {}..{} are given twice (chunk {first}..{} overlaps \
+                 {a}..{b})",
+                first.max(a),
+                (first + count).min(b),
+                first + count
+            );
+        }
+        acc.ranges.push((first, first + count));
+        for (a, b) in acc.sums.iter_mut().zip(&c.sums) {
+            a.merge(b);
+        }
+        Ok(c.chunk)
+    }
+
+    /// Runs the pipeline on `frame`'s added-up sums, which must cover samples `0..spp`, and
+    /// writes what `lumo render` writes for that frame.
+    pub fn finish(&mut self, frame: u32) -> Result<Finished> {
         if !self.frames().contains(&frame) {
             bail!("frame {frame} is not one of this render's frames");
         }
-        for c in &chunks {
-            if c.plan_id != self.plan_id {
-                bail!(
-                    "a chunk of frame {} (samples {}..{}) was rendered for another plan: another \
-                     lumo version, other options, or another file at the scene's path {:?}",
-                    c.chunk.frame,
-                    c.chunk.first,
-                    c.chunk.first + c.chunk.count,
-                    self.args.scene
-                );
-            }
-            if c.chunk.frame != frame {
-                bail!(
-                    "a chunk of frame {} was given for frame {frame}",
-                    c.chunk.frame
-                );
-            }
-        }
-        // A fixed order, although integer sums do not need one: the merge never depends on
-        // how the chunks arrived.
-        chunks.sort_by_key(|c| c.chunk.first);
+        let spp = self.spp();
+        let mut ranges = self
+            .pending
+            .get(&frame)
+            .map(|f| f.ranges.clone())
+            .unwrap_or_default();
+        ranges.sort_unstable();
         let mut next = 0;
-        for c in &chunks {
-            if c.chunk.first != next {
+        for (a, b) in ranges.into_iter().chain([(spp, spp)]) {
+            if a > next {
                 bail!(
-                    "frame {frame}: samples {next}..{} are {} (chunks must cover 0..{} once)",
-                    c.chunk.first.max(next),
-                    if c.chunk.first > next {
-                        "missing"
-                    } else {
-                        "given twice"
-                    },
-                    self.spp()
+                    "frame {frame}: samples {next}..{a} are missing (chunks must cover 0..{spp})"
                 );
             }
-            next = c.chunk.first + c.chunk.count;
+            next = b;
         }
-        if next != self.spp() {
-            bail!(
-                "frame {frame}: samples {next}..{} are missing (chunks must cover 0..{} once)",
-                self.spp(),
-                self.spp()
-            );
-        }
-        let mut iter = chunks.into_iter();
-        let mut sums = iter.next().map(|c| c.sums).unwrap_or_default();
-        for c in iter {
-            for (a, b) in sums.iter_mut().zip(&c.sums) {
-                a.merge(b);
-            }
-        }
+        let sums = self
+            .pending
+            .remove(&frame)
+            .map(|f| f.sums)
+            .unwrap_or_default();
         self.pose(frame)?;
         let Ready {
             pool,

@@ -145,7 +145,11 @@ def render(
         chunks = plan.chunks(step)
         # Each task renders on one thread: Ray runs as many tasks per node as it has CPUs.
         worker_words = tuple(words) + ("--threads", "1")
-        task = ray.remote(num_cpus=1, max_retries=MAX_RETRIES)(_render_chunk)
+        # SPREAD: chunks go round the nodes rather than queueing on the driver's while it is
+        # busy (Ray's default packs short tasks onto the local node).
+        task = ray.remote(num_cpus=1, max_retries=MAX_RETRIES, scheduling_strategy="SPREAD")(
+            _render_chunk
+        )
         version = _native.version()
         pending = {}
         queue = list(chunks)
@@ -158,12 +162,11 @@ def render(
 
         submit()
         t_plan = time.monotonic() - t0
-        per_frame: Dict[int, List[bytes]] = {f: [] for f in frames}
         left = {f: sum(1 for c in chunks if c[0] == f) for f in frames}
         written: List[str] = []
         nodes: Dict[str, int] = {}
         samples = rays = 0
-        finish_s = 0.0
+        reduce_s = finish_s = 0.0
         done = 0
         while pending:
             ready, _ = ray.wait(list(pending), num_returns=1)
@@ -175,23 +178,19 @@ def render(
             except ray.exceptions.RayTaskError as e:
                 cause = e.cause if isinstance(e.cause, LumoError) else e
                 raise LumoError(f"chunk frame {frame} samples {first}..{first + count}: {cause}") from None
+            tr = time.monotonic()
             try:
-                got = plan.check_chunk(data)
+                plan.add_chunk(data, (frame, first, count))
             except LumoError as e:
                 raise LumoError(f"chunk from worker on node {node} refused: {e}") from None
-            if tuple(got) != (frame, first, count):
-                raise LumoError(
-                    f"worker on node {node} sent frame {got[0]} samples {got[1]}..+{got[2]} "
-                    f"for frame {frame} samples {first}..+{count}; refused"
-                )
+            reduce_s += time.monotonic() - tr
             nodes[node] = nodes.get(node, 0) + 1
-            per_frame[frame].append(data)
             left[frame] -= 1
             done += 1
             _progress(done, len(chunks), t0)
             if left[frame] == 0:
                 tf = time.monotonic()
-                out = plan.finish(frame, per_frame.pop(frame))
+                out = plan.finish(frame)
                 finish_s += time.monotonic() - tf
                 written += out["files"]
                 samples += out["samples"]
@@ -208,6 +207,7 @@ def render(
             "rays": rays,
             "seconds": total,
             "plan_seconds": t_plan,
+            "reduce_seconds": reduce_s,
             "finish_seconds": finish_s,
         }
     finally:

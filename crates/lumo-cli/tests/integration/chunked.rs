@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use lumo_cli::chunked::{Chunk, ChunkSums, ChunkedRender, Role};
+use lumo_cli::chunked::{Chunk, ChunkedRender, Role};
 
 fn temp_dir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("lumo-chunked-{name}-{}", std::process::id()));
@@ -45,11 +45,11 @@ fn render_chunked(args: &[&str], chunk_spp: u32) {
             .map(|c| worker.render_chunk(c).expect("chunk").to_bytes(size))
             .collect();
         shipped.reverse();
-        let chunks: Vec<ChunkSums> = shipped
-            .iter()
-            .map(|b| driver.read_chunk(b).expect("a good chunk"))
-            .collect();
-        driver.finish(frame, chunks).expect("finish");
+        for b in &shipped {
+            let c = driver.read_chunk(b).expect("a good chunk");
+            driver.add(c).expect("added");
+        }
+        driver.finish(frame).expect("finish");
     }
 }
 
@@ -136,12 +136,10 @@ fn missing_twice_given_damaged_and_foreign_chunks_are_refused() {
     };
     let a = r.render_chunk(c(0, 2)).unwrap();
     let b = r.render_chunk(c(2, 2)).unwrap();
-    let err = r.finish(0, vec![a.clone()]).unwrap_err().to_string();
+    r.add(a.clone()).unwrap();
+    let err = r.finish(0).unwrap_err().to_string();
     assert!(err.contains("samples 2..4 are missing"), "{err}");
-    let err = r
-        .finish(0, vec![a.clone(), a.clone(), b.clone()])
-        .unwrap_err()
-        .to_string();
+    let err = r.add(a.clone()).unwrap_err().to_string();
     assert!(err.contains("given twice"), "{err}");
     assert!(r.render_chunk(c(3, 2)).is_err(), "past spp");
     let mut bytes = a.to_bytes(size);
@@ -166,8 +164,10 @@ fn missing_twice_given_damaged_and_foreign_chunks_are_refused() {
         .unwrap()
         .render_chunk(c(0, 2))
         .unwrap();
-    let err = r.finish(0, vec![foreign, b]).unwrap_err().to_string();
+    let err = r.add(foreign).unwrap_err().to_string();
     assert!(err.contains("another plan"), "{err}");
+    r.add(b).unwrap();
+    r.finish(0).expect("0..4 covered");
     let _ = std::fs::remove_dir_all(&dir);
 }
 
