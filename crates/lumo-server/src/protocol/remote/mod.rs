@@ -13,6 +13,8 @@ mod epoch;
 pub mod framing;
 mod join;
 mod status;
+#[cfg(test)]
+mod tests;
 mod welcome;
 
 pub use epoch::EpochUpdate;
