@@ -627,18 +627,9 @@ impl Hub {
         self.config.seed
     }
 
-    /// The WELCOME of worker `worker` with seed `seed`; needs remote workers on.
-    pub(crate) fn welcome(&self, worker: u32, seed: u32) -> Welcome {
-        let scene = self
-            .remote
-            .config()
-            .map(|c| c.scene.clone())
-            .unwrap_or_else(|| crate::protocol::remote::SceneSource {
-                kind: crate::protocol::remote::SceneKind::Builtin,
-                spec: String::new(),
-                defines: Vec::new(),
-            });
-        Welcome {
+    /// The WELCOME of worker `worker` with seed `seed` (None when remote workers are off).
+    pub(crate) fn welcome(&self, worker: u32, seed: u32) -> Option<Welcome> {
+        Some(Welcome {
             worker,
             seed,
             width: self.config.width as u32,
@@ -646,8 +637,8 @@ impl Hub {
             path: self.config.path,
             animate: self.config.animation.is_some(),
             ppm: self.config.ppm,
-            scene,
-        }
+            scene: self.remote.config()?.scene.clone(),
+        })
     }
 
     /// Merges a remote worker's SAMPLES message into the viewers' stream: checked (its

@@ -162,6 +162,7 @@ async fn welcome(
 ) -> Result<u16, String> {
     let msg = hub
         .welcome(link.id as u32, worker_seed(hub.seed(), link.id))
+        .ok_or("cannot be welcomed: remote workers are off")?
         .write()
         .map_err(|e| format!("cannot be welcomed: {}", e.message))?;
     write_msg(wr, &msg)
