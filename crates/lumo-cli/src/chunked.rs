@@ -352,11 +352,12 @@ fn refuse_unaddable(args: &RenderArgs) -> Result<()> {
         bail!("--list: run `lumo render --list` to see the built-in scenes");
     }
     if args.integrator != RenderIntegrator::Path {
+        let name = clap::ValueEnum::to_possible_value(&args.integrator)
+            .map_or_else(String::new, |v| v.get_name().to_owned());
         bail!(
-            "--integrator {:?}: a distributed render adds up camera samples per pixel; the \
+            "--integrator {name}: a distributed render adds up camera samples per pixel; the \
              light tracer, bdpt and ppm splat paths across the image or share a photon map \
-             between passes. Render them with `lumo render`, or use --integrator path",
-            args.integrator
+             between passes. Render them with `lumo render`, or use --integrator path"
         );
     }
     if args.temporal || args.temporal_eval.is_some() {

@@ -15,3 +15,4 @@ pub mod sequence;
 pub mod serve_cmd;
 pub mod temporal;
 pub mod temporal_eval;
+pub mod worker_cmd;

@@ -1,7 +1,7 @@
 //! The `lumo` command.
 #![forbid(unsafe_code)]
 
-use lumo_cli::{bench, compare_cmd, denoise, render_cmd, serve_cmd};
+use lumo_cli::{bench, compare_cmd, denoise, render_cmd, serve_cmd, worker_cmd};
 
 use clap::{Parser, Subcommand};
 
@@ -25,6 +25,9 @@ enum Command {
     Compare(compare_cmd::CompareArgs),
     /// Start a progressive render server and its web viewer (prints the URL to open).
     Serve(serve_cmd::ServeArgs),
+    /// Render for a `lumo serve --remote-workers` hub: load its scene, stream samples of its
+    /// current view until it closes the connection.
+    Worker(worker_cmd::WorkerArgs),
 }
 
 fn main() {
@@ -35,6 +38,7 @@ fn main() {
         Command::Bench(args) => bench::run(args),
         Command::Compare(args) => compare_cmd::run(args),
         Command::Serve(args) => serve_cmd::run(args),
+        Command::Worker(args) => worker_cmd::run(args),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");

@@ -256,7 +256,7 @@ pub fn load_scene_animated(
     options: &LoadOptions,
 ) -> Result<(Scene, FileSettings, Option<AnimatedScene>)> {
     let path = Path::new(name);
-    if path.extension().is_some() || name.contains('/') {
+    if names_scene_file(name) {
         if !path.exists() {
             bail!(
                 "scene file {name:?} does not exist; built-in scenes: {}",
@@ -281,6 +281,12 @@ pub fn load_scene_animated(
         eprintln!("warning: --time applies to animated glTF scenes; the built-in {name} is static, ignored");
     }
     Ok((scene, FileSettings::default(), None))
+}
+
+/// Whether a scene argument names a file (it has an extension or a `/`) rather than a
+/// built-in scene.
+pub fn names_scene_file(name: &str) -> bool {
+    Path::new(name).extension().is_some() || name.contains('/')
 }
 
 fn builtin_names() -> String {

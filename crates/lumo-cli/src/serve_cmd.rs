@@ -8,9 +8,12 @@ use anyhow::{bail, Context, Result};
 use lumo_render::camera::PinholeCamera;
 use lumo_render::integrators::photon::scene_warning;
 use lumo_render::{PathSettings, RenderScene};
+use lumo_scene::load::LoadOptions;
+use lumo_server::protocol::remote::{SceneKind, SceneSource};
+use lumo_server::remote::{check_token, new_token, RemoteConfig};
 use lumo_server::{Hub, Integrator, ServerConfig};
 
-use crate::render_cmd::{load_scene_animated, parse_size};
+use crate::render_cmd::{load_scene_animated, names_scene_file, parse_size};
 
 /// Arguments of `lumo serve`.
 #[derive(clap::Args, Debug)]
@@ -59,6 +62,63 @@ pub struct ServeArgs {
     /// button freezes it, and a frozen frame converges as a still does (docs/animation.md).
     #[arg(long)]
     pub animate: bool,
+    /// Set a Mitsuba `$name` parameter of the scene file (overrides its `<default>`);
+    /// repeatable. Remote workers load the scene with the same definitions.
+    #[arg(short = 'D', long = "define", value_name = "NAME=VALUE", value_parser = crate::render_cmd::parse_define)]
+    pub defines: Vec<(String, String)>,
+    /// Accept remote render workers (`lumo worker`) on --worker-bind: they load the same
+    /// scene (a built-in, or the file at the same absolute path on their machine) and their
+    /// samples join the viewers' stream. Prints the token they must present
+    /// (docs/remote-workers.md).
+    #[arg(long)]
+    pub remote_workers: bool,
+    /// Address and port on which remote workers connect (with --remote-workers). Workers on
+    /// other machines need an address they can reach, e.g. 0.0.0.0:8081 [default:
+    /// 127.0.0.1:8081].
+    #[arg(long, value_name = "ADDR:PORT")]
+    pub worker_bind: Option<SocketAddr>,
+    /// The token remote workers must present: 32 to 64 hex digits [default: the environment
+    /// variable LUMO_WORKER_TOKEN, else 128 random bits].
+    #[arg(long, value_name = "HEX")]
+    pub worker_token: Option<String>,
+}
+
+/// Where remote workers connect unless --worker-bind says otherwise.
+const DEFAULT_WORKER_BIND: &str = "127.0.0.1:8081";
+
+/// The remote workers' settings: the token (--worker-token, LUMO_WORKER_TOKEN or drawn) and
+/// the scene as they load it (a scene file by its absolute path).
+fn remote_config(args: &ServeArgs) -> Result<RemoteConfig> {
+    let token = match args
+        .worker_token
+        .clone()
+        .or_else(|| std::env::var("LUMO_WORKER_TOKEN").ok())
+    {
+        Some(t) => {
+            check_token(&t).context("--worker-token / LUMO_WORKER_TOKEN")?;
+            t
+        }
+        None => new_token()?,
+    };
+    let scene = if names_scene_file(&args.scene) {
+        let path = std::path::absolute(&args.scene)
+            .with_context(|| format!("scene {:?}: cannot make the path absolute", args.scene))?;
+        SceneSource {
+            kind: SceneKind::File,
+            spec: path
+                .to_str()
+                .with_context(|| format!("scene path {} is not UTF-8", path.display()))?
+                .to_string(),
+            defines: args.defines.clone(),
+        }
+    } else {
+        SceneSource {
+            kind: SceneKind::Builtin,
+            spec: args.scene.clone(),
+            defines: args.defines.clone(),
+        }
+    };
+    Ok(RemoteConfig::new(token, scene))
 }
 
 /// `--integrator` values.
@@ -85,7 +145,14 @@ pub fn run(args: ServeArgs) -> Result<()> {
             bail!("--max-rate must be a positive number of samples per second");
         }
     }
-    let (mut scene, _, rig) = load_scene_animated(&args.scene, &Default::default())?;
+    if !args.remote_workers && (args.worker_bind.is_some() || args.worker_token.is_some()) {
+        bail!("--worker-bind and --worker-token apply to --remote-workers");
+    }
+    let options = LoadOptions {
+        defines: args.defines.clone(),
+        ..Default::default()
+    };
+    let (mut scene, _, rig) = load_scene_animated(&args.scene, &options)?;
     let rig = match (args.animate, rig) {
         (false, _) => None,
         (true, Some(rig)) if rig.is_animated() => {
@@ -152,6 +219,9 @@ pub fn run(args: ServeArgs) -> Result<()> {
     config.seed = args.seed;
     config.max_rate = args.max_rate;
     config.animation = rig;
+    if args.remote_workers {
+        config.remote = Some(remote_config(&args)?);
+    }
     let name = scene.name.clone();
     let tris = scene.triangle_count();
     let start = Instant::now();
@@ -175,6 +245,18 @@ pub fn run(args: ServeArgs) -> Result<()> {
             .with_context(|| format!("cannot listen on {addr}"))?;
         let local = listener.local_addr()?;
         let hub = Hub::new(rs, config)?;
+        let workers = match &hub.remote_config() {
+            Some(remote) => {
+                let addr = args
+                    .worker_bind
+                    .unwrap_or_else(|| DEFAULT_WORKER_BIND.parse().expect("a valid address"));
+                let listener = tokio::net::TcpListener::bind(addr)
+                    .await
+                    .with_context(|| format!("--worker-bind: cannot listen on {addr}"))?;
+                Some((listener.local_addr()?, remote.token.clone(), listener))
+            }
+            None => None,
+        };
         eprintln!(
             "{name}: {tris} triangles (ready in {:.0} ms), {width}x{height}, {} render threads",
             start.elapsed().as_secs_f64() * 1e3,
@@ -197,6 +279,21 @@ pub fn run(args: ServeArgs) -> Result<()> {
             host
         };
         println!("open http://{host}:{}", local.port());
+        if let Some((addr, token, listener)) = workers {
+            if !addr.ip().is_loopback() {
+                eprintln!(
+                    "warning: remote workers connect on {addr} — reachable from other machines; \
+                     the token is their only check and the connection is not encrypted"
+                );
+            }
+            println!("workers: lumo worker --hub {addr} --token {token}");
+            let hub = hub.clone();
+            tokio::spawn(async move {
+                if let Err(e) = lumo_server::remote::serve_workers(listener, hub).await {
+                    eprintln!("remote workers: {e}");
+                }
+            });
+        }
         std::io::stdout().flush().ok();
         lumo_server::serve(listener, hub)
             .await

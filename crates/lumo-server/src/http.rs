@@ -11,8 +11,6 @@
 
 use std::sync::Arc;
 
-use std::time::{Duration, Instant};
-
 use axum::body::Bytes;
 use axum::extract::ws::{CloseFrame, Message, WebSocket, WebSocketUpgrade};
 use axum::extract::{ConnectInfo, Request, State};
@@ -24,6 +22,7 @@ use axum::Router;
 use futures_util::{SinkExt, StreamExt};
 
 use crate::assets;
+use crate::bucket::Bucket;
 use crate::conn::{ConnHandle, GuardedListener};
 use crate::hub::Hub;
 use crate::outbox::{Kind, Next as Queued, Outgoing, CLOSE_POLICY, CLOSE_TRY_LATER};
@@ -209,57 +208,6 @@ fn close_message(code: u16, reason: &str) -> Message {
     }))
 }
 
-/// A token bucket: `burst` tokens, refilled at `rate` per second.
-struct Bucket {
-    tokens: f64,
-    burst: f64,
-    rate: f64,
-    last: Instant,
-}
-
-impl Bucket {
-    fn new(burst: f64, rate: f64) -> Self {
-        // Guard against a zero or negative configuration: it would never refill.
-        let rate = rate.max(1e-3);
-        let burst = burst.max(1.0);
-        Self {
-            tokens: burst,
-            burst,
-            rate,
-            last: Instant::now(),
-        }
-    }
-
-    fn refill(&mut self) {
-        let now = Instant::now();
-        let dt = now.duration_since(self.last).as_secs_f64();
-        self.tokens = (self.tokens + dt * self.rate).min(self.burst);
-        self.last = now;
-    }
-
-    /// Takes a token if there is one.
-    fn take(&mut self) -> bool {
-        self.refill();
-        if self.tokens >= 1.0 {
-            self.tokens -= 1.0;
-            true
-        } else {
-            false
-        }
-    }
-
-    /// Takes a token on credit; returns how long to wait until the balance is back to zero.
-    fn take_or_wait(&mut self) -> Duration {
-        self.refill();
-        self.tokens -= 1.0;
-        if self.tokens >= 0.0 {
-            Duration::ZERO
-        } else {
-            Duration::from_secs_f64(-self.tokens / self.rate)
-        }
-    }
-}
-
 /// Why the reading loop of a connection ended.
 enum End {
     /// The peer closed or the socket failed.
@@ -434,20 +382,5 @@ mod tests {
             "http://evil.example".parse().expect("header"),
         );
         assert!(!origin_allowed(&h));
-    }
-
-    #[test]
-    fn buckets_allow_a_burst_then_the_rate() {
-        let mut b = Bucket::new(3.0, 10.0);
-        assert!(b.take() && b.take() && b.take());
-        assert!(!b.take());
-        let mut r = Bucket::new(2.0, 100.0);
-        assert_eq!(r.take_or_wait(), Duration::ZERO);
-        assert_eq!(r.take_or_wait(), Duration::ZERO);
-        let w = r.take_or_wait();
-        assert!(
-            w > Duration::from_millis(5) && w <= Duration::from_millis(10),
-            "{w:?}"
-        );
     }
 }

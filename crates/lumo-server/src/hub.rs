@@ -15,11 +15,14 @@ use axum::body::Bytes;
 use lumo_render::RenderScene;
 use lumo_scene::{Camera, FovAxis};
 
+use crate::batches::sample_messages;
 use crate::outbox::{Kind, Outbox, Outgoing, QueueReport, Slot};
+use crate::protocol::remote::{EpochUpdate, Welcome};
 use crate::protocol::{
     Animate, CameraUpdate, Edit, ErrorCode, Finish, Frame, Hello, Integrator, Mode, Params, Pick,
     ProtocolError, SampleBatch, Stats, Stream, WireCamera,
 };
+use crate::remote::{RemoteConfig, RemoteSet, RemoteWorkerStats};
 use crate::scene_edit::{self, EditTargets};
 use crate::worker::{FinishEvent, Job, QueryBuffer, RenderWorker};
 use crate::ServerConfig;
@@ -54,6 +57,29 @@ pub struct Hub {
     finished: Arc<Mutex<Vec<FinishEvent>>>,
     /// What viewers' edits may change (edits keep the scene's structure, so it stays valid).
     targets: EditTargets,
+    /// Remote render workers (`lumo serve --remote-workers`; empty when off).
+    remote: RemoteSet,
+}
+
+/// What [`Hub::merge_remote`] did with a remote worker's batch.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Merged {
+    /// Sent to every viewer.
+    Accepted {
+        /// Camera samples in it (0 for the light stream).
+        samples: u64,
+        /// Light paths it accounts for.
+        light_paths: u64,
+        /// Its size.
+        bytes: u64,
+    },
+    /// Dropped: its epoch is over (or the hub is not rendering it: paused, frame mode).
+    Old {
+        /// The batch's epoch.
+        epoch: u32,
+        /// The hub's.
+        current: u32,
+    },
 }
 
 struct HubState {
@@ -75,6 +101,8 @@ struct HubState {
     /// Scene edits asked for since the last restart (checked; one per op and index, the
     /// newest), applied by the worker at the next restart.
     edits: Vec<Edit>,
+    /// Camera samples and light paths remote workers contributed to this epoch (STATS).
+    remote_counts: (u64, u64),
 }
 
 /// The animation's clock: wall-clock time while playing, frozen while paused, looping over
@@ -115,9 +143,15 @@ impl Clock {
 }
 
 /// Starts `job` on `worker` after applying `edits`, posed at the clock's time when the scene
-/// is animated.
-fn start(worker: &RenderWorker, job: Job, clock: Option<&Clock>, edits: Vec<Edit>) -> u64 {
-    worker.render_edited(job, clock.map(Clock::now), edits)
+/// is animated; returns the epoch and that time.
+fn start(
+    worker: &RenderWorker,
+    job: Job,
+    clock: Option<&Clock>,
+    edits: Vec<Edit>,
+) -> (u64, Option<f32>) {
+    let time = clock.map(Clock::now);
+    (worker.render_edited(job, time, edits), time)
 }
 
 fn to_wire(c: &Camera) -> WireCamera {
@@ -173,11 +207,12 @@ impl Hub {
         )?;
         // Nobody watches yet: render only once a viewer connects, unless told to keep going.
         let paused = config.limits.pause_when_idle;
-        let epoch = if paused {
-            worker.abort()
+        let (epoch, time) = if paused {
+            (worker.abort(), None)
         } else {
             start(&worker, job.clone(), clock.as_ref(), Vec::new())
         };
+        let remote = RemoteSet::new(config.remote.clone());
         let hub = Arc::new(Self {
             worker,
             config,
@@ -194,11 +229,14 @@ impl Hub {
                 paused,
                 clock,
                 edits: Vec::new(),
+                remote_counts: (0, 0),
             }),
             next_id: AtomicU64::new(1),
             finished,
             targets,
+            remote,
         });
+        hub.announce(&lock(&hub.state), time, &[]);
         Ok(hub)
     }
 
@@ -231,8 +269,16 @@ impl Hub {
             st.pending = false;
             st.params_changed = false;
             let edits = std::mem::take(&mut st.edits);
-            st.epoch = start(&self.worker, st.job.clone(), st.clock.as_ref(), edits);
+            let (epoch, time) = start(
+                &self.worker,
+                st.job.clone(),
+                st.clock.as_ref(),
+                edits.clone(),
+            );
+            st.epoch = epoch;
             st.last_restart = Instant::now();
+            st.remote_counts = (0, 0);
+            self.announce(&st, time, &edits);
         }
         let hello = Hello {
             width: self.config.width as u32,
@@ -270,6 +316,8 @@ impl Hub {
             st.paused = true;
             // A pending change stays in `next` and applies on resume.
             st.epoch = self.worker.abort();
+            st.remote_counts = (0, 0);
+            self.announce(&st, None, &[]);
         }
     }
 
@@ -397,14 +445,17 @@ impl Hub {
     fn restart(&self, st: &mut HubState) {
         st.job = st.next.clone();
         let edits = std::mem::take(&mut st.edits);
-        st.epoch = start(
+        let (epoch, time) = start(
             &self.worker,
             st.job.clone(),
             st.clock.as_ref(),
             edits.clone(),
         );
+        st.epoch = epoch;
         st.last_restart = Instant::now();
         st.pending = false;
+        st.remote_counts = (0, 0);
+        self.announce(st, time, &edits);
         let epoch = st.epoch as u32;
         for v in &st.viewers {
             v.outbox.purge_except(epoch);
@@ -473,35 +524,8 @@ impl Hub {
         let stats = self.worker.query(buf);
         if buf.epoch == st.epoch {
             let epoch = buf.epoch as u32;
-            for chunk in buf.camera.chunks(SAMPLES_PER_MESSAGE) {
-                broadcast(&st, &data(epoch, batch(epoch, Stream::Camera, chunk, 0)));
-            }
-            // Spread the light-path count over the messages in proportion to their splats,
-            // so a dropped message takes its share of Lw with it.
-            let total = buf.light.len().max(1) as u64;
-            let mut given = 0u64;
-            let chunks: Vec<_> = buf.light.chunks(SAMPLES_PER_MESSAGE).collect();
-            for (i, chunk) in chunks.iter().enumerate() {
-                let paths = if i + 1 == chunks.len() {
-                    buf.light_paths - given
-                } else {
-                    buf.light_paths * chunk.len() as u64 / total
-                };
-                given += paths;
-                broadcast(
-                    &st,
-                    &data(epoch, batch(epoch, Stream::Light, chunk, paths as u32)),
-                );
-            }
-            if buf.light.is_empty() && buf.light_paths > 0 {
-                // Paths that hit nothing visible still count in Lw.
-                broadcast(
-                    &st,
-                    &data(
-                        epoch,
-                        batch(epoch, Stream::Light, &[], buf.light_paths as u32),
-                    ),
-                );
+            for msg in sample_messages(epoch, buf) {
+                broadcast(&st, &data(epoch, msg));
             }
             if let Some(f) = &buf.frame {
                 let msg = Frame {
@@ -528,7 +552,13 @@ impl Hub {
         }
         let dt = last_stats.elapsed();
         if dt >= STATS_INTERVAL {
-            let count = (stats.samples, stats.light_paths);
+            // Remote workers' samples of this epoch count as the hub's own.
+            let remote = if stats.epoch == st.epoch {
+                st.remote_counts
+            } else {
+                (0, 0)
+            };
+            let count = (stats.samples + remote.0, stats.light_paths + remote.1);
             let done = if stats.epoch == st.epoch && count >= *last {
                 (count.0 - last.0) + (count.1 - last.1)
             } else {
@@ -541,8 +571,8 @@ impl Hub {
                 let s = Stats {
                     epoch: st.epoch as u32,
                     viewers: st.viewers.len() as u32,
-                    samples: stats.samples,
-                    light_paths: stats.light_paths,
+                    samples: count.0,
+                    light_paths: count.1,
                     rate: rate as f32,
                     dropped: v.outbox.dropped().min(u32::MAX as u64) as u32,
                 };
@@ -557,6 +587,118 @@ impl Hub {
     /// The worker, for tests and tools.
     pub fn worker(&self) -> &RenderWorker {
         &self.worker
+    }
+
+    /// Tells the remote workers about the epoch `st` now renders (after `edits`, posed at
+    /// `time`).
+    fn announce(&self, st: &HubState, time: Option<f32>, edits: &[Edit]) {
+        let state = EpochUpdate {
+            epoch: st.epoch as u32,
+            camera: to_wire(&st.job.camera),
+            integrator: st.job.integrator,
+            mode: st.job.mode,
+            rendering: !st.paused && st.job.mode == Mode::Progressive,
+            time,
+        };
+        self.remote.announce(state, edits);
+    }
+
+    /// The remote workers' settings, if they are on.
+    pub fn remote_config(&self) -> Option<&RemoteConfig> {
+        self.remote.config()
+    }
+
+    /// The remote workers connected now and their counters.
+    pub fn remote_workers(&self) -> Vec<RemoteWorkerStats> {
+        self.remote.stats()
+    }
+
+    /// The last log lines about remote workers (joins, refusals, departures).
+    pub fn remote_log(&self) -> Vec<String> {
+        self.remote.log_lines()
+    }
+
+    pub(crate) fn remote(&self) -> &RemoteSet {
+        &self.remote
+    }
+
+    /// The hub's seed (remote workers' seeds are derived from it).
+    pub(crate) fn seed(&self) -> u32 {
+        self.config.seed
+    }
+
+    /// The WELCOME of worker `worker` with seed `seed` (None when remote workers are off).
+    pub(crate) fn welcome(&self, worker: u32, seed: u32) -> Option<Welcome> {
+        Some(Welcome {
+            worker,
+            seed,
+            width: self.config.width as u32,
+            height: self.config.height as u32,
+            path: self.config.path,
+            animate: self.config.animation.is_some(),
+            ppm: self.config.ppm,
+            scene: self.remote.config()?.scene.clone(),
+        })
+    }
+
+    /// Merges a remote worker's SAMPLES message into the viewers' stream: checked (its
+    /// samples finite with weight 1, at most [`SAMPLES_PER_MESSAGE`], a stream the current
+    /// integrator makes, light paths only on the light stream) and, when it belongs to the
+    /// epoch rendering now, sent to every viewer as it is. A batch of an earlier epoch (or
+    /// while the hub is not rendering samples) is dropped; an error means the worker sent
+    /// what no worker of this build sends (an epoch not begun yet, a bad value), and nothing
+    /// of the batch was used.
+    pub fn merge_remote(&self, msg: Bytes) -> Result<Merged, ProtocolError> {
+        let (batch, count) = SampleBatch::check_packed(&msg, SAMPLES_PER_MESSAGE)?;
+        let invalid = |m: String| Err(ProtocolError::new(ErrorCode::InvalidValue, m));
+        if batch.stream == Stream::Camera && batch.light_paths != 0 {
+            return invalid("a camera batch with light paths".into());
+        }
+        let mut st = lock(&self.state);
+        let current = st.epoch as u32;
+        if batch.epoch > current {
+            return invalid(format!(
+                "samples of epoch {} which has not begun (current {current})",
+                batch.epoch
+            ));
+        }
+        if batch.epoch < current || st.paused || st.job.mode != Mode::Progressive {
+            return Ok(Merged::Old {
+                epoch: batch.epoch,
+                current,
+            });
+        }
+        let streams = match st.job.integrator {
+            Integrator::Path | Integrator::Ppm => [true, false],
+            Integrator::Light => [false, true],
+            Integrator::Both | Integrator::Bdpt => [true, true],
+        };
+        if !streams[batch.stream as usize] {
+            return invalid(format!(
+                "{} samples under integrator {}",
+                batch.stream.name(),
+                st.job.integrator.name()
+            ));
+        }
+        let (samples, light_paths) = match batch.stream {
+            Stream::Camera => (count as u64, 0),
+            Stream::Light => (0, batch.light_paths as u64),
+        };
+        st.remote_counts.0 += samples;
+        st.remote_counts.1 += light_paths;
+        let bytes = msg.len() as u64;
+        broadcast(
+            &st,
+            &Outgoing {
+                kind: Kind::Data(current),
+                bytes: msg,
+            },
+        );
+        Ok(Merged::Accepted {
+            samples,
+            light_paths,
+            bytes,
+        })
     }
 }
 
@@ -587,17 +729,8 @@ fn broadcast(st: &HubState, msg: &Outgoing) {
     }
 }
 
-fn batch(epoch: u32, stream: Stream, samples: &[crate::streams::Sample], paths: u32) -> Vec<u8> {
-    SampleBatch {
-        epoch,
-        stream,
-        light_paths: paths,
-    }
-    .write(samples)
-}
-
 /// The scene camera's field of view measured along the image's shorter side.
-fn shorter_side_fov(c: &Camera, width: usize, height: usize) -> f32 {
+pub(crate) fn shorter_side_fov(c: &Camera, width: usize, height: usize) -> f32 {
     let (hw, hh) = c.half_extent(width, height);
     (2.0 * hw.min(hh).atan()).to_degrees()
 }

@@ -13,6 +13,8 @@
 #![forbid(unsafe_code)]
 
 pub mod assets;
+pub mod batches;
+mod bucket;
 pub mod conn;
 pub mod frames;
 pub mod http;
@@ -20,6 +22,7 @@ pub mod hub;
 pub mod outbox;
 mod oversize;
 pub mod protocol;
+pub mod remote;
 pub mod scene_edit;
 pub mod streams;
 pub mod worker;
@@ -59,6 +62,9 @@ pub struct ServerConfig {
     /// wall-clock time and restarts rendering at every pump tick while it plays; `None`
     /// renders the scene as loaded.
     pub animation: Option<lumo_scene::AnimatedScene>,
+    /// Remote render workers (`lumo serve --remote-workers`): `None` accepts none; with a
+    /// config, [`remote::serve_workers`] accepts them on a listener of its own.
+    pub remote: Option<remote::RemoteConfig>,
 }
 
 /// Bounds on what a client may make the server spend (docs/protocol.md, "Limits and safety").
@@ -137,6 +143,7 @@ impl ServerConfig {
             viewer_queue_bytes: 8 << 20,
             limits: Limits::default(),
             animation: None,
+            remote: None,
         }
     }
 }

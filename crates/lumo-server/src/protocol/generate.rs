@@ -7,6 +7,7 @@
 use std::fmt::Write;
 
 use super::layout::{Count, Direction, Field, FieldType, Layout, WireEnum};
+use super::remote::WORKER_MESSAGES;
 use super::{ENUMS, HEADER_BYTES, MESSAGES, RECORDS, VERSION};
 
 /// `s` as a single-quoted JavaScript string.
@@ -43,6 +44,8 @@ fn js_layout(out: &mut String, l: &Layout, message: bool) {
         let direction = match l.direction {
             Direction::ToViewer => "toViewer",
             Direction::Both => "both",
+            Direction::ToWorker => "toWorker",
+            Direction::FromWorker => "fromWorker",
         };
         let _ = writeln!(out, "    kind: {:#04x},", l.kind);
         let _ = writeln!(out, "    direction: {},", js_str(direction));
@@ -178,10 +181,7 @@ pub fn markdown(l: &Layout) -> String {
             }) => format!("{} + {}", l.bytes, product(k * ty.bytes(), fs)),
             _ => l.bytes.to_string(),
         };
-        let direction = match l.direction {
-            Direction::ToViewer => "server → viewer",
-            Direction::Both => "both ways",
-        };
+        let direction = direction_words(l.direction);
         let _ = writeln!(
             out,
             "### {} ({:#04x}), {size} bytes, {direction}\n",
@@ -200,12 +200,37 @@ pub fn markdown_types() -> String {
     let mut out = String::from("| type | name | direction |\n| --- | --- | --- |\n");
     for m in MESSAGES {
         let direction = match m.direction {
-            Direction::ToViewer => "server → viewer",
             Direction::Both => "both",
+            d => direction_words(d),
         };
         let _ = writeln!(out, "| {:#04x} | {} | {direction} |", m.kind, m.name);
     }
     out
+}
+
+/// The table of the remote-worker messages (the `WORKER_TYPES` block of docs/protocol.md).
+pub fn markdown_worker_types() -> String {
+    let mut out = String::from("| type | name | direction |\n| --- | --- | --- |\n");
+    for m in WORKER_MESSAGES {
+        let _ = writeln!(
+            out,
+            "| {:#04x} | {} | {} |",
+            m.kind,
+            m.name,
+            direction_words(m.direction)
+        );
+    }
+    out
+}
+
+/// Who sends a message, in the docs' words.
+fn direction_words(d: Direction) -> &'static str {
+    match d {
+        Direction::ToViewer => "server → viewer",
+        Direction::Both => "both ways",
+        Direction::ToWorker => "hub → worker",
+        Direction::FromWorker => "worker → hub",
+    }
 }
 
 /// `doc` with every generated block replaced by what the tables say now; an error names a
@@ -213,7 +238,12 @@ pub fn markdown_types() -> String {
 pub fn update_markdown(doc: &str) -> Result<String, String> {
     const OPEN: &str = "<!-- layout ";
     const CLOSE: &str = "<!-- /layout -->";
-    let all: Vec<&Layout> = RECORDS.iter().chain(MESSAGES).copied().collect();
+    let all: Vec<&Layout> = RECORDS
+        .iter()
+        .chain(MESSAGES)
+        .chain(WORKER_MESSAGES)
+        .copied()
+        .collect();
     let mut out = String::new();
     let mut rest = doc;
     let mut seen = Vec::new();
@@ -223,6 +253,8 @@ pub fn update_markdown(doc: &str) -> Result<String, String> {
         let name = &after[..name_end];
         let table = if name == "TYPES" {
             markdown_types()
+        } else if name == "WORKER_TYPES" {
+            markdown_worker_types()
         } else {
             let layout = all
                 .iter()
@@ -240,7 +272,7 @@ pub fn update_markdown(doc: &str) -> Result<String, String> {
         seen.push(name.to_string());
     }
     out.push_str(rest);
-    for name in all.iter().map(|l| l.name).chain(["TYPES"]) {
+    for name in all.iter().map(|l| l.name).chain(["TYPES", "WORKER_TYPES"]) {
         if !seen.iter().any(|s| s == name) {
             return Err(format!("docs have no block `{OPEN}{name} -->`"));
         }

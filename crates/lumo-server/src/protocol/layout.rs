@@ -154,6 +154,10 @@ pub enum Direction {
     ToViewer,
     /// Both ways.
     Both,
+    /// Hub → remote render worker (docs/protocol.md, "Remote render workers").
+    ToWorker,
+    /// Remote render worker → hub.
+    FromWorker,
 }
 
 /// The layout of one message (or of a record inside one).
@@ -368,6 +372,12 @@ impl Writer {
         self.put_at(field, 0, v);
     }
 
+    /// Writes `bytes` into a fixed-size byte field, cut to its size (the rest stays 0).
+    pub(super) fn put_bytes(&mut self, field: &Field, bytes: &[u8]) {
+        let n = bytes.len().min(field.bytes());
+        self.buf[field.offset..field.offset + n].copy_from_slice(&bytes[..n]);
+    }
+
     /// Appends tail bytes (the tail field starts where the fixed part ends).
     pub(super) fn extend(&mut self, bytes: &[u8]) {
         self.buf.extend_from_slice(bytes);
@@ -415,6 +425,13 @@ impl<'a> Reader<'a> {
     /// A single-element field.
     pub(super) fn get<T: Scalar>(&self, field: &Field) -> Result<T, ProtocolError> {
         self.get_at(field, 0)
+    }
+
+    /// The bytes of a fixed-size field.
+    pub(super) fn bytes(&self, field: &Field) -> Result<&'a [u8], ProtocolError> {
+        self.msg
+            .get(field.offset..field.end())
+            .ok_or_else(|| ProtocolError::new(ErrorCode::Malformed, "message too short"))
     }
 
     /// The variable tail, which must be exactly `bytes` long (`what` names it in the error).

@@ -23,6 +23,7 @@ mod hello;
 pub mod layout;
 mod params;
 mod pick;
+pub mod remote;
 mod samples;
 mod stats;
 #[cfg(test)]

@@ -107,6 +107,59 @@ impl SampleBatch {
     }
 }
 
+/// A half float's exponent bits: all ones is an infinity or NaN.
+const F16_EXPONENT: u16 = 0x7c00;
+/// 1.0 as a half float: the weight of every sample the renderer's streams send.
+const F16_ONE: u16 = 0x3c00;
+
+impl SampleBatch {
+    /// Decodes a batch's header and checks its samples where they lie, without unpacking
+    /// them: at most `max_count`, every X, Y, Z finite and every weight W exactly 1 (the
+    /// positions are unorm16, inside the image by construction). The hub checks a remote
+    /// worker's batch so and forwards its bytes to viewers as they are. Returns the header
+    /// and the sample count.
+    pub fn check_packed(msg: &[u8], max_count: usize) -> Result<(Self, usize), ProtocolError> {
+        super::read_message(msg, &Self::LAYOUT, |r| {
+            let s = r.get::<u8>(&STREAM)?;
+            let stream = Stream::from_code(s).ok_or_else(|| {
+                ProtocolError::new(ErrorCode::InvalidValue, format!("stream {s}"))
+            })?;
+            let count = r.get::<u32>(&COUNT)? as usize;
+            if count > max_count {
+                return Err(ProtocolError::new(
+                    ErrorCode::TooLarge,
+                    format!("{count} samples in one batch (at most {max_count})"),
+                ));
+            }
+            let samples = r.tail(count * SAMPLE.bytes, "sample count")?;
+            for (i, rec) in samples.chunks_exact(SAMPLE.bytes).enumerate() {
+                let h = |c: usize| {
+                    let at = XYZW.offset + 2 * c;
+                    u16::from_le_bytes([rec[at], rec[at + 1]])
+                };
+                if (0..3).any(|c| h(c) & F16_EXPONENT == F16_EXPONENT) {
+                    return Err(ProtocolError::new(
+                        ErrorCode::InvalidValue,
+                        format!("sample {i}: X, Y or Z is not finite"),
+                    ));
+                }
+                if h(3) != F16_ONE {
+                    return Err(ProtocolError::new(
+                        ErrorCode::InvalidValue,
+                        format!("sample {i}: weight W is not 1"),
+                    ));
+                }
+            }
+            let batch = Self {
+                epoch: r.get(&EPOCH)?,
+                stream,
+                light_paths: r.get(&LIGHT_PATHS)?,
+            };
+            Ok((batch, count))
+        })
+    }
+}
+
 /// Packs one sample: `uv` in [0,1]² (clamped, NaN to 0), XYZW as half floats clamped to the
 /// half range, so a firefly saturates instead of turning into infinity; NaN and infinities
 /// are sent as 0.

@@ -4,5 +4,6 @@ mod edits;
 mod hostile;
 mod protocol_golden;
 mod protocol_layout;
+mod remote;
 mod server;
 mod worker;

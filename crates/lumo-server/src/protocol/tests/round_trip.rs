@@ -404,6 +404,13 @@ fn generators_describe_every_table() {
         let rows = md.lines().filter(|r| r.starts_with("| ")).count();
         assert_eq!(rows, l.fields.len() + 2, "{md}");
     }
+    // The worker messages are documented, not sent to the viewer.
+    for l in crate::protocol::remote::WORKER_MESSAGES {
+        assert!(!js.contains(&format!("  {}: {{", l.name)), "{}", l.name);
+        let md = generate::markdown(l);
+        let rows = md.lines().filter(|r| r.starts_with("| ")).count();
+        assert_eq!(rows, l.fields.len() + 2, "{md}");
+    }
     let _: &Layout = &Hello::LAYOUT;
 }
 
@@ -414,8 +421,9 @@ fn docs_blocks_are_regenerated_and_missing_ones_named() {
     let names: Vec<&str> = RECORDS
         .iter()
         .chain(MESSAGES)
+        .chain(crate::protocol::remote::WORKER_MESSAGES)
         .map(|l| l.name)
-        .chain(["TYPES"])
+        .chain(["TYPES", "WORKER_TYPES"])
         .collect();
     let block = |n: &str| format!("<!-- layout {n} -->\nstale\n<!-- /layout -->\n");
     let doc: String = names.iter().map(|n| block(n)).collect();
@@ -423,6 +431,7 @@ fn docs_blocks_are_regenerated_and_missing_ones_named() {
     assert!(!fresh.contains("stale"));
     assert!(fresh.contains(&generate::markdown(&Hello::LAYOUT)));
     assert!(fresh.contains(&generate::markdown_types()));
+    assert!(fresh.contains(&generate::markdown_worker_types()));
     assert_eq!(generate::update_markdown(&fresh), Ok(fresh.clone()));
     let without_frame = doc.replace(&block("FRAME"), "");
     assert!(generate::update_markdown(&without_frame).is_err_and(|e| e.contains("FRAME")));
