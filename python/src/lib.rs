@@ -361,6 +361,38 @@ fn write_image<'py>(py: Python<'py>, path: PathBuf, image: Planar<'py>) -> PyRes
         .map_err(|e| lumo_err(e.into()))
 }
 
+/// Runs a render worker for the hub of `lumo serve --remote-workers` at `hub` (`HOST:PORT`)
+/// with its `token`, until the hub closes the connection; Ctrl-C (a Python signal) stops it.
+#[pyfunction]
+#[pyo3(signature = (hub, token, name, threads = 0))]
+fn run_remote_worker(
+    py: Python<'_>,
+    hub: String,
+    token: String,
+    name: String,
+    threads: usize,
+) -> PyResult<()> {
+    use std::sync::atomic::Ordering;
+    use std::time::Duration;
+    let mut config = lumo_server::remote::RemoteWorkerConfig::new(hub, token, name);
+    config.threads = threads;
+    let stop = config.stop.clone();
+    let worker = std::thread::spawn(move || lumo_server::remote::run_remote_worker(config));
+    // The worker runs on its own thread so that this one can look for Python signals.
+    while !worker.is_finished() {
+        py.allow_threads(|| std::thread::sleep(Duration::from_millis(50)));
+        if let Err(e) = py.check_signals() {
+            stop.store(true, Ordering::Relaxed);
+            let _ = py.allow_threads(|| worker.join());
+            return Err(e);
+        }
+    }
+    match worker.join() {
+        Ok(result) => result.map_err(|e| LumoError::new_err(e.to_string())),
+        Err(_) => Err(LumoError::new_err("the render worker panicked")),
+    }
+}
+
 /// The version of the lumo crates this module was built from.
 #[pyfunction]
 fn version() -> &'static str {
@@ -377,6 +409,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(compare, m)?)?;
     m.add_function(wrap_pyfunction!(read_image, m)?)?;
     m.add_function(wrap_pyfunction!(write_image, m)?)?;
+    m.add_function(wrap_pyfunction!(run_remote_worker, m)?)?;
     m.add_function(wrap_pyfunction!(version, m)?)?;
     Ok(())
 }

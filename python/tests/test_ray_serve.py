@@ -107,20 +107,24 @@ def test_a_viewer_gets_samples_from_two_ray_workers_and_keeps_them_when_one_dies
         assert m, line
         viewer = Viewer(port)
         workers = serve_workers(m.group(1), m.group(2), workers=2, threads=1)
-        both = wait_for("samples from both workers", lambda: [
-            w for w in workers_of(port) if w["samples"] > 0] if len(
-            [w for w in workers_of(port) if w["samples"] > 0]) >= 2 else None)
-        assert len(both) == 2
+        def delivering():
+            ws = [w for w in workers_of(port) if w["samples"] > 0]
+            return ws if len(ws) >= 2 else None
+
+        first = {w["name"] for w in wait_for("samples from both workers", delivering)}
+        assert len(first) == 2
         pids = workers.pids()
+        assert all(f":{p}" in " ".join(first) for p in pids), (pids, first)
         os.kill(pids[0], signal.SIGKILL)
-        before = viewer.received
-        # The other worker keeps delivering; the hub's viewer stream never stops.
+        survivor = next(n for n in first if not n.endswith(f":{pids[0]}"))
+        count = lambda: next((w["samples"] for w in workers_of(port) if w["name"] == survivor), 0)  # noqa: E731
+        before, seen = count(), viewer.received
+        # The other worker keeps delivering, and the viewer's stream never stops.
         time.sleep(1.0)
-        assert viewer.received > before
+        assert count() > before and viewer.received > seen
         # Ray restarts the killed actor, which joins the hub again as a new worker.
         wait_for("the restarted worker's samples", lambda: any(
-            w["samples"] > 0 and str(pids[0]) not in w["name"] and w["name"] not in
-            {b["name"] for b in both} for w in workers_of(port)))
+            w["samples"] > 0 and w["name"] not in first for w in workers_of(port)))
     finally:
         if workers is not None:
             workers.stop()

@@ -37,6 +37,7 @@ pub const MAX_WS_MESSAGE: usize = 64 * 1024;
 pub fn router(hub: Arc<Hub>) -> Router {
     Router::new()
         .route("/ws", get(ws_handler))
+        .route("/workers", get(workers_json))
         .fallback(get(asset))
         .layer(middleware::from_fn(check_host))
         .with_state(hub)
@@ -151,6 +152,33 @@ fn origin_allowed(headers: &HeaderMap) -> bool {
         .strip_prefix("http://")
         .or_else(|| origin.strip_prefix("https://"))
         .is_some_and(|authority| authority.eq_ignore_ascii_case(host))
+}
+
+/// `GET /workers`: the remote render workers connected now and their counters, as JSON (for
+/// scripts and tests that watch a hub; behind the same Host check as the viewer).
+async fn workers_json(State(hub): State<Arc<Hub>>) -> Response {
+    let workers: Vec<serde_json::Value> = hub
+        .remote_workers()
+        .into_iter()
+        .map(|w| {
+            serde_json::json!({
+                "id": w.id,
+                "name": w.name,
+                "peer": w.peer.to_string(),
+                "ready": w.ready,
+                "samples": w.samples,
+                "light_paths": w.light_paths,
+                "batches": w.batches,
+                "bytes": w.bytes,
+                "old_batches": w.old_batches,
+            })
+        })
+        .collect();
+    (
+        [(header::CONTENT_TYPE, "application/json")],
+        serde_json::Value::Array(workers).to_string(),
+    )
+        .into_response()
 }
 
 async fn asset(uri: axum::http::Uri) -> Response {

@@ -220,12 +220,16 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     args = list(sys.argv[1:] if argv is None else argv)
     usage = (
         "usage: python -m lumo.ray render SCENE [lumo render options] [--workers N] "
-        "[--address ADDR] [--chunk-spp N]"
+        "[--address ADDR] [--chunk-spp N]\n"
+        "       python -m lumo.ray serve-workers --hub HOST:PORT --token HEX [--workers N] "
+        "[--threads N] [--address ADDR]"
     )
     if not args or args[0] in ("-h", "--help"):
         print(usage)
         print(__doc__)
         return 0
+    if args[0] == "serve-workers":
+        return _serve_workers_main(args[1:])
     if args[0] != "render":
         print(f"error: unknown command {args[0]!r}\n{usage}", file=sys.stderr)
         return 2
@@ -259,4 +263,36 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         f"{out['chunks']} chunks of {out['chunk_spp']} spp on {out['workers']} workers → "
         f"{', '.join(out['files'])}"
     )
+    return 0
+
+
+def _serve_workers_main(args: Sequence[str]) -> int:
+    """``python -m lumo.ray serve-workers``: render workers for a ``lumo serve`` hub as Ray
+    actors, until the hub closes (or Ctrl-C)."""
+    import argparse
+
+    from .serve import serve_workers
+
+    ap = argparse.ArgumentParser(prog="python -m lumo.ray serve-workers")
+    ap.add_argument("--hub", required=True, help="HOST:PORT from lumo serve's workers: line")
+    ap.add_argument("--token", default=os.environ.get("LUMO_WORKER_TOKEN"),
+                    help="the hub's token [LUMO_WORKER_TOKEN]")
+    ap.add_argument("--workers", type=int, default=None, help="actors [one per CPU / threads]")
+    ap.add_argument("--threads", type=int, default=1, help="render threads per actor [1]")
+    ap.add_argument("--address", default=None, help="Ray cluster to join [a local one]")
+    a = ap.parse_args(list(args))
+    if not a.token:
+        print("error: --token (or LUMO_WORKER_TOKEN) is required", file=sys.stderr)
+        return 2
+    workers = None
+    try:
+        workers = serve_workers(a.hub, a.token, a.workers, a.threads, a.address)
+        print(f"{len(workers.actors)} workers for {a.hub}; Ctrl-C stops them", file=sys.stderr)
+        workers.wait()
+    except KeyboardInterrupt:
+        if workers is not None:
+            workers.stop()
+    except LumoError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
     return 0

@@ -102,7 +102,10 @@ def serve_workers(
         workers = max(1, int(ray.cluster_resources().get("CPU", 1)) // threads)
     if workers < 1:
         raise LumoError(f"--workers {workers}: at least 1")
-    actor = ray.remote(num_cpus=threads, max_restarts=-1, max_task_retries=-1)(_RemoteWorker)
+    # Two calls at once: `run` lasts the worker's life, `pid` must still answer.
+    actor = ray.remote(
+        num_cpus=threads, max_restarts=-1, max_task_retries=-1, max_concurrency=2
+    )(_RemoteWorker)
     base = socket.gethostname()[:24]
     actors = [
         actor.options(scheduling_strategy="SPREAD").remote(hub, token, f"ray-{base}-{i}", threads)
