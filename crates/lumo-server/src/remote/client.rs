@@ -74,12 +74,13 @@ pub enum RemoteWorkerError {
     #[error("{0}")]
     Config(String),
     /// The hub could not be reached.
-    #[error("cannot connect to the hub at {hub}: {source}")]
+    #[error("cannot connect to the hub at {hub}: {reason}")]
     Connect {
         /// The address tried.
         hub: String,
-        /// Why.
-        source: io::Error,
+        /// Why (not a `source`: the message already says it, and would say it twice in a
+        /// chain).
+        reason: io::Error,
     },
     /// The hub refused the worker (token, version, too many workers) or dropped it.
     #[error("the hub refused worker {name:?}: {reason}")]
@@ -102,10 +103,24 @@ pub enum RemoteWorkerError {
     Threads(String),
     /// The hub sent something this worker cannot read.
     #[error("the hub sent an invalid message: {0}")]
-    Protocol(#[from] ProtocolError),
+    Protocol(ProtocolError),
     /// The connection failed.
     #[error("connection to the hub failed: {0}")]
-    Io(#[from] io::Error),
+    Io(io::Error),
+}
+
+// By hand rather than `#[from]`, which would also make them the error's source: the messages
+// above already include them, and a chain would print them twice.
+impl From<ProtocolError> for RemoteWorkerError {
+    fn from(e: ProtocolError) -> Self {
+        Self::Protocol(e)
+    }
+}
+
+impl From<io::Error> for RemoteWorkerError {
+    fn from(e: io::Error) -> Self {
+        Self::Io(e)
+    }
 }
 
 impl From<FrameError> for RemoteWorkerError {
@@ -158,9 +173,9 @@ pub fn run_remote_worker(config: RemoteWorkerConfig) -> Result<(), RemoteWorkerE
         )));
     }
     let addr = resolve(&config.hub)?;
-    let connect = |source| RemoteWorkerError::Connect {
+    let connect = |reason| RemoteWorkerError::Connect {
         hub: config.hub.clone(),
-        source,
+        reason,
     };
     let mut stream = TcpStream::connect_timeout(&addr, config.connect_timeout).map_err(connect)?;
     stream.set_nodelay(true)?;

@@ -11,7 +11,7 @@ pub const PREFIX_BYTES: usize = 4;
 #[derive(Debug, thiserror::Error)]
 pub enum FrameError {
     /// The socket failed or closed mid-message.
-    #[error("{0}")]
+    #[error(transparent)]
     Io(#[from] io::Error),
     /// The length prefix is over the reader's bound (or zero: no message is empty).
     #[error("message length {len} outside 4..={max} bytes")]

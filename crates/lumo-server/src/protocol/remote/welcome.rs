@@ -11,6 +11,8 @@ use super::kind;
 
 /// Most bytes of the scene text (the name or path and its defines).
 pub const MAX_SCENE_TEXT: usize = 16 << 10;
+/// Longest image side a worker renders (the camera stream's sample order addresses 65536).
+const MAX_SIDE: u32 = 65536;
 
 wire_enum! {
     /// How the scene is named.
@@ -221,11 +223,19 @@ impl Welcome {
             })
             .collect::<Result<_, _>>()?;
         let max_photons = r.get::<u64>(&MAX_PHOTONS)?;
+        let (width, height): (u32, u32) = (r.get(&WIDTH)?, r.get(&HEIGHT)?);
+        // The sample order's bound (and far above the viewer's 4096²): a worker renders no
+        // empty or unaddressable image.
+        if !(1..=MAX_SIDE).contains(&width) || !(1..=MAX_SIDE).contains(&height) {
+            return Err(bad(format!(
+                "image size {width}x{height} (1..={MAX_SIDE} a side)"
+            )));
+        }
         Ok(Self {
             worker: r.get(&WORKER)?,
             seed: r.get(&SEED)?,
-            width: r.get(&WIDTH)?,
-            height: r.get(&HEIGHT)?,
+            width,
+            height,
             path: PathSettings {
                 max_depth: r.get(&MAX_DEPTH)?,
                 rr_depth: r.get(&RR_DEPTH)?,
