@@ -7,7 +7,7 @@ use std::time::Instant;
 use anyhow::{bail, Context};
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use lumo_filter::{
-    missing_pixels, with_passthrough, AtrousDenoiser, AtrousParams, AutoDenoiser, AutoParams,
+    missing_pixels, AtrousDenoiser, AtrousParams, AutoDenoiser, AutoParams,
     BilateralDenoiser, BilateralParams, Denoiser, DepthNorm, EmitterMask, EmitterParams, Features,
     FilterInput, FilterKind, Filtered, GuideKind, GuidedDenoiser, GuidedParams, Shape, FILTERS,
 };
@@ -334,15 +334,19 @@ fn emitting(emission: &Image) -> Vec<bool> {
 
 /// Emitter pixels (and their rims) found in the colour by `lumo_filter::detect_emitters`.
 fn detect(inp: &Inputs) -> anyhow::Result<EmitterMask> {
-    let features = Features {
+    lumo_filter::detect_emitters(&inp.color.1, &feature_planes(inp), &EmitterParams::default())
+        .context("detecting emitters")
+}
+
+/// The geometry and albedo planes read, for the light search and the emission plane's rim.
+fn feature_planes(inp: &Inputs) -> Features<'_> {
+    Features {
         normal: plane(&inp.normal),
         position: plane(&inp.position),
         depth: plane(&inp.depth),
         albedo: plane(&inp.albedo),
         variance: None,
-    };
-    lumo_filter::detect_emitters(&inp.color.1, &features, &EmitterParams::default())
-        .context("detecting emitters")
+    }
 }
 
 /// Where the noise estimate comes from, after `--no-variance`.
@@ -609,7 +613,17 @@ fn filter_inputs(
     // kept out of the filter (missing for its neighbours) and put back unchanged. Without an
     // emission plane it is found in the frame itself (`lumo_filter::detect_emitters`), inside
     // the timed loop: it is part of the filter's cost.
-    let given = inputs.emission.as_ref().map(|(_, e)| emitting(e));
+    // A given plane's lights get the light search's one-pixel rim too
+    // (`EmitterMask::from_emission`: the plane marks a light's edge pixels only where their
+    // centre sees it).
+    let given = inputs
+        .emission
+        .as_ref()
+        .map(|(_, e)| {
+            EmitterMask::from_emission(e, &feature_planes(inputs), EmitterParams::default().dilate)
+        })
+        .transpose()
+        .context("reading the emission plane")?;
     let mut denoiser = configure(args, inputs)?;
     let mut times = Vec::new();
     let mut filtered = None;
@@ -623,7 +637,7 @@ fn filter_inputs(
         };
         let mut run = |c: &Image| run_filter(args, inputs, c, denoiser.as_mut());
         filtered = Some(match (&given, &detected) {
-            (Some(em), _) => with_passthrough(color, em, run)?,
+            (Some(given), _) => given.filter(color, run)?,
             (None, Some(found)) => found.filter(color, run)?,
             (None, None) => run(color)?,
         });

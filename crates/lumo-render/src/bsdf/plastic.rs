@@ -62,6 +62,28 @@ impl Plastic {
         value
     }
 
+    /// The G-buffer albedo seen from `wo`: what the coat reflects (1 − its transmittance, white)
+    /// plus the diffuse base's directional albedo through it (linear mode: diffuse · t_o, as
+    /// 1 − fdr_int = (1 − fdr_ext)/η²), OIDN's convention for a layered material.
+    ///
+    /// Why not the base colour alone: the coat's reflection is in the colour but not
+    /// proportional to the base colour, so a denoiser dividing by a base channel near 0 (a
+    /// navy texel's red, 0.007) turned a grazing reflection into illumination tens of times
+    /// its neighbours' and smeared it into magenta fringes and teal blobs (`box.obj`).
+    pub(super) fn albedo(&self, wo: Vec3) -> Vec3 {
+        let cos_o = wo.z.abs().min(1.0);
+        let t_o = match self.coat {
+            Some(c) => c.transmittance(cos_o),
+            None => 1.0 - fresnel_dielectric(cos_o, self.eta).0,
+        };
+        let base = if self.nonlinear {
+            self.diffuse * (1.0 - self.fdr_int) / (Vec3::ONE - self.diffuse * self.fdr_int)
+        } else {
+            self.diffuse
+        };
+        Vec3::splat(1.0 - t_o) + base * t_o
+    }
+
     /// The mixture density of the coat and base lobes.
     pub(super) fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         if wo.z <= 0.0 || wi.z <= 0.0 {
