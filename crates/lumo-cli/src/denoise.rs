@@ -7,9 +7,9 @@ use std::time::Instant;
 use anyhow::{bail, Context};
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use lumo_filter::{
-    missing_pixels, AtrousDenoiser, AtrousParams, AutoDenoiser, AutoParams,
-    BilateralDenoiser, BilateralParams, Denoiser, DepthNorm, EmitterMask, EmitterParams, Features,
-    FilterInput, FilterKind, Filtered, GuideKind, GuidedDenoiser, GuidedParams, Shape, FILTERS,
+    missing_pixels, AtrousDenoiser, AtrousParams, AutoDenoiser, AutoParams, BilateralDenoiser,
+    BilateralParams, Denoiser, DepthNorm, EmitterMask, EmitterParams, Features, FilterInput,
+    FilterKind, Filtered, GuideKind, GuidedDenoiser, GuidedParams, Shape, FILTERS,
 };
 use lumo_image::{read_image, write_image, Image};
 
@@ -334,8 +334,12 @@ fn emitting(emission: &Image) -> Vec<bool> {
 
 /// Emitter pixels (and their rims) found in the colour by `lumo_filter::detect_emitters`.
 fn detect(inp: &Inputs) -> anyhow::Result<EmitterMask> {
-    lumo_filter::detect_emitters(&inp.color.1, &feature_planes(inp), &EmitterParams::default())
-        .context("detecting emitters")
+    lumo_filter::detect_emitters(
+        &inp.color.1,
+        &feature_planes(inp),
+        &EmitterParams::default(),
+    )
+    .context("detecting emitters")
 }
 
 /// The geometry and albedo planes read, for the light search and the emission plane's rim.

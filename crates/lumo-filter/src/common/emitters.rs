@@ -117,9 +117,7 @@ impl EmitterMask {
         let mut grown: Vec<bool> = (0..n).map(|i| light[i] && !background[i]).collect();
         for _ in 0..dilate {
             grown = (0..n)
-                .map(|i| {
-                    grown[i] || (!background[i] && window(i, 1, w, h).any(|j| grown[j]))
-                })
+                .map(|i| grown[i] || (!background[i] && window(i, 1, w, h).any(|j| grown[j])))
                 .collect();
         }
         let rim = (0..n).map(|i| grown[i] && !light[i]).collect();
