@@ -141,6 +141,11 @@ pub struct DenoiseArgs {
     /// auto: leave the À-Trous out of the candidates.
     #[arg(long)]
     pub no_auto_atrous: bool,
+    /// auto: calibration of the unfiltered input as a candidate (its error 2σ̂², σ̂² this
+    /// factor × a directional second-difference noise estimate); 0 = not a candidate
+    /// [default: 6.6].
+    #[arg(long)]
+    pub auto_input_noise: Option<f32>,
     /// auto: firefly threshold k; a pixel brighter than k × its neighbourhood's mean
     /// (demodulated luminance) is clamped before filtering and its excess spread over a wide,
     /// geometry-guided window; 0 = off [default: 16].
@@ -395,12 +400,13 @@ fn configure(a: &DenoiseArgs, inp: &Inputs) -> anyhow::Result<Box<dyn Denoiser>>
         || a.auto_coarse_from.is_some()
         || a.auto_softness.is_some()
         || a.no_auto_atrous
+        || a.auto_input_noise.is_some()
         || a.auto_fireflies.is_some()
         || a.auto_firefly_spread.is_some();
     if auto_flags && a.filter != FilterKind::Auto {
         bail!(
             "--auto-radii, --auto-flat-radii, --auto-flat-eps, --auto-error-radius, --auto-coarse-from, \
-             --auto-softness, --no-auto-atrous, \
+             --auto-softness, --no-auto-atrous, --auto-input-noise, \
              --auto-fireflies and --auto-firefly-spread apply to --filter auto only (this run uses --filter {})",
             a.filter.name()
         );
@@ -560,6 +566,7 @@ fn configure(a: &DenoiseArgs, inp: &Inputs) -> anyhow::Result<Box<dyn Denoiser>>
                     firefly_k: a.auto_fireflies.unwrap_or(d.firefly_k),
                     firefly_radius: d.firefly_radius,
                     firefly_spread: a.auto_firefly_spread.unwrap_or(d.firefly_spread),
+                    input_noise: a.auto_input_noise.unwrap_or(d.input_noise),
                 },
             })
         }
