@@ -7,9 +7,9 @@ use std::time::Instant;
 use anyhow::{bail, Context};
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use lumo_filter::{
-    missing_pixels, with_passthrough, AtrousDenoiser, AtrousParams, AutoDenoiser, AutoParams,
-    BilateralDenoiser, BilateralParams, Denoiser, DepthNorm, EmitterMask, EmitterParams, Features,
-    FilterInput, FilterKind, Filtered, GuideKind, GuidedDenoiser, GuidedParams, Shape, FILTERS,
+    missing_pixels, AtrousDenoiser, AtrousParams, AutoDenoiser, AutoParams, BilateralDenoiser,
+    BilateralParams, Denoiser, DepthNorm, EmitterMask, EmitterParams, Features, FilterInput,
+    FilterKind, Filtered, GuideKind, GuidedDenoiser, GuidedParams, Shape, FILTERS,
 };
 use lumo_image::{read_image, write_image, Image};
 
@@ -159,6 +159,11 @@ pub struct DenoiseArgs {
     /// auto: leave the À-Trous out of the candidates.
     #[arg(long)]
     pub no_auto_atrous: bool,
+    /// auto: calibration of the unfiltered input as a candidate (its error 2σ̂², σ̂² this
+    /// factor × a directional second-difference noise estimate); 0 = not a candidate
+    /// [default: 6.6].
+    #[arg(long)]
+    pub auto_input_noise: Option<f32>,
     /// auto: firefly threshold k; a pixel brighter than k × its neighbourhood's mean
     /// (demodulated luminance) is clamped before filtering and its excess spread over a wide,
     /// geometry-guided window; 0 = off [default: 16].
@@ -352,15 +357,23 @@ fn emitting(emission: &Image) -> Vec<bool> {
 
 /// Emitter pixels (and their rims) found in the colour by `lumo_filter::detect_emitters`.
 fn detect(inp: &Inputs) -> anyhow::Result<EmitterMask> {
-    let features = Features {
+    lumo_filter::detect_emitters(
+        &inp.color.1,
+        &feature_planes(inp),
+        &EmitterParams::default(),
+    )
+    .context("detecting emitters")
+}
+
+/// The geometry and albedo planes read, for the light search and the emission plane's rim.
+fn feature_planes(inp: &Inputs) -> Features<'_> {
+    Features {
         normal: plane(&inp.normal),
         position: plane(&inp.position),
         depth: plane(&inp.depth),
         albedo: plane(&inp.albedo),
         variance: None,
-    };
-    lumo_filter::detect_emitters(&inp.color.1, &features, &EmitterParams::default())
-        .context("detecting emitters")
+    }
 }
 
 /// Where the noise estimate comes from, after `--no-variance`.
@@ -405,12 +418,13 @@ fn configure(a: &DenoiseArgs, inp: &Inputs) -> anyhow::Result<Box<dyn Denoiser>>
         || a.auto_coarse_from.is_some()
         || a.auto_softness.is_some()
         || a.no_auto_atrous
+        || a.auto_input_noise.is_some()
         || a.auto_fireflies.is_some()
         || a.auto_firefly_spread.is_some();
     if auto_flags && a.filter != FilterKind::Auto {
         bail!(
             "--auto-radii, --auto-flat-radii, --auto-flat-eps, --auto-error-radius, --auto-coarse-from, \
-             --auto-softness, --no-auto-atrous, \
+             --auto-softness, --no-auto-atrous, --auto-input-noise, \
              --auto-fireflies and --auto-firefly-spread apply to --filter auto only (this run uses --filter {})",
             a.filter.name()
         );
@@ -570,6 +584,7 @@ fn configure(a: &DenoiseArgs, inp: &Inputs) -> anyhow::Result<Box<dyn Denoiser>>
                     firefly_k: a.auto_fireflies.unwrap_or(d.firefly_k),
                     firefly_radius: d.firefly_radius,
                     firefly_spread: a.auto_firefly_spread.unwrap_or(d.firefly_spread),
+                    input_noise: a.auto_input_noise.unwrap_or(d.input_noise),
                 },
             })
         }
@@ -627,7 +642,17 @@ fn filter_inputs(
     // kept out of the filter (missing for its neighbours) and put back unchanged. Without an
     // emission plane it is found in the frame itself (`lumo_filter::detect_emitters`), inside
     // the timed loop: it is part of the filter's cost.
-    let given = inputs.emission.as_ref().map(|(_, e)| emitting(e));
+    // A given plane's lights get the light search's one-pixel rim too
+    // (`EmitterMask::from_emission`: the plane marks a light's edge pixels only where their
+    // centre sees it).
+    let given = inputs
+        .emission
+        .as_ref()
+        .map(|(_, e)| {
+            EmitterMask::from_emission(e, &feature_planes(inputs), EmitterParams::default().dilate)
+        })
+        .transpose()
+        .context("reading the emission plane")?;
     let mut denoiser = configure(args, inputs)?;
     let mut times = Vec::new();
     let mut filtered = None;
@@ -641,7 +666,7 @@ fn filter_inputs(
         };
         let mut run = |c: &Image| run_filter(args, inputs, c, denoiser.as_mut());
         filtered = Some(match (&given, &detected) {
-            (Some(em), _) => with_passthrough(color, em, run)?,
+            (Some(given), _) => given.filter(color, run)?,
             (None, Some(found)) => found.filter(color, run)?,
             (None, None) => run(color)?,
         });

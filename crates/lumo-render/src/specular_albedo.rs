@@ -69,7 +69,7 @@ fn follow(
         sum += if next_bsdf.is_delta() && left > 1 {
             follow(rs, &next, &next_bsdf, new_dir, w, left - 1, rays)
         } else {
-            w * next_bsdf.albedo()
+            w * next_bsdf.albedo_towards(next.frame.to_local(-new_dir))
         };
     }
     sum

@@ -71,6 +71,14 @@ pub struct AutoParams {
     pub firefly_radius: usize,
     /// Radius of the guided filter that spreads the fireflies' excess.
     pub firefly_spread: usize,
+    /// Calibration of the unfiltered input as one more candidate (0 = not a candidate): its
+    /// error is taken as 2σ̂², σ̂² this factor × the window mean of each pixel's smallest
+    /// squared second difference over eight directions / 6 (`input_error`). 6.6 makes σ̂²
+    /// unbiased for white Gaussian noise (the smallest of the eight averages 0.15σ²) and an
+    /// over-estimate for heavier-tailed noise (1.9× for 4-spp-like, 3× for 1-spp-like noise
+    /// in simulation), so the input wins only where every filter's bias clearly exceeds the
+    /// noise: thin shadows and wires that no guide explains.
+    pub input_noise: f32,
 }
 
 impl Default for AutoParams {
@@ -89,6 +97,7 @@ impl Default for AutoParams {
             firefly_k: 16.0,
             firefly_radius: 8,
             firefly_spread: 64,
+            input_noise: 6.6,
         }
     }
 }
@@ -131,6 +140,15 @@ pub fn auto(
             format!(
                 "{} and {} (both must be ≥ 1 when the firefly threshold is on)",
                 params.firefly_radius, params.firefly_spread
+            ),
+        ));
+    }
+    if !(params.input_noise >= 0.0 && params.input_noise.is_finite()) {
+        return Err(crate::common::error::param(
+            "auto input noise",
+            format!(
+                "{} (use 0 = off, or a finite factor > 0)",
+                params.input_noise
             ),
         ));
     }
@@ -198,6 +216,10 @@ pub fn auto(
         let (f, self_weight) = atrous_candidate::atrous_candidate(y, features)?;
         errors.push(loo_error(y, &f, &self_weight, params.error_radius));
         candidates.push(f);
+    }
+    if params.input_noise > 0.0 {
+        errors.push(input_error(y, params.input_noise, params.error_radius));
+        candidates.push(finite_or_zero(y));
     }
     let mut blended = blend(&candidates, &errors, params.softness, w, h);
     debug_assert_eq!(blended.data.len(), n * 3);
@@ -304,6 +326,103 @@ fn loo_error(y: &Image, f: &Image, self_weight: &[f32], r: usize) -> Vec<f32> {
     m.chunks_exact(2)
         .map(|p| if p[1] > 0.0 { p[0] / p[1] } else { 1.0 })
         .collect()
+}
+
+/// The error estimate of the unfiltered input as a candidate, in the units of [`loo_error`]
+/// (squared error summed over the channels, window-averaged): its MSE is the noise σ², and
+/// every leave-one-out error carries σ² on top of its MSE, so it is 2σ̂².
+///
+/// σ̂² per pixel: the smallest, over eight directions ([`DIRECTIONS`]), of the squared second
+/// difference `Σ_c (y₋ − 2y + y₊)²`, / 6 (its variance for white noise; one-sided at the
+/// frame's edge and beside background or missing pixels), × `k`. The smallest,
+/// because a thin line or an edge along one of the directions leaves that direction's
+/// difference at the noise's level while it inflates a window variance;
+/// that is the case where keeping the input matters (why: a sun-lit lattice's one-pixel
+/// shadows on flat ground, which every guided candidate blurs away, made `auto` worse than
+/// its input on `thin-branches`). Pixels without a finite neighbour pair take no part; a
+/// window without any gets +∞ (the input is never chosen there), and so do missing pixels.
+fn input_error(y: &Image, k: f32, r: usize) -> Vec<f32> {
+    let (w, h) = (y.width, y.height);
+    let mut sq = zeroed(w * h * 2);
+    sq.par_chunks_mut(2 * w.max(1))
+        .enumerate()
+        .for_each(|(py, row)| {
+            for px in 0..w {
+                let at = |x: usize, yy: usize| &y.data[(yy * w + x) * 3..][..3];
+                let c = at(px, py);
+                if !c.iter().all(|v| v.is_finite()) {
+                    continue;
+                }
+                let mut best = f32::INFINITY;
+                for (dx, dy) in DIRECTIONS {
+                    // A neighbour outside the frame, or missing or background (NaN), leaves
+                    // the one-sided difference: (y₊ − y)² / 2, also σ² for white noise.
+                    let side = |sx: isize, sy: isize| -> Option<&[f32]> {
+                        let (x, yy) = (px as isize + sx, py as isize + sy);
+                        let inside = x >= 0 && yy >= 0 && (x as usize) < w && (yy as usize) < h;
+                        let v = inside.then(|| at(x as usize, yy as usize))?;
+                        v.iter().all(|v| v.is_finite()).then_some(v)
+                    };
+                    let e = match (side(-dx, -dy), side(dx, dy)) {
+                        (Some(a), Some(b)) => {
+                            (0..3)
+                                .map(|ch| (a[ch] - 2.0 * c[ch] + b[ch]).powi(2))
+                                .sum::<f32>()
+                                / 6.0
+                        }
+                        (Some(a), None) | (None, Some(a)) => {
+                            (0..3).map(|ch| (a[ch] - c[ch]).powi(2)).sum::<f32>() / 2.0
+                        }
+                        (None, None) => continue,
+                    };
+                    if e.is_finite() {
+                        best = best.min(e);
+                    }
+                }
+                if best.is_finite() {
+                    row[2 * px] = best;
+                    row[2 * px + 1] = 1.0;
+                }
+            }
+        });
+    let m = box_mean(&sq, w, h, 2, r);
+    m.chunks_exact(2)
+        .enumerate()
+        .map(|(i, p)| {
+            let own = y.data[i * 3..i * 3 + 3].iter().all(|v| v.is_finite());
+            if own && p[1] > 0.0 {
+                2.0 * k * p[0] / p[1]
+            } else {
+                f32::INFINITY
+            }
+        })
+        .collect()
+}
+
+/// The steps of [`input_error`]'s second differences: horizontal, vertical, the diagonals
+/// and the four knight's moves, so that a line at any slope near 0, ±½, ±1, ±2 or ∞ runs
+/// along one of them.
+const DIRECTIONS: [(isize, isize); 8] = [
+    (1, 0),
+    (0, 1),
+    (1, 1),
+    (1, -1),
+    (1, 2),
+    (2, 1),
+    (1, -2),
+    (2, -1),
+];
+
+/// `y` with its non-finite values set to 0: a candidate that never wins there must still not
+/// turn the blend's `0 × value` into NaN.
+fn finite_or_zero(y: &Image) -> Image {
+    let mut out = y.clone();
+    for v in &mut out.data {
+        if !v.is_finite() {
+            *v = 0.0;
+        }
+    }
+    out
 }
 
 /// [`auto`] behind the [`Denoiser`] interface. Needs a normal plane; reads depth and albedo

@@ -22,8 +22,16 @@ pub struct RoughCoat {
     /// Fraction of light from outside at cos θ = max(1e-6, i/63) that reaches the base
     /// (through the coat and not shadowed on the way).
     transmittance: [f32; RES],
+    /// Fraction of light from outside at the same cosines that the coat's own microfacet lobe
+    /// reflects (single scattering, as `Plastic::eval`'s coat term): the coat's share of the
+    /// G-buffer albedo.
+    reflectance: [f32; RES],
     /// Fraction of the base's cosine-distributed light that the coat reflects back down.
     pub internal_reflectance: f32,
+    /// Fraction of cosine-distributed light from outside that reaches the base, 2∫ t(μ) μ dμ
+    /// (the same 64-cosine mean): with `internal_reflectance` it gives the base's directional
+    /// albedo through the coat (`Plastic::albedo`).
+    pub diffuse_transmittance: f32,
 }
 
 impl RoughCoat {
@@ -35,8 +43,10 @@ impl RoughCoat {
             .collect();
         let dir = |mu: f32| Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
         let mut transmittance = [0.0; RES];
-        for (t, &mu) in transmittance.iter_mut().zip(&mus) {
+        let mut reflectance = [0.0; RES];
+        for ((t, r), &mu) in transmittance.iter_mut().zip(&mut reflectance).zip(&mus) {
             *t = coat_integral(mf, dir(mu), eta, false);
+            *r = coat_integral(mf, dir(mu), eta, true);
         }
         // Mitsuba's estimate of 2∫ R_int(μ) μ dμ: the mean over the same 64 cosines.
         let internal_reflectance = mus
@@ -45,9 +55,18 @@ impl RoughCoat {
             .sum::<f32>()
             / RES as f32
             * 2.0;
+        let diffuse_transmittance = transmittance
+            .iter()
+            .zip(&mus)
+            .map(|(&t, &mu)| t * mu)
+            .sum::<f32>()
+            / RES as f32
+            * 2.0;
         Self {
             transmittance,
+            reflectance,
             internal_reflectance,
+            diffuse_transmittance,
         }
     }
 
@@ -74,12 +93,22 @@ impl RoughCoat {
     /// as Mitsuba's `lerp_gather`).
     #[inline]
     pub fn transmittance(&self, cos: f32) -> f32 {
-        let x = cos * (RES - 1) as f32;
-        // `as` saturates: negative and NaN cosines land on the first cell.
-        let i = (x as usize).min(RES - 2);
-        let f = x - i as f32;
-        self.transmittance[i] * (1.0 - f) + self.transmittance[i + 1] * f
+        lerp_table(&self.transmittance, cos)
     }
+
+    /// The coat lobe's own reflectance at `cos` (linear in the table; for the G-buffer).
+    pub fn reflectance(&self, cos: f32) -> f32 {
+        lerp_table(&self.reflectance, cos)
+    }
+}
+
+/// A table over cos θ ∈ [0, 1] at `cos`, linearly interpolated.
+fn lerp_table(table: &[f32; RES], cos: f32) -> f32 {
+    let x = cos * (RES - 1) as f32;
+    // `as` saturates: negative and NaN cosines land on the first cell.
+    let i = (x as usize).min(RES - 2);
+    let f = x - i as f32;
+    table[i] * (1.0 - f) + table[i + 1] * f
 }
 
 /// ∫ over the normals visible from `wi` of G1(wo, m)·F (reflection, `reflect`) or

@@ -126,6 +126,15 @@ impl Bsdf {
         }
     }
 
+    /// The G-buffer albedo seen from `wo` (local frame): [`Self::albedo`], except for the
+    /// plastic, whose coat reflects more towards grazing views (`Plastic::albedo`).
+    pub fn albedo_towards(&self, wo: Vec3) -> Vec3 {
+        match self {
+            Bsdf::Plastic(p) => p.albedo(wo),
+            _ => self.albedo(),
+        }
+    }
+
     /// Opaque BSDFs are two-sided: flip both directions when the viewer is behind the surface.
     #[inline]
     fn orient(&self, wo: Vec3, wi: Vec3) -> (Vec3, Vec3) {

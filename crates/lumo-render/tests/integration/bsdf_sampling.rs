@@ -531,3 +531,39 @@ fn lossless_rough_mirror_albedo_matches_its_integral() {
         }
     }
 }
+
+/// The G-buffer albedo of a plastic (`Bsdf::albedo_towards`: the coat's reflectance plus the
+/// base through it) is its directional albedo, which the sample weights measure: it must
+/// explain the coat's reflection, which grows towards grazing views, or a denoiser dividing by
+/// a dark base channel turns that reflection into coloured fringes (docs/filters.md, issue 47).
+#[test]
+fn a_plastics_gbuffer_albedo_is_its_directional_albedo() {
+    let smooth = Bsdf::Plastic(Plastic {
+        diffuse: Vec3::new(0.8, 0.2, 0.007),
+        eta: 1.5,
+        mf: Microfacet::ggx(0.0),
+        fdr_int: fresnel_diffuse_reflectance(1.0 / 1.5),
+        coat: None,
+        nonlinear: false,
+    });
+    for (name, bsdf) in [
+        ("smooth", smooth),
+        ("ggx coat", rough_plastic(Distribution::Ggx, 0.3, false)),
+        (
+            "ggx coat, nonlinear",
+            rough_plastic(Distribution::Ggx, 0.3, true),
+        ),
+    ] {
+        for c in [1.0f32, 0.5, 0.2, 0.08] {
+            let wo = dir(c, 0.5);
+            let measured = albedo(&bsdf, wo, 400_000, 11);
+            let g = bsdf.albedo_towards(wo);
+            for k in 0..3 {
+                assert!(
+                    (g[k] - measured[k]).abs() <= 0.03 * measured[k] + 0.005,
+                    "{name} at cos {c}: G-buffer albedo {g:?}, directional albedo {measured:?}"
+                );
+            }
+        }
+    }
+}

@@ -352,7 +352,7 @@ impl PathState {
                 self.radiance.rays += rays;
                 a
             } else {
-                bsdf.albedo()
+                bsdf.albedo_towards(s.frame.to_local(-self.dir))
             };
             self.radiance.emitted = le;
         }
