@@ -1,6 +1,7 @@
 //! `lumo compare REF IMG [IMG…]`: error metrics of images against a reference, as a table or
 //! JSON, and optionally false-colour error images.
 
+use crate::cli_common::outln;
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
@@ -152,7 +153,7 @@ pub fn run(args: CompareArgs) -> Result<()> {
     }
 
     if args.json {
-        println!(
+        outln!(
             "{}",
             serde_json::to_string_pretty(&to_json(&args, &reference, &settings, &rows))?
         );
@@ -249,7 +250,7 @@ fn conventions(settings: &CompareSettings) -> Vec<(&'static str, String)> {
 }
 
 fn print_table(args: &CompareArgs, reference: &Image, settings: &CompareSettings, rows: &[Row]) {
-    println!(
+    outln!(
         "reference {} ({}x{}, {} channels)",
         args.reference.display(),
         reference.width,
@@ -257,9 +258,9 @@ fn print_table(args: &CompareArgs, reference: &Image, settings: &CompareSettings
         reference.channels
     );
     for (name, text) in conventions(settings) {
-        println!("  {name:<7} {text}");
+        outln!("  {name:<7} {text}");
     }
-    println!();
+    outln!();
     let names: Vec<String> = rows.iter().map(|r| r.path.display().to_string()).collect();
     let width = names
         .iter()
@@ -267,9 +268,16 @@ fn print_table(args: &CompareArgs, reference: &Image, settings: &CompareSettings
         .max()
         .unwrap_or(0)
         .max(5);
-    println!(
+    outln!(
         "{:<width$}  {:>10}  {:>10}  {:>8}  {:>8}  {:>8}  {:>8}  {:>10}",
-        "image", "MSE", "relMSE", "SMAPE", "PSNR dB", "SSIM", "FLIP", "non-finite"
+        "image",
+        "MSE",
+        "relMSE",
+        "SMAPE",
+        "PSNR dB",
+        "SSIM",
+        "FLIP",
+        "non-finite"
     );
     for (row, name) in rows.iter().zip(&names) {
         let m = &row.metrics;
@@ -278,9 +286,14 @@ fn print_table(args: &CompareArgs, reference: &Image, settings: &CompareSettings
         } else {
             "inf".into()
         };
-        println!(
+        outln!(
             "{name:<width$}  {:>10.4e}  {:>10.4e}  {:>8.5}  {psnr:>8}  {:>8.5}  {:>8.5}  {:>10}",
-            m.mse, m.relmse, m.smape, m.ssim, m.flip, m.nonfinite_pixels
+            m.mse,
+            m.relmse,
+            m.smape,
+            m.ssim,
+            m.flip,
+            m.nonfinite_pixels
         );
     }
     let excluded: Vec<_> = rows
@@ -288,15 +301,15 @@ fn print_table(args: &CompareArgs, reference: &Image, settings: &CompareSettings
         .filter(|r| r.metrics.nonfinite_pixels > 0)
         .collect();
     if !excluded.is_empty() {
-        println!();
-        println!(
+        outln!();
+        outln!(
             "non-finite: pixels with a NaN or infinite channel in the reference or the image; \
              left out of every metric"
         );
     }
     for row in rows {
         if let Some(d) = &row.diff {
-            println!(
+            outln!(
                 "diff {} -> {} ({})",
                 row.path.display(),
                 d.display(),

@@ -1,6 +1,7 @@
 //! `lumo denoise`: filter an image from any renderer with one of lumo-filter's screen-space
 //! filters, steered by whichever G-buffer planes are given.
 
+use crate::cli_common::{errln, outln};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -399,13 +400,13 @@ fn configure(a: &DenoiseArgs, inp: &Inputs) -> anyhow::Result<Box<dyn Denoiser>>
     }
     // Options another filter reads: say so in one line each instead of ignoring them silently.
     if a.iterations.is_some() && a.filter != FilterKind::Atrous {
-        eprintln!(
+        errln!(
             "warning: --iterations applies to --filter atrous; --filter {} ignores it",
             a.filter.name()
         );
     }
     if a.radius.is_some() && !matches!(a.filter, FilterKind::Guided | FilterKind::Bilateral) {
-        eprintln!(
+        errln!(
             "warning: --radius applies to --filter guided and bilateral; --filter {} ignores it{}",
             a.filter.name(),
             if a.filter == FilterKind::Auto {
@@ -435,7 +436,7 @@ fn configure(a: &DenoiseArgs, inp: &Inputs) -> anyhow::Result<Box<dyn Denoiser>>
                 needs("sigma-position", position.is_some(), "position")?;
             }
             if normal.is_none() && position.is_none() {
-                eprintln!(
+                errln!(
                     "warning: no --normal or --position: À-Trous is steered by colour only and will \
                      blur geometry edges"
                 );
@@ -743,7 +744,7 @@ fn check_plane_values(a: &DenoiseArgs, inputs: &Inputs) -> anyhow::Result<()> {
             .filter(|&i| lumo_filter::albedo_passes_through(albedo, i))
             .count();
         if share(passed) > 0.5 {
-            eprintln!(
+            errln!(
                 "warning: {}: {passed} of {total} albedo pixels are black (below {:e}) or not \
                  finite; demodulation passes them through unfiltered (if the plane is not a \
                  real albedo, drop it or add --no-demodulate)",
@@ -768,7 +769,7 @@ fn check_plane_values(a: &DenoiseArgs, inputs: &Inputs) -> anyhow::Result<()> {
             }
         }
         if set == 0 || off * 2 > set {
-            eprintln!(
+            errln!(
                 "warning: {}: {} of {total} normals are not unit vectors (zero, NaN or of \
                  another length); the filters expect world-space unit normals with components \
                  in [-1, 1], not an encoded normal map",
@@ -780,7 +781,7 @@ fn check_plane_values(a: &DenoiseArgs, inputs: &Inputs) -> anyhow::Result<()> {
     if let Some((path, emission)) = &inputs.emission {
         let lit = emitting(emission).iter().filter(|&&e| e).count();
         if share(lit) > 0.5 {
-            eprintln!(
+            errln!(
                 "warning: {}: {lit} of {total} pixels count as emitting (any channel non-zero \
                  or NaN) and are passed through unfiltered; an emission plane is zero except on \
                  lights seen directly",
@@ -815,13 +816,13 @@ pub fn run(args: DenoiseArgs) -> anyhow::Result<()> {
     let t_read = t0.elapsed();
     let missing = missing_pixels(&inputs.color.1) - inputs.huge;
     if missing > 0 {
-        eprintln!(
+        errln!(
             "warning: {missing} pixel(s) of {} are NaN or infinite; treated as missing",
             inputs.color.0.display()
         );
     }
     if inputs.huge > 0 {
-        eprintln!(
+        errln!(
             "warning: {} pixel(s) of {} have a value beyond ±{MAX_COLOR:e}, more than the \
              filters' sums of squares can hold; treated as missing (scale the image down if \
              they are real light)",
@@ -840,7 +841,7 @@ pub fn run(args: DenoiseArgs) -> anyhow::Result<()> {
         write_image(path, &light_mask_image(mask, w, h))
             .with_context(|| format!("cannot write {}", path.display()))?;
         let count = |m: &[bool]| m.iter().filter(|&&b| b).count();
-        eprintln!(
+        errln!(
             "light search: {} pixel(s) taken for lights, {} on their rims → {}",
             count(&mask.light),
             count(&mask.rim),
@@ -849,14 +850,14 @@ pub fn run(args: DenoiseArgs) -> anyhow::Result<()> {
     }
     if args.timings {
         let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
-        println!("read {:.3} ms", ms(t_read));
-        println!("filter {:.3} ms", ms(t_filter));
+        outln!("read {:.3} ms", ms(t_read));
+        outln!("filter {:.3} ms", ms(t_filter));
         if times.len() > 1 {
             // On a shared machine the fastest run is the least disturbed one: A/B
             // comparisons of two builds are steadier on it than on the median.
-            println!("filter-min {:.3} ms", ms(times[0]));
+            outln!("filter-min {:.3} ms", ms(times[0]));
         }
-        println!("write {:.3} ms", ms(t_write));
+        outln!("write {:.3} ms", ms(t_write));
     }
     Ok(())
 }

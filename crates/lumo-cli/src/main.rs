@@ -13,6 +13,7 @@ mod serve_cmd;
 mod temporal;
 mod temporal_eval;
 
+use crate::cli_common::errln;
 use clap::{Parser, Subcommand};
 
 /// lumo: physically based global illumination with fast screen-space denoising.
@@ -47,7 +48,7 @@ fn main() {
         Command::Serve(args) => serve_cmd::run(args),
     };
     if let Err(e) = result {
-        eprintln!("error: {e:#}");
+        errln!("error: {e:#}");
         std::process::exit(2);
     }
 }

@@ -1,5 +1,6 @@
 //! `lumo render`: path-trace a built-in scene and write the image (and optionally its AOVs).
 
+use crate::cli_common::{errln, outln};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -265,7 +266,7 @@ pub fn load_scene_animated(
         }
         let loaded = lumo_scene::load::load_scene(path, options)?;
         for w in &loaded.warnings {
-            eprintln!("{w}");
+            errln!("{w}");
         }
         return Ok((loaded.scene, loaded.settings, loaded.animation));
     }
@@ -273,12 +274,12 @@ pub fn load_scene_animated(
     // The file loader warns about these for non-glTF files; built-ins have one camera and
     // no animation, so say so rather than ignore the options silently.
     if options.camera.is_some() {
-        eprintln!(
+        errln!(
             "warning: --camera applies to glTF scenes; the built-in {name} has one camera, ignored"
         );
     }
     if options.time.is_some() {
-        eprintln!("warning: --time applies to animated glTF scenes; the built-in {name} is static, ignored");
+        errln!("warning: --time applies to animated glTF scenes; the built-in {name} is static, ignored");
     }
     Ok((scene, FileSettings::default(), None))
 }
@@ -349,7 +350,7 @@ pub fn si(v: f64) -> String {
 pub fn run(args: RenderArgs) -> Result<()> {
     if args.list {
         for s in BUILTIN_SCENES {
-            println!("{:<16} {}", s.name, s.description);
+            outln!("{:<16} {}", s.name, s.description);
         }
         return Ok(());
     }
@@ -456,7 +457,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
             .and_then(|e| e.to_str())
             .is_some_and(|e| ["exr", "pfm", "png"].contains(&e.to_ascii_lowercase().as_str()));
         if image_like && !dir.exists() {
-            eprintln!(
+            errln!(
                 "warning: --aovs {} names a directory (one file per plane goes into it), \
                  created with an image extension; the image itself is -o",
                 dir.display()
@@ -579,14 +580,14 @@ pub fn run(args: RenderArgs) -> Result<()> {
             ppm_map_bytes(ppm.max_photons) >> 20
         ),
     };
-    eprintln!(
+    errln!(
         "{name}: {tris} triangles (BVH {:.0} ms), {width}x{height}, {} spp, max depth {}, {method}, {threads} threads",
         build.as_secs_f64() * 1e3,
         settings.spp,
         settings.path.max_depth
     );
     if args.integrator == RenderIntegrator::Bdpt && rs.lights.emits_no_particles() {
-        eprintln!("warning: {name}: no light emits particles (environment lights do not): --integrator bdpt runs as a path tracer here");
+        errln!("warning: {name}: no light emits particles (environment lights do not): --integrator bdpt runs as a path tracer here");
     }
     let job = Job {
         args: &args,
@@ -609,7 +610,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     if args.integrator == RenderIntegrator::Ppm {
         let camera = PinholeCamera::new(&rs.scene.camera, width, height);
         if let Some(w) = scene_warning(&rs, &camera, &settings.path) {
-            eprintln!("{w}");
+            errln!("{w}");
         }
         let (image, stats) = pool.install(|| {
             render_ppm(&rs, &settings, &ppm, &|f| {
@@ -626,7 +627,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
             .iter()
             .map(|p| p.display().to_string())
             .collect();
-        println!(
+        outln!(
             "done in {secs:.2} s · {}samples/s · {}photon paths/s · {}rays/s · map {} photons (peak {}, {} MB, {} resets) · {:.1} photons/gather → {}",
             si(stats.samples as f64 / secs),
             si(stats.photon_paths as f64 / secs),
@@ -645,7 +646,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     bar.finish_and_clear();
     job.write(&out, &job.outputs, args.aovs.as_deref())?;
     if let Some(timings) = &out.timings {
-        eprintln!("pipeline {pipeline}: {timings}");
+        errln!("pipeline {pipeline}: {timings}");
     }
     let written: Vec<String> = job
         .outputs
@@ -653,7 +654,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         .map(|p| p.display().to_string())
         .collect();
     let unit = args.integrator.sample_unit();
-    println!(
+    outln!(
         "done in {secs:.2} s · {}{unit}/s · {}rays/s → {}{}",
         si(out.stats.samples as f64 / secs),
         si(out.stats.rays as f64 / secs),

@@ -1,5 +1,6 @@
 //! `lumo serve`: starts the progressive render server and its web viewer.
 
+use crate::cli_common::{errln, outln};
 use std::io::Write;
 use std::net::{IpAddr, SocketAddr};
 use std::time::Instant;
@@ -159,7 +160,7 @@ pub fn run(args: ServeArgs) -> Result<()> {
     if config.integrator == Integrator::Ppm {
         let camera = PinholeCamera::new(&rs.scene.camera, width, height);
         if let Some(w) = scene_warning(&rs, &camera, &config.path) {
-            eprintln!("{w}");
+            errln!("{w}");
         }
     }
     let runtime = tokio::runtime::Builder::new_multi_thread()
@@ -175,13 +176,13 @@ pub fn run(args: ServeArgs) -> Result<()> {
             .with_context(|| format!("cannot listen on {addr}"))?;
         let local = listener.local_addr()?;
         let hub = Hub::new(rs, config)?;
-        eprintln!(
+        errln!(
             "{name}: {tris} triangles (ready in {:.0} ms), {width}x{height}, {} render threads",
             start.elapsed().as_secs_f64() * 1e3,
             hub.threads()
         );
         if !args.bind.is_loopback() {
-            eprintln!(
+            errln!(
                 "warning: listening on {} — reachable from other machines",
                 args.bind
             );
@@ -196,7 +197,7 @@ pub fn run(args: ServeArgs) -> Result<()> {
         } else {
             host
         };
-        println!("open http://{host}:{}", local.port());
+        outln!("open http://{host}:{}", local.port());
         std::io::stdout().flush().ok();
         lumo_server::serve(listener, hub)
             .await

@@ -10,6 +10,7 @@
 //! lumo-only `<set>.md`; run_peers.py adds the peers and writes the final tables, the ratios
 //! to OIDN and the contact sheet.
 
+use crate::cli_common::{errln, outln};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -160,9 +161,11 @@ pub fn run(args: &QualityArgs, set: &str) -> Result<()> {
             let mut score = |method: &str, img: &Image, ms: f64| -> Result<()> {
                 let metrics = compare(&c.reference, img, &settings)
                     .with_context(|| format!("scoring {} {spp} spp {method}", c.name))?;
-                eprintln!(
+                errln!(
                     "{} {spp} spp {method}: relMSE {:.3e} FLIP {:.4} {ms:.0} ms",
-                    c.name, metrics.relmse, metrics.flip
+                    c.name,
+                    metrics.relmse,
+                    metrics.flip
                 );
                 rows.push(Row {
                     case: c.name.clone(),
@@ -207,7 +210,7 @@ pub fn run(args: &QualityArgs, set: &str) -> Result<()> {
     let md_path = out_dir.join(format!("{set}.md"));
     write_bytes(&json_path, serde_json::to_string_pretty(&json)?.as_bytes())?;
     write_bytes(&md_path, md.as_bytes())?;
-    println!(
+    outln!(
         "wrote {} and {} (inputs listed in {})",
         md_path.display(),
         json_path.display(),

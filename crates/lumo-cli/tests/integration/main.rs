@@ -1,6 +1,7 @@
 //! The lumo-cli integration tests, one test program (each separate program would link the whole
 //! crate again: minutes of a fresh build). Each module is one topic.
 mod bench_cli;
+mod closed_pipes;
 mod compare_cli;
 mod denoise_cli;
 mod hostile_options;
