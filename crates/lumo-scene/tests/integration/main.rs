@@ -7,3 +7,4 @@ mod in_memory;
 mod meshes;
 mod mitsuba;
 mod robustness;
+mod unbounded;

@@ -120,6 +120,7 @@ fn load_unguarded(
         .default_scene()
         .or_else(|| doc.scenes().next())
         .ok_or_else(|| LoadError::invalid(Location::file(path), "the file has no scene"))?;
+    check_tree(path, doc, &gscene)?;
     for node in gscene.nodes() {
         r.node(&node, None, 0)?;
     }
@@ -191,6 +192,72 @@ struct GltfReader<'p, 'd> {
     cameras: Vec<(usize, usize)>,
     /// Rig node of each glTF node.
     node_index: HashMap<usize, usize>,
+}
+
+/// Most mesh primitives the nodes of one glTF file may place (each becomes an instance of
+/// about 200 bytes with its acceleration-structure share).
+const MAX_INSTANCES: usize = 1 << 21;
+
+/// Refuses a node hierarchy that is not a forest, as glTF requires: a node listed twice among
+/// one node's children, a child of two nodes, or a scene root that is also a child (or listed
+/// twice). Such a graph is walked once per path to each node, so a 1.5 KB file whose node i has
+/// children [i+1, i+1] expanded to 2^24 instances (7.3 GB).
+fn check_tree(path: &Path, doc: &gltf::Document, scene: &gltf::Scene) -> Result<(), LoadError> {
+    let mut parent: Vec<Option<usize>> = vec![None; doc.nodes().len()];
+    let fix = "glTF node hierarchies are trees: give each node at most one parent (copy the \
+               node to place its mesh twice)";
+    for node in doc.nodes() {
+        for child in node.children() {
+            let c = child.index();
+            if let Some(first) = parent[c] {
+                let how = if first == node.index() {
+                    format!("is listed twice among node {first}'s children")
+                } else {
+                    format!("is a child of both node {first} and node {}", node.index())
+                };
+                return Err(LoadError::invalid(
+                    Location::item(path, format!("node {c}")),
+                    format!("{how}; {fix}"),
+                ));
+            }
+            parent[c] = Some(node.index());
+        }
+    }
+    // A tree visits each node once, yet nodes × primitives per mesh still multiply: a few
+    // kilobytes of nodes sharing a mesh of many primitives.
+    let instances: usize = doc
+        .nodes()
+        .filter_map(|n| n.mesh())
+        .map(|m| m.primitives().len())
+        .sum();
+    if instances > MAX_INSTANCES {
+        return Err(LoadError::invalid(
+            Location::file(path),
+            format!(
+                "the nodes place {instances} mesh primitives, more than lumo's limit of \
+                 {MAX_INSTANCES}; merge primitives or split the scene"
+            ),
+        ));
+    }
+    let mut root = vec![false; parent.len()];
+    for node in scene.nodes() {
+        let n = node.index();
+        let how = if let Some(p) = parent[n] {
+            format!(
+                "is a root of scene {} and a child of node {p}",
+                scene.index()
+            )
+        } else if std::mem::replace(&mut root[n], true) {
+            format!("is listed twice among scene {}'s nodes", scene.index())
+        } else {
+            continue;
+        };
+        return Err(LoadError::invalid(
+            Location::item(path, format!("node {n}")),
+            format!("{how}; {fix}"),
+        ));
+    }
+    Ok(())
 }
 
 /// Deepest node nesting accepted (the hierarchy must be a tree; this also stops cycles).

@@ -1,0 +1,101 @@
+//! Small files that used to cost unbounded memory or time (issue 49): each is refused or
+//! loaded within a bound proportional to its size. Large inputs are generated here.
+
+use crate::common;
+
+use std::time::{Duration, Instant};
+
+use common::{load, temp_dir, write};
+
+/// One triangle's three positions (36 bytes) as a base64 data URI.
+const TRIANGLE: &str =
+    "data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA";
+
+/// A glTF with mesh 0 (one triangle, `primitives` times) and the given nodes (JSON objects)
+/// and scene roots.
+fn gltf_with(nodes: &[String], roots: &[usize], primitives: usize) -> String {
+    let prim = r#"{"attributes": {"POSITION": 0}}"#;
+    let prims = vec![prim; primitives].join(",");
+    format!(
+        r#"{{"asset": {{"version": "2.0"}},
+"buffers": [{{"byteLength": 36, "uri": "{TRIANGLE}"}}],
+"bufferViews": [{{"buffer": 0, "byteLength": 36}}],
+"accessors": [{{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+  "min": [0, 0, 0], "max": [1, 1, 0]}}],
+"meshes": [{{"primitives": [{prims}]}}],
+"nodes": [{}],
+"scenes": [{{"nodes": {roots:?}}}], "scene": 0}}"#,
+        nodes.join(",")
+    )
+}
+
+/// Node i has children [i+1, i+1] for 24 levels: 2^24 paths to the last node (7.3 GB before);
+/// a child of two nodes and a root that is also a child likewise; each is refused at once,
+/// naming the node. A tree of the same nodes loads.
+#[test]
+fn gltf_node_graphs_that_are_not_trees_are_refused() {
+    let dir = temp_dir("gltf-dag");
+    let mut doubled: Vec<String> = (0..24)
+        .map(|i| format!(r#"{{"mesh": 0, "children": [{}, {}]}}"#, i + 1, i + 1))
+        .collect();
+    doubled.push(r#"{"mesh": 0}"#.into());
+    let diamond = [
+        r#"{"children": [1, 2]}"#.to_string(),
+        r#"{"children": [3]}"#.into(),
+        r#"{"children": [3]}"#.into(),
+        r#"{"mesh": 0}"#.into(),
+    ];
+    let leaf = [r#"{"children": [1]}"#.to_string(), r#"{"mesh": 0}"#.into()];
+    for (name, text, says) in [
+        (
+            "doubled.gltf",
+            gltf_with(&doubled, &[0], 1),
+            "node 1): is listed twice among node 0's children",
+        ),
+        (
+            "diamond.gltf",
+            gltf_with(&diamond, &[0], 1),
+            "node 3): is a child of both node 1 and node 2",
+        ),
+        (
+            "root_child.gltf",
+            gltf_with(&leaf, &[0, 1], 1),
+            "node 1): is a root of scene 0 and a child of node 0",
+        ),
+        (
+            "root_twice.gltf",
+            gltf_with(&leaf, &[0, 0], 1),
+            "node 0): is listed twice among scene 0's nodes",
+        ),
+    ] {
+        let start = Instant::now();
+        let e = load(&write(&dir, name, text)).unwrap_err().to_string();
+        assert!(e.contains(name) && e.contains(says), "{e}");
+        assert!(e.contains("at most one parent"), "{e}");
+        assert!(start.elapsed() < Duration::from_secs(2), "{name}");
+    }
+    let chain: Vec<String> = (0..24)
+        .map(|i| format!(r#"{{"mesh": 0, "children": [{}]}}"#, i + 1))
+        .chain([r#"{"mesh": 0}"#.to_string()])
+        .collect();
+    let scene = load(&write(&dir, "chain.gltf", gltf_with(&chain, &[0], 1))).expect("loads");
+    assert_eq!(scene.scene.instances.len(), 25);
+}
+
+/// A tree still multiplies nodes by primitives per mesh: 2,100 nodes sharing a mesh of 1,000
+/// primitives (a 40 KB file) would place 2.1 M instances; refused before any is made.
+#[test]
+fn gltf_instances_over_the_limit_are_refused() {
+    let dir = temp_dir("gltf-instances");
+    let nodes: Vec<String> = (0..2100).map(|_| r#"{"mesh": 0}"#.to_string()).collect();
+    let roots: Vec<usize> = (0..nodes.len()).collect();
+    let start = Instant::now();
+    let e = load(&write(&dir, "many.gltf", gltf_with(&nodes, &roots, 1000)))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("many.gltf") && e.contains("2100000 mesh primitives"),
+        "{e}"
+    );
+    assert!(start.elapsed() < Duration::from_secs(2));
+}
