@@ -99,3 +99,48 @@ fn gltf_instances_over_the_limit_are_refused() {
     );
     assert!(start.elapsed() < Duration::from_secs(2));
 }
+
+/// 5,000 exact spheres (a 315 KB file) were 80.6 M proxy triangles (3.2 GB); past a budget of
+/// about a million proxy triangles each exact shape's proxy is its bounding box, and the
+/// renderer still intersects the exact shape. Cylinders and disks count against the same
+/// budget.
+#[test]
+fn exact_shape_proxies_are_bounded() {
+    let dir = temp_dir("exact-proxies");
+    let mut body = String::new();
+    for i in 0..5000 {
+        let (x, y) = ((i % 100) as f32, (i / 100) as f32);
+        let shape = match i % 3 {
+            0 => format!(
+                r#"<shape type="sphere"><point name="center" x="{x}" y="{y}" z="0"/><float name="radius" value="0.4"/></shape>"#
+            ),
+            1 => format!(
+                r#"<shape type="cylinder"><point name="p0" x="{x}" y="{y}" z="0"/><point name="p1" x="{x}" y="{y}" z="1"/><float name="radius" value="0.4"/></shape>"#
+            ),
+            _ => format!(
+                r#"<shape type="disk"><transform name="to_world"><translate x="{x}" y="{y}"/></transform></shape>"#
+            ),
+        };
+        body.push_str(&shape);
+        body.push('\n');
+    }
+    let path = write(&dir, "balls.xml", common::mitsuba(&body));
+    let start = Instant::now();
+    let scene = load(&path).expect("loads").scene;
+    let took = start.elapsed();
+    let triangles: usize = scene.meshes.iter().map(|m| m.indices.len()).sum();
+    assert_eq!(scene.meshes.len(), 5000);
+    assert!(scene.meshes.iter().all(|m| m.analytic.is_some()));
+    assert!(
+        triangles < (1 << 20) + 12 * 5000,
+        "{triangles} proxy triangles"
+    );
+    // The boxes keep the bounds: the last sphere (centre (98, 49, 0), radius 0.4) and the
+    // cylinders' tops at z = 1 are inside.
+    let (lo, hi) = scene.bounds();
+    assert!(
+        hi.x >= 99.4 - 1e-3 && hi.y >= 49.4 - 1e-3 && hi.z >= 1.0,
+        "{lo} {hi}"
+    );
+    assert!(took < Duration::from_secs(2), "took {took:?}");
+}
