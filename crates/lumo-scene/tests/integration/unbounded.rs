@@ -144,3 +144,22 @@ fn exact_shape_proxies_are_bounded() {
     );
     assert!(took < Duration::from_secs(2), "took {took:?}");
 }
+
+/// Line numbers were looked up from the file's start for every element: 20,000 rectangles on
+/// one line took 41 s (65 s on the shared test VM); now well under two seconds. (A ratio of
+/// two sizes' times flaked when tests ran side by side; the quadratic loader is 20 times past
+/// this bound.)
+#[test]
+fn mitsuba_loading_is_near_linear_in_elements() {
+    let dir = temp_dir("xml-linear");
+    let rect = r#"<shape type="rectangle"><transform name="to_world"><translate x="1"/></transform></shape>"#;
+    let path = write(&dir, "large.xml", common::mitsuba(&rect.repeat(20_000)));
+    let start = Instant::now();
+    let scene = load(&path).expect("loads").scene;
+    let took = start.elapsed();
+    assert_eq!(scene.meshes.len(), 20_000);
+    assert!(
+        took < Duration::from_secs(2),
+        "20,000 elements took {took:?}"
+    );
+}
