@@ -106,31 +106,11 @@ pub fn worker_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
         .context("cannot start worker threads")
 }
 
-/// Memory this process may still allocate, in bytes: `LUMO_MEMORY_LIMIT` (bytes, or with a
-/// K, M or G suffix: powers of 1024) if set, else MemAvailable from /proc/meminfo; `None`
-/// where neither is known (then nothing is refused).
+/// Memory this process may still allocate, in bytes (`LUMO_MEMORY_LIMIT` if set, else the
+/// least of MemAvailable, the cgroup's and RLIMIT_AS's room: [`lumo_image::memory_available`]);
+/// `None` where nothing is known (then nothing is refused).
 pub fn memory_available() -> Option<u64> {
-    if let Ok(v) = std::env::var("LUMO_MEMORY_LIMIT") {
-        let v = v.trim();
-        let (digits, unit) = match v.char_indices().last() {
-            Some((i, c)) if c.is_ascii_alphabetic() => (&v[..i], c.to_ascii_uppercase()),
-            _ => (v, 'B'),
-        };
-        let shift = match unit {
-            'K' => 10,
-            'M' => 20,
-            'G' => 30,
-            _ => 0,
-        };
-        if let Ok(n) = digits.trim().parse::<u64>() {
-            return Some(n.saturating_mul(1 << shift));
-        }
-        errln!("warning: LUMO_MEMORY_LIMIT={v:?} is not a size like 512M; ignored");
-    }
-    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let line = info.lines().find(|l| l.starts_with("MemAvailable:"))?;
-    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kib.saturating_mul(1024))
+    lumo_image::memory_available()
 }
 
 /// Refuses, before anything is allocated, work that needs about `need` bytes when less
@@ -150,14 +130,7 @@ pub fn check_memory(need: u64, what: &str, advice: &str) -> Result<()> {
 
 /// `n` bytes in binary units for messages ("79.0 GiB").
 pub fn bytes(n: u64) -> String {
-    let n = n as f64;
-    if n >= (1u64 << 30) as f64 {
-        format!("{:.1} GiB", n / (1u64 << 30) as f64)
-    } else if n >= (1u64 << 20) as f64 {
-        format!("{:.1} MiB", n / (1u64 << 20) as f64)
-    } else {
-        format!("{:.0} KiB", n / 1024.0)
-    }
+    lumo_image::format_bytes(n)
 }
 
 /// Refuses `--max-depth 0` (Mitsuba's convention starts at 1) and depths beyond what a scene

@@ -792,6 +792,11 @@ fn check_plane_values(a: &DenoiseArgs, inputs: &Inputs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Bytes per pixel the filters may allocate beyond their inputs: the most any filter needs
+/// (`auto`: lumo-pipeline's estimate of 660 for its pipeline less the 220 of the render) and
+/// the output.
+const DENOISE_BYTES_PER_PIXEL: u64 = 480;
+
 /// Runs `lumo denoise`.
 pub fn run(args: DenoiseArgs) -> anyhow::Result<()> {
     // Named as the command line spells them: the filter's own error calls --subsample
@@ -830,6 +835,12 @@ pub fn run(args: DenoiseArgs) -> anyhow::Result<()> {
             inputs.color.0.display()
         );
     }
+    let (w, h) = (inputs.color.1.width as u64, inputs.color.1.height as u64);
+    crate::cli_common::check_memory(
+        (w * h).saturating_mul(DENOISE_BYTES_PER_PIXEL),
+        &format!("denoising {w}x{h} pixels"),
+        "denoise a smaller image (crop it)",
+    )?;
     let (filtered, times, detected) = filter_inputs(&args, &inputs)?;
     let t_filter = times[times.len() / 2];
     let t2 = Instant::now();

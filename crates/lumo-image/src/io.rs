@@ -1,7 +1,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use crate::limits::{check_image_size, regular_file_size};
+use crate::limits::{check_image_pixels, regular_file_size};
 use crate::{exr_io, pfm, png_io, Image, ImageError};
 
 /// The file formats lumo reads and writes, chosen by extension.
@@ -48,7 +48,7 @@ pub fn read_image(path: &Path) -> Result<Image, ImageError> {
     };
     // The readers check their headers; this is the one rule all formats share, kept here too
     // so that no reader can hand out an image that indexing would panic on.
-    check_image_size(path, image.width, image.height, file_bytes)?;
+    check_image_pixels(path, image.width, image.height, file_bytes)?;
     Ok(image)
 }
 

@@ -8,6 +8,7 @@ mod exr_io;
 mod image;
 mod io;
 mod limits;
+mod memory;
 pub mod metrics;
 mod pfm;
 mod png_io;
@@ -17,6 +18,7 @@ pub use error::{describe_io_error, ImageError};
 pub use image::{rgb_of, Image};
 pub use io::{read_image, temp_path, write_image, ImageFormat};
 pub use limits::{
-    check_image_size, file_kind, max_image_pixels, regular_file_size, DEFAULT_MAX_PIXELS,
-    MAX_PIXELS_VAR,
+    check_image_size, file_kind, max_image_pixels, regular_file_size, DECODE_BYTES_PER_PIXEL,
+    DEFAULT_MAX_PIXELS, MAX_PIXELS_VAR,
 };
+pub use memory::{format_bytes, memory_available, parse_size, MEMORY_LIMIT_VAR};

@@ -5,5 +5,6 @@ mod closed_pipes;
 mod compare_cli;
 mod denoise_cli;
 mod hostile_options;
+mod memory_limits;
 mod scene_files;
 mod sequence_cli;

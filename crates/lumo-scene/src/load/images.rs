@@ -122,6 +122,16 @@ fn check_size(w: usize, h: usize, bytes: usize) -> Result<(), String> {
              image is genuine, raise the limit with {MAX_PIXELS_VAR}=PIXELS"
         ));
     }
+    // The decoder's buffer and the float image, against what this process may allocate (as
+    // lumo-image's readers check EXR, PFM and PNG).
+    let need = (w as u64 * h as u64).saturating_mul(lumo_image::DECODE_BYTES_PER_PIXEL);
+    if let Some(available) = lumo_image::memory_available().filter(|&a| need > a) {
+        return Err(format!(
+            "decoding {w}x{h} pixels needs about {} of memory, but only {} is available",
+            lumo_image::format_bytes(need),
+            lumo_image::format_bytes(available)
+        ));
+    }
     Ok(())
 }
 
