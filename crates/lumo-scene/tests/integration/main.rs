@@ -8,3 +8,4 @@ mod meshes;
 mod mitsuba;
 mod robustness;
 mod unbounded;
+mod wrong_output;

@@ -12,7 +12,7 @@ use std::sync::Arc;
 use glam::{Affine2, Mat2, Mat4, Quat, Vec2, Vec3, Vec4};
 use gltf::accessor::{DataType, Dimensions};
 
-use super::check::check_mesh;
+use super::check::{check_emission, check_mesh};
 use super::gltf_refs::check_references;
 use super::images::decode_image;
 use super::materials::metal_from_reflectance;

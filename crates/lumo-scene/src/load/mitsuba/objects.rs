@@ -7,7 +7,10 @@ use glam::{Mat4, Vec3};
 use super::props::Props;
 use super::xml::Element;
 use super::Builder;
-use crate::load::{check::check_mesh, obj, ply, LoadError};
+use crate::load::{
+    check::{check_emission, check_mesh},
+    obj, ply, LoadError,
+};
 use crate::{
     shapes, Analytic, AnalyticKind, Camera, EnvMap, FovAxis, Instance, Light, Mesh, Texture,
 };
@@ -590,10 +593,11 @@ impl<'a> Builder<'a, '_> {
         self.emission_spectrum = props.tabulated("radiance")?.map(Arc::new);
         let radiance = self.texture_param(&props, "radiance", Vec3::ONE)?;
         props.finish(self.diag)?;
-        Ok(match radiance {
+        let (mean, texture) = match radiance {
             Texture::Constant(c) => (c, None),
             t => (t.average(), Some(Arc::new(t))),
-        })
+        };
+        Ok((check_emission(&el.at(), "radiance", mean)?, texture))
     }
 
     /// A top-level `<emitter>`.
