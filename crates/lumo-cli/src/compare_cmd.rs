@@ -75,6 +75,10 @@ const MAX_EXPOSURE: f32 = 64.0;
 /// viewing distance from a 24-inch 4K monitor).
 pub const MAX_PPD: f32 = 1000.0;
 
+/// Fewest pixels per degree `--ppd` accepts: below it FLIP's filters are narrower than a
+/// pixel and its score was NaN (`--ppd 1e-30`).
+pub const MIN_PPD: f32 = 1.0;
+
 /// Bytes per pixel the metrics and a diff image need beyond the images themselves (measured:
 /// peak resident memory of `lumo compare --diff` on a 2048² RGB pair, less its inputs).
 const COMPARE_BYTES_PER_PIXEL: u64 = 128;
@@ -92,6 +96,9 @@ pub fn run(args: CompareArgs) -> Result<()> {
     let ppd = args.ppd.unwrap_or(FLIP_DEFAULT_PPD);
     if !(ppd.is_finite() && ppd > 0.0) {
         bail!("--ppd must be a positive number");
+    }
+    if ppd < MIN_PPD {
+        bail!("--ppd {ppd:e}: use at least {MIN_PPD} pixel per degree (FLIP's default is {FLIP_DEFAULT_PPD})");
     }
     if ppd > MAX_PPD {
         bail!("--ppd {ppd:e}: use at most {MAX_PPD} pixels per degree (FLIP's default is {FLIP_DEFAULT_PPD})");
