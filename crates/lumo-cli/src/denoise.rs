@@ -721,6 +721,32 @@ fn check_outputs_spare_inputs(a: &DenoiseArgs, inputs: &Inputs) -> anyhow::Resul
 /// without a word (a variance of +∞, NaN or −1 read as 0, noise-free; an all-zero albedo from
 /// another renderer, or an all-NaN emission plane, left every pixel as it was).
 fn check_plane_values(a: &DenoiseArgs, inputs: &Inputs) -> anyhow::Result<()> {
+    // A colour plane with nothing to filter: every pixel NaN or infinite (all treated as
+    // missing), or no light at all but negative values (the filters clamp at 0). Each wrote
+    // a black image with exit 0.
+    let (path, color) = &inputs.color;
+    let finite = |px: &&[f32]| px.iter().all(|v| v.is_finite());
+    let pixels = || color.data.chunks_exact(color.channels.max(1));
+    if !pixels().any(|px| finite(&px)) {
+        bail!(
+            "{}: every pixel of the colour plane is NaN or infinite; there is nothing to \
+             denoise (check the renderer's output)",
+            path.display()
+        );
+    }
+    let positive = pixels()
+        .filter(finite)
+        .any(|px| px.iter().any(|&v| v > 0.0));
+    let negative = pixels()
+        .filter(finite)
+        .any(|px| px.iter().any(|&v| v < 0.0));
+    if negative && !positive {
+        bail!(
+            "{}: every value of the colour plane is zero or negative; the filters take light \
+             as ≥ 0 and would write black (was the image inverted or offset?)",
+            path.display()
+        );
+    }
     if let Some((path, v)) = &inputs.variance {
         let bad = |x: f32| !x.is_finite() || x < 0.0;
         let first = v.data.iter().position(|&x| bad(x));
