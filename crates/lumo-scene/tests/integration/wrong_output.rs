@@ -55,3 +55,30 @@ fn emission_beyond_what_the_film_can_sum_is_refused() {
         "{e}"
     );
 }
+
+/// Texels of 1e9–3e38 in a reflectance texture gave infinite radiance without a word: read
+/// as 1, with a warning that counts them. The same file as a radiance texture is light and
+/// keeps its values.
+#[test]
+fn a_reflectance_texture_above_one_is_bounded_with_a_warning() {
+    let dir = temp_dir("bright-texture");
+    let img = lumo_image::Image::from_vec(2, 1, 3, vec![0.5, 1e9, 0.25, 3e38, 0.1, 0.2]);
+    lumo_image::write_image(&dir.join("hot.pfm"), &img).unwrap();
+    let body = r#"<bsdf type="diffuse" id="b"><texture type="bitmap" name="reflectance"><string name="filename" value="hot.pfm"/></texture></bsdf>
+<shape type="rectangle"><ref id="b"/></shape>"#;
+    let scene = load(&write(&dir, "hot.xml", common::mitsuba(body))).expect("loads");
+    let w: Vec<String> = scene.warnings.iter().map(ToString::to_string).collect();
+    let all = w.join("\n");
+    assert!(
+        all.contains("hot.xml:3") && all.contains("2 value(s) above 1 (up to 3e38)"),
+        "{all}"
+    );
+    let m = &scene.scene.materials[scene.scene.meshes[0].material];
+    let lumo_scene::BsdfSpec::Diffuse {
+        reflectance: lumo_scene::Texture::Bitmap { image, .. },
+    } = &m.bsdf
+    else {
+        panic!("a diffuse bitmap: {:?}", m.bsdf);
+    };
+    assert!(image.data.iter().all(|&v| v <= 1.0), "{:?}", image.data);
+}
