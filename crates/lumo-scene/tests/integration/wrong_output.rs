@@ -56,6 +56,29 @@ fn emission_beyond_what_the_film_can_sum_is_refused() {
     );
 }
 
+/// `<spectrum value="550:0.5"/>` (meant as 0.5 everywhere) is one wavelength, zero at every
+/// other: it rendered almost black without a word; now a warning names the element and the fix.
+#[test]
+fn a_single_wavelength_spectrum_is_warned_about() {
+    let dir = temp_dir("one-pair");
+    let body = r#"<bsdf type="diffuse" id="b"><spectrum name="reflectance" value="550:0.5"/></bsdf>
+<shape type="rectangle"><ref id="b"/></shape>"#;
+    let scene = load(&write(&dir, "one.xml", common::mitsuba(body))).expect("loads");
+    let w: Vec<String> = scene.warnings.iter().map(ToString::to_string).collect();
+    let all = w.join("\n");
+    assert!(
+        all.contains("one.xml:3")
+            && all.contains("single pair 550:0.5")
+            && all.contains("value=\"0.5\""),
+        "{all}"
+    );
+    // Two pairs spanning the visible range are fine.
+    let body = body.replace("550:0.5", "360:0.5, 830:0.5");
+    let scene = load(&write(&dir, "two.xml", common::mitsuba(&body))).expect("loads");
+    let w: Vec<String> = scene.warnings.iter().map(ToString::to_string).collect();
+    assert!(!w.join("\n").contains("single pair"), "{w:?}");
+}
+
 /// Texels of 1e9–3e38 in a reflectance texture gave infinite radiance without a word: read
 /// as 1, with a warning that counts them. The same file as a radiance texture is light and
 /// keeps its values.
