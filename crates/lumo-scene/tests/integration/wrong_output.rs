@@ -56,6 +56,42 @@ fn emission_beyond_what_the_film_can_sum_is_refused() {
     );
 }
 
+/// `mtllib /etc/shadow` echoed every line of that file to stderr (each line's first word
+/// quoted as an unknown statement): a loader never quotes what is not a keyword, warns once
+/// per kind of odd line, and keeps at most MAX_WARNINGS warnings per load.
+#[test]
+fn foreign_files_are_not_quoted_and_warnings_are_capped() {
+    let dir = temp_dir("foreign-mtl");
+    let shadow: String = (0..2000)
+        .map(|i| format!("user{i}:$6$SECRETHASH{i}:19000:0:99999:7:::\n"))
+        .collect();
+    write(&dir, "shadow", shadow);
+    let obj = "mtllib shadow\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    let scene = load(&write(&dir, "a.obj", obj)).expect("loads");
+    let w: Vec<String> = scene.warnings.iter().map(ToString::to_string).collect();
+    let all = w.join("\n");
+    assert!(
+        !all.contains("SECRETHASH") && !all.contains("user1"),
+        "{all}"
+    );
+    assert!(all.contains("not a statement"), "{all}");
+    assert!(w.len() <= 3, "{all}");
+    // Many distinct (keyword-like) statements: capped, with a count of the rest.
+    let odd: String = (0..500).map(|i| format!("kw{i} 1 2\n")).collect();
+    let scene = load(&write(
+        &dir,
+        "b.obj",
+        format!("{}{odd}", &obj["mtllib shadow\n".len()..]),
+    ))
+    .expect("loads");
+    let w: Vec<String> = scene.warnings.iter().map(ToString::to_string).collect();
+    assert_eq!(w.len(), lumo_scene::load::MAX_WARNINGS + 1);
+    assert!(
+        w.last().unwrap().contains("400 more warning(s) not shown"),
+        "{w:?}"
+    );
+}
+
 /// `<spectrum value="550:0.5"/>` (meant as 0.5 everywhere) is one wavelength, zero at every
 /// other: it rendered almost black without a word; now a warning names the element and the fix.
 #[test]
