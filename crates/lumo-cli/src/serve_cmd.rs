@@ -187,20 +187,41 @@ pub fn run(args: ServeArgs) -> Result<()> {
                 args.bind
             );
         }
-        let host = if local.ip().is_unspecified() {
-            "127.0.0.1".to_string()
-        } else {
-            local.ip().to_string()
-        };
-        let host = if local.is_ipv6() {
-            format!("[{host}]")
-        } else {
-            host
-        };
-        outln!("open http://{host}:{}", local.port());
+        outln!("open {}", viewer_url(local));
         std::io::stdout().flush().ok();
         lumo_server::serve(listener, hub)
             .await
             .context("server stopped")
     })
+}
+
+/// The URL a browser on this machine opens for a server listening on `local`: an unspecified
+/// address (`0.0.0.0`, `::`) becomes the loopback of its family, and an IPv6 host is
+/// bracketed (`--bind ::` printed `http://[127.0.0.1]:PORT`, which no browser opens).
+fn viewer_url(local: std::net::SocketAddr) -> String {
+    use std::net::{IpAddr, Ipv4Addr, Ipv6Addr};
+    let ip = match local.ip() {
+        IpAddr::V4(ip) if ip.is_unspecified() => IpAddr::V4(Ipv4Addr::LOCALHOST),
+        IpAddr::V6(ip) if ip.is_unspecified() => IpAddr::V6(Ipv6Addr::LOCALHOST),
+        ip => ip,
+    };
+    match ip {
+        IpAddr::V4(ip) => format!("http://{ip}:{}", local.port()),
+        IpAddr::V6(ip) => format!("http://[{ip}]:{}", local.port()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::viewer_url;
+
+    #[test]
+    fn the_printed_url_opens_in_a_browser() {
+        let url = |a: &str| viewer_url(a.parse().unwrap());
+        assert_eq!(url("0.0.0.0:8080"), "http://127.0.0.1:8080");
+        assert_eq!(url("[::]:8080"), "http://[::1]:8080");
+        assert_eq!(url("[::1]:9"), "http://[::1]:9");
+        assert_eq!(url("[fe80::1]:9"), "http://[fe80::1]:9");
+        assert_eq!(url("192.168.1.5:80"), "http://192.168.1.5:80");
+    }
 }
