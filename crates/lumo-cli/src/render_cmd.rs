@@ -301,6 +301,14 @@ pub fn check_writable(path: &Path) -> Result<()> {
 /// Fails early (before the work) if the file `path` cannot be written: it is a directory, its
 /// directory does not exist or is not writable.
 pub fn check_output_file(path: &Path) -> Result<()> {
+    // "out.png/" names a directory to the OS but passes Path's extension test: it failed only
+    // when written, after the render.
+    if path.as_os_str().as_encoded_bytes().ends_with(b"/") {
+        bail!(
+            "cannot write {}: the name ends in '/', so it names a directory; drop the '/'",
+            path.display()
+        );
+    }
     if path.is_dir() {
         bail!(
             "cannot write {}: it is a directory; name a file in it, e.g. {}",
@@ -319,7 +327,29 @@ pub fn check_output_file(path: &Path) -> Result<()> {
             dir.display()
         );
     }
-    let probe = dir.join(format!(".lumo-write-test-{}", std::process::id()));
+    // Temporaries of writes killed earlier (Ctrl-C, a crash) are swept here, once per output.
+    let swept = lumo_image::sweep_stale_temps(&dir);
+    if swept > 0 {
+        errln!(
+            "note: removed {swept} temporary file(s) .lumo-tmp-* left in {} by interrupted \
+             writes",
+            dir.display()
+        );
+    }
+    // The probe is the temporary the write will use, so a name too long for the file system
+    // fails here, not after the render.
+    if let Some(name) = path
+        .file_name()
+        .filter(|n| n.len() > lumo_image::MAX_NAME_BYTES)
+    {
+        bail!(
+            "cannot write {}: the file name is {} bytes; file systems take at most {}",
+            path.display(),
+            name.len(),
+            lumo_image::MAX_NAME_BYTES
+        );
+    }
+    let probe = lumo_image::temp_path(path);
     std::fs::write(&probe, b"").with_context(|| {
         format!(
             // The cause follows (permission denied, read-only file system, or /proc's "no
@@ -502,6 +532,40 @@ pub fn run(args: RenderArgs) -> Result<()> {
         let probe = if planes.is_dir() { &planes } else { dir };
         check_writable(&probe.join("color.exr"))
             .with_context(|| format!("--aovs {}", dir.display()))?;
+        // Every plane of every frame, not only the first: a directory where one plane goes
+        // failed after the render, with half the planes overwritten.
+        let frame_dirs: Vec<PathBuf> = match &sequence {
+            Some(seq) => (seq.frames.first..=seq.frames.last)
+                .map(|f| seq.frame_aov_dir(dir, f))
+                .collect(),
+            None => vec![dir.clone()],
+        };
+        for planes in &frame_dirs {
+            if planes.exists() && !planes.is_dir() {
+                bail!(
+                    "--aovs {}: {} exists and is not a directory (a frame's planes go there)",
+                    dir.display(),
+                    planes.display()
+                );
+            }
+            if !planes.is_dir() {
+                continue;
+            }
+            for name in lumo_render::AOV_NAMES
+                .iter()
+                .chain(lumo_pipeline::PLANE_NAMES)
+            {
+                let plane = planes.join(format!("{name}.exr"));
+                if plane.symlink_metadata().is_ok() && !plane.is_file() {
+                    bail!(
+                        "--aovs {}: {} is not a regular file, and the {name} plane is written \
+                         there; move it or choose another directory",
+                        dir.display(),
+                        plane.display()
+                    );
+                }
+            }
+        }
     }
     for o in deferred {
         check_output(o)?;

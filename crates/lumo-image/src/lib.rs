@@ -16,7 +16,7 @@ mod png_io;
 pub use color::{linear_to_srgb, luminance, srgb_to_linear};
 pub use error::{describe_io_error, ImageError};
 pub use image::{rgb_of, Image};
-pub use io::{read_image, temp_path, write_image, ImageFormat};
+pub use io::{read_image, sweep_stale_temps, temp_path, write_image, ImageFormat, MAX_NAME_BYTES};
 pub use limits::{
     check_image_size, file_kind, max_image_pixels, regular_file_size, DECODE_BYTES_PER_PIXEL,
     DEFAULT_MAX_PIXELS, MAX_PIXELS_VAR,

@@ -6,5 +6,6 @@ mod compare_cli;
 mod denoise_cli;
 mod hostile_options;
 mod memory_limits;
+mod output_checks;
 mod scene_files;
 mod sequence_cli;
