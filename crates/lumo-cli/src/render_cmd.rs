@@ -258,7 +258,20 @@ pub fn load_scene_animated(
 ) -> Result<(Scene, FileSettings, Option<AnimatedScene>)> {
     let path = Path::new(name);
     if path.extension().is_some() || name.contains('/') {
-        if !path.exists() {
+        if let Err(e) = std::fs::metadata(path) {
+            // A link that leads nowhere (a loop, a missing target) was reported as a file
+            // that "does not exist", though `ls` shows it.
+            if path.symlink_metadata().is_ok() {
+                let why = if e.raw_os_error() == Some(40) {
+                    "it is part of a loop of symbolic links".to_string()
+                } else {
+                    lumo_image::describe_io_error(&e)
+                };
+                bail!(
+                    "scene file {name:?} is a symbolic link that cannot be followed: {why}; \
+                     point it at a scene file"
+                );
+            }
             bail!(
                 "scene file {name:?} does not exist; built-in scenes: {}",
                 builtin_names()

@@ -87,3 +87,21 @@ fn temporaries_of_interrupted_writes_are_swept() {
     assert!(!stale.exists() && live.exists());
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A scene path that is a loop of symbolic links was reported as a file that "does not exist".
+#[cfg(unix)]
+#[test]
+fn a_symlink_loop_is_named_as_one() {
+    let dir = temp_dir("symlink-loop");
+    std::os::unix::fs::symlink("b.xml", dir.join("a.xml")).unwrap();
+    std::os::unix::fs::symlink("a.xml", dir.join("b.xml")).unwrap();
+    let o = lumo_in(
+        &dir,
+        &[
+            "render", "a.xml", "--size", "8x8", "--spp", "1", "-o", "x.png",
+        ],
+    );
+    refused(&o, "symbolic link that cannot be followed");
+    assert!(!String::from_utf8_lossy(&o.stderr).contains("does not exist"));
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -141,3 +141,63 @@ fn a_reflectance_texture_above_one_is_bounded_with_a_warning() {
     };
     assert!(image.data.iter().all(|&v| v <= 1.0), "{:?}", image.data);
 }
+
+/// A buffer view at byte 2^64 − 1 wrapped around the bounds check and loaded; at 2^64 the
+/// message spoke of a "floating point" value. Both now say what is wrong with the number.
+#[test]
+fn gltf_offsets_near_2_64_are_reported_as_such() {
+    let dir = temp_dir("offset-2-64");
+    let tri =
+        "data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA";
+    let gltf = |offset: &str| {
+        format!(
+            r#"{{"asset": {{"version": "2.0"}}, "buffers": [{{"byteLength": 36, "uri": "{tri}"}}],
+"bufferViews": [{{"buffer": 0, "byteLength": 36, "byteOffset": {offset}}}],
+"accessors": [{{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+  "min": [0, 0, 0], "max": [1, 1, 0]}}],
+"meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0}}}}]}}],
+"nodes": [{{"mesh": 0}}], "scenes": [{{"nodes": [0]}}], "scene": 0}}"#
+        )
+    };
+    let e = load(&write(&dir, "wrap.gltf", gltf("18446744073709551615")))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("wrap.gltf") && e.contains("reads past the end"),
+        "{e}"
+    );
+    let e = load(&write(&dir, "big.gltf", gltf("18446744073709551616")))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("big.gltf") && e.contains("beyond 2^64 − 1") && !e.contains("floating"),
+        "{e}"
+    );
+}
+
+/// Messages that named the wrong thing: `focal_length 0mm` spoke of a 180° field of view; an
+/// ASCII PLY vertex with extra values said the file had no faces.
+#[test]
+fn focal_length_and_extra_ply_values_are_named_as_written() {
+    let dir = temp_dir("misleading");
+    let xml = r#"<scene version="3.0.0">
+<sensor type="perspective"><string name="focal_length" value="0mm"/></sensor>
+<shape type="rectangle"/>
+</scene>"#;
+    let e = load(&write(&dir, "fl.xml", xml)).unwrap_err().to_string();
+    assert!(
+        e.contains("fl.xml:2") && e.contains("focal_length 0mm") && !e.contains("180"),
+        "{e}"
+    );
+    let ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+               property float z\nelement face 1\nproperty list uchar int vertex_indices\n\
+               end_header\n0 0 0 9 9\n1 0 0\n0 1 0\n3 0 1 2\n";
+    let e = load(&write(&dir, "extra.ply", ply))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("extra.ply:10")
+            && e.contains("vertex 0 has 2 value(s) more than the header's 3"),
+        "{e}"
+    );
+}

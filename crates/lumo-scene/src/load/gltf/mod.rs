@@ -72,9 +72,23 @@ fn load_unguarded(
 ) -> Result<Scene, LoadError> {
     let bytes = read_file(path)?;
     let invalid = |e: gltf::Error| {
+        let text = e.to_string();
+        // serde reads an integer beyond u64 as a float and says "invalid type: floating
+        // point", which reads as if a fraction had been written (a 2^64 byteOffset).
+        let text = match text.split_once("invalid type: floating point `") {
+            Some((_, rest)) if text.contains("expected u64") => {
+                let value = rest.split('`').next().unwrap_or("");
+                let at = rest.rsplit_once(" at ").map_or("", |(_, at)| at);
+                format!(
+                    "the integer {value} at {at} is beyond 2^64 − 1; indices, counts, offsets \
+                     and lengths must be whole numbers that fit the file"
+                )
+            }
+            _ => text,
+        };
         LoadError::invalid(
             Location::file(path),
-            format!("not a valid glTF 2.0 file: {e}"),
+            format!("not a valid glTF 2.0 file: {text}"),
         )
     };
     // Parse, check every index, and only then let the gltf crate validate (see gltf_refs).
@@ -367,7 +381,12 @@ impl GltfReader<'_, '_> {
                 format!("byteStride {stride} is smaller than an element ({elem} bytes)"),
             ));
         }
-        let need = acc.offset() + stride * (acc.count() - 1) + elem;
+        // Saturating: offsets near 2^64 wrapped around and passed (or were reported as a
+        // parser failure); a saturated sum is past any buffer and reported as such.
+        let need = stride
+            .saturating_mul(acc.count() - 1)
+            .saturating_add(acc.offset())
+            .saturating_add(elem);
         let buffer_len = self.buffers.get(view.buffer().index()).map_or(0, Vec::len);
         if need > view.length() {
             return Err(LoadError::invalid(
@@ -380,7 +399,7 @@ impl GltfReader<'_, '_> {
                 ),
             ));
         }
-        if view.offset() + view.length() > buffer_len {
+        if view.offset().saturating_add(view.length()) > buffer_len {
             return Err(LoadError::invalid(
                 at,
                 format!(
@@ -388,7 +407,7 @@ impl GltfReader<'_, '_> {
                      buffer {}, which has {buffer_len})",
                     view.index(),
                     view.offset(),
-                    view.offset() + view.length(),
+                    view.offset() as u128 + view.length() as u128,
                     view.buffer().index()
                 ),
             ));

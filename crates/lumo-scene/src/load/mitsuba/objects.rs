@@ -90,6 +90,14 @@ impl<'a> Builder<'a, '_> {
                     })?,
                 None => 50.0,
             };
+            // 0mm became a 180° field of view, and the message spoke of that angle, not of the
+            // focal length as written.
+            if !(f.is_finite() && f > 0.0) {
+                return Err(LoadError::invalid(
+                    at,
+                    format!("focal_length {f}mm: use a length > 0 (50mm is a normal lens)"),
+                ));
+            }
             let diagonal = (36.0f32 * 36.0 + 24.0 * 24.0).sqrt();
             (
                 2.0 * (diagonal / (2.0 * f)).atan().to_degrees(),
