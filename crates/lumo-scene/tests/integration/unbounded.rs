@@ -163,3 +163,99 @@ fn mitsuba_loading_is_near_linear_in_elements() {
         "20,000 elements took {took:?}"
     );
 }
+
+/// What a loaded scene holds, in elements (vertices, triangles, meshes, instances): a proxy
+/// for its memory that does not depend on the allocator.
+fn scene_size(s: &lumo_scene::Scene) -> usize {
+    let mesh: usize = s
+        .meshes
+        .iter()
+        .map(|m| m.positions.len() + m.indices.len() + 1)
+        .sum();
+    mesh + s.instances.len()
+}
+
+/// Per loader, inputs built to be expensive (every element the cheapest way to make the most
+/// geometry) at two sizes ten times apart: the scene holds at most a fixed number of elements
+/// per input byte, and ten times the bytes take well under a hundred times as long (at most 50
+/// times, with room for a loaded machine).
+#[test]
+fn every_loader_is_bounded_per_input_byte() {
+    let dir = temp_dir("per-byte");
+    type Make = fn(usize) -> (String, &'static str);
+    let formats: [(&str, Make); 4] = [
+        ("xml", |n| {
+            let shape = r#"<shape type="sphere"/><shape type="cylinder"/><shape type="disk"/><shape type="rectangle"/>"#;
+            (common::mitsuba(&shape.repeat(n)), "xml")
+        }),
+        ("gltf", |n| {
+            let nodes: Vec<String> = (0..n)
+                .map(|i| {
+                    if i + 1 < n {
+                        format!(r#"{{"mesh": 0, "children": [{}]}}"#, i + 1)
+                    } else {
+                        r#"{"mesh": 0}"#.to_string()
+                    }
+                })
+                .collect();
+            // A chain deeper than the nesting limit is an error; roots keep it a forest.
+            let roots: Vec<usize> = (0..n).step_by(200).collect();
+            let nodes: Vec<String> = nodes
+                .into_iter()
+                .enumerate()
+                .map(|(i, s)| {
+                    if (i + 1) % 200 == 0 {
+                        r#"{"mesh": 0}"#.to_string()
+                    } else {
+                        s
+                    }
+                })
+                .collect();
+            (gltf_with(&nodes, &roots, 4), "gltf")
+        }),
+        ("obj", |n| {
+            let mut s = String::from("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\n");
+            for _ in 0..n {
+                s.push_str("f 1 2 3 4 1 2 3 4\n");
+            }
+            (s, "obj")
+        }),
+        ("ply", |n| {
+            let mut s = format!(
+                "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n\
+                 property float z\nelement face {n}\nproperty list uchar int vertex_indices\n\
+                 end_header\n0 0 0\n1 0 0\n0 1 0\n1 1 0\n"
+            );
+            for _ in 0..n {
+                s.push_str("8 0 1 2 3 0 1 2 3\n");
+            }
+            (s, "ply")
+        }),
+    ];
+    for (name, make) in formats {
+        let mut runs = Vec::new();
+        for n in [1_000, 10_000] {
+            let (text, ext) = make(n);
+            let path = write(&dir, &format!("{name}-{n}.{ext}"), &text);
+            let start = Instant::now();
+            let scene = load(&path)
+                .unwrap_or_else(|e| panic!("{name} {n}: {e}"))
+                .scene;
+            let took = start.elapsed();
+            let size = scene_size(&scene);
+            assert!(
+                size <= 40 * text.len(),
+                "{name} {n}: {size} elements from {} bytes",
+                text.len()
+            );
+            assert!(took < Duration::from_secs(2), "{name} {n}: {took:?}");
+            runs.push(took);
+        }
+        assert!(
+            runs[1] < runs[0] * 50 + Duration::from_millis(100),
+            "{name}: 1,000 items {:?}, 10,000 {:?}",
+            runs[0],
+            runs[1]
+        );
+    }
+}
