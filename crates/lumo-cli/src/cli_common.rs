@@ -128,7 +128,7 @@ pub fn check_memory(need: u64, what: &str, advice: &str) -> Result<()> {
     Ok(())
 }
 
-/// `n` bytes in binary units for messages ("79.0 GiB").
+/// `n` bytes in binary units for messages ("79.00 GiB").
 pub fn bytes(n: u64) -> String {
     lumo_image::format_bytes(n)
 }

@@ -160,11 +160,12 @@ pub fn address_space_limit(limits: &str) -> Option<u64> {
         .ok()
 }
 
-/// `n` bytes in binary units for messages ("79.0 GiB").
+/// `n` bytes in binary units for messages ("79.00 GiB"; two decimals, so that a need just
+/// over what is available does not print as the same number).
 pub fn format_bytes(n: u64) -> String {
     let n = n as f64;
     if n >= (1u64 << 30) as f64 {
-        format!("{:.1} GiB", n / (1u64 << 30) as f64)
+        format!("{:.2} GiB", n / (1u64 << 30) as f64)
     } else if n >= (1u64 << 20) as f64 {
         format!("{:.1} MiB", n / (1u64 << 20) as f64)
     } else {
