@@ -2,6 +2,71 @@
 //! common options.
 
 use anyhow::{bail, Context, Result};
+use std::io::Write;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// Set once standard output could not be written (a closed pipe: `lumo … | head`): later
+/// output is dropped instead of failing again.
+static STDOUT_GONE: AtomicBool = AtomicBool::new(false);
+
+/// Writes `args` to standard output, for [`out!`] and [`outln!`]. `println!` panics (exit 101)
+/// when the reader has gone (`lumo compare … --json | head`, `lumo render --list | true`); here
+/// a closed pipe silently ends the output while the command finishes its work (files it
+/// writes are not lost), and any other write error is reported once on stderr.
+pub fn write_stdout(args: std::fmt::Arguments) {
+    if STDOUT_GONE.load(Ordering::Relaxed) {
+        return;
+    }
+    let mut out = std::io::stdout().lock();
+    if let Err(e) = out.write_fmt(args).and_then(|()| out.flush()) {
+        STDOUT_GONE.store(true, Ordering::Relaxed);
+        if e.kind() != std::io::ErrorKind::BrokenPipe {
+            // eprintln! would panic in turn if stderr is the same broken pipe.
+            let _ = writeln!(
+                std::io::stderr(),
+                "warning: cannot write to standard output ({e}); the rest of it is dropped"
+            );
+        }
+    }
+}
+
+/// `print!` that survives a closed standard output (see [`write_stdout`]).
+macro_rules! out {
+    ($($arg:tt)*) => {
+        $crate::cli_common::write_stdout(format_args!($($arg)*))
+    };
+}
+
+/// `println!` that survives a closed standard output (see [`write_stdout`]).
+macro_rules! outln {
+    () => {
+        $crate::cli_common::write_stdout(format_args!("\n"))
+    };
+    ($($arg:tt)*) => {
+        $crate::cli_common::write_stdout(format_args!("{}\n", format_args!($($arg)*)))
+    };
+}
+
+/// Writes `args` to standard error, for [`errln!`]: `eprintln!` panics when stderr is a closed
+/// pipe (`lumo … 2>&1 | head`); a message nobody can read is dropped instead.
+pub fn write_stderr(args: std::fmt::Arguments) {
+    let _ = std::io::stderr().lock().write_fmt(args);
+}
+
+/// `eprint!` that survives a closed standard error (see [`write_stderr`]).
+macro_rules! err {
+    ($($arg:tt)*) => {
+        $crate::cli_common::write_stderr(format_args!($($arg)*))
+    };
+}
+
+/// `eprintln!` that survives a closed standard error (see [`write_stderr`]).
+macro_rules! errln {
+    ($($arg:tt)*) => {
+        $crate::cli_common::write_stderr(format_args!("{}\n", format_args!($($arg)*)))
+    };
+}
+pub(crate) use {err, errln, out, outln};
 
 /// Most worker threads per core `--threads` may ask for: the renderer keeps every thread
 /// busy, so more than a few per core only adds switching and per-thread memory (100,000
@@ -19,16 +84,14 @@ pub fn thread_count(threads: Option<usize>) -> Option<usize> {
     let max = MAX_THREADS_PER_CORE * cores();
     match threads {
         Some(0) => {
-            eprintln!(
+            errln!(
                 "warning: --threads 0: using all {} cores (omit --threads for that)",
                 cores()
             );
             None
         }
         Some(n) if n > max => {
-            eprintln!(
-                "warning: --threads {n}: at most {MAX_THREADS_PER_CORE} per core; using {max}"
-            );
+            errln!("warning: --threads {n}: at most {MAX_THREADS_PER_CORE} per core; using {max}");
             Some(max)
         }
         t => t,
@@ -43,31 +106,11 @@ pub fn worker_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
         .context("cannot start worker threads")
 }
 
-/// Memory this process may still allocate, in bytes: `LUMO_MEMORY_LIMIT` (bytes, or with a
-/// K, M or G suffix: powers of 1024) if set, else MemAvailable from /proc/meminfo; `None`
-/// where neither is known (then nothing is refused).
+/// Memory this process may still allocate, in bytes (`LUMO_MEMORY_LIMIT` if set, else the
+/// least of MemAvailable, the cgroup's and RLIMIT_AS's room: [`lumo_image::memory_available`]);
+/// `None` where nothing is known (then nothing is refused).
 pub fn memory_available() -> Option<u64> {
-    if let Ok(v) = std::env::var("LUMO_MEMORY_LIMIT") {
-        let v = v.trim();
-        let (digits, unit) = match v.char_indices().last() {
-            Some((i, c)) if c.is_ascii_alphabetic() => (&v[..i], c.to_ascii_uppercase()),
-            _ => (v, 'B'),
-        };
-        let shift = match unit {
-            'K' => 10,
-            'M' => 20,
-            'G' => 30,
-            _ => 0,
-        };
-        if let Ok(n) = digits.trim().parse::<u64>() {
-            return Some(n.saturating_mul(1 << shift));
-        }
-        eprintln!("warning: LUMO_MEMORY_LIMIT={v:?} is not a size like 512M; ignored");
-    }
-    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let line = info.lines().find(|l| l.starts_with("MemAvailable:"))?;
-    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kib.saturating_mul(1024))
+    lumo_image::memory_available()
 }
 
 /// Refuses, before anything is allocated, work that needs about `need` bytes when less
@@ -85,16 +128,9 @@ pub fn check_memory(need: u64, what: &str, advice: &str) -> Result<()> {
     Ok(())
 }
 
-/// `n` bytes in binary units for messages ("79.0 GiB").
+/// `n` bytes in binary units for messages ("79.00 GiB").
 pub fn bytes(n: u64) -> String {
-    let n = n as f64;
-    if n >= (1u64 << 30) as f64 {
-        format!("{:.1} GiB", n / (1u64 << 30) as f64)
-    } else if n >= (1u64 << 20) as f64 {
-        format!("{:.1} MiB", n / (1u64 << 20) as f64)
-    } else {
-        format!("{:.0} KiB", n / 1024.0)
-    }
+    lumo_image::format_bytes(n)
 }
 
 /// Refuses `--max-depth 0` (Mitsuba's convention starts at 1) and depths beyond what a scene

@@ -1,6 +1,7 @@
 //! `lumo compare REF IMG [IMG…]`: error metrics of images against a reference, as a table or
 //! JSON, and optionally false-colour error images.
 
+use crate::cli_common::outln;
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
@@ -74,6 +75,14 @@ const MAX_EXPOSURE: f32 = 64.0;
 /// viewing distance from a 24-inch 4K monitor).
 pub const MAX_PPD: f32 = 1000.0;
 
+/// Fewest pixels per degree `--ppd` accepts: below it FLIP's filters are narrower than a
+/// pixel and its score was NaN (`--ppd 1e-30`).
+pub const MIN_PPD: f32 = 1.0;
+
+/// Bytes per pixel the metrics and a diff image need beyond the images themselves (measured:
+/// peak resident memory of `lumo compare --diff` on a 2048² RGB pair, less its inputs).
+const COMPARE_BYTES_PER_PIXEL: u64 = 128;
+
 /// The metric settings of `--exposure` and `--ppd`, checked (also `lumo.compare`'s in Python).
 pub fn compare_settings(exposure: f32, ppd: Option<f32>) -> Result<CompareSettings> {
     // f32 spans 2^±127: beyond ±64 stops every pixel of any real image is 0 or 1 after the
@@ -84,6 +93,9 @@ pub fn compare_settings(exposure: f32, ppd: Option<f32>) -> Result<CompareSettin
     let ppd = ppd.unwrap_or(FLIP_DEFAULT_PPD);
     if !(ppd.is_finite() && ppd > 0.0) {
         bail!("--ppd must be a positive number");
+    }
+    if ppd < MIN_PPD {
+        bail!("--ppd {ppd:e}: use at least {MIN_PPD} pixel per degree (FLIP's default is {FLIP_DEFAULT_PPD})");
     }
     if ppd > MAX_PPD {
         bail!("--ppd {ppd:e}: use at most {MAX_PPD} pixels per degree (FLIP's default is {FLIP_DEFAULT_PPD})");
@@ -119,6 +131,22 @@ pub fn run(args: CompareArgs) -> Result<()> {
         }
     }
     let reference = read_image(&args.reference)?;
+    // Every image is held at once, and the metrics work on planes of their own: refuse what
+    // cannot fit before reading the rest (an 11585² PNG of 400 KB aborted at 7.4 GB).
+    let pixels = (reference.width * reference.height) as u64;
+    let image_bytes = pixels * reference.channels as u64 * 4;
+    crate::cli_common::check_memory(
+        (args.images.len() as u64)
+            .saturating_mul(image_bytes)
+            .saturating_add(pixels.saturating_mul(COMPARE_BYTES_PER_PIXEL)),
+        &format!(
+            "comparing {} image(s) of {}x{} pixels",
+            args.images.len(),
+            reference.width,
+            reference.height
+        ),
+        "compare fewer or smaller images",
+    )?;
 
     // Read and check every image before printing anything, so that a bad argument fails fast
     // and never leaves half a table.
@@ -154,7 +182,7 @@ pub fn run(args: CompareArgs) -> Result<()> {
     }
 
     if args.json {
-        println!(
+        outln!(
             "{}",
             serde_json::to_string_pretty(&to_json(&args, &reference, &settings, &rows))?
         );
@@ -256,7 +284,7 @@ fn conventions(settings: &CompareSettings) -> Vec<(&'static str, String)> {
 }
 
 fn print_table(args: &CompareArgs, reference: &Image, settings: &CompareSettings, rows: &[Row]) {
-    println!(
+    outln!(
         "reference {} ({}x{}, {} channels)",
         args.reference.display(),
         reference.width,
@@ -264,9 +292,9 @@ fn print_table(args: &CompareArgs, reference: &Image, settings: &CompareSettings
         reference.channels
     );
     for (name, text) in conventions(settings) {
-        println!("  {name:<7} {text}");
+        outln!("  {name:<7} {text}");
     }
-    println!();
+    outln!();
     let names: Vec<String> = rows.iter().map(|r| r.path.display().to_string()).collect();
     let width = names
         .iter()
@@ -274,9 +302,16 @@ fn print_table(args: &CompareArgs, reference: &Image, settings: &CompareSettings
         .max()
         .unwrap_or(0)
         .max(5);
-    println!(
+    outln!(
         "{:<width$}  {:>10}  {:>10}  {:>8}  {:>8}  {:>8}  {:>8}  {:>10}",
-        "image", "MSE", "relMSE", "SMAPE", "PSNR dB", "SSIM", "FLIP", "non-finite"
+        "image",
+        "MSE",
+        "relMSE",
+        "SMAPE",
+        "PSNR dB",
+        "SSIM",
+        "FLIP",
+        "non-finite"
     );
     for (row, name) in rows.iter().zip(&names) {
         let m = &row.metrics;
@@ -285,9 +320,14 @@ fn print_table(args: &CompareArgs, reference: &Image, settings: &CompareSettings
         } else {
             "inf".into()
         };
-        println!(
+        outln!(
             "{name:<width$}  {:>10.4e}  {:>10.4e}  {:>8.5}  {psnr:>8}  {:>8.5}  {:>8.5}  {:>10}",
-            m.mse, m.relmse, m.smape, m.ssim, m.flip, m.nonfinite_pixels
+            m.mse,
+            m.relmse,
+            m.smape,
+            m.ssim,
+            m.flip,
+            m.nonfinite_pixels
         );
     }
     let excluded: Vec<_> = rows
@@ -295,15 +335,15 @@ fn print_table(args: &CompareArgs, reference: &Image, settings: &CompareSettings
         .filter(|r| r.metrics.nonfinite_pixels > 0)
         .collect();
     if !excluded.is_empty() {
-        println!();
-        println!(
+        outln!();
+        outln!(
             "non-finite: pixels with a NaN or infinite channel in the reference or the image; \
              left out of every metric"
         );
     }
     for row in rows {
         if let Some(d) = &row.diff {
-            println!(
+            outln!(
                 "diff {} -> {} ({})",
                 row.path.display(),
                 d.display(),

@@ -1,6 +1,7 @@
 //! `lumo denoise`: filter an image from any renderer with one of lumo-filter's screen-space
 //! filters, steered by whichever G-buffer planes are given.
 
+use crate::cli_common::{errln, outln};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -431,13 +432,13 @@ fn configure(a: &DenoiseArgs, inp: &Inputs) -> anyhow::Result<Box<dyn Denoiser>>
     }
     // Options another filter reads: say so in one line each instead of ignoring them silently.
     if a.iterations.is_some() && a.filter != FilterKind::Atrous {
-        eprintln!(
+        errln!(
             "warning: --iterations applies to --filter atrous; --filter {} ignores it",
             a.filter.name()
         );
     }
     if a.radius.is_some() && !matches!(a.filter, FilterKind::Guided | FilterKind::Bilateral) {
-        eprintln!(
+        errln!(
             "warning: --radius applies to --filter guided and bilateral; --filter {} ignores it{}",
             a.filter.name(),
             if a.filter == FilterKind::Auto {
@@ -467,7 +468,7 @@ fn configure(a: &DenoiseArgs, inp: &Inputs) -> anyhow::Result<Box<dyn Denoiser>>
                 needs("sigma-position", position.is_some(), "position")?;
             }
             if normal.is_none() && position.is_none() {
-                eprintln!(
+                errln!(
                     "warning: no --normal or --position: À-Trous is steered by colour only and will \
                      blur geometry edges"
                 );
@@ -763,6 +764,32 @@ fn check_outputs_spare_inputs(a: &DenoiseArgs, inputs: &Inputs) -> anyhow::Resul
 /// without a word (a variance of +∞, NaN or −1 read as 0, noise-free; an all-zero albedo from
 /// another renderer, or an all-NaN emission plane, left every pixel as it was).
 fn check_plane_values(a: &DenoiseArgs, inputs: &Inputs) -> anyhow::Result<()> {
+    // A colour plane with nothing to filter: every pixel NaN or infinite (all treated as
+    // missing), or no light at all but negative values (the filters clamp at 0). Each wrote
+    // a black image with exit 0.
+    let (path, color) = &inputs.color;
+    let finite = |px: &&[f32]| px.iter().all(|v| v.is_finite());
+    let pixels = || color.data.chunks_exact(color.channels.max(1));
+    if !pixels().any(|px| finite(&px)) {
+        bail!(
+            "{}: every pixel of the colour plane is NaN or infinite; there is nothing to \
+             denoise (check the renderer's output)",
+            path.display()
+        );
+    }
+    let positive = pixels()
+        .filter(finite)
+        .any(|px| px.iter().any(|&v| v > 0.0));
+    let negative = pixels()
+        .filter(finite)
+        .any(|px| px.iter().any(|&v| v < 0.0));
+    if negative && !positive {
+        bail!(
+            "{}: every value of the colour plane is zero or negative; the filters take light \
+             as ≥ 0 and would write black (was the image inverted or offset?)",
+            path.display()
+        );
+    }
     if let Some((path, v)) = &inputs.variance {
         let bad = |x: f32| !x.is_finite() || x < 0.0;
         let first = v.data.iter().position(|&x| bad(x));
@@ -786,7 +813,7 @@ fn check_plane_values(a: &DenoiseArgs, inputs: &Inputs) -> anyhow::Result<()> {
             .filter(|&i| lumo_filter::albedo_passes_through(albedo, i))
             .count();
         if share(passed) > 0.5 {
-            eprintln!(
+            errln!(
                 "warning: {}: {passed} of {total} albedo pixels are black (below {:e}) or not \
                  finite; demodulation passes them through unfiltered (if the plane is not a \
                  real albedo, drop it or add --no-demodulate)",
@@ -811,7 +838,7 @@ fn check_plane_values(a: &DenoiseArgs, inputs: &Inputs) -> anyhow::Result<()> {
             }
         }
         if set == 0 || off * 2 > set {
-            eprintln!(
+            errln!(
                 "warning: {}: {} of {total} normals are not unit vectors (zero, NaN or of \
                  another length); the filters expect world-space unit normals with components \
                  in [-1, 1], not an encoded normal map",
@@ -823,7 +850,7 @@ fn check_plane_values(a: &DenoiseArgs, inputs: &Inputs) -> anyhow::Result<()> {
     if let Some((path, emission)) = &inputs.emission {
         let lit = emitting(emission).iter().filter(|&&e| e).count();
         if share(lit) > 0.5 {
-            eprintln!(
+            errln!(
                 "warning: {}: {lit} of {total} pixels count as emitting (any channel non-zero \
                  or NaN) and are passed through unfiltered; an emission plane is zero except on \
                  lights seen directly",
@@ -833,6 +860,11 @@ fn check_plane_values(a: &DenoiseArgs, inputs: &Inputs) -> anyhow::Result<()> {
     }
     Ok(())
 }
+
+/// Bytes per pixel the filters may allocate beyond their inputs: the most any filter needs
+/// (`auto`: lumo-pipeline's estimate of 660 for its pipeline less the 220 of the render) and
+/// the output.
+const DENOISE_BYTES_PER_PIXEL: u64 = 480;
 
 /// Runs `lumo denoise`.
 pub fn run(args: DenoiseArgs) -> anyhow::Result<()> {
@@ -858,13 +890,13 @@ pub fn run(args: DenoiseArgs) -> anyhow::Result<()> {
     let t_read = t0.elapsed();
     let missing = missing_pixels(&inputs.color.1) - inputs.huge;
     if missing > 0 {
-        eprintln!(
+        errln!(
             "warning: {missing} pixel(s) of {} are NaN or infinite; treated as missing",
             inputs.color.0.display()
         );
     }
     if inputs.huge > 0 {
-        eprintln!(
+        errln!(
             "warning: {} pixel(s) of {} have a value beyond ±{MAX_COLOR:e}, more than the \
              filters' sums of squares can hold; treated as missing (scale the image down if \
              they are real light)",
@@ -872,6 +904,12 @@ pub fn run(args: DenoiseArgs) -> anyhow::Result<()> {
             inputs.color.0.display()
         );
     }
+    let (w, h) = (inputs.color.1.width as u64, inputs.color.1.height as u64);
+    crate::cli_common::check_memory(
+        (w * h).saturating_mul(DENOISE_BYTES_PER_PIXEL),
+        &format!("denoising {w}x{h} pixels"),
+        "denoise a smaller image (crop it)",
+    )?;
     let (filtered, times, detected) = filter_inputs(&args, &inputs)?;
     let t_filter = times[times.len() / 2];
     let t2 = Instant::now();
@@ -883,7 +921,7 @@ pub fn run(args: DenoiseArgs) -> anyhow::Result<()> {
         write_image(path, &light_mask_image(mask, w, h))
             .with_context(|| format!("cannot write {}", path.display()))?;
         let count = |m: &[bool]| m.iter().filter(|&&b| b).count();
-        eprintln!(
+        errln!(
             "light search: {} pixel(s) taken for lights, {} on their rims → {}",
             count(&mask.light),
             count(&mask.rim),
@@ -892,14 +930,14 @@ pub fn run(args: DenoiseArgs) -> anyhow::Result<()> {
     }
     if args.timings {
         let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
-        println!("read {:.3} ms", ms(t_read));
-        println!("filter {:.3} ms", ms(t_filter));
+        outln!("read {:.3} ms", ms(t_read));
+        outln!("filter {:.3} ms", ms(t_filter));
         if times.len() > 1 {
             // On a shared machine the fastest run is the least disturbed one: A/B
             // comparisons of two builds are steadier on it than on the median.
-            println!("filter-min {:.3} ms", ms(times[0]));
+            outln!("filter-min {:.3} ms", ms(times[0]));
         }
-        println!("write {:.3} ms", ms(t_write));
+        outln!("write {:.3} ms", ms(t_write));
     }
     Ok(())
 }

@@ -41,7 +41,8 @@ fn main() {
         Command::Worker(args) => worker_cmd::run(args),
     };
     if let Err(e) = result {
-        eprintln!("error: {e:#}");
+        // Survives a closed stderr, like every message of the subcommands (cli_common).
+        lumo_cli::cli_common::write_stderr(format_args!("error: {e:#}\n"));
         std::process::exit(2);
     }
 }

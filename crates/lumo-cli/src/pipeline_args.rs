@@ -1,6 +1,7 @@
 //! The `--pipeline` options of `lumo render`: which of the papers' filtered-GI pipelines turns
 //! traced paths into the image, and its knobs.
 
+use crate::cli_common::errln;
 use anyhow::{anyhow, bail, Result};
 use lumo_pipeline::{Pipeline, PipelineError, PipelineOptions};
 
@@ -82,7 +83,7 @@ impl PipelineArgs {
         ];
         for (given, flag, owner) in ignored {
             if given && effective != owner {
-                eprintln!(
+                errln!(
                     "warning: {flag} applies to --pipeline {}; this run uses --pipeline {}, \
                      ignored",
                     owner.name(),

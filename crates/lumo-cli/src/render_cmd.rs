@@ -1,5 +1,6 @@
 //! `lumo render`: path-trace a built-in scene and write the image (and optionally its AOVs).
 
+use crate::cli_common::{errln, outln};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -257,7 +258,20 @@ pub fn load_scene_animated(
 ) -> Result<(Scene, FileSettings, Option<AnimatedScene>)> {
     let path = Path::new(name);
     if names_scene_file(name) {
-        if !path.exists() {
+        if let Err(e) = std::fs::metadata(path) {
+            // A link that leads nowhere (a loop, a missing target) was reported as a file
+            // that "does not exist", though `ls` shows it.
+            if path.symlink_metadata().is_ok() {
+                let why = if e.raw_os_error() == Some(40) {
+                    "it is part of a loop of symbolic links".to_string()
+                } else {
+                    lumo_image::describe_io_error(&e)
+                };
+                bail!(
+                    "scene file {name:?} is a symbolic link that cannot be followed: {why}; \
+                     point it at a scene file"
+                );
+            }
             bail!(
                 "scene file {name:?} does not exist; built-in scenes: {}",
                 builtin_names()
@@ -265,7 +279,7 @@ pub fn load_scene_animated(
         }
         let loaded = lumo_scene::load::load_scene(path, options)?;
         for w in &loaded.warnings {
-            eprintln!("{w}");
+            errln!("{w}");
         }
         return Ok((loaded.scene, loaded.settings, loaded.animation));
     }
@@ -273,12 +287,12 @@ pub fn load_scene_animated(
     // The file loader warns about these for non-glTF files; built-ins have one camera and
     // no animation, so say so rather than ignore the options silently.
     if options.camera.is_some() {
-        eprintln!(
+        errln!(
             "warning: --camera applies to glTF scenes; the built-in {name} has one camera, ignored"
         );
     }
     if options.time.is_some() {
-        eprintln!("warning: --time applies to animated glTF scenes; the built-in {name} is static, ignored");
+        errln!("warning: --time applies to animated glTF scenes; the built-in {name} is static, ignored");
     }
     Ok((scene, FileSettings::default(), None))
 }
@@ -306,6 +320,14 @@ pub fn check_writable(path: &Path) -> Result<()> {
 /// Fails early (before the work) if the file `path` cannot be written: it is a directory, its
 /// directory does not exist or is not writable.
 pub fn check_output_file(path: &Path) -> Result<()> {
+    // "out.png/" names a directory to the OS but passes Path's extension test: it failed only
+    // when written, after the render.
+    if path.as_os_str().as_encoded_bytes().ends_with(b"/") {
+        bail!(
+            "cannot write {}: the name ends in '/', so it names a directory; drop the '/'",
+            path.display()
+        );
+    }
     if path.is_dir() {
         bail!(
             "cannot write {}: it is a directory; name a file in it, e.g. {}",
@@ -324,7 +346,29 @@ pub fn check_output_file(path: &Path) -> Result<()> {
             dir.display()
         );
     }
-    let probe = dir.join(format!(".lumo-write-test-{}", std::process::id()));
+    // Temporaries of writes killed earlier (Ctrl-C, a crash) are swept here, once per output.
+    let swept = lumo_image::sweep_stale_temps(&dir);
+    if swept > 0 {
+        errln!(
+            "note: removed {swept} temporary file(s) .lumo-tmp-* left in {} by interrupted \
+             writes",
+            dir.display()
+        );
+    }
+    // The probe is the temporary the write will use, so a name too long for the file system
+    // fails here, not after the render.
+    if let Some(name) = path
+        .file_name()
+        .filter(|n| n.len() > lumo_image::MAX_NAME_BYTES)
+    {
+        bail!(
+            "cannot write {}: the file name is {} bytes; file systems take at most {}",
+            path.display(),
+            name.len(),
+            lumo_image::MAX_NAME_BYTES
+        );
+    }
+    let probe = lumo_image::temp_path(path);
     std::fs::write(&probe, b"").with_context(|| {
         format!(
             // The cause follows (permission denied, read-only file system, or /proc's "no
@@ -355,7 +399,7 @@ pub fn si(v: f64) -> String {
 pub fn run(args: RenderArgs) -> Result<()> {
     if args.list {
         for s in BUILTIN_SCENES {
-            println!("{:<16} {}", s.name, s.description);
+            outln!("{:<16} {}", s.name, s.description);
         }
         return Ok(());
     }
@@ -393,7 +437,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     if args.integrator == RenderIntegrator::Ppm {
         let camera = PinholeCamera::new(&rs.scene.camera, width, height);
         if let Some(w) = scene_warning(&rs, &camera, &settings.path) {
-            eprintln!("{w}");
+            errln!("{w}");
         }
         let (image, stats) = pool.install(|| {
             render_ppm(&rs, &settings, &ppm, &|f| {
@@ -410,7 +454,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
             .iter()
             .map(|p| p.display().to_string())
             .collect();
-        println!(
+        outln!(
             "done in {secs:.2} s · {}samples/s · {}photon paths/s · {}rays/s · map {} photons (peak {}, {} MB, {} resets) · {:.1} photons/gather → {}",
             si(stats.samples as f64 / secs),
             si(stats.photon_paths as f64 / secs),
@@ -429,7 +473,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     bar.finish_and_clear();
     job.write(&out, &job.outputs, args.aovs.as_deref())?;
     if let Some(timings) = &out.timings {
-        eprintln!("pipeline {pipeline}: {timings}");
+        errln!("pipeline {pipeline}: {timings}");
     }
     let written: Vec<String> = job
         .outputs
@@ -437,7 +481,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         .map(|p| p.display().to_string())
         .collect();
     let unit = args.integrator.sample_unit();
-    println!(
+    outln!(
         "done in {secs:.2} s · {}{unit}/s · {}rays/s → {}{}",
         si(out.stats.samples as f64 / secs),
         si(out.stats.rays as f64 / secs),
@@ -654,7 +698,7 @@ impl Plan {
                 .and_then(|e| e.to_str())
                 .is_some_and(|e| ["exr", "pfm", "png"].contains(&e.to_ascii_lowercase().as_str()));
             if image_like && !dir.exists() {
-                eprintln!(
+                errln!(
                     "warning: --aovs {} names a directory (one file per plane goes into it), \
                      created with an image extension; the image itself is -o",
                     dir.display()
@@ -700,6 +744,40 @@ impl Plan {
             let probe = if planes.is_dir() { &planes } else { dir };
             check_writable(&probe.join("color.exr"))
                 .with_context(|| format!("--aovs {}", dir.display()))?;
+            // Every plane of every frame, not only the first: a directory where one plane goes
+            // failed after the render, with half the planes overwritten.
+            let frame_dirs: Vec<PathBuf> = match &sequence {
+                Some(seq) => (seq.frames.first..=seq.frames.last)
+                    .map(|f| seq.frame_aov_dir(dir, f))
+                    .collect(),
+                None => vec![dir.clone()],
+            };
+            for planes in &frame_dirs {
+                if planes.exists() && !planes.is_dir() {
+                    bail!(
+                        "--aovs {}: {} exists and is not a directory (a frame's planes go there)",
+                        dir.display(),
+                        planes.display()
+                    );
+                }
+                if !planes.is_dir() {
+                    continue;
+                }
+                for name in lumo_render::AOV_NAMES
+                    .iter()
+                    .chain(lumo_pipeline::PLANE_NAMES)
+                {
+                    let plane = planes.join(format!("{name}.exr"));
+                    if plane.symlink_metadata().is_ok() && !plane.is_file() {
+                        bail!(
+                            "--aovs {}: {} is not a regular file, and the {name} plane is written \
+                             there; move it or choose another directory",
+                            dir.display(),
+                            plane.display()
+                        );
+                    }
+                }
+            }
         }
         for o in deferred {
             check_output(o)?;
@@ -752,7 +830,7 @@ impl Plan {
             ),
         };
         if announce {
-            eprintln!(
+            errln!(
             "{name}: {tris} triangles (BVH {:.0} ms), {width}x{height}, {} spp, max depth {}, {method}, {threads} threads",
             build.as_secs_f64() * 1e3,
             settings.spp,
@@ -760,7 +838,7 @@ impl Plan {
         );
         }
         if args.integrator == RenderIntegrator::Bdpt && rs.lights.emits_no_particles() {
-            eprintln!("warning: {name}: no light emits particles (environment lights do not): --integrator bdpt runs as a path tracer here");
+            errln!("warning: {name}: no light emits particles (environment lights do not): --integrator bdpt runs as a path tracer here");
         }
         Ok(Ready {
             pipeline,

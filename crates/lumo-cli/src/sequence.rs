@@ -3,6 +3,7 @@
 //! instances, lights recomputed: `RenderScene::pose`) rather than rebuilding it, and/or turns
 //! the camera (`--orbit`). See docs/animation.md.
 
+use crate::cli_common::{errln, outln};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -161,7 +162,7 @@ impl Sequence {
             );
         }
         if rig.is_none() && args.fps.is_some() && orbits {
-            eprintln!(
+            errln!(
                 "warning: --fps has no effect: scene {:?} has no animation, and an orbit is \
                  spread over the frames whatever the rate",
                 scene.name
@@ -382,7 +383,7 @@ impl Sequence {
             String::new()
         };
         let unit = job.args.integrator.sample_unit();
-        println!(
+        outln!(
             "done: {count} frame{} in {secs:.2} s ({:.3} s/frame) · {motion} · {}{unit}/s · \
              {}rays/s → {names}{also}",
             if count == 1 { "" } else { "s" },

@@ -1,5 +1,6 @@
 //! `lumo serve`: starts the progressive render server and its web viewer.
 
+use crate::cli_common::{errln, outln};
 use std::io::Write;
 use std::net::{IpAddr, SocketAddr};
 use std::time::Instant;
@@ -229,7 +230,7 @@ pub fn run(args: ServeArgs) -> Result<()> {
     if config.integrator == Integrator::Ppm {
         let camera = PinholeCamera::new(&rs.scene.camera, width, height);
         if let Some(w) = scene_warning(&rs, &camera, &config.path) {
-            eprintln!("{w}");
+            errln!("{w}");
         }
     }
     let runtime = tokio::runtime::Builder::new_multi_thread()
@@ -257,40 +258,30 @@ pub fn run(args: ServeArgs) -> Result<()> {
             }
             None => None,
         };
-        eprintln!(
+        errln!(
             "{name}: {tris} triangles (ready in {:.0} ms), {width}x{height}, {} render threads",
             start.elapsed().as_secs_f64() * 1e3,
             hub.threads()
         );
         if !args.bind.is_loopback() {
-            eprintln!(
+            errln!(
                 "warning: listening on {} — reachable from other machines",
                 args.bind
             );
         }
-        let host = if local.ip().is_unspecified() {
-            "127.0.0.1".to_string()
-        } else {
-            local.ip().to_string()
-        };
-        let host = if local.is_ipv6() {
-            format!("[{host}]")
-        } else {
-            host
-        };
-        println!("open http://{host}:{}", local.port());
+        outln!("open {}", viewer_url(local));
         if let Some((addr, token, listener)) = workers {
             if !addr.ip().is_loopback() {
-                eprintln!(
+                errln!(
                     "warning: remote workers connect on {addr} — reachable from other machines; \
                      the token is their only check and the connection is not encrypted"
                 );
             }
-            println!("workers: lumo worker --hub {addr} --token {token}");
+            outln!("workers: lumo worker --hub {addr} --token {token}");
             let hub = hub.clone();
             tokio::spawn(async move {
                 if let Err(e) = lumo_server::remote::serve_workers(listener, hub).await {
-                    eprintln!("remote workers: {e}");
+                    errln!("remote workers: {e}");
                 }
             });
         }
@@ -299,4 +290,35 @@ pub fn run(args: ServeArgs) -> Result<()> {
             .await
             .context("server stopped")
     })
+}
+
+/// The URL a browser on this machine opens for a server listening on `local`: an unspecified
+/// address (`0.0.0.0`, `::`) becomes the loopback of its family, and an IPv6 host is
+/// bracketed (`--bind ::` printed `http://[127.0.0.1]:PORT`, which no browser opens).
+fn viewer_url(local: std::net::SocketAddr) -> String {
+    use std::net::{IpAddr, Ipv4Addr, Ipv6Addr};
+    let ip = match local.ip() {
+        IpAddr::V4(ip) if ip.is_unspecified() => IpAddr::V4(Ipv4Addr::LOCALHOST),
+        IpAddr::V6(ip) if ip.is_unspecified() => IpAddr::V6(Ipv6Addr::LOCALHOST),
+        ip => ip,
+    };
+    match ip {
+        IpAddr::V4(ip) => format!("http://{ip}:{}", local.port()),
+        IpAddr::V6(ip) => format!("http://[{ip}]:{}", local.port()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::viewer_url;
+
+    #[test]
+    fn the_printed_url_opens_in_a_browser() {
+        let url = |a: &str| viewer_url(a.parse().unwrap());
+        assert_eq!(url("0.0.0.0:8080"), "http://127.0.0.1:8080");
+        assert_eq!(url("[::]:8080"), "http://[::1]:8080");
+        assert_eq!(url("[::1]:9"), "http://[::1]:9");
+        assert_eq!(url("[fe80::1]:9"), "http://[fe80::1]:9");
+        assert_eq!(url("192.168.1.5:80"), "http://192.168.1.5:80");
+    }
 }

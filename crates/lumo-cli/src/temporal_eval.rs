@@ -13,6 +13,7 @@
 //! absolute frame-to-frame change of the displayed image (sRGB of the clamped linear value, 0–1
 //! per channel); on a still camera it should approach the references' own.
 
+use crate::cli_common::{errln, out};
 use std::fmt::Write as _;
 use std::path::Path;
 use std::time::Duration;
@@ -228,7 +229,7 @@ pub fn run(
         } else {
             "FLIP n/a (--reference-spp 0)".to_string()
         };
-        eprintln!(
+        errln!(
             "frame {frame}: {flip} · trace {:.1} ms · update {:.2} ms · spatial {:.1} ms · temporal {:.1} ms (+{:.1} ms motion, +{:.1} ms re-shading, +{:.1} ms direct split)",
             ms(row.trace),
             ms(row.update),
@@ -243,7 +244,7 @@ pub fn run(
     std::fs::write(dir.join("frames.csv"), csv(&rows))?;
     let summary = summary(&rows, &settings, reference_spp);
     std::fs::write(dir.join("summary.md"), &summary)?;
-    print!("{summary}");
+    out!("{summary}");
     if reference_spp > 0 {
         write_image(&dir.join("flip.png"), &plot(&rows))?;
         write_image(&dir.join("stability.png"), &stability_plot(&rows))?;

@@ -45,8 +45,8 @@ pub fn run(args: WorkerArgs) -> Result<()> {
         .unwrap_or_else(|| format!("{}-{}", host_name(), std::process::id()));
     let mut config = RemoteWorkerConfig::new(args.hub.clone(), token, name.clone());
     config.threads = crate::cli_common::thread_count(args.threads).unwrap_or(0);
-    eprintln!("worker {name}: connecting to {}", args.hub);
+    crate::cli_common::errln!("worker {name}: connecting to {}", args.hub);
     run_remote_worker(config)?;
-    eprintln!("worker {name}: the hub closed the connection");
+    crate::cli_common::errln!("worker {name}: the hub closed the connection");
     Ok(())
 }

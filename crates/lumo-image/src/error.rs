@@ -56,6 +56,20 @@ pub enum ImageError {
         /// The pixel budget in force.
         limit: u64,
     },
+    /// Decoding the image would need more memory than this process may still allocate
+    /// ([`crate::memory_available`]); refused before anything is allocated.
+    OutOfMemory {
+        /// The file involved.
+        path: PathBuf,
+        /// Width in its header.
+        width: usize,
+        /// Height in its header.
+        height: usize,
+        /// Bytes the decoding needs, about.
+        need: u64,
+        /// Bytes available.
+        available: u64,
+    },
     /// The extension is not one lumo reads or writes.
     UnsupportedExtension {
         /// The file involved.
@@ -114,6 +128,20 @@ impl fmt::Display for ImageError {
                 path.display(),
                 crate::limits::MAX_PIXELS_VAR
             ),
+            ImageError::OutOfMemory {
+                path,
+                width,
+                height,
+                need,
+                available,
+            } => write!(
+                f,
+                "{}: reading {width}x{height} pixels needs about {} of memory, but only {} is \
+                 available; free memory or use a smaller image",
+                path.display(),
+                crate::memory::format_bytes(*need),
+                crate::memory::format_bytes(*available),
+            ),
             ImageError::UnsupportedExtension { path } => write!(
                 f,
                 "{}: unsupported image extension (use .exr, .pfm or .png)",
@@ -143,6 +171,7 @@ impl ImageError {
             | ImageError::Format { path, .. }
             | ImageError::Empty { path, .. }
             | ImageError::TooLarge { path, .. }
+            | ImageError::OutOfMemory { path, .. }
             | ImageError::UnsupportedExtension { path } => {
                 if path == from {
                     *path = to.to_path_buf();

@@ -1,7 +1,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use crate::limits::{check_image_size, regular_file_size};
+use crate::limits::{check_image_pixels, regular_file_size};
 use crate::{exr_io, pfm, png_io, Image, ImageError};
 
 /// The file formats lumo reads and writes, chosen by extension.
@@ -48,7 +48,7 @@ pub fn read_image(path: &Path) -> Result<Image, ImageError> {
     };
     // The readers check their headers; this is the one rule all formats share, kept here too
     // so that no reader can hand out an image that indexing would panic on.
-    check_image_size(path, image.width, image.height, file_bytes)?;
+    check_image_pixels(path, image.width, image.height, file_bytes)?;
     Ok(image)
 }
 
@@ -86,7 +86,50 @@ pub fn temp_path(path: &Path) -> PathBuf {
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| "out".into());
     let n = NEXT.fetch_add(1, Ordering::Relaxed);
-    path.with_file_name(format!(".lumo-tmp-{}-{n}.{name}", std::process::id()))
+    let prefix = format!("{TEMP_PREFIX}{}-{n}.", std::process::id());
+    // A name near the file system's 255-byte limit is valid, but not with the prefix: keep
+    // only its extension then (the temporary once failed where the name itself would not).
+    let name = if prefix.len() + name.len() > MAX_NAME_BYTES {
+        path.extension()
+            .map_or_else(|| "out".into(), |e| e.to_string_lossy().into_owned())
+    } else {
+        name
+    };
+    path.with_file_name(format!("{prefix}{name}"))
+}
+
+/// How [`temp_path`]'s names start.
+const TEMP_PREFIX: &str = ".lumo-tmp-";
+
+/// The longest file name common file systems (ext4, XFS, btrfs, APFS, NTFS) accept, in bytes.
+pub const MAX_NAME_BYTES: usize = 255;
+
+/// Removes the temporaries of [`write_image`] in `dir` left by lumo processes that no longer
+/// run (a write killed by a signal or a crash cannot remove its own); returns how many were
+/// removed. Another live process's temporaries are left alone. Linux only (a process is
+/// known to be gone when /proc has no entry for it); elsewhere nothing is removed.
+pub fn sweep_stale_temps(dir: &Path) -> usize {
+    if !cfg!(target_os = "linux") || !Path::new("/proc/self").exists() {
+        return 0;
+    }
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return 0;
+    };
+    let mut removed = 0;
+    for entry in entries.flatten() {
+        let name = entry.file_name();
+        let Some(rest) = name.to_str().and_then(|n| n.strip_prefix(TEMP_PREFIX)) else {
+            continue;
+        };
+        let Some(pid) = rest.split('-').next().and_then(|p| p.parse::<u32>().ok()) else {
+            continue;
+        };
+        let gone = pid != std::process::id() && !Path::new(&format!("/proc/{pid}")).exists();
+        if gone && entry.file_type().is_ok_and(|t| t.is_file()) {
+            removed += usize::from(std::fs::remove_file(entry.path()).is_ok());
+        }
+    }
+    removed
 }
 
 pub(crate) fn io_err(path: &Path, source: std::io::Error) -> ImageError {

@@ -8,6 +8,7 @@ mod exr_io;
 mod image;
 mod io;
 mod limits;
+mod memory;
 pub mod metrics;
 mod pfm;
 mod png_io;
@@ -15,8 +16,9 @@ mod png_io;
 pub use color::{linear_to_srgb, luminance, srgb_to_linear};
 pub use error::{describe_io_error, ImageError};
 pub use image::{rgb_of, Image};
-pub use io::{read_image, temp_path, write_image, ImageFormat};
+pub use io::{read_image, sweep_stale_temps, temp_path, write_image, ImageFormat, MAX_NAME_BYTES};
 pub use limits::{
-    check_image_size, file_kind, max_image_pixels, regular_file_size, DEFAULT_MAX_PIXELS,
-    MAX_PIXELS_VAR,
+    check_image_size, file_kind, max_image_pixels, regular_file_size, DECODE_BYTES_PER_PIXEL,
+    DEFAULT_MAX_PIXELS, MAX_PIXELS_VAR,
 };
+pub use memory::{format_bytes, memory_available, parse_size, MEMORY_LIMIT_VAR};

@@ -31,9 +31,37 @@ pub fn max_image_pixels() -> u64 {
     })
 }
 
-/// Errors unless a `width`×`height` image fits the pixel budget and has at least one pixel.
+/// Bytes per pixel a reader may hold while decoding: the decoder's buffer and the float image
+/// (up to four channels of f32 each).
+pub const DECODE_BYTES_PER_PIXEL: u64 = 32;
+
+/// Errors unless a `width`×`height` image fits the pixel budget, has at least one pixel and
+/// its decoding fits the memory this process may still allocate ([`crate::memory_available`]:
+/// an 11585² PNG of 400 KB is within the pixel budget yet aborted `lumo compare` at 7.4 GB).
 /// `file_bytes` is only reported.
 pub fn check_image_size(
+    path: &Path,
+    width: usize,
+    height: usize,
+    file_bytes: u64,
+) -> Result<(), ImageError> {
+    check_image_pixels(path, width, height, file_bytes)?;
+    let need = (width as u64 * height as u64).saturating_mul(DECODE_BYTES_PER_PIXEL);
+    if let Some(available) = crate::memory_available().filter(|&a| need > a) {
+        return Err(ImageError::OutOfMemory {
+            path: path.to_path_buf(),
+            width,
+            height,
+            need,
+            available,
+        });
+    }
+    Ok(())
+}
+
+/// The empty-image and pixel-budget part of [`check_image_size`], for an image already read
+/// (its memory is spent).
+pub(crate) fn check_image_pixels(
     path: &Path,
     width: usize,
     height: usize,

@@ -85,7 +85,21 @@ pub(crate) fn read(path: &Path, file_bytes: u64) -> Result<Image, ImageError> {
         .filter(|n| n.checked_mul(4).is_some())
         .ok_or_else(|| format_err(path, format!("PFM size {width}x{height} is too large")))?;
     check_image_size(path, width, height, file_bytes)?;
-    let body = file_bytes.saturating_sub(header_len);
+    let mut body = file_bytes.saturating_sub(header_len);
+    // A header written with CRLF line ends (Windows tools) ends in "\r\n": the "\r" ended the
+    // scale token, and the "\n" is not pixel data (read as data, every value was shifted by a
+    // byte: garbage). The file's size tells it from a first data byte that happens to be 0x0A.
+    if next == Some(b'\r') && body == n as u64 * 4 + 1 {
+        let mut lf = [0u8; 1];
+        reader.read_exact(&mut lf).map_err(|e| io_err(path, e))?;
+        if lf[0] != b'\n' {
+            return Err(format_err(
+                path,
+                "PFM header ends in \\r without \\n, and the data is one byte too long",
+            ));
+        }
+        body -= 1;
+    }
     if body < n as u64 * 4 {
         return Err(format_err(
             path,

@@ -3,7 +3,7 @@
 //! Requests are accepted only with exactly one `Host` header naming `localhost` or an IP
 //! literal (a DNS-rebinding page cannot reach the server under its own host name; malformed or
 //! duplicate headers get 400), and the WebSocket only from the page's own origin or from
-//! non-browser clients that send no `Origin`.
+//! non-browser clients that send no `Origin` (several `Origin` headers are refused).
 //!
 //! A viewer's messages are read at most [`crate::Limits::messages_per_second`] (faster senders
 //! wait at their own socket); invalid ones get an ERROR reply until
@@ -137,11 +137,17 @@ async fn check_host(req: Request, next: Next) -> Response {
     next.run(req).await
 }
 
-/// Same-origin check: the Origin's authority must equal the Host header.
+/// Same-origin check: the Origin's authority must equal the Host header. Several `Origin`
+/// headers are refused, as several `Host`s are: the check read the first while another layer
+/// might act on the second (a WebSocket upgrade with two was accepted on the first).
 fn origin_allowed(headers: &HeaderMap) -> bool {
-    let Some(origin) = headers.get(header::ORIGIN) else {
+    let mut all = headers.get_all(header::ORIGIN).iter();
+    let Some(origin) = all.next() else {
         return true;
     };
+    if all.next().is_some() {
+        return false;
+    }
     let (Ok(origin), Some(Ok(host))) = (
         origin.to_str(),
         headers.get(header::HOST).map(|h| h.to_str()),
@@ -406,6 +412,16 @@ mod tests {
         );
         assert!(origin_allowed(&h));
         h.insert(
+            header::ORIGIN,
+            "http://evil.example".parse().expect("header"),
+        );
+        assert!(!origin_allowed(&h));
+        // Two Origins, even if the first is the page's own, are refused.
+        h.insert(
+            header::ORIGIN,
+            "http://127.0.0.1:8080".parse().expect("header"),
+        );
+        h.append(
             header::ORIGIN,
             "http://evil.example".parse().expect("header"),
         );

@@ -10,6 +10,7 @@
 //! lumo-only `<set>.md`; run_peers.py adds the peers and writes the final tables, the ratios
 //! to OIDN and the contact sheet.
 
+use crate::cli_common::{errln, outln};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -222,7 +223,7 @@ pub fn run(args: &QualityArgs, set: &str) -> Result<()> {
                 let block = worst_block.map_or(String::new(), |(r, x, y)| {
                     format!(" worst {BLOCK}² block ({x}, {y}) {r:.2}× the input's")
                 });
-                eprintln!(
+                errln!(
                     "{} {spp} spp {method}: relMSE {:.3e} FLIP {:.4}{block} {ms:.0} ms",
                     c.name, metrics.relmse, metrics.flip
                 );
@@ -273,7 +274,7 @@ pub fn run(args: &QualityArgs, set: &str) -> Result<()> {
     let md_path = out_dir.join(format!("{set}.md"));
     write_bytes(&json_path, serde_json::to_string_pretty(&json)?.as_bytes())?;
     write_bytes(&md_path, md.as_bytes())?;
-    println!(
+    outln!(
         "wrote {} and {} (inputs listed in {})",
         md_path.display(),
         json_path.display(),

@@ -2,6 +2,7 @@
 //! every AOV, written as PFM (readable with a few lines of NumPy) so other denoisers
 //! (tools/peers) can run on exactly the same inputs.
 
+use crate::cli_common::outln;
 use std::path::PathBuf;
 
 use anyhow::{bail, Result};
@@ -65,6 +66,6 @@ pub fn run(args: InputsArgs) -> Result<()> {
     for (name, plane) in out.frame.planes() {
         write_image_atomic(&args.out.join(format!("{name}.pfm")), plane)?;
     }
-    println!("trace {:.3} ms", out.timings.total().as_secs_f64() * 1e3);
+    outln!("trace {:.3} ms", out.timings.total().as_secs_f64() * 1e3);
     Ok(())
 }

@@ -8,6 +8,7 @@
 //! then `spp = budget / (probe time per sample)`. The reference
 //! is a long bidirectional render with another seed, cached as EXR in the output directory.
 
+use crate::cli_common::{err, errln, outln};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -169,7 +170,7 @@ fn reference(
     let base = settings(args.size, 1, 1000, scene.max_depth, scene.rr_depth);
     let (_, t1) = render_with(BenchIntegrator::Bdpt, &scene.rs, &base, pool);
     let spp = calibrated_spp(t1, args.reference_seconds);
-    eprintln!(
+    errln!(
         "{}: reference, bdpt {spp} spp (about {:.0} s)",
         scene.name,
         t1 * spp as f64
@@ -220,7 +221,7 @@ pub fn run(args: IntegratorsArgs) -> Result<()> {
         let mut path_cost = None;
         for &integrator in &args.integrators {
             if integrator == BenchIntegrator::Light && scene.rs.lights.emits_no_particles() {
-                eprintln!(
+                errln!(
                     "{}: light tracer skipped (no light emits particles)",
                     scene.name
                 );
@@ -251,14 +252,14 @@ pub fn run(args: IntegratorsArgs) -> Result<()> {
                     integrator.name(),
                     per_spp / cost
                 );
-                eprint!("{line}");
+                err!("{line}");
                 table.push_str(&line);
             }
         }
     }
-    println!("\n{table}");
+    outln!("\n{table}");
     let out = args.out_dir.join("integrators.md");
     atomic::write_bytes(&out, table.as_bytes())?;
-    eprintln!("→ {}", out.display());
+    errln!("→ {}", out.display());
     Ok(())
 }

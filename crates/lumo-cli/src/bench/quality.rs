@@ -3,6 +3,7 @@
 //! contact sheet. Both are written only once everything is done (temporary name + rename),
 //! so an interrupted run leaves the previous results untouched.
 
+use crate::cli_common::outln;
 use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
@@ -220,7 +221,7 @@ pub fn run(args: QualityArgs) -> Result<()> {
     let md = out_dir.join("quality.md");
     write_image_atomic(&png, &sheet)?;
     write_bytes(&md, markdown.as_bytes())?;
-    println!("wrote {} and {}", md.display(), png.display());
+    outln!("wrote {} and {}", md.display(), png.display());
     Ok(())
 }
 

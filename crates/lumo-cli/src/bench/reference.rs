@@ -2,6 +2,7 @@
 //! then cached. `lumo bench reference` exposes it so that other tools (tools/peers) score
 //! against exactly the image `lumo bench quality` uses.
 
+use crate::cli_common::{errln, outln};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -56,7 +57,7 @@ pub fn run(args: ReferenceArgs) -> Result<()> {
         args.max_depth.unwrap_or(s.max_depth),
     );
     let (_, path) = ensure_reference(&args.cache, &key, s, &pool)?;
-    println!("{}", path.display());
+    outln!("{}", path.display());
     Ok(())
 }
 
@@ -90,7 +91,7 @@ pub fn ensure_reference(
 ) -> Result<(Image, PathBuf)> {
     let path = cache::entry_path(dir, key);
     if let Some(img) = cache::load(dir, key) {
-        eprintln!("reference {}: cached ({})", s.name, path.display());
+        errln!("reference {}: cached ({})", s.name, path.display());
         return Ok((img, path));
     }
     let rs = settings(
@@ -119,7 +120,7 @@ pub fn ensure_reference(
     })?;
     bar.finish_and_clear();
     let stored = cache::store(dir, key, &out.image)?;
-    eprintln!(
+    errln!(
         "reference {}: rendered in {:.1} s ({})",
         s.name,
         t.elapsed().as_secs_f64(),

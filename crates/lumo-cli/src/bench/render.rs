@@ -2,6 +2,7 @@
 //! on every built-in scene, with each integrator's cost per sample relative to the path
 //! tracer's when it is measured too.
 
+use crate::cli_common::{err, errln, outln};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -52,7 +53,7 @@ pub fn run(args: RenderBenchArgs) -> Result<()> {
 
 fn run_render(args: RenderBenchArgs) -> Result<()> {
     if args.repeats == 0 {
-        eprintln!("warning: --repeats 0: timing each scene once");
+        errln!("warning: --repeats 0: timing each scene once");
     }
     crate::cli_common::check_max_depth(Some(args.max_depth))?;
     if let Some(path) = &args.markdown {
@@ -64,7 +65,7 @@ fn run_render(args: RenderBenchArgs) -> Result<()> {
     if args.spectral {
         let t0 = Instant::now();
         pool.install(lumo_spectrum::coefficient_table);
-        eprintln!(
+        errln!(
             "RGB-to-spectrum table fitted in {:.2} s",
             t0.elapsed().as_secs_f64()
         );
@@ -107,7 +108,7 @@ fn run_render(args: RenderBenchArgs) -> Result<()> {
         }
         for (integrator, spectral) in runs {
             if integrator == BenchIntegrator::Light && rs.lights.emits_no_particles() {
-                eprintln!("{name}: light tracer skipped (no light emits particles)");
+                errln!("{name}: light tracer skipped (no light emits particles)");
                 continue;
             }
             let mut settings = settings;
@@ -132,11 +133,11 @@ fn run_render(args: RenderBenchArgs) -> Result<()> {
                 si(rate),
                 si(median(rps))
             );
-            eprint!("{line}");
+            err!("{line}");
             table.push_str(&line);
         }
     }
-    println!("\n{table}");
+    outln!("\n{table}");
     if let Some(path) = &args.markdown {
         super::atomic::write_bytes(path, table.as_bytes())?;
     }

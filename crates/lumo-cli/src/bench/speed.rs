@@ -2,6 +2,7 @@
 //! per pipeline and stage) and Table 2 (filter time per resolution × filter settings) on this
 //! machine, as medians of repeated runs after warm-up runs → `speed.md`.
 
+use crate::cli_common::outln;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
@@ -172,7 +173,7 @@ pub fn run(args: SpeedArgs) -> Result<()> {
     let md = speed_markdown(&ctx, &render_rows, &filter_rows);
     let path = out_dir.join("speed.md");
     write_bytes(&path, md.as_bytes())?;
-    println!("wrote {}", path.display());
+    outln!("wrote {}", path.display());
     Ok(())
 }
 

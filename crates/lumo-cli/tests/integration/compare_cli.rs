@@ -264,3 +264,26 @@ fn a_diff_over_an_input_is_refused_and_the_input_kept() {
     assert!(o.status.success(), "{}", text(&o).1);
     assert!(ok.exists());
 }
+
+/// `--ppd 1e-30` passed the "positive" check and FLIP came out NaN with exit 0; below one
+/// pixel per degree is refused, and 1 gives a finite FLIP.
+#[test]
+fn a_ppd_below_one_is_refused() {
+    let dir = temp_dir("tiny-ppd");
+    let r = write(&dir, "ref.exr", &scene(24, 20, 1.0));
+    let t = write(&dir, "test.exr", &scene(24, 20, 0.5));
+    for ppd in ["1e-30", "0.5"] {
+        let o = lumo(&[&r, &t, Path::new("--ppd"), Path::new(ppd)]);
+        let (_, err) = text(&o);
+        assert_eq!(o.status.code(), Some(2), "{ppd}: {err}");
+        assert!(err.contains("--ppd") && err.contains("at least 1"), "{err}");
+    }
+    let v = json(&lumo(&[
+        &r,
+        &t,
+        Path::new("--ppd"),
+        Path::new("1"),
+        Path::new("--json"),
+    ]));
+    assert!(v["images"][0]["flip"].as_f64().unwrap().is_finite(), "{v}");
+}

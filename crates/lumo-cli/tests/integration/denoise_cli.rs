@@ -686,3 +686,43 @@ fn planes_that_pass_most_pixels_through_are_warned_about() {
     assert!(!stderr.contains("passes them through"), "{stderr}");
     assert!(!stderr.contains("not unit vectors"), "{stderr}");
 }
+
+/// A colour plane with nothing to filter (all NaN, all infinite, or negative without any
+/// light) wrote a black image with exit 0; each is refused naming the file, and no output is
+/// written. One NaN pixel among finite ones is still only a warning (above).
+#[test]
+fn a_colour_plane_with_nothing_to_filter_is_refused() {
+    let dir = temp_dir("nothing");
+    for (name, value, says) in [
+        ("nan.pfm", f32::NAN, "NaN or infinite"),
+        ("inf.pfm", f32::INFINITY, "NaN or infinite"),
+        ("neg.pfm", -0.5, "zero or negative"),
+    ] {
+        let input = dir.join(name);
+        write_image(&input, &Image::new(8, 6, 3, value)).unwrap();
+        let out = dir.join(format!("out-{name}"));
+        let o = lumo(&[
+            "--color",
+            input.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        let (_, stderr) = text(&o);
+        assert_eq!(o.status.code(), Some(2), "{name}: {stderr}");
+        assert!(stderr.contains(name) && stderr.contains(says), "{stderr}");
+        assert!(!out.exists(), "{name}");
+    }
+    // An all-black image is a valid (if dull) input.
+    let black = dir.join("black.pfm");
+    write_image(&black, &Image::new(8, 6, 3, 0.0)).unwrap();
+    let out = dir.join("out-black.pfm");
+    let o = lumo(&[
+        "--color",
+        black.to_str().unwrap(),
+        "--filter",
+        "atrous",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o).1);
+}

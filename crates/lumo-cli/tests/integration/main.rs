@@ -2,8 +2,11 @@
 //! crate again: minutes of a fresh build). Each module is one topic.
 mod bench_cli;
 mod chunked;
+mod closed_pipes;
 mod compare_cli;
 mod denoise_cli;
 mod hostile_options;
+mod memory_limits;
+mod output_checks;
 mod scene_files;
 mod sequence_cli;

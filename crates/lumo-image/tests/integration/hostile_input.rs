@@ -163,3 +163,24 @@ fn a_pfm_scale_that_is_zero_or_not_finite_is_an_error() {
     assert!(read_within_time(path).is_ok());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A PFM whose header lines end in CRLF (written on Windows) was read one byte off: every
+/// value garbage. The "\r\n" is now one line end; a first data byte of 0x0A after a plain
+/// "\n" header is still data (the file's size tells them apart).
+#[test]
+fn a_pfm_header_with_crlf_line_ends_is_read_right() {
+    let dir = std::env::temp_dir().join(format!("lumo-pfm-crlf-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let values = [0.5f32, 1.0, 2.0, 0.25, 4.0, 8.0];
+    let data: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
+    let crlf = dir.join("crlf.pfm");
+    std::fs::write(&crlf, [b"PF\r\n2 1\r\n-1.0\r\n".as_slice(), &data].concat()).unwrap();
+    assert_eq!(read_image(&crlf).unwrap().data, values);
+    // A plain header whose first value's first byte is 0x0A ('\n').
+    let tricky = [f32::from_le_bytes([0x0a, 0, 0, 0x3f]), 1.0, 2.0];
+    let data: Vec<u8> = tricky.iter().flat_map(|v| v.to_le_bytes()).collect();
+    let lf = dir.join("lf.pfm");
+    std::fs::write(&lf, [b"PF\n1 1\n-1.0\r".as_slice(), &data].concat()).unwrap();
+    assert_eq!(read_image(&lf).unwrap().data, tricky);
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -8,6 +8,35 @@ use super::{Diagnostics, LoadError, Location};
 use crate::{Mesh, Scene};
 use glam::Vec3;
 
+/// Brightest emitted radiance a loader accepts per channel: the film sums squares of radiance
+/// for its variance plane, and (1e15)² = 1e30 is within f32's 3.4e38 with room for the sums.
+/// An emissive factor × strength of 1e20 × 1e20 overflowed to infinity and the render came out
+/// black with exit 0.
+pub(crate) const MAX_EMISSION: f32 = 1e15;
+
+/// `v`, an emitted radiance (`what`, as the file names it), if it is finite and at most
+/// [`MAX_EMISSION`]; else an error at `at` saying so.
+pub(crate) fn check_emission(at: &Location, what: &str, v: Vec3) -> Result<Vec3, LoadError> {
+    if !v.is_finite() || v.max_element() > MAX_EMISSION {
+        return Err(LoadError::invalid(
+            at.clone(),
+            format!(
+                "{what} [{:e}, {:e}, {:e}] is {}; the renderer's sums overflow beyond \
+                 {MAX_EMISSION:e} per channel: scale the light down (and the exposure up)",
+                v.x,
+                v.y,
+                v.z,
+                if v.is_finite() {
+                    "too bright"
+                } else {
+                    "not finite (an f32 overflow)"
+                }
+            ),
+        ));
+    }
+    Ok(v)
+}
+
 /// Validates a freshly read mesh: indices in range and finite positions are errors (with the
 /// triangle or vertex number), zero-area triangles are removed with one warning per mesh.
 pub(crate) fn check_mesh(

@@ -144,9 +144,15 @@ impl LoadError {
 pub struct Diagnostics {
     /// Raise warnings as errors.
     pub strict: bool,
-    /// Warnings so far.
+    /// Warnings so far (at most [`MAX_WARNINGS`] and a last one counting the rest).
     pub warnings: Vec<Warning>,
+    /// Warnings past [`MAX_WARNINGS`], counted in the last warning instead of kept.
+    suppressed: usize,
 }
+
+/// Warnings kept per load: a file of a million odd lines (`mtllib /etc/passwd`) gave a million
+/// warnings; past this many, one last warning counts the rest.
+pub const MAX_WARNINGS: usize = 100;
 
 impl Diagnostics {
     /// No warnings yet; `strict` raises them as errors.
@@ -154,6 +160,7 @@ impl Diagnostics {
         Self {
             strict,
             warnings: Vec::new(),
+            suppressed: 0,
         }
     }
 
@@ -163,7 +170,23 @@ impl Diagnostics {
         if self.strict {
             return Err(LoadError::Strict { at, message });
         }
-        self.warnings.push(Warning { at, message });
+        if self.warnings.len() < MAX_WARNINGS {
+            self.warnings.push(Warning { at, message });
+            return Ok(());
+        }
+        self.suppressed += 1;
+        let count = Warning {
+            at: Location::file(&at.file),
+            message: format!(
+                "{} more warning(s) not shown (only the first {MAX_WARNINGS} are)",
+                self.suppressed
+            ),
+        };
+        if self.suppressed == 1 {
+            self.warnings.push(count);
+        } else if let Some(last) = self.warnings.last_mut() {
+            *last = count;
+        }
         Ok(())
     }
 }

@@ -122,6 +122,16 @@ fn check_size(w: usize, h: usize, bytes: usize) -> Result<(), String> {
              image is genuine, raise the limit with {MAX_PIXELS_VAR}=PIXELS"
         ));
     }
+    // The decoder's buffer and the float image, against what this process may allocate (as
+    // lumo-image's readers check EXR, PFM and PNG).
+    let need = (w as u64 * h as u64).saturating_mul(lumo_image::DECODE_BYTES_PER_PIXEL);
+    if let Some(available) = lumo_image::memory_available().filter(|&a| need > a) {
+        return Err(format!(
+            "decoding {w}x{h} pixels needs about {} of memory, but only {} is available",
+            lumo_image::format_bytes(need),
+            lumo_image::format_bytes(available)
+        ));
+    }
     Ok(())
 }
 
@@ -305,9 +315,30 @@ fn decode_hdr(bytes: &[u8]) -> Result<Image, String> {
                 }
             }
         } else {
-            scan[0] = head;
-            for px in scan.iter_mut().skip(1) {
-                *px = [next()?, next()?, next()?, next()?];
+            // Flat pixels, or old-style RLE: a pixel (1, 1, 1, n) repeats the one before it n
+            // times, n shifted left by 8 more bits for each run that directly follows a run.
+            // Read as plain pixels, such runs turned into near-black texels and shifted the
+            // rest of the image.
+            let (mut x, mut shift, mut px) = (0usize, 0u32, head);
+            loop {
+                if px[..3] == [1, 1, 1] {
+                    let n = (px[3] as usize).checked_shl(shift).unwrap_or(usize::MAX);
+                    if x == 0 || n > w - x {
+                        return Err("HDR: old-style run outside its scanline".into());
+                    }
+                    let prev = scan[x - 1];
+                    scan[x..x + n].fill(prev);
+                    x += n;
+                    shift = (shift + 8).min(usize::BITS);
+                } else {
+                    scan[x] = px;
+                    x += 1;
+                    shift = 0;
+                }
+                if x == w {
+                    break;
+                }
+                px = [next()?, next()?, next()?, next()?];
             }
         }
         for px in &scan {
@@ -320,4 +351,30 @@ fn decode_hdr(bytes: &[u8]) -> Result<Image, String> {
         }
     }
     Ok(Image::from_vec(w, h, 3, out))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::decode_hdr;
+
+    fn hdr(w: usize, pixels: &[[u8; 4]]) -> Vec<u8> {
+        let mut b = format!("#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 1 +X {w}\n").into_bytes();
+        b.extend(pixels.iter().flatten());
+        b
+    }
+
+    /// Old-style RLE (a pixel (1, 1, 1, n) repeats the previous one; a run right after a run
+    /// counts 256 times more) was read as plain pixels: near-black texels, the rest shifted.
+    #[test]
+    fn old_style_runs_repeat_the_previous_pixel() {
+        let a = [128, 64, 32, 129]; // (1, 0.5, 0.25): mantissas × 2^(129 − 136)
+        let img = decode_hdr(&hdr(4, &[a, [1, 1, 1, 3]])).unwrap();
+        assert_eq!(img.data, [1.0, 0.5, 0.25].repeat(4));
+        // 1 + 1 + (1 << 8) pixels: the second run is shifted.
+        let img = decode_hdr(&hdr(258, &[a, [1, 1, 1, 1], [1, 1, 1, 1]])).unwrap();
+        assert_eq!(img.data, [1.0, 0.5, 0.25].repeat(258));
+        // A run with nothing before it, or past the scanline, is an error.
+        assert!(decode_hdr(&hdr(4, &[[1, 1, 1, 3], a])).is_err());
+        assert!(decode_hdr(&hdr(4, &[a, [1, 1, 1, 9]])).is_err());
+    }
 }

@@ -17,7 +17,7 @@ mod ply;
 
 use std::path::Path;
 
-pub use error::{Diagnostics, LoadError, Location, Warning};
+pub use error::{Diagnostics, LoadError, Location, Warning, MAX_WARNINGS};
 
 use crate::{AnimatedScene, Scene};
 

@@ -1,6 +1,6 @@
 //! Wavefront OBJ with MTL materials. Polygons are fan-triangulated; one mesh per material.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::path::Path;
 use std::sync::Arc;
 
@@ -40,7 +40,7 @@ pub(crate) fn read(
         current: 0,
         materials: vec![],
         material_index: HashMap::new(),
-        warned: vec![],
+        warned: HashSet::new(),
         mtl_files: vec![],
         mtl_bytes: 0,
         skipped_faces: (0, 0),
@@ -83,7 +83,7 @@ struct ObjReader<'p, 'd> {
     materials: Vec<Material>,
     material_index: HashMap<String, usize>,
     /// Statements already warned about (one warning per kind).
-    warned: Vec<String>,
+    warned: HashSet<String>,
     /// MTL files already read (each is read once).
     mtl_files: Vec<std::path::PathBuf>,
     /// Bytes of MTL read so far (see [`MAX_MTL_BYTES`]).
@@ -230,18 +230,18 @@ impl ObjReader<'_, '_> {
             // Grouping and smoothing groups do not change the geometry.
             "o" | "g" | "s" => {}
             other => {
-                let msg = format!("OBJ statement {other:?} is not supported; ignored");
-                self.warn_once(n, other, &msg)?;
+                let (key, what) = statement(other);
+                let msg = format!("OBJ {what} is not supported; ignored");
+                self.warn_once(n, key, &msg)?;
             }
         }
         Ok(())
     }
 
     fn warn_once(&mut self, line: usize, key: &str, msg: &str) -> Result<(), LoadError> {
-        if self.warned.iter().any(|w| w == key) {
+        if !self.warned.insert(key.to_string()) {
             return Ok(());
         }
-        self.warned.push(key.to_string());
         self.diag.warn(self.at(line), msg)
     }
 
@@ -379,6 +379,22 @@ struct Mtl {
     map_kd: Option<Texture>,
 }
 
+/// How a message names the statement keyword `kw`: (a key for warning once, the words). A
+/// short ASCII word is quoted; anything else is "a line that is not a statement", unquoted: a
+/// scene may name any file (`mtllib /etc/shadow`), and the loader must not copy a foreign
+/// file's contents to the terminal.
+fn statement(kw: &str) -> (&str, String) {
+    let word = kw.len() <= 16 && kw.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'_');
+    if word {
+        (kw, format!("statement {kw:?}"))
+    } else {
+        (
+            "",
+            "a line that is not a statement (not a keyword)".to_string(),
+        )
+    }
+}
+
 /// Parses an MTL file into `materials`, indexed by name.
 fn read_mtl(
     path: &Path,
@@ -388,6 +404,8 @@ fn read_mtl(
     index: &mut HashMap<String, usize>,
 ) -> Result<(), LoadError> {
     let mut images = ImageCache::default();
+    // One warning per kind of odd line, not one per line.
+    let mut warned: HashSet<(&str, &str)> = HashSet::new();
     let mut current: Option<Mtl> = None;
     let mut done = Vec::new();
     let dir = path.parent().unwrap_or(Path::new(""));
@@ -444,7 +462,10 @@ fn read_mtl(
             continue;
         }
         let Some(m) = current.as_mut() else {
-            diag.warn(at, format!("{kw} before any newmtl; ignored"))?;
+            let (key, what) = statement(kw);
+            if warned.insert(("before newmtl", key)) {
+                diag.warn(at, format!("{what} before any newmtl; ignored"))?;
+            }
             continue;
         };
         match kw {
@@ -523,10 +544,12 @@ fn read_mtl(
             }
             // Ambient colour and illumination model have no physical counterpart here.
             "Ka" | "illum" => {}
-            other => diag.warn(
-                at,
-                format!("MTL statement {other:?} is not supported; ignored"),
-            )?,
+            other => {
+                let (key, what) = statement(other);
+                if warned.insert(("unsupported", key)) {
+                    diag.warn(at, format!("MTL {what} is not supported; ignored"))?;
+                }
+            }
         }
     }
     done.extend(current);

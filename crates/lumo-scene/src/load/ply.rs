@@ -325,6 +325,21 @@ fn parse(path: &Path, bytes: &[u8], diag: &mut Diagnostics) -> Result<Mesh, Load
                     }
                 }
             }
+            // An ASCII item is one line: values left on it were read as the next item's, and
+            // the error came later and elsewhere ("no faces with 3 or more vertices").
+            if format == Format::Ascii && !body.tokens.as_slice().is_empty() {
+                return Err(LoadError::invalid(
+                    Location::line(path, body.line),
+                    format!(
+                        "{} {item} has {} value(s) more than the header's {} properties; \
+                         give each {} exactly its properties, one per line",
+                        el.name,
+                        body.tokens.as_slice().len(),
+                        el.props.len(),
+                        el.name
+                    ),
+                ));
+            }
             if is_vertex {
                 let get = |i: Option<usize>| i.map_or(0.0, |i| values[i] as f32);
                 mesh.positions.push(Vec3::new(get(ix), get(iy), get(iz)));

@@ -7,3 +7,5 @@ mod in_memory;
 mod meshes;
 mod mitsuba;
 mod robustness;
+mod unbounded;
+mod wrong_output;

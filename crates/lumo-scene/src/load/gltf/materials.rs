@@ -67,11 +67,9 @@ impl GltfReader<'_, '_> {
             )?;
         }
         let emission = Vec3::from(mat.emissive_factor()) * mat.emissive_strength().unwrap_or(1.0);
-        let mut emission = self.non_negative(
-            &label,
-            "emissiveFactor × KHR_materials_emissive_strength",
-            emission,
-        )?;
+        let what = "emissiveFactor × KHR_materials_emissive_strength";
+        let emission = self.non_negative(&label, what, emission)?;
+        let mut emission = check_emission(&self.at(label.clone()), what, emission)?;
         if let Some(info) = mat.emissive_texture() {
             let mean = self.texture(&info, false, Vec3::ONE)?.average();
             emission *= mean;

@@ -12,7 +12,7 @@ use std::sync::Arc;
 use glam::{Affine2, Mat2, Mat4, Quat, Vec2, Vec3, Vec4};
 use gltf::accessor::{DataType, Dimensions};
 
-use super::check::check_mesh;
+use super::check::{check_emission, check_mesh};
 use super::gltf_refs::check_references;
 use super::images::decode_image;
 use super::materials::metal_from_reflectance;
@@ -72,9 +72,23 @@ fn load_unguarded(
 ) -> Result<Scene, LoadError> {
     let bytes = read_file(path)?;
     let invalid = |e: gltf::Error| {
+        let text = e.to_string();
+        // serde reads an integer beyond u64 as a float and says "invalid type: floating
+        // point", which reads as if a fraction had been written (a 2^64 byteOffset).
+        let text = match text.split_once("invalid type: floating point `") {
+            Some((_, rest)) if text.contains("expected u64") => {
+                let value = rest.split('`').next().unwrap_or("");
+                let at = rest.rsplit_once(" at ").map_or("", |(_, at)| at);
+                format!(
+                    "the integer {value} at {at} is beyond 2^64 − 1; indices, counts, offsets \
+                     and lengths must be whole numbers that fit the file"
+                )
+            }
+            _ => text,
+        };
         LoadError::invalid(
             Location::file(path),
-            format!("not a valid glTF 2.0 file: {e}"),
+            format!("not a valid glTF 2.0 file: {text}"),
         )
     };
     // Parse, check every index, and only then let the gltf crate validate (see gltf_refs).
@@ -120,6 +134,7 @@ fn load_unguarded(
         .default_scene()
         .or_else(|| doc.scenes().next())
         .ok_or_else(|| LoadError::invalid(Location::file(path), "the file has no scene"))?;
+    check_tree(path, doc, &gscene)?;
     for node in gscene.nodes() {
         r.node(&node, None, 0)?;
     }
@@ -191,6 +206,72 @@ struct GltfReader<'p, 'd> {
     cameras: Vec<(usize, usize)>,
     /// Rig node of each glTF node.
     node_index: HashMap<usize, usize>,
+}
+
+/// Most mesh primitives the nodes of one glTF file may place (each becomes an instance of
+/// about 200 bytes with its acceleration-structure share).
+const MAX_INSTANCES: usize = 1 << 21;
+
+/// Refuses a node hierarchy that is not a forest, as glTF requires: a node listed twice among
+/// one node's children, a child of two nodes, or a scene root that is also a child (or listed
+/// twice). Such a graph is walked once per path to each node, so a 1.5 KB file whose node i has
+/// children [i+1, i+1] expanded to 2^24 instances (7.3 GB).
+fn check_tree(path: &Path, doc: &gltf::Document, scene: &gltf::Scene) -> Result<(), LoadError> {
+    let mut parent: Vec<Option<usize>> = vec![None; doc.nodes().len()];
+    let fix = "glTF node hierarchies are trees: give each node at most one parent (copy the \
+               node to place its mesh twice)";
+    for node in doc.nodes() {
+        for child in node.children() {
+            let c = child.index();
+            if let Some(first) = parent[c] {
+                let how = if first == node.index() {
+                    format!("is listed twice among node {first}'s children")
+                } else {
+                    format!("is a child of both node {first} and node {}", node.index())
+                };
+                return Err(LoadError::invalid(
+                    Location::item(path, format!("node {c}")),
+                    format!("{how}; {fix}"),
+                ));
+            }
+            parent[c] = Some(node.index());
+        }
+    }
+    // A tree visits each node once, yet nodes × primitives per mesh still multiply: a few
+    // kilobytes of nodes sharing a mesh of many primitives.
+    let instances: usize = doc
+        .nodes()
+        .filter_map(|n| n.mesh())
+        .map(|m| m.primitives().len())
+        .sum();
+    if instances > MAX_INSTANCES {
+        return Err(LoadError::invalid(
+            Location::file(path),
+            format!(
+                "the nodes place {instances} mesh primitives, more than lumo's limit of \
+                 {MAX_INSTANCES}; merge primitives or split the scene"
+            ),
+        ));
+    }
+    let mut root = vec![false; parent.len()];
+    for node in scene.nodes() {
+        let n = node.index();
+        let how = if let Some(p) = parent[n] {
+            format!(
+                "is a root of scene {} and a child of node {p}",
+                scene.index()
+            )
+        } else if std::mem::replace(&mut root[n], true) {
+            format!("is listed twice among scene {}'s nodes", scene.index())
+        } else {
+            continue;
+        };
+        return Err(LoadError::invalid(
+            Location::item(path, format!("node {n}")),
+            format!("{how}; {fix}"),
+        ));
+    }
+    Ok(())
 }
 
 /// Deepest node nesting accepted (the hierarchy must be a tree; this also stops cycles).
@@ -300,7 +381,12 @@ impl GltfReader<'_, '_> {
                 format!("byteStride {stride} is smaller than an element ({elem} bytes)"),
             ));
         }
-        let need = acc.offset() + stride * (acc.count() - 1) + elem;
+        // Saturating: offsets near 2^64 wrapped around and passed (or were reported as a
+        // parser failure); a saturated sum is past any buffer and reported as such.
+        let need = stride
+            .saturating_mul(acc.count() - 1)
+            .saturating_add(acc.offset())
+            .saturating_add(elem);
         let buffer_len = self.buffers.get(view.buffer().index()).map_or(0, Vec::len);
         if need > view.length() {
             return Err(LoadError::invalid(
@@ -313,7 +399,7 @@ impl GltfReader<'_, '_> {
                 ),
             ));
         }
-        if view.offset() + view.length() > buffer_len {
+        if view.offset().saturating_add(view.length()) > buffer_len {
             return Err(LoadError::invalid(
                 at,
                 format!(
@@ -321,7 +407,7 @@ impl GltfReader<'_, '_> {
                      buffer {}, which has {buffer_len})",
                     view.index(),
                     view.offset(),
-                    view.offset() + view.length(),
+                    view.offset() as u128 + view.length() as u128,
                     view.buffer().index()
                 ),
             ));

@@ -496,9 +496,52 @@ impl<'a> Builder<'a, '_> {
                     ),
                 ));
             }
-            return self.texture(target);
+            let texture = self.texture(target)?;
+            return self.bounded_reflectance(el, name, texture);
         }
         Ok(Texture::Constant(default))
+    }
+
+    /// `texture` as parameter `name`: a reflectance texture (`*reflectance`, `base_color`)
+    /// with texels above 1 is read with them at 1, with a warning. Texels of 1e9–3e38 gave
+    /// infinite radiance after a few bounces, and black or NaN pixels, without a word (a
+    /// constant above 1 is kept, with its own warning: it cannot overflow that way).
+    fn bounded_reflectance(
+        &mut self,
+        el: &Element,
+        name: &str,
+        texture: Texture,
+    ) -> Result<Texture, LoadError> {
+        let reflectance = name.ends_with("reflectance") || name == "base_color";
+        let Texture::Bitmap {
+            image,
+            uv_scale,
+            filter,
+            wrap,
+        } = &texture
+        else {
+            return Ok(texture);
+        };
+        let max = image.data.iter().copied().fold(0.0f32, f32::max);
+        if !reflectance || max <= 1.0 {
+            return Ok(texture);
+        }
+        let above = image.data.iter().filter(|&&v| v > 1.0).count();
+        self.diag.warn(
+            el.at(),
+            format!(
+                "{name}: its texture has {above} value(s) above 1 (up to {max:e}); a reflectance \
+                 above 1 creates energy and overflows, so they are read as 1"
+            ),
+        )?;
+        let mut clamped = (**image).clone();
+        clamped.data.iter_mut().for_each(|v| *v = v.min(1.0));
+        Ok(Texture::Bitmap {
+            image: Arc::new(clamped),
+            uv_scale: *uv_scale,
+            filter: *filter,
+            wrap: *wrap,
+        })
     }
 
     /// Converts a `<texture>` (cached).

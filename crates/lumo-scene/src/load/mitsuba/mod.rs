@@ -80,6 +80,7 @@ fn convert(
         groups: HashMap::new(),
         has_camera: false,
         has_environment: false,
+        proxy_triangles: 0,
         root_dir: path.parent().unwrap_or(Path::new("")).to_path_buf(),
         files,
         depth: 0,
@@ -173,6 +174,8 @@ pub(super) struct Builder<'a, 'd> {
     groups: HashMap<usize, Vec<usize>>,
     has_camera: bool,
     has_environment: bool,
+    /// Proxy triangles of the exact shapes so far (see `objects::PROXY_TRIANGLE_BUDGET`).
+    proxy_triangles: usize,
     /// Directory of the top-level scene file.
     root_dir: PathBuf,
     /// Whether files named in the scene may be read (false for in-memory scenes).

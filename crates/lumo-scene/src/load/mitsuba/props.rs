@@ -221,6 +221,21 @@ impl<'a> Props<'a> {
         let pairs_text = el
             .attr("value")
             .filter(|t| el.tag == "spectrum" && t.contains(':'));
+        if let Some(text) = pairs_text {
+            let pairs = parse_pairs(el, text)?;
+            // One pair is a spectrum at one wavelength, zero at every other: `550:0.5` (meant
+            // as 0.5 everywhere) rendered almost black without a word.
+            if let [(l, v)] = pairs.as_slice() {
+                self.warn_once(
+                    el,
+                    format!(
+                        "{what} is the single pair {l}:{v}, a spectrum that is zero at every \
+                         other wavelength (it converts to {c}, almost black); for {v} at every \
+                         wavelength write value=\"{v}\", or give pairs spanning 360–830 nm"
+                    ),
+                );
+            }
+        }
         if let Some(text) = pairs_text.filter(|_| c == Vec3::ZERO) {
             if parse_pairs(el, text)?.iter().any(|&(_, v)| v > 0.0) {
                 self.warn_once(
