@@ -590,7 +590,7 @@ impl Plan {
                 "--max-photons, --photons-per-pass and --photon-radius apply to --integrator ppm"
             );
         }
-        let ppm = ppm_settings(&args)?;
+        let ppm = ppm_settings(args)?;
         let options = LoadOptions {
             defines: args.defines.clone(),
             strict: args.strict,
@@ -601,7 +601,7 @@ impl Plan {
         // With --frames, what moves (checked before anything is written or rendered).
         let sequence = match args.frames {
             Some(frames) => Some(crate::sequence::Sequence::plan(
-                &args, frames, &mut scene, rig,
+                args, frames, &mut scene, rig,
             )?),
             None => None,
         };

@@ -286,7 +286,14 @@ mod tests {
     #[test]
     fn fixed_point_conversion_is_exact_where_representable() {
         // f32 values (what samples are) down to 2^-40 have no bits below 2^-64.
-        for x in [1.0, -2.5, 1e-9f32 as f64, 3.0e11, 0.1f32 as f64, (-40f64).exp2()] {
+        for x in [
+            1.0,
+            -2.5,
+            1e-9f32 as f64,
+            3.0e11,
+            0.1f32 as f64,
+            (-40f64).exp2(),
+        ] {
             let f = fixed(x, FRAC);
             assert_eq!(unfixed(f, FRAC), x, "{x}");
         }

@@ -225,7 +225,9 @@ pub fn run(args: &QualityArgs, set: &str) -> Result<()> {
                 });
                 errln!(
                     "{} {spp} spp {method}: relMSE {:.3e} FLIP {:.4}{block} {ms:.0} ms",
-                    c.name, metrics.relmse, metrics.flip
+                    c.name,
+                    metrics.relmse,
+                    metrics.flip
                 );
                 rows.push(Row {
                     case: c.name.clone(),
