@@ -31,3 +31,23 @@ def lumo_cli():
 @pytest.fixture
 def scenes() -> Path:
     return ROOT / "scenes"
+
+
+@pytest.fixture(scope="session")
+def cluster():
+    """A local Ray cluster of three one-CPU nodes on the loopback interface, shared by the
+    Ray tests (starting one takes seconds)."""
+    ray = pytest.importorskip("ray")
+    from ray.cluster_utils import Cluster
+
+    import lumo.ray as lray
+
+    lray.loopback_only()
+    c = Cluster(initialize_head=True, head_node_args={"num_cpus": 1, "include_dashboard": False})
+    for _ in range(2):
+        c.add_node(num_cpus=1)
+    ray.init(address=c.address, log_to_driver=False)
+    c.wait_for_nodes()
+    yield c
+    ray.shutdown()
+    c.shutdown()

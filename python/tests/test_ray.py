@@ -10,24 +10,12 @@ import time
 import pytest
 
 ray = pytest.importorskip("ray")
-from ray.cluster_utils import Cluster  # noqa: E402
 
 import lumo  # noqa: E402
 import lumo.ray as lray  # noqa: E402
 from lumo import LumoError, _native  # noqa: E402
 
 
-@pytest.fixture(scope="module")
-def cluster():
-    lray.loopback_only()
-    c = Cluster(initialize_head=True, head_node_args={"num_cpus": 1, "include_dashboard": False})
-    for _ in range(2):
-        c.add_node(num_cpus=1)
-    ray.init(address=c.address, log_to_driver=False)
-    c.wait_for_nodes()
-    yield c
-    ray.shutdown()
-    c.shutdown()
 
 
 def same_bytes(a, b):

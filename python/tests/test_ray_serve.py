@@ -16,9 +16,7 @@ import urllib.request
 import pytest
 
 ray = pytest.importorskip("ray")
-from ray.cluster_utils import Cluster  # noqa: E402
 
-import lumo.ray as lray  # noqa: E402
 from lumo.ray.serve import serve_workers  # noqa: E402
 
 from conftest import lumo_bin  # noqa: E402
@@ -78,17 +76,6 @@ def wait_for(what, cond, timeout=60.0):
     pytest.fail(f"timed out waiting for {what}")
 
 
-@pytest.fixture(scope="module")
-def cluster():
-    lray.loopback_only()
-    c = Cluster(initialize_head=True, head_node_args={"num_cpus": 1, "include_dashboard": False})
-    for _ in range(2):
-        c.add_node(num_cpus=1)
-    ray.init(address=c.address, log_to_driver=False)
-    c.wait_for_nodes()
-    yield c
-    ray.shutdown()
-    c.shutdown()
 
 
 def test_a_viewer_gets_samples_from_two_ray_workers_and_keeps_them_when_one_dies(cluster):
