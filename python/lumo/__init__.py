@@ -225,13 +225,13 @@ class Scene:
         self.source = source
         self.defines = list(defines)
         self._plans: Dict[Tuple[str, ...], object] = {}
-        # Planning loads the scene (raising LumoError where it cannot) and says what the scene
-        # file asks for.
-        probe = _native.RenderPlan(self._words(None, None, None, None, False))
+        # Loading the scene file raises LumoError where it cannot be read and says what it asks
+        # for; its BVH is built once, by the first render.
+        spp, size = _native.planned_defaults(self._words(None, None, None, None, False))
         #: The scene's own samples per pixel (its file's, or 16 for the built-ins).
-        self.default_spp: int = probe.spp
+        self.default_spp: int = spp
         #: The scene's own image size ``(width, height)`` (its file's, or 512x512).
-        self.default_size: Tuple[int, int] = tuple(probe.size)
+        self.default_size: Tuple[int, int] = tuple(size)
 
     def _words(self, spp, size, seed, max_depth, spectral, integrator="path") -> List[str]:
         words = [self.source]

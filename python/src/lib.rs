@@ -291,6 +291,14 @@ impl Passes {
     }
 }
 
+/// `(spp, (width, height))` that `lumo render WORDS…` would use; loads the scene file but
+/// builds no BVH.
+#[pyfunction]
+fn planned_defaults(py: Python<'_>, words: Vec<String>) -> PyResult<(u32, (usize, usize))> {
+    py.allow_threads(|| lumo_cli::chunked::planned_defaults(&words))
+        .map_err(lumo_err)
+}
+
 /// Renders `lumo render WORDS…` (a still, any integrator and pipeline) and returns the image.
 #[pyfunction]
 fn render_image<'py>(py: Python<'py>, words: Vec<String>) -> PyResult<Planar<'py>> {
@@ -404,6 +412,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("LumoError", m.py().get_type::<LumoError>())?;
     m.add_class::<RenderPlan>()?;
     m.add_class::<Passes>()?;
+    m.add_function(wrap_pyfunction!(planned_defaults, m)?)?;
     m.add_function(wrap_pyfunction!(render_image, m)?)?;
     m.add_function(wrap_pyfunction!(denoise_words, m)?)?;
     m.add_function(wrap_pyfunction!(compare, m)?)?;

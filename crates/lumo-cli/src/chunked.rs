@@ -533,3 +533,17 @@ pub fn render_image(words: &[String]) -> Result<lumo_image::Image> {
     };
     Ok(job.render(&ready.rs, &|_| {})?.image)
 }
+
+/// The samples per pixel and `(width, height)` that `lumo render WORDS…` would use, from the
+/// options and the scene file, without building the scene's BVH: what the Python package
+/// reports as a scene's defaults before its first render.
+pub fn planned_defaults(words: &[String]) -> Result<(u32, (usize, usize))> {
+    let args = RenderLine::try_parse_from(words)
+        .map_err(|e| anyhow!("{}", e.render().to_string().trim_end()))?
+        .args;
+    let plan = Plan::new(&args)?;
+    Ok((
+        plan.settings.spp,
+        (plan.settings.width, plan.settings.height),
+    ))
+}
