@@ -133,3 +133,20 @@ def test_images_round_trip(tmp_path):
     assert lumo.read_image(tmp_path / "d.exr").shape == (3, 4)
     with pytest.raises(LumoError, match="missing.exr"):
         lumo.read_image(tmp_path / "missing.exr")
+
+
+def test_scene_defaults_come_from_the_scene_file(tmp_path):
+    assert lumo.load_scene("cornell").default_spp == 16
+    scene = tmp_path / "small.xml"
+    scene.write_text(
+        '<scene version="3.0.0"><integrator type="path"/>'
+        '<sensor type="perspective"><sampler type="independent">'
+        '<integer name="sample_count" value="3"/></sampler>'
+        '<film type="hdrfilm"><integer name="width" value="20"/>'
+        '<integer name="height" value="10"/></film></sensor>'
+        '<shape type="sphere"><bsdf type="diffuse"/></shape>'
+        '<emitter type="constant"/></scene>'
+    )
+    s = lumo.load_scene(scene)
+    assert s.default_spp == 3 and s.default_size == (20, 10)
+    assert s.render().image().shape == (10, 20, 3)
