@@ -46,6 +46,9 @@ pub struct TemporalTimes {
     /// The direct-light split: its rays (one camera ray, one shadow ray per Dirac light and one
     /// light sample per pixel) and the temporal filter of its shadow ratio.
     pub split: Duration,
+    /// The part of `split` spent on the shadow ratio's temporal filter and on adding the
+    /// split light back (the rest is the split's rays and shading).
+    pub split_filter: Duration,
     /// The filter itself (reprojection, accumulation, variance, À-Trous).
     pub filter: Duration,
 }
@@ -229,7 +232,8 @@ impl TemporalSequence {
             }
             _ => filtered,
         };
-        split_time += t.elapsed();
+        let split_filter = t.elapsed();
+        split_time += split_filter;
         // The TAA history lives on the unjittered grid. A jittered pixel x shows the unjittered
         // image at x + j, so the surface at unjittered x was at jittered x − j + motion in the
         // previous frame, which is unjittered x + motion + j_prev − j.
@@ -255,6 +259,7 @@ impl TemporalSequence {
             motion: motion_time,
             reshade: reshade_time,
             split: split_time,
+            split_filter,
             filter: filter_time,
         };
         if self.reshade.is_some() {

@@ -55,6 +55,8 @@ struct Row {
     motion: Duration,
     reshade: Duration,
     split: Duration,
+    /// Of `split`, the shadow ratio's filter.
+    split_filter: Duration,
     temporal: Duration,
 }
 
@@ -153,6 +155,7 @@ pub fn run(
         row.motion = times.motion;
         row.reshade = times.reshade;
         row.split = times.split;
+        row.split_filter = times.split_filter;
         row.temporal = times.filter;
         if reference_spp > 0 {
             let reference = RenderSettings {
@@ -555,6 +558,10 @@ fn summary(rows: &[Row], settings: &RenderSettings, reference_spp: u32) -> Strin
         (
             "direct-light split (its rays and the shadow ratio's filter)",
             split,
+        ),
+        (
+            "… of which the shadow ratio's filter",
+            t(&|r| r.split_filter),
         ),
         ("temporal filter (SVGF)", temporal),
     ] {
