@@ -476,7 +476,8 @@ pub fn tuned(key: &str) -> Option<f32> {
 /// (short-history À-Trous levels and frames), mh (max history), vs (1: variance of
 /// the accumulated colour), taa / taag (TAA blend weight, 0 = off, and clip
 /// width), jit (1: camera jitter), jm (1: with jitter, motion on the unjittered grid), ds (0:
-/// no direct-light split), ra / rl (the shadow ratio filter's α and À-Trous levels).
+/// no direct-light split), ra / rl (the shadow ratio filter's α and À-Trous levels), serial (1:
+/// the stages that run side by side run one after the other, for a breakdown by stage).
 /// Values that do not parse are ignored; the filter still checks ranges.
 fn tune(p: &mut TemporalParams, taa: &mut Option<(f32, f32)>) {
     let Ok(spec) = std::env::var("LUMO_TEMPORAL_TUNE") else {
