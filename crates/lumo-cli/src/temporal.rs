@@ -166,8 +166,9 @@ impl TemporalSequence {
         let motion_time = start.elapsed();
         // The split and the re-shading are independent, and so are the two temporal filters
         // after them: each pair runs side by side (rayon::join), so that one stage's last rows
-        // and its barriers overlap the other's work; `serial=1` in the tuning hook runs them
-        // one after the other, for a clean breakdown by stage.
+        // and its barriers can overlap the other's work (on the 2-vCPU machine of
+        // docs/results/temporal.md this measured no gain: each stage already kept both cores
+        // busy); `serial=1` in the tuning hook runs them in turn, for a breakdown by stage.
         let serial = tuned("serial").is_some_and(|v| v != 0.0);
         let timed = |f: &mut dyn FnMut()| {
             let t = Instant::now();
