@@ -40,6 +40,9 @@ const state = {
   hello: null, epoch: 0, integrator: 'path', mode: 'progressive', inflight: 0, serverCamera: null,
   rate: 0, dropped: 0, clientDropped: 0, viewers: 1, serverSamples: 0, fps: 0, frames: 0, errors: [],
   lastLocalMove: -1e9,
+  // The epoch whose first filtered frame was last drawn, and when (the animation frame's time):
+  // what web/tests/latency.mjs measures a camera move against.
+  shownEpoch: -1, shownAt: 0,
 };
 const queue = [];
 let queuedSamples = 0;
@@ -90,10 +93,12 @@ ws.binaryType = 'arraybuffer';
 
 let pendingCamera = null;
 let sendTimer = null;
+let lastCameraSend = -1e9;
 function sendCamera() {
   sendTimer = null;
   if (!pendingCamera || ws.readyState !== WebSocket.OPEN) return;
   ws.send(encodeCamera(pendingCamera));
+  lastCameraSend = performance.now();
   state.inflight += 1;
   pendingCamera = null;
 }
@@ -103,7 +108,12 @@ const nav = new Navigation(canvas, (camera) => {
   resetImage();
   state.lastLocalMove = performance.now();
   pendingCamera = structuredClone(camera);
-  if (!sendTimer) sendTimer = setTimeout(sendCamera, CAMERA_SEND_MS);
+  // The first move after a pause goes out at once (the server starts the new view's first
+  // frame 30 ms sooner); moves that follow within CAMERA_SEND_MS are merged into one.
+  if (sendTimer) return;
+  const wait = CAMERA_SEND_MS - (performance.now() - lastCameraSend);
+  if (wait <= 0) sendCamera();
+  else sendTimer = setTimeout(sendCamera, wait);
 });
 
 const editor = new Editor(
@@ -211,6 +221,7 @@ ws.onclose = () => { statusEl.textContent = 'disconnected from the server'; };
 
 let last = performance.now();
 let lastOverlay = 0;
+let lastLook = '';
 function frame(now) {
   const dt = Math.min(0.1, (now - last) / 1000);
   last = now;
@@ -245,8 +256,10 @@ function frame(now) {
     // A dropped light message takes its splats and its share of light paths together.
   }
   let left = timing.phase === 'normal' ? budget : 0;
+  let fresh = false;
   while (queue.length > 0 && left > 0) {
     const m = queue.shift();
+    fresh = true;
     if (m.kind === KIND.FRAME) {
       display.uploadFrame(m);
     } else {
@@ -255,10 +268,21 @@ function frame(now) {
       queuedSamples -= m.count;
     }
   }
-  camera.buildMips(quad);
-  light.buildMips(quad);
   const frameMode = state.mode !== 'progressive';
-  display.draw(quad, camera, light, ui.params, frameMode);
+  // In a frame mode the picture changes only with a new frame, a restart or a display
+  // parameter: the same picture is not drawn again (with a software GL, SwiftShader, each
+  // repaint took CPU from the server's next frame).
+  const look = `${state.epoch}|${display.hasFrame}|${JSON.stringify(ui.params)}`;
+  if (!frameMode || fresh || look !== lastLook) {
+    lastLook = look;
+    camera.buildMips(quad);
+    light.buildMips(quad);
+    display.draw(quad, camera, light, ui.params, frameMode);
+    if (frameMode && display.hasFrame && state.shownEpoch !== state.epoch) {
+      state.shownEpoch = state.epoch;
+      state.shownAt = now;
+    }
+  }
   state.frames += 1;
   if (now - lastOverlay > 100) {
     lastOverlay = now;

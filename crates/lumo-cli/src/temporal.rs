@@ -39,6 +39,10 @@ struct View {
 /// Time spent on one frame's temporal filtering.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct TemporalTimes {
+    /// The whole of [`TemporalSequence::filter`], wall clock: less than the sum of the stages
+    /// below when stages run side by side (see there), and it includes the small steps no stage
+    /// counts (the emitter mask, the indirect-only colour, TAA).
+    pub total: Duration,
     /// Instance ids and motion vectors.
     pub motion: Duration,
     /// Re-shading one point per 3×3 block of the previous frame (history rejection).
@@ -46,6 +50,9 @@ pub struct TemporalTimes {
     /// The direct-light split: its rays (one camera ray, one shadow ray per Dirac light and one
     /// light sample per pixel) and the temporal filter of its shadow ratio.
     pub split: Duration,
+    /// The part of `split` spent on the shadow ratio's temporal filter and on adding the
+    /// split light back (the rest is the split's rays and shading).
+    pub split_filter: Duration,
     /// The filter itself (reprojection, accumulation, variance, À-Trous).
     pub filter: Duration,
 }
@@ -157,32 +164,49 @@ impl TemporalSequence {
             )
         });
         let motion_time = start.elapsed();
-        let t = Instant::now();
-        let split = self.ratio.is_some().then(|| {
-            let mut d = direct_split(rs, &PinholeCamera::new(c, w, h), w, h, seed);
-            keep_rims_whole(&mut d, frame);
-            d
-        });
-        let mut split_time = t.elapsed();
-        let t = Instant::now();
-        let changes = match (&self.reshade, &self.prev) {
-            (Some(path), Some(prev)) => prev.shaded.as_ref().map(|before| {
-                let camera = PinholeCamera::new(c, w, h);
-                let then = Pose {
-                    view_proj: prev.view_proj,
-                    transforms: &prev.transforms,
-                    ids: prev.ids.as_deref(),
-                };
-                let now = Pose {
-                    view_proj: view.view_proj,
-                    transforms: &view.transforms,
-                    ids,
-                };
-                reshade(rs, &camera, path, before, &then, &now)
-            }),
-            _ => None,
+        // The split and the re-shading are independent, and so are the two temporal filters
+        // after them: each pair runs side by side (rayon::join), so that one stage's last rows
+        // and its barriers can overlap the other's work (on the 2-vCPU machine of
+        // docs/results/temporal.md this measured no gain: each stage already kept both cores
+        // busy); `serial=1` in the tuning hook runs them in turn, for a breakdown by stage.
+        let serial = tuned("serial").is_some_and(|v| v != 0.0);
+        let timed = |f: &mut dyn FnMut()| {
+            let t = Instant::now();
+            f();
+            t.elapsed()
         };
-        let reshade_time = t.elapsed();
+        let (mut split, mut changes) = (None, None);
+        let mut split_stage = || {
+            split = self.ratio.is_some().then(|| {
+                let mut d = direct_split(rs, &PinholeCamera::new(c, w, h), w, h, seed);
+                keep_rims_whole(&mut d, frame);
+                d
+            })
+        };
+        let mut reshade_stage = || {
+            changes = match (&self.reshade, &self.prev) {
+                (Some(path), Some(prev)) => prev.shaded.as_ref().map(|before| {
+                    let camera = PinholeCamera::new(c, w, h);
+                    let then = Pose {
+                        view_proj: prev.view_proj,
+                        transforms: &prev.transforms,
+                        ids: prev.ids.as_deref(),
+                    };
+                    let now = Pose {
+                        view_proj: view.view_proj,
+                        transforms: &view.transforms,
+                        ids,
+                    };
+                    reshade(rs, &camera, path, before, &then, &now)
+                }),
+                _ => None,
+            }
+        };
+        let (mut split_time, reshade_time) = if serial {
+            (timed(&mut split_stage), timed(&mut reshade_stage))
+        } else {
+            rayon::join(|| timed(&mut split_stage), || timed(&mut reshade_stage))
+        };
         // Emitters seen directly pass through unfiltered, as in every pipeline.
         let emitter: Vec<bool> = frame
             .emission
@@ -194,42 +218,53 @@ impl TemporalSequence {
         // Where the direct light is split, the history holds the indirect light only.
         let noisy = split.as_ref().map(|d| split_noisy(frame, d));
         let color = noisy.as_ref().unwrap_or(&frame.color);
-        let t = Instant::now();
-        // With several samples per frame a light's rim pixels hold a share of it: kept out too.
-        let filtered = with_emitted(color, &emitter, &frame.emitted, |c| {
-            self.filter.filter_reshaded(
-                &TemporalFrame {
-                    color: c,
-                    albedo: Some(&frame.albedo),
-                    normal: &frame.normal,
-                    depth: &frame.depth,
-                    position: Some(&frame.position),
-                    ids,
-                    motion: motion.as_ref(),
-                },
-                changes.as_deref(),
-            )
-        })?;
-        let filter_time = t.elapsed();
-        let t = Instant::now();
-        let filtered = match (&split, &mut self.ratio) {
-            (Some(d), Some(ratio)) => {
-                let shadow = ratio.filter(&TemporalFrame {
+        let (filter, ratio) = (&mut self.filter, &mut self.ratio);
+        let motion_ref = motion.as_ref();
+        let mut filtered = None;
+        let mut main_filter = || {
+            // With several samples per frame a light's rim pixels hold a share of it: kept
+            // out too.
+            filtered = Some(with_emitted(color, &emitter, &frame.emitted, |c| {
+                filter.filter_reshaded(
+                    &TemporalFrame {
+                        color: c,
+                        albedo: Some(&frame.albedo),
+                        normal: &frame.normal,
+                        depth: &frame.depth,
+                        position: Some(&frame.position),
+                        ids,
+                        motion: motion_ref,
+                    },
+                    changes.as_deref(),
+                )
+            }));
+        };
+        let mut shadow = None;
+        let mut ratio_filter = || {
+            if let (Some(d), Some(ratio)) = (&split, ratio.as_mut()) {
+                shadow = Some(ratio.filter(&TemporalFrame {
                     color: &ratio_image(d),
                     albedo: None,
                     normal: &frame.normal,
                     depth: &frame.depth,
                     position: Some(&frame.position),
                     ids,
-                    motion: motion.as_ref(),
-                })?;
-                let mut image = filtered.image;
-                add_split_direct(&mut image, d, &shadow.image);
-                lumo_filter::Filtered { image, ..filtered }
+                    motion: motion_ref,
+                }));
             }
-            _ => filtered,
         };
-        split_time += t.elapsed();
+        let (filter_time, mut split_filter) = if serial {
+            (timed(&mut main_filter), timed(&mut ratio_filter))
+        } else {
+            rayon::join(|| timed(&mut main_filter), || timed(&mut ratio_filter))
+        };
+        let t = Instant::now();
+        let mut filtered = filtered.expect("the main filter ran")?;
+        if let (Some(d), Some(shadow)) = (&split, shadow) {
+            add_split_direct(&mut filtered.image, d, &shadow?.image);
+        }
+        split_filter += t.elapsed();
+        split_time += split_filter;
         // The TAA history lives on the unjittered grid. A jittered pixel x shows the unjittered
         // image at x + j, so the surface at unjittered x was at jittered x − j + motion in the
         // previous frame, which is unjittered x + motion + j_prev − j.
@@ -252,9 +287,11 @@ impl TemporalSequence {
             None => filtered.image,
         };
         let times = TemporalTimes {
+            total: start.elapsed(),
             motion: motion_time,
             reshade: reshade_time,
             split: split_time,
+            split_filter,
             filter: filter_time,
         };
         if self.reshade.is_some() {
@@ -440,7 +477,8 @@ pub fn tuned(key: &str) -> Option<f32> {
 /// (short-history À-Trous levels and frames), mh (max history), vs (1: variance of
 /// the accumulated colour), taa / taag (TAA blend weight, 0 = off, and clip
 /// width), jit (1: camera jitter), jm (1: with jitter, motion on the unjittered grid), ds (0:
-/// no direct-light split), ra / rl (the shadow ratio filter's α and À-Trous levels).
+/// no direct-light split), ra / rl (the shadow ratio filter's α and À-Trous levels), serial (1:
+/// the stages that run side by side run one after the other, for a breakdown by stage).
 /// Values that do not parse are ignored; the filter still checks ranges.
 fn tune(p: &mut TemporalParams, taa: &mut Option<(f32, f32)>) {
     let Ok(spec) = std::env::var("LUMO_TEMPORAL_TUNE") else {

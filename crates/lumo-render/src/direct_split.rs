@@ -3,7 +3,7 @@
 //! shadows"): at a first hit whose BSDF has only broad lobes, the light of point, spot and
 //! directional lights is exact (one shadow ray each); the *unshadowed* light of the other
 //! lights is computed without shadow rays — in closed form on Lambertian surfaces lit by
-//! constant-radiance triangles (`triangle_cosine_integral`), else as the mean of
+//! constant-radiance triangles (`triangle_cosine_integral`, through `CosineTriangle`), else as the mean of
 //! [`UNSHADOWED_SAMPLES`] light samples — and only the *shadowing* stays stochastic: one light
 //! sample whose shadowed and unshadowed values a filter averages over space and time and
 //! divides. Where a light moves but the shadows stay, that ratio keeps its history; the direct
@@ -18,7 +18,7 @@ use lumo_image::{luminance, Image};
 use crate::accel::packet::{RayPacket, LANES};
 use crate::camera::PinholeCamera;
 use crate::geometry::shadow_segment;
-use crate::lights::{triangle_cosine_integral, LightSample};
+use crate::lights::{CosineTriangle, LightSample};
 use crate::render::map_rows;
 use crate::render_scene::{RenderScene, Surface};
 use crate::sampler::PixelSampler;
@@ -79,9 +79,11 @@ pub fn direct_split(
 ) -> DirectSplit {
     // The closed form covers every non-Dirac light, or none is used.
     let only_triangles = rs.lights.only_constant_triangles();
-    let triangles: Vec<([Vec3; 3], Vec3)> = if only_triangles {
+    let triangles: Vec<(CosineTriangle, Vec3)> = if only_triangles {
         let t = rs.lights.constant_triangles();
-        t.take(MAX_ANALYTIC_TRIANGLES + 1).collect()
+        t.take(MAX_ANALYTIC_TRIANGLES + 1)
+            .map(|(c, l)| (CosineTriangle::new(&c), l))
+            .collect()
     } else {
         Vec::new()
     };
@@ -118,7 +120,7 @@ fn split_row(
     w: usize,
     y: usize,
     seed: u32,
-    closed: Option<&[([Vec3; 3], Vec3)]>,
+    closed: Option<&[(CosineTriangle, Vec3)]>,
 ) -> Vec<PixelSplit> {
     let origin = camera.origin();
     let mut out = vec![PixelSplit::default(); w];
@@ -172,7 +174,7 @@ fn shade(
     origin: Vec3,
     dir: Vec3,
     hit: &crate::accel::Hit,
-    closed: Option<&[([Vec3; 3], Vec3)]>,
+    closed: Option<&[(CosineTriangle, Vec3)]>,
     (pixel, seed): ((u32, u32), u32),
     shadow: &mut dyn FnMut(Pending, Vec3, Vec3, f32),
 ) -> PixelSplit {
@@ -205,10 +207,7 @@ fn shade(
     let unshadowed = match (closed, bsdf.lambert()) {
         (Some(triangles), Some(albedo)) => {
             let n = s.frame.n;
-            let e: Vec3 = triangles
-                .iter()
-                .map(|(c, l)| *l * triangle_cosine_integral(s.p, n, c))
-                .sum();
+            let e: Vec3 = triangles.iter().map(|(c, l)| *l * c.integral(s.p, n)).sum();
             albedo / std::f32::consts::PI * e
         }
         _ => {

@@ -630,6 +630,11 @@ fn frame_loop(shared: &Shared, run: &Run, rs: &RenderScene) -> bool {
         let Some(rays) = acc.add_frame(rs, frame as u32, &abort) else {
             return false;
         };
+        // A restart that came while the last rows were traced: its frame would be thrown
+        // away, and filtering it would hold the new view's first frame back.
+        if run.aborted(shared) {
+            return false;
+        }
         let temporal = job.mode == Mode::Atrous && acc.frames() <= TEMPORAL_FRAMES;
         let filtered = match lock(&shared.temporal).as_mut() {
             Some(history) if temporal => acc.filtered_temporal(history, rs),

@@ -20,7 +20,7 @@ use crate::geometry::{square_to_triangle, square_to_uniform_sphere, UNIFORM_SPHE
 use crate::lights::distribution::{AliasTable, Distribution1d};
 pub use emission::{EmissionPdf, EmissionSample};
 use environment::EnvSampler;
-pub use polygon::triangle_cosine_integral;
+pub use polygon::{triangle_cosine_integral, CosineTriangle};
 
 /// An emissive triangle in world space.
 #[derive(Clone, Copy, Debug)]

@@ -8,50 +8,78 @@ use glam::{DVec3, Vec3};
 /// through `p` with unit normal `n` (θ measured from `n`): the irradiance at `p` per unit
 /// emitted radiance. The triangle emits towards the side its counter-clockwise winding faces;
 /// seen from behind it contributes 0. Computed in f64 because the edge angles of a small or
-/// distant triangle are differences of nearly equal directions; fixed-size arrays, since it
-/// runs once per emissive triangle and pixel.
+/// distant triangle are differences of nearly equal directions. For many points, build a
+/// [`CosineTriangle`] once instead.
 pub fn triangle_cosine_integral(p: Vec3, n: Vec3, corners: &[Vec3; 3]) -> f32 {
-    let (p, n) = (p.as_dvec3(), n.as_dvec3());
-    let rel = corners.map(|c| c.as_dvec3() - p);
-    // Seen from behind (or edge-on), a one-sided emitter sends nothing to p.
-    let face = (rel[1] - rel[0]).cross(rel[2] - rel[0]);
-    if face.dot(-rel[0]) <= 0.0 {
-        return 0.0;
+    CosineTriangle::new(corners).integral(p, n)
+}
+
+/// An emitting triangle prepared for [`triangle_cosine_integral`] at many points: its corners
+/// in f64 and its face normal, which do not depend on the point (the direct-light split
+/// evaluates every emitter at every pixel).
+#[derive(Clone, Copy, Debug)]
+pub struct CosineTriangle {
+    corners: [DVec3; 3],
+    /// (c1 − c0) × (c2 − c0): the side the triangle emits towards, unnormalised.
+    face: DVec3,
+}
+
+impl CosineTriangle {
+    /// Prepares the triangle `corners` (counter-clockwise seen from the side it lights).
+    pub fn new(corners: &[Vec3; 3]) -> Self {
+        let corners = corners.map(Vec3::as_dvec3);
+        // The same product the per-point form took of the corners relative to the point:
+        // differences of f32 values are exact in f64, so it is the same number.
+        let face = (corners[1] - corners[0]).cross(corners[2] - corners[0]);
+        Self { corners, face }
     }
-    // Clipped to the upper half-space (Sutherland–Hodgman against one plane): a triangle
-    // keeps at most four corners.
-    let mut clipped = [DVec3::ZERO; 4];
-    let mut len = 0;
-    for (i, &a) in rel.iter().enumerate() {
-        let b = rel[(i + 1) % 3];
-        let (da, db) = (n.dot(a), n.dot(b));
-        if da >= 0.0 {
-            clipped[len] = a;
-            len += 1;
+
+    /// [`triangle_cosine_integral`] at `p` with unit normal `n`.
+    pub fn integral(&self, p: Vec3, n: Vec3) -> f32 {
+        let (p, n) = (p.as_dvec3(), n.as_dvec3());
+        let rel = self.corners.map(|c| c - p);
+        // Seen from behind (or edge-on), a one-sided emitter sends nothing to p.
+        if self.face.dot(-rel[0]) <= 0.0 {
+            return 0.0;
         }
-        if (da >= 0.0) != (db >= 0.0) {
-            clipped[len] = a + (b - a) * (da / (da - db));
-            len += 1;
+        // Clipped to the upper half-space (Sutherland–Hodgman against one plane): a triangle
+        // keeps at most four corners.
+        let mut clipped = [DVec3::ZERO; 4];
+        let mut len = 0;
+        for (i, &a) in rel.iter().enumerate() {
+            let b = rel[(i + 1) % 3];
+            let (da, db) = (n.dot(a), n.dot(b));
+            if da >= 0.0 {
+                clipped[len] = a;
+                len += 1;
+            }
+            if (da >= 0.0) != (db >= 0.0) {
+                clipped[len] = a + (b - a) * (da / (da - db));
+                len += 1;
+            }
         }
-    }
-    if len < 3 {
-        return 0.0;
-    }
-    let unit = clipped.map(DVec3::normalize_or_zero);
-    let mut sum = 0.0f64;
-    for i in 0..len {
-        let (a, b) = (unit[i], unit[(i + 1) % len]);
-        let c = a.cross(b);
-        let s = c.length();
-        if s > 0.0 {
-            // The edge's angle and the normal's share of its plane's normal.
-            // (The angle in f32: its inputs are f64-exact, and libm's f64 atan2 was 4 % of a
-            // temporal frame.)
-            sum += f64::from((s as f32).atan2(a.dot(b) as f32)) * n.dot(c) / s;
+        if len < 3 {
+            return 0.0;
         }
+        let mut unit = [DVec3::ZERO; 4];
+        for (u, c) in unit.iter_mut().zip(&clipped).take(len) {
+            *u = c.normalize_or_zero();
+        }
+        let mut sum = 0.0f64;
+        for i in 0..len {
+            let (a, b) = (unit[i], unit[(i + 1) % len]);
+            let c = a.cross(b);
+            let s = c.length();
+            if s > 0.0 {
+                // The edge's angle and the normal's share of its plane's normal.
+                // (The angle in f32: its inputs are f64-exact, and libm's f64 atan2 was 4 % of
+                // a temporal frame.)
+                sum += f64::from((s as f32).atan2(a.dot(b) as f32)) * n.dot(c) / s;
+            }
+        }
+        // Counter-clockwise seen from p makes the sum negative; its magnitude is 2·∫cos dω.
+        (0.5 * sum.abs()) as f32
     }
-    // Counter-clockwise seen from p makes the sum negative; its magnitude is 2·∫cos dω.
-    (0.5 * sum.abs()) as f32
 }
 
 #[cfg(test)]
