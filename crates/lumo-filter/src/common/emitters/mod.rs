@@ -119,8 +119,8 @@ impl EmitterMask {
             .map(|i| crate::common::gbuffer::is_background(features, i))
             .collect();
         let core: Vec<bool> = (0..n).map(|i| light[i] && !background[i]).collect();
-        let grown = search::dilate(&core, |i| !background[i], w, h, dilate);
-        let rim = (0..n).map(|i| grown[i] && !light[i]).collect();
+        // (A light pixel out of `core` is background, never reached.)
+        let rim = search::rings(&core, |i| !background[i], w, h, dilate);
         Ok(EmitterMask { light, rim })
     }
 }

@@ -64,12 +64,7 @@ pub(super) fn search(color: &Image, features: &Features, params: &EmitterParams)
         }
     }
     drop_explained_regions(&mut mask, &d, w, h, params);
-    let grown = dilate(&mask, |i| d[i].is_finite(), w, h, params.dilate);
-    let rim = grown
-        .par_iter()
-        .zip(&mask)
-        .map(|(&g, &m)| g && !m)
-        .collect();
+    let rim = rings(&mask, |i| d[i].is_finite(), w, h, params.dilate);
     EmitterMask { light: mask, rim }
 }
 
@@ -137,34 +132,34 @@ fn window(i: usize, w: usize, h: usize) -> impl Iterator<Item = usize> {
     (y.saturating_sub(1)..(y + 2).min(h)).flat_map(move |yy| xs.clone().map(move |xx| yy * w + xx))
 }
 
-/// `core` grown by `steps` rings of 8-neighbours, through `eligible` pixels only: after each
-/// step a pixel is in when it was, or it is eligible and a neighbour was. Visits only the
-/// pixels next to the last ring.
-pub(super) fn dilate(
+/// The `steps` rings of 8-neighbours around `core`, through `eligible` pixels only (after
+/// each step a pixel is in when it was, or it is eligible and a neighbour was), less `core`
+/// itself. Visits only the pixels next to the last ring.
+pub(super) fn rings(
     core: &[bool],
     eligible: impl Fn(usize) -> bool,
     w: usize,
     h: usize,
     steps: usize,
 ) -> Vec<bool> {
-    let mut grown = core.to_vec();
+    let mut rim = vec![false; core.len()];
     if steps == 0 {
-        return grown;
+        return rim;
     }
     let mut ring: Vec<usize> = (0..core.len()).filter(|&i| core[i]).collect();
     for _ in 0..steps {
         let mut next = Vec::new();
         for &i in &ring {
             for j in window(i, w, h) {
-                if !grown[j] && eligible(j) {
-                    grown[j] = true;
+                if !core[j] && !rim[j] && eligible(j) {
+                    rim[j] = true;
                     next.push(j);
                 }
             }
         }
         ring = next;
     }
-    grown
+    rim
 }
 
 /// Unmarks every connected region of `mask` whose median demodulated luminance is less than

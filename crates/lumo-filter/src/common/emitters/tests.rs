@@ -236,3 +236,53 @@ fn same_mask_as_the_plain_search() {
         }
     }
 }
+
+/// An emission plane's rim is the plain per-pixel dilation over non-background pixels, less
+/// the lights, at one and two rings (a light touching the sky, which gets no rim).
+#[test]
+fn emission_rim_is_the_plain_dilation() {
+    let (w, h) = (24, 16);
+    let mut emission = Image::new(w, h, 3, 0.0);
+    let mut depth = Image::new(w, h, 1, 2.0);
+    for y in 0..h {
+        for x in 0..w {
+            if (5..9).contains(&x) && (4..7).contains(&y) || (x, y) == (15, 12) {
+                emission.pixel_mut(x, y)[1] = 3.0;
+            }
+            if y < 5 && x >= 7 {
+                depth.pixel_mut(x, y)[0] = f32::INFINITY;
+            }
+        }
+    }
+    let f = Features {
+        depth: Some(&depth),
+        ..Features::default()
+    };
+    let bg = |x: usize, y: usize| !depth.pixel(x, y)[0].is_finite();
+    for steps in [1, 2] {
+        let m = EmitterMask::from_emission(&emission, &f, steps).unwrap();
+        let mut grown: Vec<bool> = (0..w * h)
+            .map(|i| emission.data[i * 3 + 1] != 0.0 && !bg(i % w, i / w))
+            .collect();
+        for _ in 0..steps {
+            grown = (0..w * h)
+                .map(|i| {
+                    let (x, y) = ((i % w) as isize, (i / w) as isize);
+                    grown[i]
+                        || !bg(i % w, i / w)
+                            && (-1..=1).any(|dy| {
+                                (-1..=1).any(|dx| {
+                                    let (xx, yy) = (x + dx, y + dy);
+                                    (0..w as isize).contains(&xx)
+                                        && (0..h as isize).contains(&yy)
+                                        && grown[yy as usize * w + xx as usize]
+                                })
+                            })
+                })
+                .collect();
+        }
+        let want: Vec<bool> = (0..w * h).map(|i| grown[i] && !m.light[i]).collect();
+        assert!(want.iter().filter(|&&b| b).count() > 10);
+        assert_eq!(m.rim, want, "{steps} rings");
+    }
+}
