@@ -1,12 +1,16 @@
 //! Filter timings in the shape of the papers' Table 2: median wall time (ms) of several runs on
 //! the synthetic scene at 512², 1024² and 1920×1080. Plain std::time, no harness.
-//! `cargo bench -p lumo-filter` runs everything; pass `atrous`, `guided` or `bilateral` after
-//! `--` to run one group. Results are recorded in docs/filter-benchmarks.md.
+//! `cargo bench -p lumo-filter` runs everything; pass `atrous`, `guided`, `bilateral` or
+//! `emitters` (the light search, on the frame with a light pasted in) after `--` to run one
+//! group. Results are recorded in docs/filter-benchmarks.md.
 
 use std::time::Instant;
 
 use lumo_filter::table2;
-use lumo_filter::{synthetic_frame, FilterKind, SyntheticFrame};
+use lumo_filter::{
+    detect_emitters, synthetic_frame, EmitterParams, Features, FilterKind, SyntheticFrame,
+};
+use lumo_image::Image;
 
 const RESOLUTIONS: [(usize, usize); 3] = [(512, 512), (1024, 1024), (1920, 1080)];
 
@@ -65,4 +69,42 @@ fn main() {
             });
         }
     }
+    if wants("emitters") {
+        let lit: Vec<(Image, Image)> = frames.iter().map(with_light).collect();
+        let cells: Vec<String> = frames
+            .iter()
+            .zip(&lit)
+            .map(|(fr, (color, albedo))| {
+                let f = Features {
+                    albedo: Some(albedo),
+                    normal: Some(&fr.normal),
+                    position: Some(&fr.position),
+                    depth: Some(&fr.depth),
+                    variance: None,
+                };
+                let p = EmitterParams::default();
+                cell(time(|| {
+                    detect_emitters(color, &f, &p).expect("light search on a synthetic frame");
+                }))
+            })
+            .collect();
+        println!(
+            "| light search | defaults, a light pasted in | {} |",
+            cells.join(" | ")
+        );
+    }
+}
+
+/// The frame's noisy colour and albedo with a light of radiance 20 (albedo 0.75) on a tenth
+/// of its width and height, up in the frame's left half.
+fn with_light(fr: &SyntheticFrame) -> (Image, Image) {
+    let (mut color, mut albedo) = (fr.noisy.clone(), fr.albedo.clone());
+    let (w, h) = (color.width, color.height);
+    for y in h / 10..h / 5 {
+        for x in w / 5..w * 3 / 10 {
+            color.pixel_mut(x, y).fill(20.0);
+            albedo.pixel_mut(x, y).fill(0.75);
+        }
+    }
+    (color, albedo)
 }
