@@ -13,7 +13,6 @@
 //! stall once the passes have visited [`WORK_PER_BOX`] clusters per box: O(n log n) for the
 //! sort, O(n) for the passes, whose windows are of a fixed size.
 
-use glam::DVec3;
 use obvhs::aabb::Aabb;
 use obvhs::ploc::morton::morton_encode_u64_unorm;
 
