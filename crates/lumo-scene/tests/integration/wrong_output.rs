@@ -264,7 +264,7 @@ fn lights_beyond_what_the_film_can_sum_are_refused() {
         ("\"intensity\": 30", "\"intensity\": 1e16", "too bright"),
     ] {
         assert!(gltf.contains(old), "hierarchy.gltf has {old}");
-        let e = load(&write(&dir, "bright.gltf", &gltf.replacen(old, new, 1)))
+        let e = load(&write(&dir, "bright.gltf", gltf.replacen(old, new, 1)))
             .unwrap_err()
             .to_string();
         assert!(
