@@ -217,3 +217,25 @@ pub fn same_file(a: &std::path::Path, b: &std::path::Path) -> bool {
         _ => a == b,
     }
 }
+
+/// On SIGINT or SIGTERM, removes the temporaries of the writes in flight
+/// ([`lumo_image::temps`]) and then dies of the signal as it would have without the handler
+/// (exit status 130 or 143 in a shell). Until now an interrupted write left its `.lumo-tmp-*`
+/// file for the next run to sweep. The handler is a thread (signal-hook's iterator), so the
+/// clean-up may take locks and remove files.
+pub fn remove_temps_on_signal() {
+    use signal_hook::consts::{SIGINT, SIGTERM};
+    // Without the handler the signal still kills the process; the next run sweeps then.
+    let Ok(mut signals) = signal_hook::iterator::Signals::new([SIGINT, SIGTERM]) else {
+        return;
+    };
+    std::thread::spawn(move || {
+        if let Some(signal) = signals.forever().next() {
+            // Held until the process ends: no writer creates a temporary after the sweep.
+            let (_, _held) = lumo_image::temps::remove_all_and_hold();
+            // Restores the default action and raises the signal again.
+            let _ = signal_hook::low_level::emulate_default_handler(signal);
+            std::process::exit(128 + signal);
+        }
+    });
+}

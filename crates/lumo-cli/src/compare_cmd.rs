@@ -1,7 +1,7 @@
 //! `lumo compare REF IMG [IMG…]`: error metrics of images against a reference, as a table or
 //! JSON, and optionally false-colour error images.
 
-use crate::cli_common::outln;
+use crate::cli_common::{errln, outln};
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
@@ -181,6 +181,13 @@ pub fn run(args: CompareArgs) -> Result<()> {
         });
     }
 
+    for row in rows.iter().filter(|r| r.metrics.clipped_alike()) {
+        errln!(
+            "warning: {}: {}",
+            row.path.display(),
+            clipped_note(&settings, &reference, &tests, row)
+        );
+    }
     if args.json {
         outln!(
             "{}",
@@ -190,6 +197,35 @@ pub fn run(args: CompareArgs) -> Result<()> {
         print_table(&args, &reference, &settings, &rows);
     }
     Ok(())
+}
+
+/// Why PSNR, SSIM and FLIP are not shown for `row` ([`Metrics::clipped_alike`]), with an
+/// exposure that puts the brightest value of the images at display white.
+fn clipped_note(
+    settings: &CompareSettings,
+    reference: &Image,
+    tests: &[Image],
+    row: &Row,
+) -> String {
+    let brightest = std::iter::once(reference)
+        .chain(tests)
+        .flat_map(|i| i.data.iter())
+        .filter(|v| v.is_finite())
+        .fold(0.0f32, |m, &v| m.max(v));
+    let hint = if brightest > 0.0 {
+        let e = (-brightest.log2())
+            .clamp(-MAX_EXPOSURE, MAX_EXPOSURE)
+            .floor();
+        format!("compare at a lower exposure, e.g. --exposure {e} (the brightest value at white)")
+    } else {
+        "they differ only in negative values, which every exposure shows as black".to_string()
+    };
+    format!(
+        "the images differ (MSE {:.4e}) but are identical after tone mapping at --exposure {}: \
+         every differing pixel clips to white or black, so PSNR, SSIM and FLIP cannot see the \
+         difference and are not reported; {hint}",
+        row.metrics.mse, settings.exposure
+    )
 }
 
 /// A one-line error naming both images when `test` cannot be compared with `reference`.
@@ -315,19 +351,32 @@ fn print_table(args: &CompareArgs, reference: &Image, settings: &CompareSettings
     );
     for (row, name) in rows.iter().zip(&names) {
         let m = &row.metrics;
-        let psnr = if m.psnr.is_finite() {
-            format!("{:.2}", m.psnr)
+        let [psnr, ssim, flip] = if m.clipped_alike() {
+            ["clipped".to_string(), "clipped".into(), "clipped".into()]
         } else {
-            "inf".into()
+            [
+                if m.psnr.is_finite() {
+                    format!("{:.2}", m.psnr)
+                } else {
+                    "inf".into()
+                },
+                format!("{:.5}", m.ssim),
+                format!("{:.5}", m.flip),
+            ]
         };
         outln!(
-            "{name:<width$}  {:>10.4e}  {:>10.4e}  {:>8.5}  {psnr:>8}  {:>8.5}  {:>8.5}  {:>10}",
+            "{name:<width$}  {:>10.4e}  {:>10.4e}  {:>8.5}  {psnr:>8}  {ssim:>8}  {flip:>8}  {:>10}",
             m.mse,
             m.relmse,
             m.smape,
-            m.ssim,
-            m.flip,
             m.nonfinite_pixels
+        );
+    }
+    if rows.iter().any(|r| r.metrics.clipped_alike()) {
+        outln!();
+        outln!(
+            "clipped: the linear values differ but every differing pixel clips to white or black \
+             at this exposure, so PSNR, SSIM and FLIP cannot see the difference (see the warning)"
         );
     }
     let excluded: Vec<_> = rows
@@ -371,14 +420,23 @@ fn to_json(
         .iter()
         .map(|r| {
             let m = &r.metrics;
+            // Clipped alike: the tone-mapped scores would call different images identical.
+            let seen = |v: f64| {
+                if m.clipped_alike() {
+                    serde_json::Value::Null
+                } else {
+                    finite(v)
+                }
+            };
             json!({
                 "image": r.path.display().to_string(),
                 "mse": finite(m.mse),
                 "relmse": finite(m.relmse),
                 "smape": finite(m.smape),
-                "psnr_db": finite(m.psnr),
-                "ssim": finite(m.ssim),
-                "flip": finite(m.flip),
+                "psnr_db": seen(m.psnr),
+                "ssim": seen(m.ssim),
+                "flip": seen(m.flip),
+                "clipped_alike": m.clipped_alike(),
                 "nonfinite_pixels": m.nonfinite_pixels,
                 "diff": r.diff.as_ref().map(|d| d.display().to_string()),
             })

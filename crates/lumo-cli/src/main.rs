@@ -32,6 +32,7 @@ enum Command {
 
 fn main() {
     let cli = Cli::parse();
+    lumo_cli::cli_common::remove_temps_on_signal();
     let result = match cli.command {
         Command::Render(args) => render_cmd::run(args),
         Command::Denoise(args) => denoise::run(args),

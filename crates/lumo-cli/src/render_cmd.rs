@@ -369,6 +369,8 @@ pub fn check_output_file(path: &Path) -> Result<()> {
         );
     }
     let probe = lumo_image::temp_path(path);
+    // Registered like a write's temporary, so that a signal now removes it too.
+    let _in_flight = lumo_image::temps::InFlight::new(&probe);
     std::fs::write(&probe, b"").with_context(|| {
         format!(
             // The cause follows (permission denied, read-only file system, or /proc's "no

@@ -62,6 +62,7 @@ pub fn read_image(path: &Path) -> Result<Image, ImageError> {
 pub fn write_image(path: &Path, image: &Image) -> Result<(), ImageError> {
     let format = ImageFormat::from_path(path)?;
     let tmp = temp_path(path);
+    let _in_flight = crate::temps::InFlight::new(&tmp);
     let written = match format {
         ImageFormat::Exr => exr_io::write(&tmp, image),
         ImageFormat::Pfm => pfm::write(&tmp, image),

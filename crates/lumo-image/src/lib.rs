@@ -12,6 +12,7 @@ mod memory;
 pub mod metrics;
 mod pfm;
 mod png_io;
+pub mod temps;
 
 pub use color::{linear_to_srgb, luminance, srgb_to_linear};
 pub use error::{describe_io_error, ImageError};

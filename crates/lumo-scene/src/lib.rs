@@ -19,7 +19,7 @@ pub use animation::{AnimatedScene, Animation};
 pub use builtin::{builtin_scene, BuiltinScene, BUILTIN_SCENES};
 pub use camera::{Camera, FovAxis};
 pub use error::SceneError;
-pub use light::{EnvMap, Light};
+pub use light::{EnvMap, Light, MAX_EMISSION};
 pub use material::{BsdfSpec, Distribution, Material, Roughness, RoughnessMaps, Spectra};
 pub use mesh::{Analytic, AnalyticKind, Instance, Mesh};
 pub use scene::{

@@ -52,3 +52,43 @@ pub enum Light {
     /// Image-based lighting, importance sampled.
     Environment(EnvMap),
 }
+
+/// Brightest emitted radiance, intensity or irradiance a scene may hold per channel: the film
+/// sums squares of what it receives for its variance plane, and (1e15)² = 1e30 is within f32's
+/// 3.4e38 with room for the sums. Past it (or past f32's range, as an emissive factor ×
+/// strength of 1e20 × 1e20 was) the render came out black with exit 0.
+pub const MAX_EMISSION: f32 = 1e15;
+
+impl Light {
+    /// The light's strength as its field is named (`intensity`, `irradiance`, `radiance`, or an
+    /// environment's `scale × brightest texel`) and its value per channel, for range checks.
+    pub fn strength(&self) -> (&'static str, Vec3) {
+        match self {
+            Light::Point { intensity, .. } | Light::Spot { intensity, .. } => {
+                ("intensity", *intensity)
+            }
+            Light::Directional { irradiance, .. } => ("irradiance", *irradiance),
+            Light::Constant { radiance } => ("radiance", *radiance),
+            Light::Environment(env) => ("scale × brightest texel", env.brightest()),
+        }
+    }
+}
+
+impl EnvMap {
+    /// `scale` times the image's largest value per colour channel (a grey image's in all
+    /// three), infinite where a texel is not finite.
+    pub fn brightest(&self) -> Vec3 {
+        let c = self.image.channels.max(1);
+        let mut max = Vec3::ZERO;
+        for (i, &v) in self.image.data.iter().enumerate() {
+            let k = if c >= 3 { i % c } else { 0 };
+            if k < 3 {
+                max[k] = max[k].max(if v.is_finite() { v } else { f32::INFINITY });
+            }
+        }
+        if c < 3 {
+            max = Vec3::splat(max.x);
+        }
+        max * self.scale
+    }
+}

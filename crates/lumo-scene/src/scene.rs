@@ -271,6 +271,17 @@ impl Scene {
                 return Err(reach_error(ii, mesh, reach));
             }
         }
+        // Loaders say this naming the file and field; this catches scenes built in code.
+        for (li, light) in self.lights.iter().enumerate() {
+            let (field, v) = light.strength();
+            if !v.is_finite() || v.max_element() > crate::MAX_EMISSION {
+                return Err(SceneError::Invalid(format!(
+                    "light {li}: {field} {v} is beyond {:e} per channel (or not finite); \
+                     scale the light down",
+                    crate::MAX_EMISSION
+                )));
+            }
+        }
         Ok(())
     }
 }

@@ -35,6 +35,7 @@ pub fn write_image_atomic(path: &Path, image: &Image) -> Result<()> {
 pub fn check_dir_writable(dir: &Path) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let probe = temp_path(&dir.join("probe"));
+    let _in_flight = lumo_image::temps::InFlight::new(&probe);
     std::fs::write(&probe, b"").with_context(|| format!("cannot write into {}", dir.display()))?;
     std::fs::remove_file(&probe).ok();
     Ok(())
@@ -44,6 +45,7 @@ pub fn check_dir_writable(dir: &Path) -> Result<()> {
 /// temporary file is removed and `path` is left as it was.
 fn commit(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
     let tmp = temp_path(path);
+    let _in_flight = lumo_image::temps::InFlight::new(&tmp);
     let result = write(&tmp).and_then(|()| {
         std::fs::rename(&tmp, path)
             .with_context(|| format!("cannot rename {} to {}", tmp.display(), path.display()))

@@ -287,3 +287,80 @@ fn a_ppd_below_one_is_refused() {
     ]));
     assert!(v["images"][0]["flip"].as_f64().unwrap().is_finite(), "{v}");
 }
+
+/// `--exposure 64` clipped two different images to white everywhere and reported PSNR inf,
+/// SSIM 1 and FLIP 0 (a perfect match). Images whose linear values differ but whose
+/// tone-mapped values do not get no tone-mapped scores ("clipped" / null) and a warning with
+/// an exposure that shows the difference; identical images still score perfectly.
+#[test]
+fn images_that_differ_only_where_they_clip_are_not_called_identical() {
+    let dir = temp_dir("saturation");
+    let reference = scene(24, 20, 1.0);
+    let r = write(&dir, "ref.exr", &reference);
+    let t = write(&dir, "test.exr", &scene(24, 20, 0.5));
+    // Differs only in the square's red channel, which is above 1 (white) at exposure 0.
+    let mut bright = reference.clone();
+    for y in 5..11 {
+        for x in 6..12 {
+            bright.pixel_mut(x, y)[0] *= 4.0;
+        }
+    }
+    let b = write(&dir, "bright.exr", &bright);
+    for (test, exposure) in [(&t, "64"), (&b, "0")] {
+        let o = lumo(&[&r, test, Path::new("--exposure"), Path::new(exposure)]);
+        let (out, err) = text(&o);
+        assert!(o.status.success(), "{err}");
+        let row = out
+            .lines()
+            .find(|l| l.starts_with(&*test.display().to_string()))
+            .unwrap_or_else(|| panic!("no row in\n{out}"));
+        assert!(
+            row.matches("clipped").count() == 3 && !row.contains("inf"),
+            "--exposure {exposure}: {row}"
+        );
+        assert!(
+            err.contains("warning") && err.contains("identical after tone mapping"),
+            "{err}"
+        );
+        let hint = err.split("e.g. --exposure ").nth(1).expect("a hint");
+        let e: f32 = hint.split_whitespace().next().unwrap().parse().unwrap();
+        // The brightest values are 2.9 (the square) and 8 (its red channel ×4).
+        assert!(
+            e <= -2.0,
+            "the hint puts the brightest value at white: {err}"
+        );
+        let v = json(&lumo(&[
+            &r,
+            test,
+            Path::new("--exposure"),
+            Path::new(exposure),
+            Path::new("--json"),
+        ]));
+        let m = &v["images"][0];
+        assert!(m["mse"].as_f64().unwrap() > 0.0, "{v}");
+        for k in ["psnr_db", "ssim", "flip"] {
+            assert!(m[k].is_null(), "{k} at --exposure {exposure}: {v}");
+        }
+        assert_eq!(m["clipped_alike"], true, "{v}");
+        // At the hinted exposure the difference is seen.
+        let v = json(&lumo(&[
+            &r,
+            test,
+            Path::new(&format!("--exposure={e}")),
+            Path::new("--json"),
+        ]));
+        let m = &v["images"][0];
+        assert!(m["psnr_db"].as_f64().unwrap().is_finite(), "{v}");
+        assert!(m["flip"].as_f64().unwrap() > 0.0, "{v}");
+    }
+    // The same image at exposure 64 is still a perfect match, not "clipped".
+    let v = json(&lumo(&[
+        &r,
+        &r,
+        Path::new("--exposure"),
+        Path::new("64"),
+        Path::new("--json"),
+    ]));
+    assert_eq!(v["images"][0]["clipped_alike"], false, "{v}");
+    assert_eq!(v["images"][0]["ssim"].as_f64(), Some(1.0), "{v}");
+}

@@ -6,6 +6,7 @@ mod closed_pipes;
 mod compare_cli;
 mod denoise_cli;
 mod hostile_options;
+mod interrupted_writes;
 mod memory_limits;
 mod output_checks;
 mod scene_files;

@@ -130,6 +130,15 @@ pub struct Metrics {
     pub nonfinite_pixels: usize,
 }
 
+impl Metrics {
+    /// The linear values differ but the tone-mapped ones are identical: every differing pixel
+    /// clips to white (or black) at the exposure, so PSNR (∞), SSIM (1) and FLIP (0) cannot
+    /// see the difference (`--exposure 64` scored two different images a perfect match).
+    pub fn clipped_alike(&self) -> bool {
+        self.mse > 0.0 && self.psnr == f64::INFINITY
+    }
+}
+
 /// Every metric of `test` against `reference`, sharing one validity mask.
 pub fn compare(
     reference: &Image,

@@ -29,6 +29,7 @@ mod bvh4;
 pub(crate) mod bvh8;
 mod median;
 pub mod packet;
+mod ploc_stall;
 mod robust;
 pub(crate) mod stack;
 #[cfg(test)]

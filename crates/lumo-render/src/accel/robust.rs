@@ -9,7 +9,8 @@
 //!
 //! A third cause is boxes that nearly all cover one another (a triangle fan): merges then cost
 //! about the same, few are mutual, and such input goes to a median build instead
-//! ([`super::median`]).
+//! ([`super::median`]); so does a fourth, equal boxes at equal steps along a line, whose
+//! neighbouring merges all cost the same ([`super::ploc_stall`]).
 //!
 //! [`build_bvh2`] removes the first two causes before PLOC sees the boxes: more than
 //! [`MAX_PLAIN_DUPLICATES`] identical boxes become one cluster (a multi-primitive leaf, which
@@ -27,6 +28,7 @@ use obvhs::bvh2::Bvh2;
 use obvhs::ploc::{PlocBuilder, PlocSearchDistance, SortPrecision};
 
 use super::median::{median_build, overlaps_heavily};
+use super::ploc_stall::{ploc_stalls, SEARCH_DISTANCE};
 
 /// Largest extent the build takes unscaled: the half area of a box this size (3·1e36) stays
 /// well inside f32's range (3.4e38), so no merge cost overflows.
@@ -125,13 +127,14 @@ pub(crate) fn build_bvh2(boxes: &[Aabb], options: BuildOptions) -> Bvh2 {
 }
 
 /// Plain obvhs PLOC (+ reinsertion) over `boxes`, or the median build where they overlap so
-/// much that PLOC would take quadratic time ([`super::median`]).
+/// much ([`super::median`]) or their merge costs tie so evenly ([`super::ploc_stall`]) that
+/// PLOC would take quadratic time.
 fn ploc(boxes: &[Aabb], options: BuildOptions) -> Bvh2 {
-    if overlaps_heavily(boxes) {
+    if overlaps_heavily(boxes) || ploc_stalls(boxes, options.search_depth_threshold) {
         return median_build(boxes);
     }
     let mut bvh = PlocBuilder::with_capacity(boxes.len()).build(
-        PlocSearchDistance::Medium,
+        PlocSearchDistance::from(SEARCH_DISTANCE as u32),
         boxes,
         (0..boxes.len() as u32).collect(),
         SortPrecision::U64,
@@ -280,11 +283,37 @@ mod tests {
         boxes.extend([boxes[0]; MAX_PLAIN_DUPLICATES as usize - 2]);
         let a = build_bvh2(&boxes, OPTIONS);
         let b = ploc(&boxes, OPTIONS);
+        // A large tessellated plane (ties in its costs, but PLOC's window sees past them)
+        // is not taken for a stalling row.
+        assert!(!ploc_stalls(
+            &grid(100, 1.0),
+            OPTIONS.search_depth_threshold
+        ));
         assert_eq!(a.primitive_indices, b.primitive_indices);
         assert_eq!(a.nodes.len(), b.nodes.len());
         for (x, y) in a.nodes.iter().zip(&b.nodes) {
             assert_eq!((x.first_index, x.prim_count), (y.first_index, y.prim_count));
             assert_eq!((x.aabb().min, x.aabb().max), (y.aabb().min, y.aabb().max));
         }
+    }
+
+    /// 100,000 small triangles in a row took about 70 s (PLOC merged one pair per pass); the
+    /// median build makes a balanced tree of them.
+    #[test]
+    fn a_row_of_small_triangles_builds_a_shallow_tree_quickly() {
+        let boxes: Vec<Aabb> = (0..100_000)
+            .map(|i| {
+                let p = Vec3A::new(i as f32, 0.0, 0.0);
+                tri_box(p, p + Vec3A::X * 1e-3, p + Vec3A::Y * 1e-3)
+            })
+            .collect();
+        let start = std::time::Instant::now();
+        let bvh = build_bvh2(&boxes, OPTIONS);
+        let took = start.elapsed();
+        let (depth, prims) = depth_and_prims(&bvh);
+        assert_eq!(prims, boxes.len());
+        assert!(depth <= 20, "depth {depth}");
+        // A sanity bound, not a performance test: the stalled build took minutes.
+        assert!(took.as_secs() < 10, "{took:?}");
     }
 }

@@ -5,17 +5,11 @@
 use std::path::Path;
 
 use super::{Diagnostics, LoadError, Location};
-use crate::{Mesh, Scene};
+use crate::{Light, Mesh, Scene, MAX_EMISSION};
 use glam::Vec3;
 
-/// Brightest emitted radiance a loader accepts per channel: the film sums squares of radiance
-/// for its variance plane, and (1e15)² = 1e30 is within f32's 3.4e38 with room for the sums.
-/// An emissive factor × strength of 1e20 × 1e20 overflowed to infinity and the render came out
-/// black with exit 0.
-pub(crate) const MAX_EMISSION: f32 = 1e15;
-
-/// `v`, an emitted radiance (`what`, as the file names it), if it is finite and at most
-/// [`MAX_EMISSION`]; else an error at `at` saying so.
+/// `v`, an emitted radiance, intensity or irradiance (`what`, as the file names it), if it is
+/// finite and at most [`MAX_EMISSION`]; else an error at `at` saying so.
 pub(crate) fn check_emission(at: &Location, what: &str, v: Vec3) -> Result<Vec3, LoadError> {
     if !v.is_finite() || v.max_element() > MAX_EMISSION {
         return Err(LoadError::invalid(
@@ -35,6 +29,18 @@ pub(crate) fn check_emission(at: &Location, what: &str, v: Vec3) -> Result<Vec3,
         ));
     }
     Ok(v)
+}
+
+/// `light` if its strength passes [`check_emission`], the field named `field` (or, with
+/// `None`, the name [`Light::strength`] gives).
+pub(crate) fn check_light(
+    at: &Location,
+    field: Option<&str>,
+    light: Light,
+) -> Result<Light, LoadError> {
+    let (name, v) = light.strength();
+    check_emission(at, field.unwrap_or(name), v)?;
+    Ok(light)
 }
 
 /// Validates a freshly read mesh: indices in range and finite positions are errors (with the

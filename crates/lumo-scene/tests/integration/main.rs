@@ -6,6 +6,7 @@ mod hostile_input;
 mod in_memory;
 mod meshes;
 mod mitsuba;
+mod mutated;
 mod robustness;
 mod unbounded;
 mod wrong_output;

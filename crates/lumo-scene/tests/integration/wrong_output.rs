@@ -201,3 +201,92 @@ fn focal_length_and_extra_ply_values_are_named_as_written() {
         "{e}"
     );
 }
+
+/// Point, spot, directional, constant and environment lights were not held to the limit
+/// emission has: an intensity of 1e38 (or a scale that overflows an environment's texels)
+/// loaded and rendered black or Inf with exit 0. Each is refused naming the file and field.
+#[test]
+fn lights_beyond_what_the_film_can_sum_are_refused() {
+    let dir = temp_dir("light-overflow");
+    // A 1×1 PFM of radiance 1e30 for the environment.
+    let mut pfm = b"PF\n1 1\n-1\n".to_vec();
+    for _ in 0..3 {
+        pfm.extend_from_slice(&1e30f32.to_le_bytes());
+    }
+    std::fs::write(dir.join("sky.pfm"), pfm).unwrap();
+    for (emitter, field, says) in [
+        (
+            r#"<emitter type="point"><rgb name="intensity" value="1e16"/></emitter>"#,
+            "intensity",
+            "too bright",
+        ),
+        (
+            r#"<emitter type="spot"><rgb name="intensity" value="3e38"/></emitter>"#,
+            "intensity",
+            "too bright",
+        ),
+        (
+            r#"<emitter type="directional"><vector name="direction" x="0" y="-1" z="0"/><rgb name="irradiance" value="2e15"/></emitter>"#,
+            "irradiance",
+            "too bright",
+        ),
+        (
+            r#"<emitter type="constant"><rgb name="radiance" value="1e20"/></emitter>"#,
+            "radiance",
+            "too bright",
+        ),
+        (
+            r#"<emitter type="envmap"><string name="filename" value="sky.pfm"/><float name="scale" value="1e10"/></emitter>"#,
+            "scale × brightest texel",
+            "not finite",
+        ),
+        (
+            r#"<emitter type="envmap"><string name="filename" value="sky.pfm"/><float name="scale" value="1e-14"/></emitter>"#,
+            "scale × brightest texel",
+            "too bright",
+        ),
+    ] {
+        let e = load(&write(&dir, "bright.xml", common::mitsuba(emitter)))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("bright.xml:3") && e.contains(field) && e.contains(says),
+            "{emitter}: {e}"
+        );
+    }
+    // At the limit's scale the environment loads (the check is not a blanket refusal).
+    let ok = r#"<emitter type="envmap"><string name="filename" value="sky.pfm"/><float name="scale" value="1e-16"/></emitter>"#;
+    load(&write(&dir, "ok.xml", common::mitsuba(ok))).expect("an environment of 1e14 loads");
+
+    let gltf = std::fs::read_to_string(common::scenes().join("hierarchy.gltf")).unwrap();
+    for (old, new, says) in [
+        ("\"intensity\": 20", "\"intensity\": 1e39", "not finite"),
+        ("\"intensity\": 30", "\"intensity\": 1e16", "too bright"),
+    ] {
+        assert!(gltf.contains(old), "hierarchy.gltf has {old}");
+        let e = load(&write(&dir, "bright.gltf", gltf.replacen(old, new, 1)))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("bright.gltf") && e.contains("intensity × color") && e.contains(says),
+            "{new}: {e}"
+        );
+    }
+}
+
+/// Scenes built in code (not through a loader) are held to the same limit by
+/// `Scene::validate`, which every render runs.
+#[test]
+fn validate_refuses_lights_beyond_the_limit() {
+    let mut scene = lumo_scene::builtin_scene("cornell").expect("a built-in scene");
+    scene.validate().expect("the built-in scene is valid");
+    scene.lights.push(lumo_scene::Light::Point {
+        position: lumo_scene::Vec3::ZERO,
+        intensity: lumo_scene::Vec3::splat(f32::MAX),
+    });
+    let e = scene.validate().unwrap_err().to_string();
+    assert!(
+        e.contains("intensity") && e.contains("scale the light down"),
+        "{e}"
+    );
+}

@@ -12,7 +12,7 @@ use std::sync::Arc;
 use glam::{Affine2, Mat2, Mat4, Quat, Vec2, Vec3, Vec4};
 use gltf::accessor::{DataType, Dimensions};
 
-use super::check::{check_emission, check_mesh};
+use super::check::{check_emission, check_light, check_mesh};
 use super::gltf_refs::check_references;
 use super::images::decode_image;
 use super::materials::metal_from_reflectance;
@@ -601,12 +601,14 @@ impl GltfReader<'_, '_> {
                 cutoff: outer_cone_angle.to_degrees(),
             },
         };
-        if !power.is_finite() || power.min_element() < 0.0 {
+        let at = self.at(format!("light {}", light.index()));
+        if power.min_element() < 0.0 {
             return Err(LoadError::invalid(
-                self.at(format!("light {}", light.index())),
-                format!("intensity × color = {power} is not a finite non-negative value"),
+                at,
+                format!("intensity × color = {power} is negative; a light cannot emit less than nothing"),
             ));
         }
+        let l = check_light(&at, Some("intensity × color"), l)?;
         self.scene.lights.push(l);
         self.rig
             .items

@@ -8,7 +8,7 @@ use super::props::Props;
 use super::xml::Element;
 use super::Builder;
 use crate::load::{
-    check::{check_emission, check_mesh},
+    check::{check_emission, check_light, check_mesh},
     obj, ply, LoadError,
 };
 use crate::{
@@ -721,6 +721,7 @@ impl<'a> Builder<'a, '_> {
         };
         props.accept(&["sampling_weight"]);
         props.finish(self.diag)?;
+        let light = check_light(&at, None, light)?;
         self.scene.lights.push(light);
         Ok(())
     }
