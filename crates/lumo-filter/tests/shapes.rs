@@ -152,7 +152,7 @@ fn every_filter_runs_on_extreme_shapes_within_memory() {
 /// filter's bands keep rows of the whole width for at least 64 rows, so 65,536×1 peaks at
 /// 246 MB (4.8 MB for 256²). Run with --ignored once they are fixed.
 #[test]
-#[ignore = "À-Trous, auto, temporal (narrow images) and guided (wide ones) exceed it"]
+#[ignore = "guided (wide images) exceeds it"]
 fn memory_follows_the_pixel_count_on_every_shape() {
     let all: Vec<&str> = FILTERS.iter().map(|f| f.name).collect();
     let over = over_budget(1 << 16, &all);

@@ -22,6 +22,7 @@ mod params;
 mod pipeline;
 #[cfg(test)]
 mod tests;
+mod transpose;
 
 use std::borrow::Cow;
 
@@ -84,6 +85,12 @@ impl AtrousFilter {
         features: &Features,
         params: &AtrousParams,
     ) -> Result<Filtered, FilterError> {
+        if transpose::pays(color.width, color.height) {
+            validate(color, features, params)?;
+            let t = transpose::TransposedInput::new(color, features);
+            let out = self.run(&t.color, &t.features(), params, Isa::detect(), Path::Auto)?;
+            return Ok(transpose::back(out));
+        }
         self.run(color, features, params, Isa::detect(), Path::Auto)
     }
 
@@ -124,6 +131,11 @@ impl AtrousFilter {
         params: &AtrousParams,
     ) -> Result<(Filtered, Image), FilterError> {
         validate(color, features, params)?;
+        if transpose::pays(color.width, color.height) {
+            let t = transpose::TransposedInput::new(color, features);
+            let (out, first) = self.filter_keeping_first_level(&t.color, &t.features(), params)?;
+            return Ok((transpose::back(out), transpose::transposed(&first)));
+        }
         let inp = Input::new(color, features, params);
         let lay = Layout::new(color.width, color.height);
         let mut first = Image::new(0, 0, 3, 0.0);

@@ -437,3 +437,50 @@ fn row_wise_inverse_sigma_equals_the_per_pixel_one() {
         }
     }
 }
+
+/// A narrow, tall image is filtered transposed (transpose.rs: its layout would otherwise hold
+/// 672 floats per pixel and plane); the result must be the direct filter's, for fixed and
+/// variance-guided weights, with demodulation and sparse input, and for the first level the
+/// temporal filter keeps.
+#[test]
+fn transposed_narrow_images_filter_as_the_direct_layout_does() {
+    let f = synthetic_frame(20, 230, 2, 11);
+    assert!(super::transpose::pays(20, 230) && !super::transpose::pays(230, 20));
+    let features = Features {
+        normal: Some(&f.normal),
+        position: Some(&f.position),
+        depth: Some(&f.depth),
+        albedo: Some(&f.albedo),
+        variance: Some(&f.variance),
+    };
+    let svgf = AtrousParams {
+        use_variance: true,
+        demodulate: true,
+        ..AtrousParams::default()
+    };
+    let sparse = AtrousParams {
+        sparse: 2,
+        ..AtrousParams::default()
+    };
+    for p in [AtrousParams::default(), svgf, sparse] {
+        let turned = AtrousFilter::new().filter(&f.noisy, &features, &p).unwrap();
+        let direct = AtrousFilter::new()
+            .run(&f.noisy, &features, &p, Isa::detect(), Path::Auto)
+            .unwrap();
+        assert_eq!(turned.missing, direct.missing);
+        let scale = direct.image.data.iter().fold(0f32, |m, v| m.max(v.abs()));
+        for (i, (a, b)) in turned.image.data.iter().zip(&direct.image.data).enumerate() {
+            assert!(
+                (a - b).abs() <= 1e-4 * scale,
+                "value {i}: {a} transposed, {b} direct"
+            );
+        }
+        let (kept, first) = AtrousFilter::new()
+            .filter_keeping_first_level(&f.noisy, &features, &p)
+            .unwrap();
+        assert_eq!((first.width, first.height), (20, 230));
+        for (a, b) in kept.image.data.iter().zip(&direct.image.data) {
+            assert!((a - b).abs() <= 1e-4 * scale);
+        }
+    }
+}
