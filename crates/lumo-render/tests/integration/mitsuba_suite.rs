@@ -7,7 +7,8 @@
 //! disagreements: they must still disagree (a fix makes this test fail until the mark goes).
 //!
 //! `LUMO_SUITE_TABLE=FILE` also writes the measured agreement of every scene as a Markdown
-//! table (docs/mitsuba-suite.md is made this way).
+//! table (docs/mitsuba-suite.md is made this way). `LUMO_SUITE_ONLY=NAME,NAME` runs only
+//! those scenes.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -155,12 +156,17 @@ fn render_scene(entry: &Entry) -> Image {
 
 #[test]
 fn lumo_matches_mitsuba_on_the_validation_suite() {
-    let entries = manifest();
+    let mut entries = manifest();
     assert!(
         entries.len() >= 24,
         "the suite has {} scenes",
         entries.len()
     );
+    // `LUMO_SUITE_ONLY=a,b` runs only those scenes (while working on them).
+    if let Ok(only) = std::env::var("LUMO_SUITE_ONLY") {
+        let names: Vec<&str> = only.split(',').map(str::trim).collect();
+        entries.retain(|e| names.contains(&e.name.as_str()));
+    }
     // Scenes in parallel, each rendered on one thread: small images keep two cores busier
     // this way than rows of one 64×64 image.
     let results: Vec<(usize, Agreement)> = entries
