@@ -423,12 +423,6 @@ pub(crate) fn parse_color(el: &Element) -> Result<Vec3, LoadError> {
             }
         }
         "spectrum" => {
-            if el.attr("filename").is_some() {
-                return Err(LoadError::invalid(
-                    el.at(),
-                    "<spectrum filename=...> is not supported; give wavelength:value pairs",
-                ));
-            }
             if !text.contains(':') {
                 let v = parse_list(el, text)?;
                 return match v.as_slice() {

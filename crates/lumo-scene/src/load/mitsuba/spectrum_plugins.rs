@@ -12,7 +12,7 @@ const C2: f64 = 1.438_776_877e-2;
 /// What a spectrum plugin stands for.
 #[derive(Debug, PartialEq)]
 pub(crate) enum PluginSpectrum {
-    /// `d65` × `scale`: white of that luminance (D65 is what RGB white means in lumo and in
+    /// `d65` × `scale` or `uniform` `value`: white of that luminance (D65 is what RGB white means in lumo and in
     /// Mitsuba, so it stays an RGB grey and spectral rendering upsamples it back to D65).
     Grey(f32),
     /// `regular` / `irregular`: a piecewise-linear spectrum, zero outside its wavelengths
@@ -27,6 +27,7 @@ pub(crate) enum PluginSpectrum {
 pub(crate) fn plugin_spectrum(el: &Element, kind: &str) -> Result<PluginSpectrum, LoadError> {
     let known: &[&str] = match kind {
         "d65" => &["scale"],
+        "uniform" => &["value"],
         "blackbody" => &["temperature", "wavelength_min", "wavelength_max"],
         "regular" => &[
             "wavelength_min",
@@ -40,8 +41,8 @@ pub(crate) fn plugin_spectrum(el: &Element, kind: &str) -> Result<PluginSpectrum
             return Err(LoadError::invalid(
                 el.at(),
                 format!(
-                    "spectrum type {other:?} is not one of blackbody, d65, regular, irregular \
-                     (or give value=\"λ1:v1, λ2:v2, ...\")"
+                    "spectrum type {other:?} is not one of blackbody, d65, regular, irregular, \
+                     uniform (or give value=\"λ1:v1, λ2:v2, ...\" or an <rgb>)"
                 ),
             ))
         }
@@ -108,6 +109,7 @@ pub(crate) fn plugin_spectrum(el: &Element, kind: &str) -> Result<PluginSpectrum
     };
     match kind {
         "d65" => Ok(PluginSpectrum::Grey(number(&["scale"], Some(1.0))?)),
+        "uniform" => Ok(PluginSpectrum::Grey(number(&["value"], None)?)),
         "blackbody" => {
             let t = number(&["temperature"], None)?;
             let (lo, hi) = (
