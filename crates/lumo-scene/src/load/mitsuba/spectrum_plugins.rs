@@ -116,7 +116,7 @@ pub(crate) fn plugin_spectrum(el: &Element, kind: &str) -> Result<PluginSpectrum
                 number(&["wavelength_min"], Some(360.0))?,
                 number(&["wavelength_max"], Some(830.0))?,
             );
-            if !(t > 0.0) || !(lo < hi) {
+            if t <= 0.0 || lo >= hi {
                 return Err(LoadError::invalid(
                     el.at(),
                     format!(
@@ -131,7 +131,7 @@ pub(crate) fn plugin_spectrum(el: &Element, kind: &str) -> Result<PluginSpectrum
             let lo = number(&["wavelength_min", "lambda_min"], None)?;
             let hi = number(&["wavelength_max", "lambda_max"], None)?;
             let values = list("values")?;
-            if !(lo < hi) || values.len() < 2 {
+            if lo >= hi || values.len() < 2 {
                 return Err(LoadError::invalid(
                     el.at(),
                     format!(
