@@ -899,6 +899,29 @@ impl<'a> Job<'a> {
     /// Renders `rs` with the job's integrator and pipeline; `progress` gets 0..1.
     pub fn render(&self, rs: &RenderScene, progress: &(dyn Fn(f32) + Sync)) -> Result<Rendered> {
         let settings = &self.settings;
+        if matches!(
+            self.args.integrator,
+            RenderIntegrator::Light | RenderIntegrator::Bdpt
+        ) {
+            let camera = lumo_render::camera::PinholeCamera::new(
+                &rs.scene.camera,
+                settings.width,
+                settings.height,
+            );
+            if let Some(what) = camera.unsupported_by_splats() {
+                bail!(
+                    "{}: --integrator {}: the scene has {what}, which the light tracer and BDPT \
+                     (they project light onto a pinhole's film) do not render; use --integrator \
+                     path or ppm",
+                    rs.scene.name,
+                    if self.args.integrator == RenderIntegrator::Light {
+                        "light"
+                    } else {
+                        "bdpt"
+                    }
+                );
+            }
+        }
         if self.args.integrator == RenderIntegrator::Light {
             if rs.lights.emits_no_particles() {
                 bail!(

@@ -290,6 +290,14 @@ impl Sequence {
         let (mut samples, mut rays) = (0u64, 0u64);
         let mut temporal = if job.args.temporal {
             let s = &job.settings;
+            // Reprojection and motion vectors are a pinhole's.
+            if rs.scene.camera.lens != lumo_scene::Lens::Pinhole {
+                bail!(
+                    "{}: --temporal reprojects frames through a pinhole camera; this scene's \
+                     camera is a thin lens or orthographic (render without --temporal)",
+                    rs.scene.name
+                );
+            }
             let reshade = (s.spp == 1).then_some(s.path);
             let split = crate::temporal::splits_direct_light(&s.path);
             Some(TemporalSequence::new(self.rig.is_some(), reshade, split).context("--temporal")?)

@@ -227,6 +227,13 @@ pub fn run(args: ServeArgs) -> Result<()> {
     let tris = scene.triangle_count();
     let start = Instant::now();
     let rs = RenderScene::new(scene)?;
+    if let Some(what) = PinholeCamera::new(&rs.scene.camera, width, height).unsupported_by_splats()
+    {
+        errln!(
+            "{name}: the scene has {what}; the viewer's light, both and bdpt modes show the \
+             path tracer's camera samples instead (they project light onto a pinhole's film)"
+        );
+    }
     if config.integrator == Integrator::Ppm {
         let camera = PinholeCamera::new(&rs.scene.camera, width, height);
         if let Some(w) = scene_warning(&rs, &camera, &config.path) {

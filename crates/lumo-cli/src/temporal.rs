@@ -633,6 +633,8 @@ mod tests {
             up: Vec3::Y,
             fov: 40.0,
             fov_axis: lumo_scene::FovAxis::Y,
+            lens: Default::default(),
+            filter: Default::default(),
         };
         let (w, h) = (128, 96);
         let j = [0.3, -0.4];

@@ -1,9 +1,11 @@
-//! The pinhole camera both ways: rays from the eye through the film (path tracing) and world
-//! points projected back onto the film with the camera's importance (light tracing and, later,
-//! bidirectional connections).
+//! The camera both ways: rays from the eye through the film (path tracing) and world
+//! points projected back onto the film with the camera's importance (light tracing and
+//! bidirectional connections). Camera rays may also come from a thin lens or an orthographic
+//! projection and go through a pixel filter; the projections back onto the film are the
+//! pinhole's only (the light tracer and BDPT refuse the others: [`PinholeCamera::unsupported_by_splats`]).
 
 use glam::{Vec2, Vec3};
-use lumo_scene::Camera;
+use lumo_scene::{Camera, Lens, PixelFilter};
 
 /// A pinhole camera for one image size: precomputed basis, film extent and importance.
 #[derive(Clone, Copy, Debug)]
@@ -28,6 +30,10 @@ pub struct PinholeCamera {
     inv_size: Vec2,
     /// Pixels per unit film area at distance 1 ([`PinholeCamera::pixel_importance`]).
     pixel_importance: f32,
+    /// Pinhole, thin lens or orthographic (its half-extents in world units).
+    lens: Lens,
+    /// The pixel reconstruction filter camera samples are placed with.
+    filter: PixelFilter,
 }
 
 impl PinholeCamera {
@@ -46,7 +52,89 @@ impl PinholeCamera {
             size: Vec2::new(width as f32, height as f32),
             inv_size: Vec2::new(1.0 / width as f32, 1.0 / height as f32),
             pixel_importance: (width * height) as f32 / (4.0 * hw * hh),
+            lens: camera.lens,
+            filter: camera.filter,
         }
+    }
+
+    /// The pixel reconstruction filter.
+    pub fn filter(&self) -> &PixelFilter {
+        &self.filter
+    }
+
+    /// The offset from the corner of pixel `(x, y)` (pixels) of a camera sample whose uniform
+    /// point is `u`: placed by the pixel filter and kept on the film (`u` itself for the box
+    /// filter, bit for bit).
+    #[inline]
+    pub fn filter_offset(&self, (x, y): (usize, usize), u: Vec2) -> Vec2 {
+        if self.filter == PixelFilter::Box {
+            return u;
+        }
+        let centre = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
+        Vec2::splat(0.5)
+            + crate::pixel_filter::filter_offset(&self.filter, u, -centre, self.size - centre)
+    }
+
+    /// Whether camera rays need a lens sample (a thin lens of non-zero aperture).
+    #[inline]
+    pub fn needs_lens_sample(&self) -> bool {
+        matches!(self.lens, Lens::Thin { aperture_radius, .. } if aperture_radius > 0.0)
+    }
+
+    /// The camera ray (origin, unit direction) through image position `film` (pixels; x
+    /// right, y down) and, for a thin lens, lens point `lens` in [0, 1)² (ignored otherwise).
+    /// A pinhole's ray is `(origin(), direction(film))` exactly.
+    #[inline]
+    pub fn ray(&self, film: Vec2, lens: Vec2) -> (Vec3, Vec3) {
+        match self.lens {
+            Lens::Pinhole => (self.origin, self.direction(film)),
+            Lens::Thin {
+                aperture_radius,
+                focus_distance,
+            } => {
+                let ndc = film * self.inv_size;
+                let (sx, sy) = (2.0 * ndc.x - 1.0, 1.0 - 2.0 * ndc.y);
+                // The point this film position sees sharply, on the plane in focus.
+                let focus = self.origin
+                    + (self.forward + self.right_extent * sx + self.up_extent * sy)
+                        * focus_distance;
+                let d = crate::geometry::square_to_disk(lens) * aperture_radius;
+                let origin = self.origin + self.right * d.x + self.up * d.y;
+                match (focus - origin).try_normalize() {
+                    Some(dir) => (origin, dir),
+                    None => (self.origin, self.direction(film)),
+                }
+            }
+            Lens::Orthographic {
+                half_width,
+                half_height,
+            } => {
+                let ndc = film * self.inv_size;
+                let (sx, sy) = (2.0 * ndc.x - 1.0, 1.0 - 2.0 * ndc.y);
+                let origin =
+                    self.origin + self.right * (sx * half_width) + self.up * (sy * half_height);
+                (origin, self.forward)
+            }
+        }
+    }
+
+    /// What of this camera the integrators that project onto the film (light tracer, BDPT)
+    /// cannot render: a thin lens, an orthographic projection or a filter other than the box.
+    /// `None` when they can.
+    pub fn unsupported_by_splats(&self) -> Option<String> {
+        let lens = match self.lens {
+            Lens::Pinhole => None,
+            Lens::Thin { .. } if !self.needs_lens_sample() => None,
+            Lens::Thin { .. } => Some("a thin-lens camera (depth of field)"),
+            Lens::Orthographic { .. } => Some("an orthographic camera"),
+        };
+        let filter = match self.filter {
+            PixelFilter::Box => None,
+            PixelFilter::Tent { .. } => Some("the tent pixel filter"),
+            PixelFilter::Gaussian { .. } => Some("the gaussian pixel filter"),
+        };
+        let what: Vec<&str> = lens.into_iter().chain(filter).collect();
+        (!what.is_empty()).then(|| what.join(" and "))
     }
 
     /// Film size in pixels (width, height).
@@ -138,6 +226,8 @@ mod tests {
             up: Vec3::Y,
             fov: 50.0,
             fov_axis: FovAxis::X,
+            lens: Default::default(),
+            filter: Default::default(),
         };
         PinholeCamera::new(&c, 40, 30)
     }
@@ -169,5 +259,78 @@ mod tests {
                 .expect("on the film");
             assert!((point - film).length() < 1e-3, "{film} -> {point}");
         }
+    }
+
+    /// A thin lens's rays for one film point all meet on the plane in focus, at the point the
+    /// pinhole's ray through that film point reaches; they leave a disk of the aperture's
+    /// radius. A zero aperture is the pinhole exactly.
+    #[test]
+    fn thin_lens_rays_meet_on_the_focus_plane() {
+        let mut c = Camera {
+            origin: Vec3::new(0.3, 0.2, 4.0),
+            target: Vec3::new(-0.5, 0.1, 0.0),
+            up: Vec3::Y,
+            fov: 50.0,
+            fov_axis: FovAxis::X,
+            lens: Lens::Thin {
+                aperture_radius: 0.2,
+                focus_distance: 3.0,
+            },
+            filter: PixelFilter::Box,
+        };
+        let cam = PinholeCamera::new(&c, 40, 30);
+        let film = Vec2::new(7.25, 21.5);
+        let pin = cam.direction(film);
+        let sharp = cam.origin() + pin * (3.0 / pin.dot(cam.forward));
+        let mut widest = 0.0f32;
+        for i in 0..64 {
+            let lens = Vec2::new((i % 8) as f32 / 8.0 + 0.06, (i / 8) as f32 / 8.0 + 0.06);
+            let (o, d) = cam.ray(film, lens);
+            assert!((d.length() - 1.0).abs() < 1e-5);
+            assert!(
+                (o - cam.origin()).dot(cam.forward).abs() < 1e-5,
+                "on the lens plane"
+            );
+            widest = widest.max((o - cam.origin()).length());
+            let t = (sharp - o).dot(cam.forward) / d.dot(cam.forward);
+            assert!((o + d * t - sharp).length() < 1e-4, "{}", o + d * t);
+        }
+        assert!(widest > 0.15 && widest <= 0.2 + 1e-5, "{widest}");
+        c.lens = Lens::Thin {
+            aperture_radius: 0.0,
+            focus_distance: 3.0,
+        };
+        let cam = PinholeCamera::new(&c, 40, 30);
+        assert!(!cam.needs_lens_sample());
+        assert!(cam.unsupported_by_splats().is_none());
+    }
+
+    /// Orthographic rays are parallel to the view axis and their origins span the view's
+    /// half extents from the image's corners to its centre.
+    #[test]
+    fn orthographic_rays_are_parallel() {
+        let c = Camera {
+            origin: Vec3::new(0.0, 2.0, 0.0),
+            target: Vec3::ZERO,
+            up: Vec3::Z,
+            fov: 90.0,
+            fov_axis: FovAxis::X,
+            lens: Lens::Orthographic {
+                half_width: 2.0,
+                half_height: 1.0,
+            },
+            filter: PixelFilter::Box,
+        };
+        let cam = PinholeCamera::new(&c, 40, 20);
+        let (o0, d0) = cam.ray(Vec2::ZERO, Vec2::ZERO);
+        let (o1, d1) = cam.ray(Vec2::new(40.0, 20.0), Vec2::ZERO);
+        let (oc, _) = cam.ray(Vec2::new(20.0, 10.0), Vec2::ZERO);
+        assert_eq!(d0, d1);
+        assert!((d0 - Vec3::NEG_Y).length() < 1e-6, "{d0}");
+        assert!((oc - c.origin).length() < 1e-5, "{oc}");
+        let (right, up, _) = c.basis();
+        assert!((o0 - (c.origin - right * 2.0 + up)).length() < 1e-5, "{o0}");
+        assert!((o1 - (c.origin + right * 2.0 - up)).length() < 1e-5, "{o1}");
+        assert!(cam.unsupported_by_splats().is_some());
     }
 }

@@ -122,7 +122,6 @@ fn split_row(
     seed: u32,
     closed: Option<&[(CosineTriangle, Vec3)]>,
 ) -> Vec<PixelSplit> {
-    let origin = camera.origin();
     let mut out = vec![PixelSplit::default(); w];
     let mut shadows: Vec<(usize, Pending, Vec3, Vec3, f32)> = Vec::new();
     for x0 in (0..w).step_by(LANES) {
@@ -130,7 +129,9 @@ fn split_row(
         let mut rays = RayPacket::default();
         for lane in 0..n {
             let x = x0 + lane;
-            let dir = camera.direction(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
+            // Through the lens centre, as the G-buffer's rays.
+            let (origin, dir) =
+                camera.ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5), Vec2::splat(0.5));
             rays.set(lane, origin, dir, 0.0, f32::INFINITY);
         }
         let mut hits = [None; LANES];
@@ -139,6 +140,7 @@ fn split_row(
             let x = x0 + lane;
             let Some(hit) = hit else { continue };
             let dir = Vec3::new(rays.d[0][lane], rays.d[1][lane], rays.d[2][lane]);
+            let origin = Vec3::new(rays.o[0][lane], rays.o[1][lane], rays.o[2][lane]);
             let at = ((x as u32, y as u32), seed);
             out[x] = shade(rs, origin, dir, hit, closed, at, &mut |p, o, d, t| {
                 shadows.push((x, p, o, d, t))

@@ -69,28 +69,23 @@ pub fn trace_sample(
     index: u32,
     first: Option<&mut FirstHit>,
 ) -> (PathRadiance, Vec2) {
-    let (mut sampler, offset, dir) = camera_sample(camera, (x, y), index, settings.seed);
-    let r = trace_path(
-        rs,
-        camera.origin(),
-        dir,
-        &mut sampler,
-        &settings.path,
-        first,
-    );
+    let (mut sampler, offset, origin, dir) = camera_sample(camera, (x, y), index, settings.seed);
+    let r = trace_path(rs, origin, dir, &mut sampler, &settings.path, first);
     (r, offset)
 }
 
-/// Camera sample `index` of pixel (x, y): its sampler (past the jitter it drew), its offset in
-/// the pixel and its ray direction. Sample 0 goes through the pixel centre (the guided-filter
-/// paper's guide ray, §3.2), the others through a jittered point.
+/// Camera sample `index` of pixel (x, y): its sampler (past the jitter and lens point it
+/// drew), its offset from the pixel's corner and its ray (origin, direction). Sample 0 goes
+/// through the pixel centre (the guided-filter paper's guide ray, §3.2), the others through a
+/// point placed by the camera's pixel filter (inside the pixel for the box filter; a tent or
+/// Gaussian reaches into the neighbours).
 #[inline]
 pub(crate) fn camera_sample(
     camera: &PinholeCamera,
     (x, y): (usize, usize),
     index: u32,
     seed: u32,
-) -> (PixelSampler, Vec2, Vec3) {
+) -> (PixelSampler, Vec2, Vec3, Vec3) {
     let sampler = PixelSampler::new(x as u32, y as u32, index, seed);
     camera_sample_with(camera, (x, y), index, sampler)
 }
@@ -102,11 +97,21 @@ pub(crate) fn camera_sample_with(
     (x, y): (usize, usize),
     index: u32,
     mut sampler: PixelSampler,
-) -> (PixelSampler, Vec2, Vec3) {
+) -> (PixelSampler, Vec2, Vec3, Vec3) {
     let jitter = sampler.next_2d();
-    let offset = if index == 0 { Vec2::splat(0.5) } else { jitter };
-    let dir = camera.direction(Vec2::new(x as f32, y as f32) + offset);
-    (sampler, offset, dir)
+    let offset = if index == 0 {
+        Vec2::splat(0.5)
+    } else {
+        camera.filter_offset((x, y), jitter)
+    };
+    // Only a thin lens draws a lens point: pinhole images keep their sample dimensions.
+    let lens = if camera.needs_lens_sample() {
+        sampler.next_2d()
+    } else {
+        Vec2::splat(0.5)
+    };
+    let (origin, dir) = camera.ray(Vec2::new(x as f32, y as f32) + offset, lens);
+    (sampler, offset, origin, dir)
 }
 
 /// Renders samples `0..spp` of pixel (x, y): a pure function of its arguments. The paths go
@@ -224,9 +229,8 @@ pub fn instance_ids(
     width: usize,
     height: usize,
 ) -> Vec<u32> {
-    let origin = camera.origin();
     map_pixels(width, height, &|_| {}, |x, y| {
-        let dir = camera.direction(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
+        let (origin, dir) = camera.ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5), Vec2::splat(0.5));
         rs.accel
             .intersect(origin, dir, 0.0, f32::INFINITY)
             .map_or(u32::MAX, |hit| hit.instance)
@@ -615,16 +619,10 @@ pub fn render_ppm(
             let m = map.read();
             (0..w)
                 .map(|x| {
-                    let (mut sampler, _, dir) = camera_sample(&camera, (x, y), k, settings.seed);
-                    let (r, st) = trace_ppm_path(
-                        rs,
-                        &m,
-                        radius,
-                        camera.origin(),
-                        dir,
-                        &mut sampler,
-                        &settings.path,
-                    );
+                    let (mut sampler, _, origin, dir) =
+                        camera_sample(&camera, (x, y), k, settings.seed);
+                    let (r, st) =
+                        trace_ppm_path(rs, &m, radius, origin, dir, &mut sampler, &settings.path);
                     (r.direct + r.indirect, st.rays, st.photons)
                 })
                 .collect()

@@ -15,7 +15,54 @@ pub enum FovAxis {
     Diagonal,
 }
 
-/// A pinhole perspective camera.
+/// How the camera forms its image.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum Lens {
+    /// A pinhole: every ray leaves the eye (no depth of field).
+    #[default]
+    Pinhole,
+    /// A thin lens (Mitsuba's `thinlens`): rays leave a disk of `aperture_radius` around the
+    /// eye, perpendicular to the view axis, and meet again on the plane `focus_distance` ahead,
+    /// so only that plane is sharp.
+    Thin {
+        /// Radius of the aperture disk, in world units.
+        aperture_radius: f32,
+        /// Distance of the plane in focus along the view axis, in world units.
+        focus_distance: f32,
+    },
+    /// A parallel projection (Mitsuba's `orthographic`, glTF's `orthographic`): rays leave
+    /// the plane through the eye along the view axis. The image spans ±`half_width` along the
+    /// camera's right axis and ±`half_height` along its up axis (world units); the field of
+    /// view is unused.
+    Orthographic {
+        /// Half the image's width in world units.
+        half_width: f32,
+        /// Half the image's height in world units.
+        half_height: f32,
+    },
+}
+
+/// The pixel reconstruction filter: how a pixel weighs the image around it. Samples are
+/// placed with the filter's density (importance sampling), so every sample counts equally.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum PixelFilter {
+    /// Uniform over the pixel (Mitsuba's `box`).
+    #[default]
+    Box,
+    /// 1 − |x|/radius on each axis (Mitsuba's `tent`, radius 1 pixel by default).
+    Tent {
+        /// Radius in pixels.
+        radius: f32,
+    },
+    /// A Gaussian of `stddev` pixels on each axis, cut at 4 stddev (Mitsuba's `gaussian`,
+    /// stddev 0.5 by default).
+    Gaussian {
+        /// Standard deviation in pixels.
+        stddev: f32,
+    },
+}
+
+/// A perspective (pinhole or thin-lens) or orthographic camera.
 #[derive(Clone, Debug)]
 pub struct Camera {
     /// Eye position.
@@ -28,6 +75,10 @@ pub struct Camera {
     pub fov: f32,
     /// Axis the field of view refers to.
     pub fov_axis: FovAxis,
+    /// Pinhole, thin lens or orthographic.
+    pub lens: Lens,
+    /// The pixel reconstruction filter.
+    pub filter: PixelFilter,
 }
 
 impl Camera {
@@ -95,6 +146,8 @@ mod tests {
             up: Vec3::Y,
             fov: 40.0,
             fov_axis: FovAxis::X,
+            lens: Default::default(),
+            filter: Default::default(),
         };
         let o = c.orbited(c.target, 90.0);
         // A quarter turn about +y takes +z to +x.

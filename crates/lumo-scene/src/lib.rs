@@ -17,7 +17,7 @@ mod texture;
 
 pub use animation::{AnimatedScene, Animation};
 pub use builtin::{builtin_scene, BuiltinScene, BUILTIN_SCENES};
-pub use camera::{Camera, FovAxis};
+pub use camera::{Camera, FovAxis, Lens, PixelFilter};
 pub use error::SceneError;
 pub use light::{EnvMap, Light, MAX_EMISSION};
 pub use material::{BsdfSpec, Distribution, Material, Roughness, RoughnessMaps, Spectra};

@@ -167,6 +167,26 @@ pub enum BsdfSpec {
         /// The BSDF seen under the perturbed normal.
         nested: Box<BsdfSpec>,
     },
+    /// Mitsuba's `twosided` with two BSDFs: `front` where the ray arrives on the side the
+    /// geometric normal points to, `back` on the other side (seen there as from its own
+    /// front). Both are opaque (reflection only).
+    TwoSided {
+        /// The BSDF of the front side.
+        front: Box<BsdfSpec>,
+        /// The BSDF of the back side.
+        back: Box<BsdfSpec>,
+    },
+    /// Mitsuba's `blendbsdf`: (1 − weight)·first + weight·second. The renderer picks one of
+    /// the two at each shading point with those probabilities (an unbiased estimate of the
+    /// blend in every integrator).
+    Blend {
+        /// Weight of `second` in [0, 1] (its luminance for colour textures).
+        weight: Texture,
+        /// The BSDF weighted by 1 − weight.
+        first: Box<BsdfSpec>,
+        /// The BSDF weighted by weight.
+        second: Box<BsdfSpec>,
+    },
     /// An opacity cut-out (Mitsuba's `mask`): the nested BSDF with probability `opacity`,
     /// otherwise the ray passes straight through.
     Mask {

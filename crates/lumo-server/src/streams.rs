@@ -111,14 +111,23 @@ impl StreamContext<'_> {
         (n / self.order.period()).min(u32::MAX as u64) as u32
     }
 
-    /// Camera sample `n`'s sampler (past its jitter), film position and ray direction, or
-    /// None when its index falls outside a non-square image.
-    fn camera_ray(&self, n: u64) -> Option<(PixelSampler, Vec2, Vec3)> {
+    /// Camera sample `n`'s sampler (past its jitter and lens point), film position (in its
+    /// pixel, where the viewer bins it) and ray (origin, direction, through the point the
+    /// camera's pixel filter places), or None when its index falls outside a non-square image.
+    fn camera_ray(&self, n: u64) -> Option<(PixelSampler, Vec2, Vec3, Vec3)> {
         let (x, y) = self.order.pixel(n % self.order.period())?;
         let mut sampler = PixelSampler::new(x, y, self.pass(n), self.seed);
         let jitter = sampler.next_2d();
-        let film = Vec2::new(x as f32, y as f32) + jitter;
-        Some((sampler, film, self.camera.direction(film)))
+        let corner = Vec2::new(x as f32, y as f32);
+        let film = corner + jitter;
+        let offset = self.camera.filter_offset((x as usize, y as usize), jitter);
+        let lens = if self.camera.needs_lens_sample() {
+            sampler.next_2d()
+        } else {
+            Vec2::splat(0.5)
+        };
+        let (origin, dir) = self.camera.ray(corner + offset, lens);
+        Some((sampler, film, origin, dir))
     }
 
     /// A camera sample's value as a stream sample.
@@ -144,38 +153,22 @@ impl StreamContext<'_> {
     /// this one sample so photon writers wait at most one gather) within `radius`, the radius
     /// of the sample's pass. Returns the sample and the rays traced.
     pub fn ppm_sample(&self, n: u64, map: &PhotonMap, radius: f32) -> Option<(Sample, u32)> {
-        let (mut sampler, film, dir) = self.camera_ray(n)?;
+        let (mut sampler, film, origin, dir) = self.camera_ray(n)?;
         let m = map.read();
-        let (r, st) = trace_ppm_path(
-            self.rs,
-            &m,
-            radius,
-            self.camera.origin(),
-            dir,
-            &mut sampler,
-            &self.path,
-        );
+        let (r, st) = trace_ppm_path(self.rs, &m, radius, origin, dir, &mut sampler, &self.path);
         drop(m);
         Some((self.sample(film, r.direct + r.indirect), st.rays))
     }
 
     /// Camera sample `n`, or None when its index falls outside a non-square image.
     pub fn camera_sample(&self, n: u64) -> Option<(Sample, u32)> {
-        let (mut sampler, film, dir) = self.camera_ray(n)?;
+        let (mut sampler, film, origin, dir) = self.camera_ray(n)?;
         if self.path.spectral {
             // The path's XYZ straight from its wavelengths, not through RGB.
-            let (xyz, rays) =
-                trace_path_xyz(self.rs, self.camera.origin(), dir, &mut sampler, &self.path);
+            let (xyz, rays) = trace_path_xyz(self.rs, origin, dir, &mut sampler, &self.path);
             return Some((self.sample_xyz(film, xyz), rays));
         }
-        let r = trace_path(
-            self.rs,
-            self.camera.origin(),
-            dir,
-            &mut sampler,
-            &self.path,
-            None,
-        );
+        let r = trace_path(self.rs, origin, dir, &mut sampler, &self.path, None);
         Some((self.sample(film, r.direct + r.indirect), r.rays))
     }
 

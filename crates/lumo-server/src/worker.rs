@@ -491,23 +491,29 @@ fn thread_done(shared: &Shared, run: &Run, finished_budget: bool) {
 /// Renders batches until aborted or out of budget; true when the budget ran out.
 fn sample_loop(shared: &Shared, run: &Run, rs: &RenderScene) -> bool {
     let job = &run.job;
+    let camera = PinholeCamera::new(&job.camera, job.width, job.height);
+    // A thin lens, orthographic camera or non-box pixel filter cannot take light projected
+    // onto a pinhole's film: those modes fall back to the path tracer's camera samples (said
+    // once when `lumo serve` starts).
+    let splats = camera.unsupported_by_splats().is_none();
     let ctx = StreamContext {
         rs,
-        camera: PinholeCamera::new(&job.camera, job.width, job.height),
+        camera,
         order: ScreenOrder::new(job.width as u32, job.height as u32),
         size: glam::Vec2::new(job.width as f32, job.height as f32),
         path: job.path,
         seed: job.seed,
-        scale: if job.integrator == Integrator::Both {
+        scale: if job.integrator == Integrator::Both && splats {
             0.5
         } else {
             1.0
         },
         scratch: Default::default(),
     };
-    let bdpt = job.integrator == Integrator::Bdpt;
+    let bdpt = job.integrator == Integrator::Bdpt && splats;
     let (do_camera, do_light) = match job.integrator {
         Integrator::Path | Integrator::Bdpt | Integrator::Ppm => (true, false),
+        Integrator::Light | Integrator::Both if !splats => (true, false),
         Integrator::Light => (false, !rs.lights.emits_no_particles()),
         Integrator::Both => (true, !rs.lights.emits_no_particles()),
     };

@@ -82,6 +82,8 @@ fn hard_shadow_scene() -> lumo_scene::Scene {
         up: Vec3::Z,
         fov: 40.0,
         fov_axis: FovAxis::X,
+        lens: Default::default(),
+        filter: Default::default(),
     });
     let floor = scene.add_material(Material::diffuse("floor", Vec3::splat(0.6)));
     let wall = scene.add_material(Material::diffuse("wall", Vec3::splat(0.2)));

@@ -281,6 +281,8 @@ mod tests {
             up: Vec3::Y,
             fov: 40.0,
             fov_axis: FovAxis::X,
+            lens: Default::default(),
+            filter: Default::default(),
         });
         let m = scene
             .add_material(Material::diffuse("light", Vec3::ZERO).with_emission(Vec3::splat(3.0)));

@@ -5,6 +5,7 @@
 use glam::{Vec2, Vec3};
 use lumo_scene::{BsdfSpec, Texture};
 
+use super::branches::{hit_uniform, Pick};
 use super::{RenderScene, Surface};
 use crate::bsdf::{
     Bsdf, Conductor, Dielectric, Diffuse, Microfacet, Mirror, Plastic, ThinDielectric, SMOOTH_ALPHA,
@@ -35,7 +36,10 @@ impl RenderScene {
     /// maps, masks) applied.
     #[inline(always)]
     pub fn bsdf(&self, surface: &Surface) -> ShadingBsdf {
-        let material = &self.scene.materials[surface.material];
+        if self.has_branches && self.branches[surface.material].is_some() {
+            return self.branch_bsdf(surface);
+        }
+        let material = self.material(surface.material);
         let mut b = &material.bsdf;
         if !is_adapter(b) {
             return self.base_bsdf(b, surface).into();
@@ -74,6 +78,40 @@ impl RenderScene {
             opacity,
             self.back_black[surface.material],
         )
+    }
+
+    /// Material `i`: the scene's, or past them a branch material of a two-branch one.
+    #[inline]
+    fn material(&self, i: usize) -> &lumo_scene::Material {
+        match self.scene.materials.get(i) {
+            Some(m) => m,
+            None => &self.branch_materials[i - self.scene.materials.len()],
+        }
+    }
+
+    /// [`RenderScene::bsdf`] of a two-branch material: the branch the hit picks (by the side
+    /// the ray arrived from, or a blend's weight against a number drawn from the hit), shaded
+    /// as a hit on that branch's material.
+    #[inline(never)]
+    fn branch_bsdf(&self, surface: &Surface) -> ShadingBsdf {
+        let Some(b) = &self.branches[surface.material] else {
+            return self.bsdf(surface);
+        };
+        let second = match &b.pick {
+            Pick::Side => surface.back,
+            Pick::Blend(weight) => {
+                let w = weight.eval_1(surface.uv);
+                let w = if w.is_finite() {
+                    w.clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                hit_uniform(surface) < w
+            }
+        };
+        let mut s = *surface;
+        s.material = if second { b.second } else { b.first };
+        self.bsdf(&s)
     }
 
     /// World-space ∂p/∂u and ∂p/∂v of the triangle under `s` from its texture coordinates (as
@@ -184,10 +222,13 @@ impl RenderScene {
             }),
             BsdfSpec::ThinDielectric { ior } => Bsdf::ThinDielectric(ThinDielectric { eta: *ior }),
             // Adapters are unwrapped by `bsdf`; one reached here (nested in a way it does not
-            // unwrap) stands for the BSDF it wraps.
+            // unwrap) stands for the BSDF it wraps. Two-branch BSDFs are split into materials
+            // of their own when the render scene is built (`branches`), so none reaches here.
             BsdfSpec::NormalMap { nested, .. }
             | BsdfSpec::BumpMap { nested, .. }
-            | BsdfSpec::Mask { nested, .. } => self.nested_base_bsdf(nested, surface),
+            | BsdfSpec::Mask { nested, .. }
+            | BsdfSpec::TwoSided { front: nested, .. }
+            | BsdfSpec::Blend { first: nested, .. } => self.nested_base_bsdf(nested, surface),
         }
     }
 

@@ -1,6 +1,7 @@
 //! A scene prepared for rendering: acceleration structure, light sampler and per-material
 //! constants, plus the surface-interaction reconstruction every integrator needs.
 
+mod branches;
 mod materials;
 mod spectral;
 
@@ -36,6 +37,10 @@ pub struct Surface {
     pub instance: u32,
     /// Triangle index within the mesh.
     pub triangle: u32,
+    /// The ray arrived on the back side (against `ng`): what a `twosided` material with two
+    /// BSDFs shades with its back one (the simple-diffuse lane loops, whose materials have
+    /// one BSDF, leave it false).
+    pub back: bool,
 }
 
 /// An instance's transform in the forms [`RenderScene::surface`] uses.
@@ -73,6 +78,13 @@ pub struct RenderScene {
     /// Per material, whether the BSDF under its adapters is black from behind (as
     /// `one_sided`, but also under a mask, whose straight-through lobe still lets light pass).
     back_black: Vec<bool>,
+    /// The branches of two-branch materials (`twosided` with two BSDFs, `blendbsdf`) as
+    /// materials of their own, indexed after the scene's ([`branches`]).
+    branch_materials: Vec<lumo_scene::Material>,
+    /// Per material (the scene's, then the branch materials), its two branches if it has them.
+    branches: Vec<Option<branches::Branches>>,
+    /// Whether any material has branches (else [`RenderScene::bsdf`] skips the lookup).
+    has_branches: bool,
     /// Per instance, what surface reconstruction needs of its transform, computed once
     /// rather than per hit.
     placements: Vec<InstancePlacement>,
@@ -281,9 +293,10 @@ impl RenderScene {
         scene.validate()?;
         let accel = Accel::build(&scene);
         let lights = Lights::new(&scene);
-        let coats: Vec<Option<&'static RoughCoat>> = scene
-            .materials
-            .iter()
+        let (branch_materials, branches) = branches::branch_materials(&scene.materials);
+        // The per-material tables cover the branch materials too (they follow the scene's).
+        let all = || scene.materials.iter().chain(branch_materials.iter());
+        let coats: Vec<Option<&'static RoughCoat>> = all()
             .map(|m| match innermost(&m.bsdf) {
                 BsdfSpec::Plastic {
                     ior,
@@ -297,9 +310,7 @@ impl RenderScene {
                 _ => None,
             })
             .collect();
-        let fdr_int = scene
-            .materials
-            .iter()
+        let fdr_int = all()
             .zip(&coats)
             .map(|(m, coat)| match (innermost(&m.bsdf), coat) {
                 (BsdfSpec::Plastic { .. }, Some(c)) => c.internal_reflectance,
@@ -307,9 +318,7 @@ impl RenderScene {
                 _ => 0.0,
             })
             .collect();
-        let anisotropic = scene
-            .materials
-            .iter()
+        let mut anisotropic: Vec<bool> = all()
             .map(|m| match innermost(&m.bsdf) {
                 BsdfSpec::Conductor { roughness, .. }
                 | BsdfSpec::Plastic { roughness, .. }
@@ -317,9 +326,14 @@ impl RenderScene {
                 _ => false,
             })
             .collect();
-        let back_black: Vec<bool> = scene
-            .materials
-            .iter()
+        // A two-branch material's frame must serve either branch (children follow their
+        // parents in the list, so a reverse pass sees them first).
+        for i in (0..branches.len()).rev() {
+            if let Some(b) = &branches[i] {
+                anisotropic[i] = anisotropic[b.first] || anisotropic[b.second];
+            }
+        }
+        let back_black: Vec<bool> = all()
             .map(|m| {
                 !m.two_sided
                     && !matches!(
@@ -328,12 +342,19 @@ impl RenderScene {
                     )
             })
             .collect();
-        let one_sided = scene
-            .materials
-            .iter()
+        let one_sided = all()
             .zip(&back_black)
             .map(|(m, &black)| black && !has_mask(&m.bsdf))
             .collect();
+        // A two-branch material is black from behind only where both branches are (a blend
+        // with a dielectric still lets light through from behind).
+        let (mut one_sided, mut back_black): (Vec<bool>, Vec<bool>) = (one_sided, back_black);
+        for i in (0..branches.len()).rev() {
+            if let Some(b) = &branches[i] {
+                one_sided[i] = one_sided[b.first] && one_sided[b.second];
+                back_black[i] = back_black[b.first] && back_black[b.second];
+            }
+        }
         let finite_textures: Vec<bool> = scene
             .materials
             .iter()
@@ -367,6 +388,9 @@ impl RenderScene {
             anisotropic,
             one_sided,
             back_black,
+            has_branches: branches.iter().any(Option::is_some),
+            branch_materials,
+            branches,
             placements,
             shapes,
             unit_normals,
@@ -667,6 +691,7 @@ impl RenderScene {
             material: mesh.material,
             instance: hit.instance,
             triangle: hit.triangle,
+            back: dir.dot(ng) > 0.0,
         };
         if self.anisotropic[mesh.material] {
             return self.with_tangent_frame(surface);
@@ -703,6 +728,7 @@ impl RenderScene {
             material,
             instance: hit.instance,
             triangle: 0,
+            back: dir.dot(sp.n) > 0.0,
         };
         if self.anisotropic[material] {
             return self.with_tangent_frame(surface);

@@ -7,7 +7,8 @@
 //! disagreements: they must still disagree (a fix makes this test fail until the mark goes).
 //!
 //! `LUMO_SUITE_TABLE=FILE` also writes the measured agreement of every scene as a Markdown
-//! table (docs/mitsuba-suite.md is made this way).
+//! table (docs/mitsuba-suite.md is made this way). `LUMO_SUITE_ONLY=NAME,NAME` runs only
+//! those scenes.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -20,6 +21,8 @@ use rayon::prelude::*;
 const MEAN_TOL: f64 = 0.015;
 const BLOCK_TOL: f64 = 0.05;
 const BLOCK: usize = 16;
+/// Per-pixel RMS difference over the image mean allowed for the filter and lens scenes.
+const PIXEL_TOL: f64 = 0.03;
 
 fn suite_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/mitsuba")
@@ -62,6 +65,9 @@ struct Agreement {
     block_rel: f64,
     /// Where the worst block is (block column, row).
     worst_block: (usize, usize),
+    /// RMS of the per-pixel difference over the image mean (all channels): what tells a pixel
+    /// filter or a lens blur apart, which block means average away.
+    pixel_rms: f64,
 }
 
 impl Agreement {
@@ -118,10 +124,19 @@ fn compare(lumo: &Image, mitsuba: &Image) -> Agreement {
             }
         }
     }
+    let mut sq = 0.0f64;
+    for y in 0..h {
+        for x in 0..w {
+            let (a, b) = (rgb(lumo, x, y), rgb(mitsuba, x, y));
+            (0..3).for_each(|k| sq += (a[k] - b[k]).powi(2));
+        }
+    }
+    let pixel_rms = (sq / (3 * w * h) as f64).sqrt() / (mm.iter().sum::<f64>() / 3.0).max(1e-12);
     Agreement {
         mean_rel,
         block_rel,
         worst_block,
+        pixel_rms,
     }
 }
 
@@ -155,12 +170,17 @@ fn render_scene(entry: &Entry) -> Image {
 
 #[test]
 fn lumo_matches_mitsuba_on_the_validation_suite() {
-    let entries = manifest();
+    let mut entries = manifest();
     assert!(
         entries.len() >= 24,
         "the suite has {} scenes",
         entries.len()
     );
+    // `LUMO_SUITE_ONLY=a,b` runs only those scenes (while working on them).
+    if let Ok(only) = std::env::var("LUMO_SUITE_ONLY") {
+        let names: Vec<&str> = only.split(',').map(str::trim).collect();
+        entries.retain(|e| names.contains(&e.name.as_str()));
+    }
     // Scenes in parallel, each rendered on one thread: small images keep two cores busier
     // this way than rows of one 64×64 image.
     let results: Vec<(usize, Agreement)> = entries
@@ -180,6 +200,26 @@ fn lumo_matches_mitsuba_on_the_validation_suite() {
     let mut failures = Vec::new();
     for (i, a) in &results {
         let e = &entries[*i];
+        // Pixel filters and depth of field move light between neighbouring pixels only: their
+        // scenes must also agree pixel by pixel (Mitsuba's own box filter is 8.6 % (tent
+        // scene) and 24 % (gaussian) RMS away from its tent and gaussian references; lumo's
+        // noise at the suite's sample counts about 1-2 %).
+        let per_pixel = e.name.starts_with("rfilter_") || e.name == "thinlens";
+        if per_pixel && a.pixel_rms > PIXEL_TOL {
+            failures.push(format!(
+                "{}: per-pixel RMS difference {:.1} % of the mean (at most {:.0} %)",
+                e.name,
+                a.pixel_rms * 100.0,
+                PIXEL_TOL * 100.0
+            ));
+        }
+        if per_pixel {
+            eprintln!(
+                "{}: per-pixel RMS {:.2} % of the mean",
+                e.name,
+                a.pixel_rms * 100.0
+            );
+        }
         let status = match (&e.gap, a.passes()) {
             (None, true) => "agrees".to_string(),
             (Some(why), false) => format!("known gap: {why}"),

@@ -281,6 +281,8 @@ pub(crate) fn atrium() -> Scene {
             up: Vec3::Y,
             fov: 65.0,
             fov_axis: FovAxis::X,
+            lens: Default::default(),
+            filter: Default::default(),
         },
         defaults: RenderDefaults {
             width: 512,

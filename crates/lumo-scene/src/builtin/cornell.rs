@@ -24,6 +24,8 @@ fn cornell_shell(name: &str, with_boxes: bool) -> (Scene, usize) {
             up: Vec3::Y,
             fov: 39.3077,
             fov_axis: FovAxis::Smaller,
+            lens: Default::default(),
+            filter: Default::default(),
         },
         defaults: RenderDefaults {
             width: 512,

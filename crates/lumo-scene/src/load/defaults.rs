@@ -23,6 +23,8 @@ pub(crate) fn framing_camera(lo: Vec3, hi: Vec3) -> Camera {
         up: Vec3::Y,
         fov: FOV,
         fov_axis: FovAxis::Smaller,
+        lens: Default::default(),
+        filter: Default::default(),
     }
 }
 

@@ -301,3 +301,36 @@ fn a_bad_animation_channel_says_which_part_is_wrong() {
     let e = load(&path).unwrap_err().to_string();
     assert!(e.contains("key times must be finite and increase"), "{e}");
 }
+
+/// An orthographic camera keeps its projection (it was a perspective camera with a warning):
+/// xmag and ymag are the view's half extents, and the image takes their shape.
+#[test]
+fn orthographic_camera_is_kept() {
+    let text = std::fs::read_to_string(scenes().join("hierarchy.gltf")).unwrap();
+    let ortho = text.replace(
+        r#""type": "perspective",
+   "perspective": {
+    "yfov": 0.7,
+    "aspectRatio": 1.5,
+    "znear": 0.1
+   }"#,
+        r#""type": "orthographic",
+   "orthographic": { "xmag": 3.0, "ymag": 1.5, "znear": 0.1, "zfar": 100.0 }"#,
+    );
+    assert_ne!(
+        ortho, text,
+        "the test's camera text no longer matches hierarchy.gltf"
+    );
+    let dir = temp_dir("ortho");
+    let loaded = load(&write(&dir, "ortho.gltf", ortho)).unwrap();
+    assert!(loaded.warnings.is_empty(), "{:?}", loaded.warnings);
+    assert_eq!(
+        loaded.scene.camera.lens,
+        lumo_scene::Lens::Orthographic {
+            half_width: 3.0,
+            half_height: 1.5
+        }
+    );
+    let (w, h) = loaded.settings.size.unwrap();
+    assert_eq!(w, 2 * h);
+}

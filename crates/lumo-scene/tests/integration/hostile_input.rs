@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 
 use common::{load, load_strict, temp_dir, write};
 use lumo_scene::load::{LoadError, LoadedScene};
-use lumo_scene::{Light, Texture};
+use lumo_scene::{Light, Texture, Vec3};
 
 fn bad(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -382,17 +382,48 @@ fn an_mtl_index_of_refraction_at_or_below_zero_is_ignored_with_a_warning() {
     assert_eq!(ior, Some(1.5));
 }
 
-/// Messages that blamed the wrong thing: a blackbody spectrum said a "value" attribute was
-/// missing, and a sample count of 0 was reported together with the seed.
+/// Messages that blamed the wrong thing: a spectrum plugin said a "value" attribute was
+/// missing (now blackbody, d65, regular, irregular and uniform load; another type is named
+/// with the ones there are), so did a spectrum file, and a sample count of 0 was reported
+/// together with the seed.
 #[test]
 fn unsupported_spectra_and_bad_sample_counts_say_what_is_wrong() {
     let dir = temp_dir("messages");
-    let blackbody = common::mitsuba(
-        r#"<shape type="sphere"><emitter type="area"><spectrum name="radiance" type="blackbody"><float name="temperature" value="6500"/></spectrum></emitter></shape>"#,
+    let spectrum = |s: &str| {
+        common::mitsuba(&format!(
+            r#"<shape type="sphere"><emitter type="area">{s}</emitter></shape>"#
+        ))
+    };
+    let blackbody = spectrum(
+        r#"<spectrum name="radiance" type="blackbody"><float name="temperature" value="6500"/></spectrum>"#,
     );
-    let text = error_of(write(&dir, "bb.xml", blackbody));
+    let loaded = load(&write(&dir, "bb.xml", blackbody)).unwrap();
+    let e = loaded
+        .scene
+        .materials
+        .iter()
+        .map(|m| m.emission)
+        .fold(Vec3::ZERO, Vec3::max);
+    // Planck at 6500 K is about 4.3e4 W/(m²·sr·nm) at 550 nm and near-white.
+    assert!(e.min_element() > 3.5e4 && e.max_element() < 5.0e4, "{e}");
+    let text = error_of(write(
+        &dir,
+        "ray.xml",
+        spectrum(r#"<spectrum name="radiance" type="rayleigh"/>"#),
+    ));
     assert!(
-        text.contains(r#"<spectrum type="blackbody"> is not supported"#),
+        text.contains(r#"spectrum type "rayleigh" is not one of blackbody"#),
+        "{text}"
+    );
+    let text = error_of(write(
+        &dir,
+        "file.xml",
+        spectrum(r#"<spectrum name="radiance" filename="lamp.spd"/>"#),
+    ));
+    assert!(
+        text.contains("lamp.spd")
+            && text.contains("irregular")
+            && !text.contains("value\" attribute"),
         "{text}"
     );
     let sampler = r#"<scene version="3.0.0"><sensor type="perspective"><sampler type="independent"><integer name="sample_count" value="0"/></sampler></sensor></scene>"#;

@@ -308,6 +308,8 @@ multiversion! {
                 material,
                 instance: hit.instance,
                 triangle: hit.triangle,
+                // Simple diffuse materials have one BSDF: the side is never consulted.
+                back: false,
             };
             let lane_albedo = Vec3::new(albedo[0][i], albedo[1][i], albedo[2][i]);
             let kind = Kind::Surface {

@@ -265,6 +265,8 @@ fn mixed_lights_scene() -> Scene {
         up: Vec3::Y,
         fov: 45.0,
         fov_axis: FovAxis::X,
+        lens: Default::default(),
+        filter: Default::default(),
     });
     let grey = scene.add_material(Material::diffuse("grey", Vec3::splat(0.6)));
     let red = scene.add_material(Material::diffuse("red", Vec3::new(0.7, 0.2, 0.2)));

@@ -180,6 +180,8 @@ fn other_light(
             material: rs.scene.meshes[sd.mesh].material,
             instance: hit.instance,
             triangle: hit.triangle,
+            // Simple diffuse materials have one BSDF: the side is never consulted.
+            back: false,
         },
         bsdf: Bsdf::Diffuse(Diffuse {
             albedo: Vec3::from(lane.albedo),
@@ -332,6 +334,8 @@ fn bounce(
                 material: rs.scene.meshes[sd.mesh].material,
                 instance: hit.instance,
                 triangle: hit.triangle,
+                // Simple diffuse materials have one BSDF: the side is never consulted.
+                back: false,
             };
             let bsdf = Bsdf::Diffuse(Diffuse { albedo });
             path.take_hit(rs, settings, &s, hit.t, &bsdf, le);

@@ -138,11 +138,11 @@ impl Batch {
             PixelSampler::run(samples, settings.seed, run);
             for (&(x, y, index), &sampler) in samples.iter().zip(run.iter()) {
                 let pixel = (x as usize, y as usize);
-                let (sampler, _, dir) = camera_sample_with(camera, pixel, index, sampler);
+                let (sampler, _, origin, dir) = camera_sample_with(camera, pixel, index, sampler);
                 // Built in place: moving the ~230-byte state through `spectral(self)` cost
                 // two memcpy calls per sample.
                 self.paths
-                    .push(PathState::new(camera.origin(), dir, sampler, index == 0));
+                    .push(PathState::new(origin, dir, sampler, index == 0));
                 if settings.path.spectral {
                     if let Some(path) = self.paths.last_mut() {
                         path.make_spectral();

@@ -114,15 +114,8 @@ pub fn scene_warning(
         for i in 0..16 {
             let film = Vec2::new((i as f32 + 0.5) / 16.0 * w, (j as f32 + 0.5) / 16.0 * h);
             let mut sampler = crate::sampler::PixelSampler::new(i, j, 0, 0);
-            let (_, st) = trace_ppm_path(
-                rs,
-                &empty,
-                0.0,
-                camera.origin(),
-                camera.direction(film),
-                &mut sampler,
-                settings,
-            );
+            let (origin, dir) = camera.ray(film, Vec2::splat(0.5));
+            let (_, st) = trace_ppm_path(rs, &empty, 0.0, origin, dir, &mut sampler, settings);
             if st.gathered {
                 gathers = true;
                 break 'probe;

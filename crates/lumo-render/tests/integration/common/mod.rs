@@ -14,6 +14,8 @@ pub fn empty_scene(origin: Vec3, target: Vec3) -> Scene {
         up: Vec3::Y,
         fov: 60.0,
         fov_axis: FovAxis::X,
+        lens: Default::default(),
+        filter: Default::default(),
     })
 }
 

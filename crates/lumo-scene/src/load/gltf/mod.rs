@@ -24,7 +24,7 @@ use crate::animation::{
     NodeItem,
 };
 use crate::{
-    BsdfSpec, Camera, FovAxis, Instance, Light, Material, Mesh, Roughness, Scene, Texture,
+    BsdfSpec, Camera, FovAxis, Instance, Lens, Light, Material, Mesh, Roughness, Scene, Texture,
     TextureFilter, WrapMode,
 };
 use buffers::{load_buffers, uri_bytes};
@@ -641,6 +641,8 @@ impl GltfReader<'_, '_> {
                     up: Vec3::Y,
                     fov,
                     fov_axis: FovAxis::Y,
+                    lens: Default::default(),
+                    filter: Default::default(),
                 };
                 match p.aspect_ratio() {
                     Some(aspect) if aspect.is_finite() && aspect > 0.0 => {
@@ -669,8 +671,35 @@ impl GltfReader<'_, '_> {
                     None => {}
                 }
             }
-            gltf::camera::Projection::Orthographic(_) => {
-                self.diag.warn(at, "orthographic cameras are not supported; using a perspective camera at its place")?;
+            gltf::camera::Projection::Orthographic(o) => {
+                let (xmag, ymag) = (o.xmag(), o.ymag());
+                if !(xmag.is_finite() && ymag.is_finite() && xmag != 0.0 && ymag != 0.0) {
+                    return Err(LoadError::invalid(
+                        at,
+                        format!(
+                            "orthographic xmag {xmag}, ymag {ymag}: give the view's half width \
+                             and half height, non-zero and finite"
+                        ),
+                    ));
+                }
+                self.scene.camera = Camera {
+                    origin: Vec3::ZERO,
+                    target: -Vec3::Z,
+                    up: Vec3::Y,
+                    // Unused by an orthographic camera.
+                    fov: 90.0,
+                    fov_axis: FovAxis::Y,
+                    lens: Lens::Orthographic {
+                        half_width: xmag.abs(),
+                        half_height: ymag.abs(),
+                    },
+                    filter: Default::default(),
+                };
+                // The image takes the view's shape (as aspectRatio does for perspective).
+                let h = self.scene.defaults.height;
+                let w = ((h as f32 * xmag.abs() / ymag.abs()).round() as usize).clamp(1, 16384);
+                self.scene.defaults.width = w;
+                settings.size = Some((w, h));
             }
         }
         Ok(())

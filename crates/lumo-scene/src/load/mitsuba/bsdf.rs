@@ -70,31 +70,7 @@ impl<'a> Builder<'a, '_> {
                 }
             }
             "normalmap" | "bumpmap" | "mask" => self.wrapper(props)?,
-            // lumo's opaque BSDFs already reflect on both sides.
-            "twosided" | "blendbsdf" => {
-                if kind != "twosided" {
-                    self.diag.warn(
-                        at.clone(),
-                        format!("bsdf {kind:?} is approximated by its (first) nested BSDF"),
-                    )?;
-                    props.accept(&["opacity", "weight", "scale", "arg", "normalmap", "bumpmap"]);
-                }
-                let mut inner = None;
-                for (i, c) in props.nested() {
-                    let r = self.resolve(c)?;
-                    if r.tag == "bsdf" {
-                        props.mark(i);
-                        if inner.is_none() {
-                            inner = Some(self.bsdf(r)?.1);
-                        }
-                    } else if r.tag == "texture" {
-                        props.mark(i);
-                    }
-                }
-                inner.ok_or_else(|| {
-                    LoadError::invalid(at, format!("bsdf {kind:?} needs a nested <bsdf>"))
-                })?
-            }
+            "twosided" | "blendbsdf" => self.pair(props)?,
             "conductor" | "roughconductor" => {
                 let (eta, k) = match props.string("material")? {
                     Some(m) => {
@@ -203,6 +179,72 @@ impl<'a> Builder<'a, '_> {
                 }
             }
         })
+    }
+
+    /// `twosided` (one BSDF on both sides, or a front and a back BSDF) and `blendbsdf` (two
+    /// BSDFs and a weight). A wrapper's spectra are none of its two BSDFs': spectral rendering
+    /// upsamples their RGB values.
+    fn pair(&mut self, props: &Props<'a>) -> Result<BsdfSpec, LoadError> {
+        let kind = props.kind();
+        let at = props.el.at();
+        let mut inner = Vec::new();
+        for (i, c) in props.nested() {
+            let r = self.resolve(c)?;
+            if r.tag == "bsdf" {
+                props.mark(i);
+                inner.push((r.at(), self.bsdf(r)?.1));
+            }
+        }
+        let count = inner.len();
+        let mut inner = inner.into_iter();
+        match (kind, inner.next(), inner.next()) {
+            // lumo's opaque BSDFs already reflect on both sides.
+            ("twosided", Some((_, one)), None) => Ok(one),
+            ("twosided", Some((at_front, front)), Some((at_back, back))) if count == 2 => {
+                for (at, b) in [(at_front, &front), (at_back, &back)] {
+                    if transmits(b) {
+                        return Err(LoadError::invalid(
+                            at,
+                            "twosided: a front or back BSDF must only reflect (a dielectric \
+                             is two-sided by itself: use it without twosided)",
+                        ));
+                    }
+                }
+                self.spectra = Spectra::default();
+                Ok(BsdfSpec::TwoSided {
+                    front: Box::new(front),
+                    back: Box::new(back),
+                })
+            }
+            ("blendbsdf", Some((_, first)), Some((_, second))) if count == 2 => {
+                let weight = self.texture_param(props, "weight", Vec3::splat(0.5))?;
+                if let Texture::Constant(c) = &weight {
+                    if !(c.min_element() >= 0.0 && c.max_element() <= 1.0) {
+                        return Err(LoadError::invalid(
+                            at,
+                            format!("blendbsdf weight {c}: use a value in [0, 1]"),
+                        ));
+                    }
+                }
+                self.spectra = Spectra::default();
+                Ok(BsdfSpec::Blend {
+                    weight,
+                    first: Box::new(first),
+                    second: Box::new(second),
+                })
+            }
+            _ => Err(LoadError::invalid(
+                at,
+                format!(
+                    "bsdf {kind:?} has {count} nested <bsdf>; it takes {}",
+                    if kind == "twosided" {
+                        "one (both sides) or two (front, then back)"
+                    } else {
+                        "two (weight 0 is the first, 1 the second)"
+                    }
+                ),
+            )),
+        }
     }
 
     /// `normalmap`, `bumpmap` and `mask`: a texture and exactly one nested BSDF.
@@ -675,4 +717,15 @@ fn medium_index(props: &Props<'_>, name: &str, default: f32) -> Result<f32, Load
             ),
         )
     })
+}
+
+/// Whether `b` transmits light (a dielectric under any adapters).
+fn transmits(b: &BsdfSpec) -> bool {
+    match b {
+        BsdfSpec::Dielectric { .. } | BsdfSpec::ThinDielectric { .. } => true,
+        BsdfSpec::Mask { nested, .. }
+        | BsdfSpec::NormalMap { nested, .. }
+        | BsdfSpec::BumpMap { nested, .. } => transmits(nested),
+        _ => false,
+    }
 }

@@ -10,6 +10,7 @@ mod objects;
 pub(crate) mod presets;
 mod props;
 mod spectrum;
+mod spectrum_plugins;
 mod xml;
 
 use std::collections::HashMap;

@@ -12,7 +12,8 @@ use crate::load::{
     obj, ply, LoadError,
 };
 use crate::{
-    shapes, Analytic, AnalyticKind, Camera, EnvMap, FovAxis, Instance, Light, Mesh, Texture,
+    shapes, Analytic, AnalyticKind, Camera, EnvMap, FovAxis, Instance, Lens, Light, Mesh,
+    PixelFilter, Texture,
 };
 
 /// Tessellation of the analytic shapes: only their proxy (bounds, triangle counts, viewers);
@@ -40,26 +41,50 @@ impl<'a> Builder<'a, '_> {
                 .warn(at.clone(), "more than one <sensor>; lumo uses the first")?;
             return Ok(());
         }
-        match props.kind() {
-            "perspective" => {}
+        let kind = props.kind();
+        let lens = match kind {
+            "perspective" | "orthographic" => Lens::Pinhole,
             "thinlens" => {
-                self.diag.warn(
-                    at.clone(),
-                    "thinlens sensor rendered as a pinhole (no depth of field)",
-                )?;
-                props.accept(&["aperture_radius", "focus_distance"]);
+                let aperture_radius = props.float("aperture_radius", 0.0)?;
+                let focus_distance = props.float("focus_distance", 0.0)?;
+                if !(aperture_radius.is_finite() && aperture_radius >= 0.0) {
+                    return Err(LoadError::invalid(
+                        at,
+                        format!(
+                            "thinlens aperture_radius {aperture_radius}: use a radius >= 0 \
+                             (0 is a pinhole)"
+                        ),
+                    ));
+                }
+                if !(focus_distance.is_finite() && focus_distance > 0.0) {
+                    return Err(LoadError::invalid(
+                        at,
+                        format!(
+                            "thinlens focus_distance {focus_distance}: give the distance of \
+                             the plane in focus, > 0 (<float name=\"focus_distance\">)"
+                        ),
+                    ));
+                }
+                Lens::Thin {
+                    aperture_radius,
+                    focus_distance,
+                }
             }
             other => {
                 return Err(LoadError::invalid(
                     at,
                     format!(
-                        "sensor type {other:?} is not supported; lumo renders perspective cameras"
+                        "sensor type {other:?} is not supported; lumo renders perspective, \
+                         thinlens and orthographic sensors"
                     ),
                 ))
             }
-        }
+        };
         let to_world = props.transform("to_world")?;
-        let (fov, fov_axis) = if props.has("fov") {
+        let (fov, fov_axis) = if kind == "orthographic" {
+            // Unused by an orthographic camera; any valid angle.
+            (90.0, FovAxis::X)
+        } else if props.has("fov") {
             let axis = match props.string("fov_axis")?.as_deref().unwrap_or("x") {
                 "x" => FovAxis::X,
                 "y" => FovAxis::Y,
@@ -138,6 +163,8 @@ impl<'a> Builder<'a, '_> {
             up,
             fov,
             fov_axis,
+            lens,
+            filter: Default::default(),
         };
         self.has_camera = true;
         for (i, c) in props.nested() {
@@ -176,6 +203,27 @@ impl<'a> Builder<'a, '_> {
                 _ => {}
             }
         }
+        if kind == "orthographic" {
+            // Mitsuba's view spans x in [-1, 1] and y in [-1/aspect, 1/aspect] of camera space,
+            // scaled by to_world.
+            let (w, h) = (
+                self.scene.defaults.width as f32,
+                self.scene.defaults.height as f32,
+            );
+            let sx = to_world.transform_vector3(Vec3::X).length();
+            let sy = to_world.transform_vector3(Vec3::Y).length();
+            if !(sx > 0.0 && sy > 0.0 && sx.is_finite() && sy.is_finite()) {
+                return Err(LoadError::invalid(
+                    at,
+                    "orthographic sensor: to_world scales the view to nothing; give a \
+                     non-zero <scale x=\"..\" y=\"..\"> (the view's half width and height)",
+                ));
+            }
+            self.scene.camera.lens = Lens::Orthographic {
+                half_width: sx,
+                half_height: sy * h / w,
+            };
+        }
         props.finish(self.diag)
     }
 
@@ -198,29 +246,40 @@ impl<'a> Builder<'a, '_> {
         self.settings.size = Some((w as usize, h as usize));
         self.scene.defaults.width = w as usize;
         self.scene.defaults.height = h as usize;
-        props.accept(&[
-            "pixel_format",
-            "component_format",
-            "file_format",
-            "banner",
-            "sample_border",
-        ]);
+        props.accept(&["pixel_format", "component_format", "file_format", "banner"]);
+        if props.bool("sample_border", false)? {
+            self.diag.warn(
+                el.at(),
+                "sample_border = true is not supported: lumo keeps a pixel filter's samples on \
+                 the image, as Mitsuba's default does (edge pixels may differ slightly)",
+            )?;
+        }
         for (i, c) in props.nested() {
             let c = self.resolve(c)?;
             if c.tag == "rfilter" {
                 props.mark(i);
                 let f = Props::new(c);
-                if f.kind() != "box" {
-                    self.diag.warn(
-                        c.at(),
-                        format!(
-                            "rfilter {:?} is approximated by lumo's box filter (same mean, \
-                             slightly sharper image)",
-                            f.kind()
-                        ),
-                    )?;
-                    f.accept(&["stddev", "radius"]);
-                }
+                self.scene.camera.filter = match f.kind() {
+                    "box" => PixelFilter::Box,
+                    "tent" => PixelFilter::Tent {
+                        radius: positive(&f, "radius", 1.0)?,
+                    },
+                    "gaussian" => PixelFilter::Gaussian {
+                        stddev: positive(&f, "stddev", 0.5)?,
+                    },
+                    other => {
+                        self.diag.warn(
+                            c.at(),
+                            format!(
+                                "rfilter {other:?} is not supported (lumo has box, tent and \
+                                 gaussian); using the box filter (same mean, a different \
+                                 sharpness)"
+                            ),
+                        )?;
+                        f.accept(&["stddev", "radius", "b", "c", "lobes"]);
+                        PixelFilter::Box
+                    }
+                };
                 f.finish(self.diag)?;
             }
         }
@@ -770,4 +829,20 @@ fn analytic(mut mesh: Mesh, kind: AnalyticKind, to_mesh: Mat4) -> Mesh {
         flip_normals: false,
     });
     mesh
+}
+
+/// A filter size parameter: finite and > 0 (Mitsuba's `radius` / `stddev`, in pixels).
+fn positive(props: &Props<'_>, name: &str, default: f32) -> Result<f32, LoadError> {
+    let v = props.float(name, default)?;
+    if v.is_finite() && v > 0.0 && v <= 64.0 {
+        Ok(v)
+    } else {
+        Err(LoadError::invalid(
+            props.el.at(),
+            format!(
+                "rfilter {:?}: {name} {v} is not a size in pixels; use a value in (0, 64] (default {default})",
+                props.kind()
+            ),
+        ))
+    }
 }

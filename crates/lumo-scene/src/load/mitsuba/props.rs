@@ -8,6 +8,7 @@ use glam::{Mat4, Vec3};
 use lumo_spectrum::Tabulated;
 
 use super::spectrum::spectrum_to_rgb;
+use super::spectrum_plugins::{plugin_spectrum, radiance_to_rgb, PluginSpectrum};
 use super::xml::Element;
 use crate::load::{Diagnostics, LoadError, Warning};
 
@@ -281,11 +282,19 @@ impl<'a> Props<'a> {
         }) else {
             return Ok(None);
         };
-        let text = el.required("value")?;
-        if !text.contains(':') {
-            return Ok(None);
-        }
-        let pairs = parse_pairs(el, text)?;
+        let pairs = match el.attr("type") {
+            Some(kind) => match plugin_spectrum(el, kind)? {
+                PluginSpectrum::Grey(_) => return Ok(None),
+                PluginSpectrum::Pairs(p) | PluginSpectrum::Radiance(p) => p,
+            },
+            None => {
+                let text = el.required("value")?;
+                if !text.contains(':') {
+                    return Ok(None);
+                }
+                parse_pairs(el, text)?
+            }
+        };
         Ok(Tabulated::new(
             &pairs
                 .iter()
@@ -378,6 +387,28 @@ fn parse_pairs(el: &Element, text: &str) -> Result<Vec<(f32, f32)>, LoadError> {
 /// `<rgb value="r, g, b">` (or one value), `<spectrum value="v">` or wavelength:value pairs,
 /// `<float value="v">` (grey).
 pub(crate) fn parse_color(el: &Element) -> Result<Vec3, LoadError> {
+    if el.tag == "spectrum" {
+        if let Some(file) = el.attr("filename") {
+            // Checked before `value`, which such an element lacks: the message was about a
+            // missing value, not about the file.
+            return Err(LoadError::invalid(
+                el.at(),
+                format!(
+                    "{}: <spectrum filename={file:?}> (a spectrum file) is not read by lumo; \
+                     copy the file's wavelength/value lines into value=\"λ1:v1, λ2:v2, ...\" \
+                     or a <spectrum type=\"irregular\">",
+                    attr_name(el)
+                ),
+            ));
+        }
+        if let Some(kind) = el.attr("type") {
+            return Ok(match plugin_spectrum(el, kind)? {
+                PluginSpectrum::Grey(v) => finite3(el, Vec3::splat(v))?,
+                PluginSpectrum::Pairs(pairs) => spectrum_to_rgb(&pairs),
+                PluginSpectrum::Radiance(pairs) => radiance_to_rgb(&pairs),
+            });
+        }
+    }
     let text = el.required("value")?;
     match el.tag.as_str() {
         "rgb" => {
@@ -392,12 +423,6 @@ pub(crate) fn parse_color(el: &Element) -> Result<Vec3, LoadError> {
             }
         }
         "spectrum" => {
-            if el.attr("filename").is_some() {
-                return Err(LoadError::invalid(
-                    el.at(),
-                    "<spectrum filename=...> is not supported; give wavelength:value pairs",
-                ));
-            }
             if !text.contains(':') {
                 let v = parse_list(el, text)?;
                 return match v.as_slice() {

@@ -202,6 +202,8 @@ fn cameras_are_checked_in_terms_of_what_the_renderer_computes() {
             up: c.up,
             fov: c.fov,
             fov_axis: lumo_scene::FovAxis::Smaller,
+            lens: Default::default(),
+            filter: Default::default(),
         };
         let (r, u, f) = cam.basis();
         for v in [r, u, f] {
