@@ -119,6 +119,13 @@ fn stream_with<const D: usize, const SW: bool, F>(
         });
 }
 
+/// Rows of raw coefficients a band keeps: a window's 2r + 1, or the image's height where that
+/// is less (a wide strip of an image would otherwise hold 2r + 1 rows of its whole width: 246 MB
+/// for 65,536×1). The rows kept are consecutive, so `y % ring_rows` never puts two in one slot.
+fn ring_rows(pb: &Problem) -> usize {
+    (2 * pb.r + 1).min(pb.h)
+}
+
 /// Running state of one band.
 struct Band<'a, const D: usize, const SW: bool> {
     pb: &'a Problem<'a>,
@@ -128,7 +135,8 @@ struct Band<'a, const D: usize, const SW: bool> {
     v: Vec<f64>,
     v_lo: usize,
     v_hi: usize,
-    /// Raw coefficient rows computed so far, by row (ring of 2r + 1), and their next row.
+    /// Raw coefficient rows computed so far, by row (ring of [`Self::ring_rows`]), and their
+    /// next row.
     ring: Vec<f32>,
     next_ab: usize,
     /// Vertical sums of raw coefficients over rows `a_lo..a_hi`.
@@ -180,7 +188,7 @@ impl<'a, const D: usize, const SW: bool> Band<'a, D, SW> {
     const N2: usize = Self::K2P / CH;
 
     fn new(pb: &'a Problem<'a>, cx: &'a [f64], cy: &'a [f64]) -> Self {
-        let (w, r) = (pb.w, pb.r);
+        let w = pb.w;
         Band {
             pb,
             cx,
@@ -188,7 +196,7 @@ impl<'a, const D: usize, const SW: bool> Band<'a, D, SW> {
             v: vec![0.0; w * Self::K1P],
             v_lo: 0,
             v_hi: 0,
-            ring: vec![0.0; (2 * r + 1) * w * Self::K2P],
+            ring: vec![0.0; ring_rows(pb) * w * Self::K2P],
             next_ab: usize::MAX,
             va: vec![0.0; w * Self::K2P],
             a_lo: 0,
@@ -259,7 +267,7 @@ impl<'a, const D: usize, const SW: bool> Band<'a, D, SW> {
         (self.v_lo, self.v_hi) = (lo, hi);
         self.next_ab = y + 1;
         let (k1, k2, n1) = (Self::K1P, Self::K2P, Self::N1);
-        let slot = (y % (2 * r + 1)) * w * k2;
+        let slot = (y % ring_rows(self.pb)) * w * k2;
         let out = &mut self.ring[slot..slot + w * k2];
         let inv_y = 1.0 / self.cy[y];
         let mut acc = [[0.0f64; CH]; MAX_K1 / CH];
@@ -319,8 +327,8 @@ impl<'a, const D: usize, const SW: bool> Band<'a, D, SW> {
     /// Adds (`sign` = 1) or removes (−1) raw coefficient row `y` (in the ring) to / from `va`.
     #[inline(always)]
     fn slide_a(&mut self, y: usize, sign: f64) {
-        let (w, k2, r) = (self.pb.w, Self::K2P, self.pb.r);
-        let slot = (y % (2 * r + 1)) * w * k2;
+        let (w, k2) = (self.pb.w, Self::K2P);
+        let slot = (y % ring_rows(self.pb)) * w * k2;
         for (s, v) in self.va.iter_mut().zip(&self.ring[slot..slot + w * k2]) {
             *s += sign * *v as f64;
         }
