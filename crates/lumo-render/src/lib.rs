@@ -14,6 +14,7 @@ mod film;
 pub mod geometry;
 pub mod integrators;
 pub mod lights;
+pub mod media;
 mod pixel_sums;
 mod render;
 mod render_scene;
