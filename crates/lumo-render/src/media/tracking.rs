@@ -366,3 +366,158 @@ pub fn transmittance_in(
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use lumo_scene::PhaseFunction;
+    use std::sync::Arc;
+
+    /// A medium whose density rises linearly along its grid's x (voxel centres (i + ½)/n),
+    /// constant along y and z, placed by `to_world`.
+    fn ramp(n: usize, sigma_t: Vec3, albedo: Vec3, to_world: Mat4) -> Medium {
+        let mut data = Vec::new();
+        for _z in 0..3 {
+            for _y in 0..3 {
+                for i in 0..n {
+                    data.push((i as f32 + 0.5) / n as f32);
+                }
+            }
+        }
+        Medium {
+            name: "ramp".into(),
+            sigma_t,
+            albedo,
+            density: Density::Grid {
+                grid: Arc::new(DensityGrid::new([n, 3, 3], data).unwrap()),
+                to_local: to_world.inverse(),
+            },
+            phase: PhaseFunction::Isotropic,
+        }
+    }
+
+    /// exp(−σ ∫ density) along the ray by midpoint quadrature of the grid's own lookups.
+    fn quadrature(m: &Medium, o: Vec3, d: Vec3, tmax: f32) -> Vec3 {
+        let Density::Grid { grid, to_local } = &m.density else {
+            unreachable!()
+        };
+        let steps = 200_000;
+        let dt = tmax as f64 / steps as f64;
+        let tau: f64 = (0..steps)
+            .map(|i| {
+                let t = (i as f64 + 0.5) * dt;
+                grid.density(to_local.transform_point3(o + d * t as f32)) as f64 * dt
+            })
+            .sum();
+        (-m.sigma_t * tau as f32).exp()
+    }
+
+    fn samplers(n: u32) -> impl Iterator<Item = PixelSampler> {
+        (0..n).map(|i| PixelSampler::new(i % 7, i / 7, i, 11))
+    }
+
+    #[test]
+    fn ramp_optical_depth_is_one_half_per_unit_sigma() {
+        // The closed form: ∫₀¹ of a clamped linear ramp through the voxel centres is ½.
+        let m = ramp(40, Vec3::splat(2.0), Vec3::ONE, Mat4::IDENTITY);
+        let t = quadrature(&m, Vec3::new(-0.5, 0.5, 0.5), Vec3::X, 3.0);
+        assert!(
+            (t - Vec3::splat((-1.0f32).exp())).abs().max_element() < 1e-4,
+            "{t}"
+        );
+    }
+
+    #[test]
+    fn ratio_tracking_matches_the_analytic_transmittance() {
+        let to_world = Mat4::from_scale_rotation_translation(
+            Vec3::new(2.0, 1.0, 1.5),
+            glam::Quat::from_rotation_z(0.3),
+            Vec3::new(0.2, -0.4, 0.1),
+        );
+        let m = ramp(40, Vec3::new(0.5, 1.5, 3.0), Vec3::ONE, to_world);
+        let o = to_world.transform_point3(Vec3::new(-0.3, 0.4, 0.6));
+        let d = to_world
+            .transform_vector3(Vec3::new(1.0, 0.15, -0.1))
+            .normalize();
+        let c = Coefficients::of(&m, None);
+        for tmax in [0.7f32, 1.6, 10.0] {
+            let want = quadrature(&m, o, d, tmax);
+            let n = 40_000;
+            let sum: Vec3 = samplers(n)
+                .map(|mut s| transmittance_in(&m, &c, o, d, tmax, &mut s))
+                .sum();
+            let got = sum / n as f32;
+            let err = (got - want).abs().max_element();
+            assert!(
+                err < 0.006,
+                "tmax {tmax}: ratio tracking {got}, analytic {want}"
+            );
+        }
+    }
+
+    #[test]
+    fn delta_tracking_samples_distances_by_the_transmittance() {
+        // Albedo 1, grey: every event has weight 1, so the fraction of flights passing a
+        // distance is the transmittance up to it.
+        let m = ramp(40, Vec3::splat(2.5), Vec3::ONE, Mat4::IDENTITY);
+        let o = Vec3::new(-0.2, 0.5, 0.5);
+        let c = Coefficients::of(&m, None);
+        let n = 40_000;
+        let mut passed = [0u32; 3];
+        let marks = [0.6f32, 0.9, 1.2];
+        let mut total = Vec3::ZERO;
+        for mut s in samplers(n) {
+            match free_flight(&m, &c, o, Vec3::X, 5.0, 0, Vec3::ONE, &mut s) {
+                Flight::Scatter { t, weight, ratio } => {
+                    assert!((weight - Vec3::ONE).abs().max_element() < 1e-5, "{weight}");
+                    assert_eq!(ratio, Vec3::ONE);
+                    for (k, &x) in marks.iter().enumerate() {
+                        passed[k] += u32::from(t > x);
+                    }
+                }
+                Flight::Pass { weight, .. } => {
+                    total += weight;
+                    for p in &mut passed {
+                        *p += 1;
+                    }
+                }
+            }
+        }
+        for (k, &x) in marks.iter().enumerate() {
+            let want = quadrature(&m, o, Vec3::X, x).x;
+            let got = passed[k] as f32 / n as f32;
+            assert!(
+                (got - want).abs() < 0.006,
+                "to {x}: {got} passed, analytic {want}"
+            );
+        }
+        let want = quadrature(&m, o, Vec3::X, 5.0).x;
+        assert!((total.x / n as f32 - want).abs() < 0.006);
+    }
+
+    #[test]
+    fn homogeneous_flights_follow_beer_lambert_per_lane() {
+        let c = Coefficients {
+            sigma_t: Vec3::new(0.5, 1.0, 2.0),
+            albedo: Vec3::ZERO,
+        };
+        let tmax = 1.0;
+        let n = 120_000;
+        for lane in 0..3 {
+            let mut mean = Vec3::ZERO;
+            for mut s in samplers(n) {
+                // Absorbing: only the passes carry weight; the path-space MIS record is the
+                // weight itself here, so f / mean(p) is the pass weight over its ratio mean.
+                if let Flight::Pass { weight, .. } = homogeneous_flight(&c, tmax, lane, &mut s) {
+                    mean += weight;
+                }
+            }
+            let got = mean / n as f32;
+            let want = (-c.sigma_t * tmax).exp();
+            assert!(
+                ((got - want) / want).abs().max_element() < 0.02,
+                "lane {lane}: {got} vs {want}"
+            );
+        }
+    }
+}
