@@ -22,3 +22,36 @@ pub fn refusal(scene: &lumo_scene::Scene, integrator: &str) -> Option<String> {
         scene.name
     ))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use lumo_scene::{Camera, FovAxis, Medium, PhaseFunction, Scene, Vec3};
+
+    #[test]
+    fn only_the_path_tracer_takes_media() {
+        let mut scene = Scene::empty(Camera {
+            origin: Vec3::Z,
+            target: Vec3::ZERO,
+            up: Vec3::Y,
+            fov: 40.0,
+            fov_axis: FovAxis::X,
+        });
+        assert_eq!(refusal(&scene, "bdpt"), None);
+        scene.media.media.push(Medium {
+            name: "fog".into(),
+            sigma_t: Vec3::ONE,
+            albedo: Vec3::ONE,
+            density: lumo_scene::media::Density::Homogeneous,
+            phase: PhaseFunction::Isotropic,
+        });
+        assert_eq!(refusal(&scene, "path"), None);
+        for other in ["light", "bdpt", "ppm", "both"] {
+            let why = refusal(&scene, other).unwrap();
+            assert!(
+                why.contains(other) && why.contains("--integrator path"),
+                "{why}"
+            );
+        }
+    }
+}

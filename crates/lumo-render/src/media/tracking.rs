@@ -168,7 +168,7 @@ impl<'a> Segments<'a> {
                 t1 = t1.min(hi[a]);
             }
         }
-        if !(t0 < t1) {
+        if t0.is_nan() || t1.is_nan() || t0 >= t1 {
             return None;
         }
         let res = grid.resolution();

@@ -201,7 +201,7 @@ impl PathState {
             }
         }
         let (wi, pdf) = phase::sample(med.phase, self.dir, u.direction);
-        if !(pdf > 0.0) {
+        if pdf.is_nan() || pdf <= 0.0 {
             return false;
         }
         self.prev_pdf = Some(pdf);
@@ -241,7 +241,7 @@ fn transmittance(
 ) -> Vec3 {
     let media: &SceneMedia = &rs.scene.media;
     let mut tr = Vec3::ONE;
-    if !(tmax > 0.0) {
+    if tmax.is_nan() || tmax <= 0.0 {
         return tr;
     }
     let end = o + d * tmax;
