@@ -65,6 +65,9 @@ def write_textures(mi, np) -> None:
         i, j = np.meshgrid(np.arange(8), np.arange(8), indexing="ij")
         img = np.stack([(i * 37 + j * 11) % 256, (j * 53 + 40) % 256, ((i + j) % 2) * 200 + 30], -1)
         mi.Bitmap(img.astype(np.uint8)).write(str(grid))
+    smoke = tex / "smoke.vol"
+    if not smoke.exists():
+        write_smoke_vol(np, smoke)
     height = tex / "bumps_height.png"
     normal = tex / "bumps_normal.png"
     if not height.exists() or not normal.exists():
@@ -78,6 +81,28 @@ def write_textures(mi, np) -> None:
         nrm = np.stack([-0.6 * dx, -0.6 * dy, np.ones_like(x)], -1)
         nrm /= np.linalg.norm(nrm, axis=-1, keepdims=True)
         mi.Bitmap(((nrm * 0.5 + 0.5) * 255).round().astype(np.uint8)).write(str(normal))
+
+
+def write_smoke_vol(np, path: Path, n: int = 24) -> None:
+    """A puff of smoke as a Mitsuba .vol grid (n^3 float32 densities in [0, 1], x fastest):
+    a few soft Gaussian lumps with a ridged modulation, zero at the faces of the cube."""
+    c = (np.arange(n) + 0.5) / n
+    z, y, x = np.meshgrid(c, c, c, indexing="ij")
+    d = np.zeros_like(x)
+    for (cx, cy, cz, r, w) in [
+        (0.5, 0.45, 0.5, 0.22, 1.0),
+        (0.35, 0.6, 0.45, 0.15, 0.8),
+        (0.65, 0.62, 0.55, 0.14, 0.7),
+        (0.5, 0.75, 0.4, 0.12, 0.6),
+    ]:
+        d += w * np.exp(-((x - cx) ** 2 + (y - cy) ** 2 + (z - cz) ** 2) / (2 * r * r))
+    d *= 0.75 + 0.25 * np.sin(23 * x) * np.sin(17 * y + 1) * np.sin(19 * z + 2)
+    edge = np.minimum.reduce([x, 1 - x, y, 1 - y, z, 1 - z])
+    d *= np.clip(edge / 0.1, 0, 1)
+    d = np.clip(d, 0, None).astype("<f4")
+    header = b"VOL" + bytes([3]) + np.array([1, n, n, n, 1], "<i4").tobytes()
+    header += np.array([0, 0, 0, 1, 1, 1], "<f4").tobytes()
+    path.write_bytes(header + d.tobytes())
 
 
 def block_means(np, img):

@@ -818,6 +818,11 @@ impl Plan {
             (RenderScene::new(scene), build_start.elapsed())
         });
         let rs = rs?;
+        // Media need the path tracer; the others refuse rather than render them wrong.
+        let chosen = format!("{:?}", args.integrator).to_lowercase();
+        if let Some(why) = lumo_render::media::refusal(&rs.scene, &chosen) {
+            bail!(why);
+        }
         let method = match args.integrator {
             RenderIntegrator::Path => format!("pipeline {pipeline}"),
             RenderIntegrator::Light => format!(

@@ -182,6 +182,10 @@ pub fn run(args: ServeArgs) -> Result<()> {
         IntegratorArg::Bdpt => Integrator::Bdpt,
         IntegratorArg::Ppm => Integrator::Ppm,
     };
+    let chosen = format!("{:?}", args.integrator).to_lowercase();
+    if let Some(why) = lumo_render::media::refusal(&scene, &chosen) {
+        bail!(why);
+    }
     if let Some(n) = args.max_photons {
         if n == 0 || n > crate::render_cmd::MAX_PHOTONS {
             bail!(

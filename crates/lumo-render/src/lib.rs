@@ -15,6 +15,7 @@ pub mod geometry;
 pub mod integrators;
 pub mod lights;
 pub mod pixel_filter;
+pub mod media;
 mod pixel_sums;
 mod render;
 mod render_scene;

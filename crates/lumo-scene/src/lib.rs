@@ -10,6 +10,7 @@ mod error;
 mod light;
 pub mod load;
 mod material;
+pub mod media;
 mod mesh;
 mod scene;
 pub mod shapes;
@@ -21,6 +22,7 @@ pub use camera::{Camera, FovAxis, Lens, PixelFilter};
 pub use error::SceneError;
 pub use light::{EnvMap, Light, MAX_EMISSION};
 pub use material::{BsdfSpec, Distribution, Material, Roughness, RoughnessMaps, Spectra};
+pub use media::{Boundary, Medium, MediumInterface, PhaseFunction, SceneMedia};
 pub use mesh::{Analytic, AnalyticKind, Instance, Mesh};
 pub use scene::{
     box_reach, positions_box, reach_error, singular_instance, transformed_box, RenderDefaults,

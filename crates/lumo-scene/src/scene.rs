@@ -1,6 +1,6 @@
 use glam::{Mat4, Vec3, Vec4Swizzles};
 
-use crate::{Camera, Instance, Light, Material, Mesh, SceneError};
+use crate::{Camera, Instance, Light, Material, Mesh, SceneError, SceneMedia};
 
 /// The longest path depth and Russian-roulette depth a scene file or the command line may ask
 /// for: Mitsuba's "unbounded" (`max_depth = -1`) maps to it, and Russian roulette ends such
@@ -100,6 +100,8 @@ pub struct Scene {
     pub camera: Camera,
     /// Resolution and sampling defaults.
     pub defaults: RenderDefaults,
+    /// Participating media and the shapes that bound them (empty for surface-only scenes).
+    pub media: SceneMedia,
 }
 
 impl Scene {
@@ -119,6 +121,7 @@ impl Scene {
                 spp: 16,
                 max_depth: 8,
             },
+            media: SceneMedia::default(),
         }
     }
 
@@ -264,6 +267,7 @@ impl Scene {
                 return Err(singular_instance(ii, &self.meshes[inst.mesh].name));
             }
         }
+        self.media.validate(self.meshes.len())?;
         for (ii, b) in self.instance_boxes().into_iter().enumerate() {
             let reach = b.map_or(0.0, box_reach);
             if reach.is_nan() || reach > COORDINATE_LIMIT {

@@ -301,8 +301,7 @@ async fn connection(socket: WebSocket, hub: Arc<Hub>) {
                     None
                 }
                 Ok(ClientMessage::Params(Params { integrator, mode })) => {
-                    hub.set_params(integrator, mode);
-                    None
+                    hub.set_params(integrator, mode).err()
                 }
                 Ok(ClientMessage::Animate(a)) => hub.set_playing(a.playing).err(),
                 Ok(ClientMessage::Pick(p)) => {

@@ -10,6 +10,7 @@ mod emission_texture;
 mod integrator;
 mod light_render;
 mod light_sampling;
+mod media;
 mod mitsuba_adapters;
 mod mitsuba_cornell;
 mod mitsuba_suite;

@@ -290,6 +290,7 @@ pub(crate) fn atrium() -> Scene {
             spp: 16,
             max_depth: 8,
         },
+        media: Default::default(),
     };
 
     // Materials: pale, nearly neutral stones so bounced light carries far and takes on the

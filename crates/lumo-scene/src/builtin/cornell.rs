@@ -33,6 +33,7 @@ fn cornell_shell(name: &str, with_boxes: bool) -> (Scene, usize) {
             spp: 16,
             max_depth: 8,
         },
+        media: Default::default(),
     };
     let white = scene.add_material(Material::diffuse(
         "white",

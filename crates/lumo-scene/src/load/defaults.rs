@@ -56,6 +56,7 @@ pub(crate) fn empty_scene(path: &Path) -> Scene {
             spp: 16,
             max_depth: 8,
         },
+        media: Default::default(),
     }
 }
 

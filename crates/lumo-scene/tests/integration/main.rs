@@ -4,6 +4,7 @@ mod common;
 mod gltf;
 mod hostile_input;
 mod in_memory;
+mod media;
 mod meshes;
 mod mitsuba;
 mod mutated;

@@ -61,6 +61,8 @@ pub struct Hub {
     targets: EditTargets,
     /// Remote render workers (`lumo serve --remote-workers`; empty when off).
     remote: RemoteSet,
+    /// The scene has media or null boundaries: only the path tracer may render it.
+    media: bool,
 }
 
 struct HubState {
@@ -152,6 +154,14 @@ impl Hub {
     /// Starts the worker and the first render.
     pub fn new(rs: RenderScene, config: ServerConfig) -> anyhow::Result<Arc<Self>> {
         let name = rs.scene.name.clone();
+        let media = rs.scene.media.is_active();
+        if media && config.integrator != Integrator::Path {
+            anyhow::bail!(
+                "{name}: the scene has participating media, which only the path tracer renders; \
+                 the {:?} integrator is refused (use --integrator path)",
+                config.integrator
+            );
+        }
         let triangles = rs.scene.triangle_count().min(u32::MAX as usize) as u32;
         let mut camera = rs.scene.camera.clone();
         // The wire camera's field of view is along the shorter side; convert once.
@@ -216,6 +226,7 @@ impl Hub {
             finished,
             targets,
             remote,
+            media,
         });
         hub.announce(&lock(&hub.state), time, &[]);
         Ok(hub)
@@ -343,13 +354,24 @@ impl Hub {
 
     /// A viewer changed integrator or mode: restart rendering (now or merged as above) and
     /// tell every viewer.
-    pub fn set_params(&self, integrator: Integrator, mode: Mode) {
+    /// Refused for any integrator but the path tracer in a scene with participating media.
+    pub fn set_params(&self, integrator: Integrator, mode: Mode) -> Result<(), ProtocolError> {
+        if self.media && integrator != Integrator::Path {
+            return Err(ProtocolError::new(
+                ErrorCode::InvalidValue,
+                format!(
+                    "PARAMS: the scene has participating media, which only the path tracer \
+                     renders; {integrator:?} is refused (choose Path)"
+                ),
+            ));
+        }
         let mut st = lock(&self.state);
         st.next.integrator = integrator;
         st.next.mode = mode;
         st.pending = true;
         st.params_changed = true;
         self.maybe_restart(&mut st);
+        Ok(())
     }
 
     /// A viewer plays or pauses the animation: the clock runs or freezes, every viewer is

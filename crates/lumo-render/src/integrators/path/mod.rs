@@ -5,6 +5,7 @@
 //! only, `2` adds direct light, `3` one indirect bounce. "Direct" is everything of depth ≤ 2.
 
 pub(crate) mod vector_bounce;
+mod volume;
 pub mod wavefront;
 
 use glam::{Vec2, Vec3};
@@ -501,7 +502,10 @@ impl PathState {
     }
 
     /// Traces this path to its end one ray at a time.
-    fn run(&mut self, rs: &RenderScene, settings: &PathSettings) {
+    pub(crate) fn run(&mut self, rs: &RenderScene, settings: &PathSettings) {
+        if rs.scene.media.is_active() {
+            return self.run_volumetric(rs, settings);
+        }
         loop {
             let hit = rs
                 .accel

@@ -150,6 +150,14 @@ impl Batch {
                 }
             }
         }
+        if rs.scene.media.is_active() {
+            // Media and null boundaries are the scalar volumetric path tracer's (one ray at a
+            // time): the packets' bounce knows only surfaces.
+            for path in &mut self.paths {
+                path.run(rs, &settings.path);
+            }
+            return;
+        }
         self.active.clear();
         self.active.extend(0..self.paths.len() as u32);
         while !self.active.is_empty() {

@@ -6,6 +6,7 @@
 
 mod bsdf;
 mod depth;
+mod medium;
 mod objects;
 pub(crate) mod presets;
 mod props;
@@ -79,6 +80,7 @@ fn convert(
         materials: HashMap::new(),
         textures: HashMap::new(),
         groups: HashMap::new(),
+        media: HashMap::new(),
         has_camera: false,
         has_environment: false,
         proxy_triangles: 0,
@@ -89,7 +91,8 @@ fn convert(
     let props = Props::new(root);
     // Declared BSDFs become materials first, in file order, so material indices follow the file.
     for (i, el) in props.nested() {
-        if el.tag == "bsdf" {
+        // A null BSDF makes no material: its shapes are invisible boundaries (medium.rs).
+        if el.tag == "bsdf" && el.attr("type") != Some("null") {
             props.mark(i);
             b.material(Some(el), Vec3::ZERO, None)?;
         }
@@ -98,6 +101,9 @@ fn convert(
         props.mark(i);
         match el.tag.as_str() {
             "bsdf" => {}
+            "medium" => {
+                b.medium(el)?;
+            }
             "texture" => {
                 b.texture(el)?;
             }
@@ -173,6 +179,8 @@ pub(super) struct Builder<'a, 'd> {
     textures: HashMap<usize, Texture>,
     /// Mesh indices of each converted shapegroup, by element address.
     groups: HashMap<usize, Vec<usize>>,
+    /// Converted media by element address (index into the scene's media).
+    media: HashMap<usize, usize>,
     has_camera: bool,
     has_environment: bool,
     /// Proxy triangles of the exact shapes so far (see `objects::PROXY_TRIANGLE_BUDGET`).

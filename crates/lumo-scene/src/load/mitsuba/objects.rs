@@ -224,6 +224,7 @@ impl<'a> Builder<'a, '_> {
                 half_height: sy * h / w,
             };
         }
+        self.sensor_medium(&props)?;
         props.finish(self.diag)
     }
 
@@ -486,7 +487,9 @@ impl<'a> Builder<'a, '_> {
                 ),
             )?;
         }
-        let material = self.material(bsdf, emission, emission_map)?;
+        // A null BSDF is an invisible boundary (medium.rs); its material is never shaded.
+        let shaded_bsdf = bsdf.filter(|b| b.attr("type") != Some("null"));
+        let material = self.material(shaded_bsdf, emission, emission_map)?;
         let mut mesh = match kind {
             "rectangle" => shapes::rectangle(&to_world, material),
             "cube" => shapes::cube(&to_world, material),
@@ -640,6 +643,7 @@ impl<'a> Builder<'a, '_> {
             }
         }
         check_mesh(&mut mesh, &at, self.diag)?;
+        self.shape_boundary(&props, bsdf, emission != Vec3::ZERO)?;
         props.finish(self.diag)?;
         Ok(Some(mesh))
     }

@@ -1,0 +1,286 @@
+//! The volumetric path tracer: [`PathState`]'s surface phases with participating media
+//! between surfaces, one ray at a time. Scenes with media or invisible (`null`) boundaries take
+//! this path in every renderer that uses the path tracer (the wavefront hands their paths
+//! here; see docs/media.md).
+//!
+//! Along each ray the current medium samples a free flight ([`crate::media::free_flight`]);
+//! a real scattering is a path vertex like a surface hit: next-event estimation with the
+//! phase function, MIS (power heuristic) against phase sampling, then a phase sample. Null
+//! surfaces are crossed without a vertex (no depth, no shading), changing the medium where
+//! the shape has an interior or exterior; shadow rays cross them too and carry the
+//! transmittance of every medium on the way (ratio tracking in grids).
+
+use glam::Vec3;
+use lumo_scene::{MediumInterface, SceneMedia};
+
+use super::{PathSettings, PathState};
+use crate::accel::Hit;
+use crate::geometry::{power_heuristic, shadow_segment};
+use crate::media::{free_flight, phase, transmittance_in, Coefficients, Flight};
+use crate::render_scene::RenderScene;
+
+/// Null surfaces a ray may cross before the path (or shadow ray) is ended: a guard against
+/// rays caught between coincident boundaries, far above what a scene nests.
+const MAX_CROSSINGS: u32 = 256;
+
+/// The medium a ray in direction `d` enters at a surface of geometric normal `ng`.
+#[inline]
+fn target(f: MediumInterface, ng: Vec3, d: Vec3) -> Option<usize> {
+    if d.dot(ng) > 0.0 {
+        f.exterior
+    } else {
+        f.interior
+    }
+}
+
+/// The mesh a hit belongs to.
+#[inline]
+fn mesh_of(rs: &RenderScene, hit: &Hit) -> usize {
+    rs.scene.instances[hit.instance as usize].mesh
+}
+
+impl PathState {
+    /// Traces this path to its end through the scene's media, starting in the camera's
+    /// medium.
+    pub(crate) fn run_volumetric(&mut self, rs: &RenderScene, settings: &PathSettings) {
+        let media = &rs.scene.media;
+        let mut medium = media.camera;
+        let mut crossings = 0;
+        // The lane whose exponentials sample homogeneous media, and per lane the ratio of the
+        // path's density under that lane's choice to its density under this one (tracking.rs).
+        let lane = ((self.sampler.next_1d() * 3.0) as usize).min(2);
+        let mut ratio = Vec3::ONE;
+        loop {
+            let hit = rs
+                .accel
+                .intersect(self.origin, self.dir, 0.0, f32::INFINITY);
+            let tmax = hit.map_or(f32::INFINITY, |h| h.t);
+            if let Some(m) = medium {
+                let med = &media.media[m];
+                let c = Coefficients::of(med, self.wl.as_ref());
+                let flight = free_flight(
+                    med,
+                    &c,
+                    self.origin,
+                    self.dir,
+                    tmax,
+                    lane,
+                    self.throughput,
+                    &mut self.sampler,
+                );
+                let (Flight::Scatter {
+                    weight, ratio: r, ..
+                }
+                | Flight::Pass { weight, ratio: r }) = flight;
+                // The throughput stays f / mean(p_lane): a step that changes the lanes' ratios
+                // rescales it by the old mean over the new.
+                let new = ratio * r;
+                let (before, after) = (ratio.element_sum(), new.element_sum());
+                self.throughput *= if after > 0.0 {
+                    weight * (before / after)
+                } else {
+                    Vec3::ZERO
+                };
+                ratio = if after > 0.0 {
+                    new * (3.0 / after)
+                } else {
+                    Vec3::ONE
+                };
+                match flight {
+                    Flight::Scatter { t, .. } => {
+                        self.radiance.rays += 1;
+                        if !self.medium_vertex(rs, settings, m, t) {
+                            return;
+                        }
+                        continue;
+                    }
+                    Flight::Pass { .. } => {
+                        if self.throughput == Vec3::ZERO {
+                            return;
+                        }
+                    }
+                }
+            }
+            let boundary = hit.map(|h| media.boundary(mesh_of(rs, &h)));
+            if let (Some(h), Some(b)) = (hit, boundary.filter(|b| b.null)) {
+                // An invisible boundary: no vertex, only a change of medium.
+                self.radiance.rays += 1;
+                crossings += 1;
+                if crossings > MAX_CROSSINGS {
+                    return;
+                }
+                let s = rs.surface(&h, self.origin, self.dir);
+                if let Some(f) = b.interface {
+                    medium = target(f, s.ng, self.dir);
+                }
+                self.origin = rs.offset(&s, self.dir);
+                continue;
+            }
+            let Some(at) = self.arrive(rs, settings, hit) else {
+                return;
+            };
+            let u = self.draw();
+            let light = self.sample_light(rs, settings, &at, &u);
+            if let Some(sh) = self.connect(rs, settings, &at, light) {
+                let from = match boundary.and_then(|b| b.interface) {
+                    Some(f) => target(f, at.s.ng, sh.dir),
+                    None => medium,
+                };
+                let tr = transmittance(rs, from, sh.origin, sh.dir, sh.tmax, self);
+                if tr != Vec3::ZERO {
+                    self.radiance.add(sh.depth, sh.contribution * tr);
+                }
+            }
+            if !self.scatter(rs, settings, &at, &u) {
+                return;
+            }
+            if let Some(f) = boundary.and_then(|b| b.interface) {
+                medium = target(f, at.s.ng, self.dir);
+            }
+            crossings = 0;
+        }
+    }
+
+    /// A real scattering in medium `m` at `t` along the current ray (throughput already
+    /// weighted): the G-buffer record at the first vertex, light sampling with the phase
+    /// function, a phase sample and Russian roulette. Returns whether the path goes on.
+    fn medium_vertex(
+        &mut self,
+        rs: &RenderScene,
+        settings: &PathSettings,
+        m: usize,
+        t: f32,
+    ) -> bool {
+        let med = &rs.scene.media.media[m];
+        let p = self.origin + self.dir * t;
+        if self.depth == 1 {
+            // A pixel whose camera ray scatters in a medium: its albedo is the medium's
+            // single-scattering albedo, its normal faces the camera, its depth is the
+            // distance to the scattering (docs/media.md).
+            self.radiance.albedo = med.albedo;
+            self.radiance.emitted = Vec3::ZERO;
+            if std::mem::take(&mut self.want_first_hit) {
+                self.first_hit = super::FirstHit {
+                    normal: -self.dir,
+                    position: p,
+                    depth: t,
+                    albedo: med.albedo,
+                    emitted: Vec3::ZERO,
+                };
+            }
+        }
+        if self.depth >= settings.max_depth {
+            return false;
+        }
+        let u = self.draw();
+        if settings.nee {
+            if let Some(ls) = rs.lights.sample(p, u.light, u.light_point) {
+                let f = phase::eval(med.phase, self.dir, ls.wi);
+                let (dir, tmax) = if ls.distance.is_finite() {
+                    let (d, tm) =
+                        shadow_segment(p.into(), ls.point.into(), ls.wi.into(), rs.ray_epsilon);
+                    (Vec3::from(d), tm)
+                } else {
+                    (ls.wi, f32::INFINITY)
+                };
+                self.radiance.rays += 1;
+                let w = if ls.pdf > 0.0 && settings.bsdf_emission {
+                    power_heuristic(ls.pdf, f)
+                } else {
+                    1.0
+                };
+                let weight = match &self.wl {
+                    None => ls.weight,
+                    Some(wl) => rs.spectral_light(ls.weight, ls.light, wl),
+                };
+                let contribution = self.throughput * f * weight * w;
+                if contribution != Vec3::ZERO {
+                    let tr = transmittance(rs, Some(m), p, dir, tmax, self);
+                    self.radiance.add(self.depth + 1, contribution * tr);
+                }
+            }
+        }
+        let (wi, pdf) = phase::sample(med.phase, self.dir, u.direction);
+        if pdf.is_nan() || pdf <= 0.0 {
+            return false;
+        }
+        self.prev_pdf = Some(pdf);
+        self.prev_point = p;
+        self.origin = p;
+        self.dir = wi;
+        if self.depth >= settings.rr_depth {
+            // Without the surfaces' 0.95 cap: in an albedo-1 medium the throughput stays 1 and
+            // a path may scatter hundreds of times before it leaves; a 5 % kill per scattering
+            // would leave a few survivors with weights of 1.05^k (a heavy tail that reads as
+            // a darker image at any practical sample count). Such paths end by leaving the
+            // medium, by absorption (a throughput below 1) or at the depth limit.
+            let q = (self.throughput.max_element() * self.eta_scale).min(1.0);
+            if u.roulette >= q {
+                return false;
+            }
+            self.throughput /= q;
+        }
+        if self.throughput == Vec3::ZERO || !self.throughput.is_finite() {
+            return false;
+        }
+        self.depth += 1;
+        true
+    }
+}
+
+/// The transmittance from `o` along unit `d` up to `tmax` (a negative `tmax`: nothing to
+/// cross), starting in medium `medium`: zero at the first surface that is not a null
+/// boundary, else the product of every medium's transmittance on the way.
+fn transmittance(
+    rs: &RenderScene,
+    mut medium: Option<usize>,
+    mut o: Vec3,
+    mut d: Vec3,
+    tmax: f32,
+    path: &mut PathState,
+) -> Vec3 {
+    let media: &SceneMedia = &rs.scene.media;
+    let mut tr = Vec3::ONE;
+    if tmax.is_nan() || tmax <= 0.0 {
+        return tr;
+    }
+    let end = o + d * tmax;
+    let mut left = tmax;
+    for _ in 0..MAX_CROSSINGS {
+        let hit = rs.accel.intersect(o, d, 0.0, left);
+        let seg = hit.map_or(left, |h| h.t);
+        if let Some(m) = medium {
+            let med = &media.media[m];
+            let c = Coefficients::of(med, path.wl.as_ref());
+            tr *= transmittance_in(med, &c, o, d, seg, &mut path.sampler);
+            if tr == Vec3::ZERO {
+                return tr;
+            }
+        }
+        let Some(h) = hit else {
+            return tr;
+        };
+        let b = media.boundary(mesh_of(rs, &h));
+        if !b.null {
+            return Vec3::ZERO;
+        }
+        path.radiance.rays += 1;
+        let s = rs.surface(&h, o, d);
+        if let Some(f) = b.interface {
+            medium = target(f, s.ng, d);
+        }
+        o = rs.offset(&s, d);
+        if tmax.is_finite() {
+            // Re-aimed at the end point: the offset moved the origin off the ray's line, and
+            // at a grazing angle to a light parallel to the boundary the old line would now
+            // reach into the light (a null box just below a ceiling light lost 14 % of it).
+            let to_end = end - o;
+            left = to_end.length();
+            if !(left > 0.0 && to_end.dot(d) > 0.0) {
+                return tr;
+            }
+            d = to_end / left;
+        }
+    }
+    Vec3::ZERO
+}
