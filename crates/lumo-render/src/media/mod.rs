@@ -36,6 +36,8 @@ mod tests {
             up: Vec3::Y,
             fov: 40.0,
             fov_axis: FovAxis::X,
+            lens: Default::default(),
+            filter: Default::default(),
         });
         assert_eq!(refusal(&scene, "bdpt"), None);
         scene.media.media.push(Medium {
