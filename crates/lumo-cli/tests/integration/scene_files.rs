@@ -123,7 +123,7 @@ fn warnings_print_and_strict_fails() {
     std::fs::write(
         &xml,
         "<scene version=\"3.0.0\">\n<shape type=\"cube\"/>\n<emitter type=\"constant\"/>\n\
-         <medium type=\"homogeneous\"/>\n</scene>\n",
+         <phase type=\"hg\"/>\n</scene>\n",
     )
     .unwrap();
     let out = dir.join("w.pfm");

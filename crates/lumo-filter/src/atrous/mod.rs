@@ -87,9 +87,9 @@ impl AtrousFilter {
     ) -> Result<Filtered, FilterError> {
         if transpose::pays(color.width, color.height) {
             validate(color, features, params)?;
-            let t = transpose::TransposedInput::new(color, features);
+            let t = crate::common::transpose::TransposedInput::new(color, features);
             let out = self.run(&t.color, &t.features(), params, Isa::detect(), Path::Auto)?;
-            return Ok(transpose::back(out));
+            return Ok(crate::common::transpose::back(out));
         }
         self.run(color, features, params, Isa::detect(), Path::Auto)
     }
@@ -132,9 +132,12 @@ impl AtrousFilter {
     ) -> Result<(Filtered, Image), FilterError> {
         validate(color, features, params)?;
         if transpose::pays(color.width, color.height) {
-            let t = transpose::TransposedInput::new(color, features);
+            let t = crate::common::transpose::TransposedInput::new(color, features);
             let (out, first) = self.filter_keeping_first_level(&t.color, &t.features(), params)?;
-            return Ok((transpose::back(out), transpose::transposed(&first)));
+            return Ok((
+                crate::common::transpose::back(out),
+                crate::common::transpose::transposed(&first),
+            ));
         }
         let inp = Input::new(color, features, params);
         let lay = Layout::new(color.width, color.height);

@@ -113,6 +113,12 @@ pub fn auto(
     params: &AutoParams,
 ) -> Result<Filtered, FilterError> {
     check_color("color", color)?;
+    if crate::common::transpose::few_rows(color.width, color.height) {
+        // Its guided candidates' rows would be as wide as the image (common/transpose.rs).
+        if let Some(t) = crate::common::transpose::TransposedInput::of(color, features) {
+            return auto(&t.color, &t.features(), params).map(crate::common::transpose::back);
+        }
+    }
     if params.radii.is_empty() || params.radii.contains(&0) || params.flat_radii.contains(&0) {
         return Err(crate::common::error::param(
             "auto radii",

@@ -18,4 +18,5 @@ pub(crate) mod noise;
 pub(crate) mod nonnegative;
 pub(crate) mod outliers;
 pub(crate) mod passthrough;
+pub(crate) mod transpose;
 pub(crate) mod zeroed;

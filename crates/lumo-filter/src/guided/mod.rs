@@ -315,6 +315,25 @@ pub fn guided(
     guide: &Guide,
     params: &GuidedParams,
 ) -> Result<Filtered, FilterError> {
+    use crate::common::transpose::{back, few_rows, transposed};
+    let same_size = (guide.width, guide.height) == (color.width, color.height);
+    if same_size && few_rows(color.width, color.height) && color.channels > 0 {
+        // Rows as wide as the image would cost ~740 bytes per pixel (common/transpose.rs).
+        let flat = Image {
+            width: guide.width,
+            height: guide.height,
+            channels: guide.dims,
+            data: guide.data.clone(),
+        };
+        let turned = Guide {
+            width: guide.height,
+            height: guide.width,
+            dims: guide.dims,
+            data: transposed(&flat).data,
+            eps: guide.eps.clone(),
+        };
+        return guided(&transposed(color), &turned, params).map(back);
+    }
     SharedInput::new(color, guide)?.filter(&guide.eps, params)
 }
 
