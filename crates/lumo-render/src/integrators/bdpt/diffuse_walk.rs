@@ -308,8 +308,9 @@ multiversion! {
                 material,
                 instance: hit.instance,
                 triangle: hit.triangle,
-                // Simple diffuse materials have one BSDF: the side is never consulted.
-                back: false,
+                // As the scalar walk sets it; simple diffuse materials have one BSDF and
+                // never consult it.
+                back: Vec3::from(at(&d, i)).dot(Vec3::new(ng[0][i], ng[1][i], ng[2][i])) > 0.0,
             };
             let lane_albedo = Vec3::new(albedo[0][i], albedo[1][i], albedo[2][i]);
             let kind = Kind::Surface {
