@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import os
 import tempfile
+import warnings
 from typing import Dict, Iterable, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
@@ -87,14 +88,25 @@ def write_image(path: Union[str, os.PathLike], image) -> None:
     _native.write_image(os.fspath(path), _to_planar(image, "image"))
 
 
-def compare(reference, image, exposure: float = 0.0, ppd: Optional[float] = None) -> Dict[str, float]:
+def compare(
+    reference, image, exposure: float = 0.0, ppd: Optional[float] = None
+) -> Dict[str, Optional[float]]:
     """The metrics of ``lumo compare``: ``mse``, ``relmse``, ``smape``, ``psnr``, ``ssim``,
     ``flip`` and ``nonfinite_pixels`` (pixels left out for NaN or Inf), of ``image`` against
     ``reference``; ``exposure`` in stops applies before tone mapping, ``ppd`` is FLIP's pixels
-    per degree (default 67)."""
-    return _native.compare(
+    per degree (default 67).
+
+    Where the images differ only in pixels that both clip at this exposure, ``clipped_alike``
+    is True, ``psnr``, ``ssim`` and ``flip`` are None (they would call the images identical,
+    as ``lumo compare --json`` says with null) and a ``RuntimeWarning`` names an exposure at
+    which the difference shows."""
+    m = _native.compare(
         _to_planar(reference, "reference"), _to_planar(image, "image"), float(exposure), ppd
     )
+    note = m.pop("clipped_note")
+    if note is not None:
+        warnings.warn(note, RuntimeWarning, stacklevel=2)
+    return m
 
 
 def _option(name: str, value) -> List[str]:

@@ -332,22 +332,31 @@ fn compare<'py>(
         reference.3,
     )?;
     let t = from_planar(image.0.as_bytes(), image.1, image.2, image.3)?;
-    let m = py
+    let (m, note) = py
         .allow_threads(|| -> anyhow::Result<_> {
             let settings = lumo_cli::compare_cmd::compare_settings(exposure, ppd)?;
             let (a, b) = (PathBuf::from("reference"), PathBuf::from("image"));
             lumo_cli::compare_cmd::check_comparable(&a, &r, &b, &t)?;
-            lumo_image::metrics::compare(&r, &t, &settings)
-                .map_err(|e| anyhow::anyhow!("reference vs image: {e}"))
+            let m = lumo_image::metrics::compare(&r, &t, &settings)
+                .map_err(|e| anyhow::anyhow!("reference vs image: {e}"))?;
+            let note = m
+                .clipped_alike()
+                .then(|| lumo_cli::compare_cmd::clipped_note(&settings, &[&r, &t], m.mse));
+            Ok((m, note))
         })
         .map_err(lumo_err)?;
+    // As `lumo compare --json`: the tone-mapped scores of images that differ only where both
+    // clip would call them identical, so they are None and `clipped_note` says why.
+    let seen = |v: f64| (!m.clipped_alike()).then_some(v);
     let d = PyDict::new(py);
     d.set_item("mse", m.mse)?;
     d.set_item("relmse", m.relmse)?;
     d.set_item("smape", m.smape)?;
-    d.set_item("psnr", m.psnr)?;
-    d.set_item("ssim", m.ssim)?;
-    d.set_item("flip", m.flip)?;
+    d.set_item("psnr", seen(m.psnr))?;
+    d.set_item("ssim", seen(m.ssim))?;
+    d.set_item("flip", seen(m.flip))?;
+    d.set_item("clipped_alike", m.clipped_alike())?;
+    d.set_item("clipped_note", note)?;
     d.set_item("nonfinite_pixels", m.nonfinite_pixels)?;
     Ok(d)
 }

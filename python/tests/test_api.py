@@ -121,6 +121,20 @@ def test_compare_equals_lumo_compare(lumo_cli, tmp_path):
         lumo.compare(ref, ref[:8])
     with pytest.raises(LumoError, match="exposure"):
         lumo.compare(ref, img, exposure=1e9)
+    assert got["clipped_alike"] is False and "clipped_note" not in got
+
+
+def test_compare_does_not_call_images_that_differ_only_where_they_clip_identical():
+    ref = np.full((8, 8, 3), 5.0, dtype=np.float32)
+    img = ref.copy()
+    img[2:4, 2:4] = 9.0
+    with pytest.warns(RuntimeWarning, match=r"--exposure -4"):
+        m = lumo.compare(ref, img, exposure=6)
+    assert m["clipped_alike"] is True and m["mse"] > 0
+    assert m["psnr"] is None and m["ssim"] is None and m["flip"] is None
+    # At the exposure the warning names, the difference shows.
+    shown = lumo.compare(ref, img, exposure=-4)
+    assert shown["clipped_alike"] is False and shown["flip"] > 0
 
 
 def test_images_round_trip(tmp_path):

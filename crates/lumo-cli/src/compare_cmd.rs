@@ -181,11 +181,12 @@ pub fn run(args: CompareArgs) -> Result<()> {
         });
     }
 
+    let all: Vec<&Image> = std::iter::once(&reference).chain(&tests).collect();
     for row in rows.iter().filter(|r| r.metrics.clipped_alike()) {
         errln!(
             "warning: {}: {}",
             row.path.display(),
-            clipped_note(&settings, &reference, &tests, row)
+            clipped_note(&settings, &all, row.metrics.mse)
         );
     }
     if args.json {
@@ -199,16 +200,12 @@ pub fn run(args: CompareArgs) -> Result<()> {
     Ok(())
 }
 
-/// Why PSNR, SSIM and FLIP are not shown for `row` ([`Metrics::clipped_alike`]), with an
-/// exposure that puts the brightest value of the images at display white.
-fn clipped_note(
-    settings: &CompareSettings,
-    reference: &Image,
-    tests: &[Image],
-    row: &Row,
-) -> String {
-    let brightest = std::iter::once(reference)
-        .chain(tests)
+/// Why PSNR, SSIM and FLIP are not shown for images of MSE `mse` that are
+/// [`Metrics::clipped_alike`](lumo_image::metrics::Metrics::clipped_alike), with an exposure
+/// that puts the brightest value of `images` at display white.
+pub fn clipped_note(settings: &CompareSettings, images: &[&Image], mse: f64) -> String {
+    let brightest = images
+        .iter()
         .flat_map(|i| i.data.iter())
         .filter(|v| v.is_finite())
         .fold(0.0f32, |m, &v| m.max(v));
@@ -224,7 +221,7 @@ fn clipped_note(
         "the images differ (MSE {:.4e}) but are identical after tone mapping at --exposure {}: \
          every differing pixel clips to white or black, so PSNR, SSIM and FLIP cannot see the \
          difference and are not reported; {hint}",
-        row.metrics.mse, settings.exposure
+        mse, settings.exposure
     )
 }
 

@@ -6,7 +6,7 @@ use crate::cli_common::{err, errln, outln};
 use std::path::PathBuf;
 use std::time::Instant;
 
-use anyhow::{Context, Result};
+use anyhow::{bail, Context, Result};
 use lumo_render::{PathSettings, RenderScene, RenderSettings};
 
 use super::integrators::{render_with, BenchIntegrator};
@@ -53,7 +53,9 @@ pub fn run(args: RenderBenchArgs) -> Result<()> {
 
 fn run_render(args: RenderBenchArgs) -> Result<()> {
     if args.repeats == 0 {
-        errln!("warning: --repeats 0: timing each scene once");
+        bail!(
+            "--repeats must be at least 1: each scene is timed that many times (e.g. --repeats 3)"
+        );
     }
     crate::cli_common::check_max_depth(Some(args.max_depth))?;
     if let Some(path) = &args.markdown {
@@ -115,7 +117,7 @@ fn run_render(args: RenderBenchArgs) -> Result<()> {
             settings.path.spectral = spectral;
             let (mut sps, mut rps) = (vec![], vec![]);
             let mut rays_per_sample = 0.0;
-            for _ in 0..args.repeats.max(1) {
+            for _ in 0..args.repeats {
                 let (stats, s) = render_with(integrator, &rs, &settings, &pool);
                 sps.push(stats.samples as f64 / s);
                 rps.push(stats.rays as f64 / s);

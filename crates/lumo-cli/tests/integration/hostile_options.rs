@@ -481,7 +481,7 @@ fn an_output_that_an_aov_plane_would_overwrite_is_refused() {
 }
 
 #[test]
-fn bench_repeats_zero_is_warned_about() {
+fn bench_repeats_zero_is_refused() {
     let dir = temp_dir("repeats");
     let args = [
         "bench",
@@ -496,8 +496,8 @@ fn bench_repeats_zero_is_warned_about() {
     ];
     let (o, _) = lumo_in(&dir, &args, None);
     let e = stderr(&o);
-    assert!(o.status.success(), "{e}");
-    assert!(e.contains("warning: --repeats 0"), "{e}");
+    assert!(!o.status.success(), "{e}");
+    assert!(e.contains("--repeats must be at least 1"), "{e}");
 }
 
 #[test]

@@ -213,6 +213,13 @@ fn temporal_sequences_filter_and_evaluate() {
     args.extend(size);
     let o = lumo(&dir, &args);
     assert!(o.status.success(), "{}", text(&o));
+    // The header names what runs, not the --pipeline default that these modes ignore.
+    assert!(
+        text(&o).contains("per-frame À-Trous beside the temporal filter")
+            && !text(&o).contains("pipeline auto"),
+        "{}",
+        text(&o)
+    );
     for f in [
         "frames.csv",
         "summary.md",
