@@ -22,7 +22,7 @@ pub use camera::{Camera, FovAxis, Lens, PixelFilter};
 pub use error::SceneError;
 pub use light::{EnvMap, Light, MAX_EMISSION};
 pub use material::{BsdfSpec, Distribution, Material, Roughness, RoughnessMaps, Spectra};
-pub use media::{Boundary, Medium, MediumInterface, PhaseFunction, SceneMedia};
+pub use media::{Boundary, Medium, MediumInterface, MediumSpectra, PhaseFunction, SceneMedia};
 pub use mesh::{Analytic, AnalyticKind, Instance, Mesh};
 pub use scene::{
     box_reach, positions_box, reach_error, singular_instance, transformed_box, RenderDefaults,

@@ -46,6 +46,7 @@ mod tests {
             albedo: Vec3::ONE,
             density: lumo_scene::media::Density::Homogeneous,
             phase: PhaseFunction::Isotropic,
+            spectra: Default::default(),
         });
         assert_eq!(refusal(&scene, "path"), None);
         for other in ["light", "bdpt", "ppm", "both"] {

@@ -35,11 +35,25 @@ impl Coefficients {
                 sigma_t: medium.sigma_t,
                 albedo: medium.albedo,
             },
-            Some(wl) => Coefficients {
-                sigma_t: lumo_spectrum::upsample::unbounded(medium.sigma_t, wl).max(Vec3::ZERO),
-                albedo: lumo_spectrum::upsample::reflectance(medium.albedo, wl)
-                    .clamp(Vec3::ZERO, Vec3::ONE),
-            },
+            Some(wl) => {
+                let at =
+                    |t: &lumo_spectrum::Tabulated| Vec3::from_array(wl.lambda.map(|l| t.eval(l)));
+                let sp = &medium.spectra;
+                // A tabulated spectrum is the file's own; an RGB value is upsampled as
+                // Mitsuba's spectral variants do (extinction unbounded, albedo bounded).
+                let sigma_t = match &sp.sigma_t {
+                    Some(t) => at(t) * sp.sigma_t_scale,
+                    None => lumo_spectrum::upsample::unbounded(medium.sigma_t, wl),
+                };
+                let albedo = match &sp.albedo {
+                    Some(t) => at(t),
+                    None => lumo_spectrum::upsample::reflectance(medium.albedo, wl),
+                };
+                Coefficients {
+                    sigma_t: sigma_t.max(Vec3::ZERO),
+                    albedo: albedo.clamp(Vec3::ZERO, Vec3::ONE),
+                }
+            }
         }
     }
 }
@@ -393,6 +407,7 @@ mod tests {
                 to_local: to_world.inverse(),
             },
             phase: PhaseFunction::Isotropic,
+            spectra: Default::default(),
         }
     }
 

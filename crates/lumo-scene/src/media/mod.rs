@@ -52,6 +52,21 @@ pub struct Medium {
     pub density: Density,
     /// The phase function.
     pub phase: PhaseFunction,
+    /// What the file gave as spectra, for spectral rendering (RGB rendering reads the fields
+    /// above, which hold their colours).
+    pub spectra: MediumSpectra,
+}
+
+/// A medium's coefficients as tabulated spectra where the file gave Mitsuba `<spectrum>`
+/// wavelength:value pairs; everything absent is upsampled from the RGB values.
+#[derive(Clone, Debug, Default)]
+pub struct MediumSpectra {
+    /// Extinction per unit length (per unit density for grids), before `sigma_t_scale`.
+    pub sigma_t: Option<Arc<lumo_spectrum::Tabulated>>,
+    /// Multiplier of `sigma_t` (Mitsuba's `scale`).
+    pub sigma_t_scale: f32,
+    /// Single-scattering albedo.
+    pub albedo: Option<Arc<lumo_spectrum::Tabulated>>,
 }
 
 impl Medium {

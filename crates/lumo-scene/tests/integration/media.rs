@@ -163,3 +163,47 @@ fn media_that_cannot_be_rendered_are_refused() {
         .unwrap_err();
     assert!(e.contains("null BSDF"), "{e}");
 }
+
+/// `<spectrum>` pairs on a medium are kept for spectral rendering (RGB rendering reads their
+/// colours); before, `--spectral` upsampled those colours and a chromatic fog's blue read 2.5 %
+/// bright against Mitsuba's llvm_ad_spectral (suite scene spectral_media_chromatic_fog).
+#[test]
+fn medium_spectra_are_kept_and_spectral_absorption_pairs_warned_about() {
+    let scene = load(
+        r#"<medium type="homogeneous" id="fog">
+             <spectrum name="sigma_t" value="400:0.9, 700:0.1"/>
+             <spectrum name="albedo" value="400:0.5, 700:0.9"/>
+             <float name="scale" value="2"/>
+           </medium>
+           <sensor type="perspective"><ref id="fog"/></sensor>
+           <emitter type="constant"/>"#,
+    )
+    .unwrap();
+    let s = &scene.media.media[0].spectra;
+    let (t, a) = (s.sigma_t.as_ref().unwrap(), s.albedo.as_ref().unwrap());
+    assert_eq!((t.eval(400.0), t.eval(550.0)), (0.9, 0.5));
+    assert_eq!(s.sigma_t_scale, 2.0);
+    assert!((a.eval(550.0) - 0.7).abs() < 1e-6);
+    let rgb = load(
+        r#"<medium type="homogeneous" id="fog"><float name="sigma_t" value="0.5"/></medium>
+           <sensor type="perspective"><ref id="fog"/></sensor>"#,
+    )
+    .unwrap();
+    assert!(rgb.media.media[0].spectra.sigma_t.is_none());
+    assert!(rgb.media.media[0].spectra.albedo.is_none());
+    let xml = r#"<scene version="3.0.0"><medium type="homogeneous" id="fog">
+                   <spectrum name="sigma_a" value="400:0.1, 700:0.3"/>
+                 </medium><sensor type="perspective"><ref id="fog"/></sensor></scene>"#;
+    let strict = LoadOptions {
+        strict: true,
+        ..LoadOptions::default()
+    };
+    let e = load_mitsuba_str(xml, Path::new("media.xml"), &strict)
+        .err()
+        .expect("strict mode refuses the approximation")
+        .to_string();
+    assert!(
+        e.contains("sigma_a / sigma_s given as spectra") && e.contains("sigma_t and albedo"),
+        "{e}"
+    );
+}

@@ -10,7 +10,9 @@ use super::props::Props;
 use super::xml::Element;
 use super::Builder;
 use crate::load::LoadError;
-use crate::media::{read_vol, Boundary, Density, Medium, MediumInterface, PhaseFunction};
+use crate::media::{
+    read_vol, Boundary, Density, Medium, MediumInterface, MediumSpectra, PhaseFunction,
+};
 
 impl<'a> Builder<'a, '_> {
     /// The medium of `<medium>` element `el` (converted once, however often referenced):
@@ -30,16 +32,33 @@ impl<'a> Builder<'a, '_> {
                 format!("medium {name:?}: scale {scale} must be finite and ≥ 0"),
             ));
         }
+        let mut spectra = MediumSpectra {
+            sigma_t_scale: scale,
+            ..MediumSpectra::default()
+        };
         let (sigma_t, albedo, density) = match props.kind() {
             "homogeneous" => {
                 let (sigma_t, albedo) = if props.has("sigma_a") || props.has("sigma_s") {
                     // Mitsuba 0.6's parameters: absorption and scattering.
+                    if props.tabulated("sigma_a")?.is_some()
+                        || props.tabulated("sigma_s")?.is_some()
+                    {
+                        self.diag.warn(
+                            at.clone(),
+                            format!(
+                                "medium {name:?}: sigma_a / sigma_s given as spectra are read \
+                                 as their RGB colours (--spectral upsamples those); give \
+                                 sigma_t and albedo to keep the spectra"
+                            ),
+                        )?;
+                    }
                     let a = self.medium_color(&props, "sigma_a", Vec3::ZERO)?;
                     let s = self.medium_color(&props, "sigma_s", Vec3::ZERO)?;
                     let t = a + s;
                     let albedo = Vec3::select(t.cmpgt(Vec3::ZERO), s / t, Vec3::ZERO);
                     (t, albedo)
                 } else {
+                    spectra.sigma_t = props.tabulated("sigma_t")?.map(Arc::new);
                     (
                         self.medium_color(&props, "sigma_t", Vec3::ONE)?,
                         self.medium_color(&props, "albedo", Vec3::splat(0.75))?,
@@ -75,6 +94,7 @@ impl<'a> Builder<'a, '_> {
                 ))
             }
         };
+        spectra.albedo = props.tabulated("albedo")?.map(Arc::new);
         let sigma_t = sigma_t * scale;
         if !sigma_t.is_finite() {
             return Err(LoadError::invalid(
@@ -122,6 +142,7 @@ impl<'a> Builder<'a, '_> {
             albedo,
             density,
             phase,
+            spectra,
         });
         self.media.insert(key, index);
         Ok(index)
