@@ -18,7 +18,7 @@ use glam::Vec3;
 use lumo_image::luminance;
 
 use crate::integrators::path::{FirstHit, PathRadiance};
-use crate::render::PixelEstimate;
+use crate::settings::PixelEstimate;
 
 /// Fractional bits of a value's fixed-point form.
 const FRAC: i32 = 64;
