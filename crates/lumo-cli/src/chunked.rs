@@ -19,7 +19,7 @@ use anyhow::{anyhow, bail, Context, Result};
 use clap::Parser;
 use lumo_render::PixelSums;
 
-use crate::render_cmd::{Job, Plan, Ready, RenderArgs, RenderIntegrator};
+use crate::render::{Choices, Job, Plan, Ready, RenderArgs, RenderIntegrator};
 
 /// The words after `lumo render`, parsed by the command's own parser.
 #[derive(Parser)]
@@ -108,13 +108,13 @@ impl ChunkedRender {
         let plan = Plan::new(&args)?;
         let options = args
             .pipeline
-            .options(plan.settings.width, plan.settings.height);
-        if !plan.pipeline.takes_sums(&options) {
+            .options(plan.choices.settings.width, plan.choices.settings.height);
+        if !plan.choices.pipeline.takes_sums(&options) {
             bail!(
                 "--pipeline {}{}: this pipeline traces more than full paths per pixel (guide \
                  rays, a sparse or subsampled grid), which cannot be cut into sample chunks; \
                  use --pipeline auto, atrous (without --subsample), bilateral or none",
-                plan.pipeline,
+                plan.choices.pipeline,
                 if options.subsample > 1 {
                     format!(" --subsample {}", options.subsample)
                 } else {
@@ -127,7 +127,11 @@ impl ChunkedRender {
         }
         let plan_id = plan_id(words, &args.scene)?;
         let ready = plan.build(&args, role == Role::Driver)?;
-        let posed = ready.sequence.as_ref().map_or(0, |s| s.frames.first);
+        let posed = ready
+            .choices
+            .sequence
+            .as_ref()
+            .map_or(0, |s| s.frames.first);
         Ok(ChunkedRender {
             args,
             ready,
@@ -145,7 +149,7 @@ impl ChunkedRender {
 
     /// The frames to render: the `--frames` range, or `[0]` for a still.
     pub fn frames(&self) -> Vec<u32> {
-        match &self.ready.sequence {
+        match &self.ready.choices.sequence {
             Some(s) => (s.frames.first..=s.frames.last).collect(),
             None => vec![0],
         }
@@ -153,12 +157,15 @@ impl ChunkedRender {
 
     /// Samples per pixel of every frame.
     pub fn spp(&self) -> u32 {
-        self.ready.settings.spp
+        self.ready.choices.settings.spp
     }
 
     /// Image width and height.
     pub fn size(&self) -> (usize, usize) {
-        (self.ready.settings.width, self.ready.settings.height)
+        (
+            self.ready.choices.settings.width,
+            self.ready.choices.settings.height,
+        )
     }
 
     /// Every frame cut into chunks of at most `chunk_spp` samples per pixel, frame by frame.
@@ -182,7 +189,10 @@ impl ChunkedRender {
         self.check_chunk(&chunk)?;
         self.pose(chunk.frame)?;
         let Ready {
-            pool, rs, settings, ..
+            pool,
+            rs,
+            choices: Choices { settings, .. },
+            ..
         } = &self.ready;
         let sums = pool
             .install(|| lumo_render::render_sums(rs, settings, chunk.first, chunk.count, &|_| {}));
@@ -272,10 +282,14 @@ impl ChunkedRender {
         let Ready {
             pool,
             rs,
-            settings,
-            pipeline,
-            outputs,
-            sequence,
+            choices:
+                Choices {
+                    settings,
+                    pipeline,
+                    outputs,
+                    sequence,
+                    ..
+                },
             ..
         } = &self.ready;
         let job = Job {
@@ -337,7 +351,7 @@ impl ChunkedRender {
         if self.posed == frame {
             return Ok(());
         }
-        if let Some(seq) = &self.ready.sequence {
+        if let Some(seq) = &self.ready.choices.sequence {
             let i = (frame - seq.frames.first) as usize;
             seq.pose_in(&self.ready.pool, &mut self.ready.rs, i, frame, true)?;
         }
@@ -526,8 +540,8 @@ pub fn render_image(words: &[String]) -> Result<lumo_image::Image> {
     let ready = Plan::new(&args)?.build(&args, false)?;
     let job = Job {
         args: &args,
-        pipeline: ready.pipeline,
-        settings: ready.settings,
+        pipeline: ready.choices.pipeline,
+        settings: ready.choices.settings,
         pool: &ready.pool,
         outputs: Vec::new(),
     };
@@ -543,7 +557,7 @@ pub fn planned_defaults(words: &[String]) -> Result<(u32, (usize, usize))> {
         .args;
     let plan = Plan::new(&args)?;
     Ok((
-        plan.settings.spp,
-        (plan.settings.width, plan.settings.height),
+        plan.choices.settings.spp,
+        (plan.choices.settings.width, plan.choices.settings.height),
     ))
 }

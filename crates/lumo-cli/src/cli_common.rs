@@ -160,10 +160,10 @@ pub fn check_rr_depth(rr_depth: Option<u32>) -> Result<()> {
     }
 }
 
-/// Parses a samples-per-pixel option: 1..=[`crate::render_cmd::MAX_SPP`] (a typo such as
+/// Parses a samples-per-pixel option: 1..=[`crate::arguments::MAX_SPP`] (a typo such as
 /// 4294967295 once made the benchmarks ask for a terabyte and abort).
 pub fn parse_spp(s: &str) -> std::result::Result<u32, String> {
-    let max = crate::render_cmd::MAX_SPP;
+    let max = crate::arguments::MAX_SPP;
     match s.trim().parse::<u64>() {
         Ok(n) if (1..=max as u64).contains(&n) => Ok(n as u32),
         _ => Err(format!(

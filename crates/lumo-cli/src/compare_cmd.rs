@@ -116,7 +116,7 @@ pub fn run(args: CompareArgs) -> Result<()> {
             .collect();
         for i in 0..args.images.len() {
             let diff = diff_path(out, i, args.images.len());
-            crate::render_cmd::check_writable(&diff).context("--diff")?;
+            crate::output::check_writable(&diff).context("--diff")?;
             // Writing a diff over an input would destroy it (it once replaced the reference).
             if let Some(input) = inputs
                 .iter()

@@ -873,9 +873,9 @@ pub fn run(args: DenoiseArgs) -> anyhow::Result<()> {
     if ![1, 2, 4].contains(&args.subsample) {
         bail!("--subsample {}: use 1, 2 or 4", args.subsample);
     }
-    crate::render_cmd::check_writable(&args.output).context("-o")?;
+    crate::output::check_writable(&args.output).context("-o")?;
     if let Some(path) = &args.light_mask {
-        crate::render_cmd::check_writable(path).context("--light-mask")?;
+        crate::output::check_writable(path).context("--light-mask")?;
     }
     let t0 = Instant::now();
     let inputs = read_inputs(&args)?;

@@ -3,16 +3,15 @@
 //! rendering and its outputs through the same code ([`chunked`]).
 #![forbid(unsafe_code)]
 
+pub mod arguments;
 pub mod bench;
 pub mod chunked;
 pub mod cli_common;
 pub mod compare_cmd;
 pub mod denoise;
+pub mod output;
 pub mod pipeline_args;
-pub mod render_cmd;
-pub mod reshade;
-pub mod sequence;
+pub mod render;
+pub mod scene_load;
 pub mod serve_cmd;
-pub mod temporal;
-pub mod temporal_eval;
 pub mod worker_cmd;

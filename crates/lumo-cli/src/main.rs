@@ -1,7 +1,7 @@
 //! The `lumo` command.
 #![forbid(unsafe_code)]
 
-use lumo_cli::{bench, compare_cmd, denoise, render_cmd, serve_cmd, worker_cmd};
+use lumo_cli::{bench, compare_cmd, denoise, render, serve_cmd, worker_cmd};
 
 use clap::{Parser, Subcommand};
 
@@ -16,7 +16,7 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Path-trace a scene and write the image (EXR, PFM or PNG) and optionally its AOVs.
-    Render(render_cmd::RenderArgs),
+    Render(render::RenderArgs),
     /// Denoise an image from any renderer with a screen-space filter.
     Denoise(denoise::DenoiseArgs),
     /// Benchmarks with stated inputs and machine.
@@ -34,7 +34,7 @@ fn main() {
     let cli = Cli::parse();
     lumo_cli::cli_common::remove_temps_on_signal();
     let result = match cli.command {
-        Command::Render(args) => render_cmd::run(args),
+        Command::Render(args) => render::run(args),
         Command::Denoise(args) => denoise::run(args),
         Command::Bench(args) => bench::run(args),
         Command::Compare(args) => compare_cmd::run(args),

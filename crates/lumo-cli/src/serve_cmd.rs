@@ -14,7 +14,8 @@ use lumo_server::protocol::remote::{SceneKind, SceneSource};
 use lumo_server::remote::{check_token, new_token, RemoteConfig};
 use lumo_server::{Hub, Integrator, ServerConfig};
 
-use crate::render_cmd::{load_scene_animated, names_scene_file, parse_size};
+use crate::arguments::parse_size;
+use crate::scene_load::{load_scene_animated, names_scene_file};
 
 /// Arguments of `lumo serve`.
 #[derive(clap::Args, Debug)]
@@ -65,7 +66,7 @@ pub struct ServeArgs {
     pub animate: bool,
     /// Set a Mitsuba `$name` parameter of the scene file (overrides its `<default>`);
     /// repeatable. Remote workers load the scene with the same definitions.
-    #[arg(short = 'D', long = "define", value_name = "NAME=VALUE", value_parser = crate::render_cmd::parse_define)]
+    #[arg(short = 'D', long = "define", value_name = "NAME=VALUE", value_parser = crate::arguments::parse_define)]
     pub defines: Vec<(String, String)>,
     /// Accept remote render workers (`lumo worker`) on --worker-bind: they load the same
     /// scene (a built-in, or the file at the same absolute path on their machine) and their
@@ -187,10 +188,10 @@ pub fn run(args: ServeArgs) -> Result<()> {
         bail!(why);
     }
     if let Some(n) = args.max_photons {
-        if n == 0 || n > crate::render_cmd::MAX_PHOTONS {
+        if n == 0 || n > crate::arguments::MAX_PHOTONS {
             bail!(
                 "--max-photons {n}: expected 1..={}",
-                crate::render_cmd::MAX_PHOTONS
+                crate::arguments::MAX_PHOTONS
             );
         }
         config.ppm.max_photons = n;
@@ -199,7 +200,7 @@ pub fn run(args: ServeArgs) -> Result<()> {
     // from the start (a viewer switching to ppm later gets the same bound).
     if config.integrator == Integrator::Ppm {
         crate::cli_common::check_memory(
-            crate::render_cmd::ppm_map_bytes(config.ppm.max_photons),
+            crate::arguments::ppm_map_bytes(config.ppm.max_photons),
             &format!("a photon map of {} photons", config.ppm.max_photons),
             "use a smaller --max-photons",
         )?;

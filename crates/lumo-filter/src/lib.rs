@@ -24,8 +24,8 @@
 //! results are always finite and report how many pixels were missing.
 //! See docs/filters.md for parameters, defaults and how they were chosen.
 //!
-//! Layout: one folder or file per filter (`atrous/`, `guided/`, `bilateral.rs`, `jbu.rs`,
-//! `temporal/`), the interface and the list in `denoiser.rs`, what the filters share in
+//! Layout: one folder or file per filter (`atrous/`, `auto/`, `guided/`, `bilateral.rs`,
+//! `jbu.rs`, `temporal/`), the interface and the list in `denoiser.rs`, what the filters share in
 //! `common/`, benchmark inputs in `bench/`. This file only declares the modules and
 //! re-exports their public items.
 // Every unsafe block (the SIMD kernels) says why it is sound.

@@ -1,8 +1,12 @@
-//! lumo's renderer: a two-level BVH over obvhs, stateless Owen-scrambled Sobol sampling,
-//! physically based BSDFs (one file per material) and lights that sample both ways (towards a
-//! surface point and as particle sources), a pinhole camera with ray generation and
-//! importance, the integrators (a path tracer with next-event estimation and MIS, a light
-//! tracer), and a film that keeps direct and indirect light and a G-buffer apart.
+//! lumo's renderer: a two-level BVH over obvhs (with exact spheres, disks and cylinders),
+//! stateless Owen-scrambled Sobol sampling, physically based BSDFs (one file per material in
+//! [`bsdf`]), lights that sample both ways (towards a surface point and as particle sources,
+//! [`lights`]), participating media ([`media`]), a pinhole camera with ray generation and
+//! importance, the integrators ([`integrators`]: the path tracer with next-event estimation
+//! and MIS, scalar, wavefront and with a vectorised diffuse bounce, RGB or spectral; the light
+//! tracer; bidirectional path tracing; progressive photon mapping), and a film that keeps
+//! direct and indirect light and a G-buffer apart. `render.rs` holds the parallel loops that
+//! render whole images with each integrator; `render_scene/` the scene prepared for them.
 // Every unsafe block (the SIMD kernels) says why it is sound.
 #![deny(clippy::undocumented_unsafe_blocks)]
 
@@ -20,6 +24,7 @@ mod pixel_sums;
 mod render;
 mod render_scene;
 pub mod sampler;
+mod settings;
 pub mod shading;
 mod specular_albedo;
 #[cfg(test)]
@@ -32,7 +37,8 @@ pub use integrators::photon::PpmSettings;
 pub use pixel_sums::PixelSums;
 pub use render::{
     frame_from_estimates, instance_ids, map_pixels, map_rows, render, render_bdpt, render_light,
-    render_pixel, render_pixel_one_ray, render_ppm, render_sums, trace_sample, PixelEstimate,
-    PpmStats, RenderSettings, RenderStats, LIGHT_STREAM_X,
+    render_pixel, render_pixel_one_ray, render_ppm, render_sums, trace_sample, PpmStats,
+    LIGHT_STREAM_X,
 };
 pub use render_scene::{RenderScene, SceneUpdate, Surface};
+pub use settings::{PixelEstimate, RenderSettings, RenderStats};

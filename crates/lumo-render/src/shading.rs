@@ -124,7 +124,10 @@ impl ShadingBsdf {
             && match &self.bsdf {
                 Bsdf::Diffuse(_) => true,
                 Bsdf::Plastic(p) => p.mf.max_alpha() >= BROAD_COAT_ALPHA,
-                _ => false,
+                Bsdf::Mirror(_)
+                | Bsdf::Conductor(_)
+                | Bsdf::Dielectric(_)
+                | Bsdf::ThinDielectric(_) => false,
             }
     }
 
@@ -155,7 +158,7 @@ impl ShadingBsdf {
     /// seen from behind is mirrored through its plane, as Mitsuba's `twosided` does).
     #[inline]
     fn opaque(&self) -> bool {
-        !matches!(self.bsdf, Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_))
+        !self.bsdf.is_transmissive()
     }
 
     /// `wo`, `wi` (mirrored through the plane when an opaque BSDF is seen from behind) in the

@@ -4,6 +4,7 @@
 #![forbid(unsafe_code)]
 
 pub mod animation;
+mod bsdf_facts;
 mod builtin;
 mod camera;
 mod error;
@@ -17,6 +18,7 @@ pub mod shapes;
 mod texture;
 
 pub use animation::{AnimatedScene, Animation};
+pub use bsdf_facts::{BaseColor, BsdfFlags, SMOOTH_ALPHA};
 pub use builtin::{builtin_scene, BuiltinScene, BUILTIN_SCENES};
 pub use camera::{Camera, FovAxis, Lens, PixelFilter};
 pub use error::SceneError;

@@ -105,33 +105,9 @@ fn intensity(l: &Light) -> Option<Vec3> {
     }
 }
 
-/// The BSDF under Mitsuba's adapters (masks, normal and bump maps).
-fn innermost_mut(mut b: &mut BsdfSpec) -> &mut BsdfSpec {
-    loop {
-        match b {
-            BsdfSpec::Mask { nested, .. }
-            | BsdfSpec::NormalMap { nested, .. }
-            | BsdfSpec::BumpMap { nested, .. } => b = nested,
-            other => return other,
-        }
-    }
-}
-
 /// A material's base colour at `uv`, if it has one.
 fn base_color(m: &Material, uv: Vec2) -> Option<Vec3> {
-    let mut b = &m.bsdf;
-    while let BsdfSpec::Mask { nested, .. }
-    | BsdfSpec::NormalMap { nested, .. }
-    | BsdfSpec::BumpMap { nested, .. } = b
-    {
-        b = nested;
-    }
-    match b {
-        BsdfSpec::Diffuse { reflectance } => Some(reflectance.eval(uv)),
-        BsdfSpec::Plastic { diffuse, .. } => Some(diffuse.eval(uv)),
-        BsdfSpec::Mirror { reflectance } => Some(*reflectance),
-        _ => None,
-    }
+    Some(m.bsdf.base_color()?.at(uv))
 }
 
 /// What is under image position `uv` ∈ [0,1]² of a `width`×`height` view through `camera`:
@@ -240,11 +216,20 @@ pub fn apply(rs: &mut RenderScene, edits: &[Edit]) -> Result<SceneUpdate, SceneE
             }
             EditOp::BaseColor => {
                 let m = s.materials.get_mut(i).ok_or_else(bad)?;
-                match innermost_mut(&mut m.bsdf) {
+                match m.bsdf.innermost_mut() {
                     BsdfSpec::Diffuse { reflectance } => *reflectance = Texture::Constant(e.value),
                     BsdfSpec::Plastic { diffuse, .. } => *diffuse = Texture::Constant(e.value),
                     BsdfSpec::Mirror { reflectance } => *reflectance = e.value,
-                    _ => return Err(bad()),
+                    // No single colour to set (η and k, glass, two branches); the adapters
+                    // are not innermost.
+                    BsdfSpec::Conductor { .. }
+                    | BsdfSpec::Dielectric { .. }
+                    | BsdfSpec::ThinDielectric { .. }
+                    | BsdfSpec::TwoSided { .. }
+                    | BsdfSpec::Blend { .. }
+                    | BsdfSpec::NormalMap { .. }
+                    | BsdfSpec::BumpMap { .. }
+                    | BsdfSpec::Mask { .. } => return Err(bad()),
                 }
             }
         }

@@ -6,6 +6,7 @@
 //!
 //! A path carries [`HERO_LANES`] wavelengths in the lanes of the renderer's colour type: RGB
 //! rendering and spectral rendering run the same code with different meanings of the lanes.
+#![forbid(unsafe_code)]
 
 pub mod cie;
 mod data;

@@ -10,7 +10,7 @@ use lumo_pipeline::{run_pipeline, Pipeline, PipelineOptions};
 
 use super::atomic::{check_dir_writable, write_image_atomic};
 use super::scenes::{load_all, settings};
-use crate::render_cmd::parse_size;
+use crate::arguments::parse_size;
 
 /// Arguments of `lumo bench inputs`.
 #[derive(clap::Args, Debug)]

@@ -23,7 +23,7 @@ use lumo_render::{
 
 use super::scenes::{load_all, scene_names, settings, BenchScene};
 use super::{atomic, machine_description};
-use crate::render_cmd::parse_size;
+use crate::arguments::parse_size;
 
 /// An integrator of the table.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]

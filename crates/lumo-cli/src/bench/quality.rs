@@ -19,8 +19,8 @@ use super::quality_integrators::{row_integrators, score, IntegratorScored};
 use super::reference::{ensure_reference, reference_key};
 use super::report::{quality_markdown, QualityContext};
 use super::scenes::{load_all, scene_names, settings, BenchScene};
+use crate::arguments::parse_size;
 use crate::pipeline_args::parse_pipeline;
-use crate::render_cmd::parse_size;
 
 /// Arguments of `lumo bench quality`.
 #[derive(clap::Args, Debug)]

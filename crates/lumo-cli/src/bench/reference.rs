@@ -13,7 +13,7 @@ use lumo_pipeline::{run_pipeline, Pipeline, PipelineOptions};
 
 use super::cache::{self, ReferenceKey};
 use super::scenes::{load_all, settings, BenchScene};
-use crate::render_cmd::parse_size;
+use crate::arguments::parse_size;
 
 /// Arguments of `lumo bench reference`.
 #[derive(clap::Args, Debug)]

@@ -12,7 +12,8 @@ use lumo_render::{PathSettings, RenderScene, RenderSettings};
 use super::integrators::{render_with, BenchIntegrator};
 
 use super::{machine_description, median};
-use crate::render_cmd::{parse_size, si};
+use crate::arguments::parse_size;
+use crate::output::si;
 
 /// Arguments of `lumo bench render`.
 #[derive(clap::Args, Debug)]
@@ -60,7 +61,7 @@ fn run_render(args: RenderBenchArgs) -> Result<()> {
     crate::cli_common::check_max_depth(Some(args.max_depth))?;
     if let Some(path) = &args.markdown {
         // Found before the benchmark runs, not after.
-        crate::render_cmd::check_output_file(path).context("--markdown")?;
+        crate::output::check_output_file(path).context("--markdown")?;
     }
     let names = super::scenes::scene_names(&args.scenes);
     let pool = crate::cli_common::worker_pool(args.threads)?;
@@ -84,7 +85,7 @@ fn run_render(args: RenderBenchArgs) -> Result<()> {
         args.repeats.max(1)
     );
     for name in &names {
-        let scene = crate::render_cmd::load_scene(name)?;
+        let scene = crate::scene_load::load_scene(name)?;
         let tris = scene.triangle_count();
         let t0 = Instant::now();
         let rs = pool.install(|| RenderScene::new(scene))?;

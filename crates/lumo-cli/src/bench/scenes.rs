@@ -31,7 +31,7 @@ pub fn scene_names(given: &[String]) -> Vec<String> {
     }
 }
 
-/// Whether `lumo render` treats `arg` as a file (the same rule as `render_cmd`).
+/// Whether `lumo render` treats `arg` as a file (the same rule as `scene_load::names_scene_file`).
 fn is_file(arg: &str) -> bool {
     std::path::Path::new(arg).extension().is_some() || arg.contains('/')
 }
@@ -41,7 +41,7 @@ pub fn load_all(args: &[String], pool: &rayon::ThreadPool) -> Result<Vec<BenchSc
     let mut out = Vec::with_capacity(args.len());
     for arg in args {
         let (scene, file): (_, FileSettings) =
-            crate::render_cmd::load_scene_with(arg, &LoadOptions::default())
+            crate::scene_load::load_scene_with(arg, &LoadOptions::default())
                 .with_context(|| format!("scene {arg}"))?;
         let id = scene_identity(arg, is_file(arg))?;
         let max_depth = file.max_depth.unwrap_or(scene.defaults.max_depth);

@@ -15,8 +15,8 @@ use lumo_pipeline::{run_pipeline, Pipeline, PipelineOptions, Timings};
 use super::atomic::{check_dir_writable, write_bytes};
 use super::scenes::{load_all, scene_names, settings};
 use super::speed_report::{speed_markdown, FilterRow, RenderRow, SpeedContext};
+use crate::arguments::parse_size;
 use crate::pipeline_args::parse_pipeline;
-use crate::render_cmd::parse_size;
 
 /// Arguments of `lumo bench speed`.
 #[derive(clap::Args, Debug)]

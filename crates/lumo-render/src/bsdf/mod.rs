@@ -28,8 +28,9 @@ pub use thin_dielectric::{thin_dielectric_reflectance, ThinDielectric};
 
 use glam::{Vec2, Vec3};
 
-/// Roughness below which a microfacet BSDF is treated as perfectly smooth.
-pub const SMOOTH_ALPHA: f32 = 1e-3;
+/// Roughness below which a microfacet BSDF is treated as perfectly smooth (the scene's
+/// [`lumo_scene::BsdfFlags`] call such a BSDF specular by the same bound).
+pub use lumo_scene::SMOOTH_ALPHA;
 
 /// A BSDF with its textures resolved at one surface point.
 #[derive(Clone, Copy, Debug)]
@@ -110,9 +111,14 @@ impl Bsdf {
         }
     }
 
-    /// Transmissive BSDFs see both sides as different media; opaque ones are two-sided.
-    fn is_transmissive(&self) -> bool {
-        matches!(self, Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_))
+    /// Transmissive BSDFs see both sides as different media; opaque ones are two-sided. The
+    /// evaluated counterpart of [`lumo_scene::BsdfSpec::flags`]' `transmission`.
+    #[inline]
+    pub(crate) fn is_transmissive(&self) -> bool {
+        match self {
+            Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => true,
+            Bsdf::Diffuse(_) | Bsdf::Mirror(_) | Bsdf::Conductor(_) | Bsdf::Plastic(_) => false,
+        }
     }
 
     /// The G-buffer "albedo": diffuse reflectance, or the specular albedo at normal incidence.
@@ -131,7 +137,11 @@ impl Bsdf {
     pub fn albedo_towards(&self, wo: Vec3) -> Vec3 {
         match self {
             Bsdf::Plastic(p) => p.albedo(wo),
-            _ => self.albedo(),
+            Bsdf::Diffuse(_)
+            | Bsdf::Mirror(_)
+            | Bsdf::Conductor(_)
+            | Bsdf::Dielectric(_)
+            | Bsdf::ThinDielectric(_) => self.albedo(),
         }
     }
 

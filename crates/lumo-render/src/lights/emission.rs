@@ -10,11 +10,8 @@ use std::f32::consts::PI;
 
 use glam::{Vec2, Vec3};
 
-use super::{triangle_radiance, LightKind, Lights};
-use crate::geometry::{
-    square_to_cosine_hemisphere, square_to_disk, square_to_triangle, square_to_uniform_sphere,
-    Basis, UNIFORM_SPHERE_PDF,
-};
+use super::{LightKind, Lights};
+use crate::geometry::{square_to_cosine_hemisphere, Basis};
 
 /// A particle leaving a light.
 #[derive(Clone, Copy, Debug)]
@@ -77,7 +74,8 @@ impl Lights {
     pub fn light_index(&self, instance: u32, triangle: u32) -> Option<u32> {
         let offset = (*self.instance_offset.get(instance as usize)?)?;
         match self.lights.get(offset as usize)? {
-            LightKind::Shape { .. } => Some(offset),
+            // A shape is one light per instance; a mesh has one per triangle.
+            LightKind::Shape(_) => Some(offset),
             _ => Some(offset + triangle),
         }
     }
@@ -100,32 +98,8 @@ impl Lights {
         if pick <= 0.0 {
             return None;
         }
-        let (area, solid_angle, delta_position, delta_direction) = match self.lights.get(index)? {
-            LightKind::Triangle(tri) => (pick / tri.area, n.dot(dir) / PI, false, false),
-            LightKind::Shape { shape, .. } => (pick / shape.area, n.dot(dir) / PI, false, false),
-            LightKind::Point { .. } => (pick, UNIFORM_SPHERE_PDF, true, false),
-            LightKind::Spot { axis, cone, .. } => {
-                let cos_outer = cone.cos_cutoff();
-                let inside = axis.dot(dir) >= cos_outer;
-                let pdf = if inside {
-                    1.0 / (2.0 * PI * (1.0 - cos_outer))
-                } else {
-                    0.0
-                };
-                (pick, pdf, true, false)
-            }
-            LightKind::Directional { .. } => {
-                let r = self.scene_radius;
-                (pick / (PI * r * r), 1.0, false, true)
-            }
-            LightKind::Environment => return None,
-        };
-        (area > 0.0 && area.is_finite() && solid_angle > 0.0).then_some(EmissionPdf {
-            area,
-            solid_angle,
-            delta_position,
-            delta_direction,
-        })
+        let pdf = self.lights.get(index)?.emission_pdf(self, pick, n, dir)?;
+        (pdf.area > 0.0 && pdf.area.is_finite() && pdf.solid_angle > 0.0).then_some(pdf)
     }
 
     /// True when no light can emit particles (none at all, or environment lights only).
@@ -149,118 +123,37 @@ impl Lights {
         if pick <= 0.0 {
             return None;
         }
-        let area_point = match &self.lights[index] {
-            LightKind::Triangle(tri) => {
-                let b = square_to_triangle(u_pos);
-                let radiance = triangle_radiance(&self.textured, tri.texture, tri.radiance, b);
-                Some((
-                    tri.p0 + tri.e1 * b.x + tri.e2 * b.y,
-                    tri.normal,
-                    tri.area,
-                    radiance,
-                ))
-            }
-            LightKind::Shape { shape, radiance } => {
-                let sp = shape.sample_area(u_pos);
-                Some((sp.p, sp.n, shape.area, *radiance))
-            }
-            _ => None,
-        };
-        let light = index as u32;
-        let sample = match &self.lights[index] {
-            LightKind::Triangle(_) | LightKind::Shape { .. } => {
-                let (p, normal, area, radiance) = area_point?;
-                let pdf_area = pick / area;
-                let local = square_to_cosine_hemisphere(u_dir);
-                let dir = Basis::new(normal).to_world(local).normalize();
-                EmissionSample {
-                    light,
-                    p,
-                    normal: Some(normal),
-                    radiance,
-                    dir,
-                    // Le·cos / (pdf_A · cos/π) = Le·π / pdf_A.
-                    weight: radiance * PI / pdf_area,
-                    pdf: EmissionPdf {
-                        area: pdf_area,
-                        solid_angle: local.z.max(0.0) / PI,
-                        delta_position: false,
-                        delta_direction: false,
-                    },
-                }
-            }
-            LightKind::Point {
-                position,
-                intensity,
-            } => EmissionSample {
-                light,
-                p: *position,
-                normal: None,
-                radiance: Vec3::ZERO,
-                dir: square_to_uniform_sphere(u_dir),
-                weight: *intensity / (pick * UNIFORM_SPHERE_PDF),
-                pdf: EmissionPdf {
-                    area: pick,
-                    solid_angle: UNIFORM_SPHERE_PDF,
-                    delta_position: true,
-                    delta_direction: false,
-                },
-            },
-            LightKind::Spot {
-                position,
-                axis,
-                intensity,
-                cone,
-            } => {
-                // Uniform in the cutoff cone, weighted by the falloff.
-                let cos_outer = cone.cos_cutoff();
-                let cos = 1.0 - u_dir.x * (1.0 - cos_outer);
-                let sin = (1.0 - cos * cos).max(0.0).sqrt();
-                let phi = 2.0 * PI * u_dir.y;
-                let local = Vec3::new(sin * phi.cos(), sin * phi.sin(), cos);
-                let falloff = cone.falloff(cos);
-                let pdf_dir = 1.0 / (2.0 * PI * (1.0 - cos_outer));
-                EmissionSample {
-                    light,
-                    p: *position,
-                    normal: None,
-                    radiance: Vec3::ZERO,
-                    dir: Basis::new(*axis).to_world(local).normalize(),
-                    weight: *intensity * falloff / (pick * pdf_dir),
-                    pdf: EmissionPdf {
-                        area: pick,
-                        solid_angle: pdf_dir,
-                        delta_position: true,
-                        delta_direction: false,
-                    },
-                }
-            }
-            LightKind::Directional {
-                direction,
-                irradiance,
-            } => {
-                // A disk covering the scene, perpendicular to the light, outside the scene.
-                let r = self.scene_radius;
-                let d = square_to_disk(u_pos) * r;
-                let f = Basis::new(*direction);
-                EmissionSample {
-                    light,
-                    p: self.scene_center + f.to_world(Vec3::new(d.x, d.y, 0.0)) - *direction * r,
-                    normal: None,
-                    radiance: Vec3::ZERO,
-                    dir: *direction,
-                    weight: *irradiance * (PI * r * r) / pick,
-                    pdf: EmissionPdf {
-                        area: pick / (PI * r * r),
-                        solid_angle: 1.0,
-                        delta_position: false,
-                        delta_direction: true,
-                    },
-                }
-            }
-            LightKind::Environment => return None,
-        };
-        Some(sample)
+        self.lights[index].emit(self, index as u32, pick, u_pos, u_dir)
+    }
+}
+
+/// A particle leaving `point`, normal, area and radiance of an area light picked with
+/// probability `pick`, in a cosine-weighted direction chosen by `u_dir`.
+#[inline]
+pub(super) fn area_emission(
+    light: u32,
+    pick: f32,
+    area_point: (Vec3, Vec3, f32, Vec3),
+    u_dir: Vec2,
+) -> EmissionSample {
+    let (p, normal, area, radiance) = area_point;
+    let pdf_area = pick / area;
+    let local = square_to_cosine_hemisphere(u_dir);
+    let dir = Basis::new(normal).to_world(local).normalize();
+    EmissionSample {
+        light,
+        p,
+        normal: Some(normal),
+        radiance,
+        dir,
+        // Le·cos / (pdf_A · cos/π) = Le·π / pdf_A.
+        weight: radiance * PI / pdf_area,
+        pdf: EmissionPdf {
+            area: pdf_area,
+            solid_angle: local.z.max(0.0) / PI,
+            delta_position: false,
+            delta_direction: false,
+        },
     }
 }
 

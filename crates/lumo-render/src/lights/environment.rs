@@ -8,6 +8,9 @@ use lumo_image::luminance;
 use lumo_scene::EnvMap;
 
 use super::distribution::Distribution1d;
+use super::source::LightSource;
+use super::{EmissionPdf, EmissionSample, LightSample, Lights};
+use crate::geometry::square_to_uniform_sphere;
 
 /// An importance-sampled latitude-longitude environment.
 pub(super) struct EnvSampler {
@@ -125,5 +128,94 @@ impl EnvSampler {
         let uv = Vec2::new((x as f32 + ux) / w as f32, (y as f32 + uy) / h as f32);
         let dir = lat_long_direction(&self.map, uv);
         (dir, self.pdf(dir))
+    }
+}
+
+/// The environment as one light: the constant background and/or the image (whose tables live
+/// in [`Lights`], shared with the radiance lookups of escaping rays).
+pub(crate) struct EnvironmentLight {
+    /// Mean radiance of the image times its scale, plus the constant background: its power
+    /// estimate.
+    pub(super) mean: Vec3,
+}
+
+impl LightSource for EnvironmentLight {
+    fn power(&self, disk: f32) -> f32 {
+        disk * PI * luminance(self.mean.into())
+    }
+
+    fn is_delta(&self) -> bool {
+        false
+    }
+
+    /// A particle from infinity needs a scene-sized disk per direction: the environment stays
+    /// the path tracer's job.
+    fn emits_particles(&self) -> bool {
+        false
+    }
+
+    #[inline(always)]
+    fn sample_from(
+        &self,
+        lights: &Lights,
+        light: u32,
+        pick: f32,
+        _p: Vec3,
+        u: Vec2,
+    ) -> Option<LightSample> {
+        let (wi, _) = match (&lights.env, lights.constant.max_element() > 0.0) {
+            (Some(e), true) => {
+                // Split the 2-D point: first coordinate decides the mixture component.
+                if u.x < 0.5 {
+                    e.sample(Vec2::new(u.x * 2.0, u.y))
+                } else {
+                    (
+                        square_to_uniform_sphere(Vec2::new(u.x * 2.0 - 1.0, u.y)),
+                        0.0,
+                    )
+                }
+            }
+            (Some(e), false) => e.sample(u),
+            (None, _) => (square_to_uniform_sphere(u), 0.0),
+        };
+        let pdf = pick * lights.env_direction_pdf(wi);
+        if pdf <= 0.0 {
+            return None;
+        }
+        Some(LightSample {
+            light,
+            normal: Vec3::ZERO,
+            wi,
+            distance: f32::INFINITY,
+            point: Vec3::ZERO,
+            weight: lights.environment(wi) / pdf,
+            pdf,
+        })
+    }
+
+    /// The density of the direction from `from` towards `point`.
+    fn pdf_from(&self, lights: &Lights, pick: f32, from: Vec3, point: Vec3) -> f32 {
+        pick * lights.env_direction_pdf((point - from).normalize_or_zero())
+    }
+
+    fn emit(
+        &self,
+        _lights: &Lights,
+        _light: u32,
+        _pick: f32,
+        _u_pos: Vec2,
+        _u_dir: Vec2,
+    ) -> Option<EmissionSample> {
+        None
+    }
+
+    fn emission_pdf(
+        &self,
+        _lights: &Lights,
+        _pick: f32,
+        _n: Vec3,
+        _dir: Vec3,
+    ) -> Option<EmissionPdf> {
+        None
     }
 }

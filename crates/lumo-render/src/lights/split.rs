@@ -14,11 +14,12 @@ impl Lights {
         // Past the area lights only: a mesh light's thousands of triangles are not walked per
         // pixel.
         let punctual = self.lights.iter().enumerate().skip(self.first_punctual);
-        punctual.filter_map(move |(i, l)| match l {
-            LightKind::Point { .. } | LightKind::Spot { .. } | LightKind::Directional { .. } => {
+        punctual.filter_map(move |(i, l)| {
+            if l.is_delta() {
                 self.sample_chosen(i, 1.0, l, p, Vec2::ZERO)
+            } else {
+                None
             }
-            _ => None,
         })
     }
 
@@ -38,8 +39,7 @@ impl Lights {
     pub(crate) fn only_constant_triangles(&self) -> bool {
         self.lights.iter().all(|l| match l {
             LightKind::Triangle(t) => t.texture == NO_TEXTURE,
-            LightKind::Shape { .. } | LightKind::Environment => false,
-            _ => true,
+            l => l.is_delta(),
         })
     }
 

@@ -50,11 +50,9 @@ fn hoist(b: &BsdfSpec) -> BsdfSpec {
             other => other.clone(),
         }
     };
-    let nested = match b {
-        BsdfSpec::Mask { nested, .. }
-        | BsdfSpec::NormalMap { nested, .. }
-        | BsdfSpec::BumpMap { nested, .. } => hoist(nested),
-        _ => return b.clone(),
+    let nested = match b.adapted() {
+        Some(nested) => hoist(nested),
+        None => return b.clone(),
     };
     match nested {
         BsdfSpec::TwoSided { front, back } => BsdfSpec::TwoSided {

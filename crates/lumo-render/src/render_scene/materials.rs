@@ -260,28 +260,10 @@ pub(super) fn microfacet(r: &lumo_scene::Roughness, uv: Option<glam::Vec2>) -> M
     }
 }
 
-/// The BSDF under a material's adapters (normal and bump maps, masks).
-pub(super) fn innermost(mut b: &BsdfSpec) -> &BsdfSpec {
-    while let Some(nested) = adapted(b) {
-        b = nested;
-    }
-    b
-}
-
-/// The BSDF an adapter wraps (`None` for a plain BSDF).
-pub(super) fn adapted(b: &BsdfSpec) -> Option<&BsdfSpec> {
-    match b {
-        BsdfSpec::NormalMap { nested, .. }
-        | BsdfSpec::BumpMap { nested, .. }
-        | BsdfSpec::Mask { nested, .. } => Some(nested),
-        _ => None,
-    }
-}
-
 /// Whether `b` is an adapter.
 #[inline]
 pub(super) fn is_adapter(b: &BsdfSpec) -> bool {
-    adapted(b).is_some()
+    b.adapted().is_some()
 }
 
 /// Whether a mask is among the adapters of `b`.
@@ -289,7 +271,7 @@ pub(super) fn has_mask(mut b: &BsdfSpec) -> bool {
     loop {
         match b {
             BsdfSpec::Mask { .. } => return true,
-            _ => match adapted(b) {
+            _ => match b.adapted() {
                 Some(nested) => b = nested,
                 None => return false,
             },

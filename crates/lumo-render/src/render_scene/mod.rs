@@ -5,10 +5,10 @@ mod branches;
 mod materials;
 mod spectral;
 
-use materials::{has_mask, innermost, microfacet};
+use materials::{has_mask, microfacet};
 
 use glam::{Mat3, Mat4, Vec2, Vec3};
-use lumo_scene::{AnimatedScene, BsdfSpec, Mesh, Scene, SceneError, Texture};
+use lumo_scene::{AnimatedScene, BsdfSpec, Mesh, Roughness, Scene, SceneError, Texture};
 
 use crate::accel::analytic::Shape;
 use crate::accel::{Accel, AccelUpdate, Hit};
@@ -296,35 +296,41 @@ impl RenderScene {
         let (branch_materials, branches) = branches::branch_materials(&scene.materials);
         // The per-material tables cover the branch materials too (they follow the scene's).
         let all = || scene.materials.iter().chain(branch_materials.iter());
-        let coats: Vec<Option<&'static RoughCoat>> = all()
-            .map(|m| match innermost(&m.bsdf) {
+        // Per material, the rough coat's tables if asked for, and the internal reflectance of
+        // the coat over a diffuse base (0 without one).
+        let (coats, fdr_int): (Vec<Option<&'static RoughCoat>>, Vec<f32>) = all()
+            .map(|m| match m.bsdf.innermost() {
                 BsdfSpec::Plastic {
                     ior,
                     roughness,
-                    exact_rough_coat: true,
+                    exact_rough_coat,
                     ..
                 } => {
                     let mf = microfacet(roughness, None);
-                    (mf.max_alpha() >= SMOOTH_ALPHA).then(|| RoughCoat::shared(mf, *ior))
+                    let coat = (*exact_rough_coat && mf.max_alpha() >= SMOOTH_ALPHA)
+                        .then(|| RoughCoat::shared(mf, *ior));
+                    let fdr = match coat {
+                        Some(c) => c.internal_reflectance,
+                        None => fresnel_diffuse_reflectance(1.0 / ior),
+                    };
+                    (coat, fdr)
                 }
-                _ => None,
+                // No diffuse base under a coat; adapters are not innermost, and two-branch
+                // materials' branches are materials of their own.
+                BsdfSpec::Diffuse { .. }
+                | BsdfSpec::Mirror { .. }
+                | BsdfSpec::Conductor { .. }
+                | BsdfSpec::Dielectric { .. }
+                | BsdfSpec::ThinDielectric { .. }
+                | BsdfSpec::TwoSided { .. }
+                | BsdfSpec::Blend { .. }
+                | BsdfSpec::NormalMap { .. }
+                | BsdfSpec::BumpMap { .. }
+                | BsdfSpec::Mask { .. } => (None, 0.0),
             })
-            .collect();
-        let fdr_int = all()
-            .zip(&coats)
-            .map(|(m, coat)| match (innermost(&m.bsdf), coat) {
-                (BsdfSpec::Plastic { .. }, Some(c)) => c.internal_reflectance,
-                (BsdfSpec::Plastic { ior, .. }, None) => fresnel_diffuse_reflectance(1.0 / ior),
-                _ => 0.0,
-            })
-            .collect();
+            .unzip();
         let mut anisotropic: Vec<bool> = all()
-            .map(|m| match innermost(&m.bsdf) {
-                BsdfSpec::Conductor { roughness, .. }
-                | BsdfSpec::Plastic { roughness, .. }
-                | BsdfSpec::Dielectric { roughness, .. } => roughness.is_anisotropic(),
-                _ => false,
-            })
+            .map(|m| m.bsdf.roughness().is_some_and(Roughness::is_anisotropic))
             .collect();
         // A two-branch material's frame must serve either branch (children follow their
         // parents in the list, so a reverse pass sees them first).
@@ -333,15 +339,7 @@ impl RenderScene {
                 anisotropic[i] = anisotropic[b.first] || anisotropic[b.second];
             }
         }
-        let back_black: Vec<bool> = all()
-            .map(|m| {
-                !m.two_sided
-                    && !matches!(
-                        innermost(&m.bsdf),
-                        BsdfSpec::Dielectric { .. } | BsdfSpec::ThinDielectric { .. }
-                    )
-            })
-            .collect();
+        let back_black: Vec<bool> = all().map(|m| !m.two_sided && !m.bsdf.transmits()).collect();
         let one_sided = all()
             .zip(&back_black)
             .map(|(m, &black)| black && !has_mask(&m.bsdf))

@@ -8,11 +8,9 @@
 //! directly.
 
 use glam::Vec3;
-use lumo_scene::{BsdfSpec, Texture};
 use lumo_spectrum::upsample::{illuminant, reflectance, unbounded, unbounded_coefficients};
 use lumo_spectrum::{coefficients, Sigmoid, Tabulated, Wavelengths};
 
-use super::materials::innermost;
 use super::{RenderScene, Surface};
 use crate::bsdf::{Bsdf, Conductor, Diffuse, Mirror, Plastic};
 use crate::shading::ShadingBsdf;
@@ -40,17 +38,7 @@ impl SpectralCache {
             .materials
             .iter()
             .map(|m| {
-                let c = match innermost(&m.bsdf) {
-                    BsdfSpec::Diffuse {
-                        reflectance: Texture::Constant(c),
-                    }
-                    | BsdfSpec::Plastic {
-                        diffuse: Texture::Constant(c),
-                        ..
-                    }
-                    | BsdfSpec::Mirror { reflectance: c } => *c,
-                    _ => return None,
-                };
+                let c = m.bsdf.base_color()?.constant()?;
                 Some((c, coefficients(c)))
             })
             .collect();

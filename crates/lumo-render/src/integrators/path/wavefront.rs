@@ -19,9 +19,10 @@ use crate::camera::PinholeCamera;
 use crate::integrators::path::vector_bounce::{self, diffuse_bounce, SimpleLane};
 use crate::integrators::path::{FirstHit, PathRadiance, PathState, ShadowRay};
 use crate::pixel_sums::PixelSums;
-use crate::render::{camera_sample_with, PixelEstimate, RenderSettings};
+use crate::render::camera_sample_with;
 use crate::render_scene::RenderScene;
 use crate::sampler::{PixelSampler, RUN};
+use crate::settings::{PixelEstimate, RenderSettings};
 
 /// Paths advanced together: enough to keep packets full as paths end, few enough that their
 /// states (~200 bytes each) stay in the first- and second-level caches.

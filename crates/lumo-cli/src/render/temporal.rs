@@ -21,7 +21,7 @@ use lumo_render::camera::PinholeCamera;
 use lumo_render::{direct_split, instance_ids, DirectSplit, Frame, PathSettings, RenderScene};
 use lumo_scene::Camera;
 
-use crate::reshade::{reshade, Pose, ShadedFrame};
+use super::reshade::{reshade, Pose, ShadedFrame};
 
 /// What the previous frame looked like, for its motion vectors.
 struct View {
@@ -68,7 +68,7 @@ pub struct TemporalSequence {
     /// Instances move (an animated scene): trace ids and follow each instance's motion.
     object_motion: bool,
     /// The path settings frames are traced with, when the history rejection re-shades
-    /// samples of the previous frame (`crate::reshade`); `None`: the windowed test.
+    /// samples of the previous frame (`super::reshade`); `None`: the windowed test.
     reshade: Option<PathSettings>,
     /// The temporal filter of the direct-light split's shadow ratio, when the split is on
     /// (see [`TemporalSequence::filter`]).
@@ -317,7 +317,7 @@ impl TemporalSequence {
 /// colour rather than of one sample to steer the À-Trous (0.71 → 0.66 on that orbit), a longer
 /// history (α = 0.05, up to 128 frames) and a rejection radius of 6 (Cornell 0.61 → 0.59,
 /// spheres 0.65, animated 0.97 → 0.96). A third round re-shades one sample per 3×3 block of the
-/// previous frame with its own random numbers (A-SVGF's temporal gradients, `crate::reshade`)
+/// previous frame with its own random numbers (A-SVGF's temporal gradients, `super::reshade`)
 /// and rejects history by that change (gain 3, radius 4) while scaling what is kept by it
 /// (animated 0.96 → 0.78, Cornell 0.59 → 0.57, spheres 0.65 → 0.66). A fifth round splits
 /// the first hit's direct light off the history ([`TemporalSequence::filter`]; animated 0.78 →

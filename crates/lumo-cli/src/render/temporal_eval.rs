@@ -24,9 +24,10 @@ use lumo_image::{linear_to_srgb, read_image, write_image, Image};
 use lumo_pipeline::{run_pipeline, Pipeline};
 use lumo_render::{RenderScene, RenderSettings};
 
-use crate::render_cmd::Job;
-use crate::sequence::Sequence;
-use crate::temporal::TemporalSequence;
+use super::frames::frame_seed;
+use super::job::Job;
+use super::sequence::Sequence;
+use super::temporal::TemporalSequence;
 
 /// Frames whose FLIP the summary leaves out: the temporal history is still short (SVGF's
 /// blend weight reaches α = 0.2 after 1/α = 5 frames; 8 leaves a margin).
@@ -89,7 +90,7 @@ pub fn run(
     let mut temporal = TemporalSequence::new(
         seq.animated(),
         (settings.spp == 1).then_some(settings.path),
-        crate::temporal::splits_direct_light(&settings.path),
+        super::temporal::splits_direct_light(&settings.path),
     )
     .context("temporal filter")?;
     let flip = FlipSettings::default();
@@ -140,7 +141,7 @@ pub fn run(
         let tframe = jittered.as_ref().map_or(&out.frame, |o| &o.frame);
         // Tuning (`jm`): the jittered samples accumulate on the unjittered grid (motion from
         // the nominal cameras), so the history converges to the pixel's area average.
-        let unjittered_motion = crate::temporal::tuned("jm").is_some_and(|v| v != 0.0);
+        let unjittered_motion = super::temporal::tuned("jm").is_some_and(|v| v != 0.0);
         rs.scene.camera = match jittered {
             Some(_) if !unjittered_motion => {
                 camera_for_filter(&nominal, settings.width, settings.height, jitter)
@@ -269,7 +270,7 @@ fn camera_for_filter(
     h: usize,
     jitter: [f32; 2],
 ) -> lumo_scene::Camera {
-    crate::temporal::jittered_camera(nominal, w, h, jitter)
+    super::temporal::jittered_camera(nominal, w, h, jitter)
 }
 
 /// Where a pixel's error comes from, for the breakdown in the summary: next to a directly
@@ -350,7 +351,7 @@ fn class_means(map: &Image, classes: &[PixelClass]) -> [f64; 3] {
 /// the samples every frame (the multiplier is odd, so frames never share a seed).
 /// What names the scene a run renders, for [`reference_key`]: the scene argument, its file's
 /// size and modification time where it is a file, and the `-D` definitions.
-fn scene_identity(args: &crate::render_cmd::RenderArgs) -> String {
+fn scene_identity(args: &super::args::RenderArgs) -> String {
     let stamp = std::fs::metadata(&args.scene)
         .ok()
         .map(|m| (m.len(), m.modified().ok()));
@@ -376,15 +377,6 @@ fn reference_key(
         }
     }
     h.finish()
-}
-
-/// The seed of frame `frame` of a sequence rendered with `seed`: a hash of both, so that no
-/// two (seed, frame) pairs share their noise by construction (`seed + frame·k`, used before,
-/// gave seed 5's frame 1 the noise of seed 5 + k's frame 0: the same images, shifted).
-pub fn frame_seed(seed: u32, frame: u32) -> u32 {
-    // splitmix64's step: every input bit reaches every output bit.
-    let z = (u64::from(seed) << 32 | u64::from(frame)).wrapping_add(0x9e37_79b9_7f4a_7c15);
-    lumo_render::sampler::mix64(z) as u32
 }
 
 fn ms(d: Duration) -> f64 {

@@ -1,0 +1,185 @@
+//! What every frame of one `lumo render` shares, and how one image is rendered and written.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context, Result};
+use lumo_image::{write_image, Image};
+use lumo_pipeline::{run_pipeline, run_pipeline_on_sums, Pipeline};
+use lumo_render::integrators::bdpt::BdptSettings;
+use lumo_render::{
+    render_bdpt, render_light, render_ppm, Frame, PixelSums, RenderScene, RenderSettings,
+    RenderStats,
+};
+
+use super::args::{RenderArgs, RenderIntegrator};
+use super::validate::ppm_settings;
+
+/// What every frame of one `lumo render` shares: the options, the pool and the outputs.
+pub struct Job<'a> {
+    /// The command line.
+    pub args: &'a RenderArgs,
+    /// The pipeline (`None` for the light tracer).
+    pub pipeline: Pipeline,
+    /// Resolution, samples, seed and path settings.
+    pub settings: RenderSettings,
+    /// The worker threads.
+    pub pool: &'a rayon::ThreadPool,
+    /// The image files (for a sequence: the names the frame numbers are added to).
+    pub outputs: Vec<PathBuf>,
+}
+/// One rendered image with what goes beside it.
+pub struct Rendered {
+    /// The final image.
+    pub image: Image,
+    /// Work counters.
+    pub stats: RenderStats,
+    /// The path tracer's frame and the pipeline's intermediate planes (for --aovs).
+    pub aovs: Option<(Frame, Vec<(&'static str, Image)>)>,
+    /// The pipeline's time per stage, formatted.
+    pub timings: Option<String>,
+}
+impl<'a> Job<'a> {
+    /// The same job with another seed.
+    pub fn with_seed(&self, seed: u32) -> Job<'a> {
+        Job {
+            args: self.args,
+            pipeline: self.pipeline,
+            settings: RenderSettings {
+                seed,
+                ..self.settings
+            },
+            pool: self.pool,
+            outputs: self.outputs.clone(),
+        }
+    }
+
+    /// Renders `rs` with the job's integrator and pipeline; `progress` gets 0..1.
+    pub fn render(&self, rs: &RenderScene, progress: &(dyn Fn(f32) + Sync)) -> Result<Rendered> {
+        let settings = &self.settings;
+        if matches!(
+            self.args.integrator,
+            RenderIntegrator::Light | RenderIntegrator::Bdpt
+        ) {
+            let camera = lumo_render::camera::PinholeCamera::new(
+                &rs.scene.camera,
+                settings.width,
+                settings.height,
+            );
+            if let Some(what) = camera.unsupported_by_splats() {
+                bail!(
+                    "{}: --integrator {}: the scene has {what}, which the light tracer and BDPT \
+                     (they project light onto a pinhole's film) do not render; use --integrator \
+                     path or ppm",
+                    rs.scene.name,
+                    if self.args.integrator == RenderIntegrator::Light {
+                        "light"
+                    } else {
+                        "bdpt"
+                    }
+                );
+            }
+        }
+        if self.args.integrator == RenderIntegrator::Light {
+            if rs.lights.emits_no_particles() {
+                bail!(
+                    "{}: --integrator light: no light emits particles (environment lights do not); use --integrator path",
+                    rs.scene.name
+                );
+            }
+            let (image, stats) = self.pool.install(|| render_light(rs, settings, progress));
+            return Ok(Rendered {
+                image,
+                stats,
+                aovs: None,
+                timings: None,
+            });
+        }
+        if self.args.integrator == RenderIntegrator::Ppm {
+            let ppm = ppm_settings(self.args)?;
+            let (image, stats) = self
+                .pool
+                .install(|| render_ppm(rs, settings, &ppm, progress));
+            return Ok(Rendered {
+                image,
+                stats: RenderStats {
+                    samples: stats.samples,
+                    rays: stats.rays,
+                },
+                aovs: None,
+                timings: None,
+            });
+        }
+        if self.args.integrator == RenderIntegrator::Bdpt {
+            let bdpt = BdptSettings {
+                path: settings.path,
+                only: None,
+            };
+            let (image, stats) = self
+                .pool
+                .install(|| render_bdpt(rs, settings, &bdpt, progress));
+            return Ok(Rendered {
+                image,
+                stats,
+                aovs: None,
+                timings: None,
+            });
+        }
+        let out = self
+            .pool
+            .install(|| {
+                run_pipeline(
+                    rs,
+                    self.pipeline,
+                    settings,
+                    &self.args.pipeline.options(settings.width, settings.height),
+                    progress,
+                )
+            })
+            .map_err(crate::pipeline_args::describe_pipeline_error)?;
+        Ok(self.rendered(out))
+    }
+
+    /// What [`Job::render`] gives for the path tracer, from the exact sums of every pixel's
+    /// samples traced elsewhere (a distributed render's chunks, added up): the same bits.
+    pub fn render_sums(&self, rs: &RenderScene, sums: Vec<PixelSums>) -> Result<Rendered> {
+        let settings = &self.settings;
+        let out = self
+            .pool
+            .install(|| {
+                run_pipeline_on_sums(
+                    rs,
+                    self.pipeline,
+                    settings,
+                    &self.args.pipeline.options(settings.width, settings.height),
+                    sums,
+                )
+            })
+            .map_err(crate::pipeline_args::describe_pipeline_error)?;
+        Ok(self.rendered(out))
+    }
+
+    fn rendered(&self, out: lumo_pipeline::PipelineOutput) -> Rendered {
+        Rendered {
+            image: out.image,
+            stats: out.stats,
+            timings: (self.pipeline != Pipeline::None).then(|| out.timings.to_string()),
+            aovs: Some((out.frame, out.planes)),
+        }
+    }
+
+    /// Writes the image to `outputs` and, with `aovs`, the AOV planes into that directory.
+    pub fn write(&self, out: &Rendered, outputs: &[PathBuf], aovs: Option<&Path>) -> Result<()> {
+        for o in outputs {
+            write_image(o, &out.image)?;
+        }
+        if let (Some(dir), Some((frame, planes))) = (aovs, &out.aovs) {
+            std::fs::create_dir_all(dir)
+                .with_context(|| format!("--aovs: cannot create {}", dir.display()))?;
+            frame.write_aovs(dir)?;
+            for (name, plane) in planes {
+                write_image(&dir.join(format!("{name}.exr")), plane)?;
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,200 @@
+//! A `lumo render` command line planned: its options checked, its scene loaded and its
+//! settings worked out ([`Plan`]), then its render scene and thread pool built ([`Ready`]).
+
+use crate::cli_common::errln;
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::{bail, Result};
+use lumo_pipeline::Pipeline;
+use lumo_render::{PathSettings, PpmSettings, RenderScene, RenderSettings};
+use lumo_scene::load::LoadOptions;
+use lumo_scene::Scene;
+
+use super::args::{RenderArgs, RenderIntegrator};
+use super::sequence::Sequence;
+use super::validate::{validate, Valid};
+use crate::arguments::{ppm_map_bytes, MAX_SPP};
+use crate::scene_load::load_scene_animated;
+
+/// What a plan decided, carried unchanged from [`Plan`] to [`Ready`].
+pub struct Choices {
+    /// The pipeline (`None` for the unfiltered integrators).
+    pub pipeline: Pipeline,
+    /// Resolution, samples, seed and path settings.
+    pub settings: RenderSettings,
+    /// Photon-mapping settings.
+    pub ppm: PpmSettings,
+    /// With `--frames`, what moves from frame to frame.
+    pub sequence: Option<Sequence>,
+    /// The image files.
+    pub outputs: Vec<PathBuf>,
+}
+
+/// A `lumo render` command line checked and its scene loaded, before anything is written or
+/// built: what the command and a distributed render's workers (`lumo-py`) share.
+pub struct Plan {
+    /// What the plan decided.
+    pub choices: Choices,
+    /// The scene, posed at the first frame.
+    pub scene: Scene,
+}
+
+/// A [`Plan`] with its render scene built and its thread pool.
+pub struct Ready {
+    /// What the plan decided.
+    pub choices: Choices,
+    /// The worker threads.
+    pub pool: rayon::ThreadPool,
+    /// The scene with its BVH and lights.
+    pub rs: RenderScene,
+    /// How long building `rs` took.
+    pub build: std::time::Duration,
+}
+
+impl Plan {
+    /// Checks the options of `args` ([`validate`]), then plans: loads the scene and works out
+    /// the settings; writes nothing.
+    pub fn new(args: &RenderArgs) -> Result<Plan> {
+        Plan::from_valid(args, validate(args)?)
+    }
+
+    /// Loads the scene of options already checked and works out the settings; writes nothing.
+    pub fn from_valid(args: &RenderArgs, valid: Valid) -> Result<Plan> {
+        let Valid {
+            pipeline,
+            ppm,
+            temporal,
+        } = valid;
+        let options = LoadOptions {
+            defines: args.defines.clone(),
+            strict: args.strict,
+            camera: args.camera,
+            time: args.time,
+        };
+        let (mut scene, file, rig) = load_scene_animated(&args.scene, &options)?;
+        // With --frames, what moves (checked before anything is written or rendered).
+        let sequence = match args.frames {
+            Some(frames) => Some(Sequence::plan(args, frames, &mut scene, rig)?),
+            None => None,
+        };
+        let outputs: Vec<PathBuf> = match &args.output {
+            Some(p) => vec![p.clone()],
+            None => vec![
+                PathBuf::from(format!("{}.exr", scene.name)),
+                PathBuf::from(format!("{}.png", scene.name)),
+            ],
+        };
+        // Command-line options win over the scene file's settings, which win over the defaults.
+        let (width, height) = args
+            .size
+            .or(file.size)
+            .unwrap_or((scene.defaults.width, scene.defaults.height));
+        let settings = RenderSettings {
+            width,
+            height,
+            spp: args
+                .spp
+                .or(file.spp)
+                .unwrap_or(if pipeline == Pipeline::None && !temporal {
+                    scene.defaults.spp
+                } else {
+                    crate::pipeline_args::FILTERED_DEFAULT_SPP
+                }),
+            seed: args.seed.or(file.seed).unwrap_or(0),
+            path: PathSettings {
+                max_depth: args
+                    .max_depth
+                    .or(file.max_depth)
+                    .unwrap_or(scene.defaults.max_depth),
+                rr_depth: args.rr_depth.or(file.rr_depth).unwrap_or(5),
+                spectral: args.spectral,
+                ..Default::default()
+            },
+        };
+        if settings.spp > MAX_SPP {
+            bail!(
+                "the scene asks for {} samples per pixel; at most {MAX_SPP} (use --spp)",
+                settings.spp
+            );
+        }
+        Ok(Plan {
+            choices: Choices {
+                pipeline,
+                settings,
+                ppm,
+                sequence,
+                outputs,
+            },
+            scene,
+        })
+    }
+
+    /// Checks the memory the render needs, makes the thread pool and builds the render scene;
+    /// with `announce`, says what will be rendered on stderr.
+    pub fn build(self, args: &RenderArgs, announce: bool) -> Result<Ready> {
+        let Plan { choices, scene } = self;
+        let Choices {
+            pipeline,
+            settings,
+            ppm,
+            ..
+        } = &choices;
+        let pipeline = *pipeline;
+        let (width, height) = (settings.width, settings.height);
+        let per_pixel = pipeline.bytes_per_pixel();
+        crate::cli_common::check_memory(
+            (width as u64 * height as u64).saturating_mul(per_pixel),
+            &format!(
+                "a {width}x{height} render with --pipeline {} (about {per_pixel} bytes per pixel)",
+                pipeline
+            ),
+            "use a smaller --size",
+        )?;
+        let pool = crate::cli_common::worker_pool(args.threads)?;
+        let threads = pool.current_num_threads();
+        let tris = scene.triangle_count();
+        let name = scene.name.clone();
+        // Timed inside the pool, like a sequence's per-frame updates (see sequence.rs).
+        let (rs, build) = pool.install(|| {
+            let build_start = Instant::now();
+            (RenderScene::new(scene), build_start.elapsed())
+        });
+        let rs = rs?;
+        // Media need the path tracer; the others refuse rather than render them wrong.
+        let chosen = format!("{:?}", args.integrator).to_lowercase();
+        if let Some(why) = lumo_render::media::refusal(&rs.scene, &chosen) {
+            bail!(why);
+        }
+        let method = match args.integrator {
+            RenderIntegrator::Path => format!("pipeline {pipeline}"),
+            RenderIntegrator::Light => format!(
+                "light tracer ({} light paths)",
+                settings.spp as u64 * (width * height) as u64
+            ),
+            RenderIntegrator::Bdpt => "bidirectional path tracer".to_owned(),
+            RenderIntegrator::Ppm => format!(
+                "photon mapping (at most {} photons, {} MB)",
+                ppm.max_photons,
+                ppm_map_bytes(ppm.max_photons) >> 20
+            ),
+        };
+        if announce {
+            errln!(
+            "{name}: {tris} triangles (BVH {:.0} ms), {width}x{height}, {} spp, max depth {}, {method}, {threads} threads",
+            build.as_secs_f64() * 1e3,
+            settings.spp,
+            settings.path.max_depth
+        );
+        }
+        if args.integrator == RenderIntegrator::Bdpt && rs.lights.emits_no_particles() {
+            errln!("warning: {name}: no light emits particles (environment lights do not): --integrator bdpt runs as a path tracer here");
+        }
+        Ok(Ready {
+            choices,
+            pool,
+            rs,
+            build,
+        })
+    }
+}
