@@ -129,6 +129,7 @@ fn base_color(m: &Material, uv: Vec2) -> Option<Vec3> {
     match b {
         BsdfSpec::Diffuse { reflectance } => Some(reflectance.eval(uv)),
         BsdfSpec::Plastic { diffuse, .. } => Some(diffuse.eval(uv)),
+        BsdfSpec::GltfPbr { base_color, .. } => Some(base_color.eval(uv)),
         BsdfSpec::Mirror { reflectance } => Some(*reflectance),
         _ => None,
     }
@@ -243,6 +244,9 @@ pub fn apply(rs: &mut RenderScene, edits: &[Edit]) -> Result<SceneUpdate, SceneE
                 match innermost_mut(&mut m.bsdf) {
                     BsdfSpec::Diffuse { reflectance } => *reflectance = Texture::Constant(e.value),
                     BsdfSpec::Plastic { diffuse, .. } => *diffuse = Texture::Constant(e.value),
+                    BsdfSpec::GltfPbr { base_color, .. } => {
+                        *base_color = Texture::Constant(e.value)
+                    }
                     BsdfSpec::Mirror { reflectance } => *reflectance = e.value,
                     _ => return Err(bad()),
                 }

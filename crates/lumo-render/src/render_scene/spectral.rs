@@ -14,7 +14,7 @@ use lumo_spectrum::{coefficients, Sigmoid, Tabulated, Wavelengths};
 
 use super::materials::innermost;
 use super::{RenderScene, Surface};
-use crate::bsdf::{Bsdf, Conductor, Diffuse, Mirror, Plastic};
+use crate::bsdf::{Bsdf, Conductor, Diffuse, GltfPbr, Mirror, Plastic};
 use crate::shading::ShadingBsdf;
 
 /// A tabulated spectrum at the three wavelengths.
@@ -46,6 +46,10 @@ impl SpectralCache {
                     }
                     | BsdfSpec::Plastic {
                         diffuse: Texture::Constant(c),
+                        ..
+                    }
+                    | BsdfSpec::GltfPbr {
+                        base_color: Texture::Constant(c),
                         ..
                     }
                     | BsdfSpec::Mirror { reflectance: c } => *c,
@@ -131,6 +135,10 @@ impl RenderScene {
                 Bsdf::Dielectric(d)
             }
             other @ Bsdf::ThinDielectric(_) => other,
+            Bsdf::GltfPbr(g) => Bsdf::GltfPbr(GltfPbr {
+                base_color: base(g.base_color),
+                ..g
+            }),
         };
         b
     }

@@ -76,11 +76,21 @@ fn hierarchy_camera_lights_and_materials() {
     }
     assert!(matches!(
         s.materials[s.meshes[0].material].bsdf,
-        BsdfSpec::Plastic { .. }
+        BsdfSpec::GltfPbr {
+            metallic: 0.0,
+            roughness: 0.9,
+            metallic_roughness: None,
+            ..
+        }
     ));
     assert!(matches!(
         &s.materials[s.meshes[1].material].bsdf,
-        BsdfSpec::Conductor { roughness, .. } if (roughness.alpha_u - 0.16).abs() < 1e-6
+        BsdfSpec::GltfPbr {
+            metallic: 1.0,
+            roughness: 0.4,
+            metallic_roughness: None,
+            ..
+        }
     ));
     let rig = loaded.animation.as_ref().expect("rig");
     assert_eq!(rig.animations.len(), 1);
@@ -333,4 +343,91 @@ fn orthographic_camera_is_kept() {
     );
     let (w, h) = loaded.settings.size.unwrap();
     assert_eq!(w, 2 * h);
+}
+
+/// A 1×1 8-bit RGB PNG of `rgb`.
+fn png_1x1(rgb: [u8; 3]) -> Vec<u8> {
+    let mut out = vec![];
+    let mut enc = png::Encoder::new(&mut out, 1, 1);
+    enc.set_color(png::ColorType::Rgb);
+    enc.set_depth(png::BitDepth::Eight);
+    let mut w = enc.write_header().unwrap();
+    w.write_image_data(&rgb).unwrap();
+    drop(w);
+    out
+}
+
+/// hierarchy.gltf with the gold material's roughness factor `roughness` and, if given, a
+/// metallicRoughnessTexture read from `mr.png`.
+fn gold_with(roughness: &str, texture: bool) -> String {
+    let gltf = std::fs::read_to_string(scenes().join("hierarchy.gltf")).unwrap();
+    let old = "    \"metallicFactor\": 1,\n    \"roughnessFactor\": 0.4";
+    assert!(
+        gltf.contains(old),
+        "the gold material is where the test expects it"
+    );
+    let mut new = format!("    \"metallicFactor\": 1,\n    \"roughnessFactor\": {roughness}");
+    let mut gltf = gltf;
+    if texture {
+        new += ",\n    \"metallicRoughnessTexture\": {\"index\": 0}";
+        gltf = gltf.replacen(
+            "{\n",
+            "{\n \"images\": [{\"uri\": \"mr.png\"}],\n \"textures\": [{\"source\": 0}],\n",
+            1,
+        );
+    }
+    gltf.replace(old, &new)
+}
+
+/// The metallicRoughnessTexture is kept per texel, linear (not sRGB), roughness from its
+/// green channel and metalness from its blue one, multiplying the factors (it used to be
+/// replaced by its mean with a warning).
+#[test]
+fn the_metallic_roughness_texture_is_kept_per_texel() {
+    let dir = temp_dir("gltf-mr");
+    write(&dir, "mr.png", png_1x1([0, 128, 64]));
+    let loaded = load(&write(&dir, "mr.gltf", gold_with("0.4", true))).unwrap();
+    let w = loaded
+        .warnings
+        .iter()
+        .map(|w| w.to_string())
+        .collect::<Vec<_>>();
+    assert!(!w.iter().any(|w| w.contains("mean")), "{w:?}");
+    let s = &loaded.scene;
+    let BsdfSpec::GltfPbr {
+        metallic_roughness: Some(t),
+        metallic,
+        roughness,
+        ..
+    } = &s.materials[s.meshes[1].material].bsdf
+    else {
+        panic!("{:?}", s.materials[s.meshes[1].material].bsdf);
+    };
+    assert_eq!((*metallic, *roughness), (1.0, 0.4));
+    let texel = t.eval(lumo_scene::Vec2::splat(0.5));
+    let expected = Vec3::new(0.0, 128.0 / 255.0, 64.0 / 255.0);
+    assert!((texel - expected).abs().max_element() < 1e-6, "{texel}");
+}
+
+/// A factor outside glTF's [0, 1] is clamped with a warning naming the file, the material and
+/// the field.
+#[test]
+fn an_out_of_range_roughness_factor_is_clamped_with_a_warning() {
+    let dir = temp_dir("gltf-rough");
+    let loaded = load(&write(&dir, "rough.gltf", gold_with("1.5", false))).unwrap();
+    let w = loaded
+        .warnings
+        .iter()
+        .map(|w| w.to_string())
+        .collect::<Vec<_>>()
+        .join("\n");
+    assert!(
+        w.contains("rough.gltf") && w.contains("material 1") && w.contains("roughnessFactor 1.5"),
+        "{w}"
+    );
+    let s = &loaded.scene;
+    assert!(matches!(
+        s.materials[s.meshes[1].material].bsdf,
+        BsdfSpec::GltfPbr { roughness: 1.0, .. }
+    ));
 }

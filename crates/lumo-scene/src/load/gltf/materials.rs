@@ -1,4 +1,5 @@
-//! glTF materials (metallic-roughness, emissive strength, texture transforms) as lumo's.
+//! glTF materials (metallic-roughness per texel, emissive strength, texture transforms) as
+//! lumo's.
 
 use super::*;
 
@@ -23,6 +24,31 @@ impl GltfReader<'_, '_> {
         Ok(v.max(Vec3::ZERO))
     }
 
+    /// A factor glTF bounds to [0, 1] (metallic, roughness): clamped with a warning where
+    /// it is out of range, `default` with a warning where it is not a number.
+    pub(super) fn unit_factor(
+        &mut self,
+        label: &str,
+        what: &str,
+        v: f32,
+        default: f32,
+    ) -> Result<f32, LoadError> {
+        if v.is_nan() {
+            self.diag.warn(
+                self.at(label.to_string()),
+                format!("{what} is NaN; using the default {default} (write a number in [0, 1])"),
+            )?;
+            return Ok(default);
+        }
+        if !(0.0..=1.0).contains(&v) {
+            self.diag.warn(
+                self.at(label.to_string()),
+                format!("{what} {v} is outside [0, 1]; clamped (glTF bounds it to [0, 1])"),
+            )?;
+        }
+        Ok(v.clamp(0.0, 1.0))
+    }
+
     /// The lumo material for a glTF material (metallic-roughness model).
     pub(super) fn material(&mut self, mat: gltf::Material) -> Result<usize, LoadError> {
         if let Some(&m) = self.material_map.get(&mat.index()) {
@@ -39,21 +65,12 @@ impl GltfReader<'_, '_> {
             Some(info) => self.texture(&info, false, factor)?,
             None => Texture::Constant(factor),
         };
-        let mut metallic = pbr.metallic_factor();
-        let mut roughness = pbr.roughness_factor();
-        if let Some(info) = pbr.metallic_roughness_texture() {
-            // lumo's roughness and metalness are per material: use the texture's mean.
-            let mean = self.texture(&info, true, Vec3::ONE)?.average();
-            roughness *= mean.y;
-            metallic *= mean.z;
-            self.diag.warn(
-                self.at(label.clone()),
-                format!(
-                    "metallicRoughnessTexture replaced by its mean (roughness {roughness:.3}, \
-                     metallic {metallic:.3}); lumo has no per-texel roughness"
-                ),
-            )?;
-        }
+        let metallic = self.unit_factor(&label, "metallicFactor", pbr.metallic_factor(), 1.0)?;
+        let roughness = self.unit_factor(&label, "roughnessFactor", pbr.roughness_factor(), 1.0)?;
+        let metallic_roughness = match pbr.metallic_roughness_texture() {
+            Some(info) => Some(self.texture(&info, true, Vec3::ONE)?),
+            None => None,
+        };
         if mat.normal_texture().is_some() || mat.occlusion_texture().is_some() {
             self.diag.warn(
                 self.at(label.clone()),
@@ -80,35 +97,11 @@ impl GltfReader<'_, '_> {
                 )?;
             }
         }
-        let alpha = roughness * roughness;
-        let bsdf = if metallic >= 0.5 {
-            let (eta, k) = metal_from_reflectance(base.average());
-            if metallic < 1.0 {
-                self.diag.warn(
-                    self.at(label.clone()),
-                    format!("metallic {metallic} rendered as fully metallic"),
-                )?;
-            }
-            BsdfSpec::Conductor {
-                eta,
-                k,
-                roughness: Roughness::ggx(alpha),
-            }
-        } else {
-            if metallic > 0.0 {
-                self.diag.warn(
-                    self.at(label.clone()),
-                    format!("metallic {metallic} rendered as dielectric"),
-                )?;
-            }
-            // glTF's dielectric: a diffuse base under a specular layer with F0 = 0.04 (ior 1.5).
-            BsdfSpec::Plastic {
-                diffuse: base,
-                ior: 1.5,
-                roughness: Roughness::ggx(alpha),
-                nonlinear: false,
-                exact_rough_coat: false,
-            }
+        let bsdf = BsdfSpec::GltfPbr {
+            base_color: base,
+            metallic_roughness,
+            metallic,
+            roughness,
         };
         let name = mat.name().map_or(label, str::to_string);
         let index = self.scene.add_material(Material {

@@ -15,7 +15,6 @@ use gltf::accessor::{DataType, Dimensions};
 use super::check::{check_emission, check_light, check_mesh};
 use super::gltf_refs::check_references;
 use super::images::decode_image;
-use super::materials::metal_from_reflectance;
 use super::{
     defaults, read_file, read_limited, Diagnostics, FileSettings, LoadError, LoadOptions, Location,
 };
@@ -24,7 +23,7 @@ use crate::animation::{
     NodeItem,
 };
 use crate::{
-    BsdfSpec, Camera, FovAxis, Instance, Lens, Light, Material, Mesh, Roughness, Scene, Texture,
+    BsdfSpec, Camera, FovAxis, Instance, Lens, Light, Material, Mesh, Scene, Texture,
     TextureFilter, WrapMode,
 };
 use buffers::{load_buffers, uri_bytes};
