@@ -153,8 +153,12 @@ fn bad_gltf_is_a_clear_error() {
     let e = load(&write(&dir, "req.gltf", required))
         .unwrap_err()
         .to_string();
+    // lumo's message (naming what is supported), not the glTF parser's.
     assert!(
-        e.contains("KHR_draco_mesh_compression") && e.contains("req.gltf"),
+        e.contains("KHR_draco_mesh_compression")
+            && e.contains("req.gltf")
+            && e.contains("lumo does not support")
+            && e.contains("supported: KHR_lights_punctual"),
         "{e}"
     );
 
@@ -430,4 +434,63 @@ fn an_out_of_range_roughness_factor_is_clamped_with_a_warning() {
         s.materials[s.meshes[1].material].bsdf,
         BsdfSpec::GltfPbr { roughness: 1.0, .. }
     ));
+}
+
+/// hierarchy.gltf with `extra` JSON members added to the gold material and `mr.png` as image 0.
+fn gold_material_with(extra: &str) -> String {
+    let gltf = std::fs::read_to_string(scenes().join("hierarchy.gltf")).unwrap();
+    let old = "   \"name\": \"gold\",\n";
+    assert!(
+        gltf.contains(old),
+        "the gold material is where the test expects it"
+    );
+    gltf.replace(old, &format!("{old}   {extra},\n")).replacen(
+        "{\n",
+        "{\n \"images\": [{\"uri\": \"mr.png\"}],\n \"textures\": [{\"source\": 0}],\n",
+        1,
+    )
+}
+
+/// normalTexture becomes a normal map over the glTF BSDF whose texels carry `scale` on x and
+/// y (read linear), and emissiveTexture a per-texel emission × emissiveFactor (sRGB decoded).
+#[test]
+fn normal_and_emissive_textures_are_kept_per_texel() {
+    let dir = temp_dir("gltf-normal");
+    write(&dir, "mr.png", png_1x1([255, 128, 255]));
+    let extra = "\"normalTexture\": {\"index\": 0, \"scale\": 0.5}, \"emissiveTexture\": {\"index\": 0}, \"emissiveFactor\": [2, 2, 2]";
+    let loaded = load(&write(&dir, "n.gltf", gold_material_with(extra))).unwrap();
+    let w = loaded
+        .warnings
+        .iter()
+        .map(|w| w.to_string())
+        .collect::<Vec<_>>();
+    assert!(
+        !w.iter()
+            .any(|w| w.contains("normal") || w.contains("emissive")),
+        "{w:?}"
+    );
+    let m = &loaded.scene.materials[loaded.scene.meshes[1].material];
+    let BsdfSpec::NormalMap { normals, nested } = &m.bsdf else {
+        panic!("{:?}", m.bsdf);
+    };
+    assert!(matches!(**nested, BsdfSpec::GltfPbr { metallic: 1.0, .. }));
+    let uv = lumo_scene::Vec2::splat(0.5);
+    let g = 128.0 / 255.0;
+    let expected = (Vec3::new(0.5, (2.0 * g - 1.0) * 0.5, 1.0) + Vec3::ONE) * 0.5;
+    let texel = normals.eval(uv);
+    assert!(
+        (texel - expected).abs().max_element() < 1e-6,
+        "{texel} vs {expected}"
+    );
+    let map = m.emission_map.as_ref().expect("an emission map");
+    // sRGB 128 decodes to 0.2158; 255 to 1.
+    let e = map.eval(uv);
+    assert!(
+        (e - Vec3::new(2.0, 2.0 * 0.2158, 2.0)).abs().max_element() < 1e-3,
+        "{e}"
+    );
+    assert!(
+        (m.emission - e).abs().max_element() < 1e-6,
+        "the mean of a 1×1 map is its texel"
+    );
 }

@@ -71,10 +71,10 @@ impl GltfReader<'_, '_> {
             Some(info) => Some(self.texture(&info, true, Vec3::ONE)?),
             None => None,
         };
-        if mat.normal_texture().is_some() || mat.occlusion_texture().is_some() {
+        if mat.occlusion_texture().is_some() {
             self.diag.warn(
                 self.at(label.clone()),
-                "normal and occlusion textures are not supported; ignored",
+                "occlusionTexture ignored: the path tracer computes occlusion itself",
             )?;
         }
         if mat.alpha_mode() != gltf::material::AlphaMode::Opaque {
@@ -87,22 +87,28 @@ impl GltfReader<'_, '_> {
         let what = "emissiveFactor × KHR_materials_emissive_strength";
         let emission = self.non_negative(&label, what, emission)?;
         let mut emission = check_emission(&self.at(label.clone()), what, emission)?;
+        let mut emission_map = None;
         if let Some(info) = mat.emissive_texture() {
-            let mean = self.texture(&info, false, Vec3::ONE)?.average();
-            emission *= mean;
+            // Per texel: the texture × emissiveFactor × strength; `emission` becomes its mean
+            // (what weighs this light against the others).
             if emission.max_element() > 0.0 {
-                self.diag.warn(
-                    self.at(label.clone()),
-                    "emissiveTexture replaced by its mean (lumo emission is uniform per material)",
-                )?;
+                let map = self.texture(&info, false, emission)?;
+                emission = map.average();
+                emission_map = Some(Arc::new(map));
             }
         }
-        let bsdf = BsdfSpec::GltfPbr {
+        let mut bsdf = BsdfSpec::GltfPbr {
             base_color: base,
             metallic_roughness,
             metallic,
             roughness,
         };
+        if let Some(normal) = mat.normal_texture() {
+            bsdf = BsdfSpec::NormalMap {
+                normals: self.normal_texture(&label, &normal)?,
+                nested: Box::new(bsdf),
+            };
+        }
         let name = mat.name().map_or(label, str::to_string);
         let index = self.scene.add_material(Material {
             name,
@@ -110,7 +116,7 @@ impl GltfReader<'_, '_> {
             emission,
             // glTF's doubleSided is about culling; lumo's opaque glTF surfaces reflect on both sides.
             two_sided: true,
-            emission_map: None,
+            emission_map,
             spectra: Default::default(),
         });
         self.material_map.insert(mat.index(), index);
@@ -124,9 +130,50 @@ impl GltfReader<'_, '_> {
         raw: bool,
         tint: Vec3,
     ) -> Result<Texture, LoadError> {
-        let image = info.texture().source();
+        let pixel = move |c: Vec3| c * tint;
+        let map: Option<&dyn Fn(Vec3) -> Vec3> = (tint != Vec3::ONE).then_some(&pixel);
+        let texture = self.bitmap(info.texture(), info.tex_coord(), raw, map)?;
+        Ok(match info.texture_transform() {
+            None => texture,
+            Some(t) => transformed(texture, &t),
+        })
+    }
+
+    /// A normalTexture as a tangent-space normal map whose x and y are multiplied by its
+    /// `scale` (the texels are rewritten so the renderer's normal-map lookup, which decodes
+    /// 2c − 1 and normalises, reads glTF's normalize((2c − 1)·(scale, scale, 1))).
+    fn normal_texture(
+        &mut self,
+        label: &str,
+        normal: &gltf::material::NormalTexture,
+    ) -> Result<Texture, LoadError> {
+        let scale = normal.scale();
+        if !scale.is_finite() {
+            return Err(LoadError::invalid(
+                self.at(label.to_string()),
+                format!("normalTexture scale {scale} is not a finite number; write one (1 is the default)"),
+            ));
+        }
+        let pixel = move |c: Vec3| {
+            let n = (c * 2.0 - Vec3::ONE) * Vec3::new(scale, scale, 1.0);
+            (n + Vec3::ONE) * 0.5
+        };
+        let map: Option<&dyn Fn(Vec3) -> Vec3> = (scale != 1.0).then_some(&pixel);
+        self.bitmap(normal.texture(), normal.tex_coord(), true, map)
+    }
+
+    /// The bitmap of `texture` (decoded once per image and colour space), its texels passed
+    /// through `pixel` where given.
+    fn bitmap(
+        &mut self,
+        texture: gltf::Texture,
+        tex_coord: u32,
+        raw: bool,
+        pixel: Option<&dyn Fn(Vec3) -> Vec3>,
+    ) -> Result<Texture, LoadError> {
+        let image = texture.source();
         let at = self.at(format!("image {}", image.index()));
-        if info.tex_coord() != 0 {
+        if tex_coord != 0 {
             self.diag
                 .warn(at.clone(), "only TEXCOORD_0 is supported; using it")?;
         }
@@ -156,16 +203,16 @@ impl GltfReader<'_, '_> {
                 img
             }
         };
-        let image = if tint == Vec3::ONE {
-            decoded
-        } else {
-            let mut img = (*decoded).to_channels(3);
-            for px in img.data.chunks_exact_mut(3) {
-                px[0] *= tint.x;
-                px[1] *= tint.y;
-                px[2] *= tint.z;
+        let image = match pixel {
+            None => decoded,
+            Some(f) => {
+                let mut img = (*decoded).to_channels(3);
+                for px in img.data.chunks_exact_mut(3) {
+                    let c = f(Vec3::new(px[0], px[1], px[2]));
+                    px.copy_from_slice(&c.to_array());
+                }
+                Arc::new(img)
             }
-            Arc::new(img)
         };
         // glTF samplers' filters are not read yet: nearest, as lumo has always looked them up.
         let texture = Texture::Bitmap {
@@ -174,21 +221,21 @@ impl GltfReader<'_, '_> {
             filter: TextureFilter::Nearest,
             wrap: WrapMode::Repeat,
         };
-        Ok(match info.texture_transform() {
-            None => texture,
-            Some(t) => {
-                let (s, c) = t.rotation().sin_cos();
-                // uv' = T(offset) · R(rotation) · S(scale) · uv, as the extension defines.
-                let rot = Mat2::from_cols(Vec2::new(c, -s), Vec2::new(s, c));
-                let m = Affine2::from_mat2_translation(
-                    rot * Mat2::from_diagonal(Vec2::from(t.scale())),
-                    Vec2::from(t.offset()),
-                );
-                Texture::Transformed {
-                    texture: Arc::new(texture),
-                    uv: m,
-                }
-            }
-        })
+        Ok(texture)
+    }
+}
+
+/// `texture` looked up through a `KHR_texture_transform`: uv' = T(offset) · R(rotation) ·
+/// S(scale) · uv, as the extension defines.
+fn transformed(texture: Texture, t: &gltf::texture::TextureTransform) -> Texture {
+    let (s, c) = t.rotation().sin_cos();
+    let rot = Mat2::from_cols(Vec2::new(c, -s), Vec2::new(s, c));
+    let m = Affine2::from_mat2_translation(
+        rot * Mat2::from_diagonal(Vec2::from(t.scale())),
+        Vec2::from(t.offset()),
+    );
+    Texture::Transformed {
+        texture: Arc::new(texture),
+        uv: m,
     }
 }

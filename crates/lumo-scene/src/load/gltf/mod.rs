@@ -95,10 +95,9 @@ fn load_unguarded(
     let blob = gltf.blob;
     let root = gltf.document.into_json();
     check_references(path, &root)?;
-    let document = gltf::Document::from_json(root).map_err(invalid)?;
-    let doc = &document;
-    for ext in doc.extensions_required() {
-        if !SUPPORTED.contains(&ext) {
+    // Before the gltf crate's validation, which refuses these with its own terser message.
+    for ext in &root.extensions_required {
+        if !SUPPORTED.contains(&ext.as_str()) {
             return Err(LoadError::invalid(
                 Location::item(path, "extensionsRequired"),
                 format!(
@@ -108,6 +107,8 @@ fn load_unguarded(
             ));
         }
     }
+    let document = gltf::Document::from_json(root).map_err(invalid)?;
+    let doc = &document;
     for ext in doc.extensions_used() {
         if !SUPPORTED.contains(&ext) {
             diag.warn(
