@@ -494,3 +494,71 @@ fn normal_and_emissive_textures_are_kept_per_texel() {
         "the mean of a 1×1 map is its texel"
     );
 }
+
+/// A 2×1 8-bit RGBA PNG of white texels with alphas `a`.
+fn png_rgba_2x1(a: [u8; 2]) -> Vec<u8> {
+    let mut out = vec![];
+    let mut enc = png::Encoder::new(&mut out, 2, 1);
+    enc.set_color(png::ColorType::Rgba);
+    enc.set_depth(png::BitDepth::Eight);
+    let mut w = enc.write_header().unwrap();
+    w.write_image_data(&[255, 255, 255, a[0], 255, 255, 255, a[1]])
+        .unwrap();
+    drop(w);
+    out
+}
+
+/// hierarchy.gltf with `pbr` JSON members added to the gold material's pbrMetallicRoughness,
+/// `extra` to the material, and `mr.png` as image 0.
+fn gold_pbr_with(pbr: &str, extra: &str) -> String {
+    let old = "    \"roughnessFactor\": 0.4";
+    let text = gold_material_with(extra);
+    assert!(text.contains(old));
+    text.replace(old, &format!("{old},\n    {pbr}"))
+}
+
+/// alphaMode MASK thresholds the base colour's alpha (texture × factor) at alphaCutoff, BLEND
+/// keeps it as the probability of being opaque; both wrap the glTF BSDF in a mask.
+#[test]
+fn alpha_modes_become_opacity_masks() {
+    let dir = temp_dir("gltf-alpha");
+    write(&dir, "mr.png", png_rgba_2x1([255, 77]));
+    let opacity = |pbr: &str, extra: &str, name: &str| {
+        let loaded = load(&write(&dir, name, gold_pbr_with(pbr, extra))).unwrap();
+        let m = &loaded.scene.materials[loaded.scene.meshes[1].material];
+        let BsdfSpec::Mask { opacity, nested } = &m.bsdf else {
+            panic!("{:?}", m.bsdf);
+        };
+        assert!(matches!(**nested, BsdfSpec::GltfPbr { .. }), "{nested:?}");
+        let at = |u: f32| opacity.eval_1(lumo_scene::Vec2::new(u, 0.5));
+        (at(0.25), at(0.75))
+    };
+    let textured = "\"baseColorTexture\": {\"index\": 0}";
+    // Alpha 77/255 = 0.30: opaque above a cutoff of 0.25, absent below the default 0.5.
+    let (l, r) = opacity(
+        textured,
+        "\"alphaMode\": \"MASK\", \"alphaCutoff\": 0.25",
+        "mask.gltf",
+    );
+    assert!((l - 1.0).abs() < 1e-6 && (r - 1.0).abs() < 1e-6, "{l} {r}");
+    let (l, r) = opacity(textured, "\"alphaMode\": \"MASK\"", "mask2.gltf");
+    assert!(
+        (l - 1.0).abs() < 1e-6 && r == 0.0,
+        "default cutoff 0.5: {l} {r}"
+    );
+    let (l, r) = opacity(textured, "\"alphaMode\": \"BLEND\"", "blend.gltf");
+    assert!(
+        (l - 1.0).abs() < 1e-6 && (r - 77.0 / 255.0).abs() < 1e-6,
+        "{l} {r}"
+    );
+    // Without a texture the factor's alpha alone.
+    let gltf = gold_material_with("\"alphaMode\": \"BLEND\"")
+        .replace("     0.34,\n     1\n", "     0.34,\n     0.25\n");
+    let loaded = load(&write(&dir, "factor.gltf", gltf)).unwrap();
+    let m = &loaded.scene.materials[loaded.scene.meshes[1].material];
+    assert!(
+        matches!(&m.bsdf, BsdfSpec::Mask { opacity: lumo_scene::Texture::Constant(c), .. } if *c == Vec3::splat(0.25)),
+        "{:?}",
+        m.bsdf
+    );
+}

@@ -77,12 +77,6 @@ impl GltfReader<'_, '_> {
                 "occlusionTexture ignored: the path tracer computes occlusion itself",
             )?;
         }
-        if mat.alpha_mode() != gltf::material::AlphaMode::Opaque {
-            self.diag.warn(
-                self.at(label.clone()),
-                format!("alphaMode {:?} is rendered opaque", mat.alpha_mode()),
-            )?;
-        }
         let emission = Vec3::from(mat.emissive_factor()) * mat.emissive_strength().unwrap_or(1.0);
         let what = "emissiveFactor × KHR_materials_emissive_strength";
         let emission = self.non_negative(&label, what, emission)?;
@@ -106,6 +100,12 @@ impl GltfReader<'_, '_> {
         if let Some(normal) = mat.normal_texture() {
             bsdf = BsdfSpec::NormalMap {
                 normals: self.normal_texture(&label, &normal)?,
+                nested: Box::new(bsdf),
+            };
+        }
+        if let Some(opacity) = self.opacity(&label, &mat)? {
+            bsdf = BsdfSpec::Mask {
+                opacity,
                 nested: Box::new(bsdf),
             };
         }
@@ -180,21 +180,7 @@ impl GltfReader<'_, '_> {
         let decoded = match self.images.get(&(image.index(), raw)) {
             Some(img) => img.clone(),
             None => {
-                let bytes = match image.source() {
-                    gltf::image::Source::View { view, .. } => {
-                        let buf = self
-                            .buffers
-                            .get(view.buffer().index())
-                            .map(Vec::as_slice)
-                            .unwrap_or(&[]);
-                        buf.get(view.offset()..view.offset() + view.length())
-                            .ok_or_else(|| {
-                                LoadError::invalid(at.clone(), "image buffer view is out of range")
-                            })?
-                            .to_vec()
-                    }
-                    gltf::image::Source::Uri { uri, .. } => uri_bytes(self.path, uri, &at)?,
-                };
+                let bytes = self.image_bytes(&image, &at)?;
                 let img =
                     decode_image(&bytes, raw).map_err(|e| LoadError::invalid(at.clone(), e))?;
                 // glTF puts v = 0 at the image's top row, lumo at its bottom row.
@@ -225,9 +211,34 @@ impl GltfReader<'_, '_> {
     }
 }
 
+impl GltfReader<'_, '_> {
+    /// The encoded bytes of `image` (from its buffer view or URI).
+    pub(super) fn image_bytes(
+        &self,
+        image: &gltf::Image,
+        at: &Location,
+    ) -> Result<Vec<u8>, LoadError> {
+        Ok(match image.source() {
+            gltf::image::Source::View { view, .. } => {
+                let buf = self
+                    .buffers
+                    .get(view.buffer().index())
+                    .map(Vec::as_slice)
+                    .unwrap_or(&[]);
+                buf.get(view.offset()..view.offset() + view.length())
+                    .ok_or_else(|| {
+                        LoadError::invalid(at.clone(), "image buffer view is out of range")
+                    })?
+                    .to_vec()
+            }
+            gltf::image::Source::Uri { uri, .. } => uri_bytes(self.path, uri, at)?,
+        })
+    }
+}
+
 /// `texture` looked up through a `KHR_texture_transform`: uv' = T(offset) · R(rotation) ·
 /// S(scale) · uv, as the extension defines.
-fn transformed(texture: Texture, t: &gltf::texture::TextureTransform) -> Texture {
+pub(super) fn transformed(texture: Texture, t: &gltf::texture::TextureTransform) -> Texture {
     let (s, c) = t.rotation().sin_cos();
     let rot = Mat2::from_cols(Vec2::new(c, -s), Vec2::new(s, c));
     let m = Affine2::from_mat2_translation(

@@ -2,6 +2,7 @@
 //! hierarchy, cameras, metallic-roughness materials, `KHR_lights_punctual`,
 //! `KHR_materials_emissive_strength`, `KHR_texture_transform` and node animations.
 
+mod alpha;
 mod buffers;
 mod materials;
 
