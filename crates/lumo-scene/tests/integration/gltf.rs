@@ -562,3 +562,62 @@ fn alpha_modes_become_opacity_masks() {
         m.bsdf
     );
 }
+
+/// The bitmap under a texture (through any transform).
+fn bitmap_of(t: &lumo_scene::Texture) -> (lumo_scene::TextureFilter, lumo_scene::WrapMode) {
+    match t {
+        lumo_scene::Texture::Bitmap { filter, wrap, .. } => (*filter, *wrap),
+        lumo_scene::Texture::Transformed { texture, .. } => bitmap_of(texture),
+        other => panic!("{other:?}"),
+    }
+}
+
+/// Samplers: magFilter NEAREST or LINEAR (the default when unset), wrapS as the wrap mode,
+/// a warning where wrapT differs.
+#[test]
+fn samplers_choose_the_filter_and_wrap_mode() {
+    use lumo_scene::{TextureFilter, WrapMode};
+    let dir = temp_dir("gltf-sampler");
+    write(&dir, "mr.png", png_1x1([0, 128, 64]));
+    let base = |samplers: &str, name: &str| {
+        let text = gold_pbr_with(
+            "\"baseColorTexture\": {\"index\": 0}",
+            "\"doubleSided\": true",
+        )
+        .replacen(
+            "\"textures\": [{\"source\": 0}]",
+            &format!(
+                "\"textures\": [{{\"source\": 0{}}}],\n \"samplers\": [{samplers}]",
+                if samplers.is_empty() {
+                    ""
+                } else {
+                    ", \"sampler\": 0"
+                }
+            ),
+            1,
+        );
+        let loaded = load(&write(&dir, name, text)).unwrap();
+        let m = &loaded.scene.materials[loaded.scene.meshes[1].material];
+        let BsdfSpec::GltfPbr { base_color, .. } = &m.bsdf else {
+            panic!("{:?}", m.bsdf);
+        };
+        let w = loaded
+            .warnings
+            .iter()
+            .map(|w| w.to_string())
+            .collect::<Vec<_>>()
+            .join("\n");
+        (bitmap_of(base_color), w)
+    };
+    let (fw, w) = base("", "default.gltf");
+    assert_eq!(fw, (TextureFilter::Bilinear, WrapMode::Repeat), "{w}");
+    let (fw, w) = base(
+        "{\"magFilter\": 9728, \"wrapS\": 33071, \"wrapT\": 33071}",
+        "nearest.gltf",
+    );
+    assert_eq!(fw, (TextureFilter::Nearest, WrapMode::Clamp));
+    assert!(!w.contains("wrapT"), "{w}");
+    let (fw, w) = base("{\"wrapS\": 33648, \"wrapT\": 10497}", "mixed.gltf");
+    assert_eq!(fw, (TextureFilter::Bilinear, WrapMode::Mirror));
+    assert!(w.contains("wrapT Repeat differ"), "{w}");
+}

@@ -70,11 +70,12 @@ impl GltfReader<'_, '_> {
             3,
             data,
         ));
+        let (filter, wrap) = self.sampler(&info.texture(), &at)?;
         let texture = Texture::Bitmap {
             image: Arc::new(img),
             uv_scale: Vec2::ONE,
-            filter: TextureFilter::Nearest,
-            wrap: WrapMode::Repeat,
+            filter,
+            wrap,
         };
         Ok(Some(match info.texture_transform() {
             None => texture,

@@ -200,14 +200,44 @@ impl GltfReader<'_, '_> {
                 Arc::new(img)
             }
         };
-        // glTF samplers' filters are not read yet: nearest, as lumo has always looked them up.
-        let texture = Texture::Bitmap {
+        let (filter, wrap) = self.sampler(&texture, &at)?;
+        Ok(Texture::Bitmap {
             image,
             uv_scale: Vec2::ONE,
-            filter: TextureFilter::Nearest,
-            wrap: WrapMode::Repeat,
+            filter,
+            wrap,
+        })
+    }
+
+    /// A texture's sampler as lumo's lookup: magFilter NEAREST is nearest, LINEAR or unset
+    /// bilinear (minification is not filtered: pixel samples average it); the wrap mode of
+    /// `wrapS`, with a warning where `wrapT` differs (lumo wraps both axes alike).
+    pub(super) fn sampler(
+        &mut self,
+        texture: &gltf::Texture,
+        at: &Location,
+    ) -> Result<(TextureFilter, WrapMode), LoadError> {
+        use gltf::texture::{MagFilter, WrappingMode};
+        let sampler = texture.sampler();
+        let filter = match sampler.mag_filter() {
+            Some(MagFilter::Nearest) => TextureFilter::Nearest,
+            Some(MagFilter::Linear) | None => TextureFilter::Bilinear,
         };
-        Ok(texture)
+        let wrap = |m: WrappingMode| match m {
+            WrappingMode::ClampToEdge => WrapMode::Clamp,
+            WrappingMode::MirroredRepeat => WrapMode::Mirror,
+            WrappingMode::Repeat => WrapMode::Repeat,
+        };
+        let (s, t) = (wrap(sampler.wrap_s()), wrap(sampler.wrap_t()));
+        if s != t {
+            self.diag.warn(
+                at.clone(),
+                format!(
+                    "sampler wrapS {s:?} and wrapT {t:?} differ; lumo wraps both axes as wrapS"
+                ),
+            )?;
+        }
+        Ok((filter, s))
     }
 }
 
