@@ -621,3 +621,25 @@ fn samplers_choose_the_filter_and_wrap_mode() {
     assert_eq!(fw, (TextureFilter::Bilinear, WrapMode::Mirror));
     assert!(w.contains("wrapT Repeat differ"), "{w}");
 }
+
+/// KHR_lights_punctual's range is not modelled (lumo's lights fall off physically): a
+/// warning naming the light and the fix, not silence.
+#[test]
+fn a_light_range_is_warned_about() {
+    let dir = temp_dir("gltf-range");
+    let text = edited(
+        "     \"intensity\": 20\n",
+        "     \"intensity\": 20,\n     \"range\": 4\n",
+    );
+    let loaded = load(&write(&dir, "range.gltf", text)).unwrap();
+    let w = loaded
+        .warnings
+        .iter()
+        .map(|w| w.to_string())
+        .collect::<Vec<_>>()
+        .join("\n");
+    assert!(
+        w.contains("range.gltf") && w.contains("light 0") && w.contains("range 4 ignored"),
+        "{w}"
+    );
+}

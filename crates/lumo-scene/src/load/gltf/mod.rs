@@ -609,6 +609,17 @@ impl GltfReader<'_, '_> {
                 format!("intensity × color = {power} is negative; a light cannot emit less than nothing"),
             ));
         }
+        if let Some(range) = light.range() {
+            // glTF calls range a hint for real-time renderers; lumo's lights keep the physical
+            // inverse-square falloff to any distance.
+            self.diag.warn(
+                at.clone(),
+                format!(
+                    "range {range} ignored: lumo's lights fall off with the inverse square of \
+                     distance everywhere (remove range to silence this)"
+                ),
+            )?;
+        }
         let l = check_light(&at, Some("intensity × color"), l)?;
         self.scene.lights.push(l);
         self.rig
