@@ -132,8 +132,14 @@ impl GltfReader<'_, '_> {
     ) -> Result<Texture, LoadError> {
         let pixel = move |c: Vec3| c * tint;
         let map: Option<&dyn Fn(Vec3) -> Vec3> = (tint != Vec3::ONE).then_some(&pixel);
-        let texture = self.bitmap(info.texture(), info.tex_coord(), raw, map)?;
-        Ok(match info.texture_transform() {
+        let transform = info.texture_transform();
+        // KHR_texture_transform's texCoord overrides the texture's own set.
+        let tex_coord = transform
+            .as_ref()
+            .and_then(|t| t.tex_coord())
+            .unwrap_or(info.tex_coord());
+        let texture = self.bitmap(info.texture(), tex_coord, raw, map)?;
+        Ok(match transform {
             None => texture,
             Some(t) => transformed(texture, &t),
         })
