@@ -99,6 +99,7 @@ impl BsdfSpec {
             | BsdfSpec::Plastic { .. }
             | BsdfSpec::Dielectric { .. }
             | BsdfSpec::ThinDielectric { .. }
+            | BsdfSpec::GltfPbr { .. }
             | BsdfSpec::TwoSided { .. }
             | BsdfSpec::Blend { .. } => None,
         }
@@ -154,6 +155,23 @@ impl BsdfSpec {
                 specular: true,
                 ..Default::default()
             },
+            BsdfSpec::GltfPbr {
+                metallic_roughness,
+                metallic,
+                roughness,
+                ..
+            } => {
+                // A metallic-roughness texture varies both per texel: any lobe may be there.
+                let textured = metallic_roughness.is_some();
+                let smooth = roughness * roughness < SMOOTH_ALPHA;
+                BsdfFlags {
+                    reflection: true,
+                    diffuse: textured || *metallic < 1.0,
+                    glossy: textured || !smooth,
+                    specular: textured || smooth,
+                    ..Default::default()
+                }
+            }
             BsdfSpec::NormalMap { nested, .. } | BsdfSpec::BumpMap { nested, .. } => nested.flags(),
             BsdfSpec::Mask { nested, .. } => nested.flags().union(BsdfFlags {
                 transmission: true,
@@ -178,7 +196,7 @@ impl BsdfSpec {
     }
 
     /// The colour that tints what the BSDF under the adapters reflects: a diffuse or plastic
-    /// base's reflectance, a mirror's. `None` where the colour comes from elsewhere
+    /// base's reflectance, a mirror's, a glTF material's base colour. `None` where the colour comes from elsewhere
     /// (a conductor's η and k, glass) or from two branches.
     pub fn base_color(&self) -> Option<BaseColor<'_>> {
         self.parameters().1
@@ -189,6 +207,7 @@ impl BsdfSpec {
         match self.innermost() {
             BsdfSpec::Diffuse { reflectance } => (None, Some(BaseColor::Texture(reflectance))),
             BsdfSpec::Mirror { reflectance } => (None, Some(BaseColor::Rgb(*reflectance))),
+            BsdfSpec::GltfPbr { base_color, .. } => (None, Some(BaseColor::Texture(base_color))),
             BsdfSpec::Plastic {
                 diffuse, roughness, ..
             } => (Some(roughness), Some(BaseColor::Texture(diffuse))),

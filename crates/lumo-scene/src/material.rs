@@ -187,6 +187,18 @@ pub enum BsdfSpec {
         /// The BSDF weighted by weight.
         second: Box<BsdfSpec>,
     },
+    /// glTF 2.0's metallic-roughness material (its Appendix B BRDF), read per texel.
+    GltfPbr {
+        /// Base colour: baseColorTexture × baseColorFactor (sRGB decoded), or the factor.
+        base_color: Texture,
+        /// metallicRoughnessTexture (linear): roughness in its green channel, metalness in
+        /// its blue one, multiplying the factors below; `None`: the factors alone.
+        metallic_roughness: Option<Texture>,
+        /// metallicFactor in [0, 1].
+        metallic: f32,
+        /// roughnessFactor in [0, 1] (perceptual: GGX α is its square).
+        roughness: f32,
+    },
     /// An opacity cut-out (Mitsuba's `mask`): the nested BSDF with probability `opacity`,
     /// otherwise the ray passes straight through.
     Mask {

@@ -219,6 +219,9 @@ pub fn apply(rs: &mut RenderScene, edits: &[Edit]) -> Result<SceneUpdate, SceneE
                 match m.bsdf.innermost_mut() {
                     BsdfSpec::Diffuse { reflectance } => *reflectance = Texture::Constant(e.value),
                     BsdfSpec::Plastic { diffuse, .. } => *diffuse = Texture::Constant(e.value),
+                    BsdfSpec::GltfPbr { base_color, .. } => {
+                        *base_color = Texture::Constant(e.value)
+                    }
                     BsdfSpec::Mirror { reflectance } => *reflectance = e.value,
                     // No single colour to set (η and k, glass, two branches); the adapters
                     // are not innermost.

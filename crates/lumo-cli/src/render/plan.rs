@@ -167,6 +167,11 @@ impl Plan {
             bail!(why);
         }
         let method = match args.integrator {
+            // These two ignore --pipeline: they run their own filters per frame.
+            RenderIntegrator::Path if args.temporal_eval.is_some() => {
+                "per-frame À-Trous beside the temporal filter".to_owned()
+            }
+            RenderIntegrator::Path if args.temporal => "temporal filter (SVGF)".to_owned(),
             RenderIntegrator::Path => format!("pipeline {pipeline}"),
             RenderIntegrator::Light => format!(
                 "light tracer ({} light paths)",

@@ -11,6 +11,7 @@ mod conductor;
 mod dielectric;
 mod diffuse;
 mod fresnel;
+mod gltf_pbr;
 mod microfacet;
 mod mirror;
 mod plastic;
@@ -21,6 +22,7 @@ pub use conductor::Conductor;
 pub use dielectric::Dielectric;
 pub use diffuse::Diffuse;
 pub use fresnel::{fresnel_conductor, fresnel_dielectric, fresnel_diffuse_reflectance};
+pub use gltf_pbr::GltfPbr;
 pub use microfacet::{Distribution, Microfacet};
 pub use mirror::Mirror;
 pub use plastic::Plastic;
@@ -47,6 +49,8 @@ pub enum Bsdf {
     Dielectric(Dielectric),
     /// Thin dielectric sheet.
     ThinDielectric(ThinDielectric),
+    /// glTF's metallic-roughness material.
+    GltfPbr(GltfPbr),
 }
 
 /// A sampled direction.
@@ -108,6 +112,7 @@ impl Bsdf {
             Bsdf::Mirror(_) | Bsdf::ThinDielectric(_) => true,
             Bsdf::Conductor(c) => c.is_delta(),
             Bsdf::Dielectric(d) => d.is_delta(),
+            Bsdf::GltfPbr(g) => g.is_delta(),
         }
     }
 
@@ -117,7 +122,11 @@ impl Bsdf {
     pub(crate) fn is_transmissive(&self) -> bool {
         match self {
             Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => true,
-            Bsdf::Diffuse(_) | Bsdf::Mirror(_) | Bsdf::Conductor(_) | Bsdf::Plastic(_) => false,
+            Bsdf::Diffuse(_)
+            | Bsdf::Mirror(_)
+            | Bsdf::Conductor(_)
+            | Bsdf::Plastic(_)
+            | Bsdf::GltfPbr(_) => false,
         }
     }
 
@@ -129,6 +138,7 @@ impl Bsdf {
             Bsdf::Conductor(c) => c.albedo(),
             Bsdf::Plastic(p) => p.diffuse,
             Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => Vec3::ONE,
+            Bsdf::GltfPbr(g) => g.albedo(Vec3::Z),
         }
     }
 
@@ -137,6 +147,7 @@ impl Bsdf {
     pub fn albedo_towards(&self, wo: Vec3) -> Vec3 {
         match self {
             Bsdf::Plastic(p) => p.albedo(wo),
+            Bsdf::GltfPbr(g) => g.albedo(wo),
             Bsdf::Diffuse(_)
             | Bsdf::Mirror(_)
             | Bsdf::Conductor(_)
@@ -164,6 +175,7 @@ impl Bsdf {
             Bsdf::Conductor(c) => c.eval(wo, wi),
             Bsdf::Plastic(p) => p.eval(wo, wi),
             Bsdf::Dielectric(d) => d.eval(wo, wi),
+            Bsdf::GltfPbr(g) => g.eval(wo, wi),
         }
     }
 
@@ -176,6 +188,7 @@ impl Bsdf {
             Bsdf::Conductor(c) => c.pdf(wo, wi),
             Bsdf::Plastic(p) => p.pdf(wo, wi),
             Bsdf::Dielectric(d) => d.pdf(wo, wi),
+            Bsdf::GltfPbr(g) => g.pdf(wo, wi),
         }
     }
 
@@ -202,6 +215,7 @@ impl Bsdf {
             Bsdf::Conductor(c) => c.sample(wo, u),
             Bsdf::Plastic(p) => p.sample(wo, u_lobe, u),
             Bsdf::Dielectric(d) => d.sample(wo, u_lobe, u),
+            Bsdf::GltfPbr(g) => g.sample(wo, u_lobe, u),
         }
     }
 }

@@ -8,7 +8,8 @@ use lumo_scene::{BsdfSpec, Texture};
 use super::branches::{hit_uniform, Pick};
 use super::{RenderScene, Surface};
 use crate::bsdf::{
-    Bsdf, Conductor, Dielectric, Diffuse, Microfacet, Mirror, Plastic, ThinDielectric, SMOOTH_ALPHA,
+    Bsdf, Conductor, Dielectric, Diffuse, GltfPbr, Microfacet, Mirror, Plastic, ThinDielectric,
+    SMOOTH_ALPHA,
 };
 use crate::geometry::Basis;
 use crate::shading::ShadingBsdf;
@@ -221,6 +222,22 @@ impl RenderScene {
                 mf: microfacet(roughness, Some(surface.uv)),
             }),
             BsdfSpec::ThinDielectric { ior } => Bsdf::ThinDielectric(ThinDielectric { eta: *ior }),
+            BsdfSpec::GltfPbr {
+                base_color,
+                metallic_roughness,
+                metallic,
+                roughness,
+            } => {
+                // glTF reads roughness from the green channel and metalness from the blue one.
+                let mr = metallic_roughness
+                    .as_ref()
+                    .map_or(Vec3::ONE, |t| t.eval(surface.uv));
+                Bsdf::GltfPbr(GltfPbr::new(
+                    texture(base_color, surface.uv) * surface.color,
+                    metallic * mr.z,
+                    roughness * mr.y,
+                ))
+            }
             // Adapters are unwrapped by `bsdf`; one reached here (nested in a way it does not
             // unwrap) stands for the BSDF it wraps. Two-branch BSDFs are split into materials
             // of their own when the render scene is built (`branches`), so none reaches here.

@@ -315,9 +315,11 @@ impl RenderScene {
                     };
                     (coat, fdr)
                 }
-                // No diffuse base under a coat; adapters are not innermost, and two-branch
-                // materials' branches are materials of their own.
+                // No diffuse base under a coat (the glTF BSDF's diffuse weight is its own
+                // table); adapters are not innermost, and two-branch materials' branches are
+                // materials of their own.
                 BsdfSpec::Diffuse { .. }
+                | BsdfSpec::GltfPbr { .. }
                 | BsdfSpec::Mirror { .. }
                 | BsdfSpec::Conductor { .. }
                 | BsdfSpec::Dielectric { .. }

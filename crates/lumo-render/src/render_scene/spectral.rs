@@ -12,7 +12,7 @@ use lumo_spectrum::upsample::{illuminant, reflectance, unbounded, unbounded_coef
 use lumo_spectrum::{coefficients, Sigmoid, Tabulated, Wavelengths};
 
 use super::{RenderScene, Surface};
-use crate::bsdf::{Bsdf, Conductor, Diffuse, Mirror, Plastic};
+use crate::bsdf::{Bsdf, Conductor, Diffuse, GltfPbr, Mirror, Plastic};
 use crate::shading::ShadingBsdf;
 
 /// A tabulated spectrum at the three wavelengths.
@@ -119,6 +119,10 @@ impl RenderScene {
                 Bsdf::Dielectric(d)
             }
             other @ Bsdf::ThinDielectric(_) => other,
+            Bsdf::GltfPbr(g) => Bsdf::GltfPbr(GltfPbr {
+                base_color: base(g.base_color),
+                ..g
+            }),
         };
         b
     }

@@ -6,8 +6,8 @@ use crate::common;
 use common::chi2::{self, dir};
 use glam::{Vec2, Vec3};
 use lumo_render::bsdf::{
-    fresnel_diffuse_reflectance, Bsdf, Conductor, Dielectric, Diffuse, Distribution, Microfacet,
-    Mirror, Plastic, RoughCoat,
+    fresnel_diffuse_reflectance, Bsdf, Conductor, Dielectric, Diffuse, Distribution, GltfPbr,
+    Microfacet, Mirror, Plastic, RoughCoat,
 };
 use std::f32::consts::PI;
 
@@ -80,6 +80,22 @@ fn test_bsdfs() -> Vec<(&'static str, Bsdf)> {
                 k: Vec3::splat(2.0),
                 mf: GGX_ANISO,
             }),
+        ),
+        (
+            "gltf-dielectric-0.5",
+            Bsdf::GltfPbr(GltfPbr::new(Vec3::new(0.8, 0.5, 0.2), 0.0, 0.5)),
+        ),
+        (
+            "gltf-metal-0.3",
+            Bsdf::GltfPbr(GltfPbr::new(Vec3::new(0.9, 0.6, 0.3), 1.0, 0.3)),
+        ),
+        (
+            "gltf-mixed-0.8",
+            Bsdf::GltfPbr(GltfPbr::new(Vec3::new(0.3, 0.6, 0.9), 0.4, 0.8)),
+        ),
+        (
+            "gltf-smooth-mixed",
+            Bsdf::GltfPbr(GltfPbr::new(Vec3::new(0.5, 0.5, 0.5), 0.5, 0.0)),
         ),
         (
             "plastic-smooth",

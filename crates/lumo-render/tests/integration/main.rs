@@ -7,6 +7,7 @@ mod bsdf_sampling;
 mod common;
 mod direct_light_geometry;
 mod emission_texture;
+mod gltf_pbr;
 mod integrator;
 mod light_render;
 mod light_sampling;

@@ -163,6 +163,33 @@ const MAX_DEFLATE_RATIO: u64 = 1032;
 
 /// 8- or 16-bit PNG of any colour type to RGB in [0,1] (alpha dropped), values not linearised.
 fn decode_png(bytes: &[u8]) -> Result<Image, String> {
+    let (w, h, channels, data) = png_samples(bytes)?;
+    Ok(to_rgb(w, h, channels, &data))
+}
+
+/// The alpha channel of an image's bytes as a one-channel image in [0, 1] (glTF's base colour
+/// alpha); `None` for images without one (JPEG, HDR, PNG without alpha).
+pub(crate) fn decode_alpha(bytes: &[u8]) -> Result<Option<Image>, String> {
+    if !bytes.starts_with(b"\x89PNG") {
+        return Ok(None);
+    }
+    let (w, h, channels, data) = png_samples(bytes)?;
+    if channels != 2 && channels != 4 {
+        return Ok(None);
+    }
+    let alpha = data
+        .chunks_exact(channels)
+        .take(w * h)
+        .map(|px| px[channels - 1] as f32 / 255.0)
+        .collect::<Vec<_>>();
+    if alpha.len() != w * h {
+        return Err("corrupt PNG: pixel data does not match its size".into());
+    }
+    Ok(Some(Image::from_vec(w, h, 1, alpha)))
+}
+
+/// A PNG's 8-bit interleaved samples: (width, height, channels, samples).
+fn png_samples(bytes: &[u8]) -> Result<(usize, usize, usize, Vec<u8>), String> {
     let mut decoder = png::Decoder::new(std::io::Cursor::new(bytes));
     decoder.set_transformations(png::Transformations::normalize_to_color8());
     let mut reader = decoder
@@ -187,8 +214,8 @@ fn decode_png(bytes: &[u8]) -> Result<Image, String> {
         .map_err(|e| format!("corrupt PNG: {e}"))?;
     let channels = info.color_type.samples();
     let (w, h) = (info.width as usize, info.height as usize);
-    let data = &buf[..info.buffer_size()];
-    Ok(to_rgb(w, h, channels, data))
+    buf.truncate(info.buffer_size());
+    Ok((w, h, channels, buf))
 }
 
 /// Baseline or progressive JPEG to RGB in [0,1], values not linearised.

@@ -76,11 +76,21 @@ fn hierarchy_camera_lights_and_materials() {
     }
     assert!(matches!(
         s.materials[s.meshes[0].material].bsdf,
-        BsdfSpec::Plastic { .. }
+        BsdfSpec::GltfPbr {
+            metallic: 0.0,
+            roughness: 0.9,
+            metallic_roughness: None,
+            ..
+        }
     ));
     assert!(matches!(
         &s.materials[s.meshes[1].material].bsdf,
-        BsdfSpec::Conductor { roughness, .. } if (roughness.alpha_u - 0.16).abs() < 1e-6
+        BsdfSpec::GltfPbr {
+            metallic: 1.0,
+            roughness: 0.4,
+            metallic_roughness: None,
+            ..
+        }
     ));
     let rig = loaded.animation.as_ref().expect("rig");
     assert_eq!(rig.animations.len(), 1);
@@ -143,8 +153,12 @@ fn bad_gltf_is_a_clear_error() {
     let e = load(&write(&dir, "req.gltf", required))
         .unwrap_err()
         .to_string();
+    // lumo's message (naming what is supported), not the glTF parser's.
     assert!(
-        e.contains("KHR_draco_mesh_compression") && e.contains("req.gltf"),
+        e.contains("KHR_draco_mesh_compression")
+            && e.contains("req.gltf")
+            && e.contains("lumo does not support")
+            && e.contains("supported: KHR_lights_punctual"),
         "{e}"
     );
 
@@ -333,4 +347,299 @@ fn orthographic_camera_is_kept() {
     );
     let (w, h) = loaded.settings.size.unwrap();
     assert_eq!(w, 2 * h);
+}
+
+/// A 1×1 8-bit RGB PNG of `rgb`.
+fn png_1x1(rgb: [u8; 3]) -> Vec<u8> {
+    let mut out = vec![];
+    let mut enc = png::Encoder::new(&mut out, 1, 1);
+    enc.set_color(png::ColorType::Rgb);
+    enc.set_depth(png::BitDepth::Eight);
+    let mut w = enc.write_header().unwrap();
+    w.write_image_data(&rgb).unwrap();
+    drop(w);
+    out
+}
+
+/// hierarchy.gltf with the gold material's roughness factor `roughness` and, if given, a
+/// metallicRoughnessTexture read from `mr.png`.
+fn gold_with(roughness: &str, texture: bool) -> String {
+    let gltf = std::fs::read_to_string(scenes().join("hierarchy.gltf")).unwrap();
+    let old = "    \"metallicFactor\": 1,\n    \"roughnessFactor\": 0.4";
+    assert!(
+        gltf.contains(old),
+        "the gold material is where the test expects it"
+    );
+    let mut new = format!("    \"metallicFactor\": 1,\n    \"roughnessFactor\": {roughness}");
+    let mut gltf = gltf;
+    if texture {
+        new += ",\n    \"metallicRoughnessTexture\": {\"index\": 0}";
+        gltf = gltf.replacen(
+            "{\n",
+            "{\n \"images\": [{\"uri\": \"mr.png\"}],\n \"textures\": [{\"source\": 0}],\n",
+            1,
+        );
+    }
+    gltf.replace(old, &new)
+}
+
+/// The metallicRoughnessTexture is kept per texel, linear (not sRGB), roughness from its
+/// green channel and metalness from its blue one, multiplying the factors (it used to be
+/// replaced by its mean with a warning).
+#[test]
+fn the_metallic_roughness_texture_is_kept_per_texel() {
+    let dir = temp_dir("gltf-mr");
+    write(&dir, "mr.png", png_1x1([0, 128, 64]));
+    let loaded = load(&write(&dir, "mr.gltf", gold_with("0.4", true))).unwrap();
+    let w = loaded
+        .warnings
+        .iter()
+        .map(|w| w.to_string())
+        .collect::<Vec<_>>();
+    assert!(!w.iter().any(|w| w.contains("mean")), "{w:?}");
+    let s = &loaded.scene;
+    let BsdfSpec::GltfPbr {
+        metallic_roughness: Some(t),
+        metallic,
+        roughness,
+        ..
+    } = &s.materials[s.meshes[1].material].bsdf
+    else {
+        panic!("{:?}", s.materials[s.meshes[1].material].bsdf);
+    };
+    assert_eq!((*metallic, *roughness), (1.0, 0.4));
+    let texel = t.eval(lumo_scene::Vec2::splat(0.5));
+    let expected = Vec3::new(0.0, 128.0 / 255.0, 64.0 / 255.0);
+    assert!((texel - expected).abs().max_element() < 1e-6, "{texel}");
+}
+
+/// A factor outside glTF's [0, 1] is clamped with a warning naming the file, the material and
+/// the field.
+#[test]
+fn an_out_of_range_roughness_factor_is_clamped_with_a_warning() {
+    let dir = temp_dir("gltf-rough");
+    let loaded = load(&write(&dir, "rough.gltf", gold_with("1.5", false))).unwrap();
+    let w = loaded
+        .warnings
+        .iter()
+        .map(|w| w.to_string())
+        .collect::<Vec<_>>()
+        .join("\n");
+    assert!(
+        w.contains("rough.gltf") && w.contains("material 1") && w.contains("roughnessFactor 1.5"),
+        "{w}"
+    );
+    let s = &loaded.scene;
+    assert!(matches!(
+        s.materials[s.meshes[1].material].bsdf,
+        BsdfSpec::GltfPbr { roughness: 1.0, .. }
+    ));
+}
+
+/// hierarchy.gltf with `extra` JSON members added to the gold material and `mr.png` as image 0.
+fn gold_material_with(extra: &str) -> String {
+    let gltf = std::fs::read_to_string(scenes().join("hierarchy.gltf")).unwrap();
+    let old = "   \"name\": \"gold\",\n";
+    assert!(
+        gltf.contains(old),
+        "the gold material is where the test expects it"
+    );
+    gltf.replace(old, &format!("{old}   {extra},\n")).replacen(
+        "{\n",
+        "{\n \"images\": [{\"uri\": \"mr.png\"}],\n \"textures\": [{\"source\": 0}],\n",
+        1,
+    )
+}
+
+/// normalTexture becomes a normal map over the glTF BSDF whose texels carry `scale` on x and
+/// y (read linear), and emissiveTexture a per-texel emission × emissiveFactor (sRGB decoded).
+#[test]
+fn normal_and_emissive_textures_are_kept_per_texel() {
+    let dir = temp_dir("gltf-normal");
+    write(&dir, "mr.png", png_1x1([255, 128, 255]));
+    let extra = "\"normalTexture\": {\"index\": 0, \"scale\": 0.5}, \"emissiveTexture\": {\"index\": 0}, \"emissiveFactor\": [2, 2, 2]";
+    let loaded = load(&write(&dir, "n.gltf", gold_material_with(extra))).unwrap();
+    let w = loaded
+        .warnings
+        .iter()
+        .map(|w| w.to_string())
+        .collect::<Vec<_>>();
+    assert!(
+        !w.iter()
+            .any(|w| w.contains("normal") || w.contains("emissive")),
+        "{w:?}"
+    );
+    let m = &loaded.scene.materials[loaded.scene.meshes[1].material];
+    let BsdfSpec::NormalMap { normals, nested } = &m.bsdf else {
+        panic!("{:?}", m.bsdf);
+    };
+    assert!(matches!(**nested, BsdfSpec::GltfPbr { metallic: 1.0, .. }));
+    let uv = lumo_scene::Vec2::splat(0.5);
+    let g = 128.0 / 255.0;
+    let expected = (Vec3::new(0.5, (2.0 * g - 1.0) * 0.5, 1.0) + Vec3::ONE) * 0.5;
+    let texel = normals.eval(uv);
+    assert!(
+        (texel - expected).abs().max_element() < 1e-6,
+        "{texel} vs {expected}"
+    );
+    let map = m.emission_map.as_ref().expect("an emission map");
+    // sRGB 128 decodes to 0.2158; 255 to 1.
+    let e = map.eval(uv);
+    assert!(
+        (e - Vec3::new(2.0, 2.0 * 0.2158, 2.0)).abs().max_element() < 1e-3,
+        "{e}"
+    );
+    assert!(
+        (m.emission - e).abs().max_element() < 1e-6,
+        "the mean of a 1×1 map is its texel"
+    );
+}
+
+/// A 2×1 8-bit RGBA PNG of white texels with alphas `a`.
+fn png_rgba_2x1(a: [u8; 2]) -> Vec<u8> {
+    let mut out = vec![];
+    let mut enc = png::Encoder::new(&mut out, 2, 1);
+    enc.set_color(png::ColorType::Rgba);
+    enc.set_depth(png::BitDepth::Eight);
+    let mut w = enc.write_header().unwrap();
+    w.write_image_data(&[255, 255, 255, a[0], 255, 255, 255, a[1]])
+        .unwrap();
+    drop(w);
+    out
+}
+
+/// hierarchy.gltf with `pbr` JSON members added to the gold material's pbrMetallicRoughness,
+/// `extra` to the material, and `mr.png` as image 0.
+fn gold_pbr_with(pbr: &str, extra: &str) -> String {
+    let old = "    \"roughnessFactor\": 0.4";
+    let text = gold_material_with(extra);
+    assert!(text.contains(old));
+    text.replace(old, &format!("{old},\n    {pbr}"))
+}
+
+/// alphaMode MASK thresholds the base colour's alpha (texture × factor) at alphaCutoff, BLEND
+/// keeps it as the probability of being opaque; both wrap the glTF BSDF in a mask.
+#[test]
+fn alpha_modes_become_opacity_masks() {
+    let dir = temp_dir("gltf-alpha");
+    write(&dir, "mr.png", png_rgba_2x1([255, 77]));
+    let opacity = |pbr: &str, extra: &str, name: &str| {
+        let loaded = load(&write(&dir, name, gold_pbr_with(pbr, extra))).unwrap();
+        let m = &loaded.scene.materials[loaded.scene.meshes[1].material];
+        let BsdfSpec::Mask { opacity, nested } = &m.bsdf else {
+            panic!("{:?}", m.bsdf);
+        };
+        assert!(matches!(**nested, BsdfSpec::GltfPbr { .. }), "{nested:?}");
+        let at = |u: f32| opacity.eval_1(lumo_scene::Vec2::new(u, 0.5));
+        (at(0.25), at(0.75))
+    };
+    let textured = "\"baseColorTexture\": {\"index\": 0}";
+    // Alpha 77/255 = 0.30: opaque above a cutoff of 0.25, absent below the default 0.5.
+    let (l, r) = opacity(
+        textured,
+        "\"alphaMode\": \"MASK\", \"alphaCutoff\": 0.25",
+        "mask.gltf",
+    );
+    assert!((l - 1.0).abs() < 1e-6 && (r - 1.0).abs() < 1e-6, "{l} {r}");
+    let (l, r) = opacity(textured, "\"alphaMode\": \"MASK\"", "mask2.gltf");
+    assert!(
+        (l - 1.0).abs() < 1e-6 && r == 0.0,
+        "default cutoff 0.5: {l} {r}"
+    );
+    let (l, r) = opacity(textured, "\"alphaMode\": \"BLEND\"", "blend.gltf");
+    assert!(
+        (l - 1.0).abs() < 1e-6 && (r - 77.0 / 255.0).abs() < 1e-6,
+        "{l} {r}"
+    );
+    // Without a texture the factor's alpha alone.
+    let gltf = gold_material_with("\"alphaMode\": \"BLEND\"")
+        .replace("     0.34,\n     1\n", "     0.34,\n     0.25\n");
+    let loaded = load(&write(&dir, "factor.gltf", gltf)).unwrap();
+    let m = &loaded.scene.materials[loaded.scene.meshes[1].material];
+    assert!(
+        matches!(&m.bsdf, BsdfSpec::Mask { opacity: lumo_scene::Texture::Constant(c), .. } if *c == Vec3::splat(0.25)),
+        "{:?}",
+        m.bsdf
+    );
+}
+
+/// The bitmap under a texture (through any transform).
+fn bitmap_of(t: &lumo_scene::Texture) -> (lumo_scene::TextureFilter, lumo_scene::WrapMode) {
+    match t {
+        lumo_scene::Texture::Bitmap { filter, wrap, .. } => (*filter, *wrap),
+        lumo_scene::Texture::Transformed { texture, .. } => bitmap_of(texture),
+        other => panic!("{other:?}"),
+    }
+}
+
+/// Samplers: magFilter NEAREST or LINEAR (the default when unset), wrapS as the wrap mode,
+/// a warning where wrapT differs.
+#[test]
+fn samplers_choose_the_filter_and_wrap_mode() {
+    use lumo_scene::{TextureFilter, WrapMode};
+    let dir = temp_dir("gltf-sampler");
+    write(&dir, "mr.png", png_1x1([0, 128, 64]));
+    let base = |samplers: &str, name: &str| {
+        let text = gold_pbr_with(
+            "\"baseColorTexture\": {\"index\": 0}",
+            "\"doubleSided\": true",
+        )
+        .replacen(
+            "\"textures\": [{\"source\": 0}]",
+            &format!(
+                "\"textures\": [{{\"source\": 0{}}}],\n \"samplers\": [{samplers}]",
+                if samplers.is_empty() {
+                    ""
+                } else {
+                    ", \"sampler\": 0"
+                }
+            ),
+            1,
+        );
+        let loaded = load(&write(&dir, name, text)).unwrap();
+        let m = &loaded.scene.materials[loaded.scene.meshes[1].material];
+        let BsdfSpec::GltfPbr { base_color, .. } = &m.bsdf else {
+            panic!("{:?}", m.bsdf);
+        };
+        let w = loaded
+            .warnings
+            .iter()
+            .map(|w| w.to_string())
+            .collect::<Vec<_>>()
+            .join("\n");
+        (bitmap_of(base_color), w)
+    };
+    let (fw, w) = base("", "default.gltf");
+    assert_eq!(fw, (TextureFilter::Bilinear, WrapMode::Repeat), "{w}");
+    let (fw, w) = base(
+        "{\"magFilter\": 9728, \"wrapS\": 33071, \"wrapT\": 33071}",
+        "nearest.gltf",
+    );
+    assert_eq!(fw, (TextureFilter::Nearest, WrapMode::Clamp));
+    assert!(!w.contains("wrapT"), "{w}");
+    let (fw, w) = base("{\"wrapS\": 33648, \"wrapT\": 10497}", "mixed.gltf");
+    assert_eq!(fw, (TextureFilter::Bilinear, WrapMode::Mirror));
+    assert!(w.contains("wrapT Repeat differ"), "{w}");
+}
+
+/// KHR_lights_punctual's range is not modelled (lumo's lights fall off physically): a
+/// warning naming the light and the fix, not silence.
+#[test]
+fn a_light_range_is_warned_about() {
+    let dir = temp_dir("gltf-range");
+    let text = edited(
+        "     \"intensity\": 20\n",
+        "     \"intensity\": 20,\n     \"range\": 4\n",
+    );
+    let loaded = load(&write(&dir, "range.gltf", text)).unwrap();
+    let w = loaded
+        .warnings
+        .iter()
+        .map(|w| w.to_string())
+        .collect::<Vec<_>>()
+        .join("\n");
+    assert!(
+        w.contains("range.gltf") && w.contains("light 0") && w.contains("range 4 ignored"),
+        "{w}"
+    );
 }

@@ -281,12 +281,15 @@ fn negative_gltf_colours_are_warned_about_and_read_as_zero() {
     );
     let m = &scene.scene.materials[scene.scene.meshes[0].material];
     assert!(m.emission.min_element() >= 0.0, "{:?}", m.emission);
-    let lumo_scene::BsdfSpec::Plastic {
-        diffuse: Texture::Constant(c),
+    let lumo_scene::BsdfSpec::GltfPbr {
+        base_color: Texture::Constant(c),
         ..
     } = &m.bsdf
     else {
-        panic!("glTF's dielectric is a plastic: {:?}", m.bsdf);
+        panic!(
+            "a glTF material is glTF's metallic-roughness BSDF: {:?}",
+            m.bsdf
+        );
     };
     assert!(c.min_element() >= 0.0, "{c}");
 }

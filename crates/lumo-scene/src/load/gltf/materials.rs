@@ -1,4 +1,5 @@
-//! glTF materials (metallic-roughness, emissive strength, texture transforms) as lumo's.
+//! glTF materials (metallic-roughness per texel, emissive strength, texture transforms) as
+//! lumo's.
 
 use super::*;
 
@@ -23,6 +24,31 @@ impl GltfReader<'_, '_> {
         Ok(v.max(Vec3::ZERO))
     }
 
+    /// A factor glTF bounds to [0, 1] (metallic, roughness): clamped with a warning where
+    /// it is out of range, `default` with a warning where it is not a number.
+    pub(super) fn unit_factor(
+        &mut self,
+        label: &str,
+        what: &str,
+        v: f32,
+        default: f32,
+    ) -> Result<f32, LoadError> {
+        if v.is_nan() {
+            self.diag.warn(
+                self.at(label.to_string()),
+                format!("{what} is NaN; using the default {default} (write a number in [0, 1])"),
+            )?;
+            return Ok(default);
+        }
+        if !(0.0..=1.0).contains(&v) {
+            self.diag.warn(
+                self.at(label.to_string()),
+                format!("{what} {v} is outside [0, 1]; clamped (glTF bounds it to [0, 1])"),
+            )?;
+        }
+        Ok(v.clamp(0.0, 1.0))
+    }
+
     /// The lumo material for a glTF material (metallic-roughness model).
     pub(super) fn material(&mut self, mat: gltf::Material) -> Result<usize, LoadError> {
         if let Some(&m) = self.material_map.get(&mat.index()) {
@@ -39,77 +65,50 @@ impl GltfReader<'_, '_> {
             Some(info) => self.texture(&info, false, factor)?,
             None => Texture::Constant(factor),
         };
-        let mut metallic = pbr.metallic_factor();
-        let mut roughness = pbr.roughness_factor();
-        if let Some(info) = pbr.metallic_roughness_texture() {
-            // lumo's roughness and metalness are per material: use the texture's mean.
-            let mean = self.texture(&info, true, Vec3::ONE)?.average();
-            roughness *= mean.y;
-            metallic *= mean.z;
+        let metallic = self.unit_factor(&label, "metallicFactor", pbr.metallic_factor(), 1.0)?;
+        let roughness = self.unit_factor(&label, "roughnessFactor", pbr.roughness_factor(), 1.0)?;
+        let metallic_roughness = match pbr.metallic_roughness_texture() {
+            Some(info) => Some(self.texture(&info, true, Vec3::ONE)?),
+            None => None,
+        };
+        if mat.occlusion_texture().is_some() {
             self.diag.warn(
                 self.at(label.clone()),
-                format!(
-                    "metallicRoughnessTexture replaced by its mean (roughness {roughness:.3}, \
-                     metallic {metallic:.3}); lumo has no per-texel roughness"
-                ),
-            )?;
-        }
-        if mat.normal_texture().is_some() || mat.occlusion_texture().is_some() {
-            self.diag.warn(
-                self.at(label.clone()),
-                "normal and occlusion textures are not supported; ignored",
-            )?;
-        }
-        if mat.alpha_mode() != gltf::material::AlphaMode::Opaque {
-            self.diag.warn(
-                self.at(label.clone()),
-                format!("alphaMode {:?} is rendered opaque", mat.alpha_mode()),
+                "occlusionTexture ignored: the path tracer computes occlusion itself",
             )?;
         }
         let emission = Vec3::from(mat.emissive_factor()) * mat.emissive_strength().unwrap_or(1.0);
         let what = "emissiveFactor × KHR_materials_emissive_strength";
         let emission = self.non_negative(&label, what, emission)?;
         let mut emission = check_emission(&self.at(label.clone()), what, emission)?;
+        let mut emission_map = None;
         if let Some(info) = mat.emissive_texture() {
-            let mean = self.texture(&info, false, Vec3::ONE)?.average();
-            emission *= mean;
+            // Per texel: the texture × emissiveFactor × strength; `emission` becomes its mean
+            // (what weighs this light against the others).
             if emission.max_element() > 0.0 {
-                self.diag.warn(
-                    self.at(label.clone()),
-                    "emissiveTexture replaced by its mean (lumo emission is uniform per material)",
-                )?;
+                let map = self.texture(&info, false, emission)?;
+                emission = map.average();
+                emission_map = Some(Arc::new(map));
             }
         }
-        let alpha = roughness * roughness;
-        let bsdf = if metallic >= 0.5 {
-            let (eta, k) = metal_from_reflectance(base.average());
-            if metallic < 1.0 {
-                self.diag.warn(
-                    self.at(label.clone()),
-                    format!("metallic {metallic} rendered as fully metallic"),
-                )?;
-            }
-            BsdfSpec::Conductor {
-                eta,
-                k,
-                roughness: Roughness::ggx(alpha),
-            }
-        } else {
-            if metallic > 0.0 {
-                self.diag.warn(
-                    self.at(label.clone()),
-                    format!("metallic {metallic} rendered as dielectric"),
-                )?;
-            }
-            // glTF's dielectric: a diffuse base under a specular layer with F0 = 0.04 (ior 1.5).
-            BsdfSpec::Plastic {
-                diffuse: base,
-                ior: 1.5,
-                roughness: Roughness::ggx(alpha),
-                nonlinear: false,
-                exact_rough_coat: false,
-            }
+        let mut bsdf = BsdfSpec::GltfPbr {
+            base_color: base,
+            metallic_roughness,
+            metallic,
+            roughness,
         };
+        if let Some(normal) = mat.normal_texture() {
+            bsdf = BsdfSpec::NormalMap {
+                normals: self.normal_texture(&label, &normal)?,
+                nested: Box::new(bsdf),
+            };
+        }
+        if let Some(opacity) = self.opacity(&label, &mat)? {
+            bsdf = BsdfSpec::Mask {
+                opacity,
+                nested: Box::new(bsdf),
+            };
+        }
         let name = mat.name().map_or(label, str::to_string);
         let index = self.scene.add_material(Material {
             name,
@@ -117,7 +116,7 @@ impl GltfReader<'_, '_> {
             emission,
             // glTF's doubleSided is about culling; lumo's opaque glTF surfaces reflect on both sides.
             two_sided: true,
-            emission_map: None,
+            emission_map,
             spectra: Default::default(),
         });
         self.material_map.insert(mat.index(), index);
@@ -131,30 +130,63 @@ impl GltfReader<'_, '_> {
         raw: bool,
         tint: Vec3,
     ) -> Result<Texture, LoadError> {
-        let image = info.texture().source();
+        let pixel = move |c: Vec3| c * tint;
+        let map: Option<&dyn Fn(Vec3) -> Vec3> = (tint != Vec3::ONE).then_some(&pixel);
+        let transform = info.texture_transform();
+        // KHR_texture_transform's texCoord overrides the texture's own set.
+        let tex_coord = transform
+            .as_ref()
+            .and_then(|t| t.tex_coord())
+            .unwrap_or(info.tex_coord());
+        let texture = self.bitmap(info.texture(), tex_coord, raw, map)?;
+        Ok(match transform {
+            None => texture,
+            Some(t) => transformed(texture, &t),
+        })
+    }
+
+    /// A normalTexture as a tangent-space normal map whose x and y are multiplied by its
+    /// `scale` (the texels are rewritten so the renderer's normal-map lookup, which decodes
+    /// 2c − 1 and normalises, reads glTF's normalize((2c − 1)·(scale, scale, 1))).
+    fn normal_texture(
+        &mut self,
+        label: &str,
+        normal: &gltf::material::NormalTexture,
+    ) -> Result<Texture, LoadError> {
+        let scale = normal.scale();
+        if !scale.is_finite() {
+            return Err(LoadError::invalid(
+                self.at(label.to_string()),
+                format!("normalTexture scale {scale} is not a finite number; write one (1 is the default)"),
+            ));
+        }
+        let pixel = move |c: Vec3| {
+            let n = (c * 2.0 - Vec3::ONE) * Vec3::new(scale, scale, 1.0);
+            (n + Vec3::ONE) * 0.5
+        };
+        let map: Option<&dyn Fn(Vec3) -> Vec3> = (scale != 1.0).then_some(&pixel);
+        self.bitmap(normal.texture(), normal.tex_coord(), true, map)
+    }
+
+    /// The bitmap of `texture` (decoded once per image and colour space), its texels passed
+    /// through `pixel` where given.
+    fn bitmap(
+        &mut self,
+        texture: gltf::Texture,
+        tex_coord: u32,
+        raw: bool,
+        pixel: Option<&dyn Fn(Vec3) -> Vec3>,
+    ) -> Result<Texture, LoadError> {
+        let image = texture.source();
         let at = self.at(format!("image {}", image.index()));
-        if info.tex_coord() != 0 {
+        if tex_coord != 0 {
             self.diag
                 .warn(at.clone(), "only TEXCOORD_0 is supported; using it")?;
         }
         let decoded = match self.images.get(&(image.index(), raw)) {
             Some(img) => img.clone(),
             None => {
-                let bytes = match image.source() {
-                    gltf::image::Source::View { view, .. } => {
-                        let buf = self
-                            .buffers
-                            .get(view.buffer().index())
-                            .map(Vec::as_slice)
-                            .unwrap_or(&[]);
-                        buf.get(view.offset()..view.offset() + view.length())
-                            .ok_or_else(|| {
-                                LoadError::invalid(at.clone(), "image buffer view is out of range")
-                            })?
-                            .to_vec()
-                    }
-                    gltf::image::Source::Uri { uri, .. } => uri_bytes(self.path, uri, &at)?,
-                };
+                let bytes = self.image_bytes(&image, &at)?;
                 let img =
                     decode_image(&bytes, raw).map_err(|e| LoadError::invalid(at.clone(), e))?;
                 // glTF puts v = 0 at the image's top row, lumo at its bottom row.
@@ -163,39 +195,94 @@ impl GltfReader<'_, '_> {
                 img
             }
         };
-        let image = if tint == Vec3::ONE {
-            decoded
-        } else {
-            let mut img = (*decoded).to_channels(3);
-            for px in img.data.chunks_exact_mut(3) {
-                px[0] *= tint.x;
-                px[1] *= tint.y;
-                px[2] *= tint.z;
+        let image = match pixel {
+            None => decoded,
+            Some(f) => {
+                let mut img = (*decoded).to_channels(3);
+                for px in img.data.chunks_exact_mut(3) {
+                    let c = f(Vec3::new(px[0], px[1], px[2]));
+                    px.copy_from_slice(&c.to_array());
+                }
+                Arc::new(img)
             }
-            Arc::new(img)
         };
-        // glTF samplers' filters are not read yet: nearest, as lumo has always looked them up.
-        let texture = Texture::Bitmap {
+        let (filter, wrap) = self.sampler(&texture, &at)?;
+        Ok(Texture::Bitmap {
             image,
             uv_scale: Vec2::ONE,
-            filter: TextureFilter::Nearest,
-            wrap: WrapMode::Repeat,
-        };
-        Ok(match info.texture_transform() {
-            None => texture,
-            Some(t) => {
-                let (s, c) = t.rotation().sin_cos();
-                // uv' = T(offset) · R(rotation) · S(scale) · uv, as the extension defines.
-                let rot = Mat2::from_cols(Vec2::new(c, -s), Vec2::new(s, c));
-                let m = Affine2::from_mat2_translation(
-                    rot * Mat2::from_diagonal(Vec2::from(t.scale())),
-                    Vec2::from(t.offset()),
-                );
-                Texture::Transformed {
-                    texture: Arc::new(texture),
-                    uv: m,
-                }
-            }
+            filter,
+            wrap,
         })
+    }
+
+    /// A texture's sampler as lumo's lookup: magFilter NEAREST is nearest, LINEAR or unset
+    /// bilinear (minification is not filtered: pixel samples average it); the wrap mode of
+    /// `wrapS`, with a warning where `wrapT` differs (lumo wraps both axes alike).
+    pub(super) fn sampler(
+        &mut self,
+        texture: &gltf::Texture,
+        at: &Location,
+    ) -> Result<(TextureFilter, WrapMode), LoadError> {
+        use gltf::texture::{MagFilter, WrappingMode};
+        let sampler = texture.sampler();
+        let filter = match sampler.mag_filter() {
+            Some(MagFilter::Nearest) => TextureFilter::Nearest,
+            Some(MagFilter::Linear) | None => TextureFilter::Bilinear,
+        };
+        let wrap = |m: WrappingMode| match m {
+            WrappingMode::ClampToEdge => WrapMode::Clamp,
+            WrappingMode::MirroredRepeat => WrapMode::Mirror,
+            WrappingMode::Repeat => WrapMode::Repeat,
+        };
+        let (s, t) = (wrap(sampler.wrap_s()), wrap(sampler.wrap_t()));
+        if s != t {
+            self.diag.warn(
+                at.clone(),
+                format!(
+                    "sampler wrapS {s:?} and wrapT {t:?} differ; lumo wraps both axes as wrapS"
+                ),
+            )?;
+        }
+        Ok((filter, s))
+    }
+}
+
+impl GltfReader<'_, '_> {
+    /// The encoded bytes of `image` (from its buffer view or URI).
+    pub(super) fn image_bytes(
+        &self,
+        image: &gltf::Image,
+        at: &Location,
+    ) -> Result<Vec<u8>, LoadError> {
+        Ok(match image.source() {
+            gltf::image::Source::View { view, .. } => {
+                let buf = self
+                    .buffers
+                    .get(view.buffer().index())
+                    .map(Vec::as_slice)
+                    .unwrap_or(&[]);
+                buf.get(view.offset()..view.offset() + view.length())
+                    .ok_or_else(|| {
+                        LoadError::invalid(at.clone(), "image buffer view is out of range")
+                    })?
+                    .to_vec()
+            }
+            gltf::image::Source::Uri { uri, .. } => uri_bytes(self.path, uri, at)?,
+        })
+    }
+}
+
+/// `texture` looked up through a `KHR_texture_transform`: uv' = T(offset) · R(rotation) ·
+/// S(scale) · uv, as the extension defines.
+pub(super) fn transformed(texture: Texture, t: &gltf::texture::TextureTransform) -> Texture {
+    let (s, c) = t.rotation().sin_cos();
+    let rot = Mat2::from_cols(Vec2::new(c, -s), Vec2::new(s, c));
+    let m = Affine2::from_mat2_translation(
+        rot * Mat2::from_diagonal(Vec2::from(t.scale())),
+        Vec2::from(t.offset()),
+    );
+    Texture::Transformed {
+        texture: Arc::new(texture),
+        uv: m,
     }
 }

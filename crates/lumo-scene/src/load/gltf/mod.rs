@@ -2,6 +2,7 @@
 //! hierarchy, cameras, metallic-roughness materials, `KHR_lights_punctual`,
 //! `KHR_materials_emissive_strength`, `KHR_texture_transform` and node animations.
 
+mod alpha;
 mod buffers;
 mod materials;
 
@@ -15,7 +16,6 @@ use gltf::accessor::{DataType, Dimensions};
 use super::check::{check_emission, check_light, check_mesh};
 use super::gltf_refs::check_references;
 use super::images::decode_image;
-use super::materials::metal_from_reflectance;
 use super::{
     defaults, read_file, read_limited, Diagnostics, FileSettings, LoadError, LoadOptions, Location,
 };
@@ -24,7 +24,7 @@ use crate::animation::{
     NodeItem,
 };
 use crate::{
-    BsdfSpec, Camera, FovAxis, Instance, Lens, Light, Material, Mesh, Roughness, Scene, Texture,
+    BsdfSpec, Camera, FovAxis, Instance, Lens, Light, Material, Mesh, Scene, Texture,
     TextureFilter, WrapMode,
 };
 use buffers::{load_buffers, uri_bytes};
@@ -96,10 +96,9 @@ fn load_unguarded(
     let blob = gltf.blob;
     let root = gltf.document.into_json();
     check_references(path, &root)?;
-    let document = gltf::Document::from_json(root).map_err(invalid)?;
-    let doc = &document;
-    for ext in doc.extensions_required() {
-        if !SUPPORTED.contains(&ext) {
+    // Before the gltf crate's validation, which refuses these with its own terser message.
+    for ext in &root.extensions_required {
+        if !SUPPORTED.contains(&ext.as_str()) {
             return Err(LoadError::invalid(
                 Location::item(path, "extensionsRequired"),
                 format!(
@@ -109,6 +108,8 @@ fn load_unguarded(
             ));
         }
     }
+    let document = gltf::Document::from_json(root).map_err(invalid)?;
+    let doc = &document;
     for ext in doc.extensions_used() {
         if !SUPPORTED.contains(&ext) {
             diag.warn(
@@ -607,6 +608,17 @@ impl GltfReader<'_, '_> {
                 at,
                 format!("intensity × color = {power} is negative; a light cannot emit less than nothing"),
             ));
+        }
+        if let Some(range) = light.range() {
+            // glTF calls range a hint for real-time renderers; lumo's lights keep the physical
+            // inverse-square falloff to any distance.
+            self.diag.warn(
+                at.clone(),
+                format!(
+                    "range {range} ignored: lumo's lights fall off with the inverse square of \
+                     distance everywhere (remove range to silence this)"
+                ),
+            )?;
         }
         let l = check_light(&at, Some("intensity × color"), l)?;
         self.scene.lights.push(l);

@@ -1,0 +1,85 @@
+//! glTF `alphaMode`: MASK (opaque where alpha ≥ alphaCutoff, absent elsewhere) and BLEND
+//! (stochastic transparency: opaque with probability alpha), both as lumo's opacity mask.
+
+use super::*;
+use crate::load::images::decode_alpha;
+
+impl GltfReader<'_, '_> {
+    /// The opacity of `mat` (its base colour alpha: baseColorFactor's alpha × the texture's
+    /// alpha channel), thresholded at alphaCutoff for MASK; `None` for OPAQUE or where it is 1
+    /// everywhere.
+    pub(super) fn opacity(
+        &mut self,
+        label: &str,
+        mat: &gltf::Material,
+    ) -> Result<Option<Texture>, LoadError> {
+        use gltf::material::AlphaMode;
+        let mode = mat.alpha_mode();
+        if mode == AlphaMode::Opaque {
+            return Ok(None);
+        }
+        let factor = mat.pbr_metallic_roughness().base_color_factor()[3];
+        let factor = self.unit_factor(label, "baseColorFactor alpha", factor, 1.0)?;
+        let cutoff = match mode {
+            AlphaMode::Mask => {
+                let c = mat.alpha_cutoff().unwrap_or(0.5);
+                if !c.is_finite() || c < 0.0 {
+                    return Err(LoadError::invalid(
+                        self.at(label.to_string()),
+                        format!("alphaCutoff {c} must be a number ≥ 0 (0.5 is the default)"),
+                    ));
+                }
+                Some(c)
+            }
+            _ => None,
+        };
+        let opacity = move |a: f32| match cutoff {
+            Some(c) => f32::from(u8::from(a * factor >= c)),
+            None => a * factor,
+        };
+        let texture = match mat.pbr_metallic_roughness().base_color_texture() {
+            Some(info) => self.alpha_bitmap(&info, &opacity)?,
+            None => None,
+        };
+        Ok(match texture {
+            Some(t) => Some(t),
+            None if opacity(1.0) >= 1.0 => None,
+            None => Some(Texture::Constant(Vec3::splat(opacity(1.0)))),
+        })
+    }
+
+    /// The base colour texture's alpha channel through `opacity`, as a grey bitmap looked up
+    /// like the base colour (same transform); `None` where the image has no alpha.
+    fn alpha_bitmap(
+        &mut self,
+        info: &gltf::texture::Info,
+        opacity: &dyn Fn(f32) -> f32,
+    ) -> Result<Option<Texture>, LoadError> {
+        let image = info.texture().source();
+        let at = self.at(format!("image {}", image.index()));
+        let bytes = self.image_bytes(&image, &at)?;
+        let Some(alpha) = decode_alpha(&bytes).map_err(|e| LoadError::invalid(at.clone(), e))?
+        else {
+            return Ok(None);
+        };
+        // Grey RGB so that the mask's luminance lookup reads the opacity itself.
+        let data = alpha.data.iter().flat_map(|&a| [opacity(a); 3]).collect();
+        let img = flip_rows(lumo_image::Image::from_vec(
+            alpha.width,
+            alpha.height,
+            3,
+            data,
+        ));
+        let (filter, wrap) = self.sampler(&info.texture(), &at)?;
+        let texture = Texture::Bitmap {
+            image: Arc::new(img),
+            uv_scale: Vec2::ONE,
+            filter,
+            wrap,
+        };
+        Ok(Some(match info.texture_transform() {
+            None => texture,
+            Some(t) => materials::transformed(texture, &t),
+        }))
+    }
+}
