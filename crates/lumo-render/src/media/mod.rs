@@ -5,6 +5,7 @@
 
 pub mod phase;
 pub mod tracking;
+pub(crate) mod walk;
 
 pub use tracking::{free_flight, transmittance_in, Coefficients, Flight};
 
