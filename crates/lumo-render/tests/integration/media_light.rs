@@ -7,7 +7,6 @@
 
 use std::path::Path;
 
-use glam::Vec3;
 use lumo_render::{render, render_light, PathSettings, RenderScene, RenderSettings};
 use lumo_scene::load::{load_mitsuba_str, LoadOptions};
 
