@@ -104,7 +104,7 @@ pub(crate) fn medium_at(rs: &RenderScene, eye: Vec3, p: Vec3, rays: &mut u32) ->
     for _ in 0..MAX_CROSSINGS {
         let to_p = p - o;
         let left = to_p.length();
-        if !(left > 0.0) {
+        if left.is_nan() || left <= 0.0 {
             break;
         }
         let d = to_p / left;
