@@ -8,6 +8,12 @@
 //! scene both integrators converge to the same image. Paths start from the scene's shared
 //! lights ([`crate::lights::Lights::sample_emission`]), which do not emit from environment and
 //! constant lights; those stay the path tracer's job.
+//!
+//! In scenes with participating media a particle starts in the medium around its light (as a
+//! camera path would find it there), samples free flights in it as the volumetric path tracer
+//! does (the same lane MIS for chromatic media), scatters by the phase function at medium
+//! vertices and crosses null boundaries without a vertex; each connection to the camera
+//! carries the transmittance of the media and null boundaries on the way (docs/media.md).
 
 use glam::{Vec2, Vec3};
 
@@ -17,6 +23,8 @@ use crate::bsdf::{BsdfSample, TransportMode};
 use crate::camera::PinholeCamera;
 use crate::geometry::{offset_point, shadow_segment, survival_probability};
 use crate::integrators::path::PathSettings;
+use crate::media::walk::{medium_at, mesh_of, target, transmittance, LaneMis, MAX_CROSSINGS};
+use crate::media::{free_flight, phase, Coefficients, Flight};
 use crate::render_scene::RenderScene;
 use crate::render_scene::Surface;
 use crate::sampler::PixelSampler;
@@ -41,16 +49,23 @@ pub struct LightPathStats {
     pub splats: u32,
 }
 
-/// Radiance reaching the eye from `p` along a clear line of sight, already multiplied by the
-/// camera's importance, if `p` is visible and on the film. `wl_value` turns the direction to
-/// the camera into the vertex's scattered (or emitted) value before the geometric term.
+/// How a connection's shadow ray sees the scene in a scene with media: the medium it starts
+/// in, the path's wavelengths and its sampler (for ratio tracking).
+type Sight<'a> = (Option<usize>, Option<&'a Wavelengths>, &'a mut PixelSampler);
+
+/// Radiance reaching the eye from `p`, already multiplied by the camera's importance, if `p`
+/// is visible and on the film. `value` turns the direction to the camera into the vertex's
+/// scattered (or emitted) value before the geometric term; `ng` is a surface vertex's normal
+/// (`None` at a medium vertex, which has no cosine). Without `media` the line of sight must be
+/// clear; with it, it carries the transmittance of media and null boundaries.
 fn connect(
     rs: &RenderScene,
     camera: &PinholeCamera,
     p: Vec3,
-    ng: Vec3,
+    ng: Option<Vec3>,
     origin_off: impl Fn(Vec3) -> Vec3,
     value: impl Fn(Vec3) -> Vec3,
+    media: Option<Sight>,
 ) -> Option<(LightSplat, u32)> {
     let (film, cos_cam) = camera.project_point(p)?;
     let to_cam = camera.origin() - p;
@@ -62,19 +77,35 @@ fn connect(
     }
     let o = origin_off(wc);
     let (dir, tmax) = shadow_segment(o.into(), camera.origin().into(), wc.into(), rs.ray_epsilon);
-    if rs.accel.occluded(o, dir.into(), 0.0, tmax) {
+    let mut rays = 1;
+    let tr = match media {
+        None => {
+            if rs.accel.occluded(o, dir.into(), 0.0, tmax) {
+                Vec3::ZERO
+            } else {
+                Vec3::ONE
+            }
+        }
+        Some((medium, wl, sampler)) => {
+            transmittance(rs, medium, o, dir.into(), tmax, wl, sampler, &mut rays)
+        }
+    };
+    if tr == Vec3::ZERO {
         return Some((
             LightSplat {
                 film,
                 value: Vec3::ZERO,
             },
-            1,
+            rays,
         ));
     }
     // G(c, x)·We: |cos_x| |cos_c| / d² · pixels / (A cos⁴θ_c).
-    let importance = ng.dot(wc).abs() * camera.pixel_importance() / (dist2 * cos_cam.powi(3));
-    let value = v * importance;
-    value.is_finite().then_some((LightSplat { film, value }, 1))
+    let cos_x = ng.map_or(1.0, |n| n.dot(wc).abs());
+    let importance = cos_x * camera.pixel_importance() / (dist2 * cos_cam.powi(3));
+    let value = v * tr * importance;
+    value
+        .is_finite()
+        .then_some((LightSplat { film, value }, rays))
 }
 
 /// A particle's next direction at surface `s`, arriving from `wl` (world; `wl_local` in the
@@ -163,22 +194,50 @@ pub fn trace_light_path(
             }
         }
     };
-    let mut origin = e.p;
+    // Media: the particle starts in the medium around its light, and a lane of the path
+    // samples chromatic media (drawn after the wavelengths; scenes without media keep their
+    // sample stream).
+    let media = &rs.scene.media;
+    let vol = media.is_active();
+    let mut lanes = vol.then(|| LaneMis::new(sampler.next_1d()));
+    let mut origin = match e.normal {
+        Some(normal) => {
+            offset_point(e.p.into(), normal.into(), e.dir.into(), rs.ray_epsilon).into()
+        }
+        None => e.p,
+    };
+    let mut medium = if vol {
+        medium_at(rs, camera.origin(), origin, &mut stats.rays)
+    } else {
+        None
+    };
     if let Some(normal) = e.normal {
         let p = e.p;
         let off = |d: Vec3| offset_point(p.into(), normal.into(), d.into(), rs.ray_epsilon).into();
         // The light itself seen by the camera (depth 1).
-        let seen = connect(rs, camera, p, normal, off, |wc| {
-            if normal.dot(wc) > 0.0 {
-                e.radiance / e.pdf.area
-            } else {
-                Vec3::ZERO
-            }
-        });
+        let sight = vol.then_some((medium, lambdas.as_ref(), &mut *sampler));
+        let seen = connect(
+            rs,
+            camera,
+            p,
+            Some(normal),
+            off,
+            |wc| {
+                if normal.dot(wc) > 0.0 {
+                    e.radiance / e.pdf.area
+                } else {
+                    Vec3::ZERO
+                }
+            },
+            sight,
+        );
         emit(seen, &mut stats, &lambdas);
-        origin = off(e.dir);
     }
     let (mut dir, mut throughput) = (e.dir, e.weight);
+    // Russian roulette at medium vertices compares the throughput with the particle's start
+    // (it is in power units): an albedo-1 medium keeps its particles, as in the path tracer.
+    let start = e.weight.max_element();
+    let mut crossings = 0u32;
     // Depth of the path camera ← x_k ← … ← light when connecting at the k-th scene vertex.
     let mut depth = 2u32;
     loop {
@@ -186,9 +245,68 @@ pub fn trace_light_path(
             break;
         }
         stats.rays += 1;
-        let Some(hit) = rs.accel.intersect(origin, dir, 0.0, f32::INFINITY) else {
+        let hit = rs.accel.intersect(origin, dir, 0.0, f32::INFINITY);
+        if let (Some(m), Some(lanes)) = (medium, lanes.as_mut()) {
+            let med = &media.media[m];
+            let c = Coefficients::of(med, lambdas.as_ref());
+            let tmax = hit.map_or(f32::INFINITY, |h| h.t);
+            let flight = free_flight(med, &c, origin, dir, tmax, lanes.lane, throughput, sampler);
+            lanes.apply(&mut throughput, &flight);
+            if let Flight::Scatter { t, .. } = flight {
+                // A medium vertex: connected to the camera through the media, then a phase
+                // sample (exact, weight 1).
+                let p = origin + dir * t;
+                let sight = Some((medium, lambdas.as_ref(), &mut *sampler));
+                let f = |wc: Vec3| throughput * phase::eval(med.phase, dir, wc);
+                let seen = connect(rs, camera, p, None, |_| p, f, sight);
+                emit(seen, &mut stats, &lambdas);
+                if depth >= settings.max_depth {
+                    break;
+                }
+                let u_dir = sampler.next_2d();
+                let u_rr = sampler.next_1d();
+                let (wi, pdf) = phase::sample(med.phase, dir, u_dir);
+                if pdf.is_nan() || pdf <= 0.0 {
+                    break;
+                }
+                origin = p;
+                dir = wi;
+                if depth >= settings.rr_depth && start > 0.0 {
+                    let q = (throughput.max_element() / start).min(1.0);
+                    if u_rr >= q {
+                        break;
+                    }
+                    throughput /= q;
+                }
+                depth += 1;
+                crossings = 0;
+                continue;
+            }
+            if throughput == Vec3::ZERO {
+                break;
+            }
+        }
+        let Some(hit) = hit else {
             break;
         };
+        let boundary = if vol {
+            media.boundary(mesh_of(rs, &hit))
+        } else {
+            Default::default()
+        };
+        if boundary.null {
+            // An invisible boundary: no vertex, only a change of medium.
+            crossings += 1;
+            if crossings > MAX_CROSSINGS {
+                break;
+            }
+            let s = rs.surface(&hit, origin, dir);
+            if let Some(f) = boundary.interface {
+                medium = target(f, s.ng, dir);
+            }
+            origin = rs.offset(&s, dir);
+            continue;
+        }
         let s = rs.surface(&hit, origin, dir);
         let mut bsdf = rs.bsdf(&s);
         if let Some(w) = &mut lambdas {
@@ -212,11 +330,21 @@ pub fn trace_light_path(
         }
         if !bsdf.is_delta() {
             let off = |d: Vec3| rs.offset(&s, d);
-            let seen = connect(rs, camera, s.p, ng, off, |wc| {
+            // The shadow ray leaves into the medium on the camera's side of the surface.
+            let sight = vol.then(|| {
+                let to_cam = camera.origin() - s.p;
+                let from = match boundary.interface {
+                    Some(f) => target(f, ng, to_cam),
+                    None => medium,
+                };
+                (from, lambdas.as_ref(), &mut *sampler)
+            });
+            let f = |wc: Vec3| {
                 // f without its cosine: eval includes |cos θi| of the light side.
                 let f = bsdf.eval(s.frame.to_local(wc), wl_local) / wl_local.z.abs();
                 throughput * f
-            });
+            };
+            let seen = connect(rs, camera, s.p, Some(ng), off, f, sight);
             emit(seen, &mut stats, &lambdas);
         }
         if depth >= settings.max_depth {
@@ -235,6 +363,10 @@ pub fn trace_light_path(
         throughput *= weight;
         origin = rs.offset(&s, new_dir);
         dir = new_dir;
+        if let Some(f) = boundary.interface {
+            medium = target(f, ng, new_dir);
+        }
+        crossings = 0;
         if depth >= settings.rr_depth {
             let q = survival_probability(throughput.max_element(), 1.0);
             if u_rr >= q {

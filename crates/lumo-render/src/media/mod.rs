@@ -5,20 +5,31 @@
 
 pub mod phase;
 pub mod tracking;
+pub(crate) mod walk;
 
 pub use tracking::{free_flight, transmittance_in, Coefficients, Flight};
 
-/// Why `integrator` cannot render this scene (`None` where it can): only the path tracer
-/// transports light through media and null boundaries; every other integrator refuses such a
-/// scene rather than render it wrong. `integrator` names it as the user chose it.
+/// The integrators, as `lumo render` and `lumo serve` name them, that transport light through
+/// media and null boundaries: the path tracer, the light tracer, and `lumo serve`'s `both`
+/// (the two together).
+pub const RENDER_MEDIA: [&str; 3] = ["path", "light", "both"];
+
+/// Whether `integrator` (named as in [`RENDER_MEDIA`]) renders scenes with media.
+pub fn renders_media(integrator: &str) -> bool {
+    RENDER_MEDIA.contains(&integrator)
+}
+
+/// Why `integrator` cannot render this scene (`None` where it can): BDPT and photon mapping
+/// do not transport light through media and null boundaries yet, and refuse such a scene
+/// rather than render it wrong. `integrator` names it as the user chose it.
 pub fn refusal(scene: &lumo_scene::Scene, integrator: &str) -> Option<String> {
-    if integrator == "path" || !scene.media.is_active() {
+    if renders_media(integrator) || !scene.media.is_active() {
         return None;
     }
     Some(format!(
         "{}: the scene has participating media or null (invisible) boundaries, which the \
          {integrator} integrator does not render; use the path tracer (--integrator path, \
-         which renders them, --spectral included)",
+         --spectral included) or the light tracer (--integrator light; `both` in lumo serve)",
         scene.name
     ))
 }
@@ -29,7 +40,7 @@ mod tests {
     use lumo_scene::{Camera, FovAxis, Medium, PhaseFunction, Scene, Vec3};
 
     #[test]
-    fn only_the_path_tracer_takes_media() {
+    fn bdpt_and_photon_mapping_refuse_media() {
         let mut scene = Scene::empty(Camera {
             origin: Vec3::Z,
             target: Vec3::ZERO,
@@ -48,8 +59,10 @@ mod tests {
             phase: PhaseFunction::Isotropic,
             spectra: Default::default(),
         });
-        assert_eq!(refusal(&scene, "path"), None);
-        for other in ["light", "bdpt", "ppm", "both"] {
+        for taker in RENDER_MEDIA {
+            assert_eq!(refusal(&scene, taker), None);
+        }
+        for other in ["bdpt", "ppm"] {
             let why = refusal(&scene, other).unwrap();
             assert!(
                 why.contains(other) && why.contains("--integrator path"),

@@ -12,6 +12,7 @@ mod integrator;
 mod light_render;
 mod light_sampling;
 mod media;
+mod media_light;
 mod mitsuba_adapters;
 mod mitsuba_cornell;
 mod mitsuba_suite;

@@ -61,7 +61,7 @@ pub struct Hub {
     targets: EditTargets,
     /// Remote render workers (`lumo serve --remote-workers`; empty when off).
     remote: RemoteSet,
-    /// The scene has media or null boundaries: only the path tracer may render it.
+    /// The scene has media or null boundaries: BDPT and photon mapping may not render it.
     media: bool,
 }
 
@@ -146,6 +146,11 @@ fn to_wire(c: &Camera) -> WireCamera {
     }
 }
 
+/// `integrator` as `lumo serve --integrator` names it (what [`lumo_render::media`] reads).
+fn integrator_name(integrator: Integrator) -> String {
+    format!("{integrator:?}").to_lowercase()
+}
+
 fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
     m.lock().unwrap_or_else(|e| e.into_inner())
 }
@@ -155,12 +160,10 @@ impl Hub {
     pub fn new(rs: RenderScene, config: ServerConfig) -> anyhow::Result<Arc<Self>> {
         let name = rs.scene.name.clone();
         let media = rs.scene.media.is_active();
-        if media && config.integrator != Integrator::Path {
-            anyhow::bail!(
-                "{name}: the scene has participating media, which only the path tracer renders; \
-                 the {:?} integrator is refused (use --integrator path)",
-                config.integrator
-            );
+        if let Some(why) =
+            lumo_render::media::refusal(&rs.scene, &integrator_name(config.integrator))
+        {
+            anyhow::bail!(why);
         }
         let triangles = rs.scene.triangle_count().min(u32::MAX as usize) as u32;
         let mut camera = rs.scene.camera.clone();
@@ -354,14 +357,15 @@ impl Hub {
 
     /// A viewer changed integrator or mode: restart rendering (now or merged as above) and
     /// tell every viewer.
-    /// Refused for any integrator but the path tracer in a scene with participating media.
+    /// Refused for BDPT and photon mapping in a scene with participating media.
     pub fn set_params(&self, integrator: Integrator, mode: Mode) -> Result<(), ProtocolError> {
-        if self.media && integrator != Integrator::Path {
+        let name = integrator_name(integrator);
+        if self.media && !lumo_render::media::renders_media(&name) {
             return Err(ProtocolError::new(
                 ErrorCode::InvalidValue,
                 format!(
-                    "PARAMS: the scene has participating media, which only the path tracer \
-                     renders; {integrator:?} is refused (choose Path)"
+                    "PARAMS: the scene has participating media, which {integrator:?} does not \
+                     render (choose Path, Light or Both)"
                 ),
             ));
         }

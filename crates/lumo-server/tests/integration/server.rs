@@ -393,3 +393,43 @@ async fn animate_on_a_static_scene_is_refused() {
         m => panic!("{m:?}"),
     }
 }
+
+/// A scene with participating media: the light tracer and `both` serve it (at start and on a
+/// viewer's switch), BDPT and photon mapping are refused with a message naming what renders
+/// it.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn media_scenes_take_light_and_both_and_refuse_bdpt_and_ppm() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../tests/data/mitsuba/scenes/media_fog_box.xml");
+    let scene = || {
+        let loaded = lumo_scene::load::load_scene(&path, &Default::default()).expect("load");
+        assert!(loaded.scene.media.is_active());
+        RenderScene::new(loaded.scene).expect("scene")
+    };
+    let config = |integrator| {
+        let mut c = ServerConfig::new(16, 16);
+        c.threads = 2;
+        c.max_rate = Some(50_000.0);
+        c.integrator = integrator;
+        c
+    };
+    for refused in [Integrator::Bdpt, Integrator::Ppm] {
+        let why = Hub::new(scene(), config(refused))
+            .err()
+            .expect("refused")
+            .to_string();
+        assert!(why.contains("--integrator light"), "{why}");
+    }
+    let hub = Hub::new(scene(), config(Integrator::Light)).expect("the light tracer");
+    hub.set_params(Integrator::Both, Mode::Progressive)
+        .expect("both");
+    for refused in [Integrator::Bdpt, Integrator::Ppm] {
+        let e = hub
+            .set_params(refused, Mode::Progressive)
+            .expect_err("refused");
+        assert!(
+            format!("{e:?}").contains("choose Path, Light or Both"),
+            "{e:?}"
+        );
+    }
+}

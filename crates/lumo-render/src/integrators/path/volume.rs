@@ -11,33 +11,12 @@
 //! transmittance of every medium on the way (ratio tracking in grids).
 
 use glam::Vec3;
-use lumo_scene::{MediumInterface, SceneMedia};
 
 use super::{PathSettings, PathState};
-use crate::accel::Hit;
 use crate::geometry::{power_heuristic, shadow_segment};
-use crate::media::{free_flight, phase, transmittance_in, Coefficients, Flight};
+use crate::media::walk::{self, mesh_of, target, LaneMis, MAX_CROSSINGS};
+use crate::media::{free_flight, phase, Coefficients, Flight};
 use crate::render_scene::RenderScene;
-
-/// Null surfaces a ray may cross before the path (or shadow ray) is ended: a guard against
-/// rays caught between coincident boundaries, far above what a scene nests.
-const MAX_CROSSINGS: u32 = 256;
-
-/// The medium a ray in direction `d` enters at a surface of geometric normal `ng`.
-#[inline]
-fn target(f: MediumInterface, ng: Vec3, d: Vec3) -> Option<usize> {
-    if d.dot(ng) > 0.0 {
-        f.exterior
-    } else {
-        f.interior
-    }
-}
-
-/// The mesh a hit belongs to.
-#[inline]
-fn mesh_of(rs: &RenderScene, hit: &Hit) -> usize {
-    rs.scene.instances[hit.instance as usize].mesh
-}
 
 impl PathState {
     /// Traces this path to its end through the scene's media, starting in the camera's
@@ -46,10 +25,8 @@ impl PathState {
         let media = &rs.scene.media;
         let mut medium = media.camera;
         let mut crossings = 0;
-        // The lane whose exponentials sample homogeneous media, and per lane the ratio of the
-        // path's density under that lane's choice to its density under this one (tracking.rs).
-        let lane = ((self.sampler.next_1d() * 3.0) as usize).min(2);
-        let mut ratio = Vec3::ONE;
+        // The lane whose exponentials sample homogeneous media (walk.rs, tracking.rs).
+        let mut lanes = LaneMis::new(self.sampler.next_1d());
         loop {
             let hit = rs
                 .accel
@@ -64,28 +41,11 @@ impl PathState {
                     self.origin,
                     self.dir,
                     tmax,
-                    lane,
+                    lanes.lane,
                     self.throughput,
                     &mut self.sampler,
                 );
-                let (Flight::Scatter {
-                    weight, ratio: r, ..
-                }
-                | Flight::Pass { weight, ratio: r }) = flight;
-                // The throughput stays f / mean(p_lane): a step that changes the lanes' ratios
-                // rescales it by the old mean over the new.
-                let new = ratio * r;
-                let (before, after) = (ratio.element_sum(), new.element_sum());
-                self.throughput *= if after > 0.0 {
-                    weight * (before / after)
-                } else {
-                    Vec3::ZERO
-                };
-                ratio = if after > 0.0 {
-                    new * (3.0 / after)
-                } else {
-                    Vec3::ONE
-                };
+                lanes.apply(&mut self.throughput, &flight);
                 match flight {
                     Flight::Scatter { t, .. } => {
                         self.radiance.rays += 1;
@@ -126,7 +86,7 @@ impl PathState {
                     Some(f) => target(f, at.s.ng, sh.dir),
                     None => medium,
                 };
-                let tr = transmittance(rs, from, sh.origin, sh.dir, sh.tmax, self);
+                let tr = self.transmittance(rs, from, sh.origin, sh.dir, sh.tmax);
                 if tr != Vec3::ZERO {
                     self.radiance.add(sh.depth, sh.contribution * tr);
                 }
@@ -195,7 +155,7 @@ impl PathState {
                 };
                 let contribution = self.throughput * f * weight * w;
                 if contribution != Vec3::ZERO {
-                    let tr = transmittance(rs, Some(m), p, dir, tmax, self);
+                    let tr = self.transmittance(rs, Some(m), p, dir, tmax);
                     self.radiance.add(self.depth + 1, contribution * tr);
                 }
             }
@@ -226,61 +186,25 @@ impl PathState {
         self.depth += 1;
         true
     }
-}
 
-/// The transmittance from `o` along unit `d` up to `tmax` (a negative `tmax`: nothing to
-/// cross), starting in medium `medium`: zero at the first surface that is not a null
-/// boundary, else the product of every medium's transmittance on the way.
-fn transmittance(
-    rs: &RenderScene,
-    mut medium: Option<usize>,
-    mut o: Vec3,
-    mut d: Vec3,
-    tmax: f32,
-    path: &mut PathState,
-) -> Vec3 {
-    let media: &SceneMedia = &rs.scene.media;
-    let mut tr = Vec3::ONE;
-    if tmax.is_nan() || tmax <= 0.0 {
-        return tr;
+    /// [`walk::transmittance`] with this path's wavelengths, sampler and ray count.
+    fn transmittance(
+        &mut self,
+        rs: &RenderScene,
+        medium: Option<usize>,
+        o: Vec3,
+        d: Vec3,
+        tmax: f32,
+    ) -> Vec3 {
+        walk::transmittance(
+            rs,
+            medium,
+            o,
+            d,
+            tmax,
+            self.wl.as_ref(),
+            &mut self.sampler,
+            &mut self.radiance.rays,
+        )
     }
-    let end = o + d * tmax;
-    let mut left = tmax;
-    for _ in 0..MAX_CROSSINGS {
-        let hit = rs.accel.intersect(o, d, 0.0, left);
-        let seg = hit.map_or(left, |h| h.t);
-        if let Some(m) = medium {
-            let med = &media.media[m];
-            let c = Coefficients::of(med, path.wl.as_ref());
-            tr *= transmittance_in(med, &c, o, d, seg, &mut path.sampler);
-            if tr == Vec3::ZERO {
-                return tr;
-            }
-        }
-        let Some(h) = hit else {
-            return tr;
-        };
-        let b = media.boundary(mesh_of(rs, &h));
-        if !b.null {
-            return Vec3::ZERO;
-        }
-        path.radiance.rays += 1;
-        let s = rs.surface(&h, o, d);
-        if let Some(f) = b.interface {
-            medium = target(f, s.ng, d);
-        }
-        o = rs.offset(&s, d);
-        if tmax.is_finite() {
-            // Re-aimed at the end point: the offset moved the origin off the ray's line, and
-            // at a grazing angle to a light parallel to the boundary the old line would now
-            // reach into the light (a null box just below a ceiling light lost 14 % of it).
-            let to_end = end - o;
-            left = to_end.length();
-            if !(left > 0.0 && to_end.dot(d) > 0.0) {
-                return tr;
-            }
-            d = to_end / left;
-        }
-    }
-    Vec3::ZERO
 }
