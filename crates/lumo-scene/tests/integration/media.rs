@@ -198,10 +198,10 @@ fn medium_spectra_are_kept_and_spectral_absorption_pairs_warned_about() {
         strict: true,
         ..LoadOptions::default()
     };
-    let e = load_mitsuba_str(xml, Path::new("media.xml"), &strict)
-        .err()
-        .expect("strict mode refuses the approximation")
-        .to_string();
+    let Err(e) = load_mitsuba_str(xml, Path::new("media.xml"), &strict) else {
+        panic!("strict mode refuses the approximation");
+    };
+    let e = e.to_string();
     assert!(
         e.contains("sigma_a / sigma_s given as spectra") && e.contains("sigma_t and albedo"),
         "{e}"
