@@ -17,6 +17,7 @@ pub(crate) fn every_other_light_kind() -> [Light; 4] {
             intensity: Vec3::new(3.0, 2.0, 1.0),
             beam_width: 20.0,
             cutoff: 35.0,
+            falloff: Default::default(),
         },
         Light::Directional {
             direction: Vec3::new(0.3, -1.0, -0.2),

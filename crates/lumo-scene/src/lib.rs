@@ -22,7 +22,7 @@ pub use bsdf_facts::{BaseColor, BsdfFlags, SMOOTH_ALPHA};
 pub use builtin::{builtin_scene, BuiltinScene, BUILTIN_SCENES};
 pub use camera::{Camera, FovAxis, Lens, PixelFilter};
 pub use error::SceneError;
-pub use light::{EnvMap, Light, MAX_EMISSION};
+pub use light::{EnvMap, Light, SpotFalloff, MAX_EMISSION};
 pub use material::{BsdfSpec, Distribution, Material, Roughness, RoughnessMaps, Spectra};
 pub use media::{Boundary, Medium, MediumInterface, MediumSpectra, PhaseFunction, SceneMedia};
 pub use mesh::{Analytic, AnalyticKind, Instance, Mesh};

@@ -36,6 +36,8 @@ pub enum Light {
         beam_width: f32,
         /// Cut-off half angle (degrees).
         cutoff: f32,
+        /// How the intensity falls from the beam to the cutoff.
+        falloff: SpotFalloff,
     },
     /// Distant light from one direction.
     Directional {
@@ -91,4 +93,15 @@ impl EnvMap {
         }
         max * self.scale
     }
+}
+
+/// How a spot light's intensity falls off between its beam (full) and cutoff (zero) angles.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum SpotFalloff {
+    /// Linear in the angle from the axis (Mitsuba 3's `spot`).
+    #[default]
+    LinearAngle,
+    /// The square of a linear ramp in the cosine (the falloff glTF's KHR_lights_punctual
+    /// recommends: saturate((cos − cos outer) / (cos inner − cos outer))²).
+    SquaredCosine,
 }

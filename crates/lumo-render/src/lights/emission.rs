@@ -191,12 +191,13 @@ mod tests {
             intensity: Vec3::splat(7.0),
             beam_width: 20.0,
             cutoff: 35.0,
+            falloff: Default::default(),
         });
         scene.lights.push(Light::Constant {
             radiance: Vec3::splat(1.0),
         });
         let lights = Lights::new(&scene);
-        let spot = crate::lights::SpotCone::new(20.0, 35.0).solid_angle() * 7.0;
+        let spot = crate::lights::SpotCone::new(20.0, 35.0, Default::default()).solid_angle() * 7.0;
         let expected = PI * 2.0 * 3.0 + 4.0 * PI * 5.0 + spot;
         let n = 1 << 18;
         let mut sum = 0.0f64;
@@ -214,7 +215,7 @@ mod tests {
                 Some(n) => 3.0 * n.dot(e.dir),
                 None if e.p.x == 0.0 => 5.0,
                 None => {
-                    let cone = crate::lights::SpotCone::new(20.0, 35.0);
+                    let cone = crate::lights::SpotCone::new(20.0, 35.0, Default::default());
                     7.0 * cone.falloff(-e.dir.y)
                 }
             };

@@ -161,11 +161,12 @@ impl Lights {
                     intensity,
                     beam_width,
                     cutoff,
+                    falloff,
                 } => lights.push(LightKind::Spot(spot::SpotLight {
                     position: *position,
                     axis: direction.normalize(),
                     intensity: *intensity,
-                    cone: SpotCone::new(*beam_width, *cutoff),
+                    cone: SpotCone::new(*beam_width, *cutoff, *falloff),
                 })),
                 Light::Directional {
                     direction,

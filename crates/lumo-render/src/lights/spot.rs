@@ -1,41 +1,47 @@
 //! Spot lights: a point light limited to a cone, full inside the beam and falling off to the
-//! cutoff (Mitsuba 3's `spot`).
+//! cutoff (linear in angle as Mitsuba 3's `spot`, or glTF's squared ramp in cosine).
 
 use std::f32::consts::PI;
 
 use glam::{Vec2, Vec3};
 use lumo_image::luminance;
+use lumo_scene::SpotFalloff;
 
 use super::source::LightSource;
 use super::{EmissionPdf, EmissionSample, LightSample, Lights};
 use crate::geometry::Basis;
 
-/// A spot light's cone: full intensity inside the beam, falling off linearly in angle to zero
-/// at the cutoff, as Mitsuba 3's `spot` defines it (its `falloff_curve`).
+/// A spot light's cone: full intensity inside the beam, falling off to zero at the cutoff,
+/// linearly in angle as Mitsuba 3's `spot` defines it (its `falloff_curve`), or as glTF's
+/// squared ramp in cosine.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SpotCone {
     cos_beam: f32,
     cos_cutoff: f32,
     cutoff: f32,
     inv_transition: f32,
+    curve: SpotFalloff,
 }
 
 impl SpotCone {
     /// The cone of a spot with the given beam width and cutoff half-angles in degrees (a beam
-    /// wider than the cutoff is clamped to it).
-    pub fn new(beam_width_deg: f32, cutoff_deg: f32) -> Self {
+    /// wider than the cutoff is clamped to it) and falloff curve between them.
+    pub fn new(beam_width_deg: f32, cutoff_deg: f32, curve: SpotFalloff) -> Self {
         let cutoff = cutoff_deg.to_radians();
         let beam = beam_width_deg.min(cutoff_deg).to_radians();
+        let (cos_beam, cos_cutoff) = (beam.cos(), cutoff.cos());
+        // A hard-edged spot (beam = cutoff) never reaches the transition branch.
+        let inv_transition = match curve {
+            _ if cutoff <= beam => 0.0,
+            SpotFalloff::LinearAngle => 1.0 / (cutoff - beam),
+            SpotFalloff::SquaredCosine => 1.0 / (cos_beam - cos_cutoff),
+        };
         Self {
-            cos_beam: beam.cos(),
-            cos_cutoff: cutoff.cos(),
+            cos_beam,
+            cos_cutoff,
             cutoff,
-            // A hard-edged spot (beam = cutoff) never reaches the transition branch.
-            inv_transition: if cutoff > beam {
-                1.0 / (cutoff - beam)
-            } else {
-                0.0
-            },
+            inv_transition,
+            curve,
         }
     }
 
@@ -52,19 +58,35 @@ impl SpotCone {
         } else if cos >= self.cos_beam {
             1.0
         } else {
-            ((self.cutoff - cos.clamp(-1.0, 1.0).acos()) * self.inv_transition).clamp(0.0, 1.0)
+            match self.curve {
+                SpotFalloff::LinearAngle => ((self.cutoff - cos.clamp(-1.0, 1.0).acos())
+                    * self.inv_transition)
+                    .clamp(0.0, 1.0),
+                SpotFalloff::SquaredCosine => {
+                    let r = ((cos - self.cos_cutoff) * self.inv_transition).clamp(0.0, 1.0);
+                    r * r
+                }
+            }
         }
     }
 
     /// ∫ falloff dω over the sphere: the emitted power over the intensity. With θ_b the beam
-    /// and θ_c the cutoff angle, 2π (1 − (sin θ_c − sin θ_b) / (θ_c − θ_b)), or 2π (1 − cos θ_b)
-    /// for a hard edge.
+    /// and θ_c the cutoff angle: linear in angle 2π (1 − (sin θ_c − sin θ_b) / (θ_c − θ_b));
+    /// squared in cosine 2π (1 − cos θ_b) + 2π (cos θ_b − cos θ_c) / 3; 2π (1 − cos θ_b) for a
+    /// hard edge.
     pub fn solid_angle(&self) -> f32 {
         let beam = self.cos_beam.clamp(-1.0, 1.0).acos();
         if self.inv_transition == 0.0 {
-            2.0 * PI * (1.0 - self.cos_beam)
-        } else {
-            2.0 * PI * (1.0 - (self.cutoff.sin() - beam.sin()) * self.inv_transition)
+            return 2.0 * PI * (1.0 - self.cos_beam);
+        }
+        match self.curve {
+            SpotFalloff::LinearAngle => {
+                2.0 * PI * (1.0 - (self.cutoff.sin() - beam.sin()) * self.inv_transition)
+            }
+            SpotFalloff::SquaredCosine => {
+                2.0 * PI * (1.0 - self.cos_beam)
+                    + 2.0 * PI * (self.cos_beam - self.cos_cutoff) / 3.0
+            }
         }
     }
 }
@@ -179,5 +201,43 @@ impl LightSource for SpotLight {
             delta_position: true,
             delta_direction: false,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The power a spot reports is its falloff integrated over the sphere (midpoint rule in
+    /// cos θ, where dω = 2π d(cos θ)), for both curves and a hard edge; and glTF's curve is
+    /// its spec's formula.
+    #[test]
+    fn solid_angle_is_the_integral_of_the_falloff() {
+        for curve in [SpotFalloff::LinearAngle, SpotFalloff::SquaredCosine] {
+            for (beam, cutoff) in [(20.0, 35.0), (0.0, 60.0), (30.0, 30.0), (10.0, 89.0)] {
+                let cone = SpotCone::new(beam, cutoff, curve);
+                let n = 200_000;
+                let sum: f64 = (0..n)
+                    .map(|i| {
+                        let cos = -1.0 + 2.0 * (i as f64 + 0.5) / n as f64;
+                        cone.falloff(cos as f32) as f64
+                    })
+                    .sum();
+                let numeric = 2.0 * std::f64::consts::PI * sum * 2.0 / n as f64;
+                let closed = cone.solid_angle() as f64;
+                assert!(
+                    (numeric - closed).abs() < 1e-4 * closed.max(1e-3),
+                    "{curve:?} {beam}/{cutoff}: {numeric} vs {closed}"
+                );
+            }
+        }
+        let gltf = SpotCone::new(20.0, 40.0, SpotFalloff::SquaredCosine);
+        let (ci, co) = (20f32.to_radians().cos(), 40f32.to_radians().cos());
+        let c = 30f32.to_radians().cos();
+        let want = ((c - co) / (ci - co)).powi(2);
+        assert!((gltf.falloff(c) - want).abs() < 1e-6);
+        // The two curves differ inside the transition: glTF's is darker near the cutoff.
+        let mitsuba = SpotCone::new(20.0, 40.0, SpotFalloff::LinearAngle);
+        assert!(gltf.falloff(c) < mitsuba.falloff(c) - 0.1);
     }
 }

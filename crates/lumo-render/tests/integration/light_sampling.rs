@@ -159,7 +159,7 @@ fn spot_falloff_is_mitsubas_linear_in_angle_and_its_power_integrates() {
     use lumo_render::lights::SpotCone;
     // Mitsuba 3's falloff_curve: 1 inside the beam, (cutoff − θ)/(cutoff − beam) between,
     // 0 at and beyond the cutoff.
-    let cone = SpotCone::new(15.0, 30.0);
+    let cone = SpotCone::new(15.0, 30.0, Default::default());
     for (deg, expected) in [
         (0.0f32, 1.0f32),
         (14.9, 1.0),
@@ -174,7 +174,7 @@ fn spot_falloff_is_mitsubas_linear_in_angle_and_its_power_integrates() {
     }
     // The power factor is ∫ falloff dω, integrated numerically over θ.
     for (beam, cutoff) in [(15.0f32, 30.0f32), (30.0, 30.0), (0.0, 45.0), (60.0, 80.0)] {
-        let cone = SpotCone::new(beam, cutoff);
+        let cone = SpotCone::new(beam, cutoff, Default::default());
         let n = 200_000;
         let mut sum = 0.0f64;
         for i in 0..n {

@@ -66,11 +66,14 @@ fn hierarchy_camera_lights_and_materials() {
             direction,
             beam_width,
             cutoff,
+            falloff,
             ..
         } => {
             assert!((direction + Vec3::Y).length() < 1e-5, "{direction}");
             assert!((beam_width - 0.3f32.to_degrees()).abs() < 1e-4);
             assert!((cutoff - 0.5f32.to_degrees()).abs() < 1e-4);
+            // glTF's own curve, not Mitsuba's.
+            assert_eq!(falloff, lumo_scene::SpotFalloff::SquaredCosine);
         }
         ref other => panic!("{other:?}"),
     }

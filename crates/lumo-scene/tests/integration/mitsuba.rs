@@ -339,8 +339,10 @@ fn emitters() {
             direction,
             beam_width,
             cutoff,
+            falloff,
             ..
         } => {
+            assert_eq!(*falloff, lumo_scene::SpotFalloff::LinearAngle);
             assert!((*position - Vec3::new(0.0, 4.0, 0.0)).length() < 1e-6);
             assert!((*direction + Vec3::Y).length() < 1e-5, "{direction}");
             assert_eq!((*beam_width, *cutoff), (22.5, 30.0));

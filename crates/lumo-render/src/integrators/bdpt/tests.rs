@@ -287,6 +287,7 @@ fn mixed_lights_scene() -> Scene {
         intensity: Vec3::splat(10.0),
         beam_width: 20.0,
         cutoff: 30.0,
+        falloff: Default::default(),
     });
     scene.lights.push(Light::Directional {
         direction: Vec3::new(0.3, -1.0, -0.4),

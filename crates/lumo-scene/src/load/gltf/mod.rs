@@ -600,6 +600,7 @@ impl GltfReader<'_, '_> {
                 intensity: power,
                 beam_width: inner_cone_angle.to_degrees(),
                 cutoff: outer_cone_angle.to_degrees(),
+                falloff: crate::SpotFalloff::SquaredCosine,
             },
         };
         let at = self.at(format!("light {}", light.index()));

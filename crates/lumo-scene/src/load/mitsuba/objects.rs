@@ -720,6 +720,7 @@ impl<'a> Builder<'a, '_> {
                     intensity: self.color_param(&props, "intensity", Vec3::ONE)?,
                     beam_width,
                     cutoff,
+                    falloff: crate::SpotFalloff::LinearAngle,
                 }
             }
             "directional" => {
