@@ -32,21 +32,8 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
 SUITE = ROOT / "tests" / "data" / "mitsuba"
-
-
-def ensure_llvm_path():
-    """Point Dr.Jit at Debian's LLVM 19 (its default LLVM aborts the llvm variants)."""
-    if "DRJIT_LIBLLVM_PATH" in os.environ:
-        return
-    for cand in (
-        "/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1",
-        "/usr/lib/llvm-19/lib/libLLVM.so.1",
-        "/usr/lib/x86_64-linux-gnu/libLLVM-19.so",
-    ):
-        if Path(cand).exists():
-            os.environ["DRJIT_LIBLLVM_PATH"] = cand
-            return
-    sys.exit("libLLVM 19 not found: apt-get install -y libllvm19")
+sys.path.insert(0, str(ROOT / "scripts"))
+from compare_mitsuba import ensure_llvm_path  # noqa: E402  (Debian's libLLVM 19 for Dr.Jit)
 
 
 def read_exr_mean(mi, np, path):
