@@ -100,7 +100,7 @@ fn main() {
 fn with_light(fr: &SyntheticFrame) -> (Image, Image) {
     let (mut color, mut albedo) = (fr.noisy.clone(), fr.albedo.clone());
     let (w, h) = (color.width, color.height);
-    for y in h / 10..h / 5 {
+    for y in h * 6 / 10..h * 7 / 10 {
         for x in w / 5..w * 3 / 10 {
             color.pixel_mut(x, y).fill(20.0);
             albedo.pixel_mut(x, y).fill(0.75);

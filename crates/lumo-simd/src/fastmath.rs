@@ -1,4 +1,4 @@
-//! A branch-free `exp` for filter weights.
+//! A branch-free `exp` for filter weights, and a branch-free `ln` for the light search.
 //!
 //! `f32::exp` is a libm call that the compiler cannot vectorise; filter weights are evaluated
 //! tens of millions of times per frame, and a relative error of a few 1e-6 in a weight is far
@@ -34,6 +34,36 @@ pub fn exp_neg(x: f32) -> f32 {
     let i_plus_bias = r.to_bits().wrapping_sub(MAGIC.to_bits()).wrapping_add(127);
     let scale = f32::from_bits(i_plus_bias << 23);
     p * scale * keep
+}
+
+/// High and low parts of ln 2 for [`ln_normal`]: `e · LN2_HI` is exact for every exponent of an
+/// `f32` (the high part has its low 9 mantissa bits clear), the low part carries the rest.
+const LN2_HI: f32 = 0.693_145_75;
+const LN2_LO: f32 = 1.428_606_8e-6;
+
+/// Natural logarithm of a positive, finite, normal `x` (≥ 2^-126), within 2e-7 absolute or
+/// 2 ulp of the exact value; garbage for other inputs, which the caller must exclude.
+///
+/// Why: the light search takes a logarithm of every pixel, and `f32::ln` is a libm call the
+/// compiler cannot vectorise (it was a third of the search's time); this is plain `f32`/`i32`
+/// arithmetic, so a loop over pixels that calls it auto-vectorises.
+#[inline(always)]
+pub fn ln_normal(x: f32) -> f32 {
+    // x = 2^e · m with m in [√½, √2): subtracting √½'s bits puts the exponent that makes the
+    // mantissa straddle 1 in the bits above the mantissa (an arithmetic shift floors it).
+    const SQRT_HALF_BITS: i32 = 0x3f35_04f3;
+    let bits = x.to_bits() as i32;
+    let e = bits.wrapping_sub(SQRT_HALF_BITS) >> 23;
+    let m = f32::from_bits(bits.wrapping_sub(e << 23) as u32);
+    // ln m = 2 atanh(s), s = (m − 1)/(m + 1), |s| ≤ 0.1716: the odd series to s⁹ leaves an
+    // error below 1e-9.
+    let f = m - 1.0;
+    let s = f / (2.0 + f);
+    let z = s * s;
+    let series =
+        2.0 * s + 2.0 * s * z * (1.0 / 3.0 + z * (0.2 + z * (1.0 / 7.0 + z * (1.0 / 9.0))));
+    let e = e as f32;
+    e * LN2_HI + (series + e * LN2_LO)
 }
 
 /// The polynomial of [`exp2_cut`] and its vector copies: 2^f ≈ 1 + f·(C1 + f·(C2 + f·(C3 +
@@ -144,6 +174,37 @@ pub fn mul_add<const FMA: bool>(a: f32, b: f32, c: f32) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn ln_normal_matches_std_ln() {
+        // Every 97th positive normal float (every exponent, mantissas spread), and the ends.
+        let check = |x: f32| {
+            let (want, got) = ((x as f64).ln(), ln_normal(x) as f64);
+            let ulp = (want as f32).abs() as f64 * f32::EPSILON as f64;
+            let err = (got - want).abs();
+            assert!(
+                err <= 2e-7 || err <= 2.0 * ulp,
+                "ln({x:e}) = {got}, not {want}"
+            );
+        };
+        let mut bits = f32::MIN_POSITIVE.to_bits();
+        while bits < f32::MAX.to_bits() {
+            check(f32::from_bits(bits));
+            bits += 97;
+        }
+        for x in [
+            f32::MIN_POSITIVE,
+            0.5,
+            1.0,
+            2.0,
+            std::f32::consts::E,
+            1e-8,
+            f32::MAX,
+        ] {
+            check(x);
+        }
+        assert_eq!(ln_normal(1.0), 0.0);
+    }
 
     #[test]
     fn matches_std_exp() {

@@ -1,29 +1,27 @@
 //! The light search's first test, for every pixel: is it far brighter than the geometric mean
-//! of its window? One fused pass per axis: the logarithms and their running sums along rows,
-//! then the running sums down columns with the test made as each row of means is formed, so
-//! no plane of means is ever stored.
+//! of its window? The logarithms and their window sums along rows, then the sums down columns
+//! with the test made as each row of sums is formed, in bands of rows that keep only the rows
+//! their column sums span.
 //!
-//! The sums are [`crate::box_mean`]'s, operation for operation (f64 running sums, its window
-//! counts, its eight bands of rows down the columns), so the means have its bits and the mask
-//! is the one the plain search found with it.
+//! The test is made on sums, not means: `(ln(d + floor) − ln b) · n > Σ ln`, n the count of
+//! finite pixels in the window, in f64 — no division and no `exp` per pixel, and the same
+//! decision as the plain form `d + floor > b · exp(Σ ln / n)` except where the two sides are
+//! within a few 1e-7 of each other. The logarithms come from [`ln_normal`], which vectorises
+//! (libm's `ln` was a third of the search's time).
 
+use lumo_simd::fastmath::ln_normal;
 use rayon::prelude::*;
 
 use super::EmitterParams;
 
-/// Half-width, in natural-log units, of the band around the brightness threshold inside which
-/// the test is made as the plain search made it (`d + floor > brightness · exp(mean)` in f32).
-/// Outside it the log-domain comparison cannot disagree: the f32 roundings of the logarithms,
-/// the mean and the product add up to less than 1e-4 there even at |ln| ≈ 88.
-const EXACT_BAND: f32 = 1e-3;
-
-/// Rows whose running sums the horizontal pass carries at once: independent chains of f64
-/// additions, so that their latencies overlap (each row's sums are formed as one row's are).
-const ROWS: usize = 4;
-
 /// For every pixel, whether `d + floor` exceeds [`EmitterParams::brightness`] × the geometric
 /// mean of `d + floor` over the window of [`EmitterParams::radius`] (non-finite pixels take no
-/// part and are never bright).
+/// part and are never bright). `floor` must be a positive normal float.
+///
+/// Bands of rows, each with its own ring of the rows' logarithms and horizontal sums (the
+/// 2r + 1 rows its column sums span and the next), so no image-sized plane but the answer is
+/// allocated: fresh planes cost as much in page faults as the arithmetic. A band recomputes
+/// the r rows above and below it (a quarter more logarithms at 512², r = 8).
 pub(super) fn bright_pixels(
     d: &[f32],
     w: usize,
@@ -32,164 +30,202 @@ pub(super) fn bright_pixels(
     params: &EmitterParams,
 ) -> Vec<bool> {
     let r = params.radius;
-    let logs: Vec<f32> = d.par_iter().map(|&v| (v + floor).ln()).collect();
-    // Without missing pixels every window's count is its size and the mean of the finite
-    // values is the plain mean (the count channel's mean is exactly 1): the counts are skipped.
-    let missing = logs.par_iter().any(|v| !v.is_finite());
-    let values: Vec<f32>;
-    let finite = if missing {
-        values = logs
-            .par_iter()
-            .map(|&v| if v.is_finite() { v } else { 0.0 })
-            .collect();
-        &values
+    let slots = (2 * r + 2).min(h + 1);
+    // Eight bands, from the image's height and the radius alone (a band restarts its running
+    // sums, which may change the last bits: the split must not depend on the threads); one
+    // band where the ring would be as tall as a band, so that memory stays one ring.
+    let band = if 2 * r + 2 <= h.div_ceil(8) {
+        h.div_ceil(8)
     } else {
-        &logs
+        h
     };
-    let cx = counts(w, r);
-    let cy = counts(h, r);
-    let sums = row_means(w, h, r, &cx, |i| finite[i]);
-    let count_sums =
-        missing.then(|| row_means(w, h, r, &cx, |i| f32::from(u8::from(logs[i].is_finite()))));
-    let ln_brightness = params.brightness.ln();
-    let test = |i: usize, m: f32| {
-        if !(d[i].is_finite() && m.is_finite()) {
-            return false;
-        }
-        let t = logs[i] - ln_brightness - m;
-        if t.abs() > EXACT_BAND {
-            t > 0.0
-        } else {
-            d[i] + floor > params.brightness * m.exp()
-        }
-    };
+    let ln_b = (params.brightness as f64).ln();
     let mut bright = vec![false; w * h];
-    // The bands of `box_mean`'s vertical pass: where a band starts changes the last bits.
-    let band = h.div_ceil(8).max(16);
     bright
         .par_chunks_mut(band * w)
         .enumerate()
         .for_each(|(b, out)| {
             let y0 = b * band;
-            let mut acc = Column::new(&sums, w, h, r, y0);
-            let mut count_acc = count_sums.as_ref().map(|c| Column::new(c, w, h, r, y0));
-            for (dy, row) in out.chunks_mut(w).enumerate() {
+            let mut ring = Ring::new(slots, w);
+            let mut acc = vec![0.0f64; w];
+            let mut count = vec![0u32; w];
+            // The rows of ring slot `y`, computed from `d` (one logarithm and one running sum
+            // per pixel).
+            let fill = |ring: &mut Ring, y: usize| {
+                let (logs, sums, counts) = ring.slot_mut(y);
+                log_rows(&d[y * w..][..w], floor, logs);
+                horizontal(logs, sums, counts, w, r);
+            };
+            for yy in y0.saturating_sub(r)..=(y0 + r).min(h - 1) {
+                fill(&mut ring, yy);
+                let (_, s, c) = ring.slot(yy);
+                add_row(&mut acc, &mut count, s, c);
+            }
+            for (dy, out) in out.chunks_mut(w).enumerate() {
                 let y = y0 + dy;
-                let inv = 1.0 / cy[y];
-                match &mut count_acc {
-                    None => {
-                        for (x, o) in row.iter_mut().enumerate() {
-                            *o = test(y * w + x, (acc.acc[x] * inv) as f32);
-                        }
-                    }
-                    Some(c) => {
-                        for (x, o) in row.iter_mut().enumerate() {
-                            let (m, n) = ((acc.acc[x] * inv) as f32, (c.acc[x] * inv) as f32);
-                            *o = test(y * w + x, if n > 0.0 { m / n } else { f32::NAN });
-                        }
-                        c.slide(y);
-                    }
+                test_row(ring.slot(y).0, &acc, &count, ln_b, out);
+                let (next, last) = (y + r + 1, y.checked_sub(r));
+                if next < h {
+                    fill(&mut ring, next);
                 }
-                acc.slide(y);
+                match (next < h, last) {
+                    (true, Some(last)) => {
+                        let ((_, s, c), (_, so, co)) = (ring.slot(next), ring.slot(last));
+                        slide_row(&mut acc, &mut count, s, c, so, co);
+                    }
+                    (true, None) => {
+                        let (_, s, c) = ring.slot(next);
+                        add_row(&mut acc, &mut count, s, c);
+                    }
+                    (false, Some(last)) => {
+                        let (_, so, co) = ring.slot(last);
+                        sub_row(&mut acc, &mut count, so, co);
+                    }
+                    (false, None) => {}
+                }
             }
         });
     bright
 }
 
-/// Window sizes for every position along an axis of length `n` (as `box_mean` counts them).
-fn counts(n: usize, r: usize) -> Vec<f64> {
-    (0..n)
-        .map(|i| (i.saturating_sub(r)..=(i + r).min(n - 1)).count() as f64)
-        .collect()
+/// A band's rows of logarithms, horizontal window sums and counts, row `y` in slot
+/// `y % slots`: with 2r + 2 slots the row entering the column sums and the one leaving them
+/// are both held.
+struct Ring {
+    logs: Vec<f32>,
+    sums: Vec<f32>,
+    counts: Vec<u32>,
+    slots: usize,
+    w: usize,
 }
 
-/// Horizontal window means of every row, the values read through `src` (a pixel index).
-fn row_means(
-    w: usize,
-    h: usize,
-    r: usize,
-    cx: &[f64],
-    src: impl Fn(usize) -> f32 + Sync,
-) -> Vec<f32> {
-    let mut out = vec![0.0f32; w * h];
-    out.par_chunks_mut(w * ROWS)
-        .enumerate()
-        .for_each(|(b, block)| horizontal(block, b * ROWS, w, r, cx, &src));
-    out
-}
-
-/// Horizontal window means of up to [`ROWS`] rows from `y0` into `block`, the values read
-/// through `src` (a pixel index): `box_mean`'s row pass, its running sums carried side by side.
-#[inline(always)]
-fn horizontal(
-    block: &mut [f32],
-    y0: usize,
-    w: usize,
-    r: usize,
-    cx: &[f64],
-    src: &impl Fn(usize) -> f32,
-) {
-    let rows = block.len() / w;
-    let mut acc = [0.0f64; ROWS];
-    let at = |k: usize, x: usize| src((y0 + k) * w + x) as f64;
-    for x in 0..=r.min(w - 1) {
-        for (k, a) in acc.iter_mut().enumerate().take(rows) {
-            *a += at(k, x);
+impl Ring {
+    fn new(slots: usize, w: usize) -> Self {
+        Ring {
+            logs: vec![0.0; slots * w],
+            sums: vec![0.0; slots * w],
+            counts: vec![0; slots * w],
+            slots,
+            w,
         }
+    }
+
+    fn slot(&self, y: usize) -> (&[f32], &[f32], &[u32]) {
+        let at = (y % self.slots) * self.w..(y % self.slots + 1) * self.w;
+        (
+            &self.logs[at.clone()],
+            &self.sums[at.clone()],
+            &self.counts[at],
+        )
+    }
+
+    fn slot_mut(&mut self, y: usize) -> (&mut [f32], &mut [f32], &mut [u32]) {
+        let at = (y % self.slots) * self.w..(y % self.slots + 1) * self.w;
+        (
+            &mut self.logs[at.clone()],
+            &mut self.sums[at.clone()],
+            &mut self.counts[at],
+        )
+    }
+}
+
+multiversion! {
+    /// `ln(d + floor)` of a run of pixels, NaN where `d` is not finite.
+    fn log_rows(d: &[f32], floor: f32, out: &mut [f32]) as log_rows_impl {
+        let d = &d[..out.len()];
+        for (o, &v) in out.iter_mut().zip(d) {
+            let x = v + floor;
+            // d ≥ 0 and floor a normal float: a finite x is in ln_normal's domain.
+            *o = if x.is_finite() { ln_normal(x) } else { f32::NAN };
+        }
+    }
+}
+
+/// Window sums along a row of the finite logarithms of `logs`, and how many there are in
+/// each window: a running sum in f64.
+fn horizontal(logs: &[f32], sums: &mut [f32], counts: &mut [u32], w: usize, r: usize) {
+    let at = |x: usize| {
+        let l = logs[x];
+        if l.is_finite() {
+            (l as f64, 1u32)
+        } else {
+            (0.0, 0)
+        }
+    };
+    let (mut acc, mut count) = (0.0f64, 0u32);
+    for x in 0..=r.min(w - 1) {
+        let (v, c) = at(x);
+        acc += v;
+        count += c;
     }
     for x in 0..w {
-        let inv = 1.0 / cx[x];
-        for (k, a) in acc.iter_mut().enumerate().take(rows) {
-            block[k * w + x] = (*a * inv) as f32;
-            if x + r + 1 < w {
-                *a += at(k, x + r + 1);
-            }
-            if x >= r {
-                *a -= at(k, x - r);
-            }
-        }
-    }
-}
-
-/// The running column sums of `box_mean`'s vertical pass over a plane of row means.
-struct Column<'a> {
-    acc: Vec<f64>,
-    rows: &'a [f32],
-    w: usize,
-    h: usize,
-    r: usize,
-}
-
-impl<'a> Column<'a> {
-    /// The sums for output row `y0`: rows `y0 − r ..= y0 + r`, clipped.
-    fn new(rows: &'a [f32], w: usize, h: usize, r: usize, y0: usize) -> Self {
-        let mut c = Column {
-            acc: vec![0.0; w],
-            rows,
-            w,
-            h,
-            r,
+        sums[x] = acc as f32;
+        counts[x] = count;
+        let (add, cadd) = if x + r + 1 < w {
+            at(x + r + 1)
+        } else {
+            (0.0, 0)
         };
-        for yy in y0.saturating_sub(r)..=(y0 + r).min(h - 1) {
-            c.add(yy, 1.0);
-        }
-        c
+        let (sub, csub) = if x >= r { at(x - r) } else { (0.0, 0) };
+        acc += add - sub;
+        count = count + cadd - csub;
     }
+}
 
-    fn add(&mut self, y: usize, sign: f64) {
-        let row = &self.rows[y * self.w..(y + 1) * self.w];
-        for (a, v) in self.acc.iter_mut().zip(row) {
-            *a += sign * *v as f64;
+multiversion! {
+    /// Whether each pixel of a row is bright: `(ln(d + floor) − ln b) · n > Σ`, with the
+    /// window's sum Σ and count n from the running column sums.
+    fn test_row(logs: &[f32], acc: &[f64], count: &[u32], ln_b: f64, out: &mut [bool])
+        as test_row_impl {
+        let len = out.len();
+        let (logs, acc, count) = (&logs[..len], &acc[..len], &count[..len]);
+        for x in 0..len {
+            let l = logs[x];
+            // A finite logarithm counts itself, so n ≥ 1 wherever the test can pass.
+            out[x] = l.is_finite() & ((l as f64 - ln_b) * count[x] as f64 > acc[x]);
         }
     }
+}
 
-    /// From output row `y` to `y + 1`.
-    fn slide(&mut self, y: usize) {
-        if y + self.r + 1 < self.h {
-            self.add(y + self.r + 1, 1.0);
+multiversion! {
+    /// Column sums: row `s`/`c` in.
+    fn add_row(acc: &mut [f64], count: &mut [u32], s: &[f32], c: &[u32]) as add_row_impl {
+        let len = acc.len();
+        let (count, s, c) = (&mut count[..len], &s[..len], &c[..len]);
+        for x in 0..len {
+            acc[x] += s[x] as f64;
+            count[x] += c[x];
         }
-        if y >= self.r {
-            self.add(y - self.r, -1.0);
+    }
+}
+
+multiversion! {
+    /// Column sums: row `s`/`c` out.
+    fn sub_row(acc: &mut [f64], count: &mut [u32], s: &[f32], c: &[u32]) as sub_row_impl {
+        let len = acc.len();
+        let (count, s, c) = (&mut count[..len], &s[..len], &c[..len]);
+        for x in 0..len {
+            acc[x] -= s[x] as f64;
+            count[x] -= c[x];
+        }
+    }
+}
+
+multiversion! {
+    /// Column sums: row `s`/`c` in and row `so`/`co` out, in one pass.
+    fn slide_row(
+        acc: &mut [f64],
+        count: &mut [u32],
+        s: &[f32],
+        c: &[u32],
+        so: &[f32],
+        co: &[u32],
+    ) as slide_row_impl {
+        let len = acc.len();
+        let (count, s, c, so, co) = (&mut count[..len], &s[..len], &c[..len], &so[..len], &co[..len]);
+        for x in 0..len {
+            acc[x] += s[x] as f64 - so[x] as f64;
+            count[x] = count[x] + c[x] - co[x];
         }
     }
 }

@@ -1,6 +1,8 @@
 //! The light search as it was before it was rewritten for speed (one pass per step over whole
 //! image-sized boolean planes, a queue, window iterators): the reference the fast search must
-//! match bit for bit (tests.rs). Kept verbatim but for its name.
+//! match (tests.rs; the two forms of the brightness test round differently, so they may part
+//! only for a pixel within a few 1e-7 of the threshold, which no test frame has). Kept
+//! verbatim but for its name.
 
 use std::collections::VecDeque;
 

@@ -1,6 +1,8 @@
 //! The light search's passes ([`super::detect_emitters`]), written for speed: whole rows per
-//! task, the window level's test decided in the log domain (no `exp` per pixel), and the
-//! region growing, region test and rim visiting only the pixels they concern. It finds the
+//! task in loops that vectorise (compiled for AVX-512, AVX2 and the baseline by
+//! `multiversion!`), the window level's test made on sums in the log domain (no `exp` per
+//! pixel, no image-sized plane of sums), and the region growing, region test and rim visiting
+//! only the pixels they concern. It finds the
 //! same mask as the plain version it replaced (`reference.rs`, compared in tests.rs).
 //!
 //! Why it matters: the search runs before every filter of a frame without an emission plane,
@@ -39,13 +41,14 @@ pub(super) fn search(color: &Image, features: &Features, params: &EmitterParams)
         .into_par_iter()
         .flat_map_iter(|y| {
             let (bright, d) = (&bright, &d);
-            (y * w..(y + 1) * w).filter(move |&i| {
-                bright[i]
-                    && neighbours(i, w, h)
+            marked(&bright[y * w..(y + 1) * w])
+                .map(move |x| y * w + x)
+                .filter(move |&i| {
+                    neighbours(i, w, h)
                         .filter(|&j| bright[j] && flat(d[i], d[j]))
                         .count()
                         >= params.flat_neighbours
-            })
+                })
         })
         .collect();
     let mut mask = vec![false; n];
@@ -68,40 +71,29 @@ pub(super) fn search(color: &Image, features: &Features, params: &EmitterParams)
     EmitterMask { light: mask, rim }
 }
 
-/// Demodulated luminance of every pixel, NaN where the pixel takes no part (missing or
-/// background); and the sum and count of the finite ones, summed row by row in the row order
-/// (whatever the threads).
+/// Demodulated luminance of every pixel, NaN where the pixel takes no part (missing,
+/// overflowing or background); and the sum and count of the finite ones, summed row by row
+/// in the row order (whatever the threads).
 fn demodulated(color: &Image, features: &Features) -> (Vec<f32>, f64, usize) {
     let w = color.width;
     let mut d = vec![0.0f32; color.width * color.height];
     let sums: Vec<(f64, usize)> = d
         .par_chunks_mut(w)
         .enumerate()
-        .map(|(y, row)| {
-            let (mut sum, mut count) = (0.0f64, 0usize);
-            for (x, out) in row.iter_mut().enumerate() {
-                let i = y * w + x;
-                let l = luminance(rgb_of(&color.data[i * 3..i * 3 + 3]));
-                *out = if !l.is_finite() || background(features, i) {
-                    f32::NAN
-                } else {
-                    let a = features.albedo.map_or(1.0, |a| {
-                        let v = luminance(rgb_of(&a.data[i * a.channels..][..a.channels.min(3)]));
-                        if v.is_finite() {
-                            v.max(ALBEDO_FLOOR)
-                        } else {
-                            1.0
-                        }
-                    });
-                    (l / a).max(0.0)
-                };
-                if out.is_finite() {
-                    sum += *out as f64;
-                    count += 1;
-                }
-            }
-            (sum, count)
-        })
+        .map_init(
+            || (vec![1.0f32; w], vec![false; w]),
+            |(divisor, background), (y, out)| {
+                let (albedo, ac) = row_of(features.albedo, w, y);
+                albedo_divisors(albedo, ac, divisor);
+                let ((depth, dc), (position, pc)) = (
+                    row_of(features.depth, w, y),
+                    row_of(features.position, w, y),
+                );
+                backgrounds(depth, dc, position, pc, background);
+                demodulate_row(&color.data[y * w * 3..][..w * 3], divisor, background, out);
+                finite_sum(out)
+            },
+        )
         .collect();
     let (sum, count) = sums
         .into_iter()
@@ -109,13 +101,112 @@ fn demodulated(color: &Image, features: &Features) -> (Vec<f32>, f64, usize) {
     (d, sum, count)
 }
 
-/// [`crate::common::gbuffer::is_background`], inlined into the row loop.
-#[inline(always)]
-fn background(f: &Features, i: usize) -> bool {
-    f.depth
-        .is_some_and(|d| depth_is_background(d.data[i * d.channels]))
-        || f.position
-            .is_some_and(|p| position_is_background(&p.data[i * p.channels..][..3]))
+/// Row `y` of a plane `w` pixels wide and its channel count; empty when the plane is absent.
+fn row_of(plane: Option<&Image>, w: usize, y: usize) -> (&[f32], usize) {
+    plane.map_or((&[][..], 0), |p| {
+        (&p.data[y * w * p.channels..][..w * p.channels], p.channels)
+    })
+}
+
+multiversion! {
+    /// What each pixel of a row is demodulated by: its albedo's luminance (the row of a plane
+    /// of `channels` values a pixel), at least [`ALBEDO_FLOOR`] (1 where the albedo is absent,
+    /// `channels` 0, or not finite).
+    fn albedo_divisors(albedo: &[f32], channels: usize, out: &mut [f32]) as albedo_divisors_impl {
+        let floor = |v: f32| if v.is_finite() { v.max(ALBEDO_FLOOR) } else { 1.0 };
+        match channels {
+            0 => out.fill(1.0),
+            3 => {
+                for (o, a) in out.iter_mut().zip(albedo.chunks_exact(3)) {
+                    *o = floor(luminance([a[0], a[1], a[2]]));
+                }
+            }
+            c => {
+                for (o, a) in out.iter_mut().zip(albedo.chunks_exact(c)) {
+                    *o = floor(luminance(rgb_of(&a[..c.min(3)])));
+                }
+            }
+        }
+    }
+}
+
+multiversion! {
+    /// Which pixels of a row are background ([`crate::common::gbuffer::is_background`]), from
+    /// the rows of the depth and position planes and their channel counts (0: absent).
+    fn backgrounds(depth: &[f32], dc: usize, position: &[f32], pc: usize, out: &mut [bool])
+        as backgrounds_impl {
+        out.fill(false);
+        if dc > 0 {
+            for (o, d) in out.iter_mut().zip(depth.chunks_exact(dc)) {
+                *o |= depth_is_background(d[0]);
+            }
+        }
+        match pc {
+            0 => {}
+            3 => {
+                for (o, p) in out.iter_mut().zip(position.chunks_exact(3)) {
+                    *o |= position_is_background(p);
+                }
+            }
+            _ => {
+                for (o, p) in out.iter_mut().zip(position.chunks_exact(pc)) {
+                    *o |= position_is_background(&p[..3]);
+                }
+            }
+        }
+    }
+}
+
+multiversion! {
+    /// One row's demodulated luminance (see [`demodulated`]).
+    fn demodulate_row(color: &[f32], divisor: &[f32], background: &[bool], out: &mut [f32])
+        as demodulate_row_impl {
+        for (((o, c), &a), &bg) in out
+            .iter_mut()
+            .zip(color.chunks_exact(3))
+            .zip(divisor)
+            .zip(background)
+        {
+            let l = luminance([c[0], c[1], c[2]]);
+            *o = if l.is_finite() && !bg { (l / a).max(0.0) } else { f32::NAN };
+        }
+    }
+}
+
+/// The sum and count of a row's finite values (four partial sums, so that the additions'
+/// latencies overlap).
+fn finite_sum(out: &[f32]) -> (f64, usize) {
+    let (mut sum, mut count) = ([0.0f64; 4], [0usize; 4]);
+    let mut quads = out.chunks_exact(4);
+    for q in &mut quads {
+        for k in 0..4 {
+            let ok = q[k].is_finite();
+            sum[k] += if ok { q[k] as f64 } else { 0.0 };
+            count[k] += usize::from(ok);
+        }
+    }
+    for &v in quads.remainder() {
+        if v.is_finite() {
+            sum[0] += v as f64;
+            count[0] += 1;
+        }
+    }
+    (sum[0] + sum[1] + (sum[2] + sum[3]), count.iter().sum())
+}
+
+/// Indices of the set entries of `mask`, skipping clear runs 64 entries at a time: most of a
+/// frame is no light, and a plain scan of every entry cost a tenth of the search.
+fn marked(mask: &[bool]) -> impl Iterator<Item = usize> + '_ {
+    mask.chunks(64)
+        .enumerate()
+        // `fold`, not `any`: without the early exit the test vectorises.
+        .filter(|(_, run)| run.iter().fold(false, |a, &b| a | b))
+        .flat_map(|(k, run)| {
+            run.iter()
+                .enumerate()
+                .filter(|(_, &b)| b)
+                .map(move |(i, _)| k * 64 + i)
+        })
 }
 
 /// The 8 neighbours of pixel `i` of a `w`×`h` image, clipped to the image.
@@ -146,7 +237,7 @@ pub(super) fn rings(
     if steps == 0 {
         return rim;
     }
-    let mut ring: Vec<usize> = (0..core.len()).filter(|&i| core[i]).collect();
+    let mut ring: Vec<usize> = marked(core).collect();
     for _ in 0..steps {
         let mut next = Vec::new();
         for &i in &ring {
@@ -189,8 +280,9 @@ fn drop_explained_regions(
     let mut members = Vec::new();
     let mut near = Vec::new();
     let mut drop = Vec::new();
-    for start in 0..mask.len() {
-        if !mask[start] || visited[start] {
+    let starts: Vec<usize> = marked(mask).collect();
+    for start in starts {
+        if visited[start] {
             continue;
         }
         // The region of `start` (8-connected), its pixels' levels and bounding box.
