@@ -1,67 +1,26 @@
 //! `--integrator` values read from the tables that define them: lumo-render's
 //! [`Integrator`] table (`lumo render`, `lumo bench`) and the wire protocol's modes, which add
 //! `both` (`lumo serve`). `--help` lists each value with its description, and a wrong value is
-//! answered with the list, as clap does for its own enumerations.
-
-use std::ffi::OsStr;
+//! answered with the list, as `lumo denoise --filter` does for the filter list.
 
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use lumo_render::Integrator;
 
-/// A clap value parser over a fixed list of named values.
-#[derive(Clone, Copy)]
-pub struct NamedParser<T: 'static> {
-    all: &'static [T],
-    name: fn(T) -> &'static str,
-    help: fn(T) -> String,
-}
-
-impl<T: Copy + Send + Sync + 'static> NamedParser<T> {
-    fn values(&self) -> impl Iterator<Item = PossibleValue> + '_ {
-        self.all
-            .iter()
-            .map(|&v| PossibleValue::new((self.name)(v)).help((self.help)(v)))
-    }
-}
-
-impl<T: Copy + Send + Sync + 'static> TypedValueParser for NamedParser<T> {
-    type Value = T;
-
-    fn parse_ref(
-        &self,
-        cmd: &clap::Command,
-        arg: Option<&clap::Arg>,
-        value: &OsStr,
-    ) -> Result<T, clap::Error> {
-        let name = PossibleValuesParser::new(self.values()).parse_ref(cmd, arg, value)?;
-        self.all
-            .iter()
-            .copied()
-            .find(|&v| (self.name)(v) == name)
-            .ok_or_else(|| clap::Error::new(clap::error::ErrorKind::InvalidValue).with_cmd(cmd))
-    }
-
-    fn possible_values(&self) -> Option<Box<dyn Iterator<Item = PossibleValue> + '_>> {
-        Some(Box::new(self.values()))
-    }
-}
-
 /// The integrators of lumo-render's table (`lumo render --integrator`, `lumo bench`).
-pub fn integrators() -> NamedParser<Integrator> {
-    NamedParser {
-        all: &Integrator::ALL,
-        name: Integrator::name,
-        help: |i| i.info().description.to_owned(),
-    }
+pub fn integrators() -> impl TypedValueParser<Value = Integrator> {
+    let values = Integrator::ALL
+        .iter()
+        .map(|i| PossibleValue::new(i.name()).help(i.info().description));
+    PossibleValuesParser::new(values).map(|name| {
+        Integrator::from_name(&name).expect("every possible value is a name from the table")
+    })
 }
 
 /// The server's integrator modes (`lumo serve --integrator`): the table's integrators that
 /// feed a sample stream, and `both`.
-pub fn serve_integrators() -> NamedParser<lumo_server::Integrator> {
-    NamedParser {
-        all: lumo_server::Integrator::ALL,
-        name: lumo_server::Integrator::name,
-        help: |i| match i.parts() {
+pub fn serve_integrators() -> impl TypedValueParser<Value = lumo_server::Integrator> {
+    let values = lumo_server::Integrator::ALL.iter().map(|m| {
+        let help = match m.parts() {
             [one] => one.info().description.to_owned(),
             parts => {
                 let labels: Vec<&str> = parts.iter().map(|p| p.info().label).collect();
@@ -71,8 +30,15 @@ pub fn serve_integrators() -> NamedParser<lumo_server::Integrator> {
                     parts.len()
                 )
             }
-        },
-    }
+        };
+        PossibleValue::new(m.name()).help(help)
+    });
+    PossibleValuesParser::new(values).map(|name| {
+        *lumo_server::Integrator::ALL
+            .iter()
+            .find(|m| m.name() == name)
+            .expect("every possible value is a name from the wire enum")
+    })
 }
 
 /// The refusal of `--spectral` with an integrator that transports RGB: `modes` are the names
@@ -101,6 +67,8 @@ pub fn spectral_refusal(modes: &[(&str, bool)]) -> String {
 
 #[cfg(test)]
 mod tests {
+    use std::ffi::OsStr;
+
     use super::*;
 
     /// Every value parses back to itself, and a wrong one lists the right ones.
@@ -131,5 +99,11 @@ mod tests {
             "--spectral: spectral transport runs in the path tracer and light tracer; use \
              --integrator path or light (bdpt and ppm transport RGB)"
         );
+        let serve: Vec<(&str, bool)> = lumo_server::Integrator::ALL
+            .iter()
+            .map(|m| (m.name(), m.spectral()))
+            .collect();
+        assert!(spectral_refusal(&serve)
+            .ends_with("use --integrator path, light or both (bdpt and ppm transport RGB)"));
     }
 }

@@ -92,9 +92,9 @@ pub struct RenderArgs {
     /// variance) as EXR files into this directory.
     #[arg(long)]
     pub aovs: Option<PathBuf>,
-    /// Light transport: path (from the camera), light (from the lights, splatted onto the
-    /// film), bdpt (bidirectional) or ppm (progressive photon mapping); light, bdpt and ppm
-    /// render without a pipeline or AOVs, and environment lights emit no particles or photons.
+    /// Light transport, one of lumo-render's integrator table (docs/integrators.md); all but
+    /// path render without a pipeline or AOVs, and environment lights emit no particles or
+    /// photons.
     #[arg(long, value_parser = crate::integrator_arg::integrators(), default_value = "path")]
     pub integrator: lumo_render::Integrator,
     /// --integrator ppm: most photons kept in the map (about 72 bytes each); when full, the
