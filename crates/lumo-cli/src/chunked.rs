@@ -19,7 +19,7 @@ use anyhow::{anyhow, bail, Context, Result};
 use clap::Parser;
 use lumo_render::PixelSums;
 
-use crate::render::{Choices, Job, Plan, Ready, RenderArgs, RenderIntegrator};
+use crate::render::{Choices, Job, Plan, Ready, RenderArgs};
 
 /// The words after `lumo render`, parsed by the command's own parser.
 #[derive(Parser)]
@@ -365,13 +365,15 @@ fn refuse_unaddable(args: &RenderArgs) -> Result<()> {
     if args.list {
         bail!("--list: run `lumo render --list` to see the built-in scenes");
     }
-    if args.integrator != RenderIntegrator::Path {
-        let name = clap::ValueEnum::to_possible_value(&args.integrator)
-            .map_or_else(String::new, |v| v.get_name().to_owned());
+    if !args.integrator.caps().gbuffer {
+        use lumo_render::Integrator;
         bail!(
-            "--integrator {name}: a distributed render adds up camera samples per pixel; the \
-             light tracer, bdpt and ppm splat paths across the image or share a photon map \
-             between passes. Render them with `lumo render`, or use --integrator path"
+            "--integrator {}: a distributed render adds up camera samples per pixel; {} splat \
+             paths across the image or share a photon map between passes. Render them with \
+             `lumo render`, or use --integrator {}",
+            args.integrator.name(),
+            Integrator::names_where(|c| !c.gbuffer, "and"),
+            Integrator::names_where(|c| c.gbuffer, "or")
         );
     }
     if args.temporal || args.temporal_eval.is_some() {

@@ -7,7 +7,6 @@ use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
 use lumo_render::camera::PinholeCamera;
-use lumo_render::integrators::photon::scene_warning;
 use lumo_render::{PathSettings, RenderScene};
 use lumo_scene::load::LoadOptions;
 use lumo_server::protocol::remote::{SceneKind, SceneSource};
@@ -35,8 +34,8 @@ pub struct ServeArgs {
     /// Sample streams: path (camera stream), light (light stream), both (each weighted ½),
     /// bdpt (bidirectional: both streams),
     /// ppm (camera stream gathering from a photon map that grows with the samples).
-    #[arg(long, value_enum, default_value_t = IntegratorArg::Path)]
-    pub integrator: IntegratorArg,
+    #[arg(long, value_parser = crate::integrator_arg::serve_integrators(), default_value = "path")]
+    pub integrator: Integrator,
     /// Photon mapping: most photons kept in a render's map (about 72 bytes each); when full,
     /// the map starts over [default: 4194304, about 300 MB].
     #[arg(long, value_name = "N")]
@@ -123,22 +122,6 @@ fn remote_config(args: &ServeArgs) -> Result<RemoteConfig> {
     Ok(RemoteConfig::new(token, scene))
 }
 
-/// `--integrator` values.
-#[derive(clap::ValueEnum, Clone, Copy, Debug)]
-pub enum IntegratorArg {
-    /// Path tracer.
-    Path,
-    /// Light tracer.
-    Light,
-    /// Both.
-    Both,
-    /// Bidirectional path tracer (camera-side strategies on the camera stream, light
-    /// vertices seen by the camera on the light stream).
-    Bdpt,
-    /// Progressive photon mapping.
-    Ppm,
-}
-
 /// Runs `lumo serve` until interrupted.
 pub fn run(args: ServeArgs) -> Result<()> {
     crate::cli_common::check_max_depth(args.max_depth)?;
@@ -176,15 +159,9 @@ pub fn run(args: ServeArgs) -> Result<()> {
     }
     let mut config = ServerConfig::new(width, height);
     config.threads = crate::cli_common::thread_count(args.threads).unwrap_or(0);
-    config.integrator = match args.integrator {
-        IntegratorArg::Path => Integrator::Path,
-        IntegratorArg::Light => Integrator::Light,
-        IntegratorArg::Both => Integrator::Both,
-        IntegratorArg::Bdpt => Integrator::Bdpt,
-        IntegratorArg::Ppm => Integrator::Ppm,
-    };
-    let chosen = format!("{:?}", args.integrator).to_lowercase();
-    if let Some(why) = lumo_render::media::refusal(&scene, &chosen) {
+    config.integrator = args.integrator;
+    let chosen = args.integrator;
+    if let Some(why) = lumo_render::media::refusal(&scene, chosen.name(), chosen.renders_media()) {
         bail!(why);
     }
     if let Some(n) = args.max_photons {
@@ -205,13 +182,12 @@ pub fn run(args: ServeArgs) -> Result<()> {
             "use a smaller --max-photons",
         )?;
     }
-    if args.spectral
-        && !matches!(
-            args.integrator,
-            IntegratorArg::Path | IntegratorArg::Light | IntegratorArg::Both
-        )
-    {
-        bail!("--spectral: spectral transport runs in the path and light tracers; use --integrator path, light or both (bdpt and ppm transport RGB)");
+    if args.spectral && !chosen.spectral() {
+        let modes: Vec<(&str, bool)> = Integrator::ALL
+            .iter()
+            .map(|m| (m.name(), m.spectral()))
+            .collect();
+        bail!(crate::integrator_arg::spectral_refusal(&modes));
     }
     config.path = PathSettings {
         max_depth: args.max_depth.unwrap_or(scene.defaults.max_depth),
@@ -239,9 +215,9 @@ pub fn run(args: ServeArgs) -> Result<()> {
              path tracer's camera samples instead (they project light onto a pinhole's film)"
         );
     }
-    if config.integrator == Integrator::Ppm {
-        let camera = PinholeCamera::new(&rs.scene.camera, width, height);
-        if let Some(w) = scene_warning(&rs, &camera, &config.path) {
+    let camera = PinholeCamera::new(&rs.scene.camera, width, height);
+    for part in chosen.parts() {
+        if let Some(w) = part.scene_warning(&rs, &camera, &config.path) {
             errln!("{w}");
         }
     }

@@ -19,7 +19,7 @@ use crate::accel::packet::{RayPacket, LANES};
 use crate::camera::PinholeCamera;
 use crate::geometry::shadow_segment;
 use crate::lights::{CosineTriangle, LightSample};
-use crate::render::map_rows;
+use crate::parallel::map_rows;
 use crate::render_scene::{RenderScene, Surface};
 use crate::sampler::PixelSampler;
 

@@ -1,5 +1,6 @@
-//! Renders whole images: runs the integrator for every pixel and sample, rows in parallel.
-//! This is the only place in the crate that knows about threads.
+//! Renders whole images: runs each integrator for every pixel and sample, rows (or blocks of
+//! light paths, or photon batches) in parallel. With `parallel.rs` it is the only place in
+//! the crate that knows about threads; `integrator.rs` chooses among these loops.
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -8,9 +9,11 @@ use lumo_image::Image;
 use rayon::prelude::*;
 
 use crate::camera::PinholeCamera;
+use crate::camera_sample::camera_sample;
 use crate::film::Frame;
 use crate::integrators::path::wavefront::{estimate, render_pixel_sums, render_pixels};
 use crate::integrators::path::{trace_path, FirstHit, PathRadiance};
+use crate::parallel::{map_pixels, map_rows};
 use crate::pixel_sums::PixelSums;
 use crate::render_scene::RenderScene;
 use crate::sampler::PixelSampler;
@@ -30,46 +33,6 @@ pub fn trace_sample(
     let (mut sampler, offset, origin, dir) = camera_sample(camera, (x, y), index, settings.seed);
     let r = trace_path(rs, origin, dir, &mut sampler, &settings.path, first);
     (r, offset)
-}
-
-/// Camera sample `index` of pixel (x, y): its sampler (past the jitter and lens point it
-/// drew), its offset from the pixel's corner and its ray (origin, direction). Sample 0 goes
-/// through the pixel centre (the guided-filter paper's guide ray, §3.2), the others through a
-/// point placed by the camera's pixel filter (inside the pixel for the box filter; a tent or
-/// Gaussian reaches into the neighbours).
-#[inline]
-pub(crate) fn camera_sample(
-    camera: &PinholeCamera,
-    (x, y): (usize, usize),
-    index: u32,
-    seed: u32,
-) -> (PixelSampler, Vec2, Vec3, Vec3) {
-    let sampler = PixelSampler::new(x as u32, y as u32, index, seed);
-    camera_sample_with(camera, (x, y), index, sampler)
-}
-
-/// [`camera_sample`] for a sampler already made (by [`PixelSampler::run`]).
-#[inline]
-pub(crate) fn camera_sample_with(
-    camera: &PinholeCamera,
-    (x, y): (usize, usize),
-    index: u32,
-    mut sampler: PixelSampler,
-) -> (PixelSampler, Vec2, Vec3, Vec3) {
-    let jitter = sampler.next_2d();
-    let offset = if index == 0 {
-        Vec2::splat(0.5)
-    } else {
-        camera.filter_offset((x, y), jitter)
-    };
-    // Only a thin lens draws a lens point: pinhole images keep their sample dimensions.
-    let lens = if camera.needs_lens_sample() {
-        sampler.next_2d()
-    } else {
-        Vec2::splat(0.5)
-    };
-    let (origin, dir) = camera.ray(Vec2::new(x as f32, y as f32) + offset, lens);
-    (sampler, offset, origin, dir)
 }
 
 /// Renders samples `0..spp` of pixel (x, y): a pure function of its arguments. The paths go
@@ -129,53 +92,6 @@ pub fn render_sums(
     map_rows(h, &rows, |y| {
         render_pixel_sums(rs, &camera, &chunk, first, y, 0..w)
     })
-}
-
-/// Evaluates `f(y)` (a row's results, left to right) for every row of an image of `height`
-/// rows, rows in parallel, and returns the results in row-major order. `progress` gets the
-/// number of rows finished.
-pub fn map_rows<T, F>(height: usize, progress: &(dyn Fn(usize) + Sync), f: F) -> Vec<T>
-where
-    T: Send,
-    F: Fn(usize) -> Vec<T> + Sync,
-{
-    let done = AtomicU64::new(0);
-    let rows: Vec<Vec<T>> = (0..height)
-        .into_par_iter()
-        .map(|y| {
-            let row = f(y);
-            let finished = done.fetch_add(1, Ordering::Relaxed) + 1;
-            progress(finished as usize);
-            row
-        })
-        .collect();
-    rows.into_iter().flatten().collect()
-}
-
-/// Evaluates `f(x, y)` for every pixel of a `width`×`height` image, rows in parallel, and
-/// returns the results in row-major order. `progress` gets the number of rows finished. This
-/// is the crate's one place that spreads work over threads; results do not depend on how.
-pub fn map_pixels<T, F>(
-    width: usize,
-    height: usize,
-    progress: &(dyn Fn(usize) + Sync),
-    f: F,
-) -> Vec<T>
-where
-    T: Send,
-    F: Fn(usize, usize) -> T + Sync,
-{
-    let done = AtomicU64::new(0);
-    let rows: Vec<Vec<T>> = (0..height)
-        .into_par_iter()
-        .map(|y| {
-            let row = (0..width).map(|x| f(x, y)).collect();
-            let finished = done.fetch_add(1, Ordering::Relaxed) + 1;
-            progress(finished as usize);
-            row
-        })
-        .collect();
-    rows.into_iter().flatten().collect()
 }
 
 /// The instance that each pixel centre's camera ray hits first (`u32::MAX` where it hits

@@ -15,29 +15,12 @@ use std::time::Instant;
 use anyhow::{bail, Context, Result};
 use lumo_image::metrics::relmse;
 use lumo_image::Image;
-use lumo_render::integrators::bdpt::BdptSettings;
-use lumo_render::{
-    render, render_bdpt, render_light, render_ppm, PpmSettings, RenderScene, RenderSettings,
-    RenderStats,
-};
+use lumo_render::camera::PinholeCamera;
+use lumo_render::{Integrator, IntegratorOptions, RenderScene, RenderSettings, RenderStats};
 
 use super::scenes::{load_all, scene_names, settings, BenchScene};
 use super::{atomic, machine_description};
 use crate::arguments::parse_size;
-
-/// An integrator of the table.
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum BenchIntegrator {
-    /// Path tracing with next-event estimation.
-    Path,
-    /// Light tracing (environment lights emit nothing: skipped on scenes lit only by them).
-    Light,
-    /// Bidirectional path tracing.
-    Bdpt,
-    /// One-pass progressive photon mapping (default settings: one photon path per camera
-    /// sample, so its samples/s are also its photon paths/s).
-    Ppm,
-}
 
 /// Arguments of `lumo bench integrators`.
 #[derive(clap::Args, Debug)]
@@ -50,14 +33,13 @@ pub struct IntegratorsArgs {
     /// Time budgets in seconds, comma-separated.
     #[arg(long, value_delimiter = ',', default_value = "1,5,30")]
     budgets: Vec<f64>,
-    /// Integrators to compare, comma-separated.
+    /// Integrators to compare, comma-separated [default: every integrator of the table].
     #[arg(
         long,
-        value_enum,
+        value_parser = crate::integrator_arg::integrators(),
         value_delimiter = ',',
-        default_value = "path,light,bdpt,ppm"
     )]
-    integrators: Vec<BenchIntegrator>,
+    integrators: Vec<Integrator>,
     /// Seconds of bidirectional rendering for each scene's reference (cached).
     #[arg(long, default_value_t = 600.0, value_parser = crate::cli_common::parse_seconds)]
     reference_seconds: f64,
@@ -73,55 +55,34 @@ pub struct IntegratorsArgs {
     threads: Option<usize>,
 }
 
-impl BenchIntegrator {
-    /// The name on the command line and in tables.
-    pub fn name(self) -> &'static str {
-        match self {
-            BenchIntegrator::Path => "path",
-            BenchIntegrator::Light => "light",
-            BenchIntegrator::Bdpt => "bdpt",
-            BenchIntegrator::Ppm => "ppm",
-        }
-    }
+/// Why `integrator` is skipped on `rs` (it cannot render it), as one line; `None` where it
+/// renders.
+pub fn skipped(integrator: Integrator, rs: &RenderScene, s: &RenderSettings) -> Option<String> {
+    let camera = PinholeCamera::new(&rs.scene.camera, s.width, s.height);
+    integrator
+        .scene_refusal(rs, &camera)
+        .map(|why| format!("{} skipped: {why}", integrator.info().label))
 }
 
 /// Renders `scene` with `integrator` at `spp` samples (light paths per pixel for the light
-/// tracer); returns the image with its work counters, and the seconds it took.
+/// tracer; photon mapping at its default settings); returns the image with its work
+/// counters, and the seconds it took.
 pub fn render_image(
-    integrator: BenchIntegrator,
+    integrator: Integrator,
     rs: &RenderScene,
     s: &RenderSettings,
     pool: &rayon::ThreadPool,
 ) -> (Image, RenderStats, f64) {
     let t = Instant::now();
-    let (image, stats) = pool.install(|| match integrator {
-        BenchIntegrator::Path => {
-            let (frame, stats) = render(rs, s, &|_| {});
-            (frame.color, stats)
-        }
-        BenchIntegrator::Light => render_light(rs, s, &|_| {}),
-        BenchIntegrator::Bdpt => {
-            let b = BdptSettings {
-                path: s.path,
-                only: None,
-            };
-            render_bdpt(rs, s, &b, &|_| {})
-        }
-        BenchIntegrator::Ppm => {
-            let (image, st) = render_ppm(rs, s, &PpmSettings::default(), &|_| {});
-            let stats = RenderStats {
-                samples: st.samples,
-                rays: st.rays,
-            };
-            (image, stats)
-        }
-    });
+    let options = IntegratorOptions::default();
+    let out = pool.install(|| integrator.render_image(rs, s, &options, &|_| {}));
+    let (image, stats) = (out.image, out.stats);
     (image, stats, t.elapsed().as_secs_f64())
 }
 
 /// [`render_image`] for timing: the work counters and the seconds.
 pub fn render_with(
-    integrator: BenchIntegrator,
+    integrator: Integrator,
     rs: &RenderScene,
     s: &RenderSettings,
     pool: &rayon::ThreadPool,
@@ -168,7 +129,7 @@ fn reference(
         }
     }
     let base = settings(args.size, 1, 1000, scene.max_depth, scene.rr_depth);
-    let (_, t1) = render_with(BenchIntegrator::Bdpt, &scene.rs, &base, pool);
+    let (_, t1) = render_with(Integrator::Bdpt, &scene.rs, &base, pool);
     let spp = calibrated_spp(t1, args.reference_seconds);
     errln!(
         "{}: reference, bdpt {spp} spp (about {:.0} s)",
@@ -176,7 +137,7 @@ fn reference(
         t1 * spp as f64
     );
     let s = RenderSettings { spp, ..base };
-    let (img, _, _) = render_image(BenchIntegrator::Bdpt, &scene.rs, &s, pool);
+    let (img, _, _) = render_image(Integrator::Bdpt, &scene.rs, &s, pool);
     atomic::write_image_atomic(&path, &img)
         .with_context(|| format!("cannot cache the reference {}", path.display()))?;
     Ok(img)
@@ -219,12 +180,14 @@ pub fn run(args: IntegratorsArgs) -> Result<()> {
         let reference = reference(&args, scene, &pool)?;
         let base = settings(args.size, 1, 0, scene.max_depth, scene.rr_depth);
         let mut path_cost = None;
-        for &integrator in &args.integrators {
-            if integrator == BenchIntegrator::Light && scene.rs.lights.emits_no_particles() {
-                errln!(
-                    "{}: light tracer skipped (no light emits particles)",
-                    scene.name
-                );
+        let chosen = if args.integrators.is_empty() {
+            &Integrator::ALL[..]
+        } else {
+            &args.integrators
+        };
+        for &integrator in chosen {
+            if let Some(why) = skipped(integrator, &scene.rs, &base) {
+                errln!("{why}");
                 continue;
             }
             // One sample per pixel warms up (pages in the BVH) and sizes a probe of about a

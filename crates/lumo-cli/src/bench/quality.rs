@@ -14,13 +14,13 @@ use lumo_pipeline::{run_pipeline, Pipeline, PipelineOptions, Timings};
 
 use super::atomic::{check_dir_writable, write_bytes, write_image_atomic};
 use super::contact_sheet::{contact_sheet, crop_side, hardest_window, Row, Tile};
-use super::integrators::BenchIntegrator;
 use super::quality_integrators::{row_integrators, score, IntegratorScored};
 use super::reference::{ensure_reference, reference_key};
 use super::report::{quality_markdown, QualityContext};
 use super::scenes::{load_all, scene_names, settings, BenchScene};
 use crate::arguments::parse_size;
 use crate::pipeline_args::parse_pipeline;
+use lumo_render::Integrator;
 
 /// Arguments of `lumo bench quality`.
 #[derive(clap::Args, Debug)]
@@ -40,15 +40,14 @@ pub struct QualityArgs {
     pub pipelines: Vec<Pipeline>,
     /// Other integrators scored at equal time with each `none` image (rows of the relMSE and
     /// FLIP tables and a table of their own), comma-separated; `path` is the `none` row itself.
-    /// Not with --set.
+    /// Not with --set. [default: every integrator of the table but path]
     #[arg(
         long,
-        value_enum,
+        value_parser = crate::integrator_arg::integrators(),
         value_delimiter = ',',
-        default_value = "light,bdpt,ppm",
         conflicts_with = "set"
     )]
-    pub integrators: Vec<BenchIntegrator>,
+    pub integrators: Vec<Integrator>,
     /// Samples per pixel of the converged reference (`--pipeline none`) [default: 1024; 512
     /// with --set].
     #[arg(long, value_parser = crate::cli_common::parse_spp)]
@@ -176,7 +175,7 @@ pub fn run(args: QualityArgs) -> Result<()> {
                 .find(|r| r.scene == s.name && r.spp == spp && r.pipeline == Pipeline::None)
             {
                 Some(r) => r.timings.total().as_secs_f64(),
-                None => super::integrators::render_with(BenchIntegrator::Path, &s.rs, &rs, &pool).1,
+                None => super::integrators::render_with(Integrator::Path, &s.rs, &rs, &pool).1,
             };
             for &integrator in &extra {
                 bar.set_message(format!("{} {spp} spp {}", s.name, integrator.name()));

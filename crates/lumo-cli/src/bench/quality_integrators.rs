@@ -14,8 +14,9 @@ use anyhow::{Context, Result};
 use lumo_image::metrics::{compare, CompareSettings, Metrics};
 use lumo_image::Image;
 
-use super::integrators::{render_image, BenchIntegrator};
+use super::integrators::{render_image, skipped};
 use super::scenes::BenchScene;
+use lumo_render::Integrator;
 
 /// One integrator's image at equal time with the path tracer's `none` row.
 pub struct IntegratorScored {
@@ -24,7 +25,7 @@ pub struct IntegratorScored {
     /// The spp of the `none` row whose time it was given.
     pub path_spp: u32,
     /// The integrator.
-    pub integrator: BenchIntegrator,
+    pub integrator: Integrator,
     /// Samples it rendered in that time (light paths per pixel for the light tracer).
     pub spp: u32,
     /// Seconds its scored image took.
@@ -35,12 +36,17 @@ pub struct IntegratorScored {
     pub metrics: Metrics,
 }
 
-/// The integrators that get rows: every one asked for but the path tracer (the `none` rows
-/// are its images), each once.
-pub fn row_integrators(asked: &[BenchIntegrator]) -> Vec<BenchIntegrator> {
-    let mut out: Vec<BenchIntegrator> = Vec::new();
+/// The integrators that get rows: every one asked for (none asked: every one of the table)
+/// but the path tracer (the `none` rows are its images), each once.
+pub fn row_integrators(asked: &[Integrator]) -> Vec<Integrator> {
+    let asked = if asked.is_empty() {
+        &Integrator::ALL[..]
+    } else {
+        asked
+    };
+    let mut out: Vec<Integrator> = Vec::new();
     for &i in asked {
-        if i != BenchIntegrator::Path && !out.contains(&i) {
+        if i != Integrator::Path && !out.contains(&i) {
             out.push(i);
         }
     }
@@ -48,7 +54,7 @@ pub fn row_integrators(asked: &[BenchIntegrator]) -> Vec<BenchIntegrator> {
 }
 
 /// The row label of an integrator in the summary tables.
-pub fn label(i: BenchIntegrator) -> String {
+pub fn label(i: Integrator) -> String {
     format!("{} (equal time)", i.name())
 }
 
@@ -56,7 +62,7 @@ pub fn label(i: BenchIntegrator) -> String {
 /// `None` when the integrator cannot render the scene (the light tracer without particles).
 #[allow(clippy::too_many_arguments)]
 pub fn score(
-    integrator: BenchIntegrator,
+    integrator: Integrator,
     scene: &BenchScene,
     settings: &lumo_render::RenderSettings,
     budget: f64,
@@ -64,7 +70,7 @@ pub fn score(
     compare_settings: &CompareSettings,
     pool: &rayon::ThreadPool,
 ) -> Result<Option<IntegratorScored>> {
-    if integrator == BenchIntegrator::Light && scene.rs.lights.emits_no_particles() {
+    if skipped(integrator, &scene.rs, settings).is_some() {
         return Ok(None);
     }
     let probe = lumo_render::RenderSettings {
@@ -93,7 +99,7 @@ pub fn score(
 /// The cell of `integrator` on `scene` at `spp` in a summary table, if it was scored.
 pub fn cell<'a>(
     rows: &'a [IntegratorScored],
-    integrator: BenchIntegrator,
+    integrator: Integrator,
     scene: &str,
     spp: u32,
 ) -> Option<&'a IntegratorScored> {

@@ -9,7 +9,8 @@ use std::time::Instant;
 use anyhow::{bail, Context, Result};
 use lumo_render::{PathSettings, RenderScene, RenderSettings};
 
-use super::integrators::{render_with, BenchIntegrator};
+use super::integrators::{render_with, skipped};
+use lumo_render::Integrator;
 
 use super::{machine_description, median};
 use crate::arguments::parse_size;
@@ -36,8 +37,8 @@ pub struct RenderBenchArgs {
     #[arg(long, value_parser = crate::cli_common::parse_threads)]
     threads: Option<usize>,
     /// Integrators to measure, comma-separated (samples are light paths for `light`).
-    #[arg(long, value_enum, value_delimiter = ',', default_value = "path")]
-    integrators: Vec<BenchIntegrator>,
+    #[arg(long, value_parser = crate::integrator_arg::integrators(), value_delimiter = ',', default_value = "path")]
+    integrators: Vec<Integrator>,
     /// Also measure the path tracer with spectral transport (a row after each `path` row; the
     /// RGB-to-spectrum table is fitted before timing starts).
     #[arg(long)]
@@ -102,16 +103,16 @@ fn run_render(args: RenderBenchArgs) -> Result<()> {
         };
         let mut path_rate = None;
         // Each integrator, and the spectral path tracer after the RGB one.
-        let mut runs: Vec<(BenchIntegrator, bool)> = Vec::new();
+        let mut runs: Vec<(Integrator, bool)> = Vec::new();
         for &integrator in &args.integrators {
             runs.push((integrator, false));
-            if integrator == BenchIntegrator::Path && args.spectral {
+            if integrator == Integrator::Path && args.spectral {
                 runs.push((integrator, true));
             }
         }
         for (integrator, spectral) in runs {
-            if integrator == BenchIntegrator::Light && rs.lights.emits_no_particles() {
-                errln!("{name}: light tracer skipped (no light emits particles)");
+            if let Some(why) = skipped(integrator, &rs, &settings) {
+                errln!("{why}");
                 continue;
             }
             let mut settings = settings;
@@ -125,7 +126,7 @@ fn run_render(args: RenderBenchArgs) -> Result<()> {
                 rays_per_sample = stats.rays as f64 / stats.samples.max(1) as f64;
             }
             let rate = median(sps);
-            if integrator == BenchIntegrator::Path && !spectral {
+            if integrator == Integrator::Path && !spectral {
                 path_rate = Some(rate);
             }
             let relative = path_rate.map_or("–".to_string(), |p| format!("{:.2}×", p / rate));

@@ -7,9 +7,9 @@ use std::fmt::Write as _;
 use lumo_image::metrics::{RELMSE_EPSILON, SMAPE_EPSILON, TONE_MAP_DESCRIPTION};
 use lumo_pipeline::Pipeline;
 
-use super::integrators::BenchIntegrator;
 use super::quality::Scored;
 use super::quality_integrators::{self, IntegratorScored};
+use lumo_render::Integrator;
 
 /// What the report header states about the run.
 pub struct QualityContext {
@@ -34,7 +34,7 @@ pub struct QualityContext {
     /// Pipelines in row order.
     pub pipelines: Vec<Pipeline>,
     /// Integrators scored at equal time, in row order after the pipelines.
-    pub integrators: Vec<BenchIntegrator>,
+    pub integrators: Vec<Integrator>,
     /// Scenes in table order.
     pub scenes: Vec<String>,
 }

@@ -4,36 +4,6 @@ use std::path::PathBuf;
 
 use crate::arguments::{parse_define, parse_size, parse_time};
 
-/// The light-transport algorithm of `lumo render`.
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum RenderIntegrator {
-    /// Path tracing from the camera with next-event estimation (every pipeline, AOVs).
-    Path,
-    /// Particle tracing from the lights, each vertex splatted onto the film (no pipeline, no
-    /// AOVs; environment lights emit nothing).
-    Light,
-    /// Bidirectional path tracing: camera and light subpaths joined by every strategy with
-    /// multiple importance sampling (no pipeline, no AOVs).
-    Bdpt,
-    /// One-pass progressive photon mapping: photon batches grow a kd-tree while the passes
-    /// gather from it at a shrinking radius (no pipeline, no AOVs).
-    Ppm,
-}
-
-impl RenderIntegrator {
-    /// Integrators that write the image without a filtering pipeline or a G-buffer.
-    pub(super) fn unfiltered(self) -> bool {
-        self != RenderIntegrator::Path
-    }
-
-    /// What its throughput counts, for the closing line.
-    pub fn sample_unit(self) -> &'static str {
-        match self {
-            RenderIntegrator::Path | RenderIntegrator::Bdpt | RenderIntegrator::Ppm => "samples",
-            RenderIntegrator::Light => "light paths",
-        }
-    }
-}
 /// Arguments of `lumo render`.
 #[derive(clap::Args, Debug)]
 pub struct RenderArgs {
@@ -122,11 +92,11 @@ pub struct RenderArgs {
     /// variance) as EXR files into this directory.
     #[arg(long)]
     pub aovs: Option<PathBuf>,
-    /// Light transport: path (from the camera), light (from the lights, splatted onto the
-    /// film), bdpt (bidirectional) or ppm (progressive photon mapping); light, bdpt and ppm
-    /// render without a pipeline or AOVs, and environment lights emit no particles or photons.
-    #[arg(long, value_enum, default_value_t = RenderIntegrator::Path)]
-    pub integrator: RenderIntegrator,
+    /// Light transport, one of lumo-render's integrator table (docs/integrators.md); all but
+    /// path render without a pipeline or AOVs, and environment lights emit no particles or
+    /// photons.
+    #[arg(long, value_parser = crate::integrator_arg::integrators(), default_value = "path")]
+    pub integrator: lumo_render::Integrator,
     /// --integrator ppm: most photons kept in the map (about 72 bytes each); when full, the
     /// map starts over [default: 4194304, about 300 MB].
     #[arg(long, value_name = "N")]

@@ -5,12 +5,8 @@ use std::time::Instant;
 
 use anyhow::Result;
 use indicatif::{ProgressBar, ProgressStyle};
-use lumo_image::write_image;
-use lumo_render::camera::PinholeCamera;
-use lumo_render::integrators::photon::scene_warning;
-use lumo_render::render_ppm;
 
-use super::args::{RenderArgs, RenderIntegrator};
+use super::args::RenderArgs;
 use super::job::Job;
 use super::plan::{Choices, Ready};
 use crate::arguments::ppm_map_bytes;
@@ -23,7 +19,7 @@ pub fn execute(args: &RenderArgs, ready: Ready) -> Result<()> {
             Choices {
                 pipeline,
                 settings,
-                ppm,
+                ppm: _,
                 sequence,
                 outputs,
             },
@@ -31,7 +27,6 @@ pub fn execute(args: &RenderArgs, ready: Ready) -> Result<()> {
         rs,
         build,
     } = ready;
-    let (width, height) = (settings.width, settings.height);
     let job = Job {
         args,
         pipeline,
@@ -50,26 +45,19 @@ pub fn execute(args: &RenderArgs, ready: Ready) -> Result<()> {
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let start = Instant::now();
-    if args.integrator == RenderIntegrator::Ppm {
-        let camera = PinholeCamera::new(&rs.scene.camera, width, height);
-        if let Some(w) = scene_warning(&rs, &camera, &settings.path) {
-            errln!("{w}");
-        }
-        let (image, stats) = pool.install(|| {
-            render_ppm(&rs, &settings, &ppm, &|f| {
-                bar.set_position((f * 1000.0) as u64)
-            })
-        });
-        let secs = start.elapsed().as_secs_f64();
-        bar.finish_and_clear();
-        for o in &job.outputs {
-            write_image(o, &image)?;
-        }
-        let written: Vec<String> = job
-            .outputs
-            .iter()
-            .map(|p| p.display().to_string())
-            .collect();
+    let out = job.render(&rs, &|f| bar.set_position((f * 1000.0) as u64))?;
+    let secs = start.elapsed().as_secs_f64();
+    bar.finish_and_clear();
+    job.write(&out, &job.outputs, args.aovs.as_deref())?;
+    if let Some(timings) = &out.timings {
+        errln!("pipeline {pipeline}: {timings}");
+    }
+    let written: Vec<String> = job
+        .outputs
+        .iter()
+        .map(|p| p.display().to_string())
+        .collect();
+    if let Some(stats) = out.ppm {
         outln!(
             "done in {secs:.2} s · {}samples/s · {}photon paths/s · {}rays/s · map {} photons (peak {}, {} MB, {} resets) · {:.1} photons/gather → {}",
             si(stats.samples as f64 / secs),
@@ -84,19 +72,7 @@ pub fn execute(args: &RenderArgs, ready: Ready) -> Result<()> {
         );
         return Ok(());
     }
-    let out = job.render(&rs, &|f| bar.set_position((f * 1000.0) as u64))?;
-    let secs = start.elapsed().as_secs_f64();
-    bar.finish_and_clear();
-    job.write(&out, &job.outputs, args.aovs.as_deref())?;
-    if let Some(timings) = &out.timings {
-        errln!("pipeline {pipeline}: {timings}");
-    }
-    let written: Vec<String> = job
-        .outputs
-        .iter()
-        .map(|p| p.display().to_string())
-        .collect();
-    let unit = args.integrator.sample_unit();
+    let unit = args.integrator.info().sample_unit;
     outln!(
         "done in {secs:.2} s · {}{unit}/s · {}rays/s → {}{}",
         si(out.stats.samples as f64 / secs),

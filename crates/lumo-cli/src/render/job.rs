@@ -5,13 +5,12 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use lumo_image::{write_image, Image};
 use lumo_pipeline::{run_pipeline, run_pipeline_on_sums, Pipeline};
-use lumo_render::integrators::bdpt::BdptSettings;
+use lumo_render::camera::PinholeCamera;
 use lumo_render::{
-    render_bdpt, render_light, render_ppm, Frame, PixelSums, RenderScene, RenderSettings,
-    RenderStats,
+    Frame, IntegratorOptions, PixelSums, PpmStats, RenderScene, RenderSettings, RenderStats,
 };
 
-use super::args::{RenderArgs, RenderIntegrator};
+use super::args::RenderArgs;
 use super::validate::ppm_settings;
 
 /// What every frame of one `lumo render` shares: the options, the pool and the outputs.
@@ -37,6 +36,8 @@ pub struct Rendered {
     pub aovs: Option<(Frame, Vec<(&'static str, Image)>)>,
     /// The pipeline's time per stage, formatted.
     pub timings: Option<String>,
+    /// Photon mapping's counters.
+    pub ppm: Option<PpmStats>,
 }
 impl<'a> Job<'a> {
     /// The same job with another seed.
@@ -53,75 +54,29 @@ impl<'a> Job<'a> {
         }
     }
 
-    /// Renders `rs` with the job's integrator and pipeline; `progress` gets 0..1.
+    /// Renders `rs` with the job's integrator and pipeline; `progress` gets 0..1. The
+    /// integrators without a G-buffer render through lumo-render's table, refusing a scene
+    /// they cannot render; the path tracer through the filtering pipeline.
     pub fn render(&self, rs: &RenderScene, progress: &(dyn Fn(f32) + Sync)) -> Result<Rendered> {
         let settings = &self.settings;
-        if matches!(
-            self.args.integrator,
-            RenderIntegrator::Light | RenderIntegrator::Bdpt
-        ) {
-            let camera = lumo_render::camera::PinholeCamera::new(
-                &rs.scene.camera,
-                settings.width,
-                settings.height,
-            );
-            if let Some(what) = camera.unsupported_by_splats() {
-                bail!(
-                    "{}: --integrator {}: the scene has {what}, which the light tracer and BDPT \
-                     (they project light onto a pinhole's film) do not render; use --integrator \
-                     path or ppm",
-                    rs.scene.name,
-                    if self.args.integrator == RenderIntegrator::Light {
-                        "light"
-                    } else {
-                        "bdpt"
-                    }
-                );
+        let integrator = self.args.integrator;
+        if !integrator.caps().gbuffer {
+            let camera = PinholeCamera::new(&rs.scene.camera, settings.width, settings.height);
+            if let Some(why) = integrator.scene_refusal(rs, &camera) {
+                bail!(why);
             }
-        }
-        if self.args.integrator == RenderIntegrator::Light {
-            if rs.lights.emits_no_particles() {
-                bail!(
-                    "{}: --integrator light: no light emits particles (environment lights do not); use --integrator path",
-                    rs.scene.name
-                );
-            }
-            let (image, stats) = self.pool.install(|| render_light(rs, settings, progress));
-            return Ok(Rendered {
-                image,
-                stats,
-                aovs: None,
-                timings: None,
-            });
-        }
-        if self.args.integrator == RenderIntegrator::Ppm {
-            let ppm = ppm_settings(self.args)?;
-            let (image, stats) = self
-                .pool
-                .install(|| render_ppm(rs, settings, &ppm, progress));
-            return Ok(Rendered {
-                image,
-                stats: RenderStats {
-                    samples: stats.samples,
-                    rays: stats.rays,
-                },
-                aovs: None,
-                timings: None,
-            });
-        }
-        if self.args.integrator == RenderIntegrator::Bdpt {
-            let bdpt = BdptSettings {
-                path: settings.path,
-                only: None,
+            let options = IntegratorOptions {
+                ppm: ppm_settings(self.args)?,
             };
-            let (image, stats) = self
+            let out = self
                 .pool
-                .install(|| render_bdpt(rs, settings, &bdpt, progress));
+                .install(|| integrator.render_image(rs, settings, &options, progress));
             return Ok(Rendered {
-                image,
-                stats,
+                image: out.image,
+                stats: out.stats,
                 aovs: None,
                 timings: None,
+                ppm: out.ppm,
             });
         }
         let out = self
@@ -164,6 +119,7 @@ impl<'a> Job<'a> {
             stats: out.stats,
             timings: (self.pipeline != Pipeline::None).then(|| out.timings.to_string()),
             aovs: Some((out.frame, out.planes)),
+            ppm: None,
         }
     }
 

@@ -22,7 +22,7 @@ pub mod temporal;
 pub mod temporal_eval;
 pub mod validate;
 
-pub use args::{RenderArgs, RenderIntegrator};
+pub use args::RenderArgs;
 pub use job::{Job, Rendered};
 pub use plan::{Choices, Plan, Ready};
 

@@ -7,11 +7,12 @@ use std::time::Instant;
 
 use anyhow::{bail, Result};
 use lumo_pipeline::Pipeline;
-use lumo_render::{PathSettings, PpmSettings, RenderScene, RenderSettings};
+use lumo_render::camera::PinholeCamera;
+use lumo_render::{Integrator, PathSettings, PpmSettings, RenderScene, RenderSettings};
 use lumo_scene::load::LoadOptions;
 use lumo_scene::Scene;
 
-use super::args::{RenderArgs, RenderIntegrator};
+use super::args::RenderArgs;
 use super::sequence::Sequence;
 use super::validate::{validate, Valid};
 use crate::arguments::{ppm_map_bytes, MAX_SPP};
@@ -162,27 +163,31 @@ impl Plan {
         });
         let rs = rs?;
         // Media need the path tracer; the others refuse rather than render them wrong.
-        let chosen = format!("{:?}", args.integrator).to_lowercase();
-        if let Some(why) = lumo_render::media::refusal(&rs.scene, &chosen) {
+        let integrator = args.integrator;
+        if let Some(why) = integrator.media_refusal(&rs.scene) {
             bail!(why);
         }
-        let method = match args.integrator {
+        let info = integrator.info();
+        let method = match integrator {
             // These two ignore --pipeline: they run their own filters per frame.
-            RenderIntegrator::Path if args.temporal_eval.is_some() => {
+            _ if info.caps.gbuffer && args.temporal_eval.is_some() => {
                 "per-frame À-Trous beside the temporal filter".to_owned()
             }
-            RenderIntegrator::Path if args.temporal => "temporal filter (SVGF)".to_owned(),
-            RenderIntegrator::Path => format!("pipeline {pipeline}"),
-            RenderIntegrator::Light => format!(
-                "light tracer ({} light paths)",
-                settings.spp as u64 * (width * height) as u64
+            _ if info.caps.gbuffer && args.temporal => "temporal filter (SVGF)".to_owned(),
+            _ if info.caps.gbuffer => format!("pipeline {pipeline}"),
+            Integrator::Light => format!(
+                "{} ({} {})",
+                info.label,
+                settings.spp as u64 * (width * height) as u64,
+                info.sample_unit
             ),
-            RenderIntegrator::Bdpt => "bidirectional path tracer".to_owned(),
-            RenderIntegrator::Ppm => format!(
-                "photon mapping (at most {} photons, {} MB)",
+            Integrator::Ppm => format!(
+                "{} (at most {} photons, {} MB)",
+                info.label,
                 ppm.max_photons,
                 ppm_map_bytes(ppm.max_photons) >> 20
             ),
+            _ => info.label.to_owned(),
         };
         if announce {
             errln!(
@@ -192,8 +197,9 @@ impl Plan {
             settings.path.max_depth
         );
         }
-        if args.integrator == RenderIntegrator::Bdpt && rs.lights.emits_no_particles() {
-            errln!("warning: {name}: no light emits particles (environment lights do not): --integrator bdpt runs as a path tracer here");
+        let camera = PinholeCamera::new(&rs.scene.camera, width, height);
+        if let Some(warning) = integrator.scene_warning(&rs, &camera, &settings.path) {
+            errln!("{warning}");
         }
         Ok(Ready {
             choices,

@@ -289,7 +289,7 @@ impl Sequence {
         } else {
             String::new()
         };
-        let unit = job.args.integrator.sample_unit();
+        let unit = job.args.integrator.info().sample_unit;
         outln!(
             "done: {count} frame{} in {secs:.2} s ({:.3} s/frame) · {motion} · {}{unit}/s · \
              {}rays/s → {names}{also}",

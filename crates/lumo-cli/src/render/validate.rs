@@ -1,12 +1,11 @@
 //! `lumo render`'s options checked against each other, before the scene is loaded.
 
 use anyhow::{bail, Result};
-use clap::ValueEnum;
 use lumo_pipeline::Pipeline;
 use lumo_render::integrators::photon::DEFAULT_MAX_PHOTONS;
-use lumo_render::PpmSettings;
+use lumo_render::{Integrator, PpmSettings};
 
-use super::args::{RenderArgs, RenderIntegrator};
+use super::args::RenderArgs;
 use crate::arguments::{ppm_map_bytes, MAX_PHOTONS, MAX_SPP};
 
 /// What the options decide on their own, before the scene is read.
@@ -21,10 +20,8 @@ pub struct Valid {
 
 /// Checks the options of `args` against each other; reads no file and writes nothing.
 pub fn validate(args: &RenderArgs) -> Result<Valid> {
-    let integrator = args
-        .integrator
-        .to_possible_value()
-        .map_or_else(String::new, |v| v.get_name().to_owned());
+    let integrator = args.integrator.name();
+    let unfiltered = !args.integrator.caps().gbuffer;
     let temporal = args.temporal || args.temporal_eval.is_some();
     // The option as typed, for the messages below.
     let temporal_flag = if args.temporal_eval.is_some() {
@@ -32,37 +29,36 @@ pub fn validate(args: &RenderArgs) -> Result<Valid> {
     } else {
         "--temporal"
     };
-    let pipeline = match (args.integrator, args.pipeline.pipeline) {
-        (i, Some(p)) if i.unfiltered() && p != Pipeline::None => bail!(
+    let pipeline = match args.pipeline.pipeline {
+        Some(p) if unfiltered && p != Pipeline::None => bail!(
             "--integrator {integrator} renders without a filtering pipeline: drop --pipeline {p} (or use --pipeline none)"
         ),
-        (i, _) if i.unfiltered() && temporal => bail!(
+        _ if unfiltered && temporal => bail!(
             "{temporal_flag}: --integrator {integrator} makes no G-buffer for the temporal filter; use --integrator path"
         ),
-        (_, Some(p)) if temporal && p != Pipeline::None => bail!(
+        Some(p) if temporal && p != Pipeline::None => bail!(
             "{temporal_flag} filters each frame with the temporal filter itself: drop --pipeline {p}"
         ),
         // Traced without a pipeline; the temporal filter takes its place.
         _ if args.temporal => Pipeline::None,
-        (i, _) if i.unfiltered() => Pipeline::None,
+        _ if unfiltered => Pipeline::None,
         _ => args.pipeline.pipeline(),
     };
-    if args.integrator.unfiltered() && args.aovs.is_some() {
+    if unfiltered && args.aovs.is_some() {
         bail!("--aovs: --integrator {integrator} makes no G-buffer; use --integrator path for AOV planes");
     }
-    if args.spectral
-        && !matches!(
-            args.integrator,
-            RenderIntegrator::Path | RenderIntegrator::Light
-        )
-    {
-        bail!("--spectral: spectral transport runs in the path and light tracers; use --integrator path or light (bdpt and ppm transport RGB)");
+    if args.spectral && !args.integrator.caps().spectral {
+        let modes: Vec<(&str, bool)> = Integrator::ALL
+            .iter()
+            .map(|i| (i.name(), i.caps().spectral))
+            .collect();
+        bail!(crate::integrator_arg::spectral_refusal(&modes));
     }
     if args.spectral {
         // Fitted once per process (about a second on two cores), before the progress bar.
         lumo_spectrum::coefficient_table();
     }
-    if args.integrator != RenderIntegrator::Ppm
+    if args.integrator != Integrator::Ppm
         && (args.max_photons.is_some()
             || args.photons_per_pass.is_some()
             || args.photon_radius.is_some())
@@ -77,8 +73,8 @@ pub fn validate(args: &RenderArgs) -> Result<Valid> {
     }
     crate::cli_common::check_max_depth(args.max_depth)?;
     crate::cli_common::check_rr_depth(args.rr_depth)?;
-    let unfiltered = args.integrator.unfiltered().then_some(integrator.as_str());
-    args.pipeline.check(pipeline, unfiltered)?;
+    args.pipeline
+        .check(pipeline, unfiltered.then_some(integrator))?;
     Ok(Valid {
         pipeline,
         ppm,
@@ -99,7 +95,7 @@ pub(super) fn ppm_settings(args: &RenderArgs) -> Result<PpmSettings> {
     if !(radius > 0.0 && radius <= 1.0) {
         bail!("--photon-radius {radius}: expected a fraction of the scene diagonal in (0, 1]");
     }
-    if args.integrator == RenderIntegrator::Ppm {
+    if args.integrator == Integrator::Ppm {
         crate::cli_common::check_memory(
             ppm_map_bytes(max_photons),
             &format!("a photon map of {max_photons} photons"),

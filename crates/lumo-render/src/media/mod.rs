@@ -9,21 +9,12 @@ pub(crate) mod walk;
 
 pub use tracking::{free_flight, transmittance_in, Coefficients, Flight};
 
-/// The integrators, as `lumo render` and `lumo serve` name them, that transport light through
-/// media and null boundaries: the path tracer, the light tracer, and `lumo serve`'s `both`
-/// (the two together).
-pub const RENDER_MEDIA: [&str; 3] = ["path", "light", "both"];
-
-/// Whether `integrator` (named as in [`RENDER_MEDIA`]) renders scenes with media.
-pub fn renders_media(integrator: &str) -> bool {
-    RENDER_MEDIA.contains(&integrator)
-}
-
-/// Why `integrator` cannot render this scene (`None` where it can): BDPT and photon mapping
-/// do not transport light through media and null boundaries yet, and refuse such a scene
-/// rather than render it wrong. `integrator` names it as the user chose it.
-pub fn refusal(scene: &lumo_scene::Scene, integrator: &str) -> Option<String> {
-    if renders_media(integrator) || !scene.media.is_active() {
+/// Why `integrator` (named as the user chose it; `renders_media` from its capabilities, see
+/// [`crate::Integrator::media_refusal`]) cannot render this scene (`None` where it can): BDPT
+/// and photon mapping do not transport light through media and null boundaries yet, and
+/// refuse such a scene rather than render it wrong.
+pub fn refusal(scene: &lumo_scene::Scene, integrator: &str, renders_media: bool) -> Option<String> {
+    if renders_media || !scene.media.is_active() {
         return None;
     }
     Some(format!(
@@ -36,7 +27,6 @@ pub fn refusal(scene: &lumo_scene::Scene, integrator: &str) -> Option<String> {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
     use lumo_scene::{Camera, FovAxis, Medium, PhaseFunction, Scene, Vec3};
 
     #[test]
@@ -50,7 +40,8 @@ mod tests {
             lens: Default::default(),
             filter: Default::default(),
         });
-        assert_eq!(refusal(&scene, "bdpt"), None);
+        let refusal = |scene: &Scene, i: crate::Integrator| i.media_refusal(scene);
+        assert_eq!(refusal(&scene, crate::Integrator::Bdpt), None);
         scene.media.media.push(Medium {
             name: "fog".into(),
             sigma_t: Vec3::ONE,
@@ -59,13 +50,13 @@ mod tests {
             phase: PhaseFunction::Isotropic,
             spectra: Default::default(),
         });
-        for taker in RENDER_MEDIA {
+        for taker in [crate::Integrator::Path, crate::Integrator::Light] {
             assert_eq!(refusal(&scene, taker), None);
         }
-        for other in ["bdpt", "ppm"] {
+        for other in [crate::Integrator::Bdpt, crate::Integrator::Ppm] {
             let why = refusal(&scene, other).unwrap();
             assert!(
-                why.contains(other) && why.contains("--integrator path"),
+                why.contains(other.name()) && why.contains("--integrator path"),
                 "{why}"
             );
         }

@@ -147,10 +147,6 @@ fn to_wire(c: &Camera) -> WireCamera {
 }
 
 /// `integrator` as `lumo serve --integrator` names it (what [`lumo_render::media`] reads).
-fn integrator_name(integrator: Integrator) -> String {
-    format!("{integrator:?}").to_lowercase()
-}
-
 fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
     m.lock().unwrap_or_else(|e| e.into_inner())
 }
@@ -160,8 +156,9 @@ impl Hub {
     pub fn new(rs: RenderScene, config: ServerConfig) -> anyhow::Result<Arc<Self>> {
         let name = rs.scene.name.clone();
         let media = rs.scene.media.is_active();
+        let chosen = config.integrator;
         if let Some(why) =
-            lumo_render::media::refusal(&rs.scene, &integrator_name(config.integrator))
+            lumo_render::media::refusal(&rs.scene, chosen.name(), chosen.renders_media())
         {
             anyhow::bail!(why);
         }
@@ -359,13 +356,18 @@ impl Hub {
     /// tell every viewer.
     /// Refused for BDPT and photon mapping in a scene with participating media.
     pub fn set_params(&self, integrator: Integrator, mode: Mode) -> Result<(), ProtocolError> {
-        let name = integrator_name(integrator);
-        if self.media && !lumo_render::media::renders_media(&name) {
+        if self.media && !integrator.renders_media() {
+            let takers: Vec<String> = Integrator::ALL
+                .iter()
+                .filter(|m| m.renders_media())
+                .map(|m| format!("{m:?}"))
+                .collect();
             return Err(ProtocolError::new(
                 ErrorCode::InvalidValue,
                 format!(
                     "PARAMS: the scene has participating media, which {integrator:?} does not \
-                     render (choose Path, Light or Both)"
+                     render (choose {})",
+                    lumo_render::sentence(&takers, "or")
                 ),
             ));
         }

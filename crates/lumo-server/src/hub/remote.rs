@@ -6,7 +6,7 @@ use axum::body::Bytes;
 use super::{broadcast, lock, to_wire, Hub, HubState, SAMPLES_PER_MESSAGE};
 use crate::outbox::{Kind, Outgoing};
 use crate::protocol::remote::{EpochUpdate, Welcome};
-use crate::protocol::{Edit, ErrorCode, Integrator, Mode, ProtocolError, SampleBatch, Stream};
+use crate::protocol::{Edit, ErrorCode, Mode, ProtocolError, SampleBatch, Stream};
 use crate::remote::{RemoteConfig, RemoteSet, RemoteWorkerStats};
 
 /// What [`Hub::merge_remote`] did with a remote worker's batch.
@@ -110,11 +110,7 @@ impl Hub {
                 current,
             });
         }
-        let streams = match st.job.integrator {
-            Integrator::Path | Integrator::Ppm => [true, false],
-            Integrator::Light => [false, true],
-            Integrator::Both | Integrator::Bdpt => [true, true],
-        };
+        let streams = st.job.integrator.streams();
         if !streams[batch.stream as usize] {
             return invalid(format!(
                 "{} samples under integrator {}",

@@ -22,6 +22,47 @@ wire_enum! {
     }
 }
 
+impl Integrator {
+    /// The integrators of lumo-render's table that this mode runs: one, or for `Both` the
+    /// path and light tracers. Capabilities (spectral, media, streams) follow from theirs.
+    pub const fn parts(self) -> &'static [lumo_render::Integrator] {
+        use lumo_render::Integrator as T;
+        match self {
+            Integrator::Path => &[T::Path],
+            Integrator::Light => &[T::Light],
+            Integrator::Both => &[T::Path, T::Light],
+            Integrator::Bdpt => &[T::Bdpt],
+            Integrator::Ppm => &[T::Ppm],
+        }
+    }
+
+    /// The mode that runs the table's integrator `i` alone (`None` where the server does not
+    /// offer it: it feeds no sample stream).
+    pub fn from_table(i: lumo_render::Integrator) -> Option<Integrator> {
+        Integrator::ALL
+            .iter()
+            .copied()
+            .find(|m| m.parts() == [i] && m.name() == i.name())
+    }
+
+    /// Whether every integrator of the mode transports light through media.
+    pub fn renders_media(self) -> bool {
+        self.parts().iter().all(|i| i.caps().media)
+    }
+
+    /// Whether every integrator of the mode transports light spectrally.
+    pub fn spectral(self) -> bool {
+        self.parts().iter().all(|i| i.caps().spectral)
+    }
+
+    /// The sample streams the mode feeds: `[camera, light]`.
+    pub fn streams(self) -> [bool; 2] {
+        let any =
+            |f: fn(lumo_render::Capabilities) -> bool| self.parts().iter().any(|i| f(i.caps()));
+        [any(|c| c.camera_stream), any(|c| c.light_stream)]
+    }
+}
+
 wire_enum! {
     /// What the server sends: progressive samples or filtered frames.
     pub enum Mode: u8, "mode" {

@@ -8,6 +8,7 @@ use super::*;
 use crate::streams::Sample;
 
 mod edits;
+mod integrators;
 mod refusals;
 mod round_trip;
 
