@@ -98,6 +98,16 @@ fn test_bsdfs() -> Vec<(&'static str, Bsdf)> {
             Bsdf::GltfPbr(GltfPbr::new(Vec3::new(0.5, 0.5, 0.5), 0.5, 0.0)),
         ),
         (
+            "gltf-ior-specular-0.4",
+            Bsdf::GltfPbr(
+                GltfPbr::new(Vec3::new(0.6, 0.5, 0.4), 0.2, 0.4).with_specular(
+                    2.2,
+                    0.6,
+                    Vec3::new(1.0, 0.4, 0.2),
+                ),
+            ),
+        ),
+        (
             "plastic-smooth",
             Bsdf::Plastic(Plastic {
                 diffuse: Vec3::new(0.5, 0.4, 0.3),

@@ -8,6 +8,7 @@ mod common;
 mod direct_light_geometry;
 mod emission_texture;
 mod gltf_pbr;
+mod gltf_specular;
 mod integrator;
 mod light_render;
 mod light_sampling;

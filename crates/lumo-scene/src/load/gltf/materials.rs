@@ -96,6 +96,7 @@ impl GltfReader<'_, '_> {
             metallic_roughness,
             metallic,
             roughness,
+            extensions: self.extensions(&label, &mat)?,
         };
         if let Some(normal) = mat.normal_texture() {
             bsdf = BsdfSpec::NormalMap {

@@ -4,6 +4,7 @@
 
 mod alpha;
 mod buffers;
+mod extensions;
 mod materials;
 
 use std::collections::HashMap;
@@ -33,6 +34,8 @@ use buffers::{load_buffers, uri_bytes};
 const SUPPORTED: &[&str] = &[
     "KHR_lights_punctual",
     "KHR_materials_emissive_strength",
+    "KHR_materials_ior",
+    "KHR_materials_specular",
     "KHR_texture_transform",
 ];
 
@@ -108,6 +111,11 @@ fn load_unguarded(
             ));
         }
     }
+    // The gltf crate's validation refuses required extensions it has no reader for, some of
+    // which lumo reads from the JSON itself (KHR_materials_specular): lumo has checked them.
+    let mut root = root;
+    root.extensions_required
+        .retain(|e| gltf::json::extensions::ENABLED_EXTENSIONS.contains(&e.as_str()));
     let document = gltf::Document::from_json(root).map_err(invalid)?;
     let doc = &document;
     for ext in doc.extensions_used() {

@@ -1,6 +1,9 @@
 //! glTF 2.0's metallic-roughness material (the core specification's Appendix B): a mix, by
 //! `metallic`, of a metal (GGX specular tinted by the base colour through Schlick's Fresnel) and
 //! a dielectric (a Lambertian base colour under a GGX specular layer with F0 = 0.04).
+//! KHR_materials_ior and KHR_materials_specular change the dielectric layer's Fresnel term:
+//! F = w·(F0 + (1 − F0)(1 − cos)⁵) with F0 = min(((ior − 1)/(ior + 1))²·specular colour, 1) and
+//! w the specular weight (the layer's reflectance at grazing angles, F90).
 //!
 //! One deviation from Appendix B, for energy conservation: the spec weighs the dielectric's
 //! diffuse lobe by 1 − F(v·h), which makes a white base reflect more than it receives at grazing
@@ -11,14 +14,15 @@
 //! Cycles' Principled BSDF, which Blender's glTF importer maps glTF materials to, also takes the
 //! diffuse lobe's weight from the specular layer's albedo.
 
-use std::sync::OnceLock;
+mod albedo_table;
 
 use glam::{Vec2, Vec3};
 
 use super::{mirror_sample, BsdfSample, Microfacet, SMOOTH_ALPHA};
 use crate::geometry::{cosine_hemisphere_pdf, reflect, square_to_cosine_hemisphere};
+use albedo_table::{ggx_of_roughness, schlick_weight, table};
 
-/// The dielectric's reflectance at normal incidence (glTF: index of refraction 1.5).
+/// The dielectric's reflectance at normal incidence without KHR_materials_ior (index 1.5).
 const DIELECTRIC_F0: f32 = 0.04;
 
 /// glTF's metallic-roughness BSDF at one surface point.
@@ -33,13 +37,29 @@ pub struct GltfPbr {
     pub roughness: f32,
     /// GGX of α = roughness².
     pub mf: Microfacet,
+    /// The dielectric layer's reflectance at normal incidence, before `specular_weight`:
+    /// min(((ior − 1)/(ior + 1))² × specular colour, 1) (0.04 without extensions).
+    pub dielectric_f0: Vec3,
+    /// KHR_materials_specular's weight of the dielectric layer (its reflectance at grazing
+    /// angles), in [0, 1]; 1 without the extension.
+    pub specular_weight: f32,
 }
 
 /// Schlick's Fresnel approximation with reflectance `f0` at normal incidence.
 #[inline]
 fn schlick(f0: Vec3, cos: f32) -> Vec3 {
-    let c = (1.0 - cos.clamp(0.0, 1.0)).powi(5);
-    f0 + (Vec3::ONE - f0) * c
+    f0 + (Vec3::ONE - f0) * schlick_weight(cos)
+}
+
+/// The normal-incidence reflectance of a dielectric of index `ior` against air (1 at ior = 0,
+/// which KHR_materials_specular allows for converted specular-glossiness materials).
+fn dielectric_f0_of_ior(ior: f32) -> f32 {
+    let r = (ior - 1.0) / (ior + 1.0);
+    if r.is_finite() {
+        r * r
+    } else {
+        1.0
+    }
 }
 
 impl GltfPbr {
@@ -48,17 +68,34 @@ impl GltfPbr {
     pub fn new(base_color: Vec3, metallic: f32, roughness: f32) -> Self {
         let unit = |x: f32, nan: f32| if x.is_nan() { nan } else { x.clamp(0.0, 1.0) };
         let (metallic, roughness) = (unit(metallic, 0.0), unit(roughness, 1.0));
-        let alpha = roughness * roughness;
         Self {
             base_color: Vec3::from_array(base_color.to_array().map(|c| unit(c, 0.0))),
             metallic,
             roughness,
-            mf: Microfacet::ggx(if alpha < SMOOTH_ALPHA {
-                0.0
-            } else {
-                alpha.max(1e-4)
-            }),
+            mf: ggx_of_roughness(roughness),
+            dielectric_f0: Vec3::splat(DIELECTRIC_F0),
+            specular_weight: 1.0,
         }
+    }
+
+    /// This BSDF with KHR_materials_ior's `ior` and KHR_materials_specular's `weight`
+    /// (specularFactor × specularTexture's alpha) and `color` (specularColorFactor ×
+    /// specularColorTexture): F0 = min(F0(ior) × color, 1), scaled with F90 by the weight.
+    /// Out-of-range values are clamped (NaN: the extensions' defaults).
+    pub fn with_specular(mut self, ior: f32, weight: f32, color: Vec3) -> Self {
+        let f0 = if ior.is_nan() {
+            DIELECTRIC_F0
+        } else {
+            dielectric_f0_of_ior(ior.max(0.0))
+        };
+        let color = Vec3::from_array(color.to_array().map(|c| if c.is_nan() { 1.0 } else { c }));
+        self.dielectric_f0 = (color.max(Vec3::ZERO) * f0).min(Vec3::ONE);
+        self.specular_weight = if weight.is_nan() {
+            1.0
+        } else {
+            weight.clamp(0.0, 1.0)
+        };
+        self
     }
 
     /// Whether the specular lobes are Dirac deltas.
@@ -72,24 +109,35 @@ impl GltfPbr {
         self.smooth() && self.metallic >= 1.0
     }
 
-    /// The specular Fresnel term of the mix at microfacet cosine `cos`: the dielectric's
-    /// F0 = 0.04 and the metal's base colour, weighed by metalness.
+    /// The specular Fresnel term of the mix at microfacet cosine `cos`: the dielectric
+    /// layer's and the metal's (F0 = base colour), weighed by metalness.
     #[inline]
     fn specular_fresnel(&self, cos: f32) -> Vec3 {
         let m = self.metallic;
-        schlick(Vec3::splat(DIELECTRIC_F0), cos) * (1.0 - m) + schlick(self.base_color, cos) * m
+        schlick(self.dielectric_f0, cos) * (self.specular_weight * (1.0 - m))
+            + schlick(self.base_color, cos) * m
+    }
+
+    /// The dielectric layer's directional albedo from cosine `cos` for its largest channel:
+    /// the share of the light the diffuse lobe below does not get.
+    #[inline]
+    fn layer_albedo(&self, cos: f32) -> f32 {
+        let f0 = self.dielectric_f0.max_element();
+        self.specular_weight * table().albedo(cos, self.roughness, f0)
     }
 
     /// The diffuse lobe's factor besides base/π·cos θi: (1 − metallic) and the share the
     /// specular layer leaves for it.
     #[inline]
     fn diffuse_weight(&self, cos_o: f32, cos_i: f32) -> f32 {
-        let t = table();
-        let (e_o, e_i) = (
-            t.albedo(cos_o, self.roughness),
-            t.albedo(cos_i, self.roughness),
-        );
-        (1.0 - self.metallic) * (1.0 - e_o) * (1.0 - e_i) / (1.0 - t.average(self.roughness))
+        let f0 = self.dielectric_f0.max_element();
+        let rest = 1.0 - self.specular_weight * table().average(self.roughness, f0);
+        // A layer that reflects everything (F0 = 1) leaves nothing below it.
+        if rest <= 1e-6 {
+            return 0.0;
+        }
+        let (e_o, e_i) = (self.layer_albedo(cos_o), self.layer_albedo(cos_i));
+        (1.0 - self.metallic) * (1.0 - e_o).max(0.0) * (1.0 - e_i).max(0.0) / rest
     }
 
     /// f(wo, wi)·cos θi with `wo` above the surface.
@@ -113,8 +161,9 @@ impl GltfPbr {
     /// denoiser divides the colour by it.
     pub(super) fn albedo(&self, wo: Vec3) -> Vec3 {
         let cos_o = wo.z.abs().min(1.0);
-        let e = table().albedo(cos_o, self.roughness);
-        let dielectric = Vec3::splat(e) + self.base_color * (1.0 - e);
+        let layer = table().albedo_rgb(cos_o, self.roughness, self.dielectric_f0);
+        let e = self.layer_albedo(cos_o);
+        let dielectric = layer * self.specular_weight + self.base_color * (1.0 - e).max(0.0);
         let metal = schlick(self.base_color, cos_o);
         dielectric * (1.0 - self.metallic) + metal * self.metallic
     }
@@ -123,10 +172,13 @@ impl GltfPbr {
     /// metal's and the dielectric layer's albedo against the diffuse lobe's).
     #[inline]
     fn specular_probability(&self, cos_o: f32) -> f32 {
-        let e = table().albedo(cos_o, self.roughness);
+        let t = table();
+        let mean_f0 = self.dielectric_f0.element_sum() / 3.0;
+        let e = self.specular_weight * t.albedo(cos_o, self.roughness, mean_f0);
         let m = self.metallic;
         let spec = m + (1.0 - m) * e;
-        let diffuse = (1.0 - m) * (1.0 - e) * self.base_color.element_sum() / 3.0;
+        let rest = (1.0 - self.layer_albedo(cos_o)).max(0.0);
+        let diffuse = (1.0 - m) * rest * self.base_color.element_sum() / 3.0;
         if spec + diffuse <= 0.0 {
             1.0
         } else {
@@ -173,111 +225,4 @@ impl GltfPbr {
             eta: 1.0,
         })
     }
-}
-
-/// View cosines and roughnesses tabulated (the cosines evenly in √cos θo, as E changes fastest
-/// at grazing views).
-const COS_STEPS: usize = 32;
-const ROUGHNESS_STEPS: usize = 24;
-/// Visible normals per table entry (a stratified grid of this size squared).
-const STRATA: usize = 48;
-
-/// The dielectric specular layer's directional albedo E(cos θo, roughness) (GGX with
-/// separable Smith masking, Schlick's Fresnel with F0 = 0.04) and its cosine-weighted mean.
-pub struct GltfAlbedoTable {
-    /// E at √cos θo = i/(COS_STEPS − 1) and roughness j/(ROUGHNESS_STEPS − 1), row-major by j.
-    albedo: Vec<f32>,
-    /// 2∫E(μ)μ dμ per roughness step (of the interpolated table, so the diffuse weights
-    /// integrate exactly).
-    average: Vec<f32>,
-}
-
-/// The shared table, computed on first use (about a million microfacet samples).
-fn table() -> &'static GltfAlbedoTable {
-    static TABLE: OnceLock<GltfAlbedoTable> = OnceLock::new();
-    TABLE.get_or_init(GltfAlbedoTable::compute)
-}
-
-impl GltfAlbedoTable {
-    fn compute() -> Self {
-        let mut albedo = Vec::with_capacity(COS_STEPS * ROUGHNESS_STEPS);
-        for j in 0..ROUGHNESS_STEPS {
-            let b = GltfPbr::new(Vec3::ZERO, 0.0, j as f32 / (ROUGHNESS_STEPS - 1) as f32);
-            for i in 0..COS_STEPS {
-                let cos = (i as f32 / (COS_STEPS - 1) as f32).powi(2).max(1e-4);
-                albedo.push(if b.smooth() {
-                    schlick(Vec3::splat(DIELECTRIC_F0), cos).x
-                } else {
-                    specular_albedo(b.mf, cos)
-                });
-            }
-        }
-        let mut t = Self {
-            albedo,
-            average: vec![0.0; ROUGHNESS_STEPS],
-        };
-        const N: usize = 1024;
-        for j in 0..ROUGHNESS_STEPS {
-            let r = j as f32 / (ROUGHNESS_STEPS - 1) as f32;
-            let sum: f32 = (0..N)
-                .map(|k| {
-                    let mu = (k as f32 + 0.5) / N as f32;
-                    t.albedo(mu, r) * mu
-                })
-                .sum();
-            t.average[j] = 2.0 * sum / N as f32;
-        }
-        t
-    }
-
-    /// E at view cosine `cos` and roughness `r`, bilinearly interpolated.
-    #[inline]
-    fn albedo(&self, cos: f32, r: f32) -> f32 {
-        let (i, fi) = grid(cos.max(0.0).sqrt(), COS_STEPS);
-        let (j, fj) = grid(r, ROUGHNESS_STEPS);
-        let at = |i: usize, j: usize| self.albedo[j * COS_STEPS + i];
-        let row = |j: usize| at(i, j) * (1.0 - fi) + at(i + 1, j) * fi;
-        row(j) * (1.0 - fj) + row(j + 1) * fj
-    }
-
-    /// E_avg at roughness `r`, linearly interpolated.
-    #[inline]
-    fn average(&self, r: f32) -> f32 {
-        let (j, fj) = grid(r, ROUGHNESS_STEPS);
-        self.average[j] * (1.0 - fj) + self.average[j + 1] * fj
-    }
-}
-
-/// The cell of `x` ∈ [0, 1] on a grid of `n` points and the fraction into it.
-#[inline]
-fn grid(x: f32, n: usize) -> (usize, f32) {
-    let x = if x.is_finite() {
-        x.clamp(0.0, 1.0)
-    } else {
-        0.0
-    } * (n - 1) as f32;
-    let i = (x as usize).min(n - 2);
-    (i, x - i as f32)
-}
-
-/// ∫ f·cos θi of the dielectric specular layer seen from cosine `cos`: the mean, over visible
-/// normals on a stratified grid, of the sampled reflection's weight F(ωo·m)·G1(ωi, m).
-fn specular_albedo(mf: Microfacet, cos: f32) -> f32 {
-    let wo = Vec3::new((1.0 - cos * cos).max(0.0).sqrt(), 0.0, cos);
-    let mut sum = 0.0f64;
-    for a in 0..STRATA {
-        for b in 0..STRATA {
-            let u = Vec2::new(
-                (a as f32 + 0.5) / STRATA as f32,
-                (b as f32 + 0.5) / STRATA as f32,
-            );
-            let m = mf.sample_visible(wo, u);
-            let wi = reflect(wo, m);
-            if wi.z > 0.0 {
-                let f = schlick(Vec3::splat(DIELECTRIC_F0), wo.dot(m)).x;
-                sum += f64::from(f * mf.g1(wi, m));
-            }
-        }
-    }
-    (sum / (STRATA * STRATA) as f64) as f32
 }

@@ -1,0 +1,32 @@
+//! The parameters glTF's KHR_materials_* extensions add to the metallic-roughness material.
+
+use glam::Vec3;
+
+use crate::Texture;
+
+/// What a glTF material's extensions add to its metallic-roughness BSDF (each field holds the
+/// extension's default where the file does not use it).
+#[derive(Clone, Debug)]
+pub struct GltfExtensions {
+    /// KHR_materials_ior: the dielectric's index of refraction (1.5; 0 makes the dielectric
+    /// layer a perfect reflector, as the extension allows for converted specular-glossiness
+    /// materials).
+    pub ior: f32,
+    /// KHR_materials_specular: specularFactor × specularTexture's alpha channel (grey), the
+    /// weight of the dielectric layer's reflection (1).
+    pub specular: Texture,
+    /// KHR_materials_specular: specularColorFactor × specularColorTexture (sRGB decoded),
+    /// which multiplies the dielectric layer's F0 ((1, 1, 1)).
+    pub specular_color: Texture,
+}
+
+impl Default for GltfExtensions {
+    /// The extensions' defaults: the core metallic-roughness material.
+    fn default() -> Self {
+        Self {
+            ior: 1.5,
+            specular: Texture::Constant(Vec3::ONE),
+            specular_color: Texture::Constant(Vec3::ONE),
+        }
+    }
+}

@@ -1,0 +1,137 @@
+//! glTF material extensions lumo reads (KHR_materials_ior, KHR_materials_specular): their
+//! factors and textures reach the scene, bad values warn naming the file, material and field,
+//! and a file that requires them loads.
+
+use crate::common;
+
+use common::{load, scenes, temp_dir, write};
+use lumo_scene::{BsdfSpec, GltfExtensions, Vec2, Vec3};
+
+/// A 2×1 8-bit RGBA PNG: a white and a (255, 128, 0) texel with alphas `a`.
+fn png_rgba_2x1(a: [u8; 2]) -> Vec<u8> {
+    let mut out = vec![];
+    let mut enc = png::Encoder::new(&mut out, 2, 1);
+    enc.set_color(png::ColorType::Rgba);
+    enc.set_depth(png::BitDepth::Eight);
+    let mut w = enc.write_header().unwrap();
+    w.write_image_data(&[255, 255, 255, a[0], 255, 128, 0, a[1]])
+        .unwrap();
+    drop(w);
+    out
+}
+
+/// hierarchy.gltf with the gold material's `extensions` set to `ext`, `spec.png` as image 0
+/// and `used` as its extensionsUsed.
+fn gold_with_extensions(ext: &str, used: &str) -> String {
+    let gltf = std::fs::read_to_string(scenes().join("hierarchy.gltf")).unwrap();
+    let (old, used_old) = (
+        "   \"name\": \"gold\",\n",
+        "\"extensionsUsed\": [\n  \"KHR_lights_punctual\"\n ]",
+    );
+    assert!(gltf.contains(old) && gltf.contains(used_old));
+    gltf.replace(old, &format!("{old}   \"extensions\": {{{ext}}},\n"))
+        .replace(used_old, used)
+        .replacen(
+            "{\n",
+            "{\n \"images\": [{\"uri\": \"spec.png\"}],\n \"textures\": [{\"source\": 0}],\n",
+            1,
+        )
+}
+
+/// The gold material's extensions in `loaded`.
+fn extensions_of(loaded: &lumo_scene::load::LoadedScene) -> Option<&GltfExtensions> {
+    let s = &loaded.scene;
+    let BsdfSpec::GltfPbr { extensions, .. } = &s.materials[s.meshes[1].material].bsdf else {
+        panic!("{:?}", s.materials[s.meshes[1].material].bsdf);
+    };
+    extensions.as_deref()
+}
+
+fn warnings(loaded: &lumo_scene::load::LoadedScene) -> String {
+    let w: Vec<String> = loaded.warnings.iter().map(|w| w.to_string()).collect();
+    w.join("\n")
+}
+
+/// ior, specularFactor × specularTexture's alpha and specularColorFactor ×
+/// specularColorTexture (sRGB) reach the scene per texel; the file requires both extensions
+/// and loads without a warning about them.
+#[test]
+fn ior_and_specular_are_read_per_texel() {
+    let dir = temp_dir("gltf-specular");
+    write(&dir, "spec.png", png_rgba_2x1([255, 51]));
+    let ext = "\"KHR_materials_ior\": {\"ior\": 2.0}, \"KHR_materials_specular\": {\
+               \"specularFactor\": 0.5, \"specularTexture\": {\"index\": 0}, \
+               \"specularColorFactor\": [1, 0.5, 2], \"specularColorTexture\": {\"index\": 0}}";
+    let used = "\"extensionsUsed\": [\"KHR_lights_punctual\", \"KHR_materials_ior\", \
+                \"KHR_materials_specular\"], \"extensionsRequired\": [\"KHR_materials_ior\", \
+                \"KHR_materials_specular\"]";
+    let loaded = load(&write(&dir, "s.gltf", gold_with_extensions(ext, used))).unwrap();
+    let w = warnings(&loaded);
+    assert!(!w.contains("KHR_materials"), "{w}");
+    let e = extensions_of(&loaded).expect("extensions");
+    assert_eq!(e.ior, 2.0);
+    let (left, right) = (Vec2::new(0.25, 0.5), Vec2::new(0.75, 0.5));
+    assert!((e.specular.eval_1(left) - 0.5).abs() < 1e-5);
+    assert!((e.specular.eval_1(right) - 0.5 * 0.2).abs() < 1e-5);
+    let c = e.specular_color.eval(right);
+    // sRGB 128 decodes to 0.2158.
+    let expected = Vec3::new(1.0, 0.5 * 0.2158, 0.0);
+    assert!((c - expected).abs().max_element() < 1e-3, "{c}");
+    assert!(
+        (e.specular_color.eval(left) - Vec3::new(1.0, 0.5, 2.0))
+            .abs()
+            .max_element()
+            < 1e-5
+    );
+}
+
+/// A material without the extensions carries none (the core BSDF, F0 = 0.04).
+#[test]
+fn no_extensions_is_the_core_material() {
+    let loaded = load(&scenes().join("hierarchy.gltf")).unwrap();
+    assert!(extensions_of(&loaded).is_none());
+}
+
+/// An ior below 1 (other than 0) and a specularFactor above 1 warn naming the file, the
+/// material and the field, and read as the default and the clamped value.
+#[test]
+fn bad_ior_and_specular_factors_warn() {
+    let dir = temp_dir("gltf-bad-ior");
+    write(&dir, "spec.png", png_rgba_2x1([255, 255]));
+    let ext = "\"KHR_materials_ior\": {\"ior\": 0.5}, \
+               \"KHR_materials_specular\": {\"specularFactor\": 3}";
+    let used = "\"extensionsUsed\": [\"KHR_lights_punctual\", \"KHR_materials_ior\", \
+                \"KHR_materials_specular\"]";
+    let loaded = load(&write(&dir, "bad.gltf", gold_with_extensions(ext, used))).unwrap();
+    let w = warnings(&loaded);
+    assert!(
+        w.contains("bad.gltf")
+            && w.contains("material 1")
+            && w.contains("KHR_materials_ior ior 0.5")
+            && w.contains("specularFactor 3"),
+        "{w}"
+    );
+    let e = extensions_of(&loaded).expect("extensions");
+    assert_eq!(e.ior, 1.5);
+    assert_eq!(e.specular.eval_1(Vec2::splat(0.5)), 1.0);
+}
+
+/// A required extension lumo does not read is refused with a message that lists the
+/// material extensions it does read.
+#[test]
+fn the_required_extension_message_lists_ior_and_specular() {
+    let dir = temp_dir("gltf-req-sheen");
+    write(&dir, "spec.png", png_rgba_2x1([255, 255]));
+    let used = "\"extensionsUsed\": [\"KHR_lights_punctual\", \"KHR_materials_sheen\"], \
+                \"extensionsRequired\": [\"KHR_materials_sheen\"]";
+    let text = gold_with_extensions("\"KHR_materials_sheen\": {}", used);
+    let e = load(&write(&dir, "sheen.gltf", text))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("KHR_materials_sheen")
+            && e.contains("KHR_materials_ior")
+            && e.contains("KHR_materials_specular"),
+        "{e}"
+    );
+}
