@@ -9,6 +9,7 @@ mod direct_light_geometry;
 mod emission_texture;
 mod gltf_pbr;
 mod gltf_specular;
+mod gltf_transmission;
 mod integrator;
 mod light_render;
 mod light_sampling;

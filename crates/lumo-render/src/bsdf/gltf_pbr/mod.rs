@@ -15,6 +15,7 @@
 //! diffuse lobe's weight from the specular layer's albedo.
 
 mod albedo_table;
+mod transmission;
 
 use glam::{Vec2, Vec3};
 
@@ -43,11 +44,19 @@ pub struct GltfPbr {
     /// KHR_materials_specular's weight of the dielectric layer (its reflectance at grazing
     /// angles), in [0, 1]; 1 without the extension.
     pub specular_weight: f32,
+    /// KHR_materials_transmission's factor in [0, 1]: the share of the dielectric part that
+    /// transmits (tinted by the base colour) instead of reflecting diffusely; 0 without it.
+    pub transmission: f32,
+    /// Whether the transmission goes through a thin sheet (no bending) rather than into a
+    /// volume (refraction of index `eta`).
+    pub thin: bool,
+    /// Relative index of the volume a non-thin transmission refracts into (≥ 1).
+    pub eta: f32,
 }
 
 /// Schlick's Fresnel approximation with reflectance `f0` at normal incidence.
 #[inline]
-fn schlick(f0: Vec3, cos: f32) -> Vec3 {
+pub(super) fn schlick(f0: Vec3, cos: f32) -> Vec3 {
     f0 + (Vec3::ONE - f0) * schlick_weight(cos)
 }
 
@@ -75,6 +84,49 @@ impl GltfPbr {
             mf: ggx_of_roughness(roughness),
             dielectric_f0: Vec3::splat(DIELECTRIC_F0),
             specular_weight: 1.0,
+            transmission: 0.0,
+            thin: true,
+            eta: 1.5,
+        }
+    }
+
+    /// This BSDF with KHR_materials_transmission's factor `transmission` (clamped to [0, 1],
+    /// NaN: 0), through a thin sheet or into a volume of index `ior` (read as 1 where it is
+    /// below 1 or not a number: such a volume does not bend light).
+    pub fn with_transmission(mut self, transmission: f32, thin: bool, ior: f32) -> Self {
+        self.transmission = if transmission.is_nan() {
+            0.0
+        } else {
+            transmission.clamp(0.0, 1.0)
+        };
+        self.thin = thin;
+        self.eta = if ior >= 1.0 && ior.is_finite() {
+            ior
+        } else {
+            1.0
+        };
+        self
+    }
+
+    /// The weight of the transmissive dielectric in the whole mix: (1 − metallic) ×
+    /// transmission.
+    #[inline]
+    pub(crate) fn transmission_weight(&self) -> f32 {
+        (1.0 - self.metallic) * self.transmission
+    }
+
+    /// The rest of the mix, the opaque BSDF: metal and opaque dielectric renormalised to
+    /// 1 − transmission weight (its metalness m / (1 − w)).
+    #[inline]
+    fn opaque_part(&self, w: f32) -> Self {
+        Self {
+            metallic: if w < 1.0 {
+                (self.metallic / (1.0 - w)).min(1.0)
+            } else {
+                1.0
+            },
+            transmission: 0.0,
+            ..*self
         }
     }
 
@@ -100,13 +152,14 @@ impl GltfPbr {
 
     /// Whether the specular lobes are Dirac deltas.
     #[inline]
-    fn smooth(&self) -> bool {
+    pub(super) fn smooth(&self) -> bool {
         self.mf.max_alpha() < SMOOTH_ALPHA
     }
 
-    /// Smooth and fully metallic: nothing but a mirror reflection.
+    /// Smooth and without a diffuse lobe (fully metallic, or fully transmissive where not
+    /// metallic): nothing but Dirac lobes.
     pub(super) fn is_delta(&self) -> bool {
-        self.smooth() && self.metallic >= 1.0
+        self.smooth() && (1.0 - self.metallic) * (1.0 - self.transmission) <= 0.0
     }
 
     /// The specular Fresnel term of the mix at microfacet cosine `cos`: the dielectric
@@ -140,8 +193,58 @@ impl GltfPbr {
         (1.0 - self.metallic) * (1.0 - e_o).max(0.0) * (1.0 - e_i).max(0.0) / rest
     }
 
-    /// f(wo, wi)·cos θi with `wo` above the surface.
+    /// f(wo, wi)·|cos θi|: the opaque part (two-sided) and the transmissive one mixed.
     pub(super) fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        let w = self.transmission_weight();
+        if w <= 0.0 {
+            return self.opaque_eval(wo, wi);
+        }
+        let (o, i) = if wo.z < 0.0 { (-wo, -wi) } else { (wo, wi) };
+        self.opaque_part(w).opaque_eval(o, i) * (1.0 - w) + self.transmissive_eval(wo, wi) * w
+    }
+
+    /// The mixture density of the opaque and transmissive parts.
+    pub(super) fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        let w = self.transmission_weight();
+        if w <= 0.0 {
+            return self.opaque_pdf(wo, wi);
+        }
+        let (o, i) = if wo.z < 0.0 { (-wo, -wi) } else { (wo, wi) };
+        self.opaque_part(w).opaque_pdf(o, i) * (1.0 - w) + self.transmissive_pdf(wo, wi) * w
+    }
+
+    /// The transmissive part with probability w (the transmission weight), else the opaque
+    /// one; a sample off a Dirac lobe keeps its lobe's weight, any other is weighed by the
+    /// whole mixture.
+    pub(super) fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
+        let w = self.transmission_weight();
+        if w <= 0.0 {
+            return self.opaque_sample(wo, u_lobe, u);
+        }
+        let mut s = if u_lobe < w {
+            let mut s = self.transmissive_sample(wo, u_lobe / w, u)?;
+            s.pdf *= w;
+            s
+        } else {
+            let side = if wo.z < 0.0 { -1.0 } else { 1.0 };
+            let u_rest = ((u_lobe - w) / (1.0 - w)).min(1.0 - f32::EPSILON);
+            let mut s = self.opaque_part(w).opaque_sample(wo * side, u_rest, u)?;
+            s.wi *= side;
+            s.pdf *= 1.0 - w;
+            s
+        };
+        if !s.delta {
+            s.pdf = self.pdf(wo, s.wi);
+            if s.pdf <= 0.0 {
+                return None;
+            }
+            s.weight = self.eval(wo, s.wi) / s.pdf;
+        }
+        Some(s)
+    }
+
+    /// f(wo, wi)·cos θi of the opaque BSDF with `wo` above the surface.
+    fn opaque_eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return Vec3::ZERO;
         }
@@ -186,9 +289,9 @@ impl GltfPbr {
         }
     }
 
-    /// The mixture density of the specular and diffuse lobes (the specular one only where it
-    /// is rough).
-    pub(super) fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+    /// The opaque BSDF's mixture density of the specular and diffuse lobes (the specular one
+    /// only where it is rough).
+    fn opaque_pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return 0.0;
         }
@@ -201,8 +304,9 @@ impl GltfPbr {
         pdf
     }
 
-    /// The specular lobe (chosen by `u_lobe`) or the diffuse one, with `wo` above the surface.
-    pub(super) fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
+    /// The opaque BSDF's specular lobe (chosen by `u_lobe`) or its diffuse one, with `wo`
+    /// above the surface.
+    fn opaque_sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
         let p_spec = self.specular_probability(wo.z);
         let wi = if u_lobe < p_spec {
             if self.smooth() {
@@ -216,10 +320,10 @@ impl GltfPbr {
         if wi.z <= 0.0 {
             return None;
         }
-        let pdf = self.pdf(wo, wi);
+        let pdf = self.opaque_pdf(wo, wi);
         Some(BsdfSample {
             wi,
-            weight: self.eval(wo, wi) / pdf,
+            weight: self.opaque_eval(wo, wi) / pdf,
             pdf,
             delta: false,
             eta: 1.0,
