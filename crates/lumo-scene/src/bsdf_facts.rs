@@ -159,6 +159,7 @@ impl BsdfSpec {
                 metallic_roughness,
                 metallic,
                 roughness,
+                extensions,
                 ..
             } => {
                 // A metallic-roughness texture varies both per texel: any lobe may be there.
@@ -169,6 +170,7 @@ impl BsdfSpec {
                     diffuse: textured || *metallic < 1.0,
                     glossy: textured || !smooth,
                     specular: textured || smooth,
+                    transmission: extensions.as_ref().is_some_and(|e| e.transmits()),
                     ..Default::default()
                 }
             }

@@ -18,6 +18,24 @@ pub struct GltfExtensions {
     /// KHR_materials_specular: specularColorFactor × specularColorTexture (sRGB decoded),
     /// which multiplies the dielectric layer's F0 ((1, 1, 1)).
     pub specular_color: Texture,
+    /// KHR_materials_transmission: transmissionFactor × transmissionTexture's red channel
+    /// (grey), the share of the dielectric part that transmits (0).
+    pub transmission: Texture,
+    /// KHR_materials_volume's thicknessFactor: 0 is a thin-walled surface (transmission
+    /// without refraction), more makes the mesh the boundary of a volume of index `ior` (0).
+    pub thickness: f32,
+    /// KHR_materials_volume's absorption inside the volume, σ_a = −ln(attenuationColor) /
+    /// attenuationDistance per channel (per unit length of the mesh's space); `None` where
+    /// nothing is absorbed. The loader makes it a homogeneous medium inside the meshes of
+    /// the material.
+    pub absorption: Option<Vec3>,
+}
+
+impl GltfExtensions {
+    /// Whether any part of the material may transmit light.
+    pub fn transmits(&self) -> bool {
+        !matches!(self.transmission, Texture::Constant(c) if c.max_element() <= 0.0)
+    }
 }
 
 impl Default for GltfExtensions {
@@ -27,6 +45,9 @@ impl Default for GltfExtensions {
             ior: 1.5,
             specular: Texture::Constant(Vec3::ONE),
             specular_color: Texture::Constant(Vec3::ONE),
+            transmission: Texture::Constant(Vec3::ZERO),
+            thickness: 0.0,
+            absorption: None,
         }
     }
 }

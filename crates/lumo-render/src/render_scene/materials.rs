@@ -240,11 +240,17 @@ impl RenderScene {
                 );
                 Bsdf::GltfPbr(match extensions {
                     None => g,
-                    Some(e) => g.with_specular(
-                        e.ior,
-                        e.specular.eval_1(surface.uv),
-                        texture(&e.specular_color, surface.uv),
-                    ),
+                    Some(e) => g
+                        .with_specular(
+                            e.ior,
+                            e.specular.eval_1(surface.uv),
+                            texture(&e.specular_color, surface.uv),
+                        )
+                        .with_transmission(
+                            e.transmission.eval_1(surface.uv),
+                            e.thickness <= 0.0,
+                            e.ior,
+                        ),
                 })
             }
             // Adapters are unwrapped by `bsdf`; one reached here (nested in a way it does not

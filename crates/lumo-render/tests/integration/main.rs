@@ -10,6 +10,7 @@ mod emission_texture;
 mod gltf_pbr;
 mod gltf_specular;
 mod gltf_transmission;
+mod gltf_volume;
 mod integrator;
 mod light_render;
 mod light_sampling;

@@ -135,3 +135,67 @@ fn the_required_extension_message_lists_ior_and_specular() {
         "{e}"
     );
 }
+
+/// transmissionFactor × transmissionTexture's red channel per texel; KHR_materials_volume's
+/// thickness and σ_a = −ln(attenuationColor) / attenuationDistance, which becomes a
+/// homogeneous absorbing medium inside the material's mesh.
+#[test]
+fn transmission_and_volume_make_an_absorbing_medium_inside_the_mesh() {
+    let dir = temp_dir("gltf-volume");
+    write(&dir, "spec.png", png_rgba_2x1([255, 255]));
+    let ext = "\"KHR_materials_transmission\": {\"transmissionFactor\": 0.8, \
+               \"transmissionTexture\": {\"index\": 0}}, \"KHR_materials_volume\": {\
+               \"thicknessFactor\": 0.5, \"attenuationDistance\": 2, \
+               \"attenuationColor\": [1, 0.5, 0.25]}";
+    let used = "\"extensionsUsed\": [\"KHR_lights_punctual\", \"KHR_materials_transmission\", \
+                \"KHR_materials_volume\"], \"extensionsRequired\": [\
+                \"KHR_materials_transmission\", \"KHR_materials_volume\"]";
+    let loaded = load(&write(&dir, "v.gltf", gold_with_extensions(ext, used))).unwrap();
+    let w = warnings(&loaded);
+    assert!(!w.contains("KHR_materials"), "{w}");
+    let e = extensions_of(&loaded).expect("extensions");
+    // Red channel 255 on the left texel, 255 on the right: 0.8 both.
+    assert!((e.transmission.eval_1(Vec2::new(0.75, 0.5)) - 0.8).abs() < 1e-5);
+    assert_eq!(e.thickness, 0.5);
+    let sigma = e.absorption.expect("absorption");
+    let want = Vec3::new(0.0, 2f32.ln() / 2.0, 4f32.ln() / 2.0);
+    assert!((sigma - want).abs().max_element() < 1e-6, "{sigma}");
+    let s = &loaded.scene;
+    assert!(s.materials[s.meshes[1].material].bsdf.flags().transmission);
+    assert_eq!(s.media.media.len(), 1);
+    assert_eq!(s.media.media[0].sigma_t, want);
+    assert_eq!(s.media.media[0].albedo, Vec3::ZERO);
+    let b = s.media.boundary(1);
+    assert!(!b.null);
+    assert_eq!(b.interface.and_then(|i| i.interior), Some(0));
+    assert_eq!(
+        s.media.boundary(0).interface,
+        None,
+        "the other mesh is no volume"
+    );
+}
+
+/// Thin-walled transmission (thickness 0) needs no medium; a non-positive attenuation
+/// distance warns and absorbs nothing.
+#[test]
+fn thin_walls_and_bad_distances_make_no_medium() {
+    let dir = temp_dir("gltf-thin");
+    write(&dir, "spec.png", png_rgba_2x1([255, 255]));
+    let used = "\"extensionsUsed\": [\"KHR_lights_punctual\", \"KHR_materials_transmission\", \
+                \"KHR_materials_volume\"]";
+    let thin = "\"KHR_materials_transmission\": {\"transmissionFactor\": 1}, \
+                \"KHR_materials_volume\": {\"attenuationDistance\": 1, \
+                \"attenuationColor\": [0.5, 0.5, 0.5]}";
+    let loaded = load(&write(&dir, "t.gltf", gold_with_extensions(thin, used))).unwrap();
+    assert!(loaded.scene.media.media.is_empty());
+    assert_eq!(extensions_of(&loaded).expect("extensions").thickness, 0.0);
+    let bad = "\"KHR_materials_transmission\": {\"transmissionFactor\": 1}, \
+               \"KHR_materials_volume\": {\"thicknessFactor\": 1, \"attenuationDistance\": -1}";
+    let loaded = load(&write(&dir, "b.gltf", gold_with_extensions(bad, used))).unwrap();
+    let w = warnings(&loaded);
+    assert!(
+        w.contains("b.gltf") && w.contains("material 1") && w.contains("attenuationDistance -1"),
+        "{w}"
+    );
+    assert!(loaded.scene.media.media.is_empty());
+}

@@ -1,8 +1,9 @@
-//! A glTF material's KHR_materials_ior and KHR_materials_specular as lumo's
-//! [`GltfExtensions`].
+//! A glTF material's KHR_materials_ior, KHR_materials_specular, KHR_materials_transmission
+//! and KHR_materials_volume as lumo's [`GltfExtensions`], and the absorbing media of volumes.
 
 use super::*;
-use crate::GltfExtensions;
+use crate::media::{Density, MediumSpectra};
+use crate::{Boundary, GltfExtensions, Medium, MediumInterface, PhaseFunction};
 
 impl GltfReader<'_, '_> {
     /// The extensions `mat` uses that change its BSDF; `None` where it uses none.
@@ -12,7 +13,8 @@ impl GltfReader<'_, '_> {
         mat: &gltf::Material,
     ) -> Result<Option<Arc<GltfExtensions>>, LoadError> {
         let (ior, specular) = (mat.ior(), mat.specular());
-        if ior.is_none() && specular.is_none() {
+        let (transmission, volume) = (mat.transmission(), mat.volume());
+        if ior.is_none() && specular.is_none() && transmission.is_none() && volume.is_none() {
             return Ok(None);
         }
         let mut ext = GltfExtensions::default();
@@ -35,7 +37,86 @@ impl GltfReader<'_, '_> {
                 None => Texture::Constant(color),
             };
         }
+        if let Some(t) = transmission {
+            let what = "KHR_materials_transmission transmissionFactor";
+            let factor = self.unit_factor(label, what, t.transmission_factor(), 0.0)?;
+            ext.transmission = match t.transmission_texture() {
+                Some(info) if factor > 0.0 => self.red_channel(&info, factor)?,
+                _ => Texture::Constant(Vec3::splat(factor)),
+            };
+        }
+        if let Some(v) = volume {
+            (ext.thickness, ext.absorption) = self.volume(label, &v)?;
+        }
         Ok(Some(Arc::new(ext)))
+    }
+
+    /// KHR_materials_volume: the thickness factor and the absorption coefficient σ_a =
+    /// −ln(attenuationColor) / attenuationDistance (`None` for an infinite distance or a
+    /// white colour). The thickness texture is not read: a path tracer follows the mesh's
+    /// own thickness.
+    fn volume(
+        &mut self,
+        label: &str,
+        v: &gltf::material::Volume,
+    ) -> Result<(f32, Option<Vec3>), LoadError> {
+        let mut thickness = v.thickness_factor();
+        if !(thickness >= 0.0 && thickness.is_finite()) {
+            self.diag.warn(
+                self.at(label.to_string()),
+                format!(
+                    "KHR_materials_volume thicknessFactor {thickness} is not a length ≥ 0; read                      as 0 (thin-walled)"
+                ),
+            )?;
+            thickness = 0.0;
+        }
+        let distance = v.attenuation_distance();
+        let what = "KHR_materials_volume attenuationColor";
+        let color = self.non_negative(label, what, Vec3::from(v.attenuation_color()))?;
+        if distance.is_nan() || distance <= 0.0 {
+            self.diag.warn(
+                self.at(label.to_string()),
+                format!(
+                    "KHR_materials_volume attenuationDistance {distance} is not a length > 0;                      nothing is absorbed (write a positive distance, or leave it out for none)"
+                ),
+            )?;
+            return Ok((thickness, None));
+        }
+        if distance.is_infinite() || color.min_element() >= 1.0 {
+            return Ok((thickness, None));
+        }
+        if color.min_element() <= 0.0 {
+            self.diag.warn(
+                self.at(label.to_string()),
+                format!(
+                    "KHR_materials_volume attenuationColor {color} has a zero channel, which                      would absorb everything at once; read as 1e-6"
+                ),
+            )?;
+        }
+        let sigma = color
+            .clamp(Vec3::splat(1e-6), Vec3::ONE)
+            .to_array()
+            .map(|c| -c.ln() / distance);
+        Ok((thickness, Some(Vec3::from(sigma))))
+    }
+
+    /// A texture's red channel × `factor` as a grey texture (transmissionTexture), read linear.
+    fn red_channel(
+        &mut self,
+        info: &gltf::texture::Info,
+        factor: f32,
+    ) -> Result<Texture, LoadError> {
+        let red = move |c: Vec3| Vec3::splat(c.x * factor);
+        let transform = info.texture_transform();
+        let tex_coord = transform
+            .as_ref()
+            .and_then(|t| t.tex_coord())
+            .unwrap_or(info.tex_coord());
+        let texture = self.bitmap(info.texture(), tex_coord, true, Some(&red))?;
+        Ok(match transform {
+            None => texture,
+            Some(t) => materials::transformed(texture, &t),
+        })
     }
 
     /// KHR_materials_ior's `ior`: 1 or more, or 0 (a perfect reflector); anything else warns
@@ -52,5 +133,50 @@ impl GltfReader<'_, '_> {
             ),
         )?;
         Ok(1.5)
+    }
+}
+
+/// Gives every mesh whose glTF material is a volume (thickness > 0) that absorbs a
+/// homogeneous, purely absorbing medium inside it (one medium per material), vacuum outside.
+pub(super) fn attach_volume_media(scene: &mut Scene) {
+    let mut medium_of = HashMap::new();
+    for (i, material) in scene.materials.iter().enumerate() {
+        let BsdfSpec::GltfPbr {
+            extensions: Some(e),
+            ..
+        } = material.bsdf.innermost()
+        else {
+            continue;
+        };
+        let Some(sigma_a) = e.absorption.filter(|_| e.thickness > 0.0 && e.transmits()) else {
+            continue;
+        };
+        medium_of.insert(i, scene.media.media.len());
+        scene.media.media.push(Medium {
+            name: format!("{} (KHR_materials_volume)", material.name),
+            sigma_t: sigma_a,
+            albedo: Vec3::ZERO,
+            density: Density::Homogeneous,
+            phase: PhaseFunction::Isotropic,
+            spectra: MediumSpectra {
+                sigma_t_scale: 1.0,
+                ..Default::default()
+            },
+        });
+    }
+    for m in 0..scene.meshes.len() {
+        if let Some(&medium) = medium_of.get(&scene.meshes[m].material) {
+            let interface = MediumInterface {
+                interior: Some(medium),
+                exterior: None,
+            };
+            scene.media.set_boundary(
+                m,
+                Boundary {
+                    null: false,
+                    interface: Some(interface),
+                },
+            );
+        }
     }
 }

@@ -171,7 +171,7 @@ impl GltfReader<'_, '_> {
 
     /// The bitmap of `texture` (decoded once per image and colour space), its texels passed
     /// through `pixel` where given.
-    fn bitmap(
+    pub(super) fn bitmap(
         &mut self,
         texture: gltf::Texture,
         tex_coord: u32,

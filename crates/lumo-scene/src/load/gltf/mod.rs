@@ -36,6 +36,8 @@ const SUPPORTED: &[&str] = &[
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
     "KHR_materials_specular",
+    "KHR_materials_transmission",
+    "KHR_materials_volume",
     "KHR_texture_transform",
 ];
 
@@ -185,6 +187,7 @@ fn load_unguarded(
         ));
     }
     let mut scene = r.scene;
+    extensions::attach_volume_media(&mut scene);
     if chosen.is_none() {
         let (lo, hi) = scene.bounds();
         scene.camera = defaults::framing_camera(lo, hi);
