@@ -171,7 +171,6 @@ impl BsdfSpec {
                     glossy: textured || !smooth,
                     specular: textured || smooth,
                     transmission: extensions.as_ref().is_some_and(|e| e.transmits()),
-                    ..Default::default()
                 }
             }
             BsdfSpec::NormalMap { nested, .. } | BsdfSpec::BumpMap { nested, .. } => nested.flags(),
