@@ -199,3 +199,50 @@ fn thin_walls_and_bad_distances_make_no_medium() {
     );
     assert!(loaded.scene.media.media.is_empty());
 }
+
+/// KHR_materials_unlit: the base colour (factor × texture, sRGB) becomes the emitted radiance
+/// over a black BSDF; the file may require the extension.
+#[test]
+fn unlit_materials_emit_their_base_colour() {
+    let dir = temp_dir("gltf-unlit");
+    write(&dir, "spec.png", png_rgba_2x1([255, 255]));
+    let used = "\"extensionsUsed\": [\"KHR_lights_punctual\", \"KHR_materials_unlit\"], \
+                \"extensionsRequired\": [\"KHR_materials_unlit\"]";
+    let text = gold_with_extensions("\"KHR_materials_unlit\": {}", used);
+    let loaded = load(&write(&dir, "u.gltf", &text)).unwrap();
+    let s = &loaded.scene;
+    let m = &s.materials[s.meshes[1].material];
+    assert!(
+        matches!(&m.bsdf, BsdfSpec::Diffuse { reflectance: lumo_scene::Texture::Constant(c) } if *c == Vec3::ZERO),
+        "{:?}",
+        m.bsdf
+    );
+    // hierarchy.gltf's gold baseColorFactor.
+    let gold = Vec3::new(1.0, 0.77, 0.34);
+    assert!(
+        (m.emission - gold).abs().max_element() < 1e-6,
+        "{}",
+        m.emission
+    );
+    assert!(m.emission_map.is_none());
+    // With a base colour texture: emitted per texel, × the factor.
+    let factor = "\"baseColorFactor\": [\n     1.0,\n     0.77,\n     0.34,\n     1\n    ],";
+    assert!(text.contains(factor));
+    let textured = text.replace(
+        factor,
+        "\"baseColorTexture\": {\"index\": 0}, \"baseColorFactor\": [0.5, 0.5, 0.5, 1],",
+    );
+    let loaded = load(&write(&dir, "ut.gltf", textured)).unwrap();
+    let s = &loaded.scene;
+    let m = &s.materials[s.meshes[1].material];
+    let map = m.emission_map.as_ref().expect("an emission map");
+    let right = map.eval(Vec2::new(0.75, 0.5));
+    // sRGB (255, 128, 0) × 0.5.
+    assert!(
+        (right - Vec3::new(0.5, 0.5 * 0.2158, 0.0))
+            .abs()
+            .max_element()
+            < 1e-3,
+        "{right}"
+    );
+}

@@ -1,5 +1,6 @@
 //! A glTF material's KHR_materials_ior, KHR_materials_specular, KHR_materials_transmission
-//! and KHR_materials_volume as lumo's [`GltfExtensions`], and the absorbing media of volumes.
+//! and KHR_materials_volume as lumo's [`GltfExtensions`], the absorbing media of volumes, and
+//! KHR_materials_unlit's emission.
 
 use super::*;
 use crate::media::{Density, MediumSpectra};
@@ -178,5 +179,15 @@ pub(super) fn attach_volume_media(scene: &mut Scene) {
                 },
             );
         }
+    }
+}
+
+/// KHR_materials_unlit: the base colour (texture × factor) shown as it is, i.e. emitted as
+/// radiance over a black BSDF — (mean, per-texel map where textured). Blender's importer
+/// likewise makes unlit materials emit their colour.
+pub(super) fn unlit_emission(base: Texture) -> (Vec3, Option<Arc<Texture>>) {
+    match base {
+        Texture::Constant(c) => (c, None),
+        textured => (textured.average(), Some(Arc::new(textured))),
     }
 }

@@ -37,6 +37,7 @@ const SUPPORTED: &[&str] = &[
     "KHR_materials_ior",
     "KHR_materials_specular",
     "KHR_materials_transmission",
+    "KHR_materials_unlit",
     "KHR_materials_volume",
     "KHR_texture_transform",
 ];
