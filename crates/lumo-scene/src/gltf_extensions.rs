@@ -29,6 +29,11 @@ pub struct GltfExtensions {
     /// nothing is absorbed. The loader makes it a homogeneous medium inside the meshes of
     /// the material.
     pub absorption: Option<Vec3>,
+    /// KHR_materials_clearcoat's clearcoatFactor: the intensity of a GGX coat of F0 = 0.04
+    /// over the material (0).
+    pub clearcoat: f32,
+    /// KHR_materials_clearcoat's clearcoatRoughnessFactor (perceptual) (0).
+    pub clearcoat_roughness: f32,
 }
 
 impl GltfExtensions {
@@ -48,6 +53,8 @@ impl Default for GltfExtensions {
             transmission: Texture::Constant(Vec3::ZERO),
             thickness: 0.0,
             absorption: None,
+            clearcoat: 0.0,
+            clearcoat_roughness: 0.0,
         }
     }
 }

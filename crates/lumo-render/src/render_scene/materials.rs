@@ -250,7 +250,8 @@ impl RenderScene {
                             e.transmission.eval_1(surface.uv),
                             e.thickness <= 0.0,
                             e.ior,
-                        ),
+                        )
+                        .with_clearcoat(e.clearcoat, e.clearcoat_roughness),
                 })
             }
             // Adapters are unwrapped by `bsdf`; one reached here (nested in a way it does not

@@ -128,6 +128,20 @@ fn test_bsdfs() -> Vec<(&'static str, Bsdf)> {
             ),
         ),
         (
+            "gltf-clearcoat-0.2-over-0.7",
+            Bsdf::GltfPbr(
+                GltfPbr::new(Vec3::new(0.7, 0.3, 0.2), 0.3, 0.7).with_clearcoat(0.8, 0.2),
+            ),
+        ),
+        (
+            "gltf-smooth-clearcoat-over-transmission",
+            Bsdf::GltfPbr(
+                GltfPbr::new(Vec3::new(0.9, 0.8, 0.7), 0.0, 0.4)
+                    .with_transmission(0.6, true, 1.5)
+                    .with_clearcoat(1.0, 0.0),
+            ),
+        ),
+        (
             "plastic-smooth",
             Bsdf::Plastic(Plastic {
                 diffuse: Vec3::new(0.5, 0.4, 0.3),

@@ -7,6 +7,7 @@ mod bsdf_sampling;
 mod common;
 mod direct_light_geometry;
 mod emission_texture;
+mod gltf_clearcoat;
 mod gltf_pbr;
 mod gltf_specular;
 mod gltf_transmission;

@@ -246,3 +246,24 @@ fn unlit_materials_emit_their_base_colour() {
         "{right}"
     );
 }
+
+/// KHR_materials_clearcoat's factors reach the scene; its textures warn (not read); the file
+/// may require the extension.
+#[test]
+fn clearcoat_factors_are_read_and_its_textures_warn() {
+    let dir = temp_dir("gltf-coat");
+    write(&dir, "spec.png", png_rgba_2x1([255, 255]));
+    let used = "\"extensionsUsed\": [\"KHR_lights_punctual\", \"KHR_materials_clearcoat\"], \
+                \"extensionsRequired\": [\"KHR_materials_clearcoat\"]";
+    let ext = "\"KHR_materials_clearcoat\": {\"clearcoatFactor\": 0.75, \
+               \"clearcoatRoughnessFactor\": 0.2, \"clearcoatNormalTexture\": {\"index\": 0}}";
+    let loaded = load(&write(&dir, "c.gltf", gold_with_extensions(ext, used))).unwrap();
+    let e = extensions_of(&loaded).expect("extensions");
+    assert_eq!((e.clearcoat, e.clearcoat_roughness), (0.75, 0.2));
+    let w = warnings(&loaded);
+    assert!(
+        w.contains("c.gltf") && w.contains("material 1") && w.contains("clearcoatNormalTexture"),
+        "{w}"
+    );
+    assert!(!w.contains("not supported"), "{w}");
+}

@@ -15,6 +15,7 @@
 //! diffuse lobe's weight from the specular layer's albedo.
 
 mod albedo_table;
+mod clearcoat;
 mod transmission;
 
 use glam::{Vec2, Vec3};
@@ -52,6 +53,13 @@ pub struct GltfPbr {
     pub thin: bool,
     /// Relative index of the volume a non-thin transmission refracts into (≥ 1).
     pub eta: f32,
+    /// KHR_materials_clearcoat's intensity in [0, 1]: the weight of a GGX coat of F0 = 0.04
+    /// over everything else; 0 without it.
+    pub clearcoat: f32,
+    /// The coat's perceptual roughness in [0, 1].
+    pub clearcoat_roughness: f32,
+    /// GGX of α = clearcoat roughness².
+    pub coat_mf: Microfacet,
 }
 
 /// Schlick's Fresnel approximation with reflectance `f0` at normal incidence.
@@ -87,6 +95,9 @@ impl GltfPbr {
             transmission: 0.0,
             thin: true,
             eta: 1.5,
+            clearcoat: 0.0,
+            clearcoat_roughness: 0.0,
+            coat_mf: Microfacet::ggx(0.0),
         }
     }
 
@@ -159,7 +170,8 @@ impl GltfPbr {
     /// Smooth and without a diffuse lobe (fully metallic, or fully transmissive where not
     /// metallic): nothing but Dirac lobes.
     pub(super) fn is_delta(&self) -> bool {
-        self.smooth() && (1.0 - self.metallic) * (1.0 - self.transmission) <= 0.0
+        let coat_delta = self.clearcoat <= 0.0 || self.coat_mf.max_alpha() < SMOOTH_ALPHA;
+        coat_delta && self.smooth() && (1.0 - self.metallic) * (1.0 - self.transmission) <= 0.0
     }
 
     /// The specular Fresnel term of the mix at microfacet cosine `cos`: the dielectric
@@ -194,7 +206,7 @@ impl GltfPbr {
     }
 
     /// f(wo, wi)·|cos θi|: the opaque part (two-sided) and the transmissive one mixed.
-    pub(super) fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+    pub(super) fn uncoated_eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         let w = self.transmission_weight();
         if w <= 0.0 {
             return self.opaque_eval(wo, wi);
@@ -204,7 +216,7 @@ impl GltfPbr {
     }
 
     /// The mixture density of the opaque and transmissive parts.
-    pub(super) fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+    pub(super) fn uncoated_pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         let w = self.transmission_weight();
         if w <= 0.0 {
             return self.opaque_pdf(wo, wi);
@@ -216,7 +228,7 @@ impl GltfPbr {
     /// The transmissive part with probability w (the transmission weight), else the opaque
     /// one; a sample off a Dirac lobe keeps its lobe's weight, any other is weighed by the
     /// whole mixture.
-    pub(super) fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
+    pub(super) fn uncoated_sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
         let w = self.transmission_weight();
         if w <= 0.0 {
             return self.opaque_sample(wo, u_lobe, u);
@@ -234,11 +246,11 @@ impl GltfPbr {
             s
         };
         if !s.delta {
-            s.pdf = self.pdf(wo, s.wi);
+            s.pdf = self.uncoated_pdf(wo, s.wi);
             if s.pdf <= 0.0 {
                 return None;
             }
-            s.weight = self.eval(wo, s.wi) / s.pdf;
+            s.weight = self.uncoated_eval(wo, s.wi) / s.pdf;
         }
         Some(s)
     }
@@ -262,7 +274,7 @@ impl GltfPbr {
     /// The G-buffer albedo seen from `wo`: the specular layer's reflectance plus what of the
     /// base colour the diffuse lobe reflects — the base colour itself for a metal, as a
     /// denoiser divides the colour by it.
-    pub(super) fn albedo(&self, wo: Vec3) -> Vec3 {
+    pub(super) fn uncoated_albedo(&self, wo: Vec3) -> Vec3 {
         let cos_o = wo.z.abs().min(1.0);
         let layer = table().albedo_rgb(cos_o, self.roughness, self.dielectric_f0);
         let e = self.layer_albedo(cos_o);

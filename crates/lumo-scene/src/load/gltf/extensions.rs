@@ -1,6 +1,7 @@
 //! A glTF material's KHR_materials_ior, KHR_materials_specular, KHR_materials_transmission
 //! and KHR_materials_volume as lumo's [`GltfExtensions`], the absorbing media of volumes, and
-//! KHR_materials_unlit's emission.
+//! KHR_materials_unlit's emission. KHR_materials_clearcoat, which the `gltf` crate does not
+//! parse, is read from the material's extension JSON.
 
 use super::*;
 use crate::media::{Density, MediumSpectra};
@@ -15,7 +16,13 @@ impl GltfReader<'_, '_> {
     ) -> Result<Option<Arc<GltfExtensions>>, LoadError> {
         let (ior, specular) = (mat.ior(), mat.specular());
         let (transmission, volume) = (mat.transmission(), mat.volume());
-        if ior.is_none() && specular.is_none() && transmission.is_none() && volume.is_none() {
+        let clearcoat = mat.extension_value("KHR_materials_clearcoat");
+        if ior.is_none()
+            && specular.is_none()
+            && transmission.is_none()
+            && volume.is_none()
+            && clearcoat.is_none()
+        {
             return Ok(None);
         }
         let mut ext = GltfExtensions::default();
@@ -48,6 +55,9 @@ impl GltfReader<'_, '_> {
         }
         if let Some(v) = volume {
             (ext.thickness, ext.absorption) = self.volume(label, &v)?;
+        }
+        if let Some(c) = clearcoat {
+            (ext.clearcoat, ext.clearcoat_roughness) = self.clearcoat(label, c)?;
         }
         Ok(Some(Arc::new(ext)))
     }
@@ -99,6 +109,44 @@ impl GltfReader<'_, '_> {
             .to_array()
             .map(|c| -c.ln() / distance);
         Ok((thickness, Some(Vec3::from(sigma))))
+    }
+
+    /// KHR_materials_clearcoat's clearcoatFactor and clearcoatRoughnessFactor (default 0,
+    /// clamped to [0, 1] with a warning). Its textures (clearcoatTexture,
+    /// clearcoatRoughnessTexture, clearcoatNormalTexture) are not read: each warns and the
+    /// factors hold everywhere.
+    fn clearcoat(
+        &mut self,
+        label: &str,
+        json: &gltf::json::Value,
+    ) -> Result<(f32, f32), LoadError> {
+        let mut factor = |key: &str| -> Result<f32, LoadError> {
+            let value = match json.get(key) {
+                None => 0.0,
+                Some(v) => v.as_f64().map_or(f32::NAN, |x| x as f32),
+            };
+            let what = format!("KHR_materials_clearcoat {key}");
+            self.unit_factor(label, &what, value, 0.0)
+        };
+        let (c, r) = (
+            factor("clearcoatFactor")?,
+            factor("clearcoatRoughnessFactor")?,
+        );
+        for key in [
+            "clearcoatTexture",
+            "clearcoatRoughnessTexture",
+            "clearcoatNormalTexture",
+        ] {
+            if json.get(key).is_some() {
+                self.diag.warn(
+                    self.at(label.to_string()),
+                    format!(
+                        "KHR_materials_clearcoat {key} is not read; the coat's factors hold                          everywhere (bake the texture into the factor, or leave it out)"
+                    ),
+                )?;
+            }
+        }
+        Ok((c, r))
     }
 
     /// A texture's red channel × `factor` as a grey texture (transmissionTexture), read linear.

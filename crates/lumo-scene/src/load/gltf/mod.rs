@@ -33,6 +33,7 @@ use buffers::{load_buffers, uri_bytes};
 /// Extensions lumo reads; a file that requires any other one is refused.
 const SUPPORTED: &[&str] = &[
     "KHR_lights_punctual",
+    "KHR_materials_clearcoat",
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
     "KHR_materials_specular",
