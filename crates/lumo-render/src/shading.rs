@@ -124,7 +124,11 @@ impl ShadingBsdf {
             && match &self.bsdf {
                 Bsdf::Diffuse(_) => true,
                 Bsdf::Plastic(p) => p.mf.max_alpha() >= BROAD_COAT_ALPHA,
-                Bsdf::GltfPbr(g) => g.metallic == 0.0 && g.mf.max_alpha() >= BROAD_COAT_ALPHA,
+                Bsdf::GltfPbr(g) => {
+                    g.metallic == 0.0
+                        && g.transmission_weight() == 0.0
+                        && g.mf.max_alpha() >= BROAD_COAT_ALPHA
+                }
                 Bsdf::Mirror(_)
                 | Bsdf::Conductor(_)
                 | Bsdf::Dielectric(_)

@@ -159,17 +159,22 @@ impl BsdfSpec {
                 metallic_roughness,
                 metallic,
                 roughness,
+                extensions,
                 ..
             } => {
                 // A metallic-roughness texture varies both per texel: any lobe may be there.
                 let textured = metallic_roughness.is_some();
                 let smooth = roughness * roughness < SMOOTH_ALPHA;
+                let ext = extensions.as_deref();
+                // A clear coat adds a lobe of its own roughness.
+                let coat = ext.filter(|e| e.clearcoat > 0.0);
+                let coat_smooth = coat.map(|e| e.clearcoat_roughness.powi(2) < SMOOTH_ALPHA);
                 BsdfFlags {
                     reflection: true,
                     diffuse: textured || *metallic < 1.0,
-                    glossy: textured || !smooth,
-                    specular: textured || smooth,
-                    ..Default::default()
+                    glossy: textured || !smooth || coat_smooth == Some(false),
+                    specular: textured || smooth || coat_smooth == Some(true),
+                    transmission: ext.is_some_and(crate::GltfExtensions::transmits),
                 }
             }
             BsdfSpec::NormalMap { nested, .. } | BsdfSpec::BumpMap { nested, .. } => nested.flags(),

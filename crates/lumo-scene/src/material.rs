@@ -198,6 +198,8 @@ pub enum BsdfSpec {
         metallic: f32,
         /// roughnessFactor in [0, 1] (perceptual: GGX α is its square).
         roughness: f32,
+        /// What the material's KHR_materials_* extensions add; `None`: none used.
+        extensions: Option<Arc<crate::GltfExtensions>>,
     },
     /// An opacity cut-out (Mitsuba's `mask`): the nested BSDF with probability `opacity`,
     /// otherwise the ray passes straight through.

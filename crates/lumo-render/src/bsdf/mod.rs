@@ -122,11 +122,8 @@ impl Bsdf {
     pub(crate) fn is_transmissive(&self) -> bool {
         match self {
             Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => true,
-            Bsdf::Diffuse(_)
-            | Bsdf::Mirror(_)
-            | Bsdf::Conductor(_)
-            | Bsdf::Plastic(_)
-            | Bsdf::GltfPbr(_) => false,
+            Bsdf::GltfPbr(g) => g.transmission_weight() > 0.0,
+            Bsdf::Diffuse(_) | Bsdf::Mirror(_) | Bsdf::Conductor(_) | Bsdf::Plastic(_) => false,
         }
     }
 

@@ -227,16 +227,32 @@ impl RenderScene {
                 metallic_roughness,
                 metallic,
                 roughness,
+                extensions,
             } => {
                 // glTF reads roughness from the green channel and metalness from the blue one.
                 let mr = metallic_roughness
                     .as_ref()
                     .map_or(Vec3::ONE, |t| t.eval(surface.uv));
-                Bsdf::GltfPbr(GltfPbr::new(
+                let g = GltfPbr::new(
                     texture(base_color, surface.uv) * surface.color,
                     metallic * mr.z,
                     roughness * mr.y,
-                ))
+                );
+                Bsdf::GltfPbr(match extensions {
+                    None => g,
+                    Some(e) => g
+                        .with_specular(
+                            e.ior,
+                            e.specular.eval_1(surface.uv),
+                            texture(&e.specular_color, surface.uv),
+                        )
+                        .with_transmission(
+                            e.transmission.eval_1(surface.uv),
+                            e.thickness <= 0.0,
+                            e.ior,
+                        )
+                        .with_clearcoat(e.clearcoat, e.clearcoat_roughness),
+                })
             }
             // Adapters are unwrapped by `bsdf`; one reached here (nested in a way it does not
             // unwrap) stands for the BSDF it wraps. Two-branch BSDFs are split into materials

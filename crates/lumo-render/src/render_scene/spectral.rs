@@ -121,6 +121,11 @@ impl RenderScene {
             other @ Bsdf::ThinDielectric(_) => other,
             Bsdf::GltfPbr(g) => Bsdf::GltfPbr(GltfPbr {
                 base_color: base(g.base_color),
+                // A grey F0 (the common case) is the same at every wavelength.
+                dielectric_f0: match g.dielectric_f0 {
+                    f if f.min_element() == f.max_element() => f,
+                    f => reflectance(f, wl),
+                },
                 ..g
             }),
         };

@@ -98,6 +98,50 @@ fn test_bsdfs() -> Vec<(&'static str, Bsdf)> {
             Bsdf::GltfPbr(GltfPbr::new(Vec3::new(0.5, 0.5, 0.5), 0.5, 0.0)),
         ),
         (
+            "gltf-ior-specular-0.4",
+            Bsdf::GltfPbr(
+                GltfPbr::new(Vec3::new(0.6, 0.5, 0.4), 0.2, 0.4).with_specular(
+                    2.2,
+                    0.6,
+                    Vec3::new(1.0, 0.4, 0.2),
+                ),
+            ),
+        ),
+        (
+            "gltf-thin-transmission-0.4",
+            Bsdf::GltfPbr(
+                GltfPbr::new(Vec3::new(0.9, 0.7, 0.4), 0.2, 0.4)
+                    .with_specular(1.8, 0.8, Vec3::new(1.0, 0.7, 0.5))
+                    .with_transmission(0.7, true, 1.8),
+            ),
+        ),
+        (
+            "gltf-volume-transmission-0.5",
+            Bsdf::GltfPbr(
+                GltfPbr::new(Vec3::new(0.8, 0.9, 0.6), 0.1, 0.5).with_transmission(0.8, false, 1.5),
+            ),
+        ),
+        (
+            "gltf-smooth-thin-transmission",
+            Bsdf::GltfPbr(
+                GltfPbr::new(Vec3::new(0.6, 0.8, 0.9), 0.0, 0.0).with_transmission(0.5, true, 1.5),
+            ),
+        ),
+        (
+            "gltf-clearcoat-0.2-over-0.7",
+            Bsdf::GltfPbr(
+                GltfPbr::new(Vec3::new(0.7, 0.3, 0.2), 0.3, 0.7).with_clearcoat(0.8, 0.2),
+            ),
+        ),
+        (
+            "gltf-smooth-clearcoat-over-transmission",
+            Bsdf::GltfPbr(
+                GltfPbr::new(Vec3::new(0.9, 0.8, 0.7), 0.0, 0.4)
+                    .with_transmission(0.6, true, 1.5)
+                    .with_clearcoat(1.0, 0.0),
+            ),
+        ),
+        (
             "plastic-smooth",
             Bsdf::Plastic(Plastic {
                 diffuse: Vec3::new(0.5, 0.4, 0.3),
@@ -253,7 +297,7 @@ fn chi2_sampling_matches_pdf() {
         for (k, wo) in wos.iter().enumerate() {
             for wo in [
                 *wo,
-                if matches!(bsdf, Bsdf::Dielectric(_)) {
+                if matches!(bsdf, Bsdf::Dielectric(_)) || name.contains("transmission") {
                     -*wo
                 } else {
                     *wo

@@ -199,6 +199,7 @@ fn the_albedo_aov_follows_a_textured_metalness() {
         )),
         metallic: 1.0,
         roughness: 1.0,
+        extensions: None,
     };
     let rs = RenderScene::new(scene).unwrap();
     let settings = RenderSettings {

@@ -2,6 +2,7 @@
 //! crate again: minutes of a fresh build). Each module is one topic.
 mod common;
 mod gltf;
+mod gltf_extensions;
 mod hostile_input;
 mod in_memory;
 mod media;

@@ -50,7 +50,7 @@ impl GltfReader<'_, '_> {
 
     /// The base colour texture's alpha channel through `opacity`, as a grey bitmap looked up
     /// like the base colour (same transform); `None` where the image has no alpha.
-    fn alpha_bitmap(
+    pub(super) fn alpha_bitmap(
         &mut self,
         info: &gltf::texture::Info,
         opacity: &dyn Fn(f32) -> f32,

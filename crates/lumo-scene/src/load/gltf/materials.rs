@@ -91,13 +91,22 @@ impl GltfReader<'_, '_> {
                 emission_map = Some(Arc::new(map));
             }
         }
-        let mut bsdf = BsdfSpec::GltfPbr {
-            base_color: base,
-            metallic_roughness,
-            metallic,
-            roughness,
+        let unlit = mat.unlit();
+        let mut bsdf = if unlit {
+            (emission, emission_map) = extensions::unlit_emission(base);
+            BsdfSpec::Diffuse {
+                reflectance: Texture::Constant(Vec3::ZERO),
+            }
+        } else {
+            BsdfSpec::GltfPbr {
+                base_color: base,
+                metallic_roughness,
+                metallic,
+                roughness,
+                extensions: self.extensions(&label, &mat)?,
+            }
         };
-        if let Some(normal) = mat.normal_texture() {
+        if let Some(normal) = mat.normal_texture().filter(|_| !unlit) {
             bsdf = BsdfSpec::NormalMap {
                 normals: self.normal_texture(&label, &normal)?,
                 nested: Box::new(bsdf),
@@ -170,7 +179,7 @@ impl GltfReader<'_, '_> {
 
     /// The bitmap of `texture` (decoded once per image and colour space), its texels passed
     /// through `pixel` where given.
-    fn bitmap(
+    pub(super) fn bitmap(
         &mut self,
         texture: gltf::Texture,
         tex_coord: u32,

@@ -4,6 +4,7 @@
 
 mod alpha;
 mod buffers;
+mod extensions;
 mod materials;
 
 use std::collections::HashMap;
@@ -32,7 +33,13 @@ use buffers::{load_buffers, uri_bytes};
 /// Extensions lumo reads; a file that requires any other one is refused.
 const SUPPORTED: &[&str] = &[
     "KHR_lights_punctual",
+    "KHR_materials_clearcoat",
     "KHR_materials_emissive_strength",
+    "KHR_materials_ior",
+    "KHR_materials_specular",
+    "KHR_materials_transmission",
+    "KHR_materials_unlit",
+    "KHR_materials_volume",
     "KHR_texture_transform",
 ];
 
@@ -108,6 +115,11 @@ fn load_unguarded(
             ));
         }
     }
+    // The gltf crate's validation refuses required extensions it has no reader for, some of
+    // which lumo reads from the JSON itself (KHR_materials_specular): lumo has checked them.
+    let mut root = root;
+    root.extensions_required
+        .retain(|e| gltf::json::extensions::ENABLED_EXTENSIONS.contains(&e.as_str()));
     let document = gltf::Document::from_json(root).map_err(invalid)?;
     let doc = &document;
     for ext in doc.extensions_used() {
@@ -177,6 +189,7 @@ fn load_unguarded(
         ));
     }
     let mut scene = r.scene;
+    extensions::attach_volume_media(&mut scene);
     if chosen.is_none() {
         let (lo, hi) = scene.bounds();
         scene.camera = defaults::framing_camera(lo, hi);

@@ -1,0 +1,241 @@
+//! A glTF material's KHR_materials_ior, KHR_materials_specular, KHR_materials_transmission
+//! and KHR_materials_volume as lumo's [`GltfExtensions`], the absorbing media of volumes, and
+//! KHR_materials_unlit's emission. KHR_materials_clearcoat, which the `gltf` crate does not
+//! parse, is read from the material's extension JSON.
+
+use super::*;
+use crate::media::{Density, MediumSpectra};
+use crate::{Boundary, GltfExtensions, Medium, MediumInterface, PhaseFunction};
+
+impl GltfReader<'_, '_> {
+    /// The extensions `mat` uses that change its BSDF; `None` where it uses none.
+    pub(super) fn extensions(
+        &mut self,
+        label: &str,
+        mat: &gltf::Material,
+    ) -> Result<Option<Arc<GltfExtensions>>, LoadError> {
+        let (ior, specular) = (mat.ior(), mat.specular());
+        let (transmission, volume) = (mat.transmission(), mat.volume());
+        let clearcoat = mat.extension_value("KHR_materials_clearcoat");
+        if ior.is_none()
+            && specular.is_none()
+            && transmission.is_none()
+            && volume.is_none()
+            && clearcoat.is_none()
+        {
+            return Ok(None);
+        }
+        let mut ext = GltfExtensions::default();
+        if let Some(ior) = ior {
+            ext.ior = self.ior(label, ior)?;
+        }
+        if let Some(s) = specular {
+            let what = "KHR_materials_specular specularFactor";
+            let factor = self.unit_factor(label, what, s.specular_factor(), 1.0)?;
+            // The weight is the texture's alpha channel (an image without one reads as 1).
+            let texture = match s.specular_texture() {
+                Some(info) => self.alpha_bitmap(&info, &|a| a * factor)?,
+                None => None,
+            };
+            ext.specular = texture.unwrap_or(Texture::Constant(Vec3::splat(factor)));
+            let what = "KHR_materials_specular specularColorFactor";
+            let color = self.non_negative(label, what, Vec3::from(s.specular_color_factor()))?;
+            ext.specular_color = match s.specular_color_texture() {
+                Some(info) => self.texture(&info, false, color)?,
+                None => Texture::Constant(color),
+            };
+        }
+        if let Some(t) = transmission {
+            let what = "KHR_materials_transmission transmissionFactor";
+            let factor = self.unit_factor(label, what, t.transmission_factor(), 0.0)?;
+            ext.transmission = match t.transmission_texture() {
+                Some(info) if factor > 0.0 => self.red_channel(&info, factor)?,
+                _ => Texture::Constant(Vec3::splat(factor)),
+            };
+        }
+        if let Some(v) = volume {
+            (ext.thickness, ext.absorption) = self.volume(label, &v)?;
+        }
+        if let Some(c) = clearcoat {
+            (ext.clearcoat, ext.clearcoat_roughness) = self.clearcoat(label, c)?;
+        }
+        Ok(Some(Arc::new(ext)))
+    }
+
+    /// KHR_materials_volume: the thickness factor and the absorption coefficient σ_a =
+    /// −ln(attenuationColor) / attenuationDistance (`None` for an infinite distance or a
+    /// white colour). The thickness texture is not read: a path tracer follows the mesh's
+    /// own thickness.
+    fn volume(
+        &mut self,
+        label: &str,
+        v: &gltf::material::Volume,
+    ) -> Result<(f32, Option<Vec3>), LoadError> {
+        let mut thickness = v.thickness_factor();
+        if !(thickness >= 0.0 && thickness.is_finite()) {
+            self.diag.warn(
+                self.at(label.to_string()),
+                format!(
+                    "KHR_materials_volume thicknessFactor {thickness} is not a length ≥ 0; read                      as 0 (thin-walled)"
+                ),
+            )?;
+            thickness = 0.0;
+        }
+        let distance = v.attenuation_distance();
+        let what = "KHR_materials_volume attenuationColor";
+        let color = self.non_negative(label, what, Vec3::from(v.attenuation_color()))?;
+        if distance.is_nan() || distance <= 0.0 {
+            self.diag.warn(
+                self.at(label.to_string()),
+                format!(
+                    "KHR_materials_volume attenuationDistance {distance} is not a length > 0;                      nothing is absorbed (write a positive distance, or leave it out for none)"
+                ),
+            )?;
+            return Ok((thickness, None));
+        }
+        if distance.is_infinite() || color.min_element() >= 1.0 {
+            return Ok((thickness, None));
+        }
+        if color.min_element() <= 0.0 {
+            self.diag.warn(
+                self.at(label.to_string()),
+                format!(
+                    "KHR_materials_volume attenuationColor {color} has a zero channel, which                      would absorb everything at once; read as 1e-6"
+                ),
+            )?;
+        }
+        let sigma = color
+            .clamp(Vec3::splat(1e-6), Vec3::ONE)
+            .to_array()
+            .map(|c| -c.ln() / distance);
+        Ok((thickness, Some(Vec3::from(sigma))))
+    }
+
+    /// KHR_materials_clearcoat's clearcoatFactor and clearcoatRoughnessFactor (default 0,
+    /// clamped to [0, 1] with a warning). Its textures (clearcoatTexture,
+    /// clearcoatRoughnessTexture, clearcoatNormalTexture) are not read: each warns and the
+    /// factors hold everywhere.
+    fn clearcoat(
+        &mut self,
+        label: &str,
+        json: &gltf::json::Value,
+    ) -> Result<(f32, f32), LoadError> {
+        let mut factor = |key: &str| -> Result<f32, LoadError> {
+            let value = match json.get(key) {
+                None => 0.0,
+                Some(v) => v.as_f64().map_or(f32::NAN, |x| x as f32),
+            };
+            let what = format!("KHR_materials_clearcoat {key}");
+            self.unit_factor(label, &what, value, 0.0)
+        };
+        let (c, r) = (
+            factor("clearcoatFactor")?,
+            factor("clearcoatRoughnessFactor")?,
+        );
+        for key in [
+            "clearcoatTexture",
+            "clearcoatRoughnessTexture",
+            "clearcoatNormalTexture",
+        ] {
+            if json.get(key).is_some() {
+                self.diag.warn(
+                    self.at(label.to_string()),
+                    format!(
+                        "KHR_materials_clearcoat {key} is not read; the coat's factors hold                          everywhere (bake the texture into the factor, or leave it out)"
+                    ),
+                )?;
+            }
+        }
+        Ok((c, r))
+    }
+
+    /// A texture's red channel × `factor` as a grey texture (transmissionTexture), read linear.
+    fn red_channel(
+        &mut self,
+        info: &gltf::texture::Info,
+        factor: f32,
+    ) -> Result<Texture, LoadError> {
+        let red = move |c: Vec3| Vec3::splat(c.x * factor);
+        let transform = info.texture_transform();
+        let tex_coord = transform
+            .as_ref()
+            .and_then(|t| t.tex_coord())
+            .unwrap_or(info.tex_coord());
+        let texture = self.bitmap(info.texture(), tex_coord, true, Some(&red))?;
+        Ok(match transform {
+            None => texture,
+            Some(t) => materials::transformed(texture, &t),
+        })
+    }
+
+    /// KHR_materials_ior's `ior`: 1 or more, or 0 (a perfect reflector); anything else warns
+    /// and reads as the default 1.5.
+    fn ior(&mut self, label: &str, ior: f32) -> Result<f32, LoadError> {
+        if ior >= 1.0 || ior == 0.0 {
+            return Ok(ior);
+        }
+        self.diag.warn(
+            self.at(label.to_string()),
+            format!(
+                "KHR_materials_ior ior {ior} is not an index of refraction; using the default \
+                 1.5 (write a number ≥ 1, or 0 for a perfect reflector)"
+            ),
+        )?;
+        Ok(1.5)
+    }
+}
+
+/// Gives every mesh whose glTF material is a volume (thickness > 0) that absorbs a
+/// homogeneous, purely absorbing medium inside it (one medium per material), vacuum outside.
+pub(super) fn attach_volume_media(scene: &mut Scene) {
+    let mut medium_of = HashMap::new();
+    for (i, material) in scene.materials.iter().enumerate() {
+        let BsdfSpec::GltfPbr {
+            extensions: Some(e),
+            ..
+        } = material.bsdf.innermost()
+        else {
+            continue;
+        };
+        let Some(sigma_a) = e.absorption.filter(|_| e.thickness > 0.0 && e.transmits()) else {
+            continue;
+        };
+        medium_of.insert(i, scene.media.media.len());
+        scene.media.media.push(Medium {
+            name: format!("{} (KHR_materials_volume)", material.name),
+            sigma_t: sigma_a,
+            albedo: Vec3::ZERO,
+            density: Density::Homogeneous,
+            phase: PhaseFunction::Isotropic,
+            spectra: MediumSpectra {
+                sigma_t_scale: 1.0,
+                ..Default::default()
+            },
+        });
+    }
+    for m in 0..scene.meshes.len() {
+        if let Some(&medium) = medium_of.get(&scene.meshes[m].material) {
+            let interface = MediumInterface {
+                interior: Some(medium),
+                exterior: None,
+            };
+            scene.media.set_boundary(
+                m,
+                Boundary {
+                    null: false,
+                    interface: Some(interface),
+                },
+            );
+        }
+    }
+}
+
+/// KHR_materials_unlit: the base colour (texture × factor) shown as it is, i.e. emitted as
+/// radiance over a black BSDF — (mean, per-texel map where textured). Blender's importer
+/// likewise makes unlit materials emit their colour.
+pub(super) fn unlit_emission(base: Texture) -> (Vec3, Option<Arc<Texture>>) {
+    match base {
+        Texture::Constant(c) => (c, None),
+        textured => (textured.average(), Some(Arc::new(textured))),
+    }
+}
