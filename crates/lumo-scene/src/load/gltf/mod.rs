@@ -5,12 +5,14 @@
 mod alpha;
 mod buffers;
 mod materials;
+mod morph_anim;
+mod skin;
 
 use std::collections::HashMap;
 use std::path::Path;
 use std::sync::Arc;
 
-use glam::{Affine2, Mat2, Mat4, Quat, Vec2, Vec3, Vec4};
+use glam::{Affine2, Mat2, Quat, Vec2, Vec3, Vec4};
 use gltf::accessor::{DataType, Dimensions};
 
 use super::check::{check_emission, check_light, check_mesh};
@@ -24,8 +26,7 @@ use crate::animation::{
     NodeItem,
 };
 use crate::{
-    BsdfSpec, Camera, FovAxis, Instance, Lens, Light, Material, Mesh, Scene, Texture,
-    TextureFilter, WrapMode,
+    BsdfSpec, Camera, FovAxis, Lens, Light, Material, Mesh, Scene, Texture, TextureFilter, WrapMode,
 };
 use buffers::{load_buffers, uri_bytes};
 
@@ -130,6 +131,7 @@ fn load_unguarded(
         rig: AnimatedScene::default(),
         cameras: Vec::new(),
         node_index: HashMap::new(),
+        deform: Default::default(),
     };
     let gscene = doc
         .default_scene()
@@ -139,6 +141,7 @@ fn load_unguarded(
     for node in gscene.nodes() {
         r.node(&node, None, 0)?;
     }
+    r.deformers(doc)?;
     r.animations(doc)?;
     let has_anim = !r.rig.animations.is_empty();
     if options.time.is_some() && !has_anim {
@@ -207,6 +210,8 @@ struct GltfReader<'p, 'd> {
     cameras: Vec<(usize, usize)>,
     /// Rig node of each glTF node.
     node_index: HashMap<usize, usize>,
+    /// Skins and morph targets waiting to become deformers.
+    deform: skin::DeformState,
 }
 
 /// Most mesh primitives the nodes of one glTF file may place (each becomes an instance of
@@ -325,15 +330,7 @@ impl GltfReader<'_, '_> {
         self.node_index.insert(node.index(), me);
         if let Some(mesh) = node.mesh() {
             let meshes = self.mesh(&mesh)?;
-            for m in meshes {
-                self.scene.instances.push(Instance {
-                    mesh: m,
-                    transform: Mat4::IDENTITY,
-                });
-                self.rig
-                    .items
-                    .push((me, NodeItem::Instance(self.scene.instances.len() - 1)));
-            }
+            self.place_mesh(node, &mesh, me, meshes)?;
         }
         if let Some(camera) = node.camera() {
             self.cameras.push((me, camera.index()));
@@ -353,6 +350,26 @@ impl GltfReader<'_, '_> {
 
     /// Refuses accessors lumo cannot read safely: sparse, wrong type, or beyond their buffer.
     fn check_accessor(
+        &self,
+        acc: &gltf::Accessor,
+        dims: &[Dimensions],
+        what: &str,
+    ) -> Result<(), LoadError> {
+        self.check_layout(acc, dims, what)?;
+        if acc.data_type() != DataType::F32 && dims != [Dimensions::Scalar] && !acc.normalized() {
+            return Err(LoadError::invalid(
+                self.at(format!("accessor {} ({what})", acc.index())),
+                format!(
+                    "component type {:?} is not float or normalised",
+                    acc.data_type()
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// [`Self::check_accessor`] without the component type check (for integer attributes).
+    fn check_layout(
         &self,
         acc: &gltf::Accessor,
         dims: &[Dimensions],
@@ -410,15 +427,6 @@ impl GltfReader<'_, '_> {
                     view.offset(),
                     view.offset() as u128 + view.length() as u128,
                     view.buffer().index()
-                ),
-            ));
-        }
-        if acc.data_type() != DataType::F32 && dims != [Dimensions::Scalar] && !acc.normalized() {
-            return Err(LoadError::invalid(
-                at,
-                format!(
-                    "component type {:?} is not float or normalised",
-                    acc.data_type()
                 ),
             ));
         }
@@ -551,8 +559,9 @@ impl GltfReader<'_, '_> {
                     ));
                 }
             }
-            check_mesh(&mut m, &self.at(label), self.diag)?;
+            check_mesh(&mut m, &self.at(label.clone()), self.diag)?;
             self.scene.meshes.push(m);
+            self.read_deform(mesh, &prim, &label, self.scene.meshes.len() - 1)?;
             out.push(self.scene.meshes.len() - 1);
         }
         self.mesh_map.insert(mesh.index(), out.clone());
@@ -722,6 +731,7 @@ impl GltfReader<'_, '_> {
     fn animations(&mut self, doc: &gltf::Document) -> Result<(), LoadError> {
         for anim in doc.animations() {
             let mut channels = Vec::new();
+            let mut weights = Vec::new();
             for ch in anim.channels() {
                 let label = format!("animation {} channel {}", anim.index(), ch.index());
                 let Some(&node) = self.node_index.get(&ch.target().node().index()) else {
@@ -732,10 +742,9 @@ impl GltfReader<'_, '_> {
                     gltf::animation::Property::Rotation => AnimatedProperty::Rotation,
                     gltf::animation::Property::Scale => AnimatedProperty::Scale,
                     gltf::animation::Property::MorphTargetWeights => {
-                        self.diag.warn(
-                            self.at(label),
-                            "morph target animation is not supported; ignored",
-                        )?;
+                        if let Some(c) = self.weights_channel(&ch, node, &label)? {
+                            weights.push(c);
+                        }
                         continue;
                     }
                 };
@@ -832,6 +841,7 @@ impl GltfReader<'_, '_> {
                     .name()
                     .map_or_else(|| format!("animation {}", anim.index()), str::to_string),
                 channels,
+                weights,
             });
         }
         Ok(())
