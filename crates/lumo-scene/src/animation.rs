@@ -395,6 +395,36 @@ mod tests {
     }
 
     #[test]
+    fn weights_interpolate_per_target_like_the_transform_channels() {
+        let c = |interpolation, values: Vec<f32>| WeightsChannel {
+            node: 0,
+            interpolation,
+            times: vec![0.0, 2.0],
+            count: 2,
+            values,
+        };
+        let linear = c(Interpolation::Linear, vec![0.0, 1.0, 1.0, 3.0]);
+        assert_eq!(sample_weights(&linear, 0.5), Some(vec![0.25, 1.5]));
+        assert_eq!(sample_weights(&linear, 9.0), Some(vec![1.0, 3.0]));
+        let step = c(Interpolation::Step, vec![0.0, 1.0, 1.0, 3.0]);
+        assert_eq!(sample_weights(&step, 1.9), Some(vec![0.0, 1.0]));
+        // Per key: in-tangents, values, out-tangents; zero tangents give smoothstep.
+        let mut values = vec![0.0; 12];
+        values[8..10].copy_from_slice(&[1.0, 2.0]);
+        let cubic = c(Interpolation::CubicSpline, values);
+        let w = sample_weights(&cubic, 0.5).unwrap();
+        assert!(
+            (w[0] - 0.15625).abs() < 1e-6 && (w[1] - 0.3125).abs() < 1e-6,
+            "{w:?}"
+        );
+        // A wrong value count samples nothing rather than reading out of range.
+        assert_eq!(
+            sample_weights(&c(Interpolation::Linear, vec![0.0; 3]), 1.0),
+            None
+        );
+    }
+
+    #[test]
     fn parent_transforms_compose() {
         let scene = AnimatedScene {
             nodes: vec![

@@ -9,5 +9,6 @@ mod meshes;
 mod mitsuba;
 mod mutated;
 mod robustness;
+mod skins;
 mod unbounded;
 mod wrong_output;
