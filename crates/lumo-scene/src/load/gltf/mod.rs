@@ -3,6 +3,7 @@
 //! `KHR_materials_emissive_strength`, `KHR_texture_transform` and node animations.
 
 mod alpha;
+mod attributes;
 mod buffers;
 mod materials;
 mod morph_anim;
@@ -34,6 +35,7 @@ use buffers::{load_buffers, uri_bytes};
 const SUPPORTED: &[&str] = &[
     "KHR_lights_punctual",
     "KHR_materials_emissive_strength",
+    "KHR_mesh_quantization",
     "KHR_texture_transform",
 ];
 
@@ -95,7 +97,7 @@ fn load_unguarded(
     // Parse, check every index, and only then let the gltf crate validate (see gltf_refs).
     let gltf = gltf::Gltf::from_slice_without_validation(&bytes).map_err(invalid)?;
     let blob = gltf.blob;
-    let root = gltf.document.into_json();
+    let mut root = gltf.document.into_json();
     check_references(path, &root)?;
     // Before the gltf crate's validation, which refuses these with its own terser message.
     for ext in &root.extensions_required {
@@ -109,6 +111,10 @@ fn load_unguarded(
             ));
         }
     }
+    // lumo reads quantized attributes itself (attributes.rs); the gltf crate knows nothing of
+    // the extension and would refuse it as required.
+    root.extensions_required
+        .retain(|e| e != "KHR_mesh_quantization");
     let document = gltf::Document::from_json(root).map_err(invalid)?;
     let doc = &document;
     for ext in doc.extensions_used() {
@@ -132,6 +138,7 @@ fn load_unguarded(
         cameras: Vec::new(),
         node_index: HashMap::new(),
         deform: Default::default(),
+        uv_set: 0,
     };
     let gscene = doc
         .default_scene()
@@ -212,6 +219,8 @@ struct GltfReader<'p, 'd> {
     node_index: HashMap<usize, usize>,
     /// Skins and morph targets waiting to become deformers.
     deform: skin::DeformState,
+    /// The TEXCOORD set of the material being read (see attributes::uv_set).
+    uv_set: u32,
 }
 
 /// Most mesh primitives the nodes of one glTF file may place (each becomes an instance of
@@ -457,12 +466,23 @@ impl GltfReader<'_, '_> {
             let pos_acc = prim.get(&gltf::Semantic::Positions).ok_or_else(|| {
                 LoadError::invalid(self.at(label.clone()), "has no POSITION attribute")
             })?;
-            self.check_accessor(&pos_acc, &[Dimensions::Vec3], "POSITION")?;
-            if let Some(a) = prim.get(&gltf::Semantic::Normals) {
-                self.check_accessor(&a, &[Dimensions::Vec3], "NORMAL")?;
+            use attributes::Quantized;
+            self.check_attribute(
+                &pos_acc,
+                Dimensions::Vec3,
+                "POSITION",
+                Quantized::AnyInteger,
+            )?;
+            let normal_acc = prim.get(&gltf::Semantic::Normals);
+            if let Some(a) = &normal_acc {
+                self.check_attribute(a, Dimensions::Vec3, "NORMAL", Quantized::SignedNormalized)?;
             }
-            if let Some(a) = prim.get(&gltf::Semantic::TexCoords(0)) {
-                self.check_accessor(&a, &[Dimensions::Vec2], "TEXCOORD_0")?;
+            // The one uv set a lumo mesh keeps: the one the material's textures read.
+            let set = attributes::uv_set(&prim.material());
+            let texcoord = format!("TEXCOORD_{set}");
+            let uv_acc = prim.get(&gltf::Semantic::TexCoords(set));
+            if let Some(a) = &uv_acc {
+                self.check_attribute(a, Dimensions::Vec2, &texcoord, Quantized::AnyInteger)?;
             }
             if let Some(a) = prim.indices() {
                 // The type first: a float accessor is wrong whatever its view holds.
@@ -479,18 +499,27 @@ impl GltfReader<'_, '_> {
             }
             let buffers = &self.buffers;
             let reader = prim.reader(|b| buffers.get(b.index()).map(Vec::as_slice));
-            let positions: Vec<Vec3> = reader
-                .read_positions()
-                .map(|it| it.map(Vec3::from).collect())
-                .unwrap_or_default();
-            let normals: Vec<Vec3> = reader
-                .read_normals()
-                .map(|it| it.map(Vec3::from).collect())
-                .unwrap_or_default();
-            let uvs: Vec<Vec2> = reader
-                .read_tex_coords(0)
-                .map(|it| it.into_f32().map(Vec2::from).collect())
-                .unwrap_or_default();
+            let positions: Vec<Vec3> = self
+                .read_floats::<3>(&pos_acc)?
+                .into_iter()
+                .map(Vec3::from)
+                .collect();
+            let normals: Vec<Vec3> = match &normal_acc {
+                Some(a) => self
+                    .read_floats::<3>(a)?
+                    .into_iter()
+                    .map(Vec3::from)
+                    .collect(),
+                None => Vec::new(),
+            };
+            let uvs: Vec<Vec2> = match &uv_acc {
+                Some(a) => self
+                    .read_floats::<2>(a)?
+                    .into_iter()
+                    .map(Vec2::from)
+                    .collect(),
+                None => Vec::new(),
+            };
             // COLOR_0 multiplies the base colour (alpha is not modelled).
             let colors: Vec<Vec3> = reader
                 .read_colors(0)
@@ -518,7 +547,7 @@ impl GltfReader<'_, '_> {
                     .collect(),
             };
             let material = self.material(prim.material())?;
-            // A base-colour texture needs texture coordinates to vary: without TEXCOORD_0 every
+            // A base-colour texture needs texture coordinates to vary: without them every
             // point reads the texel at (0, 0).
             let textured = prim
                 .material()
@@ -528,8 +557,10 @@ impl GltfReader<'_, '_> {
             if textured && uvs.is_empty() {
                 self.diag.warn(
                     self.at(label.clone()),
-                    "its material has a base-colour texture but the primitive has no TEXCOORD_0; \
-                     every point takes the texel at (0, 0)",
+                    format!(
+                        "its material has a base-colour texture but the primitive has no \
+                         {texcoord}; every point takes the texel at (0, 0)"
+                    ),
                 )?;
             }
             let mut m = Mesh {
@@ -546,7 +577,7 @@ impl GltfReader<'_, '_> {
             };
             for (attr, len) in [
                 ("NORMAL", m.normals.len()),
-                ("TEXCOORD_0", m.uvs.len()),
+                (texcoord.as_str(), m.uvs.len()),
                 ("COLOR_0", m.colors.len()),
             ] {
                 if len != 0 && len != m.positions.len() {

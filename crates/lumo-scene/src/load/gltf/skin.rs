@@ -83,31 +83,47 @@ impl GltfReader<'_, '_> {
                 self.deform.targets.insert(gmesh.index(), count);
             }
         }
+        let mut positions = Vec::with_capacity(count);
+        let mut normals = Vec::with_capacity(count);
         for (k, t) in prim.morph_targets().enumerate() {
-            for (acc, what) in [(t.positions(), "POSITION"), (t.normals(), "NORMAL")] {
-                let Some(acc) = acc else { continue };
+            use super::attributes::Quantized;
+            for (acc, what, kind, out) in [
+                (
+                    t.positions(),
+                    "POSITION",
+                    Quantized::AnyInteger,
+                    &mut positions,
+                ),
+                (
+                    t.normals(),
+                    "NORMAL",
+                    Quantized::SignedNormalized,
+                    &mut normals,
+                ),
+            ] {
+                let Some(acc) = acc else {
+                    out.push(Vec::new());
+                    continue;
+                };
                 let what = format!("morph target {k} {what}");
-                self.check_accessor(&acc, &[Dimensions::Vec3], &what)?;
-                if acc.data_type() != DataType::F32 || acc.count() != n {
+                self.check_attribute(&acc, Dimensions::Vec3, &what, kind)?;
+                if acc.count() != n {
                     return Err(LoadError::invalid(
                         self.at(format!("{label} {what}")),
                         format!(
-                            "has {} {:?} displacements; lumo needs one float VEC3 per vertex \
-                             ({n})",
-                            acc.count(),
-                            acc.data_type()
+                            "has {} displacements but POSITION has {n} vertices; give one per \
+                             vertex",
+                            acc.count()
                         ),
                     ));
                 }
+                out.push(
+                    self.read_floats::<3>(&acc)?
+                        .into_iter()
+                        .map(Vec3::from)
+                        .collect(),
+                );
             }
-        }
-        let buffers = &self.buffers;
-        let reader = prim.reader(|b| buffers.get(b.index()).map(Vec::as_slice));
-        let mut positions = Vec::with_capacity(count);
-        let mut normals = Vec::with_capacity(count);
-        for (p, nrm, _tangents) in reader.read_morph_targets() {
-            positions.push(p.map_or_else(Vec::new, |it| it.map(Vec3::from).collect()));
-            normals.push(nrm.map_or_else(Vec::new, |it| it.map(Vec3::from).collect()));
         }
         let bad = positions
             .iter()
