@@ -1,5 +1,6 @@
 //! The lumo-scene integration tests, one test program (each separate program would link the whole
 //! crate again: minutes of a fresh build). Each module is one topic.
+mod attributes;
 mod common;
 mod gltf;
 mod hostile_input;
