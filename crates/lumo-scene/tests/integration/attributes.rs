@@ -144,3 +144,35 @@ fn quantized_attributes_are_dequantized() {
         "{e}"
     );
 }
+
+/// COLOR_0 alpha below 1 under MASK or BLEND is warned about (lumo's opacity cannot vary per
+/// vertex), not silently dropped; under OPAQUE glTF ignores alpha, so nothing is said.
+#[test]
+fn vertex_alpha_under_blend_is_warned_about() {
+    let dir = temp_dir("vertex-alpha");
+    let write = |name: &str, mode: &str| {
+        let mut b = Builder::default();
+        let pos = b.floats(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], "VEC3");
+        let colors = b.floats(
+            &[1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.5, 1.0, 1.0, 1.0, 1.0],
+            "VEC4",
+        );
+        let rest = format!(
+            r#""scenes": [{{"nodes": [0]}}], "nodes": [{{"mesh": 0}}],
+            "meshes": [{{"primitives": [{{"attributes": {{"POSITION": {pos}, "COLOR_0": {colors}}},
+                       "material": 0}}]}}],
+            "materials": [{{"alphaMode": "{mode}"}}]"#
+        );
+        load(&b.write(&dir, name, &rest)).unwrap()
+    };
+    let l = write("blend.gltf", "BLEND");
+    let w: Vec<String> = l.warnings.iter().map(|w| w.to_string()).collect();
+    assert!(
+        w.iter().any(
+            |w| w.contains("blend.gltf") && w.contains("1 vertices have COLOR_0 alpha below 1")
+        ),
+        "{w:?}"
+    );
+    let l = write("opaque.gltf", "OPAQUE");
+    assert!(l.warnings.is_empty(), "{:?}", l.warnings);
+}

@@ -547,6 +547,7 @@ impl GltfReader<'_, '_> {
                     .collect(),
             };
             let material = self.material(prim.material())?;
+            self.warn_vertex_alpha(&prim, &label)?;
             // A base-colour texture needs texture coordinates to vary: without them every
             // point reads the texel at (0, 0).
             let textured = prim
