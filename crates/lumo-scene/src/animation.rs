@@ -254,9 +254,9 @@ impl AnimatedScene {
         self.animations
             .iter()
             .flat_map(|a| &a.weights)
+            .rev()
             .filter(|c| c.node == node)
-            .filter_map(|c| sample_weights(c, t))
-            .last()
+            .find_map(|c| sample_weights(c, t))
     }
 }
 

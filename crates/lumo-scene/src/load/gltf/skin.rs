@@ -337,11 +337,14 @@ impl GltfReader<'_, '_> {
             let skin = match node.skin() {
                 None => None,
                 Some(s) => {
-                    if !skins.contains_key(&s.index()) {
-                        let joints = self.skin_joints(&s)?;
-                        skins.insert(s.index(), joints);
-                    }
-                    let (joints, inverse_bind) = skins[&s.index()].clone();
+                    let (joints, inverse_bind) = match skins.get(&s.index()) {
+                        Some(j) => j.clone(),
+                        None => {
+                            let j = self.skin_joints(&s)?;
+                            skins.insert(s.index(), j.clone());
+                            j
+                        }
+                    };
                     Some(self.skin(&node, joints, inverse_bind, data.as_ref(), &p)?)
                 }
             };
