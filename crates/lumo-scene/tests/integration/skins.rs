@@ -24,6 +24,8 @@ struct Bar {
     weights: Option<Vec<f32>>,
     inverse_bind: Vec<f32>,
     skin_joints: &'static str,
+    /// A second influence set (JOINTS_1, WEIGHTS_1).
+    second: Option<(Vec<u16>, Vec<f32>)>,
 }
 
 impl Default for Bar {
@@ -44,6 +46,7 @@ impl Default for Bar {
             weights: Some(weights),
             inverse_bind,
             skin_joints: "[1, 2]",
+            second: None,
         }
     }
 }
@@ -63,6 +66,13 @@ fn bar(dir: &Path, name: &str, bar: Bar) -> PathBuf {
         .map(|w| format!(r#", "WEIGHTS_0": {}"#, b.floats(&w, "VEC4")))
         .unwrap_or_default();
     let ibm = b.floats(&bar.inverse_bind, "MAT4");
+    let second = bar
+        .second
+        .map(|(j, w)| {
+            let (j, w) = (b.u16s(&j, "VEC4"), b.floats(&w, "VEC4"));
+            format!(r#", "JOINTS_1": {j}, "WEIGHTS_1": {w}"#)
+        })
+        .unwrap_or_default();
     let times = b.floats(&[0.0, 1.0], "SCALAR");
     let s = std::f32::consts::FRAC_1_SQRT_2;
     let turns = b.floats(&[0.0, 0.0, 0.0, 1.0, 0.0, s, 0.0, s], "VEC4");
@@ -71,7 +81,7 @@ fn bar(dir: &Path, name: &str, bar: Bar) -> PathBuf {
         "nodes": [{{"mesh": 0, "skin": 0, "translation": [5, 5, 5]}}, {{"children": [2]}},
                   {{"translation": [0.5, 0, 0]}}, {{"name": "elsewhere"}}],
         "meshes": [{{"primitives": [{{"attributes": {{"POSITION": {pos}, "NORMAL": {nrm},
-                   "JOINTS_0": {joints}{weights}}}, "indices": {idx}}}]}}],
+                   "JOINTS_0": {joints}{weights}{second}}}, "indices": {idx}}}]}}],
         "skins": [{{"joints": {}, "inverseBindMatrices": {ibm}}}],
         "animations": [{{"samplers": [{{"input": {times}, "output": {turns}}}],
                          "channels": [{{"sampler": 0, "target": {{"node": 2, "path": "rotation"}}}}]}}]"#,
@@ -137,6 +147,27 @@ fn a_two_joint_bend_matches_hand_computed_blend_skinning() {
     let posed = load_scene(&path, &options).unwrap().scene;
     let p = posed.meshes[posed.instances[0].mesh].positions[4];
     assert!(close(p, Vec3::new(0.5, -0.1, -1.5)), "{p}");
+}
+
+/// A second influence set counts as four more influences: column 1's two joints split across
+/// JOINTS_0 and JOINTS_1 bend it as one set did.
+#[test]
+fn a_second_joints_set_adds_influences() {
+    let dir = temp_dir("skin-second");
+    let mut b = Bar::default();
+    let (mut j1, mut w1) = (vec![0; 24], vec![0.0; 24]);
+    for v in [2, 3] {
+        b.weights.as_mut().unwrap()[4 * v + 1] = 0.0;
+        j1[4 * v] = 1;
+        w1[4 * v] = 1.0;
+    }
+    b.second = Some((j1, w1));
+    let loaded = load(&bar(&dir, "second.gltf", b)).unwrap();
+    assert!(loaded.warnings.is_empty(), "{:?}", loaded.warnings);
+    let mut scene = loaded.scene;
+    loaded.animation.unwrap().pose(&mut scene, Some(1.0));
+    let p = scene.meshes[0].positions[3];
+    assert!(close(p, Vec3::new(0.75, 0.1, -0.25)), "{p}");
 }
 
 /// Vertices whose weights sum to zero follow the mesh's node (warned); a joint index beyond
