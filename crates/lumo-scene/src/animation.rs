@@ -4,6 +4,7 @@
 
 use glam::{Mat4, Quat, Vec3, Vec4};
 
+use crate::deform::Deformer;
 use crate::{Light, Scene};
 
 /// How values between keyframes are found (glTF's sampler interpolation).
@@ -44,13 +45,31 @@ pub struct AnimationChannel {
     pub values: Vec<Vec4>,
 }
 
-/// A named clip.
+/// Keyframed morph-target weights of the mesh on one node.
 #[derive(Clone, Debug)]
+pub struct WeightsChannel {
+    /// Index into [`AnimatedScene::nodes`].
+    pub node: usize,
+    /// Interpolation between keys.
+    pub interpolation: Interpolation,
+    /// Key times in seconds, increasing.
+    pub times: Vec<f32>,
+    /// Number of weights per key (the mesh's morph targets).
+    pub count: usize,
+    /// `count` weights per key; for cubic splines three groups per key: in-tangents, values,
+    /// out-tangents.
+    pub values: Vec<f32>,
+}
+
+/// A named clip.
+#[derive(Clone, Debug, Default)]
 pub struct Animation {
     /// Name from the file (or its index).
     pub name: String,
     /// Its channels.
     pub channels: Vec<AnimationChannel>,
+    /// Its morph-weight channels.
+    pub weights: Vec<WeightsChannel>,
 }
 
 impl Animation {
@@ -59,6 +78,7 @@ impl Animation {
         self.channels
             .iter()
             .filter_map(|c| c.times.last().copied())
+            .chain(self.weights.iter().filter_map(|c| c.times.last().copied()))
             .fold(0.0, f32::max)
     }
 }
@@ -97,6 +117,8 @@ pub struct AnimatedScene {
     pub items: Vec<(usize, NodeItem)>,
     /// The clips.
     pub animations: Vec<Animation>,
+    /// Meshes that skins or morph targets deform.
+    pub deformers: Vec<Deformer>,
 }
 
 impl AnimatedScene {
@@ -110,10 +132,11 @@ impl AnimatedScene {
 
     /// Whether any clip drives a node: posing at different times can move something.
     pub fn is_animated(&self) -> bool {
-        self.animations
-            .iter()
-            .flat_map(|a| &a.channels)
-            .any(|c| c.node < self.nodes.len() && !c.times.is_empty())
+        let n = self.nodes.len();
+        self.animations.iter().any(|a| {
+            a.channels.iter().any(|c| c.node < n && !c.times.is_empty())
+                || a.weights.iter().any(|c| c.node < n && !c.times.is_empty())
+        })
     }
 
     /// Whether posing moves `item` (a clip drives its node or one of the node's ancestors).
@@ -174,9 +197,20 @@ impl AnimatedScene {
         world
     }
 
-    /// Moves the scene's instances, lights and camera to their places at time `t`.
-    pub fn pose(&self, scene: &mut Scene, t: Option<f32>) {
+    /// Moves the scene's instances, lights and camera to their places at time `t`, and
+    /// rewrites the positions and normals of the meshes that skins and morph targets deform.
+    /// Returns the indices of those meshes (for [`Scene`] users that refit).
+    pub fn pose(&self, scene: &mut Scene, t: Option<f32>) -> Vec<usize> {
         let world = self.world_matrices(t);
+        let mut deformed = Vec::with_capacity(self.deformers.len());
+        for d in &self.deformers {
+            let weights = t.and_then(|t| self.morph_weights(d.node, t));
+            let Some(mesh) = scene.meshes.get_mut(d.mesh) else {
+                continue;
+            };
+            (mesh.positions, mesh.normals) = d.deform(&world, weights.as_deref());
+            deformed.push(d.mesh);
+        }
         for &(node, item) in &self.items {
             let Some(m) = world.get(node) else { continue };
             match item {
@@ -211,7 +245,83 @@ impl AnimatedScene {
                 }
             }
         }
+        deformed
     }
+
+    /// The morph weights a clip gives `node` at time `t` (the last clip driving it wins, as
+    /// for transforms); `None` where no clip drives them.
+    fn morph_weights(&self, node: usize, t: f32) -> Option<Vec<f32>> {
+        self.animations
+            .iter()
+            .flat_map(|a| &a.weights)
+            .rev()
+            .filter(|c| c.node == node)
+            .find_map(|c| sample_weights(c, t))
+    }
+}
+
+/// Where `t` falls among `times`: the key before it, the fraction of the way to the next
+/// and the gap; `Err(k)` where `t` is clamped to key `k`. `times` must not be empty.
+fn segment(times: &[f32], t: f32) -> Result<(usize, f32, f32), usize> {
+    let n = times.len();
+    if t <= times[0] || n == 1 {
+        return Err(0);
+    }
+    if t >= times[n - 1] {
+        return Err(n - 1);
+    }
+    let k = times.partition_point(|&x| x <= t).clamp(1, n - 1) - 1;
+    let dt = times[k + 1] - times[k];
+    let s = if dt > 0.0 { (t - times[k]) / dt } else { 0.0 };
+    Ok((k, s, dt))
+}
+
+/// Cubic Hermite basis weights (value 0, out-tangent 0, value 1, in-tangent 1) at `s`.
+fn hermite(s: f32, dt: f32) -> [f32; 4] {
+    let (s2, s3) = (s * s, s * s * s);
+    [
+        2.0 * s3 - 3.0 * s2 + 1.0,
+        dt * (s3 - 2.0 * s2 + s),
+        -2.0 * s3 + 3.0 * s2,
+        dt * (s3 - s2),
+    ]
+}
+
+/// The weights channel's values at `t`; `None` for an empty or malformed channel.
+fn sample_weights(c: &WeightsChannel, t: f32) -> Option<Vec<f32>> {
+    let per_key = if c.interpolation == Interpolation::CubicSpline {
+        3
+    } else {
+        1
+    };
+    let n = c.count;
+    if c.times.is_empty() || c.values.len() != c.times.len() * per_key * n {
+        return None;
+    }
+    // Group `g` (0 in-tangent, 1 value, 2 out-tangent for splines) of key `k`.
+    let group = |k: usize, g: usize| {
+        let at = (k * per_key + g) * n;
+        &c.values[at..at + n]
+    };
+    let mid = per_key / 2;
+    let (k, s, dt) = match segment(&c.times, t) {
+        Err(k) => return Some(group(k, mid).to_vec()),
+        Ok(seg) => seg,
+    };
+    Some(match c.interpolation {
+        Interpolation::Step => group(k, mid).to_vec(),
+        Interpolation::Linear => {
+            let (a, b) = (group(k, 0), group(k + 1, 0));
+            a.iter().zip(b).map(|(a, b)| a + (b - a) * s).collect()
+        }
+        Interpolation::CubicSpline => {
+            let h = hermite(s, dt);
+            let (v0, out0, v1, in1) = (group(k, 1), group(k, 2), group(k + 1, 1), group(k + 1, 0));
+            (0..n)
+                .map(|i| v0[i] * h[0] + out0[i] * h[1] + v1[i] * h[2] + in1[i] * h[3])
+                .collect()
+        }
+    })
 }
 
 /// The channel's value at `t` (clamped to its key range); `None` for an empty channel.
@@ -226,16 +336,10 @@ fn sample(c: &AnimationChannel, t: f32) -> Option<Vec4> {
         return None;
     }
     let value = |k: usize| c.values[k * per_key + (per_key / 2)];
-    if t <= c.times[0] || n == 1 {
-        return Some(value(0));
-    }
-    if t >= c.times[n - 1] {
-        return Some(value(n - 1));
-    }
-    let k = c.times.partition_point(|&x| x <= t).clamp(1, n - 1) - 1;
-    let (t0, t1) = (c.times[k], c.times[k + 1]);
-    let dt = t1 - t0;
-    let s = if dt > 0.0 { (t - t0) / dt } else { 0.0 };
+    let (k, s, dt) = match segment(&c.times, t) {
+        Err(k) => return Some(value(k)),
+        Ok(seg) => seg,
+    };
     let rotation = c.property == AnimatedProperty::Rotation;
     Some(match c.interpolation {
         Interpolation::Step => value(k),
@@ -245,13 +349,11 @@ fn sample(c: &AnimationChannel, t: f32) -> Option<Vec4> {
         }
         Interpolation::Linear => value(k).lerp(value(k + 1), s),
         Interpolation::CubicSpline => {
-            let out_tangent = c.values[k * 3 + 2];
-            let in_tangent = c.values[(k + 1) * 3];
-            let (s2, s3) = (s * s, s * s * s);
-            value(k) * (2.0 * s3 - 3.0 * s2 + 1.0)
-                + out_tangent * (dt * (s3 - 2.0 * s2 + s))
-                + value(k + 1) * (-2.0 * s3 + 3.0 * s2)
-                + in_tangent * (dt * (s3 - s2))
+            let h = hermite(s, dt);
+            value(k) * h[0]
+                + c.values[k * 3 + 2] * h[1]
+                + value(k + 1) * h[2]
+                + c.values[(k + 1) * 3] * h[3]
         }
     })
 }
@@ -293,6 +395,36 @@ mod tests {
     }
 
     #[test]
+    fn weights_interpolate_per_target_like_the_transform_channels() {
+        let c = |interpolation, values: Vec<f32>| WeightsChannel {
+            node: 0,
+            interpolation,
+            times: vec![0.0, 2.0],
+            count: 2,
+            values,
+        };
+        let linear = c(Interpolation::Linear, vec![0.0, 1.0, 1.0, 3.0]);
+        assert_eq!(sample_weights(&linear, 0.5), Some(vec![0.25, 1.5]));
+        assert_eq!(sample_weights(&linear, 9.0), Some(vec![1.0, 3.0]));
+        let step = c(Interpolation::Step, vec![0.0, 1.0, 1.0, 3.0]);
+        assert_eq!(sample_weights(&step, 1.9), Some(vec![0.0, 1.0]));
+        // Per key: in-tangents, values, out-tangents; zero tangents give smoothstep.
+        let mut values = vec![0.0; 12];
+        values[8..10].copy_from_slice(&[1.0, 2.0]);
+        let cubic = c(Interpolation::CubicSpline, values);
+        let w = sample_weights(&cubic, 0.5).unwrap();
+        assert!(
+            (w[0] - 0.15625).abs() < 1e-6 && (w[1] - 0.3125).abs() < 1e-6,
+            "{w:?}"
+        );
+        // A wrong value count samples nothing rather than reading out of range.
+        assert_eq!(
+            sample_weights(&c(Interpolation::Linear, vec![0.0; 3]), 1.0),
+            None
+        );
+    }
+
+    #[test]
     fn parent_transforms_compose() {
         let scene = AnimatedScene {
             nodes: vec![
@@ -310,7 +442,9 @@ mod tests {
                 },
             ],
             items: vec![],
+            deformers: vec![],
             animations: vec![Animation {
+                weights: vec![],
                 name: "a".into(),
                 channels: vec![AnimationChannel {
                     node: 1,

@@ -7,6 +7,7 @@ pub mod animation;
 mod bsdf_facts;
 mod builtin;
 mod camera;
+pub mod deform;
 mod error;
 mod gltf_extensions;
 mod light;

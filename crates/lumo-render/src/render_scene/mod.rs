@@ -437,10 +437,10 @@ impl RenderScene {
 
     /// Poses `rig` (the scene's node animation) at time `t` seconds and updates the render
     /// scene to match ([`RenderScene::update`]): instances, punctual lights and a keyframed
-    /// camera move.
+    /// camera move, and skinned or morphing meshes are re-deformed and refitted.
     pub fn pose(&mut self, rig: &AnimatedScene, t: f32) -> Result<SceneUpdate, SceneError> {
-        rig.pose(&mut self.scene, Some(t));
-        self.update(&[])
+        let deformed = rig.pose(&mut self.scene, Some(t));
+        self.update(&deformed)
     }
 
     /// What [`Scene::validate`] would say of the parts an update changes: the transforms and

@@ -1,5 +1,6 @@
 //! The lumo-scene integration tests, one test program (each separate program would link the whole
 //! crate again: minutes of a fresh build). Each module is one topic.
+mod attributes;
 mod common;
 mod gltf;
 mod gltf_extensions;
@@ -10,5 +11,6 @@ mod meshes;
 mod mitsuba;
 mod mutated;
 mod robustness;
+mod skins;
 mod unbounded;
 mod wrong_output;

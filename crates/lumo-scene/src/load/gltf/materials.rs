@@ -58,6 +58,7 @@ impl GltfReader<'_, '_> {
             Some(i) => format!("material {i}"),
             None => "default material".into(),
         };
+        self.uv_set = attributes::uv_set(&mat);
         let pbr = mat.pbr_metallic_roughness();
         let factor = Vec4::from(pbr.base_color_factor()).truncate();
         let factor = self.non_negative(&label, "baseColorFactor", factor)?;
@@ -188,9 +189,16 @@ impl GltfReader<'_, '_> {
     ) -> Result<Texture, LoadError> {
         let image = texture.source();
         let at = self.at(format!("image {}", image.index()));
-        if tex_coord != 0 {
-            self.diag
-                .warn(at.clone(), "only TEXCOORD_0 is supported; using it")?;
+        if tex_coord != self.uv_set {
+            // A lumo mesh keeps one uv set per primitive (attributes::uv_set).
+            self.diag.warn(
+                at.clone(),
+                format!(
+                    "texCoord {tex_coord} differs from TEXCOORD_{} that the material's base \
+                     colour texture reads; lumo keeps one set per mesh and reads that one here",
+                    self.uv_set
+                ),
+            )?;
         }
         let decoded = match self.images.get(&(image.index(), raw)) {
             Some(img) => img.clone(),

@@ -3,15 +3,18 @@
 //! `KHR_materials_emissive_strength`, `KHR_texture_transform` and node animations.
 
 mod alpha;
+mod attributes;
 mod buffers;
 mod extensions;
 mod materials;
+mod morph_anim;
+mod skin;
 
 use std::collections::HashMap;
 use std::path::Path;
 use std::sync::Arc;
 
-use glam::{Affine2, Mat2, Mat4, Quat, Vec2, Vec3, Vec4};
+use glam::{Affine2, Mat2, Quat, Vec2, Vec3, Vec4};
 use gltf::accessor::{DataType, Dimensions};
 
 use super::check::{check_emission, check_light, check_mesh};
@@ -25,8 +28,7 @@ use crate::animation::{
     NodeItem,
 };
 use crate::{
-    BsdfSpec, Camera, FovAxis, Instance, Lens, Light, Material, Mesh, Scene, Texture,
-    TextureFilter, WrapMode,
+    BsdfSpec, Camera, FovAxis, Lens, Light, Material, Mesh, Scene, Texture, TextureFilter, WrapMode,
 };
 use buffers::{load_buffers, uri_bytes};
 
@@ -40,6 +42,7 @@ const SUPPORTED: &[&str] = &[
     "KHR_materials_transmission",
     "KHR_materials_unlit",
     "KHR_materials_volume",
+    "KHR_mesh_quantization",
     "KHR_texture_transform",
 ];
 
@@ -101,7 +104,7 @@ fn load_unguarded(
     // Parse, check every index, and only then let the gltf crate validate (see gltf_refs).
     let gltf = gltf::Gltf::from_slice_without_validation(&bytes).map_err(invalid)?;
     let blob = gltf.blob;
-    let root = gltf.document.into_json();
+    let mut root = gltf.document.into_json();
     check_references(path, &root)?;
     // Before the gltf crate's validation, which refuses these with its own terser message.
     for ext in &root.extensions_required {
@@ -115,9 +118,9 @@ fn load_unguarded(
             ));
         }
     }
-    // The gltf crate's validation refuses required extensions it has no reader for, some of
-    // which lumo reads from the JSON itself (KHR_materials_specular): lumo has checked them.
-    let mut root = root;
+    // The gltf crate's validation refuses required extensions it has no reader for, which
+    // lumo reads itself (KHR_materials_specular from the JSON, KHR_mesh_quantization's
+    // attributes in attributes.rs): lumo has checked them above.
     root.extensions_required
         .retain(|e| gltf::json::extensions::ENABLED_EXTENSIONS.contains(&e.as_str()));
     let document = gltf::Document::from_json(root).map_err(invalid)?;
@@ -142,6 +145,8 @@ fn load_unguarded(
         rig: AnimatedScene::default(),
         cameras: Vec::new(),
         node_index: HashMap::new(),
+        deform: Default::default(),
+        uv_set: 0,
     };
     let gscene = doc
         .default_scene()
@@ -151,6 +156,7 @@ fn load_unguarded(
     for node in gscene.nodes() {
         r.node(&node, None, 0)?;
     }
+    r.deformers(doc)?;
     r.animations(doc)?;
     let has_anim = !r.rig.animations.is_empty();
     if options.time.is_some() && !has_anim {
@@ -220,6 +226,10 @@ struct GltfReader<'p, 'd> {
     cameras: Vec<(usize, usize)>,
     /// Rig node of each glTF node.
     node_index: HashMap<usize, usize>,
+    /// Skins and morph targets waiting to become deformers.
+    deform: skin::DeformState,
+    /// The TEXCOORD set of the material being read (see attributes::uv_set).
+    uv_set: u32,
 }
 
 /// Most mesh primitives the nodes of one glTF file may place (each becomes an instance of
@@ -338,15 +348,7 @@ impl GltfReader<'_, '_> {
         self.node_index.insert(node.index(), me);
         if let Some(mesh) = node.mesh() {
             let meshes = self.mesh(&mesh)?;
-            for m in meshes {
-                self.scene.instances.push(Instance {
-                    mesh: m,
-                    transform: Mat4::IDENTITY,
-                });
-                self.rig
-                    .items
-                    .push((me, NodeItem::Instance(self.scene.instances.len() - 1)));
-            }
+            self.place_mesh(node, &mesh, me, meshes)?;
         }
         if let Some(camera) = node.camera() {
             self.cameras.push((me, camera.index()));
@@ -366,6 +368,26 @@ impl GltfReader<'_, '_> {
 
     /// Refuses accessors lumo cannot read safely: sparse, wrong type, or beyond their buffer.
     fn check_accessor(
+        &self,
+        acc: &gltf::Accessor,
+        dims: &[Dimensions],
+        what: &str,
+    ) -> Result<(), LoadError> {
+        self.check_layout(acc, dims, what)?;
+        if acc.data_type() != DataType::F32 && dims != [Dimensions::Scalar] && !acc.normalized() {
+            return Err(LoadError::invalid(
+                self.at(format!("accessor {} ({what})", acc.index())),
+                format!(
+                    "component type {:?} is not float or normalised",
+                    acc.data_type()
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// [`Self::check_accessor`] without the component type check (for integer attributes).
+    fn check_layout(
         &self,
         acc: &gltf::Accessor,
         dims: &[Dimensions],
@@ -426,15 +448,6 @@ impl GltfReader<'_, '_> {
                 ),
             ));
         }
-        if acc.data_type() != DataType::F32 && dims != [Dimensions::Scalar] && !acc.normalized() {
-            return Err(LoadError::invalid(
-                at,
-                format!(
-                    "component type {:?} is not float or normalised",
-                    acc.data_type()
-                ),
-            ));
-        }
         Ok(())
     }
 
@@ -462,12 +475,23 @@ impl GltfReader<'_, '_> {
             let pos_acc = prim.get(&gltf::Semantic::Positions).ok_or_else(|| {
                 LoadError::invalid(self.at(label.clone()), "has no POSITION attribute")
             })?;
-            self.check_accessor(&pos_acc, &[Dimensions::Vec3], "POSITION")?;
-            if let Some(a) = prim.get(&gltf::Semantic::Normals) {
-                self.check_accessor(&a, &[Dimensions::Vec3], "NORMAL")?;
+            use attributes::Quantized;
+            self.check_attribute(
+                &pos_acc,
+                Dimensions::Vec3,
+                "POSITION",
+                Quantized::AnyInteger,
+            )?;
+            let normal_acc = prim.get(&gltf::Semantic::Normals);
+            if let Some(a) = &normal_acc {
+                self.check_attribute(a, Dimensions::Vec3, "NORMAL", Quantized::SignedNormalized)?;
             }
-            if let Some(a) = prim.get(&gltf::Semantic::TexCoords(0)) {
-                self.check_accessor(&a, &[Dimensions::Vec2], "TEXCOORD_0")?;
+            // The one uv set a lumo mesh keeps: the one the material's textures read.
+            let set = attributes::uv_set(&prim.material());
+            let texcoord = format!("TEXCOORD_{set}");
+            let uv_acc = prim.get(&gltf::Semantic::TexCoords(set));
+            if let Some(a) = &uv_acc {
+                self.check_attribute(a, Dimensions::Vec2, &texcoord, Quantized::AnyInteger)?;
             }
             if let Some(a) = prim.indices() {
                 // The type first: a float accessor is wrong whatever its view holds.
@@ -484,18 +508,27 @@ impl GltfReader<'_, '_> {
             }
             let buffers = &self.buffers;
             let reader = prim.reader(|b| buffers.get(b.index()).map(Vec::as_slice));
-            let positions: Vec<Vec3> = reader
-                .read_positions()
-                .map(|it| it.map(Vec3::from).collect())
-                .unwrap_or_default();
-            let normals: Vec<Vec3> = reader
-                .read_normals()
-                .map(|it| it.map(Vec3::from).collect())
-                .unwrap_or_default();
-            let uvs: Vec<Vec2> = reader
-                .read_tex_coords(0)
-                .map(|it| it.into_f32().map(Vec2::from).collect())
-                .unwrap_or_default();
+            let positions: Vec<Vec3> = self
+                .read_floats::<3>(&pos_acc)?
+                .into_iter()
+                .map(Vec3::from)
+                .collect();
+            let normals: Vec<Vec3> = match &normal_acc {
+                Some(a) => self
+                    .read_floats::<3>(a)?
+                    .into_iter()
+                    .map(Vec3::from)
+                    .collect(),
+                None => Vec::new(),
+            };
+            let uvs: Vec<Vec2> = match &uv_acc {
+                Some(a) => self
+                    .read_floats::<2>(a)?
+                    .into_iter()
+                    .map(Vec2::from)
+                    .collect(),
+                None => Vec::new(),
+            };
             // COLOR_0 multiplies the base colour (alpha is not modelled).
             let colors: Vec<Vec3> = reader
                 .read_colors(0)
@@ -523,7 +556,8 @@ impl GltfReader<'_, '_> {
                     .collect(),
             };
             let material = self.material(prim.material())?;
-            // A base-colour texture needs texture coordinates to vary: without TEXCOORD_0 every
+            self.warn_vertex_alpha(&prim, &label)?;
+            // A base-colour texture needs texture coordinates to vary: without them every
             // point reads the texel at (0, 0).
             let textured = prim
                 .material()
@@ -533,8 +567,10 @@ impl GltfReader<'_, '_> {
             if textured && uvs.is_empty() {
                 self.diag.warn(
                     self.at(label.clone()),
-                    "its material has a base-colour texture but the primitive has no TEXCOORD_0; \
-                     every point takes the texel at (0, 0)",
+                    format!(
+                        "its material has a base-colour texture but the primitive has no \
+                         {texcoord}; every point takes the texel at (0, 0)"
+                    ),
                 )?;
             }
             let mut m = Mesh {
@@ -551,7 +587,7 @@ impl GltfReader<'_, '_> {
             };
             for (attr, len) in [
                 ("NORMAL", m.normals.len()),
-                ("TEXCOORD_0", m.uvs.len()),
+                (texcoord.as_str(), m.uvs.len()),
                 ("COLOR_0", m.colors.len()),
             ] {
                 if len != 0 && len != m.positions.len() {
@@ -564,8 +600,9 @@ impl GltfReader<'_, '_> {
                     ));
                 }
             }
-            check_mesh(&mut m, &self.at(label), self.diag)?;
+            check_mesh(&mut m, &self.at(label.clone()), self.diag)?;
             self.scene.meshes.push(m);
+            self.read_deform(mesh, &prim, &label, self.scene.meshes.len() - 1)?;
             out.push(self.scene.meshes.len() - 1);
         }
         self.mesh_map.insert(mesh.index(), out.clone());
@@ -735,6 +772,7 @@ impl GltfReader<'_, '_> {
     fn animations(&mut self, doc: &gltf::Document) -> Result<(), LoadError> {
         for anim in doc.animations() {
             let mut channels = Vec::new();
+            let mut weights = Vec::new();
             for ch in anim.channels() {
                 let label = format!("animation {} channel {}", anim.index(), ch.index());
                 let Some(&node) = self.node_index.get(&ch.target().node().index()) else {
@@ -745,10 +783,9 @@ impl GltfReader<'_, '_> {
                     gltf::animation::Property::Rotation => AnimatedProperty::Rotation,
                     gltf::animation::Property::Scale => AnimatedProperty::Scale,
                     gltf::animation::Property::MorphTargetWeights => {
-                        self.diag.warn(
-                            self.at(label),
-                            "morph target animation is not supported; ignored",
-                        )?;
+                        if let Some(c) = self.weights_channel(&ch, node, &label)? {
+                            weights.push(c);
+                        }
                         continue;
                     }
                 };
@@ -845,6 +882,7 @@ impl GltfReader<'_, '_> {
                     .name()
                     .map_or_else(|| format!("animation {}", anim.index()), str::to_string),
                 channels,
+                weights,
             });
         }
         Ok(())

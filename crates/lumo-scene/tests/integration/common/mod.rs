@@ -1,6 +1,8 @@
 //! Helpers shared by the loader tests.
 #![allow(dead_code)]
 
+pub mod builder;
+
 use std::path::{Path, PathBuf};
 
 use lumo_scene::load::{load_scene, LoadError, LoadOptions, LoadedScene};

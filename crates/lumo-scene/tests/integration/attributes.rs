@@ -1,0 +1,178 @@
+//! glTF vertex attributes as authored: the TEXCOORD_n set a material's textures name, and
+//! KHR_mesh_quantization's integer attributes dequantised.
+
+use crate::common::builder::Builder;
+use crate::common::{load, temp_dir};
+use lumo_scene::{Vec2, Vec3};
+
+/// A 1×1 PNG.
+const PNG: &str = "data:image/png;base64,iVBORw0KGgoAAAANSUhEUgAAAAEAAAABCAIAAACQd1PeAAAADElEQVR4nGNoaGgAAAMEAYFL09IQAAAAAElFTkSuQmCC";
+
+const UV1: [f32; 6] = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6];
+
+/// A triangle with TEXCOORD_0 all zero and TEXCOORD_1 = UV1, under `material`.
+fn two_sets(name: &str, material: &str) -> lumo_scene::load::LoadedScene {
+    let dir = temp_dir("uv-sets");
+    let mut b = Builder::default();
+    let pos = b.floats(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], "VEC3");
+    let uv0 = b.floats(&[0.0; 6], "VEC2");
+    let uv1 = b.floats(&UV1, "VEC2");
+    let rest = format!(
+        r#""extensionsUsed": ["KHR_texture_transform"], "scenes": [{{"nodes": [0]}}], "nodes": [{{"mesh": 0}}],
+        "meshes": [{{"primitives": [{{"attributes": {{"POSITION": {pos}, "TEXCOORD_0": {uv0},
+                   "TEXCOORD_1": {uv1}}}, "material": 0}}]}}],
+        "materials": [{material}], "textures": [{{"source": 0}}], "images": [{{"uri": "{PNG}"}}]"#
+    );
+    load(&b.write(&dir, name, &rest)).unwrap()
+}
+
+fn uvs_are_set_1(s: &lumo_scene::Scene) -> bool {
+    let want: Vec<Vec2> = UV1.chunks(2).map(|c| Vec2::new(c[0], c[1])).collect();
+    s.meshes[0].uvs == want
+}
+
+/// The mesh keeps the set its base colour texture names (`texCoord`, or
+/// KHR_texture_transform's override); a texture of the same material naming another set is
+/// warned about.
+#[test]
+fn textures_read_the_texcoord_set_they_name() {
+    let l = two_sets(
+        "own.gltf",
+        r#"{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0, "texCoord": 1}}}"#,
+    );
+    assert!(l.warnings.is_empty(), "{:?}", l.warnings);
+    assert!(uvs_are_set_1(&l.scene), "{:?}", l.scene.meshes[0].uvs);
+    let l = two_sets(
+        "transform.gltf",
+        r#"{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0,
+            "extensions": {"KHR_texture_transform": {"texCoord": 1}}}}}"#,
+    );
+    assert!(l.warnings.is_empty(), "{:?}", l.warnings);
+    assert!(uvs_are_set_1(&l.scene), "{:?}", l.scene.meshes[0].uvs);
+    let l = two_sets(
+        "mixed.gltf",
+        r#"{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0, "texCoord": 1},
+            "metallicRoughnessTexture": {"index": 0}}}"#,
+    );
+    assert!(uvs_are_set_1(&l.scene));
+    let w: Vec<String> = l.warnings.iter().map(|w| w.to_string()).collect();
+    assert!(
+        w.iter()
+            .any(|w| w.contains("mixed.gltf") && w.contains("texCoord 0 differs from TEXCOORD_1")),
+        "{w:?}"
+    );
+}
+
+/// Three little-endian i16 per element, each element padded to 8 bytes (byteStride 8).
+fn i16x3(v: &[[i16; 3]]) -> Vec<u8> {
+    v.iter()
+        .flat_map(|e| {
+            let mut b: Vec<u8> = e.iter().flat_map(|x| x.to_le_bytes()).collect();
+            b.extend([0, 0]);
+            b
+        })
+        .collect()
+}
+
+/// KHR_mesh_quantization (required): short positions as integers, normalised byte normals
+/// and normalised short uvs and morph displacements, dequantised as the extension defines;
+/// a type it does not allow is refused naming the accessor.
+#[test]
+fn quantized_attributes_are_dequantized() {
+    let dir = temp_dir("quantized");
+    let write = |name: &str, normal_type: u32, normal_normalized: bool| {
+        let mut b = Builder::default();
+        let pos = b.add_strided(
+            &i16x3(&[[0, 0, 0], [100, 0, 0], [0, 100, 0]]),
+            Some(8),
+            3,
+            "VEC3",
+            5122,
+            r#", "min": [0, 0, 0], "max": [100, 100, 0]"#,
+        );
+        let nrm: Vec<u8> = [[0i8, 0, 127], [0, 0, 127], [-128, 0, 0]]
+            .iter()
+            .flat_map(|n| [n[0] as u8, n[1] as u8, n[2] as u8, 0])
+            .collect();
+        let normalized = format!(r#", "normalized": {normal_normalized}"#);
+        let nrm = b.add_strided(&nrm, Some(4), 3, "VEC3", normal_type, &normalized);
+        let uv: Vec<u8> = [0u16, 0, 65535, 0, 0, 32768]
+            .iter()
+            .flat_map(|x| x.to_le_bytes())
+            .collect();
+        let uv = b.add(&uv, 3, "VEC2", 5123, r#", "normalized": true"#);
+        let up = b.add_strided(
+            &i16x3(&[[0, 0, 32767]; 3]),
+            Some(8),
+            3,
+            "VEC3",
+            5122,
+            r#", "normalized": true"#,
+        );
+        let rest = format!(
+            r#""extensionsUsed": ["KHR_mesh_quantization"],
+            "extensionsRequired": ["KHR_mesh_quantization"],
+            "scenes": [{{"nodes": [0]}}], "nodes": [{{"mesh": 0}}],
+            "meshes": [{{"primitives": [{{"attributes": {{"POSITION": {pos}, "NORMAL": {nrm},
+                       "TEXCOORD_0": {uv}}}, "targets": [{{"POSITION": {up}}}]}}],
+                       "weights": [0.5]}}]"#
+        );
+        b.write(&dir, name, &rest)
+    };
+    let l = load(&write("q.gltf", 5120, true)).unwrap();
+    assert!(l.warnings.is_empty(), "{:?}", l.warnings);
+    let m = &l.scene.meshes[0];
+    // Integer positions keep their values; the morph target's normalised +1 at weight 0.5.
+    assert_eq!(
+        m.positions,
+        vec![
+            Vec3::new(0.0, 0.0, 0.5),
+            Vec3::new(100.0, 0.0, 0.5),
+            Vec3::new(0.0, 100.0, 0.5)
+        ]
+    );
+    // 127 → 1 and −128 → −1 (clamped, as the extension says).
+    assert_eq!(m.normals, vec![Vec3::Z, Vec3::Z, -Vec3::X]);
+    assert_eq!(m.uvs[1], Vec2::new(1.0, 0.0));
+    assert!((m.uvs[2].y - 32768.0 / 65535.0).abs() < 1e-7);
+    // Normals must be normalised signed integers.
+    let e = load(&write("bad.gltf", 5121, false))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("bad.gltf") && e.contains("(NORMAL)") && e.contains("normalised signed byte"),
+        "{e}"
+    );
+}
+
+/// COLOR_0 alpha below 1 under MASK or BLEND is warned about (lumo's opacity cannot vary per
+/// vertex), not silently dropped; under OPAQUE glTF ignores alpha, so nothing is said.
+#[test]
+fn vertex_alpha_under_blend_is_warned_about() {
+    let dir = temp_dir("vertex-alpha");
+    let write = |name: &str, mode: &str| {
+        let mut b = Builder::default();
+        let pos = b.floats(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], "VEC3");
+        let colors = b.floats(
+            &[1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.5, 1.0, 1.0, 1.0, 1.0],
+            "VEC4",
+        );
+        let rest = format!(
+            r#""scenes": [{{"nodes": [0]}}], "nodes": [{{"mesh": 0}}],
+            "meshes": [{{"primitives": [{{"attributes": {{"POSITION": {pos}, "COLOR_0": {colors}}},
+                       "material": 0}}]}}],
+            "materials": [{{"alphaMode": "{mode}"}}]"#
+        );
+        load(&b.write(&dir, name, &rest)).unwrap()
+    };
+    let l = write("blend.gltf", "BLEND");
+    let w: Vec<String> = l.warnings.iter().map(|w| w.to_string()).collect();
+    assert!(
+        w.iter().any(
+            |w| w.contains("blend.gltf") && w.contains("1 vertices have COLOR_0 alpha below 1")
+        ),
+        "{w:?}"
+    );
+    let l = write("opaque.gltf", "OPAQUE");
+    assert!(l.warnings.is_empty(), "{:?}", l.warnings);
+}
