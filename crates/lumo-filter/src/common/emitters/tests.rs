@@ -220,6 +220,11 @@ fn same_mask_as_the_plain_search() {
             dilate: 0,
             ..EmitterParams::default()
         },
+        // A radius whose ring is as tall as a band: the whole frame is one band.
+        EmitterParams {
+            radius: 20,
+            ..EmitterParams::default()
+        },
     ];
     for (name, color, albedo, frame) in &cases {
         let f = Features {
