@@ -2,29 +2,10 @@
 //! it receives, over any base; over a black base it is exactly a 4 % dielectric layer of its
 //! roughness times its intensity; the coated BSDF is reciprocal; its albedo AOV adds the coat.
 
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use lumo_render::bsdf::{Bsdf, GltfPbr};
 
-/// A direction at cosine `c` from the normal and azimuth `phi`.
-fn dir(c: f32, phi: f32) -> Vec3 {
-    let s = (1.0 - c * c).max(0.0).sqrt();
-    Vec3::new(s * phi.cos(), s * phi.sin(), c)
-}
-
-/// The directional albedo from `wo` (both sides summed): mean sample weight on a grid.
-fn albedo(b: &Bsdf, wo: Vec3, n: usize) -> Vec3 {
-    let mut sum = Vec3::ZERO;
-    for i in 0..n {
-        for j in 0..n {
-            let u = Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
-            let u_lobe = ((i * n + j) as f32 * 0.618_034).fract();
-            if let Some(s) = b.sample(wo, u_lobe, u) {
-                sum += s.weight;
-            }
-        }
-    }
-    sum / (n * n) as f32
-}
+use crate::common::bsdf_grid::{albedo, dir};
 
 /// White bases (dielectric, metal, thin transmissive) under coats of every intensity and
 /// roughness reflect no more than they receive; a full smooth coat over a white dielectric

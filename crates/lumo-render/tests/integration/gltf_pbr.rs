@@ -5,28 +5,7 @@
 use glam::{Vec2, Vec3};
 use lumo_render::bsdf::{Bsdf, Conductor, GltfPbr, Microfacet};
 
-/// A direction at cosine `c` from the normal and azimuth `phi`.
-fn dir(c: f32, phi: f32) -> Vec3 {
-    let s = (1.0 - c * c).max(0.0).sqrt();
-    Vec3::new(s * phi.cos(), s * phi.sin(), c)
-}
-
-/// The directional albedo from `wo`: the mean sample weight over a stratified grid of
-/// `n`×`n` points, each lobe choice from a second stratified sequence.
-fn albedo(b: &Bsdf, wo: Vec3, n: usize) -> Vec3 {
-    let mut sum = Vec3::ZERO;
-    for i in 0..n {
-        for j in 0..n {
-            let u = Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
-            // A lobe number uncorrelated with the direction's point (golden-ratio sequence).
-            let u_lobe = ((i * n + j) as f32 * 0.618_034).fract();
-            if let Some(s) = b.sample(wo, u_lobe, u) {
-                sum += s.weight;
-            }
-        }
-    }
-    sum / (n * n) as f32
-}
+use crate::common::bsdf_grid::{albedo, dir};
 
 const ROUGHNESSES: [f32; 7] = [0.0, 0.05, 0.2, 0.4, 0.6, 0.8, 1.0];
 const COSINES: [f32; 5] = [1.0, 0.7, 0.4, 0.15, 0.03];

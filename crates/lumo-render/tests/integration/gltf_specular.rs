@@ -3,29 +3,10 @@
 //! extension defines, and the diffuse lobe keeps taking exactly what the layer leaves (a white
 //! base reflects all it receives at every index and weight; no channel reflects more).
 
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use lumo_render::bsdf::{Bsdf, Diffuse, GltfPbr};
 
-/// A direction at cosine `c` from the normal and azimuth `phi`.
-fn dir(c: f32, phi: f32) -> Vec3 {
-    let s = (1.0 - c * c).max(0.0).sqrt();
-    Vec3::new(s * phi.cos(), s * phi.sin(), c)
-}
-
-/// The directional albedo from `wo`: the mean sample weight over a stratified `n`×`n` grid.
-fn albedo(b: &Bsdf, wo: Vec3, n: usize) -> Vec3 {
-    let mut sum = Vec3::ZERO;
-    for i in 0..n {
-        for j in 0..n {
-            let u = Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
-            let u_lobe = ((i * n + j) as f32 * 0.618_034).fract();
-            if let Some(s) = b.sample(wo, u_lobe, u) {
-                sum += s.weight;
-            }
-        }
-    }
-    sum / (n * n) as f32
-}
+use crate::common::bsdf_grid::{albedo, dir};
 
 fn gltf(base: Vec3, roughness: f32, ior: f32, weight: f32, color: Vec3) -> Bsdf {
     Bsdf::GltfPbr(GltfPbr::new(base, 0.0, roughness).with_specular(ior, weight, color))

@@ -7,32 +7,7 @@
 use glam::{Vec2, Vec3};
 use lumo_render::bsdf::{Bsdf, Dielectric, GltfPbr, Microfacet};
 
-/// A direction at cosine `c` from the normal and azimuth `phi`.
-fn dir(c: f32, phi: f32) -> Vec3 {
-    let s = (1.0 - c * c).max(0.0).sqrt();
-    Vec3::new(s * phi.cos(), s * phi.sin(), c)
-}
-
-/// Reflected and transmitted albedo from `wo`: mean sample weights over a stratified grid,
-/// split by the side the sampled direction leaves to.
-fn albedo(b: &Bsdf, wo: Vec3, n: usize) -> (Vec3, Vec3) {
-    let (mut r, mut t) = (Vec3::ZERO, Vec3::ZERO);
-    for i in 0..n {
-        for j in 0..n {
-            let u = Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
-            let u_lobe = ((i * n + j) as f32 * 0.618_034).fract();
-            if let Some(s) = b.sample(wo, u_lobe, u) {
-                if s.wi.z * wo.z > 0.0 {
-                    r += s.weight;
-                } else {
-                    t += s.weight;
-                }
-            }
-        }
-    }
-    let k = (n * n) as f32;
-    (r / k, t / k)
-}
+use crate::common::bsdf_grid::{albedo_split, dir};
 
 fn gltf(base: Vec3, metallic: f32, r: f32, t: f32, thin: bool) -> Bsdf {
     Bsdf::GltfPbr(GltfPbr::new(base, metallic, r).with_transmission(t, thin, 1.5))
@@ -45,10 +20,10 @@ fn a_white_thin_sheet_conserves_energy_like_a_white_metal() {
     for r in [0.0f32, 0.2, 0.5, 0.8] {
         let metal = Bsdf::GltfPbr(GltfPbr::new(Vec3::ONE, 1.0, r));
         for c in [1.0f32, 0.6, 0.25, 0.05] {
-            let (m, _) = albedo(&metal, dir(c, 0.2), 300);
+            let (m, _) = albedo_split(&metal, dir(c, 0.2), 300);
             for side in [1.0f32, -1.0] {
                 let wo = dir(c, 0.2) * side;
-                let (rf, tr) = albedo(&gltf(Vec3::ONE, 0.0, r, 1.0, true), wo, 300);
+                let (rf, tr) = albedo_split(&gltf(Vec3::ONE, 0.0, r, 1.0, true), wo, 300);
                 let total = rf + tr;
                 assert!(
                     (total - m).abs().max_element() < 0.01 && total.max_element() <= 1.005,
@@ -73,7 +48,7 @@ fn a_white_volume_boundary_conserves_energy() {
     for r in [0.0f32, 0.3, 0.7] {
         for c in [1.0f32, 0.6, 0.25, 0.05, -0.3, -0.9] {
             let wo = dir(c, 0.7);
-            let (rf, tr) = albedo(&gltf(Vec3::ONE, 0.0, r, 1.0, false), wo, 300);
+            let (rf, tr) = albedo_split(&gltf(Vec3::ONE, 0.0, r, 1.0, false), wo, 300);
             // Radiance entering the denser side is compressed by 1/η² (and expanded leaving
             // it): energy is the refracted weight with that factor taken out.
             let eta2 = if c > 0.0 {
@@ -101,7 +76,7 @@ fn a_white_volume_boundary_conserves_energy() {
 #[test]
 fn partial_transmission_mixes_without_losing_or_making_energy() {
     for c in [1.0f32, 0.5, 0.1] {
-        let (rf, tr) = albedo(&gltf(Vec3::ONE, 0.0, 0.0, 0.5, true), dir(c, 0.0), 400);
+        let (rf, tr) = albedo_split(&gltf(Vec3::ONE, 0.0, 0.0, 0.5, true), dir(c, 0.0), 400);
         let total = rf + tr;
         assert!(
             (total - Vec3::ONE).abs().max_element() < 0.01,
@@ -115,7 +90,7 @@ fn partial_transmission_mixes_without_losing_or_making_energy() {
         );
     }
     // A metal does not transmit, whatever the transmission factor.
-    let (_, tr) = albedo(&gltf(Vec3::ONE, 1.0, 0.3, 1.0, true), dir(0.7, 0.0), 100);
+    let (_, tr) = albedo_split(&gltf(Vec3::ONE, 1.0, 0.3, 1.0, true), dir(0.7, 0.0), 100);
     assert_eq!(tr, Vec3::ZERO);
 }
 
@@ -129,7 +104,7 @@ fn smooth_transmittance_is_the_fresnel_complement_tinted_by_the_base_colour() {
             .with_specular(2.0, 1.0, Vec3::ONE)
             .with_transmission(1.0, true, 2.0),
     );
-    let (_, tr) = albedo(&thin, Vec3::Z, 32);
+    let (_, tr) = albedo_split(&thin, Vec3::Z, 32);
     let f0 = 1.0f32 / 9.0;
     assert!((tr - base * (1.0 - f0)).abs().max_element() < 2e-3, "{tr}");
     let wo = dir(0.6, 0.4);

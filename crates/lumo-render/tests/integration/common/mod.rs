@@ -1,6 +1,7 @@
 //! Scenes shared by the integration tests.
 #![allow(dead_code)]
 
+pub mod bsdf_grid;
 pub mod chi2;
 
 use lumo_scene::shapes::{rectangle, sphere};

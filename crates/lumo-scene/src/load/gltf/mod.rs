@@ -797,11 +797,7 @@ impl GltfReader<'_, '_> {
                     Dimensions::Vec3
                 };
                 self.check_accessor(&sampler.output(), &[dims], "animation output")?;
-                let interpolation = match sampler.interpolation() {
-                    gltf::animation::Interpolation::Step => Interpolation::Step,
-                    gltf::animation::Interpolation::Linear => Interpolation::Linear,
-                    gltf::animation::Interpolation::CubicSpline => Interpolation::CubicSpline,
-                };
+                let interpolation = interpolation(sampler.interpolation());
                 let buffers = &self.buffers;
                 let reader = ch.reader(|b| buffers.get(b.index()).map(Vec::as_slice));
                 let times: Vec<f32> = reader
@@ -903,4 +899,14 @@ fn flip_rows(img: lumo_image::Image) -> lumo_image::Image {
         data.extend_from_slice(r);
     }
     lumo_image::Image::from_vec(img.width, img.height, img.channels, data)
+}
+
+/// lumo's name for a glTF animation sampler's interpolation (transform and morph-weight
+/// channels alike).
+fn interpolation(i: gltf::animation::Interpolation) -> Interpolation {
+    match i {
+        gltf::animation::Interpolation::Step => Interpolation::Step,
+        gltf::animation::Interpolation::Linear => Interpolation::Linear,
+        gltf::animation::Interpolation::CubicSpline => Interpolation::CubicSpline,
+    }
 }

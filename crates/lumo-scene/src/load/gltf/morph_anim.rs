@@ -34,11 +34,7 @@ impl GltfReader<'_, '_> {
         let sampler = ch.sampler();
         self.check_accessor(&sampler.input(), &[Dimensions::Scalar], "animation input")?;
         self.check_accessor(&sampler.output(), &[Dimensions::Scalar], "animation output")?;
-        let interpolation = match sampler.interpolation() {
-            gltf::animation::Interpolation::Step => Interpolation::Step,
-            gltf::animation::Interpolation::Linear => Interpolation::Linear,
-            gltf::animation::Interpolation::CubicSpline => Interpolation::CubicSpline,
-        };
+        let interpolation = super::interpolation(sampler.interpolation());
         let buffers = &self.buffers;
         let reader = ch.reader(|b| buffers.get(b.index()).map(Vec::as_slice));
         let times: Vec<f32> = reader
