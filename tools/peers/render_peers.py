@@ -51,18 +51,9 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 sys.path.insert(0, str(ROOT / "scripts"))
 
+from run_peers import read_pfm  # noqa: E402  (the PFM reader the denoiser comparison uses)
+
 RENDERERS = ["lumo", "mitsuba", "cycles", "luxcore"]
-
-
-def read_pfm(path):
-    """A PFM file as float32 (H, W, 3), rows top to bottom."""
-    with open(path, "rb") as f:
-        kind = f.readline().strip()
-        w, h = map(int, f.readline().split())
-        scale = float(f.readline())
-        data = np.frombuffer(f.read(), dtype="<f4" if scale < 0 else ">f4")
-    c = 3 if kind == b"PF" else 1
-    return data.reshape(h, w, c)[::-1].astype(np.float32)
 
 
 # ---------------------------------------------------------------- workers (one per process)
