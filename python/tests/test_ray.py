@@ -39,6 +39,24 @@ def test_chunks_spread_over_the_nodes(cluster, tmp_path):
     assert len(res["chunks_per_node"]) >= 2, res["chunks_per_node"]
 
 
+def test_chunks_go_to_the_node_with_the_most_free_cpus():
+    nodes = [
+        {"NodeID": "a", "Alive": True, "Resources": {"CPU": 2.0}},
+        {"NodeID": "dead", "Alive": False, "Resources": {"CPU": 8.0}},
+        {"NodeID": "b", "Alive": True, "Resources": {"CPU": 1.0}},
+        {"NodeID": "gpu-only", "Alive": True, "Resources": {"GPU": 1.0}},
+    ]
+    placer = lray._NodePlacer(nodes)
+    # Dead and CPU-less nodes never get chunks; ties go to the first listed node.
+    assert [placer.take() for _ in range(3)] == ["a", "a", "b"]
+    # Every CPU is taken: the next chunk still gets a node (Ray queues it there or spills it).
+    assert placer.take() in ("a", "b")
+    placer.give_back("b")
+    placer.give_back("b")
+    assert placer.take() == "b"
+    assert lray._NodePlacer([]).take() is None
+
+
 def test_a_distributed_sequence_writes_the_same_files(cluster, lumo_cli, scenes, tmp_path):
     words = [str(scenes / "animated.gltf"), "--frames", "0..3", "--size", "24x16", "--spp", "4",
              "--pipeline", "atrous"]

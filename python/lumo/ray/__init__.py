@@ -105,6 +105,35 @@ def _progress(done: int, total: int, started: float) -> None:
     sys.stderr.flush()
 
 
+class _NodePlacer:
+    """Chooses the node for each chunk: the live node with the most free CPUs, counting the
+    chunks this driver has in flight there. Ray's own placement (even SPREAD) reuses a worker it
+    already leased when tasks are short, so all chunks could run on one node while the others
+    idle; placing them ourselves keeps every node busy. Placement is soft: a chunk whose node
+    died or is full runs wherever Ray finds room."""
+
+    def __init__(self, nodes: Sequence[dict]):
+        self.free: Dict[str, int] = {}
+        for n in nodes:
+            cpus = int(n.get("Resources", {}).get("CPU", 0))
+            if n.get("Alive") and cpus >= 1:
+                self.free[n["NodeID"]] = cpus
+
+    def take(self) -> Optional[str]:
+        """The node for the next chunk (None when no node is known: Ray chooses)."""
+        if not self.free:
+            return None
+        # Ties go to the node listed first, so placement is reproducible.
+        node = max(self.free, key=lambda k: self.free[k])
+        self.free[node] -= 1
+        return node
+
+    def give_back(self, node: Optional[str]) -> None:
+        """A chunk placed on ``node`` has finished (or failed)."""
+        if node is not None and node in self.free:
+            self.free[node] += 1
+
+
 def render(
     words: Sequence[str],
     workers: Optional[int] = None,
@@ -121,6 +150,7 @@ def render(
     Raises :class:`lumo.LumoError` with lumo's message for a bad command line, or naming the
     worker's node when a worker fails."""
     import ray
+    from ray.util.scheduling_strategies import NodeAffinitySchedulingStrategy
 
     words = [str(w) for w in words]
     if workers is not None and workers < 1:
@@ -145,11 +175,8 @@ def render(
         chunks = plan.chunks(step)
         # Each task renders on one thread: Ray runs as many tasks per node as it has CPUs.
         worker_words = tuple(words) + ("--threads", "1")
-        # SPREAD: chunks go round the nodes rather than queueing on the driver's while it is
-        # busy (Ray's default packs short tasks onto the local node).
-        task = ray.remote(num_cpus=1, max_retries=MAX_RETRIES, scheduling_strategy="SPREAD")(
-            _render_chunk
-        )
+        task = ray.remote(num_cpus=1, max_retries=MAX_RETRIES)(_render_chunk)
+        placer = _NodePlacer(ray.nodes())
         version = _native.version()
         pending = {}
         queue = list(chunks)
@@ -157,8 +184,14 @@ def render(
         def submit():
             while queue and len(pending) < slots:
                 c = queue.pop(0)
-                ref = task.remote(worker_words, plan.plan_id, version, *c)
-                pending[ref] = c
+                node_id = placer.take()
+                options = {}
+                if node_id is not None:
+                    options["scheduling_strategy"] = NodeAffinitySchedulingStrategy(
+                        node_id, soft=True
+                    )
+                ref = task.options(**options).remote(worker_words, plan.plan_id, version, *c)
+                pending[ref] = (c, node_id)
 
         submit()
         t_plan = time.monotonic() - t0
@@ -171,7 +204,8 @@ def render(
         while pending:
             ready, _ = ray.wait(list(pending), num_returns=1)
             ref = ready[0]
-            frame, first, count = pending.pop(ref)
+            (frame, first, count), placed_on = pending.pop(ref)
+            placer.give_back(placed_on)
             submit()
             try:
                 node, data = ray.get(ref)
