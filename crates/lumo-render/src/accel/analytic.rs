@@ -51,6 +51,16 @@ pub(crate) struct ShapePoint {
     pub dp_dv: Vec3,
 }
 
+/// A point on a shape's surface without its parametrisation: what light sampling needs
+/// (the uv and tangents of [`ShapePoint`] cost an `atan2` and an `acos` per sample).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct SurfaceSample {
+    /// World position, on the shape.
+    pub p: Vec3,
+    /// Unit normal (flipped with `flip_normals`).
+    pub n: Vec3,
+}
+
 impl Shape {
     /// `a` placed by the instance transform `instance`.
     pub fn new(a: &Analytic, instance: Mat4) -> Self {
@@ -98,6 +108,25 @@ impl Shape {
         }
     }
 
+    /// The unit-shape normal at the unit-shape point `local` (already on the shape).
+    #[inline]
+    fn local_normal(&self, local: Vec3) -> Vec3 {
+        match self.kind {
+            AnalyticKind::Sphere => local,
+            AnalyticKind::Disk => Vec3::Z,
+            AnalyticKind::Cylinder => Vec3::new(local.x, local.y, 0.0),
+        }
+    }
+
+    /// World position and normal at the unit-shape point `local` (already on the shape).
+    #[inline]
+    fn sample_at_local(&self, local: Vec3) -> SurfaceSample {
+        SurfaceSample {
+            p: self.to_world.transform_point3(local),
+            n: self.world_normal(self.local_normal(local)),
+        }
+    }
+
     /// The surface at the unit-shape point `local` (already on the shape).
     pub fn point_at_local(&self, local: Vec3) -> ShapePoint {
         let t = &self.to_world;
@@ -110,7 +139,7 @@ impl Shape {
                 phi
             }
         };
-        let (n, uv, dp_du, dp_dv) = match self.kind {
+        let (uv, dp_du, dp_dv) = match self.kind {
             AnalyticKind::Sphere => {
                 let phi = azimuth(x, y);
                 let theta = z.clamp(-1.0, 1.0).acos();
@@ -121,7 +150,6 @@ impl Shape {
                     Vec3::new(z * x / rd, z * y / rd, -rd)
                 };
                 (
-                    local,
                     Vec2::new(phi / TAU, theta / PI),
                     t.transform_vector3(Vec3::new(-y, x, 0.0) * TAU),
                     t.transform_vector3(dv * PI),
@@ -131,22 +159,21 @@ impl Shape {
                 let r = (x * x + y * y).sqrt();
                 let (c, s) = if r == 0.0 { (0.0, 0.0) } else { (x / r, y / r) };
                 (
-                    Vec3::Z,
                     Vec2::new(r, azimuth(x, y) / TAU),
                     t.transform_vector3(Vec3::new(c, s, 0.0)),
                     t.transform_vector3(Vec3::new(-s, c, 0.0) * (TAU * r)),
                 )
             }
             AnalyticKind::Cylinder => (
-                Vec3::new(x, y, 0.0),
                 Vec2::new(azimuth(x, y) / TAU, z),
                 t.transform_vector3(Vec3::new(-y, x, 0.0) * TAU),
                 t.transform_vector3(Vec3::Z),
             ),
         };
+        let SurfaceSample { p, n } = self.sample_at_local(local);
         ShapePoint {
-            p: t.transform_point3(local),
-            n: self.world_normal(n),
+            p,
+            n,
             uv,
             dp_du,
             dp_dv,
@@ -156,6 +183,18 @@ impl Shape {
     /// The surface where a ray hit the shape at world point `p`: `p` re-projected onto the
     /// shape (Mitsuba's "re-project to improve accuracy"), with normal, uv and tangents.
     pub fn surface_at(&self, p: Vec3) -> ShapePoint {
+        self.point_at_local(self.project_local(p))
+    }
+
+    /// The normal at the world point `p` on the shape (re-projected as in
+    /// [`Shape::surface_at`]).
+    pub fn normal_at(&self, p: Vec3) -> Vec3 {
+        self.sample_at_local(self.project_local(p)).n
+    }
+
+    /// The world point `p` in unit-shape space, projected onto the unit shape.
+    #[inline]
+    fn project_local(&self, p: Vec3) -> Vec3 {
         let mut local = self.to_local.transform_point3(p);
         match self.kind {
             AnalyticKind::Sphere => local = local.normalize_or(Vec3::Z),
@@ -170,11 +209,11 @@ impl Shape {
                 }
             }
         }
-        self.point_at_local(local)
+        local
     }
 
     /// A point uniformly distributed over the surface (density 1/`area`).
-    pub fn sample_area(&self, u: Vec2) -> ShapePoint {
+    pub fn sample_area(&self, u: Vec2) -> SurfaceSample {
         let local = match self.kind {
             AnalyticKind::Sphere => square_to_uniform_sphere(u),
             AnalyticKind::Disk => square_to_disk(u).extend(0.0),
@@ -183,7 +222,7 @@ impl Shape {
                 Vec3::new(phi.cos(), phi.sin(), u.y)
             }
         };
-        self.point_at_local(local)
+        self.sample_at_local(local)
     }
 
     /// Whether `from` sees the sphere from outside: then its visible cone is sampled.
@@ -207,7 +246,7 @@ impl Shape {
     /// at `from`: the sphere's visible cone uniformly by solid angle from outside (Mitsuba's
     /// `sample_direction`), otherwise uniform by area converted to solid angle. `None` where
     /// the density is zero.
-    pub fn sample_direction(&self, from: Vec3, u: Vec2) -> Option<(ShapePoint, f32)> {
+    pub fn sample_direction(&self, from: Vec3, u: Vec2) -> Option<(SurfaceSample, f32)> {
         if self.sees_cone(from) {
             let (sin2_max, cos_max, one_minus_cos) = self.cone(from);
             let dc = self.center - from;
@@ -233,7 +272,7 @@ impl Shape {
                 ))
                 .normalize();
             let local = self.to_local.transform_vector3(d).normalize_or(Vec3::Z);
-            let point = self.point_at_local(local);
+            let point = self.sample_at_local(local);
             let pdf = 1.0 / (TAU * one_minus_cos);
             return (pdf.is_finite() && pdf > 0.0).then_some((point, pdf));
         }
@@ -244,13 +283,15 @@ impl Shape {
 
     /// Density (solid angle at `from`) with which [`Shape::sample_direction`] picks the
     /// surface point `p` with normal `n`.
-    pub fn pdf_direction(&self, from: Vec3, p: Vec3, n: Vec3) -> f32 {
+    /// The normal is asked of `normal` only where the density depends on it (not for a
+    /// sphere's cone, the common case of a light's MIS weight).
+    pub fn pdf_direction(&self, from: Vec3, p: Vec3, normal: impl FnOnce() -> Vec3) -> f32 {
         if self.sees_cone(from) {
             let (_, _, one_minus_cos) = self.cone(from);
             let pdf = 1.0 / (TAU * one_minus_cos);
             return if pdf.is_finite() { pdf } else { 0.0 };
         }
-        self.area_to_solid_angle(from, p, n)
+        self.area_to_solid_angle(from, p, normal())
     }
 
     /// 1/area as a solid-angle density at `from`.

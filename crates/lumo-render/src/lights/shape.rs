@@ -65,8 +65,9 @@ impl LightSource for ShapeLight {
     }
 
     fn pdf_from(&self, _lights: &Lights, pick: f32, from: Vec3, p: Vec3) -> f32 {
-        let n = self.shape.surface_at(p).n;
-        pick * self.shape.pdf_direction(from, p, n)
+        pick * self
+            .shape
+            .pdf_direction(from, p, || self.shape.normal_at(p))
     }
 
     fn emit(
