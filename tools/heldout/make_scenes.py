@@ -1,12 +1,13 @@
 #!/usr/bin/env python3
-"""Writes the held-out (scenes/heldout/) and tuning (scenes/tuning/) evaluation scenes.
+"""Writes the held-out (scenes/heldout/, scenes/heldout-media/) and tuning (scenes/tuning/)
+evaluation scenes.
 
 Every scene is Mitsuba 3 XML that both lumo's loader and Mitsuba 3 read the same way (RGB
 reflectances, GGX roughness, box pixel filter, analytic shapes, OBJ/PLY meshes from
 scenes/meshes), so the same file gives lumo's inputs and Mitsuba's. The held-out set is never
 used to choose a default (docs/bench.md, "Held-out evaluation"); tune on the tuning set.
 
-    python3 tools/heldout/make_scenes.py      # rewrites both folders
+    python3 tools/heldout/make_scenes.py      # rewrites the three folders
 """
 import os
 
@@ -351,14 +352,51 @@ TUNING = {
 }
 
 
+def fog(extent, center, sigma_t, albedo, g=None):
+    """A homogeneous medium filling the box `extent` (half sizes) at `center`, bounded by an
+    invisible (null) cube."""
+    phase = f'<phase type="hg"><float name="g" value="{g}"/></phase>' if g is not None else ""
+    return (f"""    <shape type="cube"><transform name="to_world"><scale x="{extent[0]}" y="{extent[1]}" z="{extent[2]}"/>"""
+            f"""<translate x="{center[0]}" y="{center[1]}" z="{center[2]}"/></transform><bsdf type="null"/>"""
+            f"""<medium type="homogeneous" name="interior"><float name="sigma_t" value="{sigma_t}"/>"""
+            f"""<rgb name="albedo" value="{albedo}"/>{phase}</medium></shape>\n""")
+
+
+# Participating media (issue 52): scored as their own set, `lumo bench quality --set
+# heldout-media`, so the tables of the surface-only held-out set stay comparable run to run.
+HELDOUT_MEDIA = {
+    "fog-room": (
+        head("Fog in a room: a ceiling panel lights a homogeneous fog (sigma_t 0.25, albedo 0.9) "
+             "that fills the room, around a glossy sphere and a box; the fog's glow hides the "
+             "back wall's edges.", "0, 1.0, 3.8", "0, 0.9, 0", 45, 10)
+        + room(1.6, 2.0, 2.0)
+        + rect('<scale value="0.35"/><rotate x="1" angle="90"/><translate y="1.99" z="-0.5"/>', diffuse(WHITE), "18, 17, 15")
+        + sphere("0.6, 0.45, -0.7", 0.45, plastic("0.2, 0.35, 0.7", 0.1))
+        + cube('<scale value="0.35"/><rotate y="1" angle="25"/><translate x="-0.7" y="0.35" z="-1.0"/>', diffuse("0.7, 0.6, 0.4"))
+        + fog((1.59, 0.99, 1.99), (0.0, 1.0, 0.0), 0.25, "0.9, 0.9, 0.88")
+        + "</scene>\n"),
+    "sun-shafts": (
+        head("Light shafts: low sun through a window into a room of forward-scattering haze "
+             "(Henyey-Greenstein g 0.7, sigma_t 0.35, albedo 0.95); the shaft's edges are "
+             "sharp, the room beyond it dim.", "0, 1.1, 3.8", "-0.2, 0.9, 0", 48, 10)
+        + room(1.8, 2.2, 2.0, left=None)
+        + wall_with_window(-1.8, 2.0, 2.2, (-0.9, 0.3, 0.9, 1.7), "0.6, 0.55, 0.5")
+        + cube('<scale x="0.3" y="0.45" z="0.3"/><rotate y="1" angle="15"/><translate x="0.6" y="0.45" z="-0.8"/>', diffuse("0.65, 0.65, 0.65"))
+        + sun("1, -0.55, 0.3", "9, 8.5, 7.5")
+        + fog((1.79, 1.09, 1.99), (0.0, 1.1, 0.0), 0.35, "0.95, 0.95, 0.95", 0.7)
+        + "</scene>\n"),
+}
+
+
 def main():
-    for folder, scenes in [("heldout", HELDOUT), ("tuning", TUNING)]:
+    for folder, scenes in [("heldout", HELDOUT), ("tuning", TUNING), ("heldout-media", HELDOUT_MEDIA)]:
         d = os.path.join(ROOT, folder)
         os.makedirs(d, exist_ok=True)
         for name, text in scenes.items():
             with open(os.path.join(d, f"{name}.xml"), "w") as f:
                 f.write(text)
-    print(f"wrote {len(HELDOUT)} held-out and {len(TUNING)} tuning scenes under {ROOT}")
+    print(f"wrote {len(HELDOUT)} held-out, {len(TUNING)} tuning and {len(HELDOUT_MEDIA)} held-out "
+          f"media scenes under {ROOT}")
 
 
 if __name__ == "__main__":
