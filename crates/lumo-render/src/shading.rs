@@ -260,6 +260,20 @@ impl ShadingBsdf {
         self.sample_adapted(wo, u_lobe, u)
     }
 
+    /// Whether [`ShadingBsdf::sample`] with this `u_lobe` takes the mask's straight-through
+    /// lobe (the same test as there).
+    #[inline]
+    pub fn passes(&self, u_lobe: f32) -> bool {
+        self.opacity < 1.0 && u_lobe >= self.opacity
+    }
+
+    /// The mask's opacity at this point (1 without a mask): the probability that light meets
+    /// the nested BSDF rather than passing straight through.
+    #[inline]
+    pub fn opacity(&self) -> f32 {
+        self.opacity
+    }
+
     /// [`ShadingBsdf::sample`] through the adapters.
     #[inline(never)]
     fn sample_adapted(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {

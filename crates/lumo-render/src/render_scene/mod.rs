@@ -85,6 +85,9 @@ pub struct RenderScene {
     branches: Vec<Option<branches::Branches>>,
     /// Whether any material has branches (else [`RenderScene::bsdf`] skips the lookup).
     has_branches: bool,
+    /// Whether any material has an opacity mask: only then do shadow rays look through
+    /// what blocks them ([`crate::integrators::path::mask_shadow`]).
+    has_masks: bool,
     /// Per instance, what surface reconstruction needs of its transform, computed once
     /// rather than per hit.
     placements: Vec<InstancePlacement>,
@@ -342,6 +345,7 @@ impl RenderScene {
             }
         }
         let back_black: Vec<bool> = all().map(|m| !m.two_sided && !m.bsdf.transmits()).collect();
+        let has_masks = all().any(|m| has_mask(&m.bsdf));
         let one_sided = all()
             .zip(&back_black)
             .map(|(m, &black)| black && !has_mask(&m.bsdf))
@@ -389,6 +393,7 @@ impl RenderScene {
             one_sided,
             back_black,
             has_branches: branches.iter().any(Option::is_some),
+            has_masks,
             branch_materials,
             branches,
             placements,
@@ -760,6 +765,12 @@ impl RenderScene {
         } else {
             m.emission
         }
+    }
+
+    /// Whether any material has an opacity mask (see the field).
+    #[inline]
+    pub fn has_masks(&self) -> bool {
+        self.has_masks
     }
 
     /// A ray origin just off the surface on the side of direction `d`.

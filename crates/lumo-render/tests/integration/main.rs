@@ -15,6 +15,7 @@ mod gltf_volume;
 mod integrator;
 mod light_render;
 mod light_sampling;
+mod mask_shadows;
 mod media;
 mod media_light;
 mod mitsuba_adapters;

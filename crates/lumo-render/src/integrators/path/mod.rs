@@ -4,6 +4,7 @@
 //! Depth follows Mitsuba: a path of `k` segments has depth `k`; `max_depth = 1` shows emitters
 //! only, `2` adds direct light, `3` one indirect bounce. "Direct" is everything of depth ≤ 2.
 
+pub(crate) mod mask_shadow;
 pub(crate) mod vector_bounce;
 mod volume;
 pub mod wavefront;
@@ -481,8 +482,14 @@ impl PathState {
         if bs.eta != 1.0 {
             self.eta_scale *= bs.eta * bs.eta;
         }
-        self.prev_pdf = if bs.delta { None } else { Some(bs.pdf) };
-        self.prev_point = s.p;
+        // Straight through a mask, where shadow rays cross masks too: the emitter this path
+        // may reach is weighed against the light sample of the vertex before the mask, so
+        // that vertex's density and position stay (mask_shadow.rs).
+        let crossed = at.bsdf.passes(u.lobe) && mask_shadow::applies(rs);
+        if !crossed {
+            self.prev_pdf = if bs.delta { None } else { Some(bs.pdf) };
+            self.prev_point = s.p;
+        }
         self.origin = rs.offset(s, new_dir);
         self.dir = new_dir;
         if self.depth >= settings.rr_depth {
@@ -514,6 +521,8 @@ impl PathState {
             if let Some(sh) = shadow {
                 if !rs.accel.occluded(sh.origin, sh.dir, 0.0, sh.tmax) {
                     self.add_unoccluded(&sh);
+                } else if mask_shadow::applies(rs) {
+                    mask_shadow::credit_blocked(rs, self, &sh, settings.max_depth);
                 }
             }
             if !goes_on {
@@ -526,6 +535,13 @@ impl PathState {
     #[inline]
     pub fn add_unoccluded(&mut self, shadow: &ShadowRay) {
         self.radiance.add(shadow.depth, shadow.contribution);
+    }
+
+    /// Adds the contribution of a shadow ray this path produced, scaled by the transmittance
+    /// `t` of what it crossed (masks).
+    #[inline]
+    pub(crate) fn add_shadow(&mut self, shadow: &ShadowRay, t: f32) {
+        self.radiance.add(shadow.depth, shadow.contribution * t);
     }
 }
 

@@ -25,6 +25,9 @@ impl PathState {
         let media = &rs.scene.media;
         let mut medium = media.camera;
         let mut crossings = 0;
+        // Distance along the camera ray to the current origin: null crossings move the
+        // origin, and the G-buffer's depth is measured from the camera.
+        let mut travelled = 0.0f32;
         // The lane whose exponentials sample homogeneous media (walk.rs, tracking.rs).
         let mut lanes = LaneMis::new(self.sampler.next_1d());
         loop {
@@ -49,7 +52,7 @@ impl PathState {
                 match flight {
                     Flight::Scatter { t, .. } => {
                         self.radiance.rays += 1;
-                        if !self.medium_vertex(rs, settings, m, t) {
+                        if !self.medium_vertex(rs, settings, m, t, travelled) {
                             return;
                         }
                         continue;
@@ -73,10 +76,19 @@ impl PathState {
                 if let Some(f) = b.interface {
                     medium = target(f, s.ng, self.dir);
                 }
-                self.origin = rs.offset(&s, self.dir);
+                let next = rs.offset(&s, self.dir);
+                if self.depth == 1 {
+                    travelled += (next - self.origin).dot(self.dir);
+                }
+                self.origin = next;
                 continue;
             }
-            let Some(at) = self.arrive(rs, settings, hit) else {
+            let recording = self.want_first_hit;
+            let arrived = self.arrive(rs, settings, hit);
+            if recording && !self.want_first_hit {
+                self.first_hit.depth += travelled;
+            }
+            let Some(at) = arrived else {
                 return;
             };
             let u = self.draw();
@@ -102,7 +114,8 @@ impl PathState {
     }
 
     /// A real scattering in medium `m` at `t` along the current ray (throughput already
-    /// weighted): the G-buffer record at the first vertex, light sampling with the phase
+    /// weighted; the ray's origin `travelled` along the camera ray at depth 1): the G-buffer
+    /// record at the first vertex, light sampling with the phase
     /// function, a phase sample and Russian roulette. Returns whether the path goes on.
     fn medium_vertex(
         &mut self,
@@ -110,20 +123,25 @@ impl PathState {
         settings: &PathSettings,
         m: usize,
         t: f32,
+        travelled: f32,
     ) -> bool {
         let med = &rs.scene.media.media[m];
         let p = self.origin + self.dir * t;
         if self.depth == 1 {
             // A pixel whose camera ray scatters in a medium: its albedo is the medium's
-            // single-scattering albedo, its normal faces the camera, its depth is the
-            // distance to the scattering (docs/media.md).
+            // single-scattering albedo; its normal, position and depth are those of the
+            // surface the ray would reach behind the fog (docs/media.md, "AOVs of a pixel in
+            // fog"): the scattering distance itself is random per pixel, and as a guide it
+            // made every fog pixel an edge the filters stopped at.
             self.radiance.albedo = med.albedo;
             self.radiance.emitted = Vec3::ZERO;
             if std::mem::take(&mut self.want_first_hit) {
+                let (normal, position, depth) =
+                    surface_behind(rs, self.origin, self.dir).unwrap_or((-self.dir, p, t));
                 self.first_hit = super::FirstHit {
-                    normal: -self.dir,
-                    position: p,
-                    depth: t,
+                    normal,
+                    position,
+                    depth: travelled + depth,
                     albedo: med.albedo,
                     emitted: Vec3::ZERO,
                 };
@@ -207,4 +225,25 @@ impl PathState {
             &mut self.radiance.rays,
         )
     }
+}
+
+/// The first surface that is not a null boundary along `origin + t·dir`: its normal facing
+/// the ray, its position and its distance from `origin` (`None` if the ray leaves the scene
+/// or crosses too many boundaries).
+fn surface_behind(rs: &RenderScene, origin: Vec3, dir: Vec3) -> Option<(Vec3, Vec3, f32)> {
+    let media = &rs.scene.media;
+    let (mut o, mut travelled) = (origin, 0.0f32);
+    for _ in 0..=MAX_CROSSINGS {
+        let h = rs.accel.intersect(o, dir, 0.0, f32::INFINITY)?;
+        let s = rs.surface(&h, o, dir);
+        if !media.boundary(mesh_of(rs, &h)).null {
+            let n = s.frame.n;
+            let n = if n.dot(dir) > 0.0 { -n } else { n };
+            return Some((n, s.p, travelled + h.t));
+        }
+        let next = rs.offset(&s, dir);
+        travelled += (next - o).dot(dir);
+        o = next;
+    }
+    None
 }

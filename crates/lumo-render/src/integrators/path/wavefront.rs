@@ -17,6 +17,7 @@ use crate::accel::packet::{RayPacket, LANES};
 use crate::accel::Hit;
 use crate::camera::PinholeCamera;
 use crate::camera_sample::camera_sample_with;
+use crate::integrators::path::mask_shadow;
 use crate::integrators::path::vector_bounce::{self, diffuse_bounce, SimpleLane};
 use crate::integrators::path::{FirstHit, PathRadiance, PathState, ShadowRay};
 use crate::pixel_sums::PixelSums;
@@ -221,6 +222,7 @@ impl Batch {
             }
         }
         self.active = active;
+        let masks = mask_shadow::applies(rs);
         for group in self.shadows.chunks(LANES) {
             let mut rays = RayPacket::default();
             for (lane, (_, sh)) in group.iter().enumerate() {
@@ -228,8 +230,11 @@ impl Batch {
             }
             let blocked = rs.accel.occluded_packet(&rays);
             for (lane, (p, sh)) in group.iter().enumerate() {
+                let path = &mut self.paths[*p as usize];
                 if blocked & (1 << lane) == 0 {
-                    self.paths[*p as usize].add_unoccluded(sh);
+                    path.add_unoccluded(sh);
+                } else if masks {
+                    mask_shadow::credit_blocked(rs, path, sh, settings.path.max_depth);
                 }
             }
         }
