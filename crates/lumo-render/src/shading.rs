@@ -116,24 +116,12 @@ impl ShadingBsdf {
     }
 
     /// Whether every lobe is broad (no Dirac lobe, no adapter): a Lambertian surface or a
-    /// plastic (or non-metallic glTF material) under a coat of GGX α ≥ [`BROAD_COAT_ALPHA`], whose direct light light sampling
-    /// alone estimates without fireflies. The direct-light split of temporal filtering
+    /// plastic (or non-metallic glTF material) under a coat of GGX α ≥ [`BROAD_COAT_ALPHA`],
+    /// whose direct light light sampling alone estimates without fireflies (the material's
+    /// answer: [`Bsdf::all_lobes_broad`]). The direct-light split of temporal filtering
     /// (`crate::direct_split`) takes only these.
     pub fn all_lobes_broad(&self) -> bool {
-        self.plain
-            && match &self.bsdf {
-                Bsdf::Diffuse(_) => true,
-                Bsdf::Plastic(p) => p.mf.max_alpha() >= BROAD_COAT_ALPHA,
-                Bsdf::GltfPbr(g) => {
-                    g.metallic == 0.0
-                        && g.transmission_weight() == 0.0
-                        && g.mf.max_alpha() >= BROAD_COAT_ALPHA
-                }
-                Bsdf::Mirror(_)
-                | Bsdf::Conductor(_)
-                | Bsdf::Dielectric(_)
-                | Bsdf::ThinDielectric(_) => false,
-            }
+        self.plain && self.bsdf.all_lobes_broad()
     }
 
     /// The G-buffer "albedo" of the nested BSDF.

@@ -4,7 +4,7 @@
 #![forbid(unsafe_code)]
 
 pub mod animation;
-mod bsdf_facts;
+mod bsdf_spec;
 mod builtin;
 mod camera;
 pub mod deform;
@@ -20,13 +20,13 @@ pub mod shapes;
 mod texture;
 
 pub use animation::{AnimatedScene, Animation};
-pub use bsdf_facts::{BaseColor, BsdfFlags, SMOOTH_ALPHA};
+pub use bsdf_spec::{BaseColor, BsdfFlags, BsdfSpec, SMOOTH_ALPHA};
 pub use builtin::{builtin_scene, BuiltinScene, BUILTIN_SCENES};
 pub use camera::{Camera, FovAxis, Lens, PixelFilter};
 pub use error::SceneError;
 pub use gltf_extensions::GltfExtensions;
 pub use light::{EnvMap, Light, SpotFalloff, MAX_EMISSION};
-pub use material::{BsdfSpec, Distribution, Material, Roughness, RoughnessMaps, Spectra};
+pub use material::{Distribution, Material, Roughness, RoughnessMaps, Spectra};
 pub use media::{Boundary, Medium, MediumInterface, MediumSpectra, PhaseFunction, SceneMedia};
 pub use mesh::{Analytic, AnalyticKind, Instance, Mesh};
 pub use scene::{

@@ -4,7 +4,7 @@ use glam::{Vec2, Vec3};
 
 use lumo_spectrum::{Glass, Tabulated};
 
-use crate::Texture;
+use crate::{BsdfSpec, Texture};
 
 /// A microfacet normal distribution (Mitsuba's `distribution` parameter).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -93,122 +93,6 @@ impl Roughness {
             Some(maps) => (maps.alpha_u.eval_1(uv), maps.alpha_v.eval_1(uv)),
         }
     }
-}
-
-/// How a surface scatters light, as a scene describes it (parameters may be textures); the
-/// renderer turns it into an evaluated `lumo_render::bsdf::Bsdf` at each hit.
-#[derive(Clone, Debug)]
-pub enum BsdfSpec {
-    /// Lambertian reflection.
-    Diffuse {
-        /// Reflectance (albedo).
-        reflectance: Texture,
-    },
-    /// Perfect specular reflection with a constant reflectance.
-    Mirror {
-        /// Reflectance.
-        reflectance: Vec3,
-    },
-    /// A metal: microfacets with the exact conductor Fresnel term (α = 0: smooth).
-    Conductor {
-        /// Real part of the complex index of refraction, per RGB channel.
-        eta: Vec3,
-        /// Imaginary part (absorption), per RGB channel.
-        k: Vec3,
-        /// Microfacet distribution and α.
-        roughness: Roughness,
-    },
-    /// A diffuse base under a smooth or rough dielectric coat (Mitsuba's (rough)plastic).
-    Plastic {
-        /// Reflectance of the diffuse base.
-        diffuse: Texture,
-        /// Index of refraction of the coat.
-        ior: f32,
-        /// Microfacet distribution and α of the coat (isotropic, as Mitsuba requires).
-        roughness: Roughness,
-        /// Mitsuba's `nonlinear`: the base's own colour also tints the light it re-reflects
-        /// inside the coat, saturating the colour (default false).
-        nonlinear: bool,
-        /// Mitsuba's rough coat: the diffuse layer sees the coat's transmittance and internal
-        /// reflectance integrated over its microfacets (tabulated when the scene is prepared).
-        /// False keeps the smooth coat's Fresnel terms at any roughness, as lumo's built-in,
-        /// glTF and OBJ materials do (cheaper to prepare; their images stay as they were).
-        exact_rough_coat: bool,
-    },
-    /// Glass: refraction and reflection at an interface (α = 0: smooth).
-    Dielectric {
-        /// Interior index of refraction over exterior.
-        ior: f32,
-        /// Microfacet distribution and α.
-        roughness: Roughness,
-    },
-    /// A thin dielectric sheet (Mitsuba's `thindielectric`): specular reflection and
-    /// straight-through transmission, with the bounces inside the sheet summed.
-    ThinDielectric {
-        /// Index of refraction of the sheet over that of its surroundings.
-        ior: f32,
-    },
-    /// A BSDF whose shading normal is read from a tangent-space normal map (Mitsuba's
-    /// `normalmap`): RGB in [0, 1] encodes the normal (x, y, z) relative to the frame of the
-    /// tangent ∂p/∂u and the surface normal.
-    NormalMap {
-        /// The normal map (linear values, as Mitsuba's `raw` bitmap).
-        normals: Texture,
-        /// The BSDF seen under the perturbed normal.
-        nested: Box<BsdfSpec>,
-    },
-    /// A BSDF whose shading normal is tilted by the gradient of a height texture (Mitsuba's
-    /// `bumpmap`).
-    BumpMap {
-        /// Height, in uv units (its luminance for colour textures).
-        height: Texture,
-        /// Multiplier of the height (Mitsuba's `scale`).
-        scale: f32,
-        /// The BSDF seen under the perturbed normal.
-        nested: Box<BsdfSpec>,
-    },
-    /// Mitsuba's `twosided` with two BSDFs: `front` where the ray arrives on the side the
-    /// geometric normal points to, `back` on the other side (seen there as from its own
-    /// front). Both are opaque (reflection only).
-    TwoSided {
-        /// The BSDF of the front side.
-        front: Box<BsdfSpec>,
-        /// The BSDF of the back side.
-        back: Box<BsdfSpec>,
-    },
-    /// Mitsuba's `blendbsdf`: (1 − weight)·first + weight·second. The renderer picks one of
-    /// the two at each shading point with those probabilities (an unbiased estimate of the
-    /// blend in every integrator).
-    Blend {
-        /// Weight of `second` in [0, 1] (its luminance for colour textures).
-        weight: Texture,
-        /// The BSDF weighted by 1 − weight.
-        first: Box<BsdfSpec>,
-        /// The BSDF weighted by weight.
-        second: Box<BsdfSpec>,
-    },
-    /// glTF 2.0's metallic-roughness material (its Appendix B BRDF), read per texel.
-    GltfPbr {
-        /// Base colour: baseColorTexture × baseColorFactor (sRGB decoded), or the factor.
-        base_color: Texture,
-        /// metallicRoughnessTexture (linear): roughness in its green channel, metalness in
-        /// its blue one, multiplying the factors below; `None`: the factors alone.
-        metallic_roughness: Option<Texture>,
-        /// metallicFactor in [0, 1].
-        metallic: f32,
-        /// roughnessFactor in [0, 1] (perceptual: GGX α is its square).
-        roughness: f32,
-        /// What the material's KHR_materials_* extensions add; `None`: none used.
-        extensions: Option<Arc<crate::GltfExtensions>>,
-    },
-    /// An opacity cut-out (Mitsuba's `mask`): the nested BSDF with probability `opacity`,
-    /// otherwise the ray passes straight through.
-    Mask {
-        /// Opacity in [0, 1] (its luminance for colour textures).
-        opacity: Texture,
-        /// The BSDF of the opaque part.
-        nested: Box<BsdfSpec>,
-    },
 }
 
 /// A surface's BSDF and its emitted radiance (non-zero makes it an area light).

@@ -4,7 +4,7 @@
 //! Why: the images are interleaved (RGB, xyz), and on interleaved data the compiler kept the
 //! conversion scalar (~13 % of a 512² filter). Each run is first copied into [`LANES`] lanes
 //! per channel; the arithmetic on the lanes then compiles to vector code. The results equal
-//! the per-pixel rules bit for bit (input_tests.rs).
+//! the per-pixel rules bit for bit (`tests/passes.rs`).
 
 use lumo_image::{luminance, Image};
 

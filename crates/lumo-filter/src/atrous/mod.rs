@@ -11,8 +11,6 @@
 mod fill;
 mod fused;
 mod input;
-#[cfg(test)]
-mod input_tests;
 mod kernel;
 mod lanes;
 mod layout;

@@ -15,10 +15,6 @@ mod reshade;
 mod taa;
 #[cfg(test)]
 mod tests;
-#[cfg(test)]
-mod tests_rejection;
-#[cfg(test)]
-mod tests_resample;
 
 use lumo_image::Image;
 use rayon::prelude::*;

@@ -2,7 +2,13 @@
 
 use glam::{Vec2, Vec3};
 
-use super::{fresnel_conductor, mirror_sample, BsdfSample, Microfacet, SMOOTH_ALPHA};
+use lumo_scene::Roughness;
+use lumo_spectrum::upsample::unbounded;
+
+use super::{
+    fresnel_conductor, mirror_sample, BsdfSample, Microfacet, SpecHit, SpectralColours,
+    SMOOTH_ALPHA,
+};
 use crate::geometry::reflect;
 
 /// A microfacet conductor (Mitsuba's `conductor`/`roughconductor`); α < 1e-3 on both axes is
@@ -77,5 +83,31 @@ impl Conductor {
             delta: false,
             eta: 1.0,
         })
+    }
+}
+
+impl Conductor {
+    /// The scene's conductor at `hit` (its roughness read there).
+    #[inline(always)]
+    pub(super) fn at_hit(eta: Vec3, k: Vec3, roughness: &Roughness, hit: &SpecHit) -> Self {
+        Conductor {
+            eta,
+            k,
+            mf: Microfacet::of_roughness(roughness, Some(hit.uv)),
+        }
+    }
+
+    /// η and k at a spectral path's wavelengths: measured, or the RGB values upsampled as
+    /// unbounded spectra.
+    #[inline]
+    pub(super) fn at_wavelengths(self, c: &mut impl SpectralColours) -> Self {
+        let (eta, k) = match c.conductor() {
+            Some(measured) => measured,
+            None => (
+                unbounded(self.eta, c.wavelengths()),
+                unbounded(self.k, c.wavelengths()),
+            ),
+        };
+        Conductor { eta, k, ..self }
     }
 }

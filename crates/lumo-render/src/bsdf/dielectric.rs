@@ -3,7 +3,12 @@
 
 use glam::{Vec2, Vec3};
 
-use super::{fresnel_dielectric, mirror_sample, BsdfSample, Microfacet, SMOOTH_ALPHA};
+use lumo_scene::Roughness;
+
+use super::{
+    fresnel_dielectric, mirror_sample, BsdfSample, Microfacet, SpecHit, SpectralColours,
+    SMOOTH_ALPHA,
+};
 use crate::geometry::reflect;
 
 /// A dielectric interface (α < 1e-3 on both axes: smooth).
@@ -120,5 +125,25 @@ fn rough_dielectric(wo: Vec3, wi: Vec3, eta: f32, g: Microfacet) -> (f32, f32) {
         let dwh_dwi = eta_rel * eta_rel * cos_im.abs() / denom2;
         let pdf = (1.0 - f) * pdf_m * dwh_dwi;
         (value, pdf)
+    }
+}
+
+impl Dielectric {
+    /// The scene's dielectric of relative index `ior` at `hit` (its roughness read there).
+    #[inline(always)]
+    pub(super) fn at_hit(ior: f32, roughness: &Roughness, hit: &SpecHit) -> Self {
+        Dielectric {
+            eta: ior,
+            mf: Microfacet::of_roughness(roughness, Some(hit.uv)),
+        }
+    }
+
+    /// The index at a spectral path's hero wavelength where the glass disperses.
+    #[inline]
+    pub(super) fn at_wavelengths(mut self, c: &mut impl SpectralColours) -> Self {
+        if let Some(change) = c.dispersion() {
+            self.eta += change;
+        }
+        self
     }
 }

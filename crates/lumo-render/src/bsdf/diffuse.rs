@@ -2,7 +2,9 @@
 
 use glam::{Vec2, Vec3};
 
-use super::BsdfSample;
+use lumo_scene::Texture;
+
+use super::{texture, BsdfSample, SpecHit, SpectralColours};
 use crate::geometry::{cosine_hemisphere_pdf, square_to_cosine_hemisphere};
 
 /// Lambertian reflection (Mitsuba's `diffuse`).
@@ -39,6 +41,24 @@ impl Diffuse {
             pdf: cosine_hemisphere_pdf(wi),
             delta: false,
             eta: 1.0,
+        }
+    }
+}
+
+impl Diffuse {
+    /// The scene's diffuse `reflectance` at `hit`, tinted by the surface's colour.
+    #[inline(always)]
+    pub(super) fn at_hit(reflectance: &Texture, hit: &SpecHit) -> Self {
+        Diffuse {
+            albedo: texture(reflectance, hit.uv) * hit.color,
+        }
+    }
+
+    /// The albedo at a spectral path's wavelengths.
+    #[inline]
+    pub(super) fn at_wavelengths(self, c: &mut impl SpectralColours) -> Self {
+        Diffuse {
+            albedo: c.base(self.albedo),
         }
     }
 }

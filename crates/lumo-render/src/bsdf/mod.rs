@@ -2,9 +2,12 @@
 //! viewer, `wi` towards the light; both unit vectors. Values returned by `eval` include the
 //! cosine factor |cos θi|, and sample weights are eval / pdf.
 //!
-//! One file per material (its parameters, `eval`, `pdf`, `sample` and what it reports as albedo
-//! or delta); [`Bsdf`] dispatches to them and applies what all opaque materials share (they are
-//! two-sided: a viewer behind the surface sees the mirrored configuration).
+//! One file per material: its parameters, `eval`, `pdf`, `sample` and what it reports as albedo
+//! or delta, and how it is made from the scene's [`BsdfSpec`] (`at_hit`: textures read at a hit;
+//! `at_wavelengths`: its colours at a spectral path's wavelengths). [`Bsdf`] registers each
+//! material with one arm per dispatch (every match names every variant) and applies what all
+//! opaque materials share (they are two-sided: a viewer behind the surface sees the mirrored
+//! configuration). Nothing else in the renderer matches on materials.
 
 mod coat;
 mod conductor;
@@ -29,6 +32,10 @@ pub use plastic::Plastic;
 pub use thin_dielectric::{thin_dielectric_reflectance, ThinDielectric};
 
 use glam::{Vec2, Vec3};
+use lumo_scene::{BsdfSpec, Texture};
+use lumo_spectrum::Wavelengths;
+
+use crate::shading::BROAD_COAT_ALPHA;
 
 /// Roughness below which a microfacet BSDF is treated as perfectly smooth (the scene's
 /// [`lumo_scene::BsdfFlags`] call such a BSDF specular by the same bound).
@@ -104,7 +111,188 @@ fn mirror_sample(wo: Vec3, weight: Vec3, pdf: f32) -> BsdfSample {
     }
 }
 
+/// What a material's BSDF sets up once, when the render scene is built, rather than at every
+/// hit ([`Prepared::of`]).
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Prepared {
+    /// A plastic's internal diffuse reflectance of its coat (0 for other materials).
+    pub fdr_int: f32,
+    /// A rough plastic's tabulated coat, where its scene asks for Mitsuba's exact one.
+    pub coat: Option<&'static RoughCoat>,
+}
+
+impl Prepared {
+    /// The set-up of the BSDF under `spec`'s adapters.
+    pub(crate) fn of(spec: &BsdfSpec) -> Self {
+        match spec.innermost() {
+            BsdfSpec::Plastic {
+                ior,
+                roughness,
+                exact_rough_coat,
+                ..
+            } => Plastic::prepare(*ior, roughness, *exact_rough_coat),
+            // Adapters are not innermost, and two-branch materials' branches are materials of
+            // their own.
+            BsdfSpec::Diffuse { .. }
+            | BsdfSpec::GltfPbr { .. }
+            | BsdfSpec::Mirror { .. }
+            | BsdfSpec::Conductor { .. }
+            | BsdfSpec::Dielectric { .. }
+            | BsdfSpec::ThinDielectric { .. }
+            | BsdfSpec::TwoSided { .. }
+            | BsdfSpec::Blend { .. }
+            | BsdfSpec::NormalMap { .. }
+            | BsdfSpec::BumpMap { .. }
+            | BsdfSpec::Mask { .. } => Self::default(),
+        }
+    }
+}
+
+/// A hit as a material reads its parameters there ([`Bsdf::at_hit`]).
+#[derive(Clone, Copy)]
+pub(crate) struct SpecHit<'a> {
+    /// Texture coordinates.
+    pub uv: Vec2,
+    /// The surface's vertex colour, which tints base colours.
+    pub color: Vec3,
+    /// Every material's [`Prepared`], indexed by `material` (read only by materials that
+    /// prepare something, so the others pay no lookup).
+    pub prepared: &'a [Prepared],
+    /// The hit's material.
+    pub material: usize,
+}
+
+impl SpecHit<'_> {
+    /// What was prepared for the hit's material.
+    #[inline(always)]
+    pub fn prepared(&self) -> Prepared {
+        self.prepared[self.material]
+    }
+}
+
+/// A material's colours at a spectral path's wavelengths, as a BSDF asks for them
+/// ([`Bsdf::at_wavelengths`]); the render scene answers from the material's tabulated spectra
+/// or by upsampling RGB.
+pub(crate) trait SpectralColours {
+    /// The path's wavelengths.
+    fn wavelengths(&self) -> &Wavelengths;
+    /// A base reflectance `rgb` (a diffuse or plastic base, a glTF base colour): the material's
+    /// tabulated reflectance where the surface adds no colour of its own, else `rgb`
+    /// upsampled.
+    fn base(&self, rgb: Vec3) -> Vec3;
+    /// Any other reflectance `rgb`, upsampled.
+    fn reflectance(&self, rgb: Vec3) -> Vec3;
+    /// A conductor's measured (η, k) at the wavelengths; `None` where the scene gave RGB.
+    fn conductor(&self) -> Option<(Vec3, Vec3)>;
+    /// A dispersive glass's change of index at the hero wavelength, which stops the other
+    /// wavelengths (their paths would refract elsewhere); `None` for a glass without
+    /// dispersion.
+    fn dispersion(&mut self) -> Option<f32>;
+}
+
+/// `t` at `uv`, with the constant case (most materials) inline rather than a call into the
+/// scene crate.
+#[inline]
+pub(crate) fn texture(t: &Texture, uv: Vec2) -> Vec3 {
+    match t {
+        Texture::Constant(c) => *c,
+        _ => t.eval(uv),
+    }
+}
+
 impl Bsdf {
+    /// The scene's `spec` with its textures read at `hit`. Always inlined into
+    /// `RenderScene::bsdf` (measured: the call and the moved result cost ~1 % of a render's
+    /// instructions); the rare nested adapter goes through an outlined call.
+    #[inline(always)]
+    pub(crate) fn at_hit(spec: &BsdfSpec, hit: &SpecHit) -> Bsdf {
+        match spec {
+            BsdfSpec::Diffuse { reflectance } => Bsdf::Diffuse(Diffuse::at_hit(reflectance, hit)),
+            BsdfSpec::Mirror { reflectance } => Bsdf::Mirror(Mirror {
+                reflectance: *reflectance,
+            }),
+            BsdfSpec::Conductor { eta, k, roughness } => {
+                Bsdf::Conductor(Conductor::at_hit(*eta, *k, roughness, hit))
+            }
+            BsdfSpec::Plastic {
+                diffuse,
+                ior,
+                roughness,
+                nonlinear,
+                ..
+            } => Bsdf::Plastic(Plastic::at_hit(diffuse, *ior, roughness, *nonlinear, hit)),
+            BsdfSpec::Dielectric { ior, roughness } => {
+                Bsdf::Dielectric(Dielectric::at_hit(*ior, roughness, hit))
+            }
+            BsdfSpec::ThinDielectric { ior } => Bsdf::ThinDielectric(ThinDielectric { eta: *ior }),
+            BsdfSpec::GltfPbr {
+                base_color,
+                metallic_roughness,
+                metallic,
+                roughness,
+                extensions,
+            } => Bsdf::GltfPbr(GltfPbr::at_hit(
+                base_color,
+                metallic_roughness.as_ref(),
+                *metallic,
+                *roughness,
+                extensions.as_deref(),
+                hit,
+            )),
+            // Adapters are unwrapped by `RenderScene::bsdf`; one reached here (nested in a way
+            // it does not unwrap) stands for the BSDF it wraps. Two-branch BSDFs are split into
+            // materials of their own when the render scene is built, so none reaches here.
+            BsdfSpec::NormalMap { nested, .. }
+            | BsdfSpec::BumpMap { nested, .. }
+            | BsdfSpec::Mask { nested, .. }
+            | BsdfSpec::TwoSided { front: nested, .. }
+            | BsdfSpec::Blend { first: nested, .. } => Self::nested_at_hit(nested, hit),
+        }
+    }
+
+    /// [`Bsdf::at_hit`] of an adapter's nested BSDF, out of line so the common case inlines
+    /// without recursion.
+    #[inline(never)]
+    fn nested_at_hit(spec: &BsdfSpec, hit: &SpecHit) -> Bsdf {
+        Self::at_hit(spec, hit)
+    }
+
+    /// This BSDF at a spectral path's wavelengths: every colour taken from `c`.
+    #[inline]
+    pub(crate) fn at_wavelengths(self, c: &mut impl SpectralColours) -> Bsdf {
+        match self {
+            Bsdf::Diffuse(d) => Bsdf::Diffuse(d.at_wavelengths(c)),
+            Bsdf::Plastic(p) => Bsdf::Plastic(p.at_wavelengths(c)),
+            Bsdf::Mirror(m) => Bsdf::Mirror(Mirror {
+                reflectance: c.reflectance(m.reflectance),
+            }),
+            Bsdf::Conductor(k) => Bsdf::Conductor(k.at_wavelengths(c)),
+            Bsdf::Dielectric(d) => Bsdf::Dielectric(d.at_wavelengths(c)),
+            Bsdf::ThinDielectric(t) => Bsdf::ThinDielectric(t),
+            Bsdf::GltfPbr(g) => Bsdf::GltfPbr(g.at_wavelengths(c)),
+        }
+    }
+
+    /// Whether every lobe is broad enough for light sampling alone to estimate its direct
+    /// light without fireflies: a diffuse surface, or a plastic (or non-metallic, opaque glTF
+    /// material) under a coat of α ≥ [`BROAD_COAT_ALPHA`].
+    #[inline]
+    pub fn all_lobes_broad(&self) -> bool {
+        match self {
+            Bsdf::Diffuse(_) => true,
+            Bsdf::Plastic(p) => p.mf.max_alpha() >= BROAD_COAT_ALPHA,
+            Bsdf::GltfPbr(g) => {
+                g.metallic == 0.0
+                    && g.transmission_weight() == 0.0
+                    && g.mf.max_alpha() >= BROAD_COAT_ALPHA
+            }
+            Bsdf::Mirror(_)
+            | Bsdf::Conductor(_)
+            | Bsdf::Dielectric(_)
+            | Bsdf::ThinDielectric(_) => false,
+        }
+    }
+
     /// True if every lobe is a Dirac delta (light sampling is useless there).
     pub fn is_delta(&self) -> bool {
         match self {

@@ -2,7 +2,12 @@
 
 use glam::{Vec2, Vec3};
 
-use super::{fresnel_dielectric, mirror_sample, BsdfSample, Microfacet, RoughCoat, SMOOTH_ALPHA};
+use lumo_scene::{Roughness, Texture};
+
+use super::{
+    fresnel_dielectric, fresnel_diffuse_reflectance, mirror_sample, texture, BsdfSample,
+    Microfacet, Prepared, RoughCoat, SpecHit, SpectralColours, SMOOTH_ALPHA,
+};
 use crate::geometry::{cosine_hemisphere_pdf, reflect, square_to_cosine_hemisphere};
 
 /// Diffuse base under a dielectric coat (Mitsuba's (rough)plastic, linear mode unless
@@ -162,6 +167,51 @@ impl Plastic {
             1.0
         } else {
             ps / (ps + pd)
+        }
+    }
+}
+
+impl Plastic {
+    /// Once per material: the rough coat's tables if the scene asks for Mitsuba's exact rough
+    /// coat, and the coat's internal reflectance over the diffuse base.
+    pub(super) fn prepare(ior: f32, roughness: &Roughness, exact_rough_coat: bool) -> Prepared {
+        let mf = Microfacet::of_roughness(roughness, None);
+        let coat = (exact_rough_coat && mf.max_alpha() >= SMOOTH_ALPHA)
+            .then(|| RoughCoat::shared(mf, ior));
+        let fdr_int = match coat {
+            Some(c) => c.internal_reflectance,
+            None => fresnel_diffuse_reflectance(1.0 / ior),
+        };
+        Prepared { fdr_int, coat }
+    }
+
+    /// The scene's plastic at `hit`: its base read there and tinted by the surface's colour,
+    /// with the coat prepared for its material.
+    #[inline(always)]
+    pub(super) fn at_hit(
+        diffuse: &Texture,
+        ior: f32,
+        roughness: &Roughness,
+        nonlinear: bool,
+        hit: &SpecHit,
+    ) -> Self {
+        let prepared = hit.prepared();
+        Plastic {
+            diffuse: texture(diffuse, hit.uv) * hit.color,
+            eta: ior,
+            mf: Microfacet::of_roughness(roughness, Some(hit.uv)),
+            fdr_int: prepared.fdr_int,
+            coat: prepared.coat,
+            nonlinear,
+        }
+    }
+
+    /// The base at a spectral path's wavelengths.
+    #[inline]
+    pub(super) fn at_wavelengths(self, c: &mut impl SpectralColours) -> Self {
+        Plastic {
+            diffuse: c.base(self.diffuse),
+            ..self
         }
     }
 }

@@ -7,10 +7,7 @@ use lumo_scene::{BsdfSpec, Texture};
 
 use super::branches::{hit_uniform, Pick};
 use super::{RenderScene, Surface};
-use crate::bsdf::{
-    Bsdf, Conductor, Dielectric, Diffuse, GltfPbr, Microfacet, Mirror, Plastic, ThinDielectric,
-    SMOOTH_ALPHA,
-};
+use crate::bsdf::{Bsdf, SpecHit};
 use crate::geometry::Basis;
 use crate::shading::ShadingBsdf;
 
@@ -186,110 +183,17 @@ impl RenderScene {
         s.frame.to_local(bumped).try_normalize()
     }
 
-    /// A scene BSDF without its adapters, with textures evaluated at `surface`. Always inlined
-    /// into [`RenderScene::bsdf`] (measured: the call and the moved result cost ~1 % of a
-    /// render's instructions); the rare nested adapter goes through an outlined call.
+    /// A scene BSDF without its adapters, with textures evaluated at `surface` (each material
+    /// builds itself: [`Bsdf::at_hit`]).
     #[inline(always)]
     pub(super) fn base_bsdf(&self, bsdf: &BsdfSpec, surface: &Surface) -> Bsdf {
-        match bsdf {
-            BsdfSpec::Diffuse { reflectance } => Bsdf::Diffuse(Diffuse {
-                albedo: texture(reflectance, surface.uv) * surface.color,
-            }),
-            BsdfSpec::Mirror { reflectance } => Bsdf::Mirror(Mirror {
-                reflectance: *reflectance,
-            }),
-            BsdfSpec::Conductor { eta, k, roughness } => Bsdf::Conductor(Conductor {
-                eta: *eta,
-                k: *k,
-                mf: microfacet(roughness, Some(surface.uv)),
-            }),
-            BsdfSpec::Plastic {
-                diffuse,
-                ior,
-                roughness,
-                nonlinear,
-                ..
-            } => Bsdf::Plastic(Plastic {
-                diffuse: texture(diffuse, surface.uv) * surface.color,
-                eta: *ior,
-                mf: microfacet(roughness, Some(surface.uv)),
-                fdr_int: self.fdr_int[surface.material],
-                coat: self.coats[surface.material],
-                nonlinear: *nonlinear,
-            }),
-            BsdfSpec::Dielectric { ior, roughness } => Bsdf::Dielectric(Dielectric {
-                eta: *ior,
-                mf: microfacet(roughness, Some(surface.uv)),
-            }),
-            BsdfSpec::ThinDielectric { ior } => Bsdf::ThinDielectric(ThinDielectric { eta: *ior }),
-            BsdfSpec::GltfPbr {
-                base_color,
-                metallic_roughness,
-                metallic,
-                roughness,
-                extensions,
-            } => {
-                // glTF reads roughness from the green channel and metalness from the blue one.
-                let mr = metallic_roughness
-                    .as_ref()
-                    .map_or(Vec3::ONE, |t| t.eval(surface.uv));
-                let g = GltfPbr::new(
-                    texture(base_color, surface.uv) * surface.color,
-                    metallic * mr.z,
-                    roughness * mr.y,
-                );
-                Bsdf::GltfPbr(match extensions {
-                    None => g,
-                    Some(e) => g
-                        .with_specular(
-                            e.ior,
-                            e.specular.eval_1(surface.uv),
-                            texture(&e.specular_color, surface.uv),
-                        )
-                        .with_transmission(
-                            e.transmission.eval_1(surface.uv),
-                            e.thickness <= 0.0,
-                            e.ior,
-                        )
-                        .with_clearcoat(e.clearcoat, e.clearcoat_roughness),
-                })
-            }
-            // Adapters are unwrapped by `bsdf`; one reached here (nested in a way it does not
-            // unwrap) stands for the BSDF it wraps. Two-branch BSDFs are split into materials
-            // of their own when the render scene is built (`branches`), so none reaches here.
-            BsdfSpec::NormalMap { nested, .. }
-            | BsdfSpec::BumpMap { nested, .. }
-            | BsdfSpec::Mask { nested, .. }
-            | BsdfSpec::TwoSided { front: nested, .. }
-            | BsdfSpec::Blend { first: nested, .. } => self.nested_base_bsdf(nested, surface),
-        }
-    }
-
-    /// [`RenderScene::base_bsdf`] of an adapter's nested BSDF, out of line so the common case
-    /// inlines without recursion.
-    #[inline(never)]
-    fn nested_base_bsdf(&self, bsdf: &BsdfSpec, surface: &Surface) -> Bsdf {
-        self.base_bsdf(bsdf, surface)
-    }
-}
-
-/// The render-side distribution of a scene roughness. Like Mitsuba, a rough surface keeps
-/// α ≥ 1e-4 on each axis (one axis at 0 would divide by zero); negative or NaN α is smooth.
-/// A per-texel α is read at `uv` (`None`: its average, for what is set up once per material).
-pub(super) fn microfacet(r: &lumo_scene::Roughness, uv: Option<glam::Vec2>) -> Microfacet {
-    let clean = |a: f32| if a.is_finite() { a.max(0.0) } else { 0.0 };
-    let (au, av) = match uv {
-        Some(uv) => r.alpha_at(uv),
-        None => (r.alpha_u, r.alpha_v),
-    };
-    let (mut au, mut av) = (clean(au), clean(av));
-    if au.max(av) >= SMOOTH_ALPHA {
-        (au, av) = (au.max(1e-4), av.max(1e-4));
-    }
-    Microfacet {
-        distribution: r.distribution,
-        alpha_u: au,
-        alpha_v: av,
+        let hit = SpecHit {
+            uv: surface.uv,
+            color: surface.color,
+            prepared: &self.prepared,
+            material: surface.material,
+        };
+        Bsdf::at_hit(bsdf, &hit)
     }
 }
 
@@ -309,15 +213,5 @@ pub(super) fn has_mask(mut b: &BsdfSpec) -> bool {
                 None => return false,
             },
         }
-    }
-}
-
-/// `t` at `uv`, with the constant case (most materials) inline rather than a call into the
-/// scene crate.
-#[inline]
-pub(super) fn texture(t: &Texture, uv: Vec2) -> Vec3 {
-    match t {
-        Texture::Constant(c) => *c,
-        _ => t.eval(uv),
     }
 }

@@ -5,14 +5,14 @@ mod branches;
 mod materials;
 mod spectral;
 
-use materials::{has_mask, microfacet};
+use materials::has_mask;
 
 use glam::{Mat3, Mat4, Vec2, Vec3};
 use lumo_scene::{AnimatedScene, BsdfSpec, Mesh, Roughness, Scene, SceneError, Texture};
 
 use crate::accel::analytic::Shape;
 use crate::accel::{Accel, AccelUpdate, Hit};
-use crate::bsdf::{fresnel_diffuse_reflectance, RoughCoat, SMOOTH_ALPHA};
+use crate::bsdf::{texture, Prepared};
 use crate::geometry::offset_point;
 use crate::geometry::Basis;
 use crate::lights::Lights;
@@ -65,10 +65,8 @@ pub struct RenderScene {
     pub accel: Accel,
     /// Light sampling.
     pub lights: Lights,
-    /// Internal diffuse reflectance of the coat per material (plastics only; 0 otherwise).
-    fdr_int: Vec<f32>,
-    /// Per material, Mitsuba's tabulated rough coat (rough plastics from Mitsuba scenes).
-    coats: Vec<Option<&'static RoughCoat>>,
+    /// Per material, what its BSDF set up once (a plastic's coat tables).
+    prepared: Vec<Prepared>,
     /// Per material, whether its roughness is anisotropic: only then does the shading
     /// frame's tangent matter, and only then is it built from ∂p/∂u as Mitsuba's is.
     anisotropic: Vec<bool>,
@@ -299,41 +297,8 @@ impl RenderScene {
         let (branch_materials, branches) = branches::branch_materials(&scene.materials);
         // The per-material tables cover the branch materials too (they follow the scene's).
         let all = || scene.materials.iter().chain(branch_materials.iter());
-        // Per material, the rough coat's tables if asked for, and the internal reflectance of
-        // the coat over a diffuse base (0 without one).
-        let (coats, fdr_int): (Vec<Option<&'static RoughCoat>>, Vec<f32>) = all()
-            .map(|m| match m.bsdf.innermost() {
-                BsdfSpec::Plastic {
-                    ior,
-                    roughness,
-                    exact_rough_coat,
-                    ..
-                } => {
-                    let mf = microfacet(roughness, None);
-                    let coat = (*exact_rough_coat && mf.max_alpha() >= SMOOTH_ALPHA)
-                        .then(|| RoughCoat::shared(mf, *ior));
-                    let fdr = match coat {
-                        Some(c) => c.internal_reflectance,
-                        None => fresnel_diffuse_reflectance(1.0 / ior),
-                    };
-                    (coat, fdr)
-                }
-                // No diffuse base under a coat (the glTF BSDF's diffuse weight is its own
-                // table); adapters are not innermost, and two-branch materials' branches are
-                // materials of their own.
-                BsdfSpec::Diffuse { .. }
-                | BsdfSpec::GltfPbr { .. }
-                | BsdfSpec::Mirror { .. }
-                | BsdfSpec::Conductor { .. }
-                | BsdfSpec::Dielectric { .. }
-                | BsdfSpec::ThinDielectric { .. }
-                | BsdfSpec::TwoSided { .. }
-                | BsdfSpec::Blend { .. }
-                | BsdfSpec::NormalMap { .. }
-                | BsdfSpec::BumpMap { .. }
-                | BsdfSpec::Mask { .. } => (None, 0.0),
-            })
-            .unzip();
+        // Per material, what its BSDF sets up once (a plastic's coat).
+        let prepared = all().map(|m| Prepared::of(&m.bsdf)).collect();
         let mut anisotropic: Vec<bool> = all()
             .map(|m| m.bsdf.roughness().is_some_and(Roughness::is_anisotropic))
             .collect();
@@ -387,8 +352,7 @@ impl RenderScene {
             scene,
             accel,
             lights,
-            fdr_int,
-            coats,
+            prepared,
             anisotropic,
             one_sided,
             back_black,
@@ -538,7 +502,7 @@ impl RenderScene {
     fn textured_albedo(&self, sd: &SimpleDiffuse, hit: &Hit) -> Vec3 {
         let uv = self.simple_uv(sd, hit);
         match &self.scene.materials[self.scene.meshes[sd.mesh].material].bsdf {
-            BsdfSpec::Diffuse { reflectance } => materials::texture(reflectance, uv),
+            BsdfSpec::Diffuse { reflectance } => texture(reflectance, uv),
             _ => sd.albedo,
         }
     }

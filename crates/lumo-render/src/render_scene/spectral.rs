@@ -8,11 +8,12 @@
 //! directly.
 
 use glam::Vec3;
-use lumo_spectrum::upsample::{illuminant, reflectance, unbounded, unbounded_coefficients};
+use lumo_scene::Spectra;
+use lumo_spectrum::upsample::{illuminant, reflectance, unbounded_coefficients};
 use lumo_spectrum::{coefficients, Sigmoid, Tabulated, Wavelengths};
 
 use super::{RenderScene, Surface};
-use crate::bsdf::{Bsdf, Conductor, Diffuse, GltfPbr, Mirror, Plastic};
+use crate::bsdf::SpectralColours;
 use crate::shading::ShadingBsdf;
 
 /// A tabulated spectrum at the three wavelengths.
@@ -75,9 +76,9 @@ impl RenderScene {
         }
     }
 
-    /// The BSDF `b` of surface `s` at the wavelengths of `wl`. A dispersive dielectric takes
-    /// its index at the hero wavelength and stops the other lanes (their paths would refract
-    /// elsewhere).
+    /// The BSDF `b` of surface `s` at the wavelengths of `wl` (each material converts its own
+    /// colours: [`Bsdf::at_wavelengths`]). A dispersive dielectric takes its index at the hero
+    /// wavelength and stops the other lanes (their paths would refract elsewhere).
     #[inline]
     pub fn spectral_bsdf(
         &self,
@@ -85,50 +86,13 @@ impl RenderScene {
         s: &Surface,
         wl: &mut Wavelengths,
     ) -> ShadingBsdf {
-        let spectra = &self.scene.materials[s.material].spectra;
-        // A tabulated reflectance holds where the surface adds no colour of its own.
-        let base = |rgb: Vec3| match &spectra.reflectance {
-            Some(t) if s.color == Vec3::ONE => at(t, wl),
-            _ => self.upsampled_reflectance(rgb, s.material, wl),
+        let mut colours = HitColours {
+            rs: self,
+            s,
+            spectra: &self.scene.materials[s.material].spectra,
+            wl,
         };
-        b.bsdf = match b.bsdf {
-            Bsdf::Diffuse(d) => Bsdf::Diffuse(Diffuse {
-                albedo: base(d.albedo),
-            }),
-            Bsdf::Plastic(p) => Bsdf::Plastic(Plastic {
-                diffuse: base(p.diffuse),
-                ..p
-            }),
-            Bsdf::Mirror(m) => Bsdf::Mirror(Mirror {
-                reflectance: self.upsampled_reflectance(m.reflectance, s.material, wl),
-            }),
-            Bsdf::Conductor(c) => {
-                let (eta, k) = match &spectra.conductor {
-                    Some(t) => (at(&t.0, wl), at(&t.1, wl)),
-                    None => (unbounded(c.eta, wl), unbounded(c.k, wl)),
-                };
-                Bsdf::Conductor(Conductor { eta, k, ..c })
-            }
-            Bsdf::Dielectric(mut d) => {
-                if let Some((glass, exterior)) = &spectra.dispersion {
-                    let n = glass.sellmeier(wl.hero());
-                    let n_d = glass.sellmeier(lumo_spectrum::dispersion::D_LINE);
-                    d.eta += (n - n_d) / exterior;
-                    wl.terminate_secondary();
-                }
-                Bsdf::Dielectric(d)
-            }
-            other @ Bsdf::ThinDielectric(_) => other,
-            Bsdf::GltfPbr(g) => Bsdf::GltfPbr(GltfPbr {
-                base_color: base(g.base_color),
-                // A grey F0 (the common case) is the same at every wavelength.
-                dielectric_f0: match g.dielectric_f0 {
-                    f if f.min_element() == f.max_element() => f,
-                    f => reflectance(f, wl),
-                },
-                ..g
-            }),
-        };
+        b.bsdf = b.bsdf.at_wavelengths(&mut colours);
         b
     }
 
@@ -188,5 +152,51 @@ impl RenderScene {
             Some(m) => self.spectral_emission(weight, m, wl),
             None => illuminant(weight, wl),
         }
+    }
+}
+
+/// A material's colours at a path's wavelengths, for one surface (what
+/// [`crate::bsdf::Bsdf::at_wavelengths`] asks).
+struct HitColours<'a> {
+    rs: &'a RenderScene,
+    s: &'a Surface,
+    /// The surface's material's spectra.
+    spectra: &'a Spectra,
+    wl: &'a mut Wavelengths,
+}
+
+impl SpectralColours for HitColours<'_> {
+    #[inline]
+    fn wavelengths(&self) -> &Wavelengths {
+        self.wl
+    }
+
+    #[inline]
+    fn base(&self, rgb: Vec3) -> Vec3 {
+        // A tabulated reflectance holds where the surface adds no colour of its own.
+        match &self.spectra.reflectance {
+            Some(t) if self.s.color == Vec3::ONE => at(t, self.wl),
+            _ => self.rs.upsampled_reflectance(rgb, self.s.material, self.wl),
+        }
+    }
+
+    #[inline]
+    fn reflectance(&self, rgb: Vec3) -> Vec3 {
+        self.rs.upsampled_reflectance(rgb, self.s.material, self.wl)
+    }
+
+    #[inline]
+    fn conductor(&self) -> Option<(Vec3, Vec3)> {
+        let t = self.spectra.conductor.as_ref()?;
+        Some((at(&t.0, self.wl), at(&t.1, self.wl)))
+    }
+
+    #[inline]
+    fn dispersion(&mut self) -> Option<f32> {
+        let (glass, exterior) = self.spectra.dispersion.as_ref()?;
+        let n = glass.sellmeier(self.wl.hero());
+        let n_d = glass.sellmeier(lumo_spectrum::dispersion::D_LINE);
+        self.wl.terminate_secondary();
+        Some((n - n_d) / exterior)
     }
 }

@@ -16,6 +16,7 @@
 
 mod albedo_table;
 mod clearcoat;
+mod spec;
 mod transmission;
 
 use glam::{Vec2, Vec3};

@@ -8,6 +8,9 @@ use super::*;
 use crate::bench::synthetic::{splitmix, synthetic_frame, SyntheticFrame};
 use crate::{atrous, spatial_variance, AtrousParams};
 
+mod rejection;
+mod resample;
+
 /// A flat G-buffer: every pixel faces the camera at depth 2, positions on the plane z = −2.
 struct Flat {
     normal: Image,

@@ -3,12 +3,12 @@
 
 use lumo_image::Image;
 
-use super::fill::{fill_block, fill_block_impl};
-use super::input::{block_stats, block_stats_impl, FillScales, Input};
-use super::kernel::{normalise, normalise_impl, K, KA};
-use super::lanes::variance_run;
-use super::layout::{Layout, CW, M, QW};
-use super::output::{output_row, output_row_impl};
+use super::super::fill::{fill_block, fill_block_impl};
+use super::super::input::{block_stats, block_stats_impl, FillScales, Input};
+use super::super::kernel::{normalise, normalise_impl, K, KA};
+use super::super::lanes::variance_run;
+use super::super::layout::{Layout, CW, M, QW};
+use super::super::output::{output_row, output_row_impl};
 use crate::bench::synthetic::synthetic_frame;
 use crate::common::gbuffer::Features;
 

@@ -2,8 +2,8 @@
 
 use lumo_image::Image;
 
-use super::tests::bare_input;
-use super::*;
+use super::super::*;
+use super::bare_input;
 use crate::bench::synthetic::{splitmix, synthetic_frame};
 
 /// A flat, camera-facing G-buffer (depth 2).

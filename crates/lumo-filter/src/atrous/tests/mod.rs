@@ -9,6 +9,8 @@ use super::{inverse_sigma_row, AtrousFilter, AtrousParams, B3, VARIANCE_EPS};
 use crate::bench::synthetic::synthetic_frame;
 use crate::common::gbuffer::{Features, Prepared};
 
+mod passes;
+
 /// Direct evaluation, pixel by pixel and tap by tap in f64, of the documented weights:
 /// h·exp(−e)·valid_q, zero across background/geometry and for e > 20, with e the sum of the
 /// colour term (fixed σ halved per level, or SVGF's σ_l·sqrt(G3×3 ∗ var)) and the normal

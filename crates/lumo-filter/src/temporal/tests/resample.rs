@@ -3,10 +3,10 @@
 
 use lumo_image::{luminance, Image};
 
-use super::gradient::clamp_bounds;
-use super::reproject::{catmull_rom_weights, clamp_history, Prev};
-use super::tests::{bare_input, still_input};
-use super::*;
+use super::super::gradient::clamp_bounds;
+use super::super::reproject::{catmull_rom_weights, clamp_history, Prev};
+use super::super::*;
+use super::{bare_input, still_input};
 use crate::bench::synthetic::{splitmix, synthetic_frame};
 
 /// A flat G-buffer (every pixel faces the camera at depth 2), no albedo.

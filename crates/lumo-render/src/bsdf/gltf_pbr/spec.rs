@@ -1,0 +1,55 @@
+//! The glTF material from the scene's description: its textures read at a hit, its colours at a
+//! spectral path's wavelengths.
+
+use glam::Vec3;
+use lumo_scene::{GltfExtensions, Texture};
+use lumo_spectrum::upsample::reflectance;
+
+use super::GltfPbr;
+use crate::bsdf::{texture, SpecHit, SpectralColours};
+
+impl GltfPbr {
+    /// The scene's metallic-roughness material at `hit`, with what its extensions add.
+    #[inline(always)]
+    pub(in crate::bsdf) fn at_hit(
+        base_color: &Texture,
+        metallic_roughness: Option<&Texture>,
+        metallic: f32,
+        roughness: f32,
+        extensions: Option<&GltfExtensions>,
+        hit: &SpecHit,
+    ) -> Self {
+        // glTF reads roughness from the green channel and metalness from the blue one.
+        let mr = metallic_roughness.map_or(Vec3::ONE, |t| t.eval(hit.uv));
+        let g = GltfPbr::new(
+            texture(base_color, hit.uv) * hit.color,
+            metallic * mr.z,
+            roughness * mr.y,
+        );
+        match extensions {
+            None => g,
+            Some(e) => g
+                .with_specular(
+                    e.ior,
+                    e.specular.eval_1(hit.uv),
+                    texture(&e.specular_color, hit.uv),
+                )
+                .with_transmission(e.transmission.eval_1(hit.uv), e.thickness <= 0.0, e.ior)
+                .with_clearcoat(e.clearcoat, e.clearcoat_roughness),
+        }
+    }
+
+    /// The base colour and the dielectric F0 at a spectral path's wavelengths.
+    #[inline]
+    pub(in crate::bsdf) fn at_wavelengths(self, c: &mut impl SpectralColours) -> Self {
+        GltfPbr {
+            base_color: c.base(self.base_color),
+            // A grey F0 (the common case) is the same at every wavelength.
+            dielectric_f0: match self.dielectric_f0 {
+                f if f.min_element() == f.max_element() => f,
+                f => reflectance(f, c.wavelengths()),
+            },
+            ..self
+        }
+    }
+}
