@@ -16,6 +16,7 @@ mod integrator;
 mod light_render;
 mod light_sampling;
 mod media;
+mod media_bdpt;
 mod media_light;
 mod mitsuba_adapters;
 mod mitsuba_cornell;
