@@ -24,7 +24,7 @@ fn bdpt(rs: &RenderScene, s: &RenderSettings) -> Vec<f32> {
 
 fn assert_bdpt_matches_path(rs: &RenderScene, what: &str) {
     assert!(rs.scene.media.is_active());
-    assert_matches_path(rs, what, SPP, false, 0.0, bdpt);
+    assert_matches_path(rs, what, SPP, false, bdpt);
 }
 
 #[test]
