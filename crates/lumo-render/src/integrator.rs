@@ -157,7 +157,7 @@ impl Integrator {
                 caps: Capabilities {
                     spectral: false,
                     gbuffer: false,
-                    media: false,
+                    media: true,
                     splats: true,
                     particles: Particles::Optional,
                     camera_stream: true,

@@ -162,7 +162,8 @@ impl Plan {
             (RenderScene::new(scene), build_start.elapsed())
         });
         let rs = rs?;
-        // Media need the path tracer; the others refuse rather than render them wrong.
+        // Media need an integrator that transports light through them; photon mapping
+        // refuses rather than render them wrong.
         let integrator = args.integrator;
         if let Some(why) = integrator.media_refusal(&rs.scene) {
             bail!(why);

@@ -17,6 +17,7 @@ mod light_render;
 mod light_sampling;
 mod mask_shadows;
 mod media;
+mod media_bdpt;
 mod media_light;
 mod mitsuba_adapters;
 mod mitsuba_cornell;

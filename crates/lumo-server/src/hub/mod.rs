@@ -61,7 +61,7 @@ pub struct Hub {
     targets: EditTargets,
     /// Remote render workers (`lumo serve --remote-workers`; empty when off).
     remote: RemoteSet,
-    /// The scene has media or null boundaries: BDPT and photon mapping may not render it.
+    /// The scene has media or null boundaries: photon mapping may not render it.
     media: bool,
 }
 
@@ -354,7 +354,7 @@ impl Hub {
 
     /// A viewer changed integrator or mode: restart rendering (now or merged as above) and
     /// tell every viewer.
-    /// Refused for BDPT and photon mapping in a scene with participating media.
+    /// Refused for photon mapping in a scene with participating media.
     pub fn set_params(&self, integrator: Integrator, mode: Mode) -> Result<(), ProtocolError> {
         if self.media && !integrator.renders_media() {
             let takers: Vec<String> = Integrator::ALL

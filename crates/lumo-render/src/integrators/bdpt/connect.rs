@@ -190,7 +190,7 @@ pub(super) fn prepare(
         let wc = to_cam / dist2.sqrt();
         let value = match qs.kind {
             Kind::Light { .. } if qs.ng.dot(wc) > 0.0 => qs.beta * qs.le * qs.ng.dot(wc),
-            Kind::Surface { .. } => qs.beta * qs.scatter_towards(wc, true),
+            Kind::Surface { .. } | Kind::Medium { .. } => qs.beta * qs.scatter_towards(wc, true),
             _ => Vec3::ZERO,
         };
         // G·We of the pinhole: the surface cosine is in `value`.
@@ -248,7 +248,8 @@ pub(super) fn prepare(
     if !qs.is_connectible() {
         return Prepared::Nothing;
     }
-    if !matches!(qs.kind, Kind::Surface { .. }) || !matches!(pt.kind, Kind::Surface { .. }) {
+    let scatters = |v: &Vertex| matches!(v.kind, Kind::Surface { .. } | Kind::Medium { .. });
+    if !scatters(qs) || !scatters(pt) {
         return Prepared::Nothing;
     }
     let d = qs.p - pt.p;

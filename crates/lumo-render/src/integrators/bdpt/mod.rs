@@ -13,6 +13,9 @@
 //! subpath. Light subpaths start from [`crate::lights::Lights::sample_emission`]; the
 //! environment emits no particles, so paths that end there are weighed between s = 0 and
 //! s = 1 only, exactly as the path tracer weighs them.
+//!
+//! Scenes with participating media or null boundaries take [`volume`]: medium vertices on
+//! both subpaths and shadow segments that carry the media's transmittance.
 
 mod connect;
 mod diffuse_connect;
@@ -25,6 +28,7 @@ mod subpath;
 #[cfg(test)]
 mod tests;
 mod vertex;
+mod volume;
 
 use glam::Vec2;
 
@@ -144,6 +148,19 @@ pub fn trace_bdpt_samples(
 ) {
     let n = films.len().min(GROUP).min(samplers.len()).min(out.len());
     let ctx = Context { rs, camera };
+    if rs.scene.media.is_active() {
+        // Media: each sample walks and joins on its own, through the media (volume.rs).
+        volume::trace_samples(
+            &ctx,
+            &films[..n],
+            &mut samplers[..n],
+            settings,
+            scratch,
+            &mut out[..n],
+            splat,
+        );
+        return;
+    }
     let max_depth = settings.path.max_depth.max(1) as usize;
     scratch.paths.resize_with(2 * GROUP, Vec::new);
     let mut walks = [None; 2 * GROUP];

@@ -10,11 +10,13 @@
 //! such a vertex are excluded by the `delta` flags instead).
 
 use glam::{Vec2, Vec3};
+use lumo_scene::PhaseFunction;
 
 use crate::bsdf::BsdfSample;
 use crate::camera::PinholeCamera;
 use crate::geometry::{cosine_hemisphere_pdf, cosine_pdf, max3_abs, square_to_cosine_hemisphere};
 use crate::lights::{EmissionPdf, Lights};
+use crate::media::phase;
 use crate::render_scene::{RenderScene, Surface};
 use crate::shading::ShadingBsdf;
 
@@ -62,6 +64,13 @@ pub(super) enum Kind {
         /// A one-sided material seen from behind: black both ways, no connections.
         black: bool,
     },
+    /// A real scattering in a participating medium (scenes with media, [`super::volume`]):
+    /// the phase function is its "BSDF", and it has no normal, so no cosine enters its
+    /// densities or its value.
+    Medium {
+        /// The medium's phase function.
+        phase: PhaseFunction,
+    },
 }
 
 /// One vertex of a subpath.
@@ -107,6 +116,10 @@ pub(super) struct Vertex {
     /// geometric normal ([`crate::geometry::offset_point`]'s scale, computed once per vertex
     /// instead of once per strategy; [`Vertex::new`] leaves it 0, [`Vertex::set_offset`]).
     pub off_scale: f32,
+    /// In scenes with media, the medium its own subpath's ray reached it through (the medium
+    /// of a medium vertex; the camera's, or the one around the light, at subpath origins);
+    /// `None` elsewhere. A connection leaving a surface without an interface starts in it.
+    pub medium: Option<u32>,
     /// What it is.
     pub kind: Kind,
 }
@@ -128,6 +141,7 @@ impl Vertex {
             d2_prev: 0.0,
             u_light: (0.0, Vec2::ZERO),
             off_scale: 0.0,
+            medium: None,
         }
     }
 
@@ -165,6 +179,7 @@ impl Vertex {
             Kind::Light { directional, .. } => !directional,
             Kind::Environment { .. } => false,
             Kind::Surface { bsdf, black, .. } => !black && !bsdf.is_delta(),
+            Kind::Medium { .. } => true,
         }
     }
 
@@ -276,6 +291,11 @@ impl Vertex {
                 let pdf = bsdf.pdf(s.frame.to_local(w_prev), s.frame.to_local(w));
                 area_density_along(pdf, to, w, dist2)
             }
+            Kind::Medium { phase } => {
+                let Some(w_prev) = w_prev else { return 0.0 };
+                // Travelling away from `w_prev`, scattered into `w`.
+                area_density_along(phase::eval(phase, -w_prev, w), to, w, dist2)
+            }
         }
     }
 
@@ -309,6 +329,7 @@ impl Vertex {
                 lambert,
                 ..
             } => area_density_along(bsdf_pdf(bsdf, lambert, wp_local, w_local), to, w, dist2),
+            Kind::Medium { .. } => self.pdf_along(ctx, Some(self.w_prev), to, w, dist2),
             _ => self.pdf_along(ctx, None, to, w, dist2),
         }
     }
@@ -360,7 +381,8 @@ impl Vertex {
     /// What scattering at this vertex contributes to a connection towards `w` (world, unit):
     /// for a camera subpath's vertex `f(wo, w)·|cos_ns w|`; for a light subpath's vertex the
     /// adjoint `f(w, wl)` with Veach's shading-normal correction and the geometric cosine
-    /// `|ng·w|`, so that both sides multiply into `value / distance²`.
+    /// `|ng·w|`, so that both sides multiply into `value / distance²`; for a medium vertex
+    /// its phase function, either way.
     #[inline]
     pub fn scatter_towards(&self, w: Vec3, light_side: bool) -> Vec3 {
         self.scatter_local(w, self.local(w), light_side)
@@ -370,6 +392,11 @@ impl Vertex {
     /// connection reuses it for its weight's densities).
     #[inline]
     pub fn scatter_local(&self, w: Vec3, w_l: Vec3, light_side: bool) -> Vec3 {
+        if let Kind::Medium { phase } = self.kind {
+            // The phase function is symmetric in its two directions, and a medium vertex has
+            // no cosine on either side.
+            return Vec3::splat(phase::eval(phase, -self.w_prev, w));
+        }
         // By reference: binding the surface and its BSDF by value copies them.
         let Kind::Surface {
             ref s,

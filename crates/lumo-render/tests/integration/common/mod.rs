@@ -3,6 +3,7 @@
 
 pub mod bsdf_grid;
 pub mod chi2;
+pub mod media_room;
 
 use lumo_scene::shapes::{rectangle, sphere};
 use lumo_scene::{Camera, FovAxis, Mat4, Material, Scene, Vec3};
