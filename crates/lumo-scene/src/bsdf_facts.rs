@@ -169,10 +169,12 @@ impl BsdfSpec {
                 // A clear coat adds a lobe of its own roughness.
                 let coat = ext.filter(|e| e.clearcoat > 0.0);
                 let coat_smooth = coat.map(|e| e.clearcoat_roughness.powi(2) < SMOOTH_ALPHA);
+                // A sheen is a broad lobe of its own.
+                let sheen = ext.is_some_and(crate::GltfExtensions::has_sheen);
                 BsdfFlags {
                     reflection: true,
                     diffuse: textured || *metallic < 1.0,
-                    glossy: textured || !smooth || coat_smooth == Some(false),
+                    glossy: textured || !smooth || coat_smooth == Some(false) || sheen,
                     specular: textured || smooth || coat_smooth == Some(true),
                     transmission: ext.is_some_and(crate::GltfExtensions::transmits),
                 }

@@ -251,7 +251,11 @@ impl RenderScene {
                             e.thickness <= 0.0,
                             e.ior,
                         )
-                        .with_clearcoat(e.clearcoat, e.clearcoat_roughness),
+                        .with_clearcoat(e.clearcoat, e.clearcoat_roughness)
+                        .with_sheen(
+                            texture(&e.sheen_color, surface.uv),
+                            e.sheen_roughness.eval_1(surface.uv),
+                        ),
                 })
             }
             // Adapters are unwrapped by `bsdf`; one reached here (nested in a way it does not

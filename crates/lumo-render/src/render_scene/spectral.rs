@@ -126,6 +126,10 @@ impl RenderScene {
                     f if f.min_element() == f.max_element() => f,
                     f => reflectance(f, wl),
                 },
+                sheen_color: match g.sheen_color {
+                    c if c.min_element() == c.max_element() => c,
+                    c => reflectance(c, wl),
+                },
                 ..g
             }),
         };

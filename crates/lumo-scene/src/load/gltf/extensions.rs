@@ -1,7 +1,7 @@
 //! A glTF material's KHR_materials_ior, KHR_materials_specular, KHR_materials_transmission
 //! and KHR_materials_volume as lumo's [`GltfExtensions`], the absorbing media of volumes, and
-//! KHR_materials_unlit's emission. KHR_materials_clearcoat, which the `gltf` crate does not
-//! parse, is read from the material's extension JSON.
+//! KHR_materials_unlit's emission. KHR_materials_clearcoat and KHR_materials_sheen, which the
+//! `gltf` crate does not parse, are read from the material's extension JSON.
 
 use super::*;
 use crate::media::{Density, MediumSpectra};
@@ -17,11 +17,13 @@ impl GltfReader<'_, '_> {
         let (ior, specular) = (mat.ior(), mat.specular());
         let (transmission, volume) = (mat.transmission(), mat.volume());
         let clearcoat = mat.extension_value("KHR_materials_clearcoat");
+        let sheen = mat.extension_value("KHR_materials_sheen");
         if ior.is_none()
             && specular.is_none()
             && transmission.is_none()
             && volume.is_none()
             && clearcoat.is_none()
+            && sheen.is_none()
         {
             return Ok(None);
         }
@@ -58,6 +60,9 @@ impl GltfReader<'_, '_> {
         }
         if let Some(c) = clearcoat {
             (ext.clearcoat, ext.clearcoat_roughness) = self.clearcoat(label, c)?;
+        }
+        if let Some(s) = sheen {
+            (ext.sheen_color, ext.sheen_roughness) = self.sheen(label, s)?;
         }
         Ok(Some(Arc::new(ext)))
     }
@@ -147,6 +152,70 @@ impl GltfReader<'_, '_> {
             }
         }
         Ok((c, r))
+    }
+
+    /// KHR_materials_sheen's colour (sheenColorFactor × sheenColorTexture, sRGB decoded) and
+    /// roughness (sheenRoughnessFactor × sheenRoughnessTexture's alpha channel, which an image
+    /// without alpha reads as 1). Factors outside [0, 1] are clamped with a warning.
+    fn sheen(
+        &mut self,
+        label: &str,
+        json: &gltf::json::Value,
+    ) -> Result<(Texture, Texture), LoadError> {
+        let what = "KHR_materials_sheen sheenColorFactor";
+        let color = match json.get("sheenColorFactor") {
+            None => Vec3::ZERO,
+            Some(v) => match v.as_array().map(Vec::as_slice) {
+                Some([r, g, b]) => Vec3::new(
+                    r.as_f64().map_or(f32::NAN, |x| x as f32),
+                    g.as_f64().map_or(f32::NAN, |x| x as f32),
+                    b.as_f64().map_or(f32::NAN, |x| x as f32),
+                ),
+                _ => Vec3::NAN,
+            },
+        };
+        let color = if color.is_nan() {
+            self.diag.warn(
+                self.at(label.to_string()),
+                format!(
+                    "{what} is not three numbers; using the default (0, 0, 0), no sheen \
+                     (write three numbers in [0, 1])"
+                ),
+            )?;
+            Vec3::ZERO
+        } else {
+            let c = self.non_negative(label, what, color)?;
+            if c.max_element() > 1.0 {
+                self.diag.warn(
+                    self.at(label.to_string()),
+                    format!("{what} {c} is above 1; clamped (glTF bounds it to [0, 1])"),
+                )?;
+            }
+            c.min(Vec3::ONE)
+        };
+        let sheen_color = match json.get("sheenColorTexture") {
+            Some(info) if color.max_element() > 0.0 => {
+                let tint = move |c: Vec3| c * color;
+                let what = "KHR_materials_sheen sheenColorTexture";
+                self.json_texture(label, what, info, false, Some(&tint))?
+            }
+            _ => Texture::Constant(color),
+        };
+        let roughness = match json.get("sheenRoughnessFactor") {
+            None => 0.0,
+            Some(v) => v.as_f64().map_or(f32::NAN, |x| x as f32),
+        };
+        let what = "KHR_materials_sheen sheenRoughnessFactor";
+        let roughness = self.unit_factor(label, what, roughness, 0.0)?;
+        let texture = match json.get("sheenRoughnessTexture") {
+            Some(info) if roughness > 0.0 => {
+                let what = "KHR_materials_sheen sheenRoughnessTexture";
+                self.json_alpha_texture(label, what, info, &|a| a * roughness)?
+            }
+            _ => None,
+        };
+        let sheen_roughness = texture.unwrap_or(Texture::Constant(Vec3::splat(roughness)));
+        Ok((sheen_color, sheen_roughness))
     }
 
     /// A texture's red channel × `factor` as a grey texture (transmissionTexture), read linear.
