@@ -251,7 +251,14 @@ impl RenderScene {
                             e.thickness <= 0.0,
                             e.ior,
                         )
-                        .with_clearcoat(e.clearcoat, e.clearcoat_roughness)
+                        .with_clearcoat(
+                            e.clearcoat_texture
+                                .as_ref()
+                                .map_or(e.clearcoat, |t| t.eval_1(surface.uv)),
+                            e.clearcoat_roughness_texture
+                                .as_ref()
+                                .map_or(e.clearcoat_roughness, |t| t.eval_1(surface.uv)),
+                        )
                         .with_sheen(
                             texture(&e.sheen_color, surface.uv),
                             e.sheen_roughness.eval_1(surface.uv),

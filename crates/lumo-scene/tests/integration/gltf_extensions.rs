@@ -247,8 +247,8 @@ fn unlit_materials_emit_their_base_colour() {
     );
 }
 
-/// KHR_materials_clearcoat's factors reach the scene; its textures warn (not read); the file
-/// may require the extension.
+/// KHR_materials_clearcoat's factors reach the scene; its normal texture warns (not read);
+/// the file may require the extension.
 #[test]
 fn clearcoat_factors_are_read_and_its_textures_warn() {
     let dir = temp_dir("gltf-coat");
@@ -339,5 +339,41 @@ fn bad_sheen_input_warns_or_is_refused() {
             && err.contains("sheenColorTexture.index 7")
             && err.contains("has 1"),
         "{err}"
+    );
+}
+
+/// clearcoatFactor × clearcoatTexture's red channel and clearcoatRoughnessFactor ×
+/// clearcoatRoughnessTexture's green channel reach the scene per texel, read linear.
+#[test]
+fn clearcoat_textures_are_read_per_texel() {
+    let dir = temp_dir("gltf-coat-textures");
+    let mut png = vec![];
+    let mut enc = png::Encoder::new(&mut png, 2, 1);
+    enc.set_color(png::ColorType::Rgb);
+    enc.set_depth(png::BitDepth::Eight);
+    let mut w = enc.write_header().unwrap();
+    w.write_image_data(&[255, 51, 0, 102, 255, 0]).unwrap();
+    drop(w);
+    write(&dir, "spec.png", png);
+    let used = "\"extensionsUsed\": [\"KHR_lights_punctual\", \"KHR_materials_clearcoat\"]";
+    let ext = "\"KHR_materials_clearcoat\": {\"clearcoatFactor\": 0.8, \
+               \"clearcoatTexture\": {\"index\": 0}, \"clearcoatRoughnessFactor\": 0.5, \
+               \"clearcoatRoughnessTexture\": {\"index\": 0}}";
+    let loaded = load(&write(&dir, "t.gltf", gold_with_extensions(ext, used))).unwrap();
+    let w = warnings(&loaded);
+    assert!(!w.contains("clearcoat"), "{w}");
+    let e = extensions_of(&loaded).expect("extensions");
+    let (left, right) = (Vec2::new(0.25, 0.5), Vec2::new(0.75, 0.5));
+    let coat = e.clearcoat_texture.as_ref().expect("clearcoatTexture");
+    let (l, r) = (coat.eval_1(left), coat.eval_1(right));
+    assert!(
+        (l - 0.8).abs() < 1e-3 && (r - 0.8 * 0.4).abs() < 1e-3,
+        "{l} {r}"
+    );
+    let rough = e.clearcoat_roughness_texture.as_ref().expect("roughness");
+    let (l, r) = (rough.eval_1(left), rough.eval_1(right));
+    assert!(
+        (l - 0.5 * 0.2).abs() < 1e-3 && (r - 0.5).abs() < 1e-3,
+        "{l} {r}"
     );
 }

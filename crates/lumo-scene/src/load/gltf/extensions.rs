@@ -59,7 +59,7 @@ impl GltfReader<'_, '_> {
             (ext.thickness, ext.absorption) = self.volume(label, &v)?;
         }
         if let Some(c) = clearcoat {
-            (ext.clearcoat, ext.clearcoat_roughness) = self.clearcoat(label, c)?;
+            self.clearcoat(label, c, &mut ext)?;
         }
         if let Some(s) = sheen {
             (ext.sheen_color, ext.sheen_roughness) = self.sheen(label, s)?;
@@ -116,15 +116,16 @@ impl GltfReader<'_, '_> {
         Ok((thickness, Some(Vec3::from(sigma))))
     }
 
-    /// KHR_materials_clearcoat's clearcoatFactor and clearcoatRoughnessFactor (default 0,
-    /// clamped to [0, 1] with a warning). Its textures (clearcoatTexture,
-    /// clearcoatRoughnessTexture, clearcoatNormalTexture) are not read: each warns and the
-    /// factors hold everywhere.
+    /// KHR_materials_clearcoat's intensity (clearcoatFactor × clearcoatTexture's red
+    /// channel) and roughness (clearcoatRoughnessFactor × clearcoatRoughnessTexture's green
+    /// channel), both read linear, factors default 0 and clamped to [0, 1] with a warning.
+    /// clearcoatNormalTexture is not read: it warns and the coat follows the base's normal.
     fn clearcoat(
         &mut self,
         label: &str,
         json: &gltf::json::Value,
-    ) -> Result<(f32, f32), LoadError> {
+        ext: &mut GltfExtensions,
+    ) -> Result<(), LoadError> {
         let mut factor = |key: &str| -> Result<f32, LoadError> {
             let value = match json.get(key) {
                 None => 0.0,
@@ -137,21 +138,26 @@ impl GltfReader<'_, '_> {
             factor("clearcoatFactor")?,
             factor("clearcoatRoughnessFactor")?,
         );
-        for key in [
-            "clearcoatTexture",
-            "clearcoatRoughnessTexture",
-            "clearcoatNormalTexture",
-        ] {
-            if json.get(key).is_some() {
-                self.diag.warn(
-                    self.at(label.to_string()),
-                    format!(
-                        "KHR_materials_clearcoat {key} is not read; the coat's factors hold                          everywhere (bake the texture into the factor, or leave it out)"
-                    ),
-                )?;
-            }
+        (ext.clearcoat, ext.clearcoat_roughness) = (c, r);
+        if let Some(info) = json.get("clearcoatTexture").filter(|_| c > 0.0) {
+            let red = move |t: Vec3| Vec3::splat(t.x * c);
+            let what = "KHR_materials_clearcoat clearcoatTexture";
+            ext.clearcoat_texture = Some(self.json_texture(label, what, info, true, Some(&red))?);
         }
-        Ok((c, r))
+        if let Some(info) = json.get("clearcoatRoughnessTexture").filter(|_| r > 0.0) {
+            let green = move |t: Vec3| Vec3::splat(t.y * r);
+            let what = "KHR_materials_clearcoat clearcoatRoughnessTexture";
+            let texture = self.json_texture(label, what, info, true, Some(&green))?;
+            ext.clearcoat_roughness_texture = Some(texture);
+        }
+        if json.get("clearcoatNormalTexture").is_some() {
+            self.diag.warn(
+                self.at(label.to_string()),
+                "KHR_materials_clearcoat clearcoatNormalTexture is not read; the coat follows \
+                 the material's normal (its normalTexture, or the mesh's)",
+            )?;
+        }
+        Ok(())
     }
 
     /// KHR_materials_sheen's colour (sheenColorFactor × sheenColorTexture, sRGB decoded) and
