@@ -130,3 +130,62 @@ fn a_black_sheen_is_no_sheen() {
         "{x} {y}"
     );
 }
+
+/// The albedo AOV of a quad seen head-on whose glTF material has a sheen colour texture
+/// (red on the left half, none on the right) and a clearcoat texture (none on the left, full
+/// on the right) over a black base: the render scene reads both per texel (the sheen's red
+/// E(1) ≈ 0.16 on the left, the coat's grey ≈ 4 % on the right). With the textures replaced
+/// by their means, both halves would be alike.
+#[test]
+fn the_albedo_aov_follows_sheen_and_coat_textures() {
+    use crate::gltf_pbr::{two_texels, FACING_QUAD};
+    use lumo_render::{render, RenderScene, RenderSettings};
+    let loaded = lumo_scene::load::load_mitsuba_str(
+        FACING_QUAD,
+        std::path::Path::new("quad.xml"),
+        &Default::default(),
+    )
+    .unwrap();
+    let mut scene = loaded.scene;
+    let ext = lumo_scene::GltfExtensions {
+        specular: lumo_scene::Texture::Constant(Vec3::ZERO),
+        sheen_color: two_texels(Vec3::X, Vec3::ZERO),
+        sheen_roughness: lumo_scene::Texture::Constant(Vec3::ONE),
+        clearcoat: 1.0,
+        clearcoat_roughness: 0.3,
+        clearcoat_texture: Some(two_texels(Vec3::ZERO, Vec3::ONE)),
+        ..Default::default()
+    };
+    scene.materials[0].bsdf = lumo_scene::BsdfSpec::GltfPbr {
+        base_color: lumo_scene::Texture::Constant(Vec3::ZERO),
+        metallic_roughness: None,
+        metallic: 0.0,
+        roughness: 0.5,
+        extensions: Some(std::sync::Arc::new(ext)),
+    };
+    let rs = RenderScene::new(scene).unwrap();
+    let settings = RenderSettings {
+        width: 8,
+        height: 8,
+        spp: 1,
+        seed: 1,
+        path: Default::default(),
+    };
+    let film = render(&rs, &settings, &|_| {}).0;
+    for y in 0..8 {
+        for x in [0, 1, 2, 5, 6, 7] {
+            let a = Vec3::from_slice(&film.albedo.pixel(x, y)[..3]);
+            if x < 4 {
+                assert!(
+                    a.x > 0.12 && a.x < 0.2 && a.y < 1e-3,
+                    "sheen half ({x}, {y}): {a}"
+                );
+            } else {
+                assert!(
+                    a.min_element() > 0.03 && a.max_element() < 0.06 && a.x == a.z,
+                    "coat half ({x}, {y}): {a}"
+                );
+            }
+        }
+    }
+}
