@@ -331,8 +331,7 @@ fn bad_sheen_input_warns_or_is_refused() {
     let ext = "\"KHR_materials_sheen\": {\"sheenColorFactor\": [1, 1, 1], \
                \"sheenColorTexture\": {\"index\": 7}}";
     let err = load(&write(&dir, "d.gltf", gold_with_extensions(ext, used)))
-        .err()
-        .expect("refused")
+        .unwrap_err()
         .to_string();
     assert!(
         err.contains("d.gltf")
