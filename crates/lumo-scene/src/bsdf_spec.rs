@@ -287,12 +287,16 @@ impl BsdfSpec {
                 let ext = extensions.as_deref();
                 // A clear coat adds a lobe of its own roughness.
                 let coat = ext.filter(|e| e.clearcoat > 0.0);
+                // A roughness texture may make a rough coat's texels smooth.
                 let coat_smooth = coat.map(|e| e.clearcoat_roughness.powi(2) < SMOOTH_ALPHA);
+                let coat_varies = coat.is_some_and(|e| e.clearcoat_roughness_texture.is_some());
+                // A sheen is a broad lobe of its own.
+                let sheen = ext.is_some_and(crate::GltfExtensions::has_sheen);
                 BsdfFlags {
                     reflection: true,
                     diffuse: textured || *metallic < 1.0,
-                    glossy: textured || !smooth || coat_smooth == Some(false),
-                    specular: textured || smooth || coat_smooth == Some(true),
+                    glossy: textured || !smooth || coat_smooth == Some(false) || sheen,
+                    specular: textured || smooth || coat_smooth == Some(true) || coat_varies,
                     transmission: ext.is_some_and(crate::GltfExtensions::transmits),
                 }
             }

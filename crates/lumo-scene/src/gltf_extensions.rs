@@ -34,12 +34,29 @@ pub struct GltfExtensions {
     pub clearcoat: f32,
     /// KHR_materials_clearcoat's clearcoatRoughnessFactor (perceptual) (0).
     pub clearcoat_roughness: f32,
+    /// clearcoatFactor × clearcoatTexture's red channel (grey), per texel; `None` without the
+    /// texture (the factor holds everywhere).
+    pub clearcoat_texture: Option<Texture>,
+    /// clearcoatRoughnessFactor × clearcoatRoughnessTexture's green channel (grey), per
+    /// texel; `None` without the texture.
+    pub clearcoat_roughness_texture: Option<Texture>,
+    /// KHR_materials_sheen: sheenColorFactor × sheenColorTexture (sRGB decoded), the colour
+    /// of a Charlie sheen layer under the coat ((0, 0, 0): no sheen).
+    pub sheen_color: Texture,
+    /// KHR_materials_sheen: sheenRoughnessFactor × sheenRoughnessTexture's alpha channel
+    /// (grey), the sheen's perceptual roughness (0).
+    pub sheen_roughness: Texture,
 }
 
 impl GltfExtensions {
     /// Whether any part of the material may transmit light.
     pub fn transmits(&self) -> bool {
         !matches!(self.transmission, Texture::Constant(c) if c.max_element() <= 0.0)
+    }
+
+    /// Whether any part of the material has a sheen layer.
+    pub fn has_sheen(&self) -> bool {
+        !matches!(self.sheen_color, Texture::Constant(c) if c.max_element() <= 0.0)
     }
 }
 
@@ -55,6 +72,10 @@ impl Default for GltfExtensions {
             absorption: None,
             clearcoat: 0.0,
             clearcoat_roughness: 0.0,
+            clearcoat_texture: None,
+            clearcoat_roughness_texture: None,
+            sheen_color: Texture::Constant(Vec3::ZERO),
+            sheen_roughness: Texture::Constant(Vec3::ZERO),
         }
     }
 }

@@ -142,6 +142,28 @@ fn test_bsdfs() -> Vec<(&'static str, Bsdf)> {
             ),
         ),
         (
+            "gltf-sheen-0.3-over-0.6",
+            Bsdf::GltfPbr(
+                GltfPbr::new(Vec3::new(0.3, 0.2, 0.6), 0.0, 0.6)
+                    .with_sheen(Vec3::new(0.9, 0.7, 0.5), 0.3),
+            ),
+        ),
+        (
+            "gltf-sheen-0.5-over-smooth-metal",
+            Bsdf::GltfPbr(
+                GltfPbr::new(Vec3::new(0.8, 0.6, 0.3), 1.0, 0.0).with_sheen(Vec3::ONE, 0.5),
+            ),
+        ),
+        (
+            "gltf-coat-over-sheen-over-transmission",
+            Bsdf::GltfPbr(
+                GltfPbr::new(Vec3::new(0.9, 0.8, 0.7), 0.0, 0.5)
+                    .with_transmission(0.6, true, 1.5)
+                    .with_clearcoat(0.6, 0.3)
+                    .with_sheen(Vec3::new(0.4, 0.8, 0.6), 1.0),
+            ),
+        ),
+        (
             "plastic-smooth",
             Bsdf::Plastic(Plastic {
                 diffuse: Vec3::new(0.5, 0.4, 0.3),

@@ -133,7 +133,7 @@ fn a_gltf_metals_albedo_is_its_base_colour() {
 }
 
 /// A rectangle filling the view, head-on, lit by a constant environment.
-const FACING_QUAD: &str = r#"<scene version="3.0.0">
+pub(crate) const FACING_QUAD: &str = r#"<scene version="3.0.0">
   <sensor type="perspective">
     <float name="fov" value="40"/>
     <transform name="to_world"><lookat origin="0,0,2" target="0,0,0" up="0,1,0"/></transform>
@@ -144,7 +144,7 @@ const FACING_QUAD: &str = r#"<scene version="3.0.0">
 </scene>"#;
 
 /// A 2×1 linear-RGB bitmap, nearest lookups: `left` for u < ½, `right` above.
-fn two_texels(left: Vec3, right: Vec3) -> lumo_scene::Texture {
+pub(crate) fn two_texels(left: Vec3, right: Vec3) -> lumo_scene::Texture {
     let data = [left.to_array(), right.to_array()].concat();
     lumo_scene::Texture::Bitmap {
         image: std::sync::Arc::new(lumo_image::Image::from_vec(2, 1, 3, data)),

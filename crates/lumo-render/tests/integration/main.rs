@@ -9,6 +9,7 @@ mod direct_light_geometry;
 mod emission_texture;
 mod gltf_clearcoat;
 mod gltf_pbr;
+mod gltf_sheen;
 mod gltf_specular;
 mod gltf_transmission;
 mod gltf_volume;

@@ -120,16 +120,16 @@ fn bad_ior_and_specular_factors_warn() {
 /// material extensions it does read.
 #[test]
 fn the_required_extension_message_lists_ior_and_specular() {
-    let dir = temp_dir("gltf-req-sheen");
+    let dir = temp_dir("gltf-req-iridescence");
     write(&dir, "spec.png", png_rgba_2x1([255, 255]));
-    let used = "\"extensionsUsed\": [\"KHR_lights_punctual\", \"KHR_materials_sheen\"], \
-                \"extensionsRequired\": [\"KHR_materials_sheen\"]";
-    let text = gold_with_extensions("\"KHR_materials_sheen\": {}", used);
-    let e = load(&write(&dir, "sheen.gltf", text))
+    let used = "\"extensionsUsed\": [\"KHR_lights_punctual\", \"KHR_materials_iridescence\"], \
+                \"extensionsRequired\": [\"KHR_materials_iridescence\"]";
+    let text = gold_with_extensions("\"KHR_materials_iridescence\": {}", used);
+    let e = load(&write(&dir, "iridescence.gltf", text))
         .unwrap_err()
         .to_string();
     assert!(
-        e.contains("KHR_materials_sheen")
+        e.contains("KHR_materials_iridescence")
             && e.contains("KHR_materials_ior")
             && e.contains("KHR_materials_specular"),
         "{e}"
@@ -247,8 +247,8 @@ fn unlit_materials_emit_their_base_colour() {
     );
 }
 
-/// KHR_materials_clearcoat's factors reach the scene; its textures warn (not read); the file
-/// may require the extension.
+/// KHR_materials_clearcoat's factors reach the scene; its normal texture warns (not read);
+/// the file may require the extension.
 #[test]
 fn clearcoat_factors_are_read_and_its_textures_warn() {
     let dir = temp_dir("gltf-coat");
@@ -266,4 +266,113 @@ fn clearcoat_factors_are_read_and_its_textures_warn() {
         "{w}"
     );
     assert!(!w.contains("not supported"), "{w}");
+}
+
+/// KHR_materials_sheen's colour (factor × sRGB texture) and roughness (factor × the alpha of
+/// its texture, with KHR_texture_transform) reach the scene per texel; the file requires the
+/// extension and loads without a warning about it.
+#[test]
+fn sheen_factors_and_textures_are_read_per_texel() {
+    let dir = temp_dir("gltf-sheen");
+    write(&dir, "spec.png", png_rgba_2x1([255, 51]));
+    let used = "\"extensionsUsed\": [\"KHR_lights_punctual\", \"KHR_materials_sheen\"], \
+                \"extensionsRequired\": [\"KHR_materials_sheen\"]";
+    // The roughness texture is mirrored in u (scale −1, offset 1): its left texel is read on
+    // the right.
+    let ext = "\"KHR_materials_sheen\": {\"sheenColorFactor\": [0.5, 1, 0.25], \
+               \"sheenColorTexture\": {\"index\": 0}, \"sheenRoughnessFactor\": 0.8, \
+               \"sheenRoughnessTexture\": {\"index\": 0, \"extensions\": \
+               {\"KHR_texture_transform\": {\"offset\": [1, 0], \"scale\": [-1, 1]}}}}";
+    let loaded = load(&write(&dir, "s.gltf", gold_with_extensions(ext, used))).unwrap();
+    let w = warnings(&loaded);
+    assert!(!w.contains("KHR_materials"), "{w}");
+    let e = extensions_of(&loaded).expect("extensions");
+    assert!(e.has_sheen());
+    let (left, right) = (Vec2::new(0.25, 0.5), Vec2::new(0.75, 0.5));
+    let c = e.sheen_color.eval(left);
+    assert!(
+        (c - Vec3::new(0.5, 1.0, 0.25)).abs().max_element() < 1e-4,
+        "{c}"
+    );
+    // sRGB (255, 128, 0) decodes to (1, 0.2158, 0).
+    let c = e.sheen_color.eval(right);
+    let expected = Vec3::new(0.5, 0.2158, 0.0);
+    assert!((c - expected).abs().max_element() < 1e-3, "{c}");
+    let (l, r) = (
+        e.sheen_roughness.eval_1(left),
+        e.sheen_roughness.eval_1(right),
+    );
+    assert!(
+        (l - 0.8 * 0.2).abs() < 1e-3 && (r - 0.8).abs() < 1e-3,
+        "{l} {r}"
+    );
+    // Without the extension there is no sheen.
+    assert!(!GltfExtensions::default().has_sheen());
+}
+
+/// Bad sheen input: a factor above 1 is clamped with a warning naming the file, material and
+/// field; a texture index that names no texture is refused naming the field and the fix.
+#[test]
+fn bad_sheen_input_warns_or_is_refused() {
+    let dir = temp_dir("gltf-sheen-bad");
+    write(&dir, "spec.png", png_rgba_2x1([255, 255]));
+    let used = "\"extensionsUsed\": [\"KHR_lights_punctual\", \"KHR_materials_sheen\"]";
+    let ext = "\"KHR_materials_sheen\": {\"sheenColorFactor\": [2, 0.5, 0.5], \
+               \"sheenRoughnessFactor\": 0.3}";
+    let loaded = load(&write(&dir, "c.gltf", gold_with_extensions(ext, used))).unwrap();
+    let w = warnings(&loaded);
+    assert!(
+        w.contains("c.gltf") && w.contains("material 1") && w.contains("sheenColorFactor"),
+        "{w}"
+    );
+    let e = extensions_of(&loaded).expect("extensions");
+    assert_eq!(e.sheen_color.eval(Vec2::ZERO), Vec3::new(1.0, 0.5, 0.5));
+    assert_eq!(e.sheen_roughness.eval_1(Vec2::ZERO), 0.3);
+    let ext = "\"KHR_materials_sheen\": {\"sheenColorFactor\": [1, 1, 1], \
+               \"sheenColorTexture\": {\"index\": 7}}";
+    let err = load(&write(&dir, "d.gltf", gold_with_extensions(ext, used)))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("d.gltf")
+            && err.contains("sheenColorTexture.index 7")
+            && err.contains("has 1"),
+        "{err}"
+    );
+}
+
+/// clearcoatFactor × clearcoatTexture's red channel and clearcoatRoughnessFactor ×
+/// clearcoatRoughnessTexture's green channel reach the scene per texel, read linear.
+#[test]
+fn clearcoat_textures_are_read_per_texel() {
+    let dir = temp_dir("gltf-coat-textures");
+    let mut png = vec![];
+    let mut enc = png::Encoder::new(&mut png, 2, 1);
+    enc.set_color(png::ColorType::Rgb);
+    enc.set_depth(png::BitDepth::Eight);
+    let mut w = enc.write_header().unwrap();
+    w.write_image_data(&[255, 51, 0, 102, 255, 0]).unwrap();
+    drop(w);
+    write(&dir, "spec.png", png);
+    let used = "\"extensionsUsed\": [\"KHR_lights_punctual\", \"KHR_materials_clearcoat\"]";
+    let ext = "\"KHR_materials_clearcoat\": {\"clearcoatFactor\": 0.8, \
+               \"clearcoatTexture\": {\"index\": 0}, \"clearcoatRoughnessFactor\": 0.5, \
+               \"clearcoatRoughnessTexture\": {\"index\": 0}}";
+    let loaded = load(&write(&dir, "t.gltf", gold_with_extensions(ext, used))).unwrap();
+    let w = warnings(&loaded);
+    assert!(!w.contains("clearcoat"), "{w}");
+    let e = extensions_of(&loaded).expect("extensions");
+    let (left, right) = (Vec2::new(0.25, 0.5), Vec2::new(0.75, 0.5));
+    let coat = e.clearcoat_texture.as_ref().expect("clearcoatTexture");
+    let (l, r) = (coat.eval_1(left), coat.eval_1(right));
+    assert!(
+        (l - 0.8).abs() < 1e-3 && (r - 0.8 * 0.4).abs() < 1e-3,
+        "{l} {r}"
+    );
+    let rough = e.clearcoat_roughness_texture.as_ref().expect("roughness");
+    let (l, r) = (rough.eval_1(left), rough.eval_1(right));
+    assert!(
+        (l - 0.5 * 0.2).abs() < 1e-3 && (r - 0.5).abs() < 1e-3,
+        "{l} {r}"
+    );
 }

@@ -2,7 +2,8 @@
 //! whole glTF BSDF, weighed by the clearcoat intensity c. The extension attenuates the base by
 //! 1 − c·F(v·h); here, for energy conservation and reciprocity, by (1 − c·E(ωo))(1 − c·E(ωi)),
 //! E being the coat's directional albedo (the glTF albedo table at F0 = 0.04): light crosses
-//! the coat on the way in and out, and no direction gets back more than the coat left.
+//! the coat on the way in and out, and no direction gets back more than the coat left. The coat
+//! lies over the sheen (KHR_materials_sheen), as the extensions define.
 
 use glam::{Vec2, Vec3};
 
@@ -40,7 +41,7 @@ impl GltfPbr {
     #[inline]
     fn coat_probability(&self, wo: Vec3) -> f32 {
         let coat = 1.0 - self.coat_transmittance(wo.z);
-        let rest = self.coat_transmittance(wo.z) * self.uncoated_albedo(wo).element_sum() / 3.0;
+        let rest = self.coat_transmittance(wo.z) * self.sheened_albedo(wo).element_sum() / 3.0;
         if coat + rest <= 0.0 {
             1.0
         } else {
@@ -85,25 +86,25 @@ impl GltfPbr {
     /// f(wo, wi)·|cos θi| with the coat (where there is one).
     pub(crate) fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         if self.clearcoat <= 0.0 {
-            return self.uncoated_eval(wo, wi);
+            return self.sheened_eval(wo, wi);
         }
         let through = self.coat_transmittance(wo.z) * self.coat_transmittance(wi.z);
-        self.coat_eval(wo, wi) + self.uncoated_eval(wo, wi) * through
+        self.coat_eval(wo, wi) + self.sheened_eval(wo, wi) * through
     }
 
     /// The density of [`Self::sample`].
     pub(crate) fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         if self.clearcoat <= 0.0 {
-            return self.uncoated_pdf(wo, wi);
+            return self.sheened_pdf(wo, wi);
         }
         let p = self.coat_probability(wo);
-        p * self.coat_pdf(wo, wi) + (1.0 - p) * self.uncoated_pdf(wo, wi)
+        p * self.coat_pdf(wo, wi) + (1.0 - p) * self.sheened_pdf(wo, wi)
     }
 
     /// The coat (by its share of the reflected light) or what lies under it.
     pub(crate) fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
         if self.clearcoat <= 0.0 {
-            return self.uncoated_sample(wo, u_lobe, u);
+            return self.sheened_sample(wo, u_lobe, u);
         }
         let p = self.coat_probability(wo);
         let s = if u_lobe < p {
@@ -126,7 +127,7 @@ impl GltfPbr {
             }
         } else {
             let u_rest = ((u_lobe - p) / (1.0 - p)).min(1.0 - f32::EPSILON);
-            let mut s = self.uncoated_sample(wo, u_rest, u)?;
+            let mut s = self.sheened_sample(wo, u_rest, u)?;
             if s.delta {
                 let through = self.coat_transmittance(wo.z) * self.coat_transmittance(s.wi.z);
                 s.weight *= through / (1.0 - p);
@@ -146,7 +147,7 @@ impl GltfPbr {
     /// The G-buffer albedo seen from `wo`: the coat's reflectance plus what it lets through
     /// of the rest's.
     pub(crate) fn albedo(&self, wo: Vec3) -> Vec3 {
-        let rest = self.uncoated_albedo(wo);
+        let rest = self.sheened_albedo(wo);
         if self.clearcoat <= 0.0 {
             return rest;
         }

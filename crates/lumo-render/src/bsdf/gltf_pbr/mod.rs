@@ -15,7 +15,9 @@
 //! diffuse lobe's weight from the specular layer's albedo.
 
 mod albedo_table;
+mod charlie;
 mod clearcoat;
+mod sheen;
 mod spec;
 mod transmission;
 
@@ -61,6 +63,11 @@ pub struct GltfPbr {
     pub clearcoat_roughness: f32,
     /// GGX of α = clearcoat roughness².
     pub coat_mf: Microfacet,
+    /// KHR_materials_sheen's colour (linear, ≥ 0): the tint of a Charlie sheen layer under
+    /// the coat; zero without it, which disables the layer.
+    pub sheen_color: Vec3,
+    /// The sheen's perceptual roughness in [0.07, 1] (α = its square).
+    pub sheen_roughness: f32,
 }
 
 /// Schlick's Fresnel approximation with reflectance `f0` at normal incidence.
@@ -99,6 +106,8 @@ impl GltfPbr {
             clearcoat: 0.0,
             clearcoat_roughness: 0.0,
             coat_mf: Microfacet::ggx(0.0),
+            sheen_color: Vec3::ZERO,
+            sheen_roughness: 1.0,
         }
     }
 
@@ -172,7 +181,10 @@ impl GltfPbr {
     /// metallic): nothing but Dirac lobes.
     pub(super) fn is_delta(&self) -> bool {
         let coat_delta = self.clearcoat <= 0.0 || self.coat_mf.max_alpha() < SMOOTH_ALPHA;
-        coat_delta && self.smooth() && (1.0 - self.metallic) * (1.0 - self.transmission) <= 0.0
+        coat_delta
+            && !self.has_sheen()
+            && self.smooth()
+            && (1.0 - self.metallic) * (1.0 - self.transmission) <= 0.0
     }
 
     /// The specular Fresnel term of the mix at microfacet cosine `cos`: the dielectric

@@ -35,11 +35,22 @@ impl GltfPbr {
                     texture(&e.specular_color, hit.uv),
                 )
                 .with_transmission(e.transmission.eval_1(hit.uv), e.thickness <= 0.0, e.ior)
-                .with_clearcoat(e.clearcoat, e.clearcoat_roughness),
+                .with_clearcoat(
+                    e.clearcoat_texture
+                        .as_ref()
+                        .map_or(e.clearcoat, |t| t.eval_1(hit.uv)),
+                    e.clearcoat_roughness_texture
+                        .as_ref()
+                        .map_or(e.clearcoat_roughness, |t| t.eval_1(hit.uv)),
+                )
+                .with_sheen(
+                    texture(&e.sheen_color, hit.uv),
+                    e.sheen_roughness.eval_1(hit.uv),
+                ),
         }
     }
 
-    /// The base colour and the dielectric F0 at a spectral path's wavelengths.
+    /// The base colour, the dielectric F0 and the sheen colour at a spectral path's wavelengths.
     #[inline]
     pub(in crate::bsdf) fn at_wavelengths(self, c: &mut impl SpectralColours) -> Self {
         GltfPbr {
@@ -48,6 +59,10 @@ impl GltfPbr {
             dielectric_f0: match self.dielectric_f0 {
                 f if f.min_element() == f.max_element() => f,
                 f => reflectance(f, c.wavelengths()),
+            },
+            sheen_color: match self.sheen_color {
+                s if s.min_element() == s.max_element() => s,
+                s => reflectance(s, c.wavelengths()),
             },
             ..self
         }

@@ -55,31 +55,41 @@ impl GltfReader<'_, '_> {
         info: &gltf::texture::Info,
         opacity: &dyn Fn(f32) -> f32,
     ) -> Result<Option<Texture>, LoadError> {
-        let image = info.texture().source();
+        let texture = self.alpha_of(&info.texture(), opacity)?;
+        Ok(texture.map(|texture| match info.texture_transform() {
+            None => texture,
+            Some(t) => materials::transformed(texture, &t),
+        }))
+    }
+
+    /// `texture`'s alpha channel through `f` as a grey bitmap (untransformed); `None` where
+    /// the image has no alpha.
+    pub(super) fn alpha_of(
+        &mut self,
+        texture: &gltf::Texture,
+        f: &dyn Fn(f32) -> f32,
+    ) -> Result<Option<Texture>, LoadError> {
+        let image = texture.source();
         let at = self.at(format!("image {}", image.index()));
         let bytes = self.image_bytes(&image, &at)?;
         let Some(alpha) = decode_alpha(&bytes).map_err(|e| LoadError::invalid(at.clone(), e))?
         else {
             return Ok(None);
         };
-        // Grey RGB so that the mask's luminance lookup reads the opacity itself.
-        let data = alpha.data.iter().flat_map(|&a| [opacity(a); 3]).collect();
+        // Grey RGB so that a luminance lookup reads the value itself.
+        let data = alpha.data.iter().flat_map(|&a| [f(a); 3]).collect();
         let img = flip_rows(lumo_image::Image::from_vec(
             alpha.width,
             alpha.height,
             3,
             data,
         ));
-        let (filter, wrap) = self.sampler(&info.texture(), &at)?;
-        let texture = Texture::Bitmap {
+        let (filter, wrap) = self.sampler(texture, &at)?;
+        Ok(Some(Texture::Bitmap {
             image: Arc::new(img),
             uv_scale: Vec2::ONE,
             filter,
             wrap,
-        };
-        Ok(Some(match info.texture_transform() {
-            None => texture,
-            Some(t) => materials::transformed(texture, &t),
         }))
     }
 }

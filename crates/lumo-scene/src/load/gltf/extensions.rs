@@ -1,7 +1,7 @@
 //! A glTF material's KHR_materials_ior, KHR_materials_specular, KHR_materials_transmission
 //! and KHR_materials_volume as lumo's [`GltfExtensions`], the absorbing media of volumes, and
-//! KHR_materials_unlit's emission. KHR_materials_clearcoat, which the `gltf` crate does not
-//! parse, is read from the material's extension JSON.
+//! KHR_materials_unlit's emission. KHR_materials_clearcoat and KHR_materials_sheen, which the
+//! `gltf` crate does not parse, are read from the material's extension JSON.
 
 use super::*;
 use crate::media::{Density, MediumSpectra};
@@ -17,11 +17,13 @@ impl GltfReader<'_, '_> {
         let (ior, specular) = (mat.ior(), mat.specular());
         let (transmission, volume) = (mat.transmission(), mat.volume());
         let clearcoat = mat.extension_value("KHR_materials_clearcoat");
+        let sheen = mat.extension_value("KHR_materials_sheen");
         if ior.is_none()
             && specular.is_none()
             && transmission.is_none()
             && volume.is_none()
             && clearcoat.is_none()
+            && sheen.is_none()
         {
             return Ok(None);
         }
@@ -57,7 +59,10 @@ impl GltfReader<'_, '_> {
             (ext.thickness, ext.absorption) = self.volume(label, &v)?;
         }
         if let Some(c) = clearcoat {
-            (ext.clearcoat, ext.clearcoat_roughness) = self.clearcoat(label, c)?;
+            self.clearcoat(label, c, &mut ext)?;
+        }
+        if let Some(s) = sheen {
+            (ext.sheen_color, ext.sheen_roughness) = self.sheen(label, s)?;
         }
         Ok(Some(Arc::new(ext)))
     }
@@ -111,15 +116,16 @@ impl GltfReader<'_, '_> {
         Ok((thickness, Some(Vec3::from(sigma))))
     }
 
-    /// KHR_materials_clearcoat's clearcoatFactor and clearcoatRoughnessFactor (default 0,
-    /// clamped to [0, 1] with a warning). Its textures (clearcoatTexture,
-    /// clearcoatRoughnessTexture, clearcoatNormalTexture) are not read: each warns and the
-    /// factors hold everywhere.
+    /// KHR_materials_clearcoat's intensity (clearcoatFactor × clearcoatTexture's red
+    /// channel) and roughness (clearcoatRoughnessFactor × clearcoatRoughnessTexture's green
+    /// channel), both read linear, factors default 0 and clamped to [0, 1] with a warning.
+    /// clearcoatNormalTexture is not read: it warns and the coat follows the base's normal.
     fn clearcoat(
         &mut self,
         label: &str,
         json: &gltf::json::Value,
-    ) -> Result<(f32, f32), LoadError> {
+        ext: &mut GltfExtensions,
+    ) -> Result<(), LoadError> {
         let mut factor = |key: &str| -> Result<f32, LoadError> {
             let value = match json.get(key) {
                 None => 0.0,
@@ -132,21 +138,90 @@ impl GltfReader<'_, '_> {
             factor("clearcoatFactor")?,
             factor("clearcoatRoughnessFactor")?,
         );
-        for key in [
-            "clearcoatTexture",
-            "clearcoatRoughnessTexture",
-            "clearcoatNormalTexture",
-        ] {
-            if json.get(key).is_some() {
+        (ext.clearcoat, ext.clearcoat_roughness) = (c, r);
+        if let Some(info) = json.get("clearcoatTexture").filter(|_| c > 0.0) {
+            let red = move |t: Vec3| Vec3::splat(t.x * c);
+            let what = "KHR_materials_clearcoat clearcoatTexture";
+            ext.clearcoat_texture = Some(self.json_texture(label, what, info, true, Some(&red))?);
+        }
+        if let Some(info) = json.get("clearcoatRoughnessTexture").filter(|_| r > 0.0) {
+            let green = move |t: Vec3| Vec3::splat(t.y * r);
+            let what = "KHR_materials_clearcoat clearcoatRoughnessTexture";
+            let texture = self.json_texture(label, what, info, true, Some(&green))?;
+            ext.clearcoat_roughness_texture = Some(texture);
+        }
+        if json.get("clearcoatNormalTexture").is_some() {
+            self.diag.warn(
+                self.at(label.to_string()),
+                "KHR_materials_clearcoat clearcoatNormalTexture is not read; the coat follows \
+                 the material's normal (its normalTexture, or the mesh's)",
+            )?;
+        }
+        Ok(())
+    }
+
+    /// KHR_materials_sheen's colour (sheenColorFactor × sheenColorTexture, sRGB decoded) and
+    /// roughness (sheenRoughnessFactor × sheenRoughnessTexture's alpha channel, which an image
+    /// without alpha reads as 1). Factors outside [0, 1] are clamped with a warning.
+    fn sheen(
+        &mut self,
+        label: &str,
+        json: &gltf::json::Value,
+    ) -> Result<(Texture, Texture), LoadError> {
+        let what = "KHR_materials_sheen sheenColorFactor";
+        let color = match json.get("sheenColorFactor") {
+            None => Vec3::ZERO,
+            Some(v) => match v.as_array().map(Vec::as_slice) {
+                Some([r, g, b]) => Vec3::new(
+                    r.as_f64().map_or(f32::NAN, |x| x as f32),
+                    g.as_f64().map_or(f32::NAN, |x| x as f32),
+                    b.as_f64().map_or(f32::NAN, |x| x as f32),
+                ),
+                _ => Vec3::NAN,
+            },
+        };
+        let color = if color.is_nan() {
+            self.diag.warn(
+                self.at(label.to_string()),
+                format!(
+                    "{what} is not three numbers; using the default (0, 0, 0), no sheen \
+                     (write three numbers in [0, 1])"
+                ),
+            )?;
+            Vec3::ZERO
+        } else {
+            let c = self.non_negative(label, what, color)?;
+            if c.max_element() > 1.0 {
                 self.diag.warn(
                     self.at(label.to_string()),
-                    format!(
-                        "KHR_materials_clearcoat {key} is not read; the coat's factors hold                          everywhere (bake the texture into the factor, or leave it out)"
-                    ),
+                    format!("{what} {c} is above 1; clamped (glTF bounds it to [0, 1])"),
                 )?;
             }
-        }
-        Ok((c, r))
+            c.min(Vec3::ONE)
+        };
+        let sheen_color = match json.get("sheenColorTexture") {
+            Some(info) if color.max_element() > 0.0 => {
+                let tint = move |c: Vec3| c * color;
+                let what = "KHR_materials_sheen sheenColorTexture";
+                self.json_texture(label, what, info, false, Some(&tint))?
+            }
+            _ => Texture::Constant(color),
+        };
+        let roughness = match json.get("sheenRoughnessFactor") {
+            None => 0.0,
+            Some(v) => v.as_f64().map_or(f32::NAN, |x| x as f32),
+        };
+        let what = "KHR_materials_sheen sheenRoughnessFactor";
+        let roughness = self.unit_factor(label, what, roughness, 0.0)?;
+        let texture = match json.get("sheenRoughnessTexture") {
+            Some(info) if roughness > 0.0 => {
+                let what = "KHR_materials_sheen sheenRoughnessTexture";
+                self.json_alpha_texture(label, what, info, &|a| a * roughness)?
+            }
+            _ => None,
+        };
+        let sheen_roughness = texture.unwrap_or(Texture::Constant(Vec3::splat(roughness)));
+        Ok((sheen_color, sheen_roughness))
     }
 
     /// A texture's red channel × `factor` as a grey texture (transmissionTexture), read linear.

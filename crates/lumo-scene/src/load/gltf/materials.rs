@@ -189,17 +189,7 @@ impl GltfReader<'_, '_> {
     ) -> Result<Texture, LoadError> {
         let image = texture.source();
         let at = self.at(format!("image {}", image.index()));
-        if tex_coord != self.uv_set {
-            // A lumo mesh keeps one uv set per primitive (attributes::uv_set).
-            self.diag.warn(
-                at.clone(),
-                format!(
-                    "texCoord {tex_coord} differs from TEXCOORD_{} that the material's base \
-                     colour texture reads; lumo keeps one set per mesh and reads that one here",
-                    self.uv_set
-                ),
-            )?;
-        }
+        self.check_uv_set(&at, tex_coord)?;
         let decoded = match self.images.get(&(image.index(), raw)) {
             Some(img) => img.clone(),
             None => {
@@ -230,6 +220,22 @@ impl GltfReader<'_, '_> {
             filter,
             wrap,
         })
+    }
+
+    /// Warns where a texture reads `tex_coord` but the mesh keeps another set.
+    pub(super) fn check_uv_set(&mut self, at: &Location, tex_coord: u32) -> Result<(), LoadError> {
+        if tex_coord != self.uv_set {
+            // A lumo mesh keeps one uv set per primitive (attributes::uv_set).
+            self.diag.warn(
+                at.clone(),
+                format!(
+                    "texCoord {tex_coord} differs from TEXCOORD_{} that the material's base \
+                     colour texture reads; lumo keeps one set per mesh and reads that one here",
+                    self.uv_set
+                ),
+            )?;
+        }
+        Ok(())
     }
 
     /// A texture's sampler as lumo's lookup: magFilter NEAREST is nearest, LINEAR or unset
@@ -292,11 +298,21 @@ impl GltfReader<'_, '_> {
 /// `texture` looked up through a `KHR_texture_transform`: uv' = T(offset) · R(rotation) ·
 /// S(scale) · uv, as the extension defines.
 pub(super) fn transformed(texture: Texture, t: &gltf::texture::TextureTransform) -> Texture {
-    let (s, c) = t.rotation().sin_cos();
+    transformed_by(texture, t.offset(), t.rotation(), t.scale())
+}
+
+/// [`transformed`] from the transform's offset, rotation and scale.
+pub(super) fn transformed_by(
+    texture: Texture,
+    offset: [f32; 2],
+    rotation: f32,
+    scale: [f32; 2],
+) -> Texture {
+    let (s, c) = rotation.sin_cos();
     let rot = Mat2::from_cols(Vec2::new(c, -s), Vec2::new(s, c));
     let m = Affine2::from_mat2_translation(
-        rot * Mat2::from_diagonal(Vec2::from(t.scale())),
-        Vec2::from(t.offset()),
+        rot * Mat2::from_diagonal(Vec2::from(scale)),
+        Vec2::from(offset),
     );
     Texture::Transformed {
         texture: Arc::new(texture),

@@ -6,6 +6,7 @@ mod alpha;
 mod attributes;
 mod buffers;
 mod extensions;
+mod json_texture;
 mod materials;
 mod morph_anim;
 mod skin;
@@ -38,6 +39,7 @@ const SUPPORTED: &[&str] = &[
     "KHR_materials_clearcoat",
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
+    "KHR_materials_sheen",
     "KHR_materials_specular",
     "KHR_materials_transmission",
     "KHR_materials_unlit",
@@ -136,6 +138,7 @@ fn load_unguarded(
     let buffers = load_buffers(path, doc, blob.as_deref())?;
     let mut r = GltfReader {
         path,
+        doc,
         diag,
         buffers,
         images: HashMap::new(),
@@ -212,6 +215,8 @@ fn load_unguarded(
 
 struct GltfReader<'p, 'd> {
     path: &'p Path,
+    /// The document, for the textures that extension JSON names by index.
+    doc: &'p gltf::Document,
     diag: &'d mut Diagnostics,
     buffers: Vec<Vec<u8>>,
     /// Decoded images by (image index, raw).
