@@ -161,8 +161,8 @@ pub struct DenoiseArgs {
     #[arg(long)]
     pub no_auto_atrous: bool,
     /// auto: calibration of the unfiltered input as a candidate (its error 2σ̂², σ̂² this
-    /// factor × a directional second-difference noise estimate); 0 = not a candidate
-    /// [default: 6.6].
+    /// factor × a directional second-difference noise estimate, e.g. 6.6); 0 = not a
+    /// candidate [default: 0].
     #[arg(long)]
     pub auto_input_noise: Option<f32>,
     /// auto: firefly threshold k; a pixel brighter than k × its neighbourhood's mean
