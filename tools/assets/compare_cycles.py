@@ -30,6 +30,7 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.abspath(os.path.join(HERE, "..", ".."))
 sys.path.insert(0, os.path.join(REPO, "tools", "peers"))
+from render_peers import cycles_settings  # noqa: E402
 from run_peers import read_pfm  # noqa: E402
 
 #: Per scene: the time lumo renders at (seconds; None for a still) and the Blender frame.
@@ -63,29 +64,10 @@ def render_cycles(a, scene, seed, out):
     _, frame = POSES.get(os.path.splitext(os.path.basename(scene))[0], (None, None))
     if frame is not None:
         sc.frame_set(frame)
-    sc.render.engine = "CYCLES"
+    cycles_settings(sc, a.depth, seed, a.threads, (a.res, a.res))
     cy = sc.cycles
-    cy.device = "CPU"
-    cy.use_adaptive_sampling = False
-    cy.use_denoising = False
-    cy.seed = seed
-    for k in ("max_bounces", "diffuse_bounces", "glossy_bounces", "transmission_bounces",
-              "volume_bounces", "transparent_max_bounces"):
-        setattr(cy, k, max(a.depth - 2, 0))
     cy.transparent_max_bounces = 64  # alpha-masked layers are not path vertices in lumo
-    cy.caustics_reflective = cy.caustics_refractive = True
-    cy.blur_glossy = 0.0
-    cy.sample_clamp_direct = cy.sample_clamp_indirect = 0.0
-    cy.pixel_filter_type = "BOX"
-    cy.filter_width = 1.0
     cy.samples = a.cycles_spp
-    sc.render.threads_mode = "FIXED"
-    sc.render.threads = a.threads
-    sc.render.resolution_x = sc.render.resolution_y = a.res
-    sc.render.resolution_percentage = 100
-    sc.render.image_settings.file_format = "OPEN_EXR"
-    sc.render.image_settings.color_depth = "32"
-    sc.view_settings.view_transform = "Standard"
     world = bpy.data.worlds.new("black")
     world.use_nodes = True
     world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0

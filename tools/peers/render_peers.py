@@ -86,22 +86,18 @@ def work_mitsuba(a):
     return time.perf_counter() - t0, img[..., :3]
 
 
-def work_cycles(a):
-    import math
-
-    import bpy
-    import xml_scene
-
-    s = xml_scene.read_scene(a.scene, res=a.res)
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    sc = bpy.context.scene
+def cycles_settings(sc, max_depth, seed, threads, size):
+    """Cycles set up to compare with lumo: CPU, no adaptive sampling, denoiser or clamping, a
+    one-pixel box filter, linear 32-bit EXR output, and bounces = Mitsuba's `max_depth` − 2
+    (the mapping that agrees within 0.1 % on the Cornell box; unlimited for −1). Shared with
+    tools/assets/compare_cycles.py."""
     sc.render.engine = "CYCLES"
     cy = sc.cycles
     cy.device = "CPU"
     cy.use_adaptive_sampling = False
     cy.use_denoising = False
-    cy.seed = a.seed
-    bounces = 1024 if s.max_depth < 0 else max(s.max_depth - 2, 0)
+    cy.seed = seed
+    bounces = 1024 if max_depth < 0 else max(max_depth - 2, 0)
     for k in ("max_bounces", "diffuse_bounces", "glossy_bounces", "transmission_bounces",
               "volume_bounces", "transparent_max_bounces"):
         setattr(cy, k, bounces)
@@ -111,12 +107,25 @@ def work_cycles(a):
     cy.pixel_filter_type = "BOX"
     cy.filter_width = 1.0
     sc.render.threads_mode = "FIXED"
-    sc.render.threads = a.threads
-    sc.render.resolution_x, sc.render.resolution_y = s.camera.width, s.camera.height
+    sc.render.threads = threads
+    sc.render.resolution_x, sc.render.resolution_y = size
     sc.render.resolution_percentage = 100
     sc.render.image_settings.file_format = "OPEN_EXR"
     sc.render.image_settings.color_depth = "32"
     sc.view_settings.view_transform = "Standard"
+
+
+def work_cycles(a):
+    import math
+
+    import bpy
+    import xml_scene
+
+    s = xml_scene.read_scene(a.scene, res=a.res)
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    sc = bpy.context.scene
+    cycles_settings(sc, s.max_depth, a.seed, a.threads, (s.camera.width, s.camera.height))
+    cy = sc.cycles
     world = bpy.data.worlds.new("world")
     world.use_nodes = True
     bg = world.node_tree.nodes["Background"]

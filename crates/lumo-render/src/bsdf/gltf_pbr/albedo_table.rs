@@ -117,9 +117,10 @@ pub(super) fn schlick_weight(cos: f32) -> f32 {
     (1.0 - cos.clamp(0.0, 1.0)).powi(5)
 }
 
-/// The cell of `x` ∈ [0, 1] on a grid of `n` points and the fraction into it.
+/// The cell of `x` ∈ [0, 1] on a grid of `n` points and the fraction into it (shared with
+/// the sheen's table, `charlie.rs`).
 #[inline]
-fn grid(x: f32, n: usize) -> (usize, f32) {
+pub(super) fn grid(x: f32, n: usize) -> (usize, f32) {
     let x = if x.is_finite() {
         x.clamp(0.0, 1.0)
     } else {

@@ -13,6 +13,8 @@ use std::sync::OnceLock;
 
 use glam::{Vec2, Vec3};
 
+use super::albedo_table::grid;
+
 /// The smallest sheen roughness used: below it the fibres all lie in the tangent plane and the
 /// lobe narrows beyond what the table resolves (at this roughness it reflects under 1 % of
 /// the light at view cosines above 0.3, and only towards grazing views).
@@ -126,18 +128,6 @@ impl SheenAlbedoTable {
         let row = |j: usize| at(i, j) * (1.0 - fi) + at(i + 1, j) * fi;
         row(j) * (1.0 - fj) + row(j + 1) * fj
     }
-}
-
-/// The cell of `x` ∈ [0, 1] on a grid of `n` points and the fraction into it.
-#[inline]
-fn grid(x: f32, n: usize) -> (usize, f32) {
-    let x = if x.is_finite() {
-        x.clamp(0.0, 1.0)
-    } else {
-        0.0
-    } * (n - 1) as f32;
-    let i = (x as usize).min(n - 2);
-    (i, x - i as f32)
 }
 
 /// ∫ lobe dωi from cosine `cos` by the midpoint rule in (u, φ), cos θi = u², dωi = 2u du dφ.
