@@ -349,6 +349,27 @@ TUNING = {
         + sun("-0.4, -0.6, -0.7", "5, 4.6, 4.0")
         + sky("0.55, 0.7, 1.0")
         + "</scene>\n"),
+    # Added 7 December 2026: dim lights in view that also reflect a far brighter one (a
+    # screen and a panel glowing at a tenth of the lit walls' level, diffuse like every light
+    # here): their pixels are emission plus reflected noise, so the light search's pass-through
+    # keeps that noise (the regime of the held-out hdr-lamp's window, reproduced here so that
+    # it is never tuned on).
+    "tune-nightlight": (
+        head("Tuning set: a dim screen and a dim panel glow in a room at night, lit by one small, "
+             "very bright ceiling light in a dark shade open at the bottom; both reflect the "
+             "bright light's noisy bounce light.",
+             "-0.3, 1.2, 3.5", "0.2, 0.9, -1", 50, 6)
+        + room(1.7, 2.2, 2.0, floor=checker("0.45, 0.42, 0.4", "0.3, 0.28, 0.26", 6),
+               walls="0.65, 0.62, 0.6", left="0.45, 0.5, 0.55", right="0.55, 0.5, 0.4")
+        + sphere("-0.6, 2.0, -0.4", 0.05, diffuse(WHITE), "900, 850, 780")
+        # The shade: four dark sides from y 1.85 to the ceiling around the bulb.
+        + "".join(rect(f'<scale x="0.12" y="0.175" z="1"/><rotate y="1" angle="{a}"/><translate x="{x}" y="2.025" z="{z}"/>', diffuse("0.08, 0.08, 0.07"))
+                  for a, x, z in ((0, -0.6, -0.28), (0, -0.6, -0.52), (90, -0.72, -0.4), (90, -0.48, -0.4)))
+        + rect('<scale x="0.45" y="0.28" z="1"/><rotate y="1" angle="-90"/><translate x="1.69" y="1.1" z="-0.6"/>', diffuse(WHITE), "0.12, 0.2, 0.35")
+        + rect('<scale x="0.3" y="0.2" z="1"/><translate x="0.3" y="1.5" z="-1.99"/>', diffuse(WHITE), "0.45, 0.32, 0.18")
+        + cube('<scale x="0.3" y="0.35" z="0.3"/><rotate y="1" angle="30"/><translate x="-0.5" y="0.35" z="-0.9"/>', diffuse("0.6, 0.55, 0.5"))
+        + sphere("0.7, 0.3, 0.2", 0.3, diffuse("0.7, 0.7, 0.7"))
+        + "</scene>\n"),
 }
 
 

@@ -667,8 +667,8 @@ fn filter_inputs(
         };
         let mut run = |c: &Image| run_filter(args, inputs, c, denoiser.as_mut());
         filtered = Some(match (&given, &detected) {
-            (Some(given), _) => given.filter(color, run)?,
-            (None, Some(found)) => found.filter(color, run)?,
+            (Some(given), _) => given.filter(color, plane(&inputs.albedo), run)?,
+            (None, Some(found)) => found.filter(color, plane(&inputs.albedo), run)?,
             (None, None) => run(color)?,
         });
         times.push(t1.elapsed());

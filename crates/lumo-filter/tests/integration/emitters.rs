@@ -96,7 +96,7 @@ fn run(
     let mut d = (info.new)();
     let go = |c: &Image| d.denoise(&FilterInput::new(c, f));
     match found {
-        Some(m) => m.filter(color, go),
+        Some(m) => m.filter(color, f.albedo, go),
         None => with_passthrough(color, pass, go),
     }
     .unwrap()

@@ -14,8 +14,11 @@
 //! equal 1-spp samples of one bright area's bounce light pass the first tests but not that one.
 
 mod level;
+mod noisy;
 mod search;
 
+#[cfg(test)]
+mod noisy_tests;
 #[cfg(test)]
 mod reference;
 #[cfg(test)]
@@ -79,7 +82,17 @@ impl EmitterMask {
     /// on the tuning set a filled rim loses the light's share of its partly covered pixels
     /// (tune-room, guided: relMSE 3.5e-3 → 4.2e-3 at 1 spp, 2.6e-3 → 3.4e-3 at 4 spp), which
     /// costs more than the rim's unfiltered noise.
-    pub fn filter<F, E>(&self, color: &Image, filter: F) -> Result<crate::Filtered, E>
+    ///
+    /// After the filter, a light whose interior is not flat — a dim emitter that also
+    /// reflects noisy bounce light — has its interior averaged over itself, demodulated by
+    /// `albedo` when given (`noisy.rs`, docs/filters.md); a noise-free light passes through
+    /// bit for bit.
+    pub fn filter<F, E>(
+        &self,
+        color: &Image,
+        albedo: Option<&Image>,
+        filter: F,
+    ) -> Result<crate::Filtered, E>
     where
         F: FnOnce(&Image) -> Result<crate::Filtered, E>,
     {
@@ -89,7 +102,18 @@ impl EmitterMask {
             .zip(&self.rim)
             .map(|(&l, &r)| l || r)
             .collect();
-        crate::common::passthrough::with_passthrough(color, &pass, filter)
+        let mut out = crate::common::passthrough::with_passthrough(color, &pass, filter)?;
+        // A light that reflects noisy bounce light is averaged over itself (`noisy.rs`).
+        let flatness = EmitterParams::default().flatness;
+        noisy::smooth_noisy_lights(
+            color,
+            albedo,
+            &self.light,
+            &self.rim,
+            flatness,
+            &mut out.image,
+        );
+        Ok(out)
     }
 
     /// The mask an emission plane gives: its non-zero pixels (any channel; NaN counts) are
