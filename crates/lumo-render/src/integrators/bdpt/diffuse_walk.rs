@@ -484,30 +484,6 @@ fn scatter(
         u_light,
         ..
     } = ga;
-    let Surfaces {
-        pos,
-        ns,
-        fs,
-        ft,
-        wo,
-        w_prev,
-        d2,
-        cos_ng_wo,
-        wp_z,
-        off_scale,
-        pdf_fwd,
-        black,
-        faces_away,
-    } = su;
-    let Departures {
-        new_o,
-        new_d,
-        new_beta,
-        new_pdf,
-        prev_rev,
-        sampled,
-        goes_on,
-    } = de;
     // Scatter: the vertices, the previous vertices' reverse densities, the walks.
     for (i, &(k, hit)) in lanes.iter().enumerate().take(n) {
         let Some(walk) = &mut w.walks[k] else {
@@ -516,12 +492,12 @@ fn scatter(
         let sd = rs.simple_diffuse_ref(hit.instance);
         let material = rs.scene.meshes[sd.mesh].material;
         let s = Surface {
-            p: Vec3::new(pos[0][i], pos[1][i], pos[2][i]),
+            p: Vec3::new(su.pos[0][i], su.pos[1][i], su.pos[2][i]),
             ng: Vec3::new(ng[0][i], ng[1][i], ng[2][i]),
             frame: Basis {
-                s: Vec3::new(fs[0][i], fs[1][i], fs[2][i]),
-                t: Vec3::new(ft[0][i], ft[1][i], ft[2][i]),
-                n: Vec3::new(ns[0][i], ns[1][i], ns[2][i]),
+                s: Vec3::new(su.fs[0][i], su.fs[1][i], su.fs[2][i]),
+                t: Vec3::new(su.ft[0][i], su.ft[1][i], su.ft[2][i]),
+                n: Vec3::new(su.ns[0][i], su.ns[1][i], su.ns[2][i]),
             },
             // Not read: the reflectance is in `lambert` (see `Kind::Surface`).
             uv: Vec2::ZERO,
@@ -540,11 +516,11 @@ fn scatter(
                 albedo: lane_albedo,
             })
             .into(),
-            wo_local: Vec3::new(wo[0][i], wo[1][i], wo[2][i]),
-            cos_ng_wo: cos_ng_wo[i],
-            wp_local: Vec3::new(0.0, 0.0, wp_z[i]),
+            wo_local: Vec3::new(su.wo[0][i], su.wo[1][i], su.wo[2][i]),
+            cos_ng_wo: su.cos_ng_wo[i],
+            wp_local: Vec3::new(0.0, 0.0, su.wp_z[i]),
             lambert: Some(lane_albedo),
-            black: black[i],
+            black: su.black[i],
         };
         let mut v = Vertex::new(
             kind,
@@ -552,12 +528,12 @@ fn scatter(
             s.ng,
             Vec3::new(beta[0][i], beta[1][i], beta[2][i]),
         );
-        v.off_scale = off_scale[i];
-        v.w_prev = Vec3::new(w_prev[0][i], w_prev[1][i], w_prev[2][i]);
-        v.d2_prev = d2[i];
-        v.pdf_fwd = pdf_fwd[i];
+        v.off_scale = su.off_scale[i];
+        v.w_prev = Vec3::new(su.w_prev[0][i], su.w_prev[1][i], su.w_prev[2][i]);
+        v.d2_prev = su.d2[i];
+        v.pdf_fwd = su.pdf_fwd[i];
         if !importance[i] {
-            v.le = if faces_away[i] {
+            v.le = if su.faces_away[i] {
                 Vec3::ZERO
             } else {
                 sd.emission
@@ -565,16 +541,16 @@ fn scatter(
             v.u_light = u_light[i];
         }
         let path = &mut w.paths[k];
-        if sampled[i] {
+        if de.sampled[i] {
             let prev = path.len() - 1;
-            path[prev].pdf_rev = prev_rev[i];
+            path[prev].pdf_rev = de.prev_rev[i];
         }
         path.push(v);
-        if goes_on[i] {
-            walk.origin = Vec3::new(new_o[0][i], new_o[1][i], new_o[2][i]);
-            walk.dir = Vec3::new(new_d[0][i], new_d[1][i], new_d[2][i]);
-            walk.beta = Vec3::new(new_beta[0][i], new_beta[1][i], new_beta[2][i]);
-            walk.pdf_dir = new_pdf[i];
+        if de.goes_on[i] {
+            walk.origin = Vec3::new(de.new_o[0][i], de.new_o[1][i], de.new_o[2][i]);
+            walk.dir = Vec3::new(de.new_d[0][i], de.new_d[1][i], de.new_d[2][i]);
+            walk.beta = Vec3::new(de.new_beta[0][i], de.new_beta[1][i], de.new_beta[2][i]);
+            walk.pdf_dir = de.new_pdf[i];
         } else {
             w.walks[k] = None;
         }

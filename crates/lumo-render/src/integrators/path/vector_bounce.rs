@@ -83,17 +83,22 @@ lumo_simd::multiversion! {
         shadows: &mut Vec<(u32, ShadowRay)>,
         next: &mut Vec<u32>,
     ) as bounce, at diffuse_bounce_at {
-        let n = lanes.len().min(N);
-        let mut g = gather(rs, settings, paths, lanes, n);
+        let b = Bounce {
+            rs,
+            settings,
+            lanes,
+            n: lanes.len().min(N),
+        };
+        let mut g = gather(&b, paths);
         if rs.has_textured_simple() {
-            textured_albedo(rs, paths, lanes, n, &mut g.albedo);
+            textured_albedo(&b, paths, &mut g.albedo);
         }
         let f = shading_frames(&mut g);
-        record_hits(rs, settings, paths, lanes, n, &g, &f);
-        let l = choose_lights(rs, settings, paths, lanes, n, &g, &f, shadows);
+        record_hits(&b, paths, &g, &f);
+        let l = choose_lights(&b, paths, (&g, &f), shadows);
         let sh = next_event(rs.ray_epsilon, &g, &f, &l);
         let c = continuation(rs.ray_epsilon, settings, &g, &f, &l);
-        scatter(paths, lanes, n, &g, &sh, &c, shadows, next);
+        scatter(&b, paths, &g, (&sh, &c), (shadows, next));
     }
 }
 
@@ -149,6 +154,15 @@ fn other_light(
     };
     let light = path.sample_light(rs, settings, &at, &u);
     path.connect(rs, settings, &at, light)
+}
+
+/// What every stage of one bounce reads: the scene, the settings and the lanes (the first
+/// `n` are in use).
+struct Bounce<'a> {
+    rs: &'a RenderScene,
+    settings: &'a PathSettings,
+    lanes: &'a [SimpleLane],
+    n: usize,
 }
 
 /// What [`gather`] reads per lane: the path's ray and state and the hit surface.
@@ -220,13 +234,8 @@ struct Continuation {
 /// Gathers path state and the hit surface (scalar loads). Lanes past `n` keep harmless
 /// values; their results are never used.
 #[inline(always)]
-fn gather(
-    rs: &RenderScene,
-    settings: &PathSettings,
-    paths: &mut [PathState],
-    lanes: &[SimpleLane],
-    n: usize,
-) -> Gathered {
+fn gather(b: &Bounce, paths: &mut [PathState]) -> Gathered {
+    let (rs, settings, lanes, n) = (b.rs, b.settings, b.lanes, b.n);
     let mut g = Gathered {
         o: [[0.0; N]; 3],
         d: [[0.0; N]; 3],
@@ -291,13 +300,8 @@ fn gather(
 /// that [`gather`] stays as it is for untextured scenes (a lookup in it made the Cornell box
 /// 4 % slower).
 #[inline(always)]
-fn textured_albedo(
-    rs: &RenderScene,
-    paths: &mut [PathState],
-    lanes: &[SimpleLane],
-    n: usize,
-    albedo: &mut L3,
-) {
+fn textured_albedo(b: &Bounce, paths: &mut [PathState], albedo: &mut L3) {
+    let (rs, lanes, n) = (b.rs, b.lanes, b.n);
     for (i, &(p, hit)) in lanes.iter().enumerate().take(n) {
         let sd = rs.simple_diffuse_ref(hit.instance);
         if !sd.textured {
@@ -350,15 +354,8 @@ fn shading_frames(g: &mut Gathered) -> Frames {
 /// What `arrive` records for the hit of the lanes in `g.records`: the first-hit record,
 /// emission seen along the ray.
 #[inline(always)]
-fn record_hits(
-    rs: &RenderScene,
-    settings: &PathSettings,
-    paths: &mut [PathState],
-    lanes: &[SimpleLane],
-    n: usize,
-    g: &Gathered,
-    f: &Frames,
-) {
+fn record_hits(b: &Bounce, paths: &mut [PathState], g: &Gathered, f: &Frames) {
+    let (rs, settings, lanes, n) = (b.rs, b.settings, b.lanes, b.n);
     for (i, &(p, hit)) in lanes.iter().enumerate().take(n) {
         if !g.records[i] {
             continue;
@@ -395,17 +392,13 @@ fn record_hits(
 /// state, table lookups). A lane that picked a light other than a constant emissive triangle
 /// gets its shadow ray here, from [`other_light`].
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
 fn choose_lights(
-    rs: &RenderScene,
-    settings: &PathSettings,
+    b: &Bounce,
     paths: &mut [PathState],
-    lanes: &[SimpleLane],
-    n: usize,
-    g: &Gathered,
-    f: &Frames,
+    (g, f): (&Gathered, &Frames),
     shadows: &mut Vec<(u32, ShadowRay)>,
 ) -> LightChoice {
+    let (rs, settings, lanes, n) = (b.rs, b.settings, b.lanes, b.n);
     let mut l = LightChoice {
         u_light2: [[0.0f32; N]; 2],
         u_dir: [[0.0f32; N]; 2],
@@ -603,17 +596,14 @@ fn continuation(
 
 /// Writes the results back: pushes the shadow rays and the paths that go on.
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
 fn scatter(
+    b: &Bounce,
     paths: &mut [PathState],
-    lanes: &[SimpleLane],
-    n: usize,
     g: &Gathered,
-    sh: &Shadows,
-    c: &Continuation,
-    shadows: &mut Vec<(u32, ShadowRay)>,
-    next: &mut Vec<u32>,
+    (sh, c): (&Shadows, &Continuation),
+    (shadows, next): (&mut Vec<(u32, ShadowRay)>, &mut Vec<u32>),
 ) {
+    let (lanes, n) = (b.lanes, b.n);
     for (i, &(p, _)) in lanes.iter().enumerate().take(n) {
         if sh.ok[i] {
             let path = &mut paths[p as usize];
