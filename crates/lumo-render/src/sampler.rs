@@ -4,6 +4,7 @@
 use std::sync::OnceLock;
 
 use glam::Vec2;
+use lumo_simd::Isa;
 use sobol_burley::parts;
 
 /// Number of leading 4-D dimension sets drawn from the Owen-scrambled Sobol sequence; later
@@ -190,7 +191,12 @@ fn sobol_tables() -> &'static [SobolTables] {
 fn sobol_4d(index: u32, set: u32, seed: u32) -> [f32; 4] {
     let sobol = sobol_bits(index, set, seed);
     // Then the crate's last step: Owen-scramble each dimension with its own hash.
-    scramble_isa(sobol, set, seed)
+    #[cfg(target_arch = "x86_64")]
+    if Isa::detect() >= Isa::Avx2 {
+        // SAFETY: AVX2 was detected.
+        return unsafe { scramble_avx2(sobol, set, seed) };
+    }
+    scramble(sobol, set, seed)
 }
 
 /// The per-dimension hash inputs of `sobol_burley::sample_4d`'s scramble.
@@ -223,18 +229,25 @@ fn sobol_bits(index: u32, set: u32, seed: u32) -> [u32; 4] {
     [hi[0] ^ lo[0], hi[1] ^ lo[1], hi[2] ^ lo[2], hi[3] ^ lo[3]]
 }
 
-lumo_simd::multiversion! {
-    /// The per-dimension Owen scramble of `sobol_burley::sample_4d` on four Sobol integers,
-    /// and their conversion to floats in [0, 1); compiled per instruction set, where AVX2's
-    /// native 32-bit lane multiplies vectorise the four lanes.
-    fn scramble_isa(sobol: [u32; 4], set: u32, seed: u32) -> [f32; 4] as scramble {
-        let mut out = [0.0f32; 4];
-        for d in 0..4 {
-            let scrambled = parts::owen_scramble_rev(sobol[d], dim_key(seed, set, d));
-            out[d] = parts::u32_to_f32_norm(scrambled.reverse_bits());
-        }
-        out
+/// The per-dimension Owen scramble of `sobol_burley::sample_4d` on four Sobol integers, and
+/// their conversion to floats in [0, 1).
+#[inline(always)]
+fn scramble(sobol: [u32; 4], set: u32, seed: u32) -> [f32; 4] {
+    let mut out = [0.0f32; 4];
+    for d in 0..4 {
+        let scrambled = parts::owen_scramble_rev(sobol[d], dim_key(seed, set, d));
+        out[d] = parts::u32_to_f32_norm(scrambled.reverse_bits());
     }
+    out
+}
+
+/// [`scramble`] compiled with AVX2: the four lanes' multiplies vectorise. Written by hand, not
+/// with `multiversion!`: it runs once per four dimensions of every sample, where the macro's
+/// dispatcher would add a second `Isa::detect` and a call.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn scramble_avx2(sobol: [u32; 4], set: u32, seed: u32) -> [f32; 4] {
+    scramble(sobol, set, seed)
 }
 
 lumo_simd::multiversion! {
@@ -294,7 +307,6 @@ fn sobol_run_lanes(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use lumo_simd::Isa;
 
     #[test]
     fn sobol_4d_equals_sobol_burley() {
