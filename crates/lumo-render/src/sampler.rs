@@ -241,55 +241,26 @@ fn scramble(sobol: [u32; 4], set: u32, seed: u32) -> [f32; 4] {
     out
 }
 
-/// [`scramble`] compiled with AVX2: the four lanes' multiplies vectorise.
+/// [`scramble`] compiled with AVX2: the four lanes' multiplies vectorise. Written by hand, not
+/// with `multiversion!`: it runs once per four dimensions of every sample, where the macro's
+/// dispatcher would add a second `Isa::detect` and a call.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 unsafe fn scramble_avx2(sobol: [u32; 4], set: u32, seed: u32) -> [f32; 4] {
     scramble(sobol, set, seed)
 }
 
-/// Lane `k`: `sobol_4d(index & 0xffff, set, pixel_seed(x, y, index >> 16, seed))` of every
-/// set for `samples[k] = (x, y, index)`, dimension by dimension (`out[4·set + d][k]`); returns
-/// the pixel seeds.
-fn sobol_run(
-    samples: &[(u32, u32, u32); RUN],
-    seed: u32,
-    out: &mut [[f32; RUN]; SOBOL_DIMS],
-) -> [u32; RUN] {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: each form runs only where its features were detected.
-    unsafe {
-        match Isa::detect() {
-            Isa::Avx512 => return sobol_run_avx512(samples, seed, out),
-            Isa::Avx2 => return sobol_run_avx2(samples, seed, out),
-            Isa::Baseline => {}
-        }
+lumo_simd::multiversion! {
+    /// Lane `k`: `sobol_4d(index & 0xffff, set, pixel_seed(x, y, index >> 16, seed))` of every
+    /// set for `samples[k] = (x, y, index)`, dimension by dimension (`out[4·set + d][k]`);
+    /// returns the pixel seeds.
+    fn sobol_run(
+        samples: &[(u32, u32, u32); RUN],
+        seed: u32,
+        out: &mut [[f32; RUN]; SOBOL_DIMS],
+    ) -> [u32; RUN] as sobol_run_isa, at sobol_run_at {
+        sobol_run_lanes(samples, seed, out)
     }
-    sobol_run_lanes(samples, seed, out)
-}
-
-/// # Safety
-/// The CPU must support AVX-512 F/VL and AVX2.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl,avx2")]
-unsafe fn sobol_run_avx512(
-    samples: &[(u32, u32, u32); RUN],
-    seed: u32,
-    out: &mut [[f32; RUN]; SOBOL_DIMS],
-) -> [u32; RUN] {
-    sobol_run_lanes(samples, seed, out)
-}
-
-/// # Safety
-/// The CPU must support AVX2.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-unsafe fn sobol_run_avx2(
-    samples: &[(u32, u32, u32); RUN],
-    seed: u32,
-    out: &mut [[f32; RUN]; SOBOL_DIMS],
-) -> [u32; RUN] {
-    sobol_run_lanes(samples, seed, out)
 }
 
 /// [`sobol_run`]'s arithmetic: [`pixel_seed`], [`sobol_bits`] and [`scramble`] with samples as
@@ -385,31 +356,15 @@ mod tests {
     #[test]
     #[allow(clippy::needless_range_loop)]
     fn sobol_runs_equal_sobol_4d_in_every_form() {
-        type Form = fn(&[(u32, u32, u32); RUN], u32, &mut [[f32; RUN]; SOBOL_DIMS]) -> [u32; RUN];
-        let forms: Vec<(&str, Form)> = {
-            let mut v: Vec<(&str, Form)> = vec![("baseline", |a, b, o| sobol_run_lanes(a, b, o))];
-            #[cfg(target_arch = "x86_64")]
-            {
-                let level = Isa::detect();
-                if level >= Isa::Avx2 {
-                    // SAFETY: AVX2 detected.
-                    v.push(("avx2", |a, b, o| unsafe { sobol_run_avx2(a, b, o) }));
-                }
-                if level >= Isa::Avx512 {
-                    // SAFETY: AVX-512 detected.
-                    v.push(("avx512", |a, b, o| unsafe { sobol_run_avx512(a, b, o) }));
-                }
-            }
-            v
-        };
-        for (name, f) in forms {
+        for level in Isa::detect().up_to() {
+            let name = format!("{level:?}");
             for seed in [0u32, 0xdead_beef] {
                 for first in [0u32, 9, 65_530] {
                     let samples = std::array::from_fn(|k| {
                         (k as u32 % 3, 7, first.wrapping_add(k as u32 * 4_000))
                     });
                     let mut out = [[0.0; RUN]; SOBOL_DIMS];
-                    let seeds = f(&samples, seed, &mut out);
+                    let seeds = sobol_run_at(level, &samples, seed, &mut out);
                     for k in 0..RUN {
                         let (x, y, index) = samples[k];
                         let ps = pixel_seed(x, y, index >> 16, seed);

@@ -36,7 +36,7 @@ use crate::common::gbuffer::{Features, Filtered};
 use crate::denoiser::{Denoiser, FilterInput, FilterKind};
 use crate::FilterError;
 use fill::{fill_all, fill_block};
-use input::{feature_count, input_stats, FillScales, Input};
+use input::{feature_count, input_stats, FillScales, Input, Stats};
 use kernel::{Isa, Level, Path, CM_FIXED, CM_NONE, CM_VARIANCE, K, KA};
 use layout::{Layout, SharedBuf, CW, LINE_FLOATS, M, QW};
 use output::{output, output_row};
@@ -256,6 +256,139 @@ fn level_aux(
     });
 }
 
+/// What every level of one call reads: the input, its layout, the kernel choice and the
+/// scales the input statistics give.
+struct Plan<'a, 'b> {
+    inp: &'a Input<'b>,
+    lay: Layout,
+    params: &'a AtrousParams,
+    scales: FillScales,
+    /// Feature planes in use.
+    nf: usize,
+    isa: Isa,
+    path: Path,
+    /// Mean luminance of the input.
+    ml: f32,
+    /// The colour weight is guided by the variance.
+    var_mode: bool,
+    /// The normal weight is on.
+    has_n: bool,
+}
+
+/// The first level's scales: squared distances are divided by σ² (normals also by
+/// stepwidth², as in the paper); scaling the coordinates by sqrt(log2 e)/σ makes them log2
+/// exponents directly.
+fn fill_scales(params: &AtrousParams, stats: &Stats, has_n: bool, has_x: bool) -> FillScales {
+    let log2e = std::f32::consts::LOG2_E;
+    let ml = stats.mean_luminance;
+    let sx = params
+        .sigma_position
+        .filter(|_| has_x)
+        .map(|s| log2e.sqrt() / s);
+    let inv_extent = 1.0 / stats.extent;
+    FillScales {
+        inv_ml2: 1.0 / (ml * ml),
+        normal: params
+            .sigma_normal
+            .filter(|_| has_n)
+            .map(|s| log2e.sqrt() / s),
+        position: sx,
+        inv_extent,
+        position_background: stats.position_max.map(|hi| {
+            let v = hi * inv_extent * sx.unwrap_or(0.0) + BACKGROUND_GAP;
+            if v.is_finite() {
+                v
+            } else {
+                0.0
+            }
+        }),
+    }
+}
+
+impl Plan<'_, '_> {
+    /// Level `it`'s colour mode and colour scale. log2(sparse) iterations in-paint from
+    /// geometry alone (paper §4: colour is meaningless at pixels that were never traced).
+    fn level_color(&self, it: usize) -> (u8, f32) {
+        let (params, log2e) = (self.params, std::f32::consts::LOG2_E);
+        let skip_color = params.sparse.trailing_zeros() as usize;
+        let cm = if it < skip_color {
+            CM_NONE
+        } else if self.var_mode {
+            CM_VARIANCE
+        } else if params.sigma_color.is_some() {
+            CM_FIXED
+        } else {
+            CM_NONE
+        };
+        let color_scale = match cm {
+            CM_FIXED => params.sigma_color.map_or(0.0, |s| {
+                // σ in units of mean luminance, halved every level (paper).
+                let si = s * self.ml / (1u32 << it) as f32;
+                log2e / (si * si)
+            }),
+            CM_VARIANCE => log2e,
+            _ => 0.0,
+        };
+        (cm, color_scale)
+    }
+
+    /// Every level as one pipeline of `stages` (pipeline.rs), bands split as `split`: it
+    /// reads the inputs row by row and writes the output image row by row itself, with no
+    /// full-image working buffers.
+    fn pipelined(&self, stages: &[Stage], split: Option<(usize, usize)>) -> Image {
+        let (inp, lay) = (self.inp, self.lay);
+        let level = Level {
+            lay,
+            step: 1,
+            src: &[],
+            aux: &[],
+            nf: self.nf,
+            normal_factor: 1.0,
+            cm: CM_NONE,
+            color_scale: 0.0,
+            var: false,
+            isa: self.isa,
+            path: self.path,
+        };
+        let fill = |c: usize, y: usize, blk: &mut [f32], ab: &mut [f32]| {
+            fill_block(inp, lay, self.params.sparse, &self.scales, c, y, blk, ab);
+        };
+        // The output is written once, row by row, by `emit`: not zeroed first (that was a
+        // full-image memset per call, 25 MB at 1080p).
+        let n = 3 * lay.w * lay.h;
+        let mut data: Vec<f32> = Vec::with_capacity(n);
+        let base = SharedBuf(data.as_mut_ptr());
+        let written = std::sync::atomic::AtomicUsize::new(0);
+        let emit = |c: usize, y: usize, blk: &[f32]| {
+            let base = &base;
+            let (x0, len) = lay.strip(c);
+            let i0 = y * lay.w + x0;
+            // Formed in the worker's (cached) row buffer, then copied: no reference to the
+            // uninitialised output is ever made.
+            EMIT_ROW.with(|row| {
+                let mut row = row.borrow_mut();
+                let o = &mut row[..3 * len];
+                output_row(inp, i0, blk, o);
+                // SAFETY: pixels i0 .. i0 + len of row y lie inside the allocation (n floats),
+                // and the pipeline emits each (strip, row) once, so no two calls write the
+                // same pixel and nothing reads the buffer meanwhile.
+                unsafe { std::ptr::copy_nonoverlapping(o.as_ptr(), base.0.add(3 * i0), 3 * len) };
+            });
+            written.fetch_add(3 * len, std::sync::atomic::Ordering::Relaxed);
+        };
+        pipeline::run(&level, stages, split, &fill, &emit);
+        // Every (strip, row) was emitted once: the strips tile each row.
+        assert_eq!(
+            written.into_inner(),
+            n,
+            "pipeline left output pixels unwritten"
+        );
+        // SAFETY: all n floats were written (counted above) and the capacity is n.
+        unsafe { data.set_len(n) };
+        Image::from_vec(lay.w, lay.h, 3, data)
+    }
+}
+
 impl AtrousFilter {
     /// Every level, ping-ponging between the two colour buffers; returns the output image
     /// and the number of non-finite input pixels.
@@ -266,69 +399,30 @@ impl AtrousFilter {
         params: &AtrousParams,
         isa: Isa,
         path: Path,
-        mut first: Option<&mut Image>,
+        first: Option<&mut Image>,
     ) -> (Image, usize) {
         let stats = input_stats(inp, lay);
-        let ml = stats.mean_luminance;
-        let log2e = std::f32::consts::LOG2_E;
         let var_mode = inp.use_variance && params.sigma_luminance.is_some();
         let has_n = inp.features.normal.is_some() && params.sigma_normal.is_some();
         let has_x = inp.features.position.is_some() && params.sigma_position.is_some();
-        // Squared distances are divided by σ² (normals also by stepwidth², as in the paper);
-        // scaling the coordinates by sqrt(log2 e)/σ makes them log2 exponents directly.
-        let sx = params
-            .sigma_position
-            .filter(|_| has_x)
-            .map(|s| log2e.sqrt() / s);
-        let inv_extent = 1.0 / stats.extent;
-        let scales = FillScales {
-            inv_ml2: 1.0 / (ml * ml),
-            normal: params
-                .sigma_normal
-                .filter(|_| has_n)
-                .map(|s| log2e.sqrt() / s),
-            position: sx,
-            inv_extent,
-            position_background: stats.position_max.map(|hi| {
-                let v = hi * inv_extent * sx.unwrap_or(0.0) + BACKGROUND_GAP;
-                if v.is_finite() {
-                    v
-                } else {
-                    0.0
-                }
-            }),
-        };
-        let nf = feature_count(inp, &scales);
-        // log2(sparse) iterations in-paint from geometry alone (paper §4: colour is meaningless
-        // at pixels that were never traced).
-        let skip_color = params.sparse.trailing_zeros() as usize;
-        let sigma_l = params.sigma_luminance.unwrap_or(DEFAULT_SIGMA_LUMINANCE);
-        let level_color = |it: usize| {
-            let cm = if it < skip_color {
-                CM_NONE
-            } else if var_mode {
-                CM_VARIANCE
-            } else if params.sigma_color.is_some() {
-                CM_FIXED
-            } else {
-                CM_NONE
-            };
-            let color_scale = match cm {
-                CM_FIXED => params.sigma_color.map_or(0.0, |s| {
-                    // σ in units of mean luminance, halved every level (paper).
-                    let si = s * ml / (1u32 << it) as f32;
-                    log2e / (si * si)
-                }),
-                CM_VARIANCE => log2e,
-                _ => 0.0,
-            };
-            (cm, color_scale)
+        let scales = fill_scales(params, &stats, has_n, has_x);
+        let plan = Plan {
+            inp,
+            lay,
+            params,
+            nf: feature_count(inp, &scales),
+            scales,
+            isa,
+            path,
+            ml: stats.mean_luminance,
+            var_mode,
+            has_n,
         };
         // All levels pair levels: run them as one pipeline (see pipeline.rs). The
         // normal planes stay at level 0's scale; each level's factor is 1/step².
         let stages: Vec<Stage> = (0..params.iterations)
             .map(|it| {
-                let (cm, color_scale) = level_color(it);
+                let (cm, color_scale) = plan.level_color(it);
                 let step = 1usize << it;
                 Stage {
                     step,
@@ -345,62 +439,17 @@ impl AtrousFilter {
             _ => None,
         };
         if let Some(split) = piped {
-            if !var_mode && pipeline::supports(&stages, nf, lay) {
-                // The pipeline reads the inputs row by row and writes the output image row
-                // by row itself: no full-image working buffers.
-                let level = Level {
-                    lay,
-                    step: 1,
-                    src: &[],
-                    aux: &[],
-                    nf,
-                    normal_factor: 1.0,
-                    cm: CM_NONE,
-                    color_scale: 0.0,
-                    var: false,
-                    isa,
-                    path,
-                };
-                let fill = |c: usize, y: usize, blk: &mut [f32], ab: &mut [f32]| {
-                    fill_block(inp, lay, params.sparse, &scales, c, y, blk, ab);
-                };
-                // The output is written once, row by row, by `emit`: not zeroed first (that
-                // was a full-image memset per call, 25 MB at 1080p).
-                let n = 3 * lay.w * lay.h;
-                let mut data: Vec<f32> = Vec::with_capacity(n);
-                let base = SharedBuf(data.as_mut_ptr());
-                let written = std::sync::atomic::AtomicUsize::new(0);
-                let emit = |c: usize, y: usize, blk: &[f32]| {
-                    let base = &base;
-                    let (x0, len) = lay.strip(c);
-                    let i0 = y * lay.w + x0;
-                    // Formed in the worker's (cached) row buffer, then copied: no reference to
-                    // the uninitialised output is ever made.
-                    EMIT_ROW.with(|row| {
-                        let mut row = row.borrow_mut();
-                        let o = &mut row[..3 * len];
-                        output_row(inp, i0, blk, o);
-                        // SAFETY: pixels i0 .. i0 + len of row y lie inside the allocation (n
-                        // floats), and the pipeline emits each (strip, row) once, so no two
-                        // calls write the same pixel and nothing reads the buffer meanwhile.
-                        unsafe {
-                            std::ptr::copy_nonoverlapping(o.as_ptr(), base.0.add(3 * i0), 3 * len)
-                        };
-                    });
-                    written.fetch_add(3 * len, std::sync::atomic::Ordering::Relaxed);
-                };
-                pipeline::run(&level, &stages, split, &fill, &emit);
-                // Every (strip, row) was emitted once: the strips tile each row.
-                assert_eq!(
-                    written.into_inner(),
-                    n,
-                    "pipeline left output pixels unwritten"
-                );
-                // SAFETY: all n floats were written (counted above) and the capacity is n.
-                unsafe { data.set_len(n) };
-                return (Image::from_vec(lay.w, lay.h, 3, data), stats.missing);
+            if !var_mode && pipeline::supports(&stages, plan.nf, lay) {
+                return (plan.pipelined(&stages, split), stats.missing);
             }
         }
+        (self.level_by_level(&plan, first), stats.missing)
+    }
+
+    /// The levels one after the other over the whole image, in this filter's buffers;
+    /// `first` gets level 0's output.
+    fn level_by_level(&mut self, plan: &Plan, mut first: Option<&mut Image>) -> Image {
+        let (inp, lay, params) = (plan.inp, plan.lay, plan.params);
         // Each buffer is used from its first cache-line boundary (`malloc` places large
         // buffers 16 bytes past one), so that blocks and their planes start on cache lines:
         // 512² default filter, two threads, 16.9 → 15.8 ms.
@@ -421,11 +470,13 @@ impl AtrousFilter {
         let mut src = &mut self.src[os..os + lay.size(K)];
         let mut dst = &mut self.dst[od..od + lay.size(K)];
         let aux = &mut self.aux[oa..oa + lay.size(KA)];
-        fill_all(inp, lay, params.sparse, &scales, src, aux);
+        fill_all(inp, lay, params.sparse, &plan.scales, src, aux);
+        let sigma_l = params.sigma_luminance.unwrap_or(DEFAULT_SIGMA_LUMINANCE);
+        let (ml, var_mode, nf) = (plan.ml, plan.var_mode, plan.nf);
         let mut normal_held = 1.0f32;
         for it in 0..params.iterations {
             let step = 1usize << it;
-            let (cm, color_scale) = level_color(it);
+            let (cm, color_scale) = plan.level_color(it);
             let lw = LevelWeights {
                 cm,
                 color_scale,
@@ -433,13 +484,13 @@ impl AtrousFilter {
                 sigma: sigma_l * ml,
                 eps: VARIANCE_EPS * ml,
             };
-            let pairs = matches!(path, Path::Auto | Path::Pairs | Path::Bands(..))
+            let pairs = matches!(plan.path, Path::Auto | Path::Pairs | Path::Bands(..))
                 && pairs::supports(step, var_mode, cm, nf);
             // The normal coordinates' scale relative to level 0 should be 1/step. The pair
             // path applies the factor to the squared distance instead of rescaling the
             // planes; before another path, the planes are rescaled (by powers of 2: exact).
             let want = 1.0 / step as f32;
-            let rescale = if has_n && !pairs && normal_held != want {
+            let rescale = if plan.has_n && !pairs && normal_held != want {
                 let r = want / normal_held;
                 normal_held = want;
                 Some(r)
@@ -458,8 +509,8 @@ impl AtrousFilter {
                 cm,
                 color_scale,
                 var: var_mode,
-                isa,
-                path,
+                isa: plan.isa,
+                path: plan.path,
             };
             if pairs {
                 pairs::level(&level, dst);
@@ -477,7 +528,7 @@ impl AtrousFilter {
                 }
             }
         }
-        (output(inp, lay, src), stats.missing)
+        output(inp, lay, src)
     }
 }
 

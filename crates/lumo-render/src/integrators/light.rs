@@ -17,12 +17,15 @@
 
 use glam::{Vec2, Vec3};
 
+use lumo_scene::Boundary;
 use lumo_spectrum::Wavelengths;
 
+use crate::accel::Hit;
 use crate::bsdf::{BsdfSample, TransportMode};
 use crate::camera::PinholeCamera;
 use crate::geometry::{offset_point, shadow_segment, survival_probability};
 use crate::integrators::path::PathSettings;
+use crate::lights::EmissionSample;
 use crate::media::walk::{medium_at, mesh_of, target, transmittance, LaneMis, MAX_CROSSINGS};
 use crate::media::{free_flight, phase, Coefficients, Flight};
 use crate::render_scene::RenderScene;
@@ -152,6 +155,66 @@ pub(crate) fn particle_direction(
     ))
 }
 
+/// What every vertex of one light path reads.
+struct Tracer<'a> {
+    rs: &'a RenderScene,
+    camera: &'a PinholeCamera,
+    settings: &'a PathSettings,
+    /// The scene has participating media.
+    vol: bool,
+}
+
+/// A light path between two vertices.
+struct Particle {
+    origin: Vec3,
+    dir: Vec3,
+    throughput: Vec3,
+    /// The medium the ray starts in (scenes with media).
+    medium: Option<usize>,
+    /// Russian roulette at medium vertices compares the throughput with the particle's start
+    /// (it is in power units): an albedo-1 medium keeps its particles, as in the path tracer.
+    start: f32,
+    /// Null boundaries crossed since the last vertex.
+    crossings: u32,
+    /// Depth of the path camera ← x_k ← … ← light when connecting at the k-th scene vertex.
+    depth: u32,
+}
+
+/// Where a light path goes after a step.
+enum Next {
+    /// On from the particle's new ray.
+    Continue,
+    /// The path ends.
+    Stop,
+    /// No medium vertex: on to the surface the ray hit.
+    Surface,
+}
+
+/// The splats of one light path and its counters.
+struct Splats<'a, F> {
+    splat: &'a mut F,
+    stats: LightPathStats,
+}
+
+impl<F: FnMut(LightSplat)> Splats<'_, F> {
+    /// Counts a connection and passes on its splat, if it carries light. The wavelengths a
+    /// splat is converted with are those of the path when it is made (a dispersive vertex
+    /// stops the secondary lanes for every splat after it).
+    #[inline(always)]
+    fn emit(&mut self, s: Option<(LightSplat, u32)>, lambdas: &Option<Wavelengths>) {
+        if let Some((mut sp, rays)) = s {
+            self.stats.rays += rays;
+            if let Some(w) = lambdas {
+                sp.value = w.to_rgb(sp.value);
+            }
+            if sp.value != Vec3::ZERO {
+                self.stats.splats += 1;
+                (self.splat)(sp);
+            }
+        }
+    }
+}
+
 /// Traces one light path with the numbers of `sampler`, calling `splat` for every vertex that
 /// sees the camera (including the point on the light itself).
 pub fn trace_light_path(
@@ -161,12 +224,15 @@ pub fn trace_light_path(
     settings: &PathSettings,
     splat: &mut impl FnMut(LightSplat),
 ) -> LightPathStats {
-    let mut stats = LightPathStats::default();
+    let mut out = Splats {
+        splat,
+        stats: LightPathStats::default(),
+    };
     let u_choice = sampler.next_1d();
     let u_pos = sampler.next_2d();
     let u_dir = sampler.next_2d();
     let Some(mut e) = rs.lights.sample_emission(u_choice, u_pos, u_dir) else {
-        return stats;
+        return out.stats;
     };
     // Under spectral transport the particle carries three wavelengths (drawn after the
     // emission numbers, so RGB paths keep their sample stream) and every splat is its XYZ
@@ -178,47 +244,97 @@ pub fn trace_light_path(
         e.radiance = rs.spectral_light(e.radiance, e.light, w);
         e.weight = rs.spectral_light(e.weight, e.light, w);
     }
-    // The wavelengths a splat is converted with are those of the path when it is made (a
-    // dispersive vertex stops the secondary lanes for every splat after it).
-    let mut emit = |s: Option<(LightSplat, u32)>,
-                    stats: &mut LightPathStats,
-                    lambdas: &Option<Wavelengths>| {
-        if let Some((mut sp, rays)) = s {
-            stats.rays += rays;
-            if let Some(w) = lambdas {
-                sp.value = w.to_rgb(sp.value);
-            }
-            if sp.value != Vec3::ZERO {
-                stats.splats += 1;
-                splat(sp);
-            }
-        }
-    };
     // Media: the particle starts in the medium around its light, and a lane of the path
     // samples chromatic media (drawn after the wavelengths; scenes without media keep their
     // sample stream).
-    let media = &rs.scene.media;
-    let vol = media.is_active();
-    let mut lanes = vol.then(|| LaneMis::new(sampler.next_1d()));
-    let mut origin = match e.normal {
+    let t = Tracer {
+        rs,
+        camera,
+        settings,
+        vol: rs.scene.media.is_active(),
+    };
+    let mut lanes = t.vol.then(|| LaneMis::new(sampler.next_1d()));
+    let mut pt = leave_light(&t, sampler, &e, &lambdas, &mut out);
+    loop {
+        let th = pt.throughput;
+        if pt.depth > settings.max_depth || th == Vec3::ZERO || !th.is_finite() {
+            break;
+        }
+        out.stats.rays += 1;
+        let hit = rs.accel.intersect(pt.origin, pt.dir, 0.0, f32::INFINITY);
+        if let (Some(m), Some(lanes)) = (pt.medium, lanes.as_mut()) {
+            let tmax = hit.map_or(f32::INFINITY, |h| h.t);
+            match medium_vertex(&t, sampler, &mut pt, (m, lanes, tmax), &lambdas, &mut out) {
+                Next::Continue => continue,
+                Next::Stop => break,
+                Next::Surface => {}
+            }
+        }
+        let Some(hit) = hit else {
+            break;
+        };
+        let boundary = if t.vol {
+            rs.scene.media.boundary(mesh_of(rs, &hit))
+        } else {
+            Default::default()
+        };
+        if boundary.null {
+            // An invisible boundary: no vertex, only a change of medium.
+            pt.crossings += 1;
+            if pt.crossings > MAX_CROSSINGS {
+                break;
+            }
+            let s = rs.surface(&hit, pt.origin, pt.dir);
+            if let Some(f) = boundary.interface {
+                pt.medium = target(f, s.ng, pt.dir);
+            }
+            pt.origin = rs.offset(&s, pt.dir);
+            continue;
+        }
+        match surface_vertex(
+            &t,
+            sampler,
+            &mut pt,
+            (&hit, boundary),
+            &mut lambdas,
+            &mut out,
+        ) {
+            Next::Continue => {}
+            Next::Stop | Next::Surface => break,
+        }
+    }
+    out.stats
+}
+
+/// The particle leaving its light: its first ray, the medium around the light, and the
+/// light itself seen by the camera (depth 1).
+#[inline(always)]
+fn leave_light<F: FnMut(LightSplat)>(
+    t: &Tracer,
+    sampler: &mut PixelSampler,
+    e: &EmissionSample,
+    lambdas: &Option<Wavelengths>,
+    out: &mut Splats<'_, F>,
+) -> Particle {
+    let rs = t.rs;
+    let origin = match e.normal {
         Some(normal) => {
             offset_point(e.p.into(), normal.into(), e.dir.into(), rs.ray_epsilon).into()
         }
         None => e.p,
     };
-    let mut medium = if vol {
-        medium_at(rs, camera.origin(), origin, &mut stats.rays)
+    let medium = if t.vol {
+        medium_at(rs, t.camera.origin(), origin, &mut out.stats.rays)
     } else {
         None
     };
     if let Some(normal) = e.normal {
         let p = e.p;
         let off = |d: Vec3| offset_point(p.into(), normal.into(), d.into(), rs.ray_epsilon).into();
-        // The light itself seen by the camera (depth 1).
-        let sight = vol.then_some((medium, lambdas.as_ref(), &mut *sampler));
+        let sight = t.vol.then_some((medium, lambdas.as_ref(), &mut *sampler));
         let seen = connect(
             rs,
-            camera,
+            t.camera,
             p,
             Some(normal),
             off,
@@ -231,152 +347,164 @@ pub fn trace_light_path(
             },
             sight,
         );
-        emit(seen, &mut stats, &lambdas);
+        out.emit(seen, lambdas);
     }
-    let (mut dir, mut throughput) = (e.dir, e.weight);
-    // Russian roulette at medium vertices compares the throughput with the particle's start
-    // (it is in power units): an albedo-1 medium keeps its particles, as in the path tracer.
-    let start = e.weight.max_element();
-    let mut crossings = 0u32;
-    // Depth of the path camera ← x_k ← … ← light when connecting at the k-th scene vertex.
-    let mut depth = 2u32;
-    loop {
-        if depth > settings.max_depth || throughput == Vec3::ZERO || !throughput.is_finite() {
-            break;
-        }
-        stats.rays += 1;
-        let hit = rs.accel.intersect(origin, dir, 0.0, f32::INFINITY);
-        if let (Some(m), Some(lanes)) = (medium, lanes.as_mut()) {
-            let med = &media.media[m];
-            let c = Coefficients::of(med, lambdas.as_ref());
-            let tmax = hit.map_or(f32::INFINITY, |h| h.t);
-            let flight = free_flight(med, &c, origin, dir, tmax, lanes.lane, throughput, sampler);
-            lanes.apply(&mut throughput, &flight);
-            if let Flight::Scatter { t, .. } = flight {
-                // A medium vertex: connected to the camera through the media, then a phase
-                // sample (exact, weight 1).
-                let p = origin + dir * t;
-                let sight = Some((medium, lambdas.as_ref(), &mut *sampler));
-                let f = |wc: Vec3| throughput * phase::eval(med.phase, dir, wc);
-                let seen = connect(rs, camera, p, None, |_| p, f, sight);
-                emit(seen, &mut stats, &lambdas);
-                if depth >= settings.max_depth {
-                    break;
-                }
-                let u_dir = sampler.next_2d();
-                let u_rr = sampler.next_1d();
-                let (wi, pdf) = phase::sample(med.phase, dir, u_dir);
-                if pdf.is_nan() || pdf <= 0.0 {
-                    break;
-                }
-                origin = p;
-                dir = wi;
-                if depth >= settings.rr_depth && start > 0.0 {
-                    let q = (throughput.max_element() / start).min(1.0);
-                    if u_rr >= q {
-                        break;
-                    }
-                    throughput /= q;
-                }
-                depth += 1;
-                crossings = 0;
-                continue;
-            }
-            if throughput == Vec3::ZERO {
-                break;
-            }
-        }
-        let Some(hit) = hit else {
-            break;
-        };
-        let boundary = if vol {
-            media.boundary(mesh_of(rs, &hit))
+    Particle {
+        origin,
+        dir: e.dir,
+        throughput: e.weight,
+        medium,
+        start: e.weight.max_element(),
+        crossings: 0,
+        depth: 2,
+    }
+}
+
+/// A free flight through the particle's medium `m` (up to `tmax`, the surface hit) with the
+/// path's lane MIS; where it scatters, a medium vertex: connected to the camera through the
+/// media, then a phase sample (exact, weight 1) and Russian roulette.
+#[inline(always)]
+fn medium_vertex<F: FnMut(LightSplat)>(
+    t: &Tracer,
+    sampler: &mut PixelSampler,
+    pt: &mut Particle,
+    (m, lanes, tmax): (usize, &mut LaneMis, f32),
+    lambdas: &Option<Wavelengths>,
+    out: &mut Splats<'_, F>,
+) -> Next {
+    let med = &t.rs.scene.media.media[m];
+    let c = Coefficients::of(med, lambdas.as_ref());
+    let (origin, dir) = (pt.origin, pt.dir);
+    let flight = free_flight(
+        med,
+        &c,
+        origin,
+        dir,
+        tmax,
+        lanes.lane,
+        pt.throughput,
+        sampler,
+    );
+    lanes.apply(&mut pt.throughput, &flight);
+    let Flight::Scatter { t: at, .. } = flight else {
+        return if pt.throughput == Vec3::ZERO {
+            Next::Stop
         } else {
-            Default::default()
+            Next::Surface
         };
-        if boundary.null {
-            // An invisible boundary: no vertex, only a change of medium.
-            crossings += 1;
-            if crossings > MAX_CROSSINGS {
-                break;
-            }
-            let s = rs.surface(&hit, origin, dir);
-            if let Some(f) = boundary.interface {
-                medium = target(f, s.ng, dir);
-            }
-            origin = rs.offset(&s, dir);
-            continue;
-        }
-        let s = rs.surface(&hit, origin, dir);
-        let mut bsdf = rs.bsdf(&s);
-        if let Some(w) = &mut lambdas {
-            bsdf = rs.spectral_bsdf(bsdf, &s, w);
-            throughput *= w.live_mask();
-        }
-        let wl = -dir;
-        let (ns, ng) = (s.frame.n, s.ng);
-        let (cos_ns_l, cos_ng_l) = (ns.dot(wl).abs(), ng.dot(wl).abs());
-        if cos_ng_l <= 0.0 || cos_ns_l <= 0.0 {
-            break;
-        }
-        // Arrival half of the adjoint shading-normal correction.
-        throughput *= cos_ns_l / cos_ng_l;
-        let wl_local = s.frame.to_local(wl);
-        // A one-sided BSDF lit from behind is black both ways (Mitsuba checks both directions
-        // against the front side): no connection, no continuation — as the path tracer ends
-        // a camera path at its back.
-        if wl_local.z <= 0.0 && rs.one_sided(s.material) {
-            break;
-        }
-        if !bsdf.is_delta() {
-            let off = |d: Vec3| rs.offset(&s, d);
-            // The shadow ray leaves into the medium on the camera's side of the surface.
-            let sight = vol.then(|| {
-                let to_cam = camera.origin() - s.p;
-                let from = match boundary.interface {
-                    Some(f) => target(f, ng, to_cam),
-                    None => medium,
-                };
-                (from, lambdas.as_ref(), &mut *sampler)
-            });
-            let f = |wc: Vec3| {
-                // f without its cosine: eval includes |cos θi| of the light side.
-                let f = bsdf.eval(s.frame.to_local(wc), wl_local) / wl_local.z.abs();
-                throughput * f
-            };
-            let seen = connect(rs, camera, s.p, Some(ng), off, f, sight);
-            emit(seen, &mut stats, &lambdas);
-        }
-        if depth >= settings.max_depth {
-            break;
-        }
-        let u_lobe = sampler.next_1d();
-        let u_bsdf = sampler.next_2d();
-        let u_rr = sampler.next_1d();
-        // Sampling "wi" with the light side as "wo" picks the particle's next direction; the
-        // BSDFs are reciprocal except for refraction's radiance scaling, which importance
-        // does not carry.
-        let Some((new_dir, _, weight)) = scatter_particle(&bsdf, &s, wl, wl_local, u_lobe, u_bsdf)
-        else {
-            break;
-        };
-        throughput *= weight;
-        origin = rs.offset(&s, new_dir);
-        dir = new_dir;
-        if let Some(f) = boundary.interface {
-            medium = target(f, ng, new_dir);
-        }
-        crossings = 0;
-        if depth >= settings.rr_depth {
-            let q = survival_probability(throughput.max_element(), 1.0);
-            if u_rr >= q {
-                break;
-            }
-            throughput /= q;
-        }
-        depth += 1;
+    };
+    let p = origin + dir * at;
+    let sight = Some((pt.medium, lambdas.as_ref(), &mut *sampler));
+    let throughput = pt.throughput;
+    let f = |wc: Vec3| throughput * phase::eval(med.phase, dir, wc);
+    let seen = connect(t.rs, t.camera, p, None, |_| p, f, sight);
+    out.emit(seen, lambdas);
+    if pt.depth >= t.settings.max_depth {
+        return Next::Stop;
     }
-    stats
+    let u_dir = sampler.next_2d();
+    let u_rr = sampler.next_1d();
+    let (wi, pdf) = phase::sample(med.phase, dir, u_dir);
+    if pdf.is_nan() || pdf <= 0.0 {
+        return Next::Stop;
+    }
+    pt.origin = p;
+    pt.dir = wi;
+    if pt.depth >= t.settings.rr_depth && pt.start > 0.0 {
+        let q = (pt.throughput.max_element() / pt.start).min(1.0);
+        if u_rr >= q {
+            return Next::Stop;
+        }
+        pt.throughput /= q;
+    }
+    pt.depth += 1;
+    pt.crossings = 0;
+    Next::Continue
+}
+
+/// A surface vertex at `hit` (not a null boundary): the arrival half of the adjoint
+/// shading-normal correction, the connection to the camera (unless the BSDF is a delta),
+/// then the BSDF sampled in importance mode and Russian roulette.
+#[inline(always)]
+fn surface_vertex<F: FnMut(LightSplat)>(
+    t: &Tracer,
+    sampler: &mut PixelSampler,
+    pt: &mut Particle,
+    (hit, boundary): (&Hit, Boundary),
+    lambdas: &mut Option<Wavelengths>,
+    out: &mut Splats<'_, F>,
+) -> Next {
+    let (rs, settings) = (t.rs, t.settings);
+    let s = rs.surface(hit, pt.origin, pt.dir);
+    let mut bsdf = rs.bsdf(&s);
+    if let Some(w) = lambdas {
+        bsdf = rs.spectral_bsdf(bsdf, &s, w);
+        pt.throughput *= w.live_mask();
+    }
+    let wl = -pt.dir;
+    let (ns, ng) = (s.frame.n, s.ng);
+    let (cos_ns_l, cos_ng_l) = (ns.dot(wl).abs(), ng.dot(wl).abs());
+    if cos_ng_l <= 0.0 || cos_ns_l <= 0.0 {
+        return Next::Stop;
+    }
+    // Arrival half of the adjoint shading-normal correction.
+    pt.throughput *= cos_ns_l / cos_ng_l;
+    let wl_local = s.frame.to_local(wl);
+    // A one-sided BSDF lit from behind is black both ways (Mitsuba checks both directions
+    // against the front side): no connection, no continuation — as the path tracer ends
+    // a camera path at its back.
+    if wl_local.z <= 0.0 && rs.one_sided(s.material) {
+        return Next::Stop;
+    }
+    if !bsdf.is_delta() {
+        let off = |d: Vec3| rs.offset(&s, d);
+        // The shadow ray leaves into the medium on the camera's side of the surface.
+        let sight = t.vol.then(|| {
+            let to_cam = t.camera.origin() - s.p;
+            let from = match boundary.interface {
+                Some(f) => target(f, ng, to_cam),
+                None => pt.medium,
+            };
+            (from, lambdas.as_ref(), &mut *sampler)
+        });
+        let throughput = pt.throughput;
+        let f = |wc: Vec3| {
+            // f without its cosine: eval includes |cos θi| of the light side.
+            let f = bsdf.eval(s.frame.to_local(wc), wl_local) / wl_local.z.abs();
+            throughput * f
+        };
+        let seen = connect(rs, t.camera, s.p, Some(ng), off, f, sight);
+        out.emit(seen, lambdas);
+    }
+    if pt.depth >= settings.max_depth {
+        return Next::Stop;
+    }
+    let u_lobe = sampler.next_1d();
+    let u_bsdf = sampler.next_2d();
+    let u_rr = sampler.next_1d();
+    // Sampling "wi" with the light side as "wo" picks the particle's next direction; the
+    // BSDFs are reciprocal except for refraction's radiance scaling, which importance
+    // does not carry.
+    let Some((new_dir, _, weight)) = scatter_particle(&bsdf, &s, wl, wl_local, u_lobe, u_bsdf)
+    else {
+        return Next::Stop;
+    };
+    pt.throughput *= weight;
+    pt.origin = rs.offset(&s, new_dir);
+    pt.dir = new_dir;
+    if let Some(f) = boundary.interface {
+        pt.medium = target(f, ng, new_dir);
+    }
+    pt.crossings = 0;
+    if pt.depth >= settings.rr_depth {
+        let q = survival_probability(pt.throughput.max_element(), 1.0);
+        if u_rr >= q {
+            return Next::Stop;
+        }
+        pt.throughput /= q;
+    }
+    pt.depth += 1;
+    Next::Continue
 }
 
 #[cfg(test)]

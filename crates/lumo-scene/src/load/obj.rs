@@ -416,40 +416,7 @@ fn read_mtl(
         let mut parts = line.split_whitespace();
         let Some(kw) = parts.next() else { continue };
         let args: Vec<&str> = parts.collect();
-        let nums = |count: usize| -> Result<Vec<f32>, LoadError> {
-            let v: Option<Vec<f32>> = args
-                .iter()
-                .take(count)
-                .map(|a| a.parse::<f32>().ok().filter(|x| x.is_finite()))
-                .collect();
-            match v {
-                Some(v) if v.len() == count => Ok(v),
-                // A single value for a colour means grey.
-                _ if count == 3 && args.len() == 1 => {
-                    let g = args[0].parse::<f32>().ok().filter(|x| x.is_finite());
-                    g.map(|g| vec![g; 3]).ok_or_else(|| {
-                        LoadError::invalid(
-                            at.clone(),
-                            format!("{kw}: {:?} is not a finite number", args[0]),
-                        )
-                    })
-                }
-                // Say which value is wrong: a NaN is "a number" to whoever wrote it.
-                _ => Err(LoadError::invalid(
-                    at.clone(),
-                    match args
-                        .iter()
-                        .take(count)
-                        .find(|a| !a.parse::<f32>().is_ok_and(|x| x.is_finite()))
-                    {
-                        Some(bad) => format!(
-                            "{kw}: {bad:?} is not a finite number (expected {count} numbers)"
-                        ),
-                        None => format!("{kw}: expected {count} numbers, got {}", args.len()),
-                    },
-                )),
-            }
-        };
+        let nums = |count: usize| numbers(kw, &args, &at, count);
         if kw == "newmtl" {
             done.extend(current.take());
             current = Some(Mtl {
@@ -508,38 +475,8 @@ fn read_mtl(
             "d" => m.dissolve = nums(1)?[0],
             "Tr" => m.dissolve = 1.0 - nums(1)?[0],
             "map_Kd" => {
-                // The file name is the last token; options (-s, -o, ...) come before it.
-                let Some(file) = args.last() else {
-                    return Err(LoadError::invalid(at, "map_Kd needs a file name"));
-                };
-                let mut uv_scale = glam::Vec2::ONE;
-                if let Some(p) = args.iter().position(|a| *a == "-s") {
-                    let s: Vec<f32> = args[p + 1..]
-                        .iter()
-                        .take(2)
-                        .filter_map(|a| a.parse().ok())
-                        .collect();
-                    if s.len() == 2 {
-                        uv_scale = glam::Vec2::new(s[0], s[1]);
-                    }
-                }
-                if args.len() > 1 && !args.contains(&"-s") {
-                    diag.warn(at.clone(), "map_Kd options other than -s are ignored")?;
-                }
-                match images.load(&dir.join(file), false, &at) {
-                    Ok(image) => {
-                        m.map_kd = Some(Texture::Bitmap {
-                            image: Arc::clone(&image),
-                            uv_scale,
-                            filter: TextureFilter::Nearest,
-                            wrap: WrapMode::Repeat,
-                        })
-                    }
-                    // The warning has its own location; keep only the message.
-                    Err(LoadError::Invalid { message, .. }) => {
-                        diag.warn(at, format!("{message}; using Kd instead"))?
-                    }
-                    Err(e) => diag.warn(at, format!("{e}; using Kd instead"))?,
+                if let Some(texture) = read_map_kd(&args, dir, at, &mut images, diag)? {
+                    m.map_kd = Some(texture);
                 }
             }
             // Ambient colour and illumination model have no physical counterpart here.
@@ -557,6 +494,102 @@ fn read_mtl(
         diag.warn(w.at, w.message)?;
     }
     for m in done {
+        let name = m.name.clone();
+        materials.push(m.material(path, diag)?);
+        index.insert(name, materials.len() - 1);
+    }
+    Ok(())
+}
+
+/// `count` finite numbers from the arguments `args` of statement `kw` at `at`; for a colour
+/// (`count` 3) a single value means grey.
+fn numbers(kw: &str, args: &[&str], at: &Location, count: usize) -> Result<Vec<f32>, LoadError> {
+    let v: Option<Vec<f32>> = args
+        .iter()
+        .take(count)
+        .map(|a| a.parse::<f32>().ok().filter(|x| x.is_finite()))
+        .collect();
+    match v {
+        Some(v) if v.len() == count => Ok(v),
+        _ if count == 3 && args.len() == 1 => {
+            let g = args[0].parse::<f32>().ok().filter(|x| x.is_finite());
+            g.map(|g| vec![g; 3]).ok_or_else(|| {
+                LoadError::invalid(
+                    at.clone(),
+                    format!("{kw}: {:?} is not a finite number", args[0]),
+                )
+            })
+        }
+        // Say which value is wrong: a NaN is "a number" to whoever wrote it.
+        _ => Err(LoadError::invalid(
+            at.clone(),
+            match args
+                .iter()
+                .take(count)
+                .find(|a| !a.parse::<f32>().is_ok_and(|x| x.is_finite()))
+            {
+                Some(bad) => {
+                    format!("{kw}: {bad:?} is not a finite number (expected {count} numbers)")
+                }
+                None => format!("{kw}: expected {count} numbers, got {}", args.len()),
+            },
+        )),
+    }
+}
+
+/// The texture of a `map_Kd` statement with arguments `args` (options, then the file name,
+/// relative to `dir`); `None`, said as a warning, where the image does not load (Kd then
+/// stays the colour).
+fn read_map_kd(
+    args: &[&str],
+    dir: &Path,
+    at: Location,
+    images: &mut ImageCache,
+    diag: &mut Diagnostics,
+) -> Result<Option<Texture>, LoadError> {
+    // The file name is the last token; options (-s, -o, ...) come before it.
+    let Some(file) = args.last() else {
+        return Err(LoadError::invalid(at, "map_Kd needs a file name"));
+    };
+    let mut uv_scale = glam::Vec2::ONE;
+    if let Some(p) = args.iter().position(|a| *a == "-s") {
+        let s: Vec<f32> = args[p + 1..]
+            .iter()
+            .take(2)
+            .filter_map(|a| a.parse().ok())
+            .collect();
+        if s.len() == 2 {
+            uv_scale = glam::Vec2::new(s[0], s[1]);
+        }
+    }
+    if args.len() > 1 && !args.contains(&"-s") {
+        diag.warn(at.clone(), "map_Kd options other than -s are ignored")?;
+    }
+    match images.load(&dir.join(file), false, &at) {
+        Ok(image) => Ok(Some(Texture::Bitmap {
+            image: Arc::clone(&image),
+            uv_scale,
+            filter: TextureFilter::Nearest,
+            wrap: WrapMode::Repeat,
+        })),
+        // The warning has its own location; keep only the message.
+        Err(LoadError::Invalid { message, .. }) => {
+            diag.warn(at, format!("{message}; using Kd instead"))?;
+            Ok(None)
+        }
+        Err(e) => {
+            diag.warn(at, format!("{e}; using Kd instead"))?;
+            Ok(None)
+        }
+    }
+}
+
+impl Mtl {
+    /// The scene material this MTL material describes, read from `path`: clear glass where
+    /// mostly transparent, a metal where only specular, a plastic where both diffuse and
+    /// specular, else diffuse.
+    fn material(self, path: &Path, diag: &mut Diagnostics) -> Result<Material, LoadError> {
+        let m = self;
         let at = Location::line(path, m.line);
         let kd = m.kd.unwrap_or(Vec3::splat(0.7));
         let diffuse = m.map_kd.unwrap_or(Texture::Constant(kd));
@@ -601,17 +634,15 @@ fn read_mtl(
                 ),
             )?;
         }
-        materials.push(Material {
-            name: m.name.clone(),
+        Ok(Material {
+            name: m.name,
             bsdf,
             emission: m.ke.max(Vec3::ZERO),
             two_sided: true,
             emission_map: None,
             spectra: Default::default(),
-        });
-        index.insert(m.name, materials.len() - 1);
+        })
     }
-    Ok(())
 }
 
 /// GGX α roughly equivalent to a Phong exponent (Walter et al.'s α = sqrt(2 / (n + 2))).

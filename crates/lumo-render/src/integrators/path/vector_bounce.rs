@@ -23,7 +23,6 @@
 #![allow(clippy::needless_range_loop)]
 
 use glam::{Vec2, Vec3};
-use lumo_simd::Isa;
 
 use crate::accel::packet::LANES;
 use crate::accel::Hit;
@@ -70,73 +69,6 @@ fn sel(c: bool, x: f32, y: f32) -> f32 {
     } else {
         y
     }
-}
-
-/// Advances the paths `lanes` (at most [`LANES`], every hit on a simple diffuse instance,
-/// [`applies`] true) by one bounce, pushing shadow rays and continuing paths
-/// as [`PathState::advance`] would.
-pub(crate) fn diffuse_bounce(
-    rs: &RenderScene,
-    settings: &PathSettings,
-    paths: &mut [PathState],
-    lanes: &[SimpleLane],
-    shadows: &mut Vec<(u32, ShadowRay)>,
-    next: &mut Vec<u32>,
-) {
-    diffuse_bounce_at(Isa::detect(), rs, settings, paths, lanes, shadows, next)
-}
-
-/// [`diffuse_bounce`] compiled for `level` (at most what this CPU runs; tests run each).
-fn diffuse_bounce_at(
-    level: Isa,
-    rs: &RenderScene,
-    settings: &PathSettings,
-    paths: &mut [PathState],
-    lanes: &[SimpleLane],
-    shadows: &mut Vec<(u32, ShadowRay)>,
-    next: &mut Vec<u32>,
-) {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: each variant runs only at or below the detected level.
-    unsafe {
-        match level.min(Isa::detect()) {
-            Isa::Avx512 => return bounce_avx512(rs, settings, paths, lanes, shadows, next),
-            Isa::Avx2 => return bounce_avx2(rs, settings, paths, lanes, shadows, next),
-            Isa::Baseline => {}
-        }
-    }
-    let _ = level;
-    bounce(rs, settings, paths, lanes, shadows, next)
-}
-
-/// # Safety
-/// The CPU must support AVX-512 F/VL and AVX2.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl,avx2")]
-unsafe fn bounce_avx512(
-    rs: &RenderScene,
-    settings: &PathSettings,
-    paths: &mut [PathState],
-    lanes: &[SimpleLane],
-    shadows: &mut Vec<(u32, ShadowRay)>,
-    next: &mut Vec<u32>,
-) {
-    bounce(rs, settings, paths, lanes, shadows, next)
-}
-
-/// # Safety
-/// The CPU must support AVX2.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-unsafe fn bounce_avx2(
-    rs: &RenderScene,
-    settings: &PathSettings,
-    paths: &mut [PathState],
-    lanes: &[SimpleLane],
-    shadows: &mut Vec<(u32, ShadowRay)>,
-    next: &mut Vec<u32>,
-) {
-    bounce(rs, settings, paths, lanes, shadows, next)
 }
 
 /// What [`other_light`] needs of a lane's surface.
@@ -193,351 +125,355 @@ fn other_light(
     path.connect(rs, settings, &at, light)
 }
 
-/// The bounce itself, compiled once per instruction set by the wrappers above.
-#[inline(always)]
-fn bounce(
-    rs: &RenderScene,
-    settings: &PathSettings,
-    paths: &mut [PathState],
-    lanes: &[SimpleLane],
-    shadows: &mut Vec<(u32, ShadowRay)>,
-    next: &mut Vec<u32>,
-) {
-    let n = lanes.len().min(N);
-    let eps = rs.ray_epsilon;
+lumo_simd::multiversion! {
+    /// Advances the paths `lanes` (at most [`LANES`], every hit on a simple diffuse instance,
+    /// [`applies`] true) by one bounce, pushing shadow rays and continuing paths
+    /// as [`PathState::advance`] would. One function: split into stages that pass their lanes
+    /// in structs, it took a third more instructions (issue 51).
+    pub(crate) fn diffuse_bounce(
+        rs: &RenderScene,
+        settings: &PathSettings,
+        paths: &mut [PathState],
+        lanes: &[SimpleLane],
+        shadows: &mut Vec<(u32, ShadowRay)>,
+        next: &mut Vec<u32>,
+    ) as bounce, at diffuse_bounce_at {
+        let n = lanes.len().min(N);
+        let eps = rs.ray_epsilon;
 
-    // Gather: path state and the hit surface (scalar loads).
-    // Lanes past `n` keep harmless values; their results are never used.
-    let mut o: L3 = [[0.0; N]; 3];
-    let mut d: L3 = [[0.0; N]; 3];
-    let mut ng: L3 = [[0.0; N]; 3];
-    let mut albedo: L3 = [[0.0; N]; 3];
-    let mut thr: L3 = [[0.0; N]; 3];
-    let mut pos: L3 = [[0.0; N]; 3];
-    let mut eta_scale = [1.0f32; N];
-    let mut depth = [0u32; N];
-    let mut alive = [false; N];
-    let mut one_sided = [false; N];
-    let (mut bu, mut bv) = ([0.0f32; N], [0.0f32; N]);
-    let (mut nv0, mut nv1, mut nv2): (L3, L3, L3) = ([[0.0; N]; 3], [[0.0; N]; 3], [[0.0; N]; 3]);
-    let mut interpolate = [false; N];
-    // Lanes whose hit `arrive` must record (a first hit wanted, or emission seen): rare, so
-    // the record is built only for them, in a second pass once the frame is known.
-    let mut records = [false; N];
-    for (i, &(p, hit)) in lanes.iter().enumerate().take(n) {
-        let sd = rs.simple_diffuse_ref(hit.instance);
-        let path = &mut paths[p as usize];
-        path.radiance.rays += 1;
-        let normal = rs.unit_normal(sd.mesh, hit.triangle);
-        if let Some([n0, n1, n2]) = rs.simple_normals(sd, hit.triangle) {
-            interpolate[i] = true;
-            for a in 0..3 {
-                (nv0[a][i], nv1[a][i], nv2[a][i]) = (n0[a], n1[a], n2[a]);
-            }
-        }
-        bu[i] = hit.u;
-        bv[i] = hit.v;
-        // Under spectral transport the lanes of a colour are the path's wavelengths.
-        // (Textured reflectances are looked up after this loop.)
-        let lane_albedo = match &path.wl {
-            None => sd.albedo,
-            Some(wl) => rs.spectral_reflectance(sd.albedo, rs.scene.meshes[sd.mesh].material, wl),
-        };
-        for a in 0..3 {
-            o[a][i] = path.origin[a];
-            d[a][i] = path.dir[a];
-            ng[a][i] = normal[a];
-            albedo[a][i] = lane_albedo[a];
-            thr[a][i] = path.throughput[a];
-            // p = origin + dir·t
-            pos[a][i] = o[a][i] + d[a][i] * hit.t;
-        }
-        let seen_front = dot(normal.into(), path.dir.into()) < 0.0;
-        records[i] = path.want_first_hit || (seen_front && sd.emission != Vec3::ZERO);
-        // The albedo plane's share of this sample: what `take_hit` records on the scalar path
-        // (the same value: its BSDF there is this diffuse albedo).
-        if path.depth == 1 {
-            path.radiance.albedo = sd.albedo;
-        }
-        eta_scale[i] = path.eta_scale;
-        depth[i] = path.depth;
-        alive[i] = path.depth < settings.max_depth;
-        one_sided[i] = sd.one_sided;
-    }
-
-    // Textured reflectances, per lane as the scalar path looks them up. A separate pass, so
-    // that the gather above stays as it is for untextured scenes (a lookup in it made the
-    // Cornell box 4 % slower).
-    if rs.has_textured_simple() {
+        // Gather: path state and the hit surface (scalar loads).
+        // Lanes past `n` keep harmless values; their results are never used.
+        let mut o: L3 = [[0.0; N]; 3];
+        let mut d: L3 = [[0.0; N]; 3];
+        let mut ng: L3 = [[0.0; N]; 3];
+        let mut albedo: L3 = [[0.0; N]; 3];
+        let mut thr: L3 = [[0.0; N]; 3];
+        let mut pos: L3 = [[0.0; N]; 3];
+        let mut eta_scale = [1.0f32; N];
+        let mut depth = [0u32; N];
+        let mut alive = [false; N];
+        let mut one_sided = [false; N];
+        let (mut bu, mut bv) = ([0.0f32; N], [0.0f32; N]);
+        let (mut nv0, mut nv1, mut nv2): (L3, L3, L3) = ([[0.0; N]; 3], [[0.0; N]; 3], [[0.0; N]; 3]);
+        let mut interpolate = [false; N];
+        // Lanes whose hit `arrive` must record (a first hit wanted, or emission seen): rare, so
+        // the record is built only for them, in a second pass once the frame is known.
+        let mut records = [false; N];
         for (i, &(p, hit)) in lanes.iter().enumerate().take(n) {
             let sd = rs.simple_diffuse_ref(hit.instance);
-            if !sd.textured {
+            let path = &mut paths[p as usize];
+            path.radiance.rays += 1;
+            let normal = rs.unit_normal(sd.mesh, hit.triangle);
+            if let Some([n0, n1, n2]) = rs.simple_normals(sd, hit.triangle) {
+                interpolate[i] = true;
+                for a in 0..3 {
+                    (nv0[a][i], nv1[a][i], nv2[a][i]) = (n0[a], n1[a], n2[a]);
+                }
+            }
+            bu[i] = hit.u;
+            bv[i] = hit.v;
+            // Under spectral transport the lanes of a colour are the path's wavelengths.
+            // (Textured reflectances are looked up after this loop.)
+            let lane_albedo = match &path.wl {
+                None => sd.albedo,
+                Some(wl) => rs.spectral_reflectance(sd.albedo, rs.scene.meshes[sd.mesh].material, wl),
+            };
+            for a in 0..3 {
+                o[a][i] = path.origin[a];
+                d[a][i] = path.dir[a];
+                ng[a][i] = normal[a];
+                albedo[a][i] = lane_albedo[a];
+                thr[a][i] = path.throughput[a];
+                // p = origin + dir·t
+                pos[a][i] = o[a][i] + d[a][i] * hit.t;
+            }
+            let seen_front = dot(normal.into(), path.dir.into()) < 0.0;
+            records[i] = path.want_first_hit || (seen_front && sd.emission != Vec3::ZERO);
+            // The albedo plane's share of this sample: what `take_hit` records on the scalar path
+            // (the same value: its BSDF there is this diffuse albedo).
+            if path.depth == 1 {
+                path.radiance.albedo = sd.albedo;
+            }
+            eta_scale[i] = path.eta_scale;
+            depth[i] = path.depth;
+            alive[i] = path.depth < settings.max_depth;
+            one_sided[i] = sd.one_sided;
+        }
+
+        // Textured reflectances, per lane as the scalar path looks them up. A separate pass, so
+        // that the gather above stays as it is for untextured scenes (a lookup in it made the
+        // Cornell box 4 % slower).
+        if rs.has_textured_simple() {
+            for (i, &(p, hit)) in lanes.iter().enumerate().take(n) {
+                let sd = rs.simple_diffuse_ref(hit.instance);
+                if !sd.textured {
+                    continue;
+                }
+                let path = &mut paths[p as usize];
+                let rgb = rs.simple_albedo(sd, &hit);
+                let lane_albedo = match &path.wl {
+                    None => rgb,
+                    Some(wl) => rs.spectral_reflectance(rgb, rs.scene.meshes[sd.mesh].material, wl),
+                };
+                for a in 0..3 {
+                    albedo[a][i] = lane_albedo[a];
+                }
+                if path.depth == 1 {
+                    path.radiance.albedo = rgb;
+                }
+            }
+        }
+
+        // Shading normal (RenderScene::surface: interpolated, normalised, on the side of the
+        // geometric normal), its frame (Basis::new) and the outgoing direction in it.
+        let mut ns: L3 = [[0.0; N]; 3];
+        let (mut fs, mut ft, mut wo) = ([[0.0; N]; 3], [[0.0; N]; 3], [[0.0; N]; 3]);
+        for i in 0..N {
+            let nv = [at(&nv0, i), at(&nv1, i), at(&nv2, i)];
+            let (sn, s_axis, t_axis) =
+                shading_frame_lane(nv, (bu[i], bv[i]), at(&ng, i), interpolate[i]);
+            for c in 0..3 {
+                ns[c][i] = sn[c];
+                fs[c][i] = s_axis[c];
+                ft[c][i] = t_axis[c];
+            }
+            let nd = [-d[0][i], -d[1][i], -d[2][i]];
+            wo[0][i] = dot(nd, at(&fs, i));
+            wo[1][i] = dot(nd, at(&ft, i));
+            wo[2][i] = dot(nd, sn);
+            // `arrive`: a one-sided surface seen from behind ends the path.
+            alive[i] &= !(one_sided[i] && wo[2][i] <= 0.0);
+        }
+
+        // What `arrive` records for the hit: the first-hit record, emission seen along the ray.
+        for (i, &(p, hit)) in lanes.iter().enumerate().take(n) {
+            if !records[i] {
+                continue;
+            }
+            let sd = rs.simple_diffuse_ref(hit.instance);
+            let path = &mut paths[p as usize];
+            let g = Vec3::new(ng[0][i], ng[1][i], ng[2][i]);
+            let le = if g.dot(path.dir) < 0.0 {
+                sd.emission
+            } else {
+                Vec3::ZERO
+            };
+            if path.want_first_hit || le != Vec3::ZERO {
+                let (albedo, uv) = (rs.simple_albedo(sd, &hit), rs.simple_uv(sd, &hit));
+                let s = Surface {
+                    p: Vec3::new(pos[0][i], pos[1][i], pos[2][i]),
+                    ng: g,
+                    frame: Basis::new(Vec3::new(ns[0][i], ns[1][i], ns[2][i])),
+                    uv,
+                    color: Vec3::ONE,
+                    material: rs.scene.meshes[sd.mesh].material,
+                    instance: hit.instance,
+                    triangle: hit.triangle,
+                    // Simple diffuse materials have one BSDF: the side is never consulted.
+                    back: false,
+                };
+                let bsdf = Bsdf::Diffuse(Diffuse { albedo });
+                path.take_hit(rs, settings, &s, hit.t, &bsdf, le);
+            }
+        }
+
+        // Random numbers and the light choice (scalar: per-path sampler state, table lookups).
+        let (mut u_light2, mut u_dir) = ([[0.0f32; N]; 2], [[0.0f32; N]; 2]);
+        let mut u_rr = [0.0f32; N];
+        let (mut lp0, mut le1, mut le2, mut ln, mut lrad) = (
+            [[0.0f32; N]; 3],
+            [[0.0f32; N]; 3],
+            [[0.0f32; N]; 3],
+            [[0.0f32; N]; 3],
+            [[0.0f32; N]; 3],
+        );
+        let (mut pick, mut area) = ([1.0f32; N], [0.0f32; N]);
+        let mut has_light = [false; N];
+        for (i, &(p, _)) in lanes.iter().enumerate().take(n) {
+            if !alive[i] {
                 continue;
             }
             let path = &mut paths[p as usize];
-            let rgb = rs.simple_albedo(sd, &hit);
-            let lane_albedo = match &path.wl {
-                None => rgb,
-                Some(wl) => rs.spectral_reflectance(rgb, rs.scene.meshes[sd.mesh].material, wl),
+            let u = path.draw();
+            u_light2[0][i] = u.light_point.x;
+            u_light2[1][i] = u.light_point.y;
+            u_dir[0][i] = u.direction.x;
+            u_dir[1][i] = u.direction.y;
+            u_rr[i] = u.roulette;
+            let Some((pk, tri, light)) = rs.lights.choose_triangle(u.light) else {
+                // Another light (a sun, an environment, a point, spot or exact-shape light, a
+                // textured emitter): the scalar path's own light sample and connection. Its
+                // shadow ray goes first in the list; a path has one per bounce, so the order of
+                // the list changes nothing.
+                let lane = Lane {
+                    p: at(&pos, i),
+                    ng: at(&ng, i),
+                    ns: at(&ns, i),
+                    wo: at(&wo, i),
+                    albedo: at(&albedo, i),
+                };
+                let light_numbers = (u.light, u.light_point);
+                if let Some(shadow) = other_light(rs, settings, path, lanes[i].1, &lane, light_numbers)
+                {
+                    shadows.push((p, shadow));
+                }
+                continue;
             };
+            has_light[i] = true;
+            pick[i] = pk;
+            area[i] = tri.area;
             for a in 0..3 {
-                albedo[a][i] = lane_albedo[a];
+                lp0[a][i] = tri.p0[a];
+                le1[a][i] = tri.e1[a];
+                le2[a][i] = tri.e2[a];
+                ln[a][i] = tri.normal[a];
+                lrad[a][i] = tri.radiance[a];
             }
-            if path.depth == 1 {
-                path.radiance.albedo = rgb;
+            if let Some(wl) = &path.wl {
+                let l = rs.spectral_light(tri.radiance, light, wl);
+                for a in 0..3 {
+                    lrad[a][i] = l[a];
+                }
             }
         }
-    }
 
-    // Shading normal (RenderScene::surface: interpolated, normalised, on the side of the
-    // geometric normal), its frame (Basis::new) and the outgoing direction in it.
-    let mut ns: L3 = [[0.0; N]; 3];
-    let (mut fs, mut ft, mut wo) = ([[0.0; N]; 3], [[0.0; N]; 3], [[0.0; N]; 3]);
-    for i in 0..N {
-        let nv = [at(&nv0, i), at(&nv1, i), at(&nv2, i)];
-        let (sn, s_axis, t_axis) =
-            shading_frame_lane(nv, (bu[i], bv[i]), at(&ng, i), interpolate[i]);
-        for c in 0..3 {
-            ns[c][i] = sn[c];
-            fs[c][i] = s_axis[c];
-            ft[c][i] = t_axis[c];
-        }
-        let nd = [-d[0][i], -d[1][i], -d[2][i]];
-        wo[0][i] = dot(nd, at(&fs, i));
-        wo[1][i] = dot(nd, at(&ft, i));
-        wo[2][i] = dot(nd, sn);
-        // `arrive`: a one-sided surface seen from behind ends the path.
-        alive[i] &= !(one_sided[i] && wo[2][i] <= 0.0);
-    }
-
-    // What `arrive` records for the hit: the first-hit record, emission seen along the ray.
-    for (i, &(p, hit)) in lanes.iter().enumerate().take(n) {
-        if !records[i] {
-            continue;
-        }
-        let sd = rs.simple_diffuse_ref(hit.instance);
-        let path = &mut paths[p as usize];
-        let g = Vec3::new(ng[0][i], ng[1][i], ng[2][i]);
-        let le = if g.dot(path.dir) < 0.0 {
-            sd.emission
-        } else {
-            Vec3::ZERO
-        };
-        if path.want_first_hit || le != Vec3::ZERO {
-            let (albedo, uv) = (rs.simple_albedo(sd, &hit), rs.simple_uv(sd, &hit));
-            let s = Surface {
-                p: Vec3::new(pos[0][i], pos[1][i], pos[2][i]),
-                ng: g,
-                frame: Basis::new(Vec3::new(ns[0][i], ns[1][i], ns[2][i])),
-                uv,
-                color: Vec3::ONE,
-                material: rs.scene.meshes[sd.mesh].material,
-                instance: hit.instance,
-                triangle: hit.triangle,
-                // Simple diffuse materials have one BSDF: the side is never consulted.
-                back: false,
-            };
-            let bsdf = Bsdf::Diffuse(Diffuse { albedo });
-            path.take_hit(rs, settings, &s, hit.t, &bsdf, le);
-        }
-    }
-
-    // Random numbers and the light choice (scalar: per-path sampler state, table lookups).
-    let (mut u_light2, mut u_dir) = ([[0.0f32; N]; 2], [[0.0f32; N]; 2]);
-    let mut u_rr = [0.0f32; N];
-    let (mut lp0, mut le1, mut le2, mut ln, mut lrad) = (
-        [[0.0f32; N]; 3],
-        [[0.0f32; N]; 3],
-        [[0.0f32; N]; 3],
-        [[0.0f32; N]; 3],
-        [[0.0f32; N]; 3],
-    );
-    let (mut pick, mut area) = ([1.0f32; N], [0.0f32; N]);
-    let mut has_light = [false; N];
-    for (i, &(p, _)) in lanes.iter().enumerate().take(n) {
-        if !alive[i] {
-            continue;
-        }
-        let path = &mut paths[p as usize];
-        let u = path.draw();
-        u_light2[0][i] = u.light_point.x;
-        u_light2[1][i] = u.light_point.y;
-        u_dir[0][i] = u.direction.x;
-        u_dir[1][i] = u.direction.y;
-        u_rr[i] = u.roulette;
-        let Some((pk, tri, light)) = rs.lights.choose_triangle(u.light) else {
-            // Another light (a sun, an environment, a point, spot or exact-shape light, a
-            // textured emitter): the scalar path's own light sample and connection. Its
-            // shadow ray goes first in the list; a path has one per bounce, so the order of
-            // the list changes nothing.
-            let lane = Lane {
-                p: at(&pos, i),
-                ng: at(&ng, i),
-                ns: at(&ns, i),
-                wo: at(&wo, i),
-                albedo: at(&albedo, i),
-            };
-            let light_numbers = (u.light, u.light_point);
-            if let Some(shadow) = other_light(rs, settings, path, lanes[i].1, &lane, light_numbers)
-            {
-                shadows.push((p, shadow));
-            }
-            continue;
-        };
-        has_light[i] = true;
-        pick[i] = pk;
-        area[i] = tri.area;
-        for a in 0..3 {
-            lp0[a][i] = tri.p0[a];
-            le1[a][i] = tri.e1[a];
-            le2[a][i] = tri.e2[a];
-            ln[a][i] = tri.normal[a];
-            lrad[a][i] = tri.radiance[a];
-        }
-        if let Some(wl) = &path.wl {
-            let l = rs.spectral_light(tri.radiance, light, wl);
+        // Next-event estimation: a point on the chosen triangle, the BSDF towards it, the shadow
+        // ray and its MIS-weighted contribution (Lights::sample, Bsdf::eval/pdf, `connect`).
+        let mut sh_ok = [false; N];
+        let (mut sh_o, mut sh_d, mut sh_c) = ([[0.0f32; N]; 3], [[0.0f32; N]; 3], [[0.0f32; N]; 3]);
+        let mut sh_tmax = [0.0f32; N];
+        for i in 0..N {
+            let (bx, by) = triangle_map(u_light2[0][i], u_light2[1][i]);
+            let p = at(&pos, i);
+            let q = [
+                lp0[0][i] + le1[0][i] * bx + le2[0][i] * by,
+                lp0[1][i] + le1[1][i] * bx + le2[1][i] * by,
+                lp0[2][i] + le1[2][i] * bx + le2[2][i] * by,
+            ];
+            let dv = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
+            let dist2 = dot(dv, dv);
+            let distance = dist2.sqrt();
+            let inv = 1.0 / distance;
+            let wi = [dv[0] * inv, dv[1] * inv, dv[2] * inv];
+            let cos = dot(at(&ln, i), [-wi[0], -wi[1], -wi[2]]);
+            let (num, den) = (pick[i] * dist2, area[i] * cos);
+            let r = den / num;
+            let weight = [lrad[0][i] * r, lrad[1][i] * r, lrad[2][i] * r];
+            let pdf = num / den;
+            let mut ok = alive[i]
+                && has_light[i]
+                && !(cos <= 0.0 || area[i] <= 0.0)
+                && weight[0].is_finite()
+                && weight[1].is_finite()
+                && weight[2].is_finite();
+            // Bsdf::eval for a diffuse BSDF, two-sided.
+            let wil = [
+                dot(wi, at(&fs, i)),
+                dot(wi, at(&ft, i)),
+                dot(wi, at(&ns, i)),
+            ];
+            let flip = wo[2][i] < 0.0;
+            let woz = sel(flip, -wo[2][i], wo[2][i]);
+            let wiz = sel(flip, -wil[2], wil[2]);
+            let front = !(woz <= 0.0 || wiz <= 0.0);
+            let cos_pdf = cosine_pdf(wiz);
+            let f = [
+                sel(front, albedo[0][i] * cos_pdf, 0.0),
+                sel(front, albedo[1][i] * cos_pdf, 0.0),
+                sel(front, albedo[2][i] * cos_pdf, 0.0),
+            ];
+            ok &= !(f[0] == 0.0 && f[1] == 0.0 && f[2] == 0.0);
+            let so = offset_point(p, at(&ng, i), wi, eps);
+            let (sdir, tmax) = shadow_segment(so, q, wi, eps);
+            // Bsdf::pdf: 0 when the viewer is below the (oriented) surface.
+            let bsdf_pdf = sel(woz <= 0.0, 0.0, cos_pdf);
+            let w = sel(pdf > 0.0, power_heuristic(pdf, bsdf_pdf), 1.0);
             for a in 0..3 {
-                lrad[a][i] = l[a];
+                sh_o[a][i] = so[a];
+                sh_d[a][i] = sdir[a];
+                sh_c[a][i] = thr[a][i] * f[a] * weight[a] * w;
             }
+            sh_tmax[i] = tmax;
+            sh_ok[i] = ok;
         }
-    }
 
-    // Next-event estimation: a point on the chosen triangle, the BSDF towards it, the shadow
-    // ray and its MIS-weighted contribution (Lights::sample, Bsdf::eval/pdf, `connect`).
-    let mut sh_ok = [false; N];
-    let (mut sh_o, mut sh_d, mut sh_c) = ([[0.0f32; N]; 3], [[0.0f32; N]; 3], [[0.0f32; N]; 3]);
-    let mut sh_tmax = [0.0f32; N];
-    for i in 0..N {
-        let (bx, by) = triangle_map(u_light2[0][i], u_light2[1][i]);
-        let p = at(&pos, i);
-        let q = [
-            lp0[0][i] + le1[0][i] * bx + le2[0][i] * by,
-            lp0[1][i] + le1[1][i] * bx + le2[1][i] * by,
-            lp0[2][i] + le1[2][i] * bx + le2[2][i] * by,
-        ];
-        let dv = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
-        let dist2 = dot(dv, dv);
-        let distance = dist2.sqrt();
-        let inv = 1.0 / distance;
-        let wi = [dv[0] * inv, dv[1] * inv, dv[2] * inv];
-        let cos = dot(at(&ln, i), [-wi[0], -wi[1], -wi[2]]);
-        let (num, den) = (pick[i] * dist2, area[i] * cos);
-        let r = den / num;
-        let weight = [lrad[0][i] * r, lrad[1][i] * r, lrad[2][i] * r];
-        let pdf = num / den;
-        let mut ok = alive[i]
-            && has_light[i]
-            && !(cos <= 0.0 || area[i] <= 0.0)
-            && weight[0].is_finite()
-            && weight[1].is_finite()
-            && weight[2].is_finite();
-        // Bsdf::eval for a diffuse BSDF, two-sided.
-        let wil = [
-            dot(wi, at(&fs, i)),
-            dot(wi, at(&ft, i)),
-            dot(wi, at(&ns, i)),
-        ];
-        let flip = wo[2][i] < 0.0;
-        let woz = sel(flip, -wo[2][i], wo[2][i]);
-        let wiz = sel(flip, -wil[2], wil[2]);
-        let front = !(woz <= 0.0 || wiz <= 0.0);
-        let cos_pdf = cosine_pdf(wiz);
-        let f = [
-            sel(front, albedo[0][i] * cos_pdf, 0.0),
-            sel(front, albedo[1][i] * cos_pdf, 0.0),
-            sel(front, albedo[2][i] * cos_pdf, 0.0),
-        ];
-        ok &= !(f[0] == 0.0 && f[1] == 0.0 && f[2] == 0.0);
-        let so = offset_point(p, at(&ng, i), wi, eps);
-        let (sdir, tmax) = shadow_segment(so, q, wi, eps);
-        // Bsdf::pdf: 0 when the viewer is below the (oriented) surface.
-        let bsdf_pdf = sel(woz <= 0.0, 0.0, cos_pdf);
-        let w = sel(pdf > 0.0, power_heuristic(pdf, bsdf_pdf), 1.0);
-        for a in 0..3 {
-            sh_o[a][i] = so[a];
-            sh_d[a][i] = sdir[a];
-            sh_c[a][i] = thr[a][i] * f[a] * weight[a] * w;
+        // BSDF sampling (cosine hemisphere by the concentric disk), the continuation ray and
+        // Russian roulette (Bsdf::sample, `scatter`).
+        let mut goes_on = [false; N];
+        let (mut new_o, mut new_d, mut new_thr) =
+            ([[0.0f32; N]; 3], [[0.0f32; N]; 3], [[0.0f32; N]; 3]);
+        let mut new_pdf = [0.0f32; N];
+        for i in 0..N {
+            let flip = wo[2][i] < 0.0;
+            let woz = sel(flip, -wo[2][i], wo[2][i]);
+            let (dx, dy) = disk_map(u_dir[0][i], u_dir[1][i]);
+            let z = hemisphere_z(dx, dy);
+            let pdf = cosine_pdf(z);
+            let wi = [sel(flip, -dx, dx), sel(flip, -dy, dy), sel(flip, -z, z)];
+            let mut ok = alive[i] && woz != 0.0 && pdf > 0.0;
+            // Basis::to_world, then normalize.
+            let w = [
+                fs[0][i] * wi[0] + ft[0][i] * wi[1] + ns[0][i] * wi[2],
+                fs[1][i] * wi[0] + ft[1][i] * wi[1] + ns[1][i] * wi[2],
+                fs[2][i] * wi[0] + ft[2][i] * wi[1] + ns[2][i] * wi[2],
+            ];
+            let rcp = 1.0 / dot(w, w).sqrt();
+            let nd = [w[0] * rcp, w[1] * rcp, w[2] * rcp];
+            let g = at(&ng, i);
+            let reflect = wi[2] * wo[2][i] > 0.0;
+            let geometric = dot(nd, g) * dot([-d[0][i], -d[1][i], -d[2][i]], g) > 0.0;
+            ok &= reflect == geometric;
+            let mut th = [
+                thr[0][i] * albedo[0][i],
+                thr[1][i] * albedo[1][i],
+                thr[2][i] * albedo[2][i],
+            ];
+            let p = at(&pos, i);
+            let no = offset_point(p, g, nd, eps);
+            // Russian roulette (the scalar code's depth test is per lane here).
+            let max = vmax(th[0], vmax(th[1], th[2]));
+            let q = survival_probability(max, eta_scale[i]);
+            let roulette = depth[i] >= settings.rr_depth;
+            ok &= !(roulette && u_rr[i] >= q);
+            for a in 0..3 {
+                th[a] = sel(roulette, th[a] / q, th[a]);
+            }
+            ok &= !(th[0] == 0.0 && th[1] == 0.0 && th[2] == 0.0);
+            for a in 0..3 {
+                new_o[a][i] = no[a];
+                new_d[a][i] = nd[a];
+                new_thr[a][i] = th[a];
+            }
+            new_pdf[i] = pdf;
+            goes_on[i] = ok;
         }
-        sh_tmax[i] = tmax;
-        sh_ok[i] = ok;
-    }
 
-    // BSDF sampling (cosine hemisphere by the concentric disk), the continuation ray and
-    // Russian roulette (Bsdf::sample, `scatter`).
-    let mut goes_on = [false; N];
-    let (mut new_o, mut new_d, mut new_thr) =
-        ([[0.0f32; N]; 3], [[0.0f32; N]; 3], [[0.0f32; N]; 3]);
-    let mut new_pdf = [0.0f32; N];
-    for i in 0..N {
-        let flip = wo[2][i] < 0.0;
-        let woz = sel(flip, -wo[2][i], wo[2][i]);
-        let (dx, dy) = disk_map(u_dir[0][i], u_dir[1][i]);
-        let z = hemisphere_z(dx, dy);
-        let pdf = cosine_pdf(z);
-        let wi = [sel(flip, -dx, dx), sel(flip, -dy, dy), sel(flip, -z, z)];
-        let mut ok = alive[i] && woz != 0.0 && pdf > 0.0;
-        // Basis::to_world, then normalize.
-        let w = [
-            fs[0][i] * wi[0] + ft[0][i] * wi[1] + ns[0][i] * wi[2],
-            fs[1][i] * wi[0] + ft[1][i] * wi[1] + ns[1][i] * wi[2],
-            fs[2][i] * wi[0] + ft[2][i] * wi[1] + ns[2][i] * wi[2],
-        ];
-        let rcp = 1.0 / dot(w, w).sqrt();
-        let nd = [w[0] * rcp, w[1] * rcp, w[2] * rcp];
-        let g = at(&ng, i);
-        let reflect = wi[2] * wo[2][i] > 0.0;
-        let geometric = dot(nd, g) * dot([-d[0][i], -d[1][i], -d[2][i]], g) > 0.0;
-        ok &= reflect == geometric;
-        let mut th = [
-            thr[0][i] * albedo[0][i],
-            thr[1][i] * albedo[1][i],
-            thr[2][i] * albedo[2][i],
-        ];
-        let p = at(&pos, i);
-        let no = offset_point(p, g, nd, eps);
-        // Russian roulette (the scalar code's depth test is per lane here).
-        let max = vmax(th[0], vmax(th[1], th[2]));
-        let q = survival_probability(max, eta_scale[i]);
-        let roulette = depth[i] >= settings.rr_depth;
-        ok &= !(roulette && u_rr[i] >= q);
-        for a in 0..3 {
-            th[a] = sel(roulette, th[a] / q, th[a]);
-        }
-        ok &= !(th[0] == 0.0 && th[1] == 0.0 && th[2] == 0.0);
-        for a in 0..3 {
-            new_o[a][i] = no[a];
-            new_d[a][i] = nd[a];
-            new_thr[a][i] = th[a];
-        }
-        new_pdf[i] = pdf;
-        goes_on[i] = ok;
-    }
-
-    // Scatter: shadow rays, continuing paths.
-    for (i, &(p, _)) in lanes.iter().enumerate().take(n) {
-        if sh_ok[i] {
-            let path = &mut paths[p as usize];
-            path.radiance.rays += 1;
-            shadows.push((
-                p,
-                ShadowRay {
-                    origin: Vec3::new(sh_o[0][i], sh_o[1][i], sh_o[2][i]),
-                    dir: Vec3::new(sh_d[0][i], sh_d[1][i], sh_d[2][i]),
-                    tmax: sh_tmax[i],
-                    contribution: Vec3::new(sh_c[0][i], sh_c[1][i], sh_c[2][i]),
-                    depth: depth[i] + 1,
-                },
-            ));
-        }
-        if goes_on[i] {
-            let path = &mut paths[p as usize];
-            path.throughput = Vec3::new(new_thr[0][i], new_thr[1][i], new_thr[2][i]);
-            path.prev_pdf = Some(new_pdf[i]);
-            path.prev_point = Vec3::new(pos[0][i], pos[1][i], pos[2][i]);
-            path.origin = Vec3::new(new_o[0][i], new_o[1][i], new_o[2][i]);
-            path.dir = Vec3::new(new_d[0][i], new_d[1][i], new_d[2][i]);
-            path.depth += 1;
-            next.push(p);
+        // Scatter: shadow rays, continuing paths.
+        for (i, &(p, _)) in lanes.iter().enumerate().take(n) {
+            if sh_ok[i] {
+                let path = &mut paths[p as usize];
+                path.radiance.rays += 1;
+                shadows.push((
+                    p,
+                    ShadowRay {
+                        origin: Vec3::new(sh_o[0][i], sh_o[1][i], sh_o[2][i]),
+                        dir: Vec3::new(sh_d[0][i], sh_d[1][i], sh_d[2][i]),
+                        tmax: sh_tmax[i],
+                        contribution: Vec3::new(sh_c[0][i], sh_c[1][i], sh_c[2][i]),
+                        depth: depth[i] + 1,
+                    },
+                ));
+            }
+            if goes_on[i] {
+                let path = &mut paths[p as usize];
+                path.throughput = Vec3::new(new_thr[0][i], new_thr[1][i], new_thr[2][i]);
+                path.prev_pdf = Some(new_pdf[i]);
+                path.prev_point = Vec3::new(pos[0][i], pos[1][i], pos[2][i]);
+                path.origin = Vec3::new(new_o[0][i], new_o[1][i], new_o[2][i]);
+                path.dir = Vec3::new(new_d[0][i], new_d[1][i], new_d[2][i]);
+                path.depth += 1;
+                next.push(p);
+            }
         }
     }
 }
@@ -548,6 +484,7 @@ mod tests {
     use crate::camera::PinholeCamera;
     use crate::sampler::PixelSampler;
     use glam::Vec2;
+    use lumo_simd::Isa;
 
     /// Everything a bounce leaves in a path and its shadow ray, as bits.
     fn bits(path: &PathState, shadow: Option<&ShadowRay>) -> Vec<u32> {
