@@ -413,6 +413,44 @@ mod tests {
         );
     }
 
+    /// Written over a split of another size and of another seed (stale values everywhere),
+    /// [`direct_split_into`] gives [`direct_split`]'s planes bit for bit: nothing of the old
+    /// frame survives in the reused memory.
+    #[test]
+    fn a_reused_split_equals_a_fresh_one() {
+        let rs = RenderScene::new(cornell_with_point()).expect("scene");
+        let (w, h) = (23, 17);
+        let camera = PinholeCamera::new(&rs.scene.camera, w, h);
+        let fresh = direct_split(&rs, &camera, w, h, 5);
+        for (ow, oh) in [(w, h), (31, 9)] {
+            let mut reused = direct_split(
+                &rs,
+                &PinholeCamera::new(&rs.scene.camera, ow, oh),
+                ow,
+                oh,
+                9,
+            );
+            reused.ratio.data.fill(7.0);
+            reused.exact.data.fill(7.0);
+            reused.unshadowed.data.fill(7.0);
+            reused.split.fill(true);
+            direct_split_into(&mut reused, &rs, &camera, w, h, 5);
+            assert_eq!(reused.split, fresh.split);
+            for (a, b) in [
+                (&reused.exact, &fresh.exact),
+                (&reused.unshadowed, &fresh.unshadowed),
+                (&reused.ratio, &fresh.ratio),
+            ] {
+                assert_eq!(
+                    (a.width, a.height, a.channels),
+                    (b.width, b.height, b.channels)
+                );
+                let bits = |i: &Image| i.data.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(a), bits(b));
+            }
+        }
+    }
+
     /// Averaged over many light samples, the split carries the direct light the path tracer
     /// estimates at the same pixels; where the closed form is used, the unshadowed half
     /// averages to 1 over the split pixels where the closed form is not 0 (which ties the

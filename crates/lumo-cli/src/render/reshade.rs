@@ -209,6 +209,42 @@ mod tests {
     use lumo_render::{render, RenderSettings};
     use lumo_scene::builtin_scene;
 
+    /// A kept frame written over an older one (another size, another split mask) holds what
+    /// a fresh one holds, bit for bit.
+    #[test]
+    fn a_reused_shaded_frame_equals_a_fresh_one() {
+        let rs = RenderScene::new(builtin_scene("cornell").expect("scene")).expect("scene");
+        let frame = |w, h, seed| {
+            let s = RenderSettings {
+                width: w,
+                height: h,
+                spp: 1,
+                seed,
+                path: PathSettings::default(),
+            };
+            render(&rs, &s, &|_| {}).0
+        };
+        let (a, b) = (frame(12, 10, 1), frame(16, 7, 2));
+        let mask: Vec<bool> = (0..12 * 10).map(|i| i % 3 == 0).collect();
+        let fresh = ShadedFrame::new(&a, 1, Some(&mask));
+        let old = ShadedFrame::new(&b, 2, None);
+        let reused = ShadedFrame::reusing(Some(old), &a, 1, Some(&mask));
+        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(reused.seed, fresh.seed);
+        assert_eq!(reused.indirect_only, fresh.indirect_only);
+        assert_eq!(bits(&reused.luminance), bits(&fresh.luminance));
+        for (r, f) in [
+            (&reused.position, &fresh.position),
+            (&reused.depth, &fresh.depth),
+        ] {
+            assert_eq!(
+                (r.width, r.height, r.channels),
+                (f.width, f.height, f.channels)
+            );
+            assert_eq!(bits(&r.data), bits(&f.data));
+        }
+    }
+
     fn pose(rs: &RenderScene, w: usize, h: usize) -> (Mat4, Vec<Mat4>) {
         let c = &rs.scene.camera;
         let (hw, hh) = c.half_extent(w, h);
