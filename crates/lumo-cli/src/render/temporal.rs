@@ -240,11 +240,11 @@ impl TemporalSequence {
         let emitter = &emitter[..];
         // Where the direct light is split, the history holds the indirect light only.
         let color = match split {
-            Some(d) => &*split_noisy(frame, d, &mut buffers.noisy),
+            Some(d) => split_noisy(frame, d, &mut buffers.noisy),
             None => &frame.color,
         };
         let ratio_color = match split {
-            Some(d) => Some(&*ratio_image(d, &mut buffers.ratio)),
+            Some(d) => Some(ratio_image(d, &mut buffers.ratio)),
             None => None,
         };
         let (filter, ratio) = (&mut self.filter, &mut self.ratio);
