@@ -14,12 +14,12 @@
 
 use glam::{Vec2, Vec3};
 use lumo_image::{luminance, Image};
+use rayon::prelude::*;
 
 use crate::accel::packet::{RayPacket, LANES};
 use crate::camera::PinholeCamera;
 use crate::geometry::shadow_segment;
 use crate::lights::{CosineTriangle, LightSample};
-use crate::parallel::map_rows;
 use crate::render_scene::{RenderScene, Surface};
 use crate::sampler::PixelSampler;
 
@@ -66,6 +66,18 @@ struct PixelSplit {
     ratio: [f32; 2],
 }
 
+impl Default for DirectSplit {
+    /// An empty split (0×0), to be filled by [`direct_split_into`].
+    fn default() -> Self {
+        Self {
+            split: Vec::new(),
+            exact: Image::new(0, 0, 3, 0.0),
+            unshadowed: Image::new(0, 0, 3, 0.0),
+            ratio: Image::new(0, 0, 2, 0.0),
+        }
+    }
+}
+
 /// Splits the direct light at the first hit of every pixel-centre ray of `camera` (`w`×`h`),
 /// with the light samples drawn from `seed` (a frame's own seed gives new samples each frame).
 /// Rows in parallel; within a row, camera rays and shadow rays go through the BVH sixteen at
@@ -77,6 +89,22 @@ pub fn direct_split(
     h: usize,
     seed: u32,
 ) -> DirectSplit {
+    let mut out = DirectSplit::default();
+    direct_split_into(&mut out, rs, camera, w, h, seed);
+    out
+}
+
+/// [`direct_split`] written into `out`, whose planes are reused when they already have the
+/// size: a sequence that splits every frame then allocates (and page-faults) nothing per
+/// frame. Every element is overwritten, so the result is [`direct_split`]'s, bit for bit.
+pub fn direct_split_into(
+    out: &mut DirectSplit,
+    rs: &RenderScene,
+    camera: &PinholeCamera,
+    w: usize,
+    h: usize,
+    seed: u32,
+) {
     // The closed form covers every non-Dirac light, or none is used.
     let only_triangles = rs.lights.only_constant_triangles();
     let triangles: Vec<(CosineTriangle, Vec3)> = if only_triangles {
@@ -89,19 +117,37 @@ pub fn direct_split(
     };
     let closed =
         (only_triangles && triangles.len() <= MAX_ANALYTIC_TRIANGLES).then_some(&triangles[..]);
-    let pixels = map_rows(h, &|_| {}, |y| split_row(rs, camera, w, y, seed, closed));
-    let mut out = DirectSplit {
-        split: pixels.iter().map(|p| p.split).collect(),
-        exact: Image::new(w, h, 3, 0.0),
-        unshadowed: Image::new(w, h, 3, 0.0),
-        ratio: Image::new(w, h, 2, 0.0),
-    };
-    for (i, p) in pixels.iter().enumerate() {
-        out.exact.data[i * 3..i * 3 + 3].copy_from_slice(&p.exact.to_array());
-        out.unshadowed.data[i * 3..i * 3 + 3].copy_from_slice(&p.unshadowed.to_array());
-        out.ratio.data[i * 2..i * 2 + 2].copy_from_slice(&p.ratio);
+    out.split.resize(w * h, false);
+    for (img, c) in [
+        (&mut out.exact, 3),
+        (&mut out.unshadowed, 3),
+        (&mut out.ratio, 2),
+    ] {
+        if (img.width, img.height, img.channels) != (w, h, c) {
+            *img = Image::new(w, h, c, 0.0);
+        }
     }
-    out
+    if w == 0 {
+        return;
+    }
+    out.split
+        .par_chunks_mut(w)
+        .zip(out.exact.data.par_chunks_mut(3 * w))
+        .zip(out.unshadowed.data.par_chunks_mut(3 * w))
+        .zip(out.ratio.data.par_chunks_mut(2 * w))
+        .enumerate()
+        .for_each_init(
+            || (Vec::new(), Vec::new()),
+            |(row, shadows), (y, (((split, exact), unshadowed), ratio))| {
+                split_row(rs, camera, w, y, seed, closed, row, shadows);
+                for (x, p) in row.iter().enumerate() {
+                    split[x] = p.split;
+                    exact[3 * x..3 * x + 3].copy_from_slice(&p.exact.to_array());
+                    unshadowed[3 * x..3 * x + 3].copy_from_slice(&p.unshadowed.to_array());
+                    ratio[2 * x..2 * x + 2].copy_from_slice(&p.ratio);
+                }
+            },
+        );
 }
 
 /// What a shadow ray decides once traced.
@@ -113,7 +159,12 @@ enum Pending {
     Ratio(f32),
 }
 
-/// Row `y` of the split; `closed` holds the emissive triangles when their closed form is used.
+/// A shadow ray waiting for its packet: pixel, what it decides, origin, direction, length.
+type Shadow = (usize, Pending, Vec3, Vec3, f32);
+
+/// Row `y` of the split into `out` (`w` pixels); `closed` holds the emissive triangles when
+/// their closed form is used; `shadows` is working memory.
+#[allow(clippy::too_many_arguments)]
 fn split_row(
     rs: &RenderScene,
     camera: &PinholeCamera,
@@ -121,9 +172,12 @@ fn split_row(
     y: usize,
     seed: u32,
     closed: Option<&[(CosineTriangle, Vec3)]>,
-) -> Vec<PixelSplit> {
-    let mut out = vec![PixelSplit::default(); w];
-    let mut shadows: Vec<(usize, Pending, Vec3, Vec3, f32)> = Vec::new();
+    out: &mut Vec<PixelSplit>,
+    shadows: &mut Vec<Shadow>,
+) {
+    out.clear();
+    out.resize(w, PixelSplit::default());
+    shadows.clear();
     for x0 in (0..w).step_by(LANES) {
         let n = LANES.min(w - x0);
         let mut rays = RayPacket::default();
@@ -166,7 +220,6 @@ fn split_row(
             shadows.clear();
         }
     }
-    out
 }
 
 /// One pixel's split at `hit` of the camera ray `origin + t·dir`, without its shadow rays:
@@ -358,6 +411,44 @@ mod tests {
             (ours / theirs - 1.0).abs() < 0.01,
             "split {ours}, path tracer {theirs}"
         );
+    }
+
+    /// Written over a split of another size and of another seed (stale values everywhere),
+    /// [`direct_split_into`] gives [`direct_split`]'s planes bit for bit: nothing of the old
+    /// frame survives in the reused memory.
+    #[test]
+    fn a_reused_split_equals_a_fresh_one() {
+        let rs = RenderScene::new(cornell_with_point()).expect("scene");
+        let (w, h) = (23, 17);
+        let camera = PinholeCamera::new(&rs.scene.camera, w, h);
+        let fresh = direct_split(&rs, &camera, w, h, 5);
+        for (ow, oh) in [(w, h), (31, 9)] {
+            let mut reused = direct_split(
+                &rs,
+                &PinholeCamera::new(&rs.scene.camera, ow, oh),
+                ow,
+                oh,
+                9,
+            );
+            reused.ratio.data.fill(7.0);
+            reused.exact.data.fill(7.0);
+            reused.unshadowed.data.fill(7.0);
+            reused.split.fill(true);
+            direct_split_into(&mut reused, &rs, &camera, w, h, 5);
+            assert_eq!(reused.split, fresh.split);
+            for (a, b) in [
+                (&reused.exact, &fresh.exact),
+                (&reused.unshadowed, &fresh.unshadowed),
+                (&reused.ratio, &fresh.ratio),
+            ] {
+                assert_eq!(
+                    (a.width, a.height, a.channels),
+                    (b.width, b.height, b.channels)
+                );
+                let bits = |i: &Image| i.data.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(a), bits(b));
+            }
+        }
     }
 
     /// Averaged over many light samples, the split carries the direct light the path tracer

@@ -37,7 +37,7 @@ mod specular_albedo;
 #[cfg(test)]
 mod test_lights;
 
-pub use direct_split::{direct_split, DirectSplit, MAX_ANALYTIC_TRIANGLES};
+pub use direct_split::{direct_split, direct_split_into, DirectSplit, MAX_ANALYTIC_TRIANGLES};
 pub use film::{Frame, AOV_NAMES};
 pub use integrator::{
     sentence, Capabilities, Integrator, IntegratorInfo, IntegratorOptions, Particles, RenderedImage,

@@ -42,27 +42,55 @@ impl ShadedFrame {
     /// `indirect_only` marks the pixels whose direct light the temporal filter takes apart
     /// (the direct-light split), where only the indirect light is compared.
     pub fn new(frame: &Frame, seed: u32, indirect_only: Option<&[bool]>) -> Self {
-        let n = frame.color.width * frame.color.height;
-        let indirect_only = indirect_only.map_or_else(|| vec![false; n], <[bool]>::to_vec);
-        let luminance = (0..n)
-            .map(|i| {
-                let plane = if indirect_only[i] {
-                    &frame.indirect
-                } else {
-                    &frame.color
-                };
-                let c = &plane.data[i * 3..i * 3 + 3];
-                luminance([c[0], c[1], c[2]])
-            })
-            .collect();
-        Self {
-            seed,
-            position: frame.position.clone(),
-            depth: frame.depth.clone(),
-            luminance,
-            indirect_only,
-        }
+        Self::reusing(None, frame, seed, indirect_only)
     }
+
+    /// [`Self::new`] written over `old`'s memory (an earlier frame's, no longer needed), so
+    /// that a sequence allocates (and page-faults) nothing here per frame; the same values.
+    pub fn reusing(
+        old: Option<Self>,
+        frame: &Frame,
+        seed: u32,
+        indirect_only: Option<&[bool]>,
+    ) -> Self {
+        let n = frame.color.width * frame.color.height;
+        let mut s = old.unwrap_or_else(|| Self {
+            seed,
+            position: Image::new(0, 0, 3, 0.0),
+            depth: Image::new(0, 0, 1, 0.0),
+            luminance: Vec::new(),
+            indirect_only: Vec::new(),
+        });
+        s.seed = seed;
+        copy_image(&mut s.position, &frame.position);
+        copy_image(&mut s.depth, &frame.depth);
+        s.indirect_only.clear();
+        match indirect_only {
+            Some(v) => s.indirect_only.extend_from_slice(v),
+            None => s.indirect_only.resize(n, false),
+        }
+        let only = &s.indirect_only;
+        s.luminance.clear();
+        s.luminance.extend((0..n).map(|i| {
+            let plane = if only[i] {
+                &frame.indirect
+            } else {
+                &frame.color
+            };
+            let c = &plane.data[i * 3..i * 3 + 3];
+            luminance([c[0], c[1], c[2]])
+        }));
+        s
+    }
+}
+
+/// `dst` made a copy of `src`, in `dst`'s memory when it is large enough.
+fn copy_image(dst: &mut Image, src: &Image) {
+    dst.width = src.width;
+    dst.height = src.height;
+    dst.channels = src.channels;
+    dst.data.clear();
+    dst.data.extend_from_slice(&src.data);
 }
 
 /// The camera and instance placement of a frame.
@@ -180,6 +208,42 @@ mod tests {
     use lumo_filter::pinhole_view_projection;
     use lumo_render::{render, RenderSettings};
     use lumo_scene::builtin_scene;
+
+    /// A kept frame written over an older one (another size, another split mask) holds what
+    /// a fresh one holds, bit for bit.
+    #[test]
+    fn a_reused_shaded_frame_equals_a_fresh_one() {
+        let rs = RenderScene::new(builtin_scene("cornell").expect("scene")).expect("scene");
+        let frame = |w, h, seed| {
+            let s = RenderSettings {
+                width: w,
+                height: h,
+                spp: 1,
+                seed,
+                path: PathSettings::default(),
+            };
+            render(&rs, &s, &|_| {}).0
+        };
+        let (a, b) = (frame(12, 10, 1), frame(16, 7, 2));
+        let mask: Vec<bool> = (0..12 * 10).map(|i| i % 3 == 0).collect();
+        let fresh = ShadedFrame::new(&a, 1, Some(&mask));
+        let old = ShadedFrame::new(&b, 2, None);
+        let reused = ShadedFrame::reusing(Some(old), &a, 1, Some(&mask));
+        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(reused.seed, fresh.seed);
+        assert_eq!(reused.indirect_only, fresh.indirect_only);
+        assert_eq!(bits(&reused.luminance), bits(&fresh.luminance));
+        for (r, f) in [
+            (&reused.position, &fresh.position),
+            (&reused.depth, &fresh.depth),
+        ] {
+            assert_eq!(
+                (r.width, r.height, r.channels),
+                (f.width, f.height, f.channels)
+            );
+            assert_eq!(bits(&r.data), bits(&f.data));
+        }
+    }
 
     fn pose(rs: &RenderScene, w: usize, h: usize) -> (Mat4, Vec<Mat4>) {
         let c = &rs.scene.camera;

@@ -18,7 +18,7 @@ use lumo_filter::{
 };
 use lumo_image::Image;
 use lumo_render::camera::PinholeCamera;
-use lumo_render::{direct_split, instance_ids, DirectSplit, Frame, PathSettings, RenderScene};
+use lumo_render::{direct_split_into, instance_ids, DirectSplit, Frame, PathSettings, RenderScene};
 use lumo_scene::Camera;
 
 use super::reshade::{reshade, Pose, ShadedFrame};
@@ -73,6 +73,21 @@ pub struct TemporalSequence {
     /// The temporal filter of the direct-light split's shadow ratio, when the split is on
     /// (see [`TemporalSequence::filter`]).
     ratio: Option<TemporalFilter>,
+    /// Per-frame images kept between frames, so that a frame allocates (and page-faults) less.
+    buffers: Buffers,
+}
+
+/// The sequence's per-frame working images (each frame overwrites them whole).
+#[derive(Default)]
+struct Buffers {
+    /// The direct-light split.
+    split: DirectSplit,
+    /// The colour with the split direct light taken out ([`split_noisy`]).
+    noisy: Option<Image>,
+    /// The shadow ratio as the filter's colour ([`ratio_image`]).
+    ratio: Option<Image>,
+    /// Pixels that see an emitter directly.
+    emitter: Vec<bool>,
 }
 
 impl TemporalSequence {
@@ -106,6 +121,7 @@ impl TemporalSequence {
             } else {
                 None
             },
+            buffers: Buffers::default(),
         })
     }
 
@@ -175,13 +191,15 @@ impl TemporalSequence {
             f();
             t.elapsed()
         };
-        let (mut split, mut changes) = (None, None);
+        let buffers = &mut self.buffers;
+        let split_buffer = &mut buffers.split;
+        let split_on = self.ratio.is_some();
+        let mut changes = None;
         let mut split_stage = || {
-            split = self.ratio.is_some().then(|| {
-                let mut d = direct_split(rs, &PinholeCamera::new(c, w, h), w, h, seed);
-                keep_rims_whole(&mut d, frame);
-                d
-            })
+            if split_on {
+                direct_split_into(split_buffer, rs, &PinholeCamera::new(c, w, h), w, h, seed);
+                keep_rims_whole(split_buffer, frame);
+            }
         };
         let mut reshade_stage = || {
             changes = match (&self.reshade, &self.prev) {
@@ -207,24 +225,35 @@ impl TemporalSequence {
         } else {
             rayon::join(|| timed(&mut split_stage), || timed(&mut reshade_stage))
         };
+        let split = split_on.then_some(&buffers.split);
         // Emitters seen directly pass through unfiltered, as in every pipeline.
-        let emitter: Vec<bool> = frame
-            .emission
-            .data
-            .chunks_exact(3)
-            .zip(frame.albedo.data.chunks_exact(3))
-            .map(|(e, a)| e.iter().any(|&v| v != 0.0) && a.iter().any(|&v| v != 0.0))
-            .collect();
+        let emitter = &mut buffers.emitter;
+        emitter.clear();
+        emitter.extend(
+            frame
+                .emission
+                .data
+                .chunks_exact(3)
+                .zip(frame.albedo.data.chunks_exact(3))
+                .map(|(e, a)| e.iter().any(|&v| v != 0.0) && a.iter().any(|&v| v != 0.0)),
+        );
+        let emitter = &emitter[..];
         // Where the direct light is split, the history holds the indirect light only.
-        let noisy = split.as_ref().map(|d| split_noisy(frame, d));
-        let color = noisy.as_ref().unwrap_or(&frame.color);
+        let color = match split {
+            Some(d) => split_noisy(frame, d, &mut buffers.noisy),
+            None => &frame.color,
+        };
+        let ratio_color = match split {
+            Some(d) => Some(ratio_image(d, &mut buffers.ratio)),
+            None => None,
+        };
         let (filter, ratio) = (&mut self.filter, &mut self.ratio);
         let motion_ref = motion.as_ref();
         let mut filtered = None;
         let mut main_filter = || {
             // With several samples per frame a light's rim pixels hold a share of it: kept
             // out too.
-            filtered = Some(with_emitted(color, &emitter, &frame.emitted, |c| {
+            filtered = Some(with_emitted(color, emitter, &frame.emitted, |c| {
                 filter.filter_reshaded(
                     &TemporalFrame {
                         color: c,
@@ -241,9 +270,9 @@ impl TemporalSequence {
         };
         let mut shadow = None;
         let mut ratio_filter = || {
-            if let (Some(d), Some(ratio)) = (&split, ratio.as_mut()) {
+            if let (Some(color), Some(ratio)) = (ratio_color, ratio.as_mut()) {
                 shadow = Some(ratio.filter(&TemporalFrame {
-                    color: &ratio_image(d),
+                    color,
                     albedo: None,
                     normal: &frame.normal,
                     depth: &frame.depth,
@@ -260,7 +289,7 @@ impl TemporalSequence {
         };
         let t = Instant::now();
         let mut filtered = filtered.expect("the main filter ran")?;
-        if let (Some(d), Some(shadow)) = (&split, shadow) {
+        if let (Some(d), Some(shadow)) = (split, shadow) {
             add_split_direct(&mut filtered.image, d, &shadow?.image);
         }
         split_filter += t.elapsed();
@@ -295,10 +324,12 @@ impl TemporalSequence {
             filter: filter_time,
         };
         if self.reshade.is_some() {
-            view.shaded = Some(ShadedFrame::new(
+            let old = self.prev.as_mut().and_then(|p| p.shaded.take());
+            view.shaded = Some(ShadedFrame::reusing(
+                old,
                 frame,
                 seed,
-                split.as_ref().map(|d| &d.split[..]),
+                split.map(|d| &d.split[..]),
             ));
         }
         self.prev = Some(view);
@@ -365,9 +396,20 @@ fn keep_rims_whole(d: &mut DirectSplit, frame: &Frame) {
 }
 
 /// The frame's colour with the direct light taken out where it is split: indirect light
-/// there, the full colour elsewhere.
-fn split_noisy(frame: &Frame, d: &DirectSplit) -> Image {
-    let mut out = frame.color.clone();
+/// there, the full colour elsewhere; written into `buffer` (reused when it has the size).
+fn split_noisy<'a>(frame: &Frame, d: &DirectSplit, buffer: &'a mut Option<Image>) -> &'a Image {
+    let c = &frame.color;
+    if buffer
+        .as_ref()
+        .is_some_and(|b| (b.width, b.height, b.channels) == (c.width, c.height, c.channels))
+    {
+        if let Some(b) = buffer.as_mut() {
+            b.data.copy_from_slice(&c.data);
+        }
+    } else {
+        *buffer = Some(c.clone());
+    }
+    let out = buffer.get_or_insert_with(|| c.clone());
     for (i, _) in d.split.iter().enumerate().filter(|(_, &s)| s) {
         for k in i * 3..i * 3 + 3 {
             out.data[k] = frame.indirect.data[k];
@@ -379,9 +421,16 @@ fn split_noisy(frame: &Frame, d: &DirectSplit) -> Image {
 /// The ratio estimator's two halves as an image for the temporal filter: shadowed in red and
 /// green, unshadowed in blue, so that the filter's luminance-driven weights (0.93 of it red
 /// and green) follow the shadows while both halves get the same weights.
-fn ratio_image(d: &DirectSplit) -> Image {
+/// Written into `buffer` (reused when it has the size).
+fn ratio_image<'a>(d: &DirectSplit, buffer: &'a mut Option<Image>) -> &'a Image {
     let (w, h) = (d.ratio.width, d.ratio.height);
-    let mut out = Image::new(w, h, 3, 0.0);
+    if buffer
+        .as_ref()
+        .is_some_and(|b| (b.width, b.height, b.channels) != (w, h, 3))
+    {
+        *buffer = None;
+    }
+    let out = buffer.get_or_insert_with(|| Image::new(w, h, 3, 0.0));
     for (o, r) in out
         .data
         .chunks_exact_mut(3)
@@ -531,6 +580,7 @@ fn tune(p: &mut TemporalParams, taa: &mut Option<(f32, f32)>) {
 mod tests {
     use super::*;
     use glam::{Vec2, Vec3};
+    use lumo_render::direct_split;
 
     /// A still Cornell box, 24 one-sample frames: with the direct light split (the default)
     /// the temporal output has the mean brightness of a converged render (the split's light

@@ -517,16 +517,7 @@ impl TemporalFilter {
                     }
                 }
             });
-        // 6. The new history.
-        let mut color = if p.filtered_history {
-            first
-        } else {
-            integrated.clone()
-        };
-        for v in &mut color.data {
-            *v = sanitize(*v);
-        }
-        // Written over the old history's vectors (it has been read).
+        // 6. The new history, written over the old history's vectors (it has been read).
         let mut hist = self.history.take().unwrap_or(History {
             w,
             h,
@@ -536,7 +527,16 @@ impl TemporalFilter {
             surface: vec![],
             ids: None,
         });
-        hist.color = color;
+        if p.filtered_history {
+            hist.color = first;
+        } else {
+            // The accumulated colour becomes the history by a swap, not a copy; the old
+            // history's buffer (or an empty one) is the next frame's, which overwrites it whole.
+            std::mem::swap(&mut hist.color, integrated);
+        }
+        for v in &mut hist.color.data {
+            *v = sanitize(*v);
+        }
         hist.moments.clear();
         hist.moments.extend(acc.iter().map(|a| a.moments));
         hist.len.clear();
