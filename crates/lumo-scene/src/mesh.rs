@@ -14,6 +14,9 @@ pub struct Mesh {
     /// Per-vertex linear RGB colours that multiply the material's diffuse reflectance (glTF
     /// `COLOR_0`, PLY `red`/`green`/`blue`); empty when the mesh has none.
     pub colors: Vec<Vec3>,
+    /// Per-vertex alpha (glTF `COLOR_0`'s fourth component under alphaMode MASK or BLEND) that
+    /// multiplies the material's opacity mask at each hit; empty where it is 1 everywhere.
+    pub alphas: Vec<f32>,
     /// Triangles as vertex indices (counter-clockwise seen from the front).
     pub indices: Vec<[u32; 3]>,
     /// Index into [`crate::Scene::materials`].
@@ -81,6 +84,16 @@ impl Mesh {
         let with_normals = !self.normals.is_empty() || self.positions.is_empty();
         let with_uvs = !self.uvs.is_empty() || self.positions.is_empty();
         let with_colors = !self.colors.is_empty() || self.positions.is_empty();
+        // A part without alpha is opaque (alpha 1), unlike a part without colours.
+        if !self.alphas.is_empty() || !other.alphas.is_empty() {
+            self.alphas.resize(base as usize, 1.0);
+            if other.alphas.is_empty() {
+                self.alphas
+                    .resize(base as usize + other.positions.len(), 1.0);
+            } else {
+                self.alphas.extend_from_slice(&other.alphas);
+            }
+        }
         self.positions.extend_from_slice(&other.positions);
         if with_normals && !other.normals.is_empty() {
             self.normals.extend_from_slice(&other.normals);

@@ -47,8 +47,16 @@ impl RenderScene {
         // (a map under another map is not composed with it).
         loop {
             b = match b {
-                BsdfSpec::Mask { opacity: t, nested } => {
-                    opacity *= t.eval_1(surface.uv).clamp(0.0, 1.0);
+                BsdfSpec::Mask {
+                    opacity: t,
+                    cutoff,
+                    nested,
+                } => {
+                    let a = t.eval_1(surface.uv).clamp(0.0, 1.0) * self.vertex_alpha(surface);
+                    opacity *= match cutoff {
+                        Some(c) => f32::from(u8::from(a >= *c)),
+                        None => a,
+                    };
                     nested
                 }
                 BsdfSpec::NormalMap { normals, nested } => {

@@ -90,6 +90,13 @@ pub(crate) fn check_mesh(
             format!("mesh {:?}: non-finite vertex colours; dropped", mesh.name),
         )?;
     }
+    if mesh.alphas.iter().any(|a| !a.is_finite()) {
+        mesh.alphas.clear();
+        diag.warn(
+            at.clone(),
+            format!("mesh {:?}: non-finite vertex alpha; read as 1", mesh.name),
+        )?;
+    }
     if mesh.uvs.iter().any(|v| !v.is_finite()) {
         mesh.uvs.clear();
         diag.warn(

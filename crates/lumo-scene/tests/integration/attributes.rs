@@ -3,7 +3,7 @@
 
 use crate::common::builder::Builder;
 use crate::common::{load, temp_dir};
-use lumo_scene::{Vec2, Vec3};
+use lumo_scene::{BsdfSpec, Vec2, Vec3};
 
 /// A 1×1 PNG.
 const PNG: &str = "data:image/png;base64,iVBORw0KGgoAAAANSUhEUgAAAAEAAAABCAIAAACQd1PeAAAADElEQVR4nGNoaGgAAAMEAYFL09IQAAAAAElFTkSuQmCC";
@@ -145,34 +145,52 @@ fn quantized_attributes_are_dequantized() {
     );
 }
 
-/// COLOR_0 alpha below 1 under MASK or BLEND is warned about (lumo's opacity cannot vary per
-/// vertex), not silently dropped; under OPAQUE glTF ignores alpha, so nothing is said.
+/// COLOR_0 alpha under MASK or BLEND is kept per vertex and its material's mask leaves
+/// MASK's cutoff to the hit (where the vertex alpha multiplies in); a primitive of the same
+/// material without vertex alpha keeps the per-texel mask; OPAQUE ignores alpha.
 #[test]
-fn vertex_alpha_under_blend_is_warned_about() {
+fn vertex_alpha_multiplies_the_opacity() {
     let dir = temp_dir("vertex-alpha");
     let write = |name: &str, mode: &str| {
         let mut b = Builder::default();
         let pos = b.floats(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], "VEC3");
         let colors = b.floats(
-            &[1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.5, 1.0, 1.0, 1.0, 1.0],
+            &[1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.5, 1.0, 1.0, 1.0, 0.0],
             "VEC4",
         );
         let rest = format!(
             r#""scenes": [{{"nodes": [0]}}], "nodes": [{{"mesh": 0}}],
-            "meshes": [{{"primitives": [{{"attributes": {{"POSITION": {pos}, "COLOR_0": {colors}}},
-                       "material": 0}}]}}],
-            "materials": [{{"alphaMode": "{mode}"}}]"#
+            "meshes": [{{"primitives": [
+                {{"attributes": {{"POSITION": {pos}, "COLOR_0": {colors}}}, "material": 0}},
+                {{"attributes": {{"POSITION": {pos}}}, "material": 0}}]}}],
+            "materials": [{{"alphaMode": "{mode}", "alphaCutoff": 0.4,
+                           "pbrMetallicRoughness": {{"baseColorFactor": [1, 1, 1, 0.8]}}}}]"#
         );
-        load(&b.write(&dir, name, &rest)).unwrap()
+        let l = load(&b.write(&dir, name, &rest)).unwrap();
+        assert!(l.warnings.is_empty(), "{name}: {:?}", l.warnings);
+        l
     };
+    let mask_of = |l: &lumo_scene::load::LoadedScene, mesh: usize| {
+        let m = &l.scene.materials[l.scene.meshes[mesh].material];
+        match &m.bsdf {
+            BsdfSpec::Mask {
+                opacity, cutoff, ..
+            } => Some((opacity.eval_1(Vec2::ZERO), *cutoff)),
+            _ => None,
+        }
+    };
+    let l = write("mask.gltf", "MASK");
+    assert_eq!(l.scene.meshes[0].alphas, vec![1.0, 0.5, 0.0]);
+    // Factor alpha 0.8 unthresholded, the cutoff left to the hit.
+    assert_eq!(mask_of(&l, 0), Some((0.8, Some(0.4))));
+    // Without vertex alpha 0.8 ≥ 0.4 is opaque everywhere: no mask at all, as before.
+    assert!(l.scene.meshes[1].alphas.is_empty());
+    assert_eq!(mask_of(&l, 1), None);
     let l = write("blend.gltf", "BLEND");
-    let w: Vec<String> = l.warnings.iter().map(|w| w.to_string()).collect();
-    assert!(
-        w.iter().any(
-            |w| w.contains("blend.gltf") && w.contains("1 vertices have COLOR_0 alpha below 1")
-        ),
-        "{w:?}"
-    );
+    assert_eq!(l.scene.meshes[0].alphas, vec![1.0, 0.5, 0.0]);
+    assert_eq!(mask_of(&l, 0), Some((0.8, None)));
+    assert_eq!(mask_of(&l, 1), Some((0.8, None)));
     let l = write("opaque.gltf", "OPAQUE");
-    assert!(l.warnings.is_empty(), "{:?}", l.warnings);
+    assert!(l.scene.meshes[0].alphas.is_empty());
+    assert_eq!(mask_of(&l, 0), None);
 }

@@ -529,7 +529,10 @@ fn alpha_modes_become_opacity_masks() {
     let opacity = |pbr: &str, extra: &str, name: &str| {
         let loaded = load(&write(&dir, name, gold_pbr_with(pbr, extra))).unwrap();
         let m = &loaded.scene.materials[loaded.scene.meshes[1].material];
-        let BsdfSpec::Mask { opacity, nested } = &m.bsdf else {
+        let BsdfSpec::Mask {
+            opacity, nested, ..
+        } = &m.bsdf
+        else {
             panic!("{:?}", m.bsdf);
         };
         assert!(matches!(**nested, BsdfSpec::GltfPbr { .. }), "{nested:?}");

@@ -140,36 +140,25 @@ impl GltfReader<'_, '_> {
 }
 
 impl GltfReader<'_, '_> {
-    /// Warns where a MASK or BLEND material's primitive has `COLOR_0` alpha below 1: glTF
-    /// multiplies it into the base colour alpha, which lumo's opacity (a texture, thresholded
-    /// per texel for MASK) cannot vary per vertex.
-    pub(super) fn warn_vertex_alpha(
-        &mut self,
-        prim: &gltf::Primitive,
-        label: &str,
-    ) -> Result<(), LoadError> {
+    /// `COLOR_0`'s alpha per vertex where it matters: under alphaMode MASK or BLEND (OPAQUE
+    /// ignores alpha) and where some vertex has alpha below 1; empty otherwise.
+    pub(super) fn vertex_alpha(&self, prim: &gltf::Primitive) -> Vec<f32> {
         let Some(acc) = prim.get(&gltf::Semantic::Colors(0)) else {
-            return Ok(());
+            return Vec::new();
         };
         let mode = prim.material().alpha_mode();
         if acc.dimensions() != Dimensions::Vec4 || mode == gltf::material::AlphaMode::Opaque {
-            return Ok(());
+            return Vec::new();
         }
         let buffers = &self.buffers;
         let reader = prim.reader(|b| buffers.get(b.index()).map(Vec::as_slice));
-        let below = reader
+        let alphas: Vec<f32> = reader
             .read_colors(0)
-            .map_or(0, |it| it.into_rgba_f32().filter(|c| c[3] < 1.0).count());
-        if below > 0 {
-            self.diag.warn(
-                self.at(label.to_string()),
-                format!(
-                    "{below} vertices have COLOR_0 alpha below 1 under alphaMode {mode:?}; lumo \
-                     does not multiply vertex alpha into the opacity, so they render as the \
-                     material's alpha alone (bake the alpha into the base colour texture)"
-                ),
-            )?;
+            .map(|it| it.into_rgba_f32().map(|c| c[3]).collect())
+            .unwrap_or_default();
+        if alphas.iter().all(|&a| a >= 1.0) {
+            return Vec::new();
         }
-        Ok(())
+        alphas
     }
 }

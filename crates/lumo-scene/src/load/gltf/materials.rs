@@ -113,9 +113,10 @@ impl GltfReader<'_, '_> {
                 nested: Box::new(bsdf),
             };
         }
-        if let Some(opacity) = self.opacity(&label, &mat)? {
+        if let Some((opacity, cutoff)) = self.opacity(&label, &mat, false)? {
             bsdf = BsdfSpec::Mask {
                 opacity,
+                cutoff,
                 nested: Box::new(bsdf),
             };
         }

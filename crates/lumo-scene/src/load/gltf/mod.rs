@@ -145,6 +145,7 @@ fn load_unguarded(
         scene: defaults::empty_scene(path),
         mesh_map: HashMap::new(),
         material_map: HashMap::new(),
+        vertex_alpha_map: HashMap::new(),
         rig: AnimatedScene::default(),
         cameras: Vec::new(),
         node_index: HashMap::new(),
@@ -226,6 +227,9 @@ struct GltfReader<'p, 'd> {
     mesh_map: HashMap<usize, Vec<usize>>,
     /// lumo material of each glTF material (`None`: the default material).
     material_map: HashMap<Option<usize>, usize>,
+    /// glTF material → its lumo material for primitives with vertex alpha (see
+    /// `vertex_alpha_material`).
+    vertex_alpha_map: HashMap<Option<usize>, usize>,
     rig: AnimatedScene,
     /// (node, camera index) in traversal order.
     cameras: Vec<(usize, usize)>,
@@ -534,11 +538,12 @@ impl GltfReader<'_, '_> {
                     .collect(),
                 None => Vec::new(),
             };
-            // COLOR_0 multiplies the base colour (alpha is not modelled).
+            // COLOR_0 multiplies the base colour, and its alpha the opacity (MASK, BLEND).
             let colors: Vec<Vec3> = reader
                 .read_colors(0)
                 .map(|it| it.into_rgb_f32().map(Vec3::from).collect())
                 .unwrap_or_default();
+            let alphas = self.vertex_alpha(&prim);
             let flat: Vec<u32> = match reader.read_indices() {
                 Some(it) => it.into_u32().collect(),
                 None => (0..positions.len() as u32).collect(),
@@ -560,8 +565,10 @@ impl GltfReader<'_, '_> {
                     .map(|i| [flat[0], flat[i - 1], flat[i]])
                     .collect(),
             };
-            let material = self.material(prim.material())?;
-            self.warn_vertex_alpha(&prim, &label)?;
+            let mut material = self.material(prim.material())?;
+            if !alphas.is_empty() {
+                material = self.vertex_alpha_material(&prim.material(), material)?;
+            }
             // A base-colour texture needs texture coordinates to vary: without them every
             // point reads the texel at (0, 0).
             let textured = prim
@@ -586,6 +593,7 @@ impl GltfReader<'_, '_> {
                 normals,
                 uvs,
                 colors,
+                alphas,
                 indices,
                 material,
                 analytic: None,
@@ -594,6 +602,7 @@ impl GltfReader<'_, '_> {
                 ("NORMAL", m.normals.len()),
                 (texcoord.as_str(), m.uvs.len()),
                 ("COLOR_0", m.colors.len()),
+                ("COLOR_0 alpha", m.alphas.len()),
             ] {
                 if len != 0 && len != m.positions.len() {
                     return Err(LoadError::invalid(
