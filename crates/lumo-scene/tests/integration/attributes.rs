@@ -194,3 +194,69 @@ fn vertex_alpha_multiplies_the_opacity() {
     assert!(l.scene.meshes[0].alphas.is_empty());
     assert_eq!(mask_of(&l, 0), None);
 }
+
+/// Sparse accessors: POSITION over a base view, a morph target and COLOR_0 over zeros (no
+/// view) give the mesh their dense equivalents give; bad sparse indices are refused naming the
+/// accessor and the rule.
+#[test]
+fn sparse_accessors_substitute_their_elements() {
+    let dir = temp_dir("sparse");
+    let tri = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0];
+    let rest = |pos: usize, target: usize, colors: usize| {
+        format!(
+            r#""scenes": [{{"nodes": [0]}}], "nodes": [{{"mesh": 0}}],
+            "meshes": [{{"primitives": [{{"attributes": {{"POSITION": {pos}, "COLOR_0": {colors}}},
+                       "targets": [{{"POSITION": {target}}}]}}], "weights": [0.5]}}]"#
+        )
+    };
+    let bounds = r#", "min": [0, 0, 0], "max": [1, 3, 0]"#;
+    let sparse = |name: &str, indices: &[u16]| {
+        let mut b = Builder::default();
+        let base = b.floats(&tri, "VEC3");
+        let pos = b.sparse(
+            Some(base),
+            (3, "VEC3"),
+            &indices[..1],
+            &[0.0, 3.0, 0.0],
+            bounds,
+        );
+        let target = b.sparse(
+            None,
+            (3, "VEC3"),
+            &indices[1..],
+            &[0.0, 0.0, 2.0, 0.0, 0.0, 4.0],
+            "",
+        );
+        let colors = b.sparse(None, (3, "VEC3"), &[0], &[1.0, 0.0, 0.0], "");
+        load(&b.write(&dir, name, &rest(pos, target, colors)))
+    };
+    let l = sparse("sparse.gltf", &[2, 0, 1]).unwrap();
+    assert!(l.warnings.is_empty(), "{:?}", l.warnings);
+    let mut b = Builder::default();
+    let pos = b.floats(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 3.0, 0.0], "VEC3");
+    let target = b.floats(&[0.0, 0.0, 2.0, 0.0, 0.0, 4.0, 0.0, 0.0, 0.0], "VEC3");
+    let colors = b.floats(&[1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], "VEC3");
+    let dense = load(&b.write(&dir, "dense.gltf", &rest(pos, target, colors))).unwrap();
+    let (s, d) = (&l.scene.meshes[0], &dense.scene.meshes[0]);
+    assert_eq!(s.positions, d.positions);
+    assert_eq!(
+        s.positions,
+        vec![
+            Vec3::new(0.0, 0.0, 1.0),
+            Vec3::new(1.0, 0.0, 2.0),
+            Vec3::new(0.0, 3.0, 0.0)
+        ]
+    );
+    assert_eq!(s.colors, d.colors);
+    assert_eq!(s.colors[0], Vec3::X);
+    let e = sparse("unsorted.gltf", &[2, 1, 0]).unwrap_err().to_string();
+    assert!(
+        e.contains("unsorted.gltf") && e.contains("accessor") && e.contains("increase strictly"),
+        "{e}"
+    );
+    let e = sparse("past.gltf", &[2, 0, 7]).unwrap_err().to_string();
+    assert!(
+        e.contains("past.gltf") && e.contains("names element 7"),
+        "{e}"
+    );
+}

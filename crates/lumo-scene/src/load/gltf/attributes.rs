@@ -78,23 +78,15 @@ impl GltfReader<'_, '_> {
     }
 
     /// The values of a checked float or integer accessor of `N` components, dequantised: a
-    /// normalised integer c becomes c / max (at least −1), any other integer its value.
+    /// normalised integer c becomes c / max (at least −1), any other integer its value. A
+    /// sparse accessor's substitutions are applied (over zeros where it has no buffer view).
     pub(super) fn read_floats<const N: usize>(
         &self,
         acc: &gltf::Accessor,
     ) -> Result<Vec<[f32; N]>, LoadError> {
         let at = || self.at(format!("accessor {}", acc.index()));
-        let Some(view) = acc.view() else {
-            return Err(LoadError::invalid(at(), "has no buffer view"));
-        };
-        let buf = self
-            .buffers
-            .get(view.buffer().index())
-            .map_or(&[][..], Vec::as_slice);
         let ty = acc.data_type();
         let size = ty.size();
-        let stride = view.stride().unwrap_or(size * N);
-        let base = view.offset() + acc.offset();
         let norm = acc.normalized();
         let value = |b: &[u8]| -> f32 {
             match (ty, norm) {
@@ -122,18 +114,47 @@ impl GltfReader<'_, '_> {
                 (DataType::U32, _) => u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f32,
             }
         };
-        let mut out = Vec::with_capacity(acc.count());
-        for i in 0..acc.count() {
+        let element = |buf: &[u8], start: usize| -> Result<[f32; N], LoadError> {
             let mut v = [0.0; N];
             for (c, x) in v.iter_mut().enumerate() {
-                let start = base + i * stride + c * size;
-                // check_layout bounds the accessor by its view and buffer; stay safe anyway.
+                let start = start + c * size;
+                // check_layout bounds the accessor by its views and buffers; stay safe anyway.
                 let Some(bytes) = buf.get(start..start + size) else {
                     return Err(LoadError::invalid(at(), "reads past the end of its buffer"));
                 };
                 *x = value(bytes);
             }
-            out.push(v);
+            Ok(v)
+        };
+        let buffer = |i: usize| self.buffers.get(i).map_or(&[][..], Vec::as_slice);
+        let mut out = match acc.view() {
+            Some(view) => {
+                let buf = buffer(view.buffer().index());
+                let stride = view.stride().unwrap_or(size * N);
+                let base = view.offset() + acc.offset();
+                (0..acc.count())
+                    .map(|i| element(buf, base + i * stride))
+                    .collect::<Result<Vec<_>, _>>()?
+            }
+            None if acc.sparse().is_some() => vec![[0.0; N]; acc.count()],
+            None => return Err(LoadError::invalid(at(), "has no buffer view")),
+        };
+        if let (Some(indices), Some((b, base))) =
+            (self.sparse_indices(acc), self.sparse_values_at(acc))
+        {
+            // Sparse values are tightly packed elements of the accessor's own type.
+            for (k, &i) in indices.iter().enumerate() {
+                let v = element(buffer(b), base + k * size * N)?;
+                match out.get_mut(i as usize) {
+                    Some(slot) => *slot = v,
+                    None => {
+                        return Err(LoadError::invalid(
+                            at(),
+                            format!("sparse index {i} is past the accessor's count"),
+                        ))
+                    }
+                }
+            }
         }
         Ok(out)
     }

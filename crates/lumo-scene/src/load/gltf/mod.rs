@@ -10,6 +10,7 @@ mod json_texture;
 mod materials;
 mod morph_anim;
 mod skin;
+mod sparse;
 
 use std::collections::HashMap;
 use std::path::Path;
@@ -375,7 +376,8 @@ impl GltfReader<'_, '_> {
         Location::item(self.path, item)
     }
 
-    /// Refuses accessors lumo cannot read safely: sparse, wrong type, or beyond their buffer.
+    /// Refuses accessors lumo cannot read safely: wrong type, or beyond their buffer (their
+    /// sparse part included).
     fn check_accessor(
         &self,
         acc: &gltf::Accessor,
@@ -403,9 +405,6 @@ impl GltfReader<'_, '_> {
         what: &str,
     ) -> Result<(), LoadError> {
         let at = self.at(format!("accessor {} ({what})", acc.index()));
-        if acc.sparse().is_some() {
-            return Err(LoadError::invalid(at, "sparse accessors are not supported"));
-        }
         if !dims.contains(&acc.dimensions()) {
             return Err(LoadError::invalid(
                 at,
@@ -415,7 +414,12 @@ impl GltfReader<'_, '_> {
         if acc.count() == 0 {
             return Err(LoadError::invalid(at, "count is 0"));
         }
+        self.check_sparse(acc, &at)?;
         let Some(view) = acc.view() else {
+            // A sparse accessor without a view substitutes into zeros.
+            if acc.sparse().is_some() {
+                return Ok(());
+            }
             return Err(LoadError::invalid(at, "has no buffer view"));
         };
         let elem = acc.size();
