@@ -15,6 +15,16 @@ pub(super) fn info_set(info: &gltf::texture::Info) -> u32 {
         .unwrap_or(info.tex_coord())
 }
 
+/// The `TEXCOORD_n` set a normalTexture reads (its `KHR_texture_transform` `texCoord`
+/// overrides its own; the `gltf` crate exposes that extension as JSON here).
+pub(super) fn normal_set(n: &gltf::material::NormalTexture) -> u32 {
+    n.extension_value("KHR_texture_transform")
+        .and_then(|t| t.get("texCoord"))
+        .and_then(|s| s.as_u64())
+        .and_then(|s| u32::try_from(s).ok())
+        .unwrap_or(n.tex_coord())
+}
+
 /// The one `TEXCOORD_n` set the primitives of `mat` keep (a lumo mesh has one): its base colour
 /// texture's, else that of its metallic-roughness, normal or emissive texture; 0 without any.
 pub(super) fn uv_set(mat: &gltf::Material) -> u32 {
@@ -22,7 +32,7 @@ pub(super) fn uv_set(mat: &gltf::Material) -> u32 {
     pbr.base_color_texture()
         .map(|i| info_set(&i))
         .or_else(|| pbr.metallic_roughness_texture().map(|i| info_set(&i)))
-        .or_else(|| mat.normal_texture().map(|n| n.tex_coord()))
+        .or_else(|| mat.normal_texture().map(|n| normal_set(&n)))
         .or_else(|| mat.emissive_texture().map(|i| info_set(&i)))
         .unwrap_or(0)
 }
