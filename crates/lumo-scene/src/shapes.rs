@@ -27,6 +27,7 @@ pub fn rectangle(to_world: &Mat4, material: usize) -> Mesh {
         material,
         colors: Vec::new(),
         alphas: Vec::new(),
+        tangents: Vec::new(),
         analytic: None,
     }
     .transformed(to_world)
@@ -96,6 +97,7 @@ pub fn sphere(to_world: &Mat4, material: usize, rings: u32, segments: u32) -> Me
         material,
         colors: Vec::new(),
         alphas: Vec::new(),
+        tangents: Vec::new(),
         analytic: None,
     }
     .transformed(to_world)
@@ -131,6 +133,7 @@ pub fn cylinder(to_world: &Mat4, material: usize, segments: u32) -> Mesh {
         material,
         colors: Vec::new(),
         alphas: Vec::new(),
+        tangents: Vec::new(),
         analytic: None,
     }
     .transformed(to_world)
@@ -157,6 +160,7 @@ pub fn disk(to_world: &Mat4, material: usize, segments: u32) -> Mesh {
         material,
         colors: Vec::new(),
         alphas: Vec::new(),
+        tangents: Vec::new(),
         analytic: None,
     }
     .transformed(to_world)
@@ -207,6 +211,7 @@ pub(crate) fn grid(cols: u32, rows: u32, wrap: bool, f: impl Fn(u32, u32) -> Vec
         material: 0,
         colors: Vec::new(),
         alphas: Vec::new(),
+        tangents: Vec::new(),
         analytic: None,
     }
 }

@@ -4,7 +4,7 @@
 mod branches;
 mod materials;
 mod spectral;
-mod vertex_alpha;
+mod vertex_data;
 
 use materials::has_mask;
 

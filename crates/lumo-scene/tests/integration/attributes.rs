@@ -260,3 +260,52 @@ fn sparse_accessors_substitute_their_elements() {
         "{e}"
     );
 }
+
+/// TANGENT is kept per vertex (w reduced to its sign); a skinned or morphing primitive's is
+/// dropped with a warning (it is not deformed with the mesh).
+#[test]
+fn tangents_are_kept_per_vertex() {
+    let dir = temp_dir("tangent");
+    let mut b = Builder::default();
+    let pos = b.floats(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], "VEC3");
+    let tangents = b.floats(
+        &[0.0, 1.0, 0.0, 1.0, 0.0, 1.0, 0.0, -1.0, 0.0, 1.0, 0.0, -0.5],
+        "VEC4",
+    );
+    let up = b.floats(&[0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0], "VEC3");
+    let rest = |targets: &str| {
+        format!(
+            r#""scenes": [{{"nodes": [0]}}], "nodes": [{{"mesh": 0}}],
+            "meshes": [{{"primitives": [{{"attributes": {{"POSITION": {pos}, "TANGENT": {tangents}}}
+                       {targets}}}]}}]"#
+        )
+    };
+    let l = load(&b.write(&dir, "t.gltf", &rest(""))).unwrap();
+    assert!(l.warnings.is_empty(), "{:?}", l.warnings);
+    use lumo_scene::Vec4;
+    assert_eq!(
+        l.scene.meshes[0].tangents,
+        vec![
+            Vec4::new(0.0, 1.0, 0.0, 1.0),
+            Vec4::new(0.0, 1.0, 0.0, -1.0),
+            Vec4::new(0.0, 1.0, 0.0, -1.0)
+        ]
+    );
+    // Animated morph weights make the primitive a deforming one.
+    let targets = format!(r#", "targets": [{{"POSITION": {up}}}]"#);
+    let anim = r#", "animations": [{"channels": [{"sampler": 0, "target": {"node": 0, "path": "weights"}}],
+                    "samplers": [{"input": 3, "output": 4}]}]"#;
+    let times = b.floats(&[0.0, 1.0], "SCALAR");
+    let weights = b.floats(&[0.0, 1.0], "SCALAR");
+    assert_eq!((times, weights), (3, 4));
+    let path = b.write(&dir, "m.gltf", &format!("{}{anim}", rest(&targets)));
+    let l = load(&path).unwrap();
+    assert!(l.scene.meshes[0].tangents.is_empty());
+    assert!(
+        l.warnings.iter().any(|w| w
+            .to_string()
+            .contains("TANGENT of a skinned or morphing primitive")),
+        "{:?}",
+        l.warnings
+    );
+}

@@ -506,6 +506,10 @@ impl GltfReader<'_, '_> {
             if let Some(a) = &uv_acc {
                 self.check_attribute(a, Dimensions::Vec2, &texcoord, Quantized::AnyInteger)?;
             }
+            let tangent_acc = prim.get(&gltf::Semantic::Tangents);
+            if let Some(a) = &tangent_acc {
+                self.check_attribute(a, Dimensions::Vec4, "TANGENT", Quantized::SignedNormalized)?;
+            }
             if let Some(a) = prim.indices() {
                 // The type first: a float accessor is wrong whatever its view holds.
                 if a.data_type() == DataType::F32 {
@@ -539,6 +543,15 @@ impl GltfReader<'_, '_> {
                     .read_floats::<2>(a)?
                     .into_iter()
                     .map(Vec2::from)
+                    .collect(),
+                None => Vec::new(),
+            };
+            // w is ±1 by the specification; its sign is what matters.
+            let tangents: Vec<Vec4> = match &tangent_acc {
+                Some(a) => self
+                    .read_floats::<4>(a)?
+                    .into_iter()
+                    .map(|[x, y, z, w]| Vec4::new(x, y, z, if w < 0.0 { -1.0 } else { 1.0 }))
                     .collect(),
                 None => Vec::new(),
             };
@@ -596,6 +609,7 @@ impl GltfReader<'_, '_> {
                 positions,
                 normals,
                 uvs,
+                tangents,
                 colors,
                 alphas,
                 indices,
@@ -607,6 +621,7 @@ impl GltfReader<'_, '_> {
                 (texcoord.as_str(), m.uvs.len()),
                 ("COLOR_0", m.colors.len()),
                 ("COLOR_0 alpha", m.alphas.len()),
+                ("TANGENT", m.tangents.len()),
             ] {
                 if len != 0 && len != m.positions.len() {
                     return Err(LoadError::invalid(
