@@ -117,11 +117,16 @@ pub enum BsdfSpec {
         /// What the material's KHR_materials_* extensions add; `None`: none used.
         extensions: Option<Arc<crate::GltfExtensions>>,
     },
-    /// An opacity cut-out (Mitsuba's `mask`): the nested BSDF with probability `opacity`,
-    /// otherwise the ray passes straight through.
+    /// An opacity cut-out (Mitsuba's `mask`, glTF's alphaMode): the nested BSDF with
+    /// probability `opacity` × the mesh's vertex alpha, otherwise the ray passes straight
+    /// through.
     Mask {
         /// Opacity in [0, 1] (its luminance for colour textures).
         opacity: Texture,
+        /// glTF MASK applied at the hit: opaque where opacity × vertex alpha ≥ the cutoff,
+        /// absent elsewhere (for meshes with vertex alpha, which no texture can bake in);
+        /// `None`: the product itself is the opacity.
+        cutoff: Option<f32>,
         /// The BSDF of the opaque part.
         nested: Box<BsdfSpec>,
     },
@@ -374,6 +379,7 @@ mod tests {
         let t = Texture::Constant(Vec3::splat(0.5));
         BsdfSpec::Mask {
             opacity: t.clone(),
+            cutoff: None,
             nested: Box::new(BsdfSpec::NormalMap {
                 normals: t.clone(),
                 nested: Box::new(BsdfSpec::BumpMap {

@@ -35,4 +35,4 @@ pub use scene::{
 };
 pub use texture::{Texture, TextureFilter, WrapMode};
 
-pub use glam::{Mat4, Vec2, Vec3};
+pub use glam::{Mat4, Vec2, Vec3, Vec4};

@@ -1,4 +1,4 @@
-use glam::{Mat4, Vec2, Vec3};
+use glam::{Mat4, Vec2, Vec3, Vec4};
 
 /// A triangle mesh in its own object space with one material.
 #[derive(Clone, Debug, Default)]
@@ -11,9 +11,16 @@ pub struct Mesh {
     pub normals: Vec<Vec3>,
     /// Per-vertex texture coordinates; empty when the mesh has none.
     pub uvs: Vec<Vec2>,
+    /// Per-vertex tangents for normal maps (glTF `TANGENT`): xyz the tangent along +u, w = ±1
+    /// the bitangent's handedness (bitangent = normal × tangent · w); empty: normal maps
+    /// take their frame from ∂p/∂u.
+    pub tangents: Vec<Vec4>,
     /// Per-vertex linear RGB colours that multiply the material's diffuse reflectance (glTF
     /// `COLOR_0`, PLY `red`/`green`/`blue`); empty when the mesh has none.
     pub colors: Vec<Vec3>,
+    /// Per-vertex alpha (glTF `COLOR_0`'s fourth component under alphaMode MASK or BLEND) that
+    /// multiplies the material's opacity mask at each hit; empty where it is 1 everywhere.
+    pub alphas: Vec<f32>,
     /// Triangles as vertex indices (counter-clockwise seen from the front).
     pub indices: Vec<[u32; 3]>,
     /// Index into [`crate::Scene::materials`].
@@ -81,6 +88,22 @@ impl Mesh {
         let with_normals = !self.normals.is_empty() || self.positions.is_empty();
         let with_uvs = !self.uvs.is_empty() || self.positions.is_empty();
         let with_colors = !self.colors.is_empty() || self.positions.is_empty();
+        let with_tangents = !self.tangents.is_empty() || self.positions.is_empty();
+        if with_tangents && !other.tangents.is_empty() {
+            self.tangents.extend_from_slice(&other.tangents);
+        } else {
+            self.tangents.clear();
+        }
+        // A part without alpha is opaque (alpha 1), unlike a part without colours.
+        if !self.alphas.is_empty() || !other.alphas.is_empty() {
+            self.alphas.resize(base as usize, 1.0);
+            if other.alphas.is_empty() {
+                self.alphas
+                    .resize(base as usize + other.positions.len(), 1.0);
+            } else {
+                self.alphas.extend_from_slice(&other.alphas);
+            }
+        }
         self.positions.extend_from_slice(&other.positions);
         if with_normals && !other.normals.is_empty() {
             self.normals.extend_from_slice(&other.normals);
@@ -114,6 +137,12 @@ impl Mesh {
         for n in &mut self.normals {
             *n = normal_matrix.transform_vector3(*n).normalize_or_zero();
         }
+        // A mirror flips normal × tangent against the carried bitangent: flip the handedness.
+        let hand = m.determinant().signum();
+        for t in &mut self.tangents {
+            let v = m.transform_vector3(t.truncate()).normalize_or_zero();
+            *t = v.extend(t.w * hand);
+        }
         if let Some(a) = &mut self.analytic {
             a.to_mesh = *m * a.to_mesh;
         }
@@ -134,4 +163,30 @@ pub struct Instance {
     pub mesh: usize,
     /// Object-to-world transform.
     pub transform: Mat4,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A baked mirror keeps the winding (indices swapped, normals carried), so normal ×
+    /// tangent turns against the carried bitangent: w flips and the tangent is carried.
+    #[test]
+    fn a_mirror_flips_the_tangent_handedness() {
+        let mut m = crate::shapes::rectangle(&Mat4::IDENTITY, 0);
+        m.tangents = vec![Vec4::new(1.0, 0.0, 0.0, 1.0); 4];
+        let mirrored = m
+            .clone()
+            .transformed(&Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)));
+        let (n, t) = (mirrored.normals[0], mirrored.tangents[0]);
+        assert_eq!(t, Vec4::new(-1.0, 0.0, 0.0, -1.0));
+        // The carried bitangent is +y, as it was before the mirror.
+        assert_eq!(n.cross(t.truncate()) * t.w, Vec3::Y);
+        let moved = m.transformed(&Mat4::from_rotation_z(std::f32::consts::FRAC_PI_2));
+        let t = moved.tangents[0];
+        assert!(
+            (t - Vec4::new(0.0, 1.0, 0.0, 1.0)).abs().max_element() < 1e-6,
+            "{t}"
+        );
+    }
 }

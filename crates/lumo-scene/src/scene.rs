@@ -205,6 +205,8 @@ impl Scene {
                 ("normals", mesh.normals.len()),
                 ("uvs", mesh.uvs.len()),
                 ("colors", mesh.colors.len()),
+                ("alphas", mesh.alphas.len()),
+                ("tangents", mesh.tangents.len()),
             ] {
                 if len != 0 && len != n {
                     return Err(SceneError::AttributeLength {
@@ -252,6 +254,12 @@ impl Scene {
             }
             if let Some(i) = mesh.colors.iter().position(|p| !p.is_finite()) {
                 return Err(bad("color", i, format!("{:?}", mesh.colors[i])));
+            }
+            if let Some(i) = mesh.tangents.iter().position(|t| !t.is_finite()) {
+                return Err(bad("tangent", i, format!("{:?}", mesh.tangents[i])));
+            }
+            if let Some(i) = mesh.alphas.iter().position(|a| !a.is_finite()) {
+                return Err(bad("alpha", i, format!("{:?}", mesh.alphas[i])));
             }
         }
         for (ii, inst) in self.instances.iter().enumerate() {

@@ -26,6 +26,8 @@ pub fn rectangle(to_world: &Mat4, material: usize) -> Mesh {
         indices: vec![[0, 1, 2], [2, 3, 0]],
         material,
         colors: Vec::new(),
+        alphas: Vec::new(),
+        tangents: Vec::new(),
         analytic: None,
     }
     .transformed(to_world)
@@ -94,6 +96,8 @@ pub fn sphere(to_world: &Mat4, material: usize, rings: u32, segments: u32) -> Me
         indices,
         material,
         colors: Vec::new(),
+        alphas: Vec::new(),
+        tangents: Vec::new(),
         analytic: None,
     }
     .transformed(to_world)
@@ -128,6 +132,8 @@ pub fn cylinder(to_world: &Mat4, material: usize, segments: u32) -> Mesh {
         indices,
         material,
         colors: Vec::new(),
+        alphas: Vec::new(),
+        tangents: Vec::new(),
         analytic: None,
     }
     .transformed(to_world)
@@ -153,6 +159,8 @@ pub fn disk(to_world: &Mat4, material: usize, segments: u32) -> Mesh {
         indices,
         material,
         colors: Vec::new(),
+        alphas: Vec::new(),
+        tangents: Vec::new(),
         analytic: None,
     }
     .transformed(to_world)
@@ -202,6 +210,8 @@ pub(crate) fn grid(cols: u32, rows: u32, wrap: bool, f: impl Fn(u32, u32) -> Vec
         indices,
         material: 0,
         colors: Vec::new(),
+        alphas: Vec::new(),
+        tangents: Vec::new(),
         analytic: None,
     }
 }

@@ -34,8 +34,11 @@ fn hoist(b: &BsdfSpec) -> BsdfSpec {
     let wrap = |nested: BsdfSpec, b: &BsdfSpec| -> BsdfSpec {
         let nested = Box::new(nested);
         match b {
-            BsdfSpec::Mask { opacity, .. } => BsdfSpec::Mask {
+            BsdfSpec::Mask {
+                opacity, cutoff, ..
+            } => BsdfSpec::Mask {
                 opacity: opacity.clone(),
+                cutoff: *cutoff,
                 nested,
             },
             BsdfSpec::NormalMap { normals, .. } => BsdfSpec::NormalMap {
@@ -188,6 +191,7 @@ mod tests {
         let mut m = Material::diffuse("m", Vec3::ONE);
         m.bsdf = BsdfSpec::Mask {
             opacity: Texture::Constant(Vec3::splat(0.5)),
+            cutoff: None,
             nested: Box::new(BsdfSpec::TwoSided {
                 front: Box::new(diffuse(0.2)),
                 back: Box::new(diffuse(0.7)),

@@ -47,8 +47,16 @@ impl RenderScene {
         // (a map under another map is not composed with it).
         loop {
             b = match b {
-                BsdfSpec::Mask { opacity: t, nested } => {
-                    opacity *= t.eval_1(surface.uv).clamp(0.0, 1.0);
+                BsdfSpec::Mask {
+                    opacity: t,
+                    cutoff,
+                    nested,
+                } => {
+                    let a = t.eval_1(surface.uv).clamp(0.0, 1.0) * self.vertex_alpha(surface);
+                    opacity *= match cutoff {
+                        Some(c) => f32::from(u8::from(a >= *c)),
+                        None => a,
+                    };
                     nested
                 }
                 BsdfSpec::NormalMap { normals, nested } => {
@@ -147,18 +155,29 @@ impl RenderScene {
     /// The shading normal a tangent-space normal map gives `s`, in its shading frame: the
     /// map's RGB in [0, 1] is (x, y, z) in [-1, 1] along the tangent (∂p/∂u made
     /// perpendicular to the normal), the bitangent n × tangent and the normal, as Mitsuba 3
-    /// reads it. `None` for an exactly flat texel (no perturbation).
+    /// reads it. Where the mesh has tangents (glTF `TANGENT`) they replace ∂p/∂u, and their
+    /// w (±1) turns the bitangent, as glTF defines. `None` for an exactly flat texel (no
+    /// perturbation).
     pub(super) fn normal_mapped(&self, s: &Surface, normals: &Texture) -> Option<Vec3> {
         let c = normals.eval(s.uv) * 2.0 - Vec3::ONE;
         if c.x == 0.0 && c.y == 0.0 {
             return None;
         }
         let n = s.frame.n;
-        let tangent = self
-            .dp_duv(s)
-            .and_then(|(dp_du, _)| (dp_du - n * n.dot(dp_du)).try_normalize())
-            .unwrap_or(s.frame.s);
-        let bitangent = n.cross(tangent);
+        let given = self.vertex_tangent(s).and_then(|t| {
+            let v = t.truncate();
+            (v - n * n.dot(v)).try_normalize().map(|v| (v, t.w))
+        });
+        let (tangent, hand) = match given {
+            Some(t) => t,
+            None => (
+                self.dp_duv(s)
+                    .and_then(|(dp_du, _)| (dp_du - n * n.dot(dp_du)).try_normalize())
+                    .unwrap_or(s.frame.s),
+                1.0,
+            ),
+        };
+        let bitangent = n.cross(tangent) * hand;
         let world = (tangent * c.x + bitangent * c.y + n * c.z).try_normalize()?;
         s.frame.to_local(world).try_normalize()
     }

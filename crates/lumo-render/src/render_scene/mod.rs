@@ -4,6 +4,7 @@
 mod branches;
 mod materials;
 mod spectral;
+mod vertex_data;
 
 use materials::has_mask;
 
@@ -760,6 +761,7 @@ fn surface_bytes(scene: &Scene) -> usize {
                 + size_of_val(m.normals.as_slice())
                 + size_of_val(m.uvs.as_slice())
                 + size_of_val(m.colors.as_slice())
+                + size_of_val(m.alphas.as_slice())
         })
         .sum()
 }

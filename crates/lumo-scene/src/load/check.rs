@@ -90,6 +90,23 @@ pub(crate) fn check_mesh(
             format!("mesh {:?}: non-finite vertex colours; dropped", mesh.name),
         )?;
     }
+    if mesh.tangents.iter().any(|t| !t.is_finite()) {
+        mesh.tangents.clear();
+        diag.warn(
+            at.clone(),
+            format!(
+                "mesh {:?}: non-finite tangents; normal maps take their frame from the uvs",
+                mesh.name
+            ),
+        )?;
+    }
+    if mesh.alphas.iter().any(|a| !a.is_finite()) {
+        mesh.alphas.clear();
+        diag.warn(
+            at.clone(),
+            format!("mesh {:?}: non-finite vertex alpha; read as 1", mesh.name),
+        )?;
+    }
     if mesh.uvs.iter().any(|v| !v.is_finite()) {
         mesh.uvs.clear();
         diag.warn(

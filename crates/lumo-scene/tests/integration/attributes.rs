@@ -3,7 +3,7 @@
 
 use crate::common::builder::Builder;
 use crate::common::{load, temp_dir};
-use lumo_scene::{Vec2, Vec3};
+use lumo_scene::{BsdfSpec, Vec2, Vec3};
 
 /// A 1×1 PNG.
 const PNG: &str = "data:image/png;base64,iVBORw0KGgoAAAANSUhEUgAAAAEAAAABCAIAAACQd1PeAAAADElEQVR4nGNoaGgAAAMEAYFL09IQAAAAAElFTkSuQmCC";
@@ -145,34 +145,167 @@ fn quantized_attributes_are_dequantized() {
     );
 }
 
-/// COLOR_0 alpha below 1 under MASK or BLEND is warned about (lumo's opacity cannot vary per
-/// vertex), not silently dropped; under OPAQUE glTF ignores alpha, so nothing is said.
+/// COLOR_0 alpha under MASK or BLEND is kept per vertex and its material's mask leaves
+/// MASK's cutoff to the hit (where the vertex alpha multiplies in); a primitive of the same
+/// material without vertex alpha keeps the per-texel mask; OPAQUE ignores alpha.
 #[test]
-fn vertex_alpha_under_blend_is_warned_about() {
+fn vertex_alpha_multiplies_the_opacity() {
     let dir = temp_dir("vertex-alpha");
     let write = |name: &str, mode: &str| {
         let mut b = Builder::default();
         let pos = b.floats(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], "VEC3");
         let colors = b.floats(
-            &[1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.5, 1.0, 1.0, 1.0, 1.0],
+            &[1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.5, 1.0, 1.0, 1.0, 0.0],
             "VEC4",
         );
         let rest = format!(
             r#""scenes": [{{"nodes": [0]}}], "nodes": [{{"mesh": 0}}],
-            "meshes": [{{"primitives": [{{"attributes": {{"POSITION": {pos}, "COLOR_0": {colors}}},
-                       "material": 0}}]}}],
-            "materials": [{{"alphaMode": "{mode}"}}]"#
+            "meshes": [{{"primitives": [
+                {{"attributes": {{"POSITION": {pos}, "COLOR_0": {colors}}}, "material": 0}},
+                {{"attributes": {{"POSITION": {pos}}}, "material": 0}}]}}],
+            "materials": [{{"alphaMode": "{mode}", "alphaCutoff": 0.4,
+                           "pbrMetallicRoughness": {{"baseColorFactor": [1, 1, 1, 0.8]}}}}]"#
         );
-        load(&b.write(&dir, name, &rest)).unwrap()
+        let l = load(&b.write(&dir, name, &rest)).unwrap();
+        assert!(l.warnings.is_empty(), "{name}: {:?}", l.warnings);
+        l
     };
+    let mask_of = |l: &lumo_scene::load::LoadedScene, mesh: usize| {
+        let m = &l.scene.materials[l.scene.meshes[mesh].material];
+        match &m.bsdf {
+            BsdfSpec::Mask {
+                opacity, cutoff, ..
+            } => Some((opacity.eval_1(Vec2::ZERO), *cutoff)),
+            _ => None,
+        }
+    };
+    let l = write("mask.gltf", "MASK");
+    assert_eq!(l.scene.meshes[0].alphas, vec![1.0, 0.5, 0.0]);
+    // Factor alpha 0.8 unthresholded, the cutoff left to the hit.
+    assert_eq!(mask_of(&l, 0), Some((0.8, Some(0.4))));
+    // Without vertex alpha 0.8 ≥ 0.4 is opaque everywhere: no mask at all, as before.
+    assert!(l.scene.meshes[1].alphas.is_empty());
+    assert_eq!(mask_of(&l, 1), None);
     let l = write("blend.gltf", "BLEND");
-    let w: Vec<String> = l.warnings.iter().map(|w| w.to_string()).collect();
-    assert!(
-        w.iter().any(
-            |w| w.contains("blend.gltf") && w.contains("1 vertices have COLOR_0 alpha below 1")
-        ),
-        "{w:?}"
-    );
+    assert_eq!(l.scene.meshes[0].alphas, vec![1.0, 0.5, 0.0]);
+    assert_eq!(mask_of(&l, 0), Some((0.8, None)));
+    assert_eq!(mask_of(&l, 1), Some((0.8, None)));
     let l = write("opaque.gltf", "OPAQUE");
+    assert!(l.scene.meshes[0].alphas.is_empty());
+    assert_eq!(mask_of(&l, 0), None);
+}
+
+/// Sparse accessors: POSITION over a base view, a morph target and COLOR_0 over zeros (no
+/// view) give the mesh their dense equivalents give; bad sparse indices are refused naming the
+/// accessor and the rule.
+#[test]
+fn sparse_accessors_substitute_their_elements() {
+    let dir = temp_dir("sparse");
+    let tri = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0];
+    let rest = |pos: usize, target: usize, colors: usize| {
+        format!(
+            r#""scenes": [{{"nodes": [0]}}], "nodes": [{{"mesh": 0}}],
+            "meshes": [{{"primitives": [{{"attributes": {{"POSITION": {pos}, "COLOR_0": {colors}}},
+                       "targets": [{{"POSITION": {target}}}]}}], "weights": [0.5]}}]"#
+        )
+    };
+    let bounds = r#", "min": [0, 0, 0], "max": [1, 3, 0]"#;
+    let sparse = |name: &str, indices: &[u16]| {
+        let mut b = Builder::default();
+        let base = b.floats(&tri, "VEC3");
+        let pos = b.sparse(
+            Some(base),
+            (3, "VEC3"),
+            &indices[..1],
+            &[0.0, 3.0, 0.0],
+            bounds,
+        );
+        let target = b.sparse(
+            None,
+            (3, "VEC3"),
+            &indices[1..],
+            &[0.0, 0.0, 2.0, 0.0, 0.0, 4.0],
+            "",
+        );
+        let colors = b.sparse(None, (3, "VEC3"), &[0], &[1.0, 0.0, 0.0], "");
+        load(&b.write(&dir, name, &rest(pos, target, colors)))
+    };
+    let l = sparse("sparse.gltf", &[2, 0, 1]).unwrap();
     assert!(l.warnings.is_empty(), "{:?}", l.warnings);
+    let mut b = Builder::default();
+    let pos = b.floats(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 3.0, 0.0], "VEC3");
+    let target = b.floats(&[0.0, 0.0, 2.0, 0.0, 0.0, 4.0, 0.0, 0.0, 0.0], "VEC3");
+    let colors = b.floats(&[1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], "VEC3");
+    let dense = load(&b.write(&dir, "dense.gltf", &rest(pos, target, colors))).unwrap();
+    let (s, d) = (&l.scene.meshes[0], &dense.scene.meshes[0]);
+    assert_eq!(s.positions, d.positions);
+    assert_eq!(
+        s.positions,
+        vec![
+            Vec3::new(0.0, 0.0, 1.0),
+            Vec3::new(1.0, 0.0, 2.0),
+            Vec3::new(0.0, 3.0, 0.0)
+        ]
+    );
+    assert_eq!(s.colors, d.colors);
+    assert_eq!(s.colors[0], Vec3::X);
+    let e = sparse("unsorted.gltf", &[2, 1, 0]).unwrap_err().to_string();
+    assert!(
+        e.contains("unsorted.gltf") && e.contains("accessor") && e.contains("increase strictly"),
+        "{e}"
+    );
+    let e = sparse("past.gltf", &[2, 0, 7]).unwrap_err().to_string();
+    assert!(
+        e.contains("past.gltf") && e.contains("names element 7"),
+        "{e}"
+    );
+}
+
+/// TANGENT is kept per vertex (w reduced to its sign); a skinned or morphing primitive's is
+/// dropped with a warning (it is not deformed with the mesh).
+#[test]
+fn tangents_are_kept_per_vertex() {
+    let dir = temp_dir("tangent");
+    let mut b = Builder::default();
+    let pos = b.floats(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], "VEC3");
+    let tangents = b.floats(
+        &[0.0, 1.0, 0.0, 1.0, 0.0, 1.0, 0.0, -1.0, 0.0, 1.0, 0.0, -0.5],
+        "VEC4",
+    );
+    let up = b.floats(&[0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0], "VEC3");
+    let rest = |targets: &str| {
+        format!(
+            r#""scenes": [{{"nodes": [0]}}], "nodes": [{{"mesh": 0}}],
+            "meshes": [{{"primitives": [{{"attributes": {{"POSITION": {pos}, "TANGENT": {tangents}}}
+                       {targets}}}]}}]"#
+        )
+    };
+    let l = load(&b.write(&dir, "t.gltf", &rest(""))).unwrap();
+    assert!(l.warnings.is_empty(), "{:?}", l.warnings);
+    use lumo_scene::Vec4;
+    assert_eq!(
+        l.scene.meshes[0].tangents,
+        vec![
+            Vec4::new(0.0, 1.0, 0.0, 1.0),
+            Vec4::new(0.0, 1.0, 0.0, -1.0),
+            Vec4::new(0.0, 1.0, 0.0, -1.0)
+        ]
+    );
+    // Animated morph weights make the primitive a deforming one.
+    let targets = format!(r#", "targets": [{{"POSITION": {up}}}]"#);
+    let anim = r#", "animations": [{"channels": [{"sampler": 0, "target": {"node": 0, "path": "weights"}}],
+                    "samplers": [{"input": 3, "output": 4}]}]"#;
+    let times = b.floats(&[0.0, 1.0], "SCALAR");
+    let weights = b.floats(&[0.0, 1.0], "SCALAR");
+    assert_eq!((times, weights), (3, 4));
+    let path = b.write(&dir, "m.gltf", &format!("{}{anim}", rest(&targets)));
+    let l = load(&path).unwrap();
+    assert!(l.scene.meshes[0].tangents.is_empty());
+    assert!(
+        l.warnings.iter().any(|w| w
+            .to_string()
+            .contains("TANGENT of a skinned or morphing primitive")),
+        "{:?}",
+        l.warnings
+    );
 }

@@ -529,7 +529,10 @@ fn alpha_modes_become_opacity_masks() {
     let opacity = |pbr: &str, extra: &str, name: &str| {
         let loaded = load(&write(&dir, name, gold_pbr_with(pbr, extra))).unwrap();
         let m = &loaded.scene.materials[loaded.scene.meshes[1].material];
-        let BsdfSpec::Mask { opacity, nested } = &m.bsdf else {
+        let BsdfSpec::Mask {
+            opacity, nested, ..
+        } = &m.bsdf
+        else {
             panic!("{:?}", m.bsdf);
         };
         assert!(matches!(**nested, BsdfSpec::GltfPbr { .. }), "{nested:?}");
@@ -644,5 +647,43 @@ fn a_light_range_is_warned_about() {
     assert!(
         w.contains("range.gltf") && w.contains("light 0") && w.contains("range 4 ignored"),
         "{w}"
+    );
+}
+
+/// A normalTexture's KHR_texture_transform (which the `gltf` crate leaves in its JSON) moves
+/// the lookup as on the other textures: offset 0.5 along u reads the other texel of a 2×1
+/// image.
+#[test]
+fn a_normal_texture_transform_moves_the_lookup() {
+    let dir = temp_dir("gltf-normal-transform");
+    let mut png = vec![];
+    let mut enc = png::Encoder::new(&mut png, 2, 1);
+    enc.set_color(png::ColorType::Rgb);
+    enc.set_depth(png::BitDepth::Eight);
+    let mut w = enc.write_header().unwrap();
+    w.write_image_data(&[128, 128, 255, 255, 128, 128]).unwrap();
+    drop(w);
+    write(&dir, "mr.png", png);
+    let normal = |transform: &str| {
+        let extra = format!("\"normalTexture\": {{\"index\": 0{transform}}}");
+        let loaded = load(&write(&dir, "n.gltf", gold_material_with(&extra))).unwrap();
+        let m = &loaded.scene.materials[loaded.scene.meshes[1].material];
+        let BsdfSpec::NormalMap { normals, .. } = &m.bsdf else {
+            panic!("{:?}", m.bsdf);
+        };
+        normals.eval(lumo_scene::Vec2::new(0.25, 0.5))
+    };
+    let g = 128.0 / 255.0;
+    let plain = normal("");
+    assert!(
+        (plain - Vec3::new(g, g, 1.0)).abs().max_element() < 1e-6,
+        "{plain}"
+    );
+    let moved = normal(
+        ", \"extensions\": {\"KHR_texture_transform\": {\"offset\": [0.5, 0], \"scale\": [1, 1]}}",
+    );
+    assert!(
+        (moved - Vec3::new(1.0, g, g)).abs().max_element() < 1e-6,
+        "{moved}"
     );
 }

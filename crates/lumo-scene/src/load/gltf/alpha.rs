@@ -1,18 +1,22 @@
 //! glTF `alphaMode`: MASK (opaque where alpha ≥ alphaCutoff, absent elsewhere) and BLEND
-//! (stochastic transparency: opaque with probability alpha), both as lumo's opacity mask.
+//! (stochastic transparency: opaque with probability alpha), both as lumo's opacity mask, with
+//! `COLOR_0`'s alpha multiplied in at each hit where a primitive has it.
 
 use super::*;
 use crate::load::images::decode_alpha;
 
 impl GltfReader<'_, '_> {
     /// The opacity of `mat` (its base colour alpha: baseColorFactor's alpha × the texture's
-    /// alpha channel), thresholded at alphaCutoff for MASK; `None` for OPAQUE or where it is 1
-    /// everywhere.
+    /// alpha channel) and the cutoff left to the hit: `per_vertex` false thresholds MASK
+    /// per texel (no cutoff left) and gives `None` where the opacity is 1 everywhere; true
+    /// (a primitive with vertex alpha, which must multiply in before the threshold) keeps the
+    /// alpha as it is and leaves MASK's cutoff to the hit. `None` for OPAQUE.
     pub(super) fn opacity(
         &mut self,
         label: &str,
         mat: &gltf::Material,
-    ) -> Result<Option<Texture>, LoadError> {
+        per_vertex: bool,
+    ) -> Result<Option<(Texture, Option<f32>)>, LoadError> {
         use gltf::material::AlphaMode;
         let mode = mat.alpha_mode();
         if mode == AlphaMode::Opaque {
@@ -33,7 +37,12 @@ impl GltfReader<'_, '_> {
             }
             _ => None,
         };
-        let opacity = move |a: f32| match cutoff {
+        let (texel_cutoff, hit_cutoff) = if per_vertex {
+            (None, cutoff)
+        } else {
+            (cutoff, None)
+        };
+        let opacity = move |a: f32| match texel_cutoff {
             Some(c) => f32::from(u8::from(a * factor >= c)),
             None => a * factor,
         };
@@ -42,10 +51,45 @@ impl GltfReader<'_, '_> {
             None => None,
         };
         Ok(match texture {
-            Some(t) => Some(t),
-            None if opacity(1.0) >= 1.0 => None,
-            None => Some(Texture::Constant(Vec3::splat(opacity(1.0)))),
+            Some(t) => Some((t, hit_cutoff)),
+            None if opacity(1.0) >= 1.0 && !per_vertex => None,
+            None => Some((Texture::Constant(Vec3::splat(opacity(1.0))), hit_cutoff)),
         })
+    }
+
+    /// The lumo material of glTF material `mat` (lumo index `base`) for a primitive with
+    /// vertex alpha: `base` with its mask replaced by one that multiplies the vertex alpha in
+    /// before MASK's cutoff. One per glTF material, made on first use.
+    pub(super) fn vertex_alpha_material(
+        &mut self,
+        mat: &gltf::Material,
+        base: usize,
+    ) -> Result<usize, LoadError> {
+        if let Some(&i) = self.vertex_alpha_map.get(&mat.index()) {
+            return Ok(i);
+        }
+        let label = match mat.index() {
+            Some(i) => format!("material {i}"),
+            None => "default material".to_string(),
+        };
+        let mut m = self.scene.materials[base].clone();
+        let Some((opacity, cutoff)) = self.opacity(&label, mat, true)? else {
+            return Ok(base);
+        };
+        // The loader's mask is the outermost adapter; the rest is kept as it is.
+        let nested = match m.bsdf {
+            BsdfSpec::Mask { nested, .. } => nested,
+            other => Box::new(other),
+        };
+        m.bsdf = BsdfSpec::Mask {
+            opacity,
+            cutoff,
+            nested,
+        };
+        m.name = format!("{} (vertex alpha)", m.name);
+        let index = self.scene.add_material(m);
+        self.vertex_alpha_map.insert(mat.index(), index);
+        Ok(index)
     }
 
     /// The base colour texture's alpha channel through `opacity`, as a grey bitmap looked up

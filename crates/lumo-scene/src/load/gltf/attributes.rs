@@ -15,6 +15,16 @@ pub(super) fn info_set(info: &gltf::texture::Info) -> u32 {
         .unwrap_or(info.tex_coord())
 }
 
+/// The `TEXCOORD_n` set a normalTexture reads (its `KHR_texture_transform` `texCoord`
+/// overrides its own; the `gltf` crate exposes that extension as JSON here).
+pub(super) fn normal_set(n: &gltf::material::NormalTexture) -> u32 {
+    n.extension_value("KHR_texture_transform")
+        .and_then(|t| t.get("texCoord"))
+        .and_then(|s| s.as_u64())
+        .and_then(|s| u32::try_from(s).ok())
+        .unwrap_or(n.tex_coord())
+}
+
 /// The one `TEXCOORD_n` set the primitives of `mat` keep (a lumo mesh has one): its base colour
 /// texture's, else that of its metallic-roughness, normal or emissive texture; 0 without any.
 pub(super) fn uv_set(mat: &gltf::Material) -> u32 {
@@ -22,7 +32,7 @@ pub(super) fn uv_set(mat: &gltf::Material) -> u32 {
     pbr.base_color_texture()
         .map(|i| info_set(&i))
         .or_else(|| pbr.metallic_roughness_texture().map(|i| info_set(&i)))
-        .or_else(|| mat.normal_texture().map(|n| n.tex_coord()))
+        .or_else(|| mat.normal_texture().map(|n| normal_set(&n)))
         .or_else(|| mat.emissive_texture().map(|i| info_set(&i)))
         .unwrap_or(0)
 }
@@ -78,23 +88,15 @@ impl GltfReader<'_, '_> {
     }
 
     /// The values of a checked float or integer accessor of `N` components, dequantised: a
-    /// normalised integer c becomes c / max (at least −1), any other integer its value.
+    /// normalised integer c becomes c / max (at least −1), any other integer its value. A
+    /// sparse accessor's substitutions are applied (over zeros where it has no buffer view).
     pub(super) fn read_floats<const N: usize>(
         &self,
         acc: &gltf::Accessor,
     ) -> Result<Vec<[f32; N]>, LoadError> {
         let at = || self.at(format!("accessor {}", acc.index()));
-        let Some(view) = acc.view() else {
-            return Err(LoadError::invalid(at(), "has no buffer view"));
-        };
-        let buf = self
-            .buffers
-            .get(view.buffer().index())
-            .map_or(&[][..], Vec::as_slice);
         let ty = acc.data_type();
         let size = ty.size();
-        let stride = view.stride().unwrap_or(size * N);
-        let base = view.offset() + acc.offset();
         let norm = acc.normalized();
         let value = |b: &[u8]| -> f32 {
             match (ty, norm) {
@@ -122,54 +124,72 @@ impl GltfReader<'_, '_> {
                 (DataType::U32, _) => u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f32,
             }
         };
-        let mut out = Vec::with_capacity(acc.count());
-        for i in 0..acc.count() {
+        let element = |buf: &[u8], start: usize| -> Result<[f32; N], LoadError> {
             let mut v = [0.0; N];
             for (c, x) in v.iter_mut().enumerate() {
-                let start = base + i * stride + c * size;
-                // check_layout bounds the accessor by its view and buffer; stay safe anyway.
+                let start = start + c * size;
+                // check_layout bounds the accessor by its views and buffers; stay safe anyway.
                 let Some(bytes) = buf.get(start..start + size) else {
                     return Err(LoadError::invalid(at(), "reads past the end of its buffer"));
                 };
                 *x = value(bytes);
             }
-            out.push(v);
+            Ok(v)
+        };
+        let buffer = |i: usize| self.buffers.get(i).map_or(&[][..], Vec::as_slice);
+        let mut out = match acc.view() {
+            Some(view) => {
+                let buf = buffer(view.buffer().index());
+                let stride = view.stride().unwrap_or(size * N);
+                let base = view.offset() + acc.offset();
+                (0..acc.count())
+                    .map(|i| element(buf, base + i * stride))
+                    .collect::<Result<Vec<_>, _>>()?
+            }
+            None if acc.sparse().is_some() => vec![[0.0; N]; acc.count()],
+            None => return Err(LoadError::invalid(at(), "has no buffer view")),
+        };
+        if let (Some(indices), Some((b, base))) =
+            (self.sparse_indices(acc), self.sparse_values_at(acc))
+        {
+            // Sparse values are tightly packed elements of the accessor's own type.
+            for (k, &i) in indices.iter().enumerate() {
+                let v = element(buffer(b), base + k * size * N)?;
+                match out.get_mut(i as usize) {
+                    Some(slot) => *slot = v,
+                    None => {
+                        return Err(LoadError::invalid(
+                            at(),
+                            format!("sparse index {i} is past the accessor's count"),
+                        ))
+                    }
+                }
+            }
         }
         Ok(out)
     }
 }
 
 impl GltfReader<'_, '_> {
-    /// Warns where a MASK or BLEND material's primitive has `COLOR_0` alpha below 1: glTF
-    /// multiplies it into the base colour alpha, which lumo's opacity (a texture, thresholded
-    /// per texel for MASK) cannot vary per vertex.
-    pub(super) fn warn_vertex_alpha(
-        &mut self,
-        prim: &gltf::Primitive,
-        label: &str,
-    ) -> Result<(), LoadError> {
+    /// `COLOR_0`'s alpha per vertex where it matters: under alphaMode MASK or BLEND (OPAQUE
+    /// ignores alpha) and where some vertex has alpha below 1; empty otherwise.
+    pub(super) fn vertex_alpha(&self, prim: &gltf::Primitive) -> Vec<f32> {
         let Some(acc) = prim.get(&gltf::Semantic::Colors(0)) else {
-            return Ok(());
+            return Vec::new();
         };
         let mode = prim.material().alpha_mode();
         if acc.dimensions() != Dimensions::Vec4 || mode == gltf::material::AlphaMode::Opaque {
-            return Ok(());
+            return Vec::new();
         }
         let buffers = &self.buffers;
         let reader = prim.reader(|b| buffers.get(b.index()).map(Vec::as_slice));
-        let below = reader
+        let alphas: Vec<f32> = reader
             .read_colors(0)
-            .map_or(0, |it| it.into_rgba_f32().filter(|c| c[3] < 1.0).count());
-        if below > 0 {
-            self.diag.warn(
-                self.at(label.to_string()),
-                format!(
-                    "{below} vertices have COLOR_0 alpha below 1 under alphaMode {mode:?}; lumo \
-                     does not multiply vertex alpha into the opacity, so they render as the \
-                     material's alpha alone (bake the alpha into the base colour texture)"
-                ),
-            )?;
+            .map(|it| it.into_rgba_f32().map(|c| c[3]).collect())
+            .unwrap_or_default();
+        if alphas.iter().all(|&a| a >= 1.0) {
+            return Vec::new();
         }
-        Ok(())
+        alphas
     }
 }

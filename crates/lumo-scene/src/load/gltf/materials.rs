@@ -113,9 +113,10 @@ impl GltfReader<'_, '_> {
                 nested: Box::new(bsdf),
             };
         }
-        if let Some(opacity) = self.opacity(&label, &mat)? {
+        if let Some((opacity, cutoff)) = self.opacity(&label, &mat, false)? {
             bsdf = BsdfSpec::Mask {
                 opacity,
+                cutoff,
                 nested: Box::new(bsdf),
             };
         }
@@ -175,7 +176,30 @@ impl GltfReader<'_, '_> {
             (n + Vec3::ONE) * 0.5
         };
         let map: Option<&dyn Fn(Vec3) -> Vec3> = (scale != 1.0).then_some(&pixel);
-        self.bitmap(normal.texture(), normal.tex_coord(), true, map)
+        // The `gltf` crate exposes KHR_texture_transform on textureInfo only; a normalTexture's
+        // is read from its JSON like the extension textures' (offset, rotation, scale and the
+        // texCoord override).
+        let Some(transform) = normal.extension_value("KHR_texture_transform") else {
+            return self.bitmap(normal.texture(), normal.tex_coord(), true, map);
+        };
+        use gltf::json::Value;
+        let info = Value::Object(
+            [
+                ("index".to_string(), Value::from(normal.texture().index())),
+                ("texCoord".to_string(), Value::from(normal.tex_coord())),
+                (
+                    "extensions".to_string(),
+                    Value::Object(
+                        [("KHR_texture_transform".to_string(), transform.clone())]
+                            .into_iter()
+                            .collect(),
+                    ),
+                ),
+            ]
+            .into_iter()
+            .collect(),
+        );
+        self.json_texture(label, "normalTexture", &info, true, map)
     }
 
     /// The bitmap of `texture` (decoded once per image and colour space), its texels passed

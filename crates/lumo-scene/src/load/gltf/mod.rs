@@ -10,6 +10,7 @@ mod json_texture;
 mod materials;
 mod morph_anim;
 mod skin;
+mod sparse;
 
 use std::collections::HashMap;
 use std::path::Path;
@@ -145,6 +146,7 @@ fn load_unguarded(
         scene: defaults::empty_scene(path),
         mesh_map: HashMap::new(),
         material_map: HashMap::new(),
+        vertex_alpha_map: HashMap::new(),
         rig: AnimatedScene::default(),
         cameras: Vec::new(),
         node_index: HashMap::new(),
@@ -226,6 +228,9 @@ struct GltfReader<'p, 'd> {
     mesh_map: HashMap<usize, Vec<usize>>,
     /// lumo material of each glTF material (`None`: the default material).
     material_map: HashMap<Option<usize>, usize>,
+    /// glTF material → its lumo material for primitives with vertex alpha (see
+    /// `vertex_alpha_material`).
+    vertex_alpha_map: HashMap<Option<usize>, usize>,
     rig: AnimatedScene,
     /// (node, camera index) in traversal order.
     cameras: Vec<(usize, usize)>,
@@ -371,7 +376,8 @@ impl GltfReader<'_, '_> {
         Location::item(self.path, item)
     }
 
-    /// Refuses accessors lumo cannot read safely: sparse, wrong type, or beyond their buffer.
+    /// Refuses accessors lumo cannot read safely: wrong type, or beyond their buffer (their
+    /// sparse part included).
     fn check_accessor(
         &self,
         acc: &gltf::Accessor,
@@ -399,9 +405,6 @@ impl GltfReader<'_, '_> {
         what: &str,
     ) -> Result<(), LoadError> {
         let at = self.at(format!("accessor {} ({what})", acc.index()));
-        if acc.sparse().is_some() {
-            return Err(LoadError::invalid(at, "sparse accessors are not supported"));
-        }
         if !dims.contains(&acc.dimensions()) {
             return Err(LoadError::invalid(
                 at,
@@ -411,7 +414,12 @@ impl GltfReader<'_, '_> {
         if acc.count() == 0 {
             return Err(LoadError::invalid(at, "count is 0"));
         }
+        self.check_sparse(acc, &at)?;
         let Some(view) = acc.view() else {
+            // A sparse accessor without a view substitutes into zeros.
+            if acc.sparse().is_some() {
+                return Ok(());
+            }
             return Err(LoadError::invalid(at, "has no buffer view"));
         };
         let elem = acc.size();
@@ -498,6 +506,10 @@ impl GltfReader<'_, '_> {
             if let Some(a) = &uv_acc {
                 self.check_attribute(a, Dimensions::Vec2, &texcoord, Quantized::AnyInteger)?;
             }
+            let tangent_acc = prim.get(&gltf::Semantic::Tangents);
+            if let Some(a) = &tangent_acc {
+                self.check_attribute(a, Dimensions::Vec4, "TANGENT", Quantized::SignedNormalized)?;
+            }
             if let Some(a) = prim.indices() {
                 // The type first: a float accessor is wrong whatever its view holds.
                 if a.data_type() == DataType::F32 {
@@ -534,11 +546,21 @@ impl GltfReader<'_, '_> {
                     .collect(),
                 None => Vec::new(),
             };
-            // COLOR_0 multiplies the base colour (alpha is not modelled).
+            // w is ±1 by the specification; its sign is what matters.
+            let tangents: Vec<Vec4> = match &tangent_acc {
+                Some(a) => self
+                    .read_floats::<4>(a)?
+                    .into_iter()
+                    .map(|[x, y, z, w]| Vec4::new(x, y, z, if w < 0.0 { -1.0 } else { 1.0 }))
+                    .collect(),
+                None => Vec::new(),
+            };
+            // COLOR_0 multiplies the base colour, and its alpha the opacity (MASK, BLEND).
             let colors: Vec<Vec3> = reader
                 .read_colors(0)
                 .map(|it| it.into_rgb_f32().map(Vec3::from).collect())
                 .unwrap_or_default();
+            let alphas = self.vertex_alpha(&prim);
             let flat: Vec<u32> = match reader.read_indices() {
                 Some(it) => it.into_u32().collect(),
                 None => (0..positions.len() as u32).collect(),
@@ -560,8 +582,10 @@ impl GltfReader<'_, '_> {
                     .map(|i| [flat[0], flat[i - 1], flat[i]])
                     .collect(),
             };
-            let material = self.material(prim.material())?;
-            self.warn_vertex_alpha(&prim, &label)?;
+            let mut material = self.material(prim.material())?;
+            if !alphas.is_empty() {
+                material = self.vertex_alpha_material(&prim.material(), material)?;
+            }
             // A base-colour texture needs texture coordinates to vary: without them every
             // point reads the texel at (0, 0).
             let textured = prim
@@ -585,7 +609,9 @@ impl GltfReader<'_, '_> {
                 positions,
                 normals,
                 uvs,
+                tangents,
                 colors,
+                alphas,
                 indices,
                 material,
                 analytic: None,
@@ -594,6 +620,8 @@ impl GltfReader<'_, '_> {
                 ("NORMAL", m.normals.len()),
                 (texcoord.as_str(), m.uvs.len()),
                 ("COLOR_0", m.colors.len()),
+                ("COLOR_0 alpha", m.alphas.len()),
+                ("TANGENT", m.tangents.len()),
             ] {
                 if len != 0 && len != m.positions.len() {
                     return Err(LoadError::invalid(

@@ -352,6 +352,14 @@ impl GltfReader<'_, '_> {
                 // A copy shares its source's data: put it back for the next user.
                 self.deform.prims.insert(p.source, d);
             }
+            if !self.scene.meshes[p.mesh].tangents.is_empty() {
+                self.scene.meshes[p.mesh].tangents.clear();
+                self.diag.warn(
+                    self.at(format!("mesh {}", self.scene.meshes[p.mesh].name)),
+                    "TANGENT of a skinned or morphing primitive is not deformed with it, so it is \
+                     dropped: its normal map takes the tangent frame from the uvs (∂p/∂u)",
+                )?;
+            }
             let mesh = &self.scene.meshes[p.mesh];
             self.rig.deformers.push(Deformer {
                 mesh: p.mesh,

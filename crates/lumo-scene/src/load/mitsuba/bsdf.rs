@@ -306,6 +306,7 @@ impl<'a> Builder<'a, '_> {
             }
             _ => BsdfSpec::Mask {
                 opacity: self.texture_param(props, "opacity", Vec3::splat(0.5))?,
+                cutoff: None,
                 nested,
             },
         })

@@ -91,6 +91,51 @@ impl Builder {
         self.add(&bytes, v.len() / comps, ty, 5123, "")
     }
 
+    /// A sparse float accessor of `count` elements of type `ty`: over the float accessor
+    /// `base`'s view (or zeros with `None`), the elements at `indices` (unsigned shorts)
+    /// replaced by `values` (`extra`: more accessor fields, starting with a comma).
+    pub fn sparse(
+        &mut self,
+        base: Option<usize>,
+        (count, ty): (usize, &str),
+        indices: &[u16],
+        values: &[f32],
+        extra: &str,
+    ) -> usize {
+        let view = |b: &mut Self, bytes: Vec<u8>| {
+            let offset = b.bin.len();
+            b.bin.extend_from_slice(&bytes);
+            b.bin.resize(b.bin.len().next_multiple_of(4), 0);
+            b.views.push(format!(
+                r#"{{"buffer": 0, "byteOffset": {offset}, "byteLength": {}}}"#,
+                bytes.len()
+            ));
+            b.views.len() - 1
+        };
+        let iv = view(self, indices.iter().flat_map(|x| x.to_le_bytes()).collect());
+        let vv = view(self, values.iter().flat_map(|x| x.to_le_bytes()).collect());
+        let base_view = base.map_or(String::new(), |a| {
+            // The base accessor's view is the one `add` made with it.
+            format!(r#""bufferView": {}, "#, self.view_of(a))
+        });
+        self.accessors.push(format!(
+            r#"{{{base_view}"componentType": 5126, "count": {count}, "type": "{ty}",
+               "sparse": {{"count": {}, "indices": {{"bufferView": {iv}, "componentType": 5123}},
+                           "values": {{"bufferView": {vv}}}}}{extra}}}"#,
+            indices.len()
+        ));
+        self.accessors.len() - 1
+    }
+
+    /// The view accessor `a` reads.
+    fn view_of(&self, a: usize) -> usize {
+        let s = &self.accessors[a];
+        let rest = &s[s.find("\"bufferView\": ").expect("a view") + 14..];
+        rest[..rest.find(',').expect("more fields")]
+            .parse()
+            .expect("a number")
+    }
+
     /// Writes `dir/name` (and its .bin) with `rest` (nodes, meshes, ...) at the top level.
     pub fn write(&self, dir: &Path, name: &str, rest: &str) -> PathBuf {
         let bin = format!("{name}.bin");
