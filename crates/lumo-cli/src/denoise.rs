@@ -150,7 +150,7 @@ pub struct DenoiseArgs {
     #[arg(long)]
     pub auto_error_radius: Option<usize>,
     /// auto: candidates of this radius and larger run the fast guided filter on a grid twice
-    /// as coarse; 0 = none [default: 16].
+    /// as coarse; 0 = none [default: 12].
     #[arg(long)]
     pub auto_coarse_from: Option<usize>,
     /// auto: blend softness; a candidate whose error exceeds the best one's by this fraction

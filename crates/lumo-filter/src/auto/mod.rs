@@ -89,7 +89,7 @@ impl Default for AutoParams {
             flat_eps: 0.01,
             eps_normal: 1e-4,
             eps_depth: 1e-5,
-            coarse_from: 16,
+            coarse_from: 12,
             error_radius: 12,
             softness: 0.01,
             demodulate: true,
@@ -207,6 +207,7 @@ pub fn auto(
     // The flat candidates' ε: flat_eps on every dimension of the same guide planes.
     let flat_eps = vec![params.flat_eps; guide.dims];
     let mut shared = SharedInput::new(y, &guide)?;
+    let finite = FiniteShare::new(y, params.error_radius);
     let mut candidates = Vec::with_capacity(runs.len() + 1);
     let mut errors = Vec::with_capacity(runs.len() + 1);
     for &(r, is_flat) in &runs {
@@ -217,12 +218,18 @@ pub fn auto(
             fast_subsample: if subsampled { 2 } else { 1 },
         };
         let (f, self_weight) = shared.self_weighted(eps, &gp)?;
-        errors.push(loo_error(y, &f.image, &self_weight, params.error_radius));
+        errors.push(loo_error(
+            y,
+            &f.image,
+            &self_weight,
+            params.error_radius,
+            &finite,
+        ));
         candidates.push(f.image);
     }
     if params.atrous {
         let (f, self_weight) = atrous_candidate::atrous_candidate(y, features)?;
-        errors.push(loo_error(y, &f, &self_weight, params.error_radius));
+        errors.push(loo_error(y, &f, &self_weight, params.error_radius, &finite));
         candidates.push(f);
     }
     if params.input_noise > 0.0 {
@@ -313,12 +320,56 @@ multiversion! {
 
 /// Squared leave-one-out prediction error `Σ_c ((y − F) / (1 − W_pp))²`, averaged over the
 /// window of radius `r` over the finite pixels (a window with none gets 1 for every
-/// candidate, so the blend there is uniform).
-fn loo_error(y: &Image, f: &Image, self_weight: &[f32], r: usize) -> Vec<f32> {
+/// candidate, so the blend there is uniform). `finite` is [`FiniteShare`] of `y` for `r`.
+fn loo_error(
+    y: &Image,
+    f: &Image,
+    self_weight: &[f32],
+    r: usize,
+    finite: &FiniteShare,
+) -> Vec<f32> {
+    let (w, h) = (y.width, y.height);
+    let mut sq = zeroed(w * h);
+    // Whether some error is finite where the colour is not or the other way round (an
+    // overflow): then the shared count does not apply.
+    let differs = sq
+        .par_chunks_mut(w.max(1))
+        .enumerate()
+        .map(|(row, s)| {
+            let mut differs = false;
+            for (x, s) in s.iter_mut().enumerate() {
+                let i = row * w + x;
+                // A pixel that is all its own estimate predicts nothing: floor the denominator.
+                let k = 1.0 / (1.0 - self_weight[i]).max(0.05);
+                let mut e = 0.0;
+                for c in 0..3 {
+                    let d = (y.data[i * 3 + c] - f.data[i * 3 + c]) * k;
+                    e += d * d;
+                }
+                if e.is_finite() {
+                    *s = e;
+                }
+                differs |= e.is_finite() != finite.valid[i];
+            }
+            differs
+        })
+        .reduce(|| false, |a, b| a || b);
+    if differs {
+        return loo_error_pairs(y, f, self_weight, r);
+    }
+    let m = box_mean(&sq, w, h, 1, r);
+    m.iter()
+        .zip(&finite.mean)
+        .map(|(&e, &n)| if n > 0.0 { e / n } else { 1.0 })
+        .collect()
+}
+
+/// [`loo_error`] with the count summed beside each error: for a candidate whose errors are
+/// not finite exactly where the colour is.
+fn loo_error_pairs(y: &Image, f: &Image, self_weight: &[f32], r: usize) -> Vec<f32> {
     let (w, h) = (y.width, y.height);
     let mut sq = zeroed(w * h * 2);
     sq.par_chunks_mut(2).enumerate().for_each(|(i, s)| {
-        // A pixel that is all its own estimate predicts nothing: floor the denominator.
         let k = 1.0 / (1.0 - self_weight[i]).max(0.05);
         let mut e = 0.0;
         for c in 0..3 {
@@ -334,6 +385,29 @@ fn loo_error(y: &Image, f: &Image, self_weight: &[f32], r: usize) -> Vec<f32> {
     m.chunks_exact(2)
         .map(|p| if p[1] > 0.0 { p[0] / p[1] } else { 1.0 })
         .collect()
+}
+
+/// Which pixels of the (demodulated) colour are finite, and the window means of that count:
+/// the second half of every candidate's [`loo_error`] window mean, the same for all of them
+/// (their errors are finite exactly where the colour is), so it is summed once rather than
+/// once per candidate. Box means are channel by channel, so the bits are those of a
+/// two-channel mean of (error, count).
+struct FiniteShare {
+    valid: Vec<bool>,
+    mean: Vec<f32>,
+}
+
+impl FiniteShare {
+    fn new(y: &Image, r: usize) -> Self {
+        let valid: Vec<bool> = y
+            .data
+            .par_chunks_exact(3)
+            .map(|p| p.iter().all(|v| v.is_finite()))
+            .collect();
+        let ones: Vec<f32> = valid.iter().map(|&v| if v { 1.0 } else { 0.0 }).collect();
+        let mean = box_mean(&ones, y.width, y.height, 1, r);
+        Self { valid, mean }
+    }
 }
 
 /// The error estimate of the unfiltered input as a candidate, in the units of [`loo_error`]
@@ -448,5 +522,48 @@ impl Denoiser for AutoDenoiser {
 
     fn denoise(&mut self, input: &FilterInput) -> Result<Filtered, FilterError> {
         auto(input.color, &input.features, &self.params)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The error window with the count shared between candidates gives the bits of the
+    /// two-channel mean of (error, count) it replaced: with missing colour pixels, with a
+    /// window that holds none, and with a candidate whose error overflows where the colour
+    /// is finite (the fallback).
+    #[test]
+    fn shared_count_gives_the_bits_of_the_pairwise_mean() {
+        let (w, h, r) = (41, 23, 3);
+        let mut y = Image::new(w, h, 3, 0.0);
+        for (i, v) in y.data.iter_mut().enumerate() {
+            *v = 0.5 + 0.4 * ((i as f32 * 0.618) * 12.9898).sin();
+        }
+        // A missing block wider than the window, so some windows hold no finite pixel.
+        for yy in 5..14 {
+            for x in 20..29 {
+                y.pixel_mut(x, yy)[1] = f32::NAN;
+            }
+        }
+        let mut f = y.clone();
+        for (i, v) in f.data.iter_mut().enumerate() {
+            *v = if v.is_finite() {
+                *v * 0.9 + 0.01 * (i % 7) as f32
+            } else {
+                0.3
+            };
+        }
+        let weights: Vec<f32> = (0..w * h).map(|i| (i % 11) as f32 * 0.09).collect();
+        let finite = FiniteShare::new(&y, r);
+        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        let shared = loo_error(&y, &f, &weights, r, &finite);
+        assert_eq!(bits(&shared), bits(&loo_error_pairs(&y, &f, &weights, r)));
+        assert_eq!(shared[10 * w + 24], 1.0, "a window without finite pixels");
+        // An error that overflows f32 where the colour is finite.
+        f.data[3 * (2 * w + 2)] = 3e38;
+        let overflow = loo_error(&y, &f, &weights, r, &finite);
+        assert_eq!(bits(&overflow), bits(&loo_error_pairs(&y, &f, &weights, r)));
+        assert_ne!(bits(&overflow), bits(&shared));
     }
 }

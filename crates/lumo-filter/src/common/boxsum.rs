@@ -31,11 +31,12 @@ pub fn box_mean(data: &[f32], w: usize, h: usize, k: usize, r: usize) -> Vec<f32
     let stride = w * k;
     // Horizontal pass, one row per task.
     let mut tmp = zeroed(data.len());
-    // `auto`'s errors and the light search run it on 2 channels: with the channel count a
+    // `auto`'s errors run it on 1 channel, the light search on 2: with the channel count a
     // constant the per-channel loops unroll and vectorise (the same operations per channel,
     // so the same bits).
     let rows = tmp.par_chunks_mut(stride).zip(data.par_chunks(stride));
     match k {
+        1 => rows.for_each(|(o, row)| row_means::<1>(row, o, &cx, r)),
         2 => rows.for_each(|(o, row)| row_means::<2>(row, o, &cx, r)),
         _ => rows.for_each_init(
             || vec![0.0f64; k],

@@ -368,16 +368,10 @@ fn exact<const SW: bool>(pb: &Problem, d: usize) -> (Image, Vec<f32>) {
     }
     // Row y of `out`: the filtered row (3w values), then its weights (w).
     let mut out = zeroed(w * h * 4);
-    let k0 = 3 * d + 3;
-    let k2 = k0 + terms(d);
     stream_dims::<true>(d, pb, &mut out, 4 * w, &|y, ab, row| {
         let gr = &g[y * w * d..(y + 1) * w * d];
         let (rgb, weights) = row.split_at_mut(3 * w);
-        apply_row(gr, d, k2, ab, rgb);
-        for (x, wt) in weights.iter_mut().enumerate() {
-            let gx = &gr[x * d..(x + 1) * d];
-            *wt = cross_weight_at(gx, gx, &ab[x * k2 + k0..(x + 1) * k2]);
-        }
+        weighted_row(gr, d, ab, rgb, weights);
     });
     let mut image = zeroed_image(w, h, 3);
     let mut weights = zeroed(w * h);
@@ -391,6 +385,46 @@ fn exact<const SW: bool>(pb: &Problem, d: usize) -> (Image, Vec<f32>) {
             wt.copy_from_slice(&row[3 * w..]);
         });
     (image, weights)
+}
+
+multiversion! {
+    /// One row of [`exact`]'s self-weighted output from the row's averaged coefficients and
+    /// terms: the filtered colour and each pixel's self-weight. Dispatches on the guide's
+    /// dimension so that [`weighted_row_d`]'s loops have constant lengths.
+    fn weighted_row(gr: &[f32], d: usize, ab: &[f32], rgb: &mut [f32], weights: &mut [f32])
+        as weighted_row_impl
+    {
+        match d {
+            1 => weighted_row_d::<1>(gr, ab, rgb, weights),
+            2 => weighted_row_d::<2>(gr, ab, rgb, weights),
+            3 => weighted_row_d::<3>(gr, ab, rgb, weights),
+            4 => weighted_row_d::<4>(gr, ab, rgb, weights),
+            5 => weighted_row_d::<5>(gr, ab, rgb, weights),
+            6 => weighted_row_d::<6>(gr, ab, rgb, weights),
+            7 => weighted_row_d::<7>(gr, ab, rgb, weights),
+            _ => weighted_row_d::<8>(gr, ab, rgb, weights),
+        }
+    }
+}
+
+/// [`weighted_row`] for a `D`-dimensional guide: [`apply_row`]'s sums and
+/// [`cross_weight_at`] in the same order, so the same bits.
+#[inline(always)]
+fn weighted_row_d<const D: usize>(gr: &[f32], ab: &[f32], rgb: &mut [f32], weights: &mut [f32]) {
+    let k0 = 3 * D + 3;
+    let k2 = k0 + terms(D);
+    for (x, (o, wt)) in rgb.chunks_exact_mut(3).zip(weights.iter_mut()).enumerate() {
+        let gx: &[f32; D] = gr[x * D..][..D].try_into().expect("D values");
+        let c = &ab[x * k2..(x + 1) * k2];
+        for ch in 0..3 {
+            let mut q = c[3 * D + ch];
+            for i in 0..D {
+                q += c[ch * D + i] * gx[i];
+            }
+            o[ch] = q;
+        }
+        *wt = cross_weight_at(gx, gx, &c[k0..]);
+    }
 }
 
 /// The fast filter's coarse grid for the block means `gl` (guide) and `pl` (input) of an
@@ -680,36 +714,54 @@ struct UpsampleRow<'a> {
 
 multiversion! {
     /// [`apply_upsampled_weighted`]'s row: the coefficients and terms interpolated in x, the
-    /// filtered value and the self-weight of every pixel.
+    /// filtered value and the self-weight of every pixel. Dispatches on the guide's dimension
+    /// so that [`upsample_row_weighted_d`]'s loops have constant lengths (they unroll and
+    /// vectorise; the same operations in the same order, so the same bits).
     fn upsample_row_weighted(r: &UpsampleRow, out: &mut [f32], weights: &mut [f32])
         as upsample_row_weighted_impl
     {
-        let d = r.d;
-        let (k0, k2) = (3 * d + 3, 3 * d + 3 + terms(d));
-        let lw = r.between.len() / k2;
-        let w = out.len() / 3;
-        let mut c = [0.0f32; MAX_GUIDE_DIMS * 3 + 3 + terms(MAX_GUIDE_DIMS)];
-        let c = &mut c[..k2];
-        for (x, (o, wt)) in out.chunks_exact_mut(3).zip(weights.iter_mut()).enumerate() {
-            let (x0, x1, tx) = lerp_at(x, r.s, lw);
-            let (a, b) = (&r.between[x0 * k2..][..k2], &r.between[x1 * k2..][..k2]);
-            for i in 0..k2 {
-                c[i] = a[i] + (b[i] - a[i]) * tx;
-            }
-            let gi = &r.guide[x * d..][..d];
-            for ch in 0..3 {
-                let mut q = c[3 * d + ch];
-                for i in 0..d {
-                    q += c[ch * d + i] * gi[i];
-                }
-                o[ch] = q;
-            }
-            let gb = &r.coarse_guide[(x / r.s) * d..][..d];
-            // The pixel's share of its block's mean (a partial block at the right or bottom
-            // edge holds fewer pixels, `downsample`'s divisor).
-            let block = r.block_rows * r.s.min(w - (x / r.s) * r.s);
-            *wt = cross_weight_at(gi, gb, &c[k0..]) / block as f32;
+        match r.d {
+            1 => upsample_row_weighted_d::<1>(r, out, weights),
+            2 => upsample_row_weighted_d::<2>(r, out, weights),
+            3 => upsample_row_weighted_d::<3>(r, out, weights),
+            4 => upsample_row_weighted_d::<4>(r, out, weights),
+            5 => upsample_row_weighted_d::<5>(r, out, weights),
+            6 => upsample_row_weighted_d::<6>(r, out, weights),
+            7 => upsample_row_weighted_d::<7>(r, out, weights),
+            _ => upsample_row_weighted_d::<8>(r, out, weights),
         }
+    }
+}
+
+/// [`upsample_row_weighted`] for a `D`-dimensional guide (`r.d == D`).
+#[inline(always)]
+fn upsample_row_weighted_d<const D: usize>(r: &UpsampleRow, out: &mut [f32], weights: &mut [f32]) {
+    let (k0, k2) = (3 * D + 3, 3 * D + 3 + terms(D));
+    let lw = r.between.len() / k2;
+    let w = out.len() / 3;
+    let mut c = [0.0f32; MAX_GUIDE_DIMS * 3 + 3 + terms(MAX_GUIDE_DIMS)];
+    let c = &mut c[..k2];
+    for (x, (o, wt)) in out.chunks_exact_mut(3).zip(weights.iter_mut()).enumerate() {
+        let (x0, x1, tx) = lerp_at(x, r.s, lw);
+        let (a, b) = (&r.between[x0 * k2..][..k2], &r.between[x1 * k2..][..k2]);
+        for i in 0..k2 {
+            c[i] = a[i] + (b[i] - a[i]) * tx;
+        }
+        let gi: &[f32; D] = r.guide[x * D..][..D].try_into().expect("D values");
+        for ch in 0..3 {
+            let mut q = c[3 * D + ch];
+            for i in 0..D {
+                q += c[ch * D + i] * gi[i];
+            }
+            o[ch] = q;
+        }
+        let gb: &[f32; D] = r.coarse_guide[(x / r.s) * D..][..D]
+            .try_into()
+            .expect("D values");
+        // The pixel's share of its block's mean (a partial block at the right or bottom
+        // edge holds fewer pixels, `downsample`'s divisor).
+        let block = r.block_rows * r.s.min(w - (x / r.s) * r.s);
+        *wt = cross_weight_at(gi, gb, &c[k0..]) / block as f32;
     }
 }
 
