@@ -43,6 +43,74 @@ pub(super) fn smooth_noisy_lights(
     flatness: f32,
     out: &mut Image,
 ) {
+    // Only the lights' neighbourhood is read: its bounding box, grown by the window and the
+    // one-pixel neighbour test. Over the whole frame the box sums cost the guided filter a
+    // third more at 512² (32 against 22 ms with one small light), for a few hundred pixels.
+    let (w, h) = (color.width, color.height);
+    let Some([x0, y0, x1, y1]) = bounds(light, rim, w, h, RADIUS + 1) else {
+        return;
+    };
+    let (cw, ch) = (x1 - x0, y1 - y0);
+    if (cw, ch) == (w, h) {
+        return smooth_in(color, albedo, light, rim, flatness, out);
+    }
+    let crop = |img: &Image| {
+        let c = img.channels;
+        let mut data = Vec::with_capacity(cw * ch * c);
+        for y in y0..y1 {
+            data.extend_from_slice(&img.data[(y * w + x0) * c..(y * w + x1) * c]);
+        }
+        Image::from_vec(cw, ch, c, data)
+    };
+    let crop_mask = |m: &[bool]| -> Vec<bool> {
+        (y0..y1)
+            .flat_map(|y| m[y * w + x0..y * w + x1].iter().copied())
+            .collect()
+    };
+    let (c, a) = (crop(color), albedo.map(crop));
+    let mut o = crop(out);
+    smooth_in(
+        &c,
+        a.as_ref(),
+        &crop_mask(light),
+        &crop_mask(rim),
+        flatness,
+        &mut o,
+    );
+    for y in y0..y1 {
+        out.data[(y * w + x0) * 3..(y * w + x1) * 3]
+            .copy_from_slice(&o.data[(y - y0) * cw * 3..(y - y0 + 1) * cw * 3]);
+    }
+}
+
+/// The bounding box `[x0, y0, x1, y1)` of the light and rim pixels grown by `margin` and
+/// clipped to the frame; `None` without any.
+fn bounds(light: &[bool], rim: &[bool], w: usize, h: usize, margin: usize) -> Option<[usize; 4]> {
+    let mut b: Option<[usize; 4]> = None;
+    for i in (0..w * h).filter(|&i| light[i] || rim[i]) {
+        let (x, y) = (i % w, i / w);
+        let e = b.get_or_insert([x, y, x, y]);
+        *e = [e[0].min(x), e[1].min(y), e[2].max(x), e[3].max(y)];
+    }
+    b.map(|[x0, y0, x1, y1]| {
+        [
+            x0.saturating_sub(margin),
+            y0.saturating_sub(margin),
+            (x1 + margin + 1).min(w),
+            (y1 + margin + 1).min(h),
+        ]
+    })
+}
+
+/// [`smooth_noisy_lights`] over the whole of the given frame.
+fn smooth_in(
+    color: &Image,
+    albedo: Option<&Image>,
+    light: &[bool],
+    rim: &[bool],
+    flatness: f32,
+    out: &mut Image,
+) {
     let (w, h) = (color.width, color.height);
     // Averaged demodulated: a lit surface the search took for a light (a sunlit patch on a
     // checkered floor) keeps its texture (tune-sunroom 1 spp: relMSE 0.0469 → 0.0474 on the
