@@ -62,6 +62,52 @@ pub enum Light {
 pub const MAX_EMISSION: f32 = 1e15;
 
 impl Light {
+    /// The position of a light that has one (point, spot), for the viewer's edits and picks.
+    pub fn position_mut(&mut self) -> Option<&mut Vec3> {
+        match self {
+            Light::Point { position, .. } | Light::Spot { position, .. } => Some(position),
+            Light::Directional { .. } | Light::Constant { .. } | Light::Environment(_) => None,
+        }
+    }
+
+    /// The editable strength of a light that has one: a point or spot light's intensity, a
+    /// directional light's irradiance (constant and image lights have none the viewer edits).
+    pub fn intensity_mut(&mut self) -> Option<&mut Vec3> {
+        match self {
+            Light::Point { intensity, .. } | Light::Spot { intensity, .. } => Some(intensity),
+            Light::Directional { irradiance, .. } => Some(irradiance),
+            Light::Constant { .. } | Light::Environment(_) => None,
+        }
+    }
+
+    /// [`Self::position_mut`], read-only.
+    pub fn position(&self) -> Option<Vec3> {
+        self.fields().0
+    }
+
+    /// [`Self::intensity_mut`], read-only.
+    pub fn intensity(&self) -> Option<Vec3> {
+        self.fields().1
+    }
+
+    /// Position and editable strength by value (one exhaustive match for both readers).
+    fn fields(&self) -> (Option<Vec3>, Option<Vec3>) {
+        match self {
+            Light::Point {
+                position,
+                intensity,
+                ..
+            }
+            | Light::Spot {
+                position,
+                intensity,
+                ..
+            } => (Some(*position), Some(*intensity)),
+            Light::Directional { irradiance, .. } => (None, Some(*irradiance)),
+            Light::Constant { .. } | Light::Environment(_) => (None, None),
+        }
+    }
+
     /// The light's strength as its field is named (`intensity`, `irradiance`, `radiance`, or an
     /// environment's `scale × brightest texel`) and its value per channel, for range checks.
     pub fn strength(&self) -> (&'static str, Vec3) {

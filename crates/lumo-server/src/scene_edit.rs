@@ -40,7 +40,7 @@ impl EditTargets {
             lights: s
                 .lights
                 .iter()
-                .map(|l| (position(l).is_some(), intensity(l).is_some()))
+                .map(|l| (l.position().is_some(), l.intensity().is_some()))
                 .collect(),
             colored: s
                 .materials
@@ -87,24 +87,6 @@ pub fn relights(e: &Edit) -> bool {
     matches!(e.op, EditOp::LightIntensity | EditOp::Emission)
 }
 
-/// A light's position, if it has one.
-fn position(l: &Light) -> Option<Vec3> {
-    match l {
-        Light::Point { position, .. } | Light::Spot { position, .. } => Some(*position),
-        _ => None,
-    }
-}
-
-/// A light's intensity (point, spot) or irradiance (directional). Constant and image
-/// environments are left alone: the light sampler keeps their tables across updates.
-fn intensity(l: &Light) -> Option<Vec3> {
-    match l {
-        Light::Point { intensity, .. } | Light::Spot { intensity, .. } => Some(*intensity),
-        Light::Directional { irradiance, .. } => Some(*irradiance),
-        Light::Constant { .. } | Light::Environment(_) => None,
-    }
-}
-
 /// A material's base colour at `uv`, if it has one.
 fn base_color(m: &Material, uv: Vec2) -> Option<Vec3> {
     Some(m.bsdf.base_color()?.at(uv))
@@ -131,7 +113,7 @@ pub fn pick(
         .iter()
         .enumerate()
         .filter_map(|(i, l)| {
-            let p = position(l)?;
+            let p = l.position()?;
             let (at, _) = cam.project_point(p)?;
             let d = at.distance(film);
             (d <= LIGHT_PICK_RADIUS && p.distance(origin) < depth).then_some((i, l, p, d))
@@ -148,7 +130,7 @@ pub fn pick(
             index: i as u32,
             position: p,
             point: p,
-            emission: intensity(l).unwrap_or(Vec3::ZERO),
+            emission: l.intensity().unwrap_or(Vec3::ZERO),
             name: format!("{kind} light {i}"),
             ..PickHit::nothing()
         };
@@ -194,20 +176,14 @@ pub fn apply(rs: &mut RenderScene, edits: &[Edit]) -> Result<SceneUpdate, SceneE
                 let inst = s.instances.get_mut(i).ok_or_else(bad)?;
                 inst.transform.w_axis = e.value.extend(1.0);
             }
-            EditOp::MoveLight => match s.lights.get_mut(i) {
-                Some(Light::Point { position, .. } | Light::Spot { position, .. }) => {
-                    *position = e.value
-                }
-                _ => return Err(bad()),
-            },
-            EditOp::LightIntensity => match s.lights.get_mut(i) {
-                Some(
-                    Light::Point { intensity: v, .. }
-                    | Light::Spot { intensity: v, .. }
-                    | Light::Directional { irradiance: v, .. },
-                ) => *v = e.value,
-                _ => return Err(bad()),
-            },
+            EditOp::MoveLight => {
+                let p = s.lights.get_mut(i).and_then(Light::position_mut);
+                *p.ok_or_else(bad)? = e.value;
+            }
+            EditOp::LightIntensity => {
+                let v = s.lights.get_mut(i).and_then(Light::intensity_mut);
+                *v.ok_or_else(bad)? = e.value;
+            }
             EditOp::Emission => {
                 let m = s.materials.get_mut(i).ok_or_else(bad)?;
                 m.emission = e.value;
