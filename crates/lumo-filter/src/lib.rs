@@ -14,7 +14,8 @@
 //! - [`TemporalFilter`]: spatiotemporal variance-guided filtering (SVGF, Schied et al. 2017),
 //!   the one stateful filter: reprojected, accumulated history + the variance-guided À-Trous;
 //!   [`motion_vectors`] computes its motion vectors for a static scene and a moving camera,
-//!   [`object_motion_vectors`] for objects that move too.
+//!   [`object_motion_vectors`] for objects that move too, [`surface_motion_vectors`] for
+//!   surfaces that deform.
 //!
 //! Every filter is also a [`Denoiser`] (one interface: a [`FilterInput`] in, [`Filtered`] out,
 //! parameters held by the denoiser, one [`FilterError`]), and [`FILTERS`] lists them all: the
@@ -78,7 +79,7 @@ pub use guided::{
 pub use jbu::{jbu, JbuDenoiser, JbuParams};
 pub use temporal::{
     motion_vectors, object_motion, object_motion_vectors, pinhole_view_projection,
-    project_to_pixel, Resample, ShadingChange, TemporalAntialias, TemporalFilter, TemporalFrame,
-    TemporalParams, DEFAULT_ALPHA, DEFAULT_TAA_ALPHA, DEFAULT_TAA_GAMMA,
-    DEFAULT_TEMPORAL_SIGMA_LUMINANCE, NO_OBJECT,
+    project_to_pixel, surface_motion_vectors, Resample, ShadingChange, TemporalAntialias,
+    TemporalFilter, TemporalFrame, TemporalParams, DEFAULT_ALPHA, DEFAULT_TAA_ALPHA,
+    DEFAULT_TAA_GAMMA, DEFAULT_TEMPORAL_SIGMA_LUMINANCE, NO_OBJECT,
 };

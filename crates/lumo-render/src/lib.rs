@@ -34,6 +34,9 @@ pub mod sampler;
 mod settings;
 pub mod shading;
 mod specular_albedo;
+mod surface_motion;
+#[cfg(test)]
+mod test_camera;
 #[cfg(test)]
 mod test_lights;
 
@@ -52,3 +55,4 @@ pub use render::{
 };
 pub use render_scene::{RenderScene, SceneUpdate, Surface};
 pub use settings::{PixelEstimate, RenderSettings, RenderStats};
+pub use surface_motion::{deformation_back, pixel_hits, MeshPoses, PixelHit};

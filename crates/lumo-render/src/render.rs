@@ -13,7 +13,7 @@ use crate::camera_sample::camera_sample;
 use crate::film::Frame;
 use crate::integrators::path::wavefront::{estimate, render_pixel_sums, render_pixels};
 use crate::integrators::path::{trace_path, FirstHit, PathRadiance};
-use crate::parallel::{map_pixels, map_rows};
+use crate::parallel::map_rows;
 use crate::pixel_sums::PixelSums;
 use crate::render_scene::RenderScene;
 use crate::sampler::PixelSampler;
@@ -103,12 +103,10 @@ pub fn instance_ids(
     width: usize,
     height: usize,
 ) -> Vec<u32> {
-    map_pixels(width, height, &|_| {}, |x, y| {
-        let (origin, dir) = camera.ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5), Vec2::splat(0.5));
-        rs.accel
-            .intersect(origin, dir, 0.0, f32::INFINITY)
-            .map_or(u32::MAX, |hit| hit.instance)
-    })
+    crate::pixel_hits(rs, camera, width, height)
+        .into_iter()
+        .map(|hit| hit.instance)
+        .collect()
 }
 
 /// Renders the full frame. `progress` is called with the number of rows finished so far.

@@ -12,18 +12,23 @@
 //! history outlives the restart ([`TemporalHistory`]) and is reprojected with the motion of the
 //! camera and, when an animation moved the scene's instances between the two frames
 //! (`lumo serve --animate`), with each instance's own motion (an instance id per pixel, traced
-//! through the pixel centres once per render); after that the running mean of the still
+//! through the pixel centres once per render) and, on meshes that skins or morph targets
+//! deform, each point's own deformation (found by its triangle and barycentrics in the
+//! previous frame's vertex positions); after that the running mean of the still
 //! camera's frames takes over and converges as before.
 
 use glam::{Mat4, Vec3};
 use lumo_filter::{
-    object_motion, object_motion_vectors, pinhole_view_projection, with_emitted, AtrousDenoiser,
-    AtrousParams, Denoiser, Features, FilterInput, GuidedDenoiser, TemporalFilter, TemporalFrame,
-    TemporalParams,
+    object_motion, object_motion_vectors, pinhole_view_projection, surface_motion_vectors,
+    with_emitted, AtrousDenoiser, AtrousParams, Denoiser, Features, FilterInput, GuidedDenoiser,
+    TemporalFilter, TemporalFrame, TemporalParams,
 };
 use lumo_image::{luminance, Image};
 use lumo_render::integrators::path::wavefront::render_pixels_from;
-use lumo_render::{camera::PinholeCamera, instance_ids, RenderScene, RenderSettings};
+use lumo_render::{
+    camera::PinholeCamera, deformation_back, instance_ids, pixel_hits, MeshPoses, PixelHit,
+    RenderScene, RenderSettings,
+};
 use rayon::prelude::*;
 
 use crate::protocol::Mode;
@@ -44,6 +49,10 @@ pub struct TemporalHistory {
     view_proj: Option<Mat4>,
     /// The instance transforms (object → world) of the scene of the last frame fed.
     transforms: Vec<Mat4>,
+    /// The meshes skins or morph targets deform (indices into the scene's meshes).
+    deforming: Vec<usize>,
+    /// Their vertex positions in the scene of the last frame fed, when there are any.
+    poses: Option<MeshPoses>,
 }
 
 impl TemporalHistory {
@@ -54,7 +63,16 @@ impl TemporalHistory {
             filter: TemporalFilter::new(TemporalParams::sequence()).ok()?,
             view_proj: None,
             transforms: Vec::new(),
+            deforming: Vec::new(),
+            poses: None,
         })
+    }
+
+    /// Follows the points of `meshes` (those skins or morph targets deform) through their
+    /// deformation between frames, not only their instance's transform.
+    pub fn deforming(mut self, meshes: Vec<usize>) -> Self {
+        self.deforming = meshes;
+        self
     }
 
     /// Forgets the history (the lighting changed): the next frame starts afresh.
@@ -62,6 +80,7 @@ impl TemporalHistory {
         self.filter.reset();
         self.view_proj = None;
         self.transforms.clear();
+        self.poses = None;
     }
 }
 
@@ -94,6 +113,9 @@ pub struct FrameAccumulator {
     /// The instance under each pixel centre, traced when the temporal filter first needs it
     /// (instances moved since the frame its history holds).
     ids: Option<Vec<u32>>,
+    /// The first hit under each pixel centre (instance, triangle, barycentrics), traced
+    /// instead of `ids` when a deforming mesh changed since the history's frame.
+    hits: Option<Vec<PixelHit>>,
     /// The À-Trous filter; it keeps its working memory from frame to frame.
     atrous: AtrousDenoiser,
     /// The guided filter (4-dimensional guide: normal and depth over its range).
@@ -133,6 +155,7 @@ impl FrameAccumulator {
             depth: Image::new(w, h, 1, 0.0),
             emitter: vec![false; w * h],
             ids: None,
+            hits: None,
             atrous: AtrousDenoiser::new(AtrousParams {
                 demodulate: true,
                 ..AtrousParams::default()
@@ -259,12 +282,28 @@ impl FrameAccumulator {
         let color = planar(w, h, self.last.iter().copied());
         let transforms: Vec<Mat4> = rs.scene.instances.iter().map(|i| i.transform).collect();
         let back = object_motion(&history.transforms, &transforms);
+        let deformed = (history.poses.as_ref()).filter(|then| then.deformed_since(&rs.scene));
+        if self.hits.is_none() && deformed.is_some() {
+            let hits = pixel_hits(rs, &self.rays, w, h);
+            self.ids = Some(hits.iter().map(|h| h.instance).collect());
+            self.hits = Some(hits);
+        }
         if self.ids.is_none() && back.iter().any(|m| *m != Mat4::IDENTITY) {
             self.ids = Some(instance_ids(rs, &self.rays, w, h));
         }
         let motion = history.view_proj.map(|prev| {
             let ids = self.ids.as_deref().unwrap_or_default();
-            object_motion_vectors(&prev, &self.view_proj, &self.position, ids, &back)
+            match (deformed, &self.hits) {
+                (Some(then), Some(hits)) => surface_motion_vectors(
+                    &prev,
+                    &self.view_proj,
+                    &self.position,
+                    ids,
+                    &back,
+                    &deformation_back(&rs.scene, hits, then),
+                ),
+                _ => object_motion_vectors(&prev, &self.view_proj, &self.position, ids, &back),
+            }
         });
         let emitted = planar(w, h, self.last_emitted.iter().copied());
         let image = with_emitted(&color, &self.emitter, &emitted, |c| {
@@ -282,6 +321,8 @@ impl FrameAccumulator {
         .image;
         history.view_proj = Some(self.view_proj);
         history.transforms = transforms;
+        history.poses = (!history.deforming.is_empty())
+            .then(|| MeshPoses::capture(&rs.scene, &history.deforming));
         Some(self.to_xyz(image.data, Mode::Atrous))
     }
 
@@ -426,25 +467,20 @@ mod tests {
         );
     }
 
-    /// An instance that moved between two frames (an animation's next pose) keeps its
-    /// history: the ids traced for the frame carry each box pixel back to where the box was,
-    /// so the first frame of the new pose is closer to the converged image on the box than
-    /// with camera motion alone (where the box's history is missed or misplaced). Measured:
-    /// 0.63–0.66× the camera-only MSE for steps of 0.12–0.18 (3–4 px); 0.87× at 0.25 and
-    /// worse at 0.45, where the box's lighting changes so much that its carried history is
-    /// stale (the per-pose steps of an animation at interactive rates are small).
-    #[test]
-    fn a_moving_instance_keeps_its_temporal_history() {
-        let scene = lumo_scene::builtin_scene("cornell").expect("built-in");
-        let job = atrous_job(scene.camera.clone());
-        let mut moved = scene.clone();
-        let large_box = moved.instances.len() - 1;
-        moved.instances[large_box].transform = Mat4::from_translation(Vec3::new(0.15, 0.0, 0.0));
+    /// The MSE, on the pixels of instance `on`, of the first À-Trous frame of scene `after`
+    /// against its converged image, after `TEMPORAL_FRAMES` frames of `before` fed to
+    /// `tracked` and to a history that knows only the camera: (tracked, camera only).
+    fn first_frame_mse(
+        before: lumo_scene::Scene,
+        after: lumo_scene::Scene,
+        on: usize,
+        mut tracked: TemporalHistory,
+    ) -> (f64, f64) {
+        let job = atrous_job(before.camera.clone());
         let (before, after) = (
-            RenderScene::new(scene).expect("scene"),
-            RenderScene::new(moved).expect("scene"),
+            RenderScene::new(before).expect("scene"),
+            RenderScene::new(after).expect("scene"),
         );
-        let mut tracked = TemporalHistory::new().expect("default parameters");
         let mut camera_only = TemporalHistory::new().expect("default parameters");
         let mut still = FrameAccumulator::new(&job);
         for i in 0..TEMPORAL_FRAMES {
@@ -467,7 +503,7 @@ mod tests {
         };
         let (with_ids, ids) = first(&mut tracked);
         let (without, no_ids) = first(&mut camera_only);
-        let ids = ids.expect("the box moved: ids traced");
+        let ids = ids.expect("the object moved: ids traced");
         assert!(no_ids.is_none());
         let mut reference = FrameAccumulator::new(&job);
         for i in 0..128 {
@@ -476,22 +512,68 @@ mod tests {
                 .expect("not aborted");
         }
         let reference = reference.filtered(Mode::Atrous).expect("a frame").xyz;
-        let on_box: Vec<usize> = (0..ids.len())
-            .filter(|&i| ids[i] == large_box as u32)
-            .collect();
-        assert!(on_box.len() > 100, "the box covers {} pixels", on_box.len());
+        let on_it: Vec<usize> = (0..ids.len()).filter(|&i| ids[i] == on as u32).collect();
+        assert!(
+            on_it.len() > 100,
+            "the object covers {} pixels",
+            on_it.len()
+        );
         let mse = |a: &[f32]| {
-            let sum: f64 = on_box
+            let sum: f64 = on_it
                 .iter()
                 .flat_map(|&i| 3 * i..3 * i + 3)
                 .map(|c| ((a[c] - reference[c]) as f64).powi(2))
                 .sum();
-            sum / (3 * on_box.len()) as f64
+            sum / (3 * on_it.len()) as f64
         };
-        let (t, c) = (mse(&with_ids), mse(&without));
+        (mse(&with_ids), mse(&without))
+    }
+
+    /// An instance that moved between two frames (an animation's next pose) keeps its
+    /// history: the ids traced for the frame carry each box pixel back to where the box was,
+    /// so the first frame of the new pose is closer to the converged image on the box than
+    /// with camera motion alone (where the box's history is missed or misplaced). Measured:
+    /// 0.63–0.66× the camera-only MSE for steps of 0.12–0.18 (3–4 px); 0.87× at 0.25 and
+    /// worse at 0.45, where the box's lighting changes so much that its carried history is
+    /// stale (the per-pose steps of an animation at interactive rates are small).
+    #[test]
+    fn a_moving_instance_keeps_its_temporal_history() {
+        let scene = lumo_scene::builtin_scene("cornell").expect("built-in");
+        let mut moved = scene.clone();
+        let large_box = moved.instances.len() - 1;
+        moved.instances[large_box].transform = Mat4::from_translation(Vec3::new(0.15, 0.0, 0.0));
+        let tracked = TemporalHistory::new().expect("default parameters");
+        let (t, c) = first_frame_mse(scene, moved, large_box, tracked);
         assert!(
             t < 0.75 * c,
             "MSE on the moved box: with its motion {t}, camera motion only {c}"
+        );
+    }
+
+    /// The same step made by deforming the box's mesh (its vertices move, its instance
+    /// transform stays: a skin or a morph target) keeps the history too, once the history
+    /// knows the mesh deforms; without that the box's pixels are carried back as if static.
+    #[test]
+    fn a_deforming_mesh_keeps_its_temporal_history() {
+        let scene = lumo_scene::builtin_scene("cornell").expect("built-in");
+        let mut moved = scene.clone();
+        let large_box = moved.instances.len() - 1;
+        let mesh = moved.instances[large_box].mesh;
+        assert_eq!(
+            moved.instances.iter().filter(|i| i.mesh == mesh).count(),
+            1,
+            "the box's mesh is its own"
+        );
+        for p in &mut moved.meshes[mesh].positions {
+            p.x += 0.15;
+        }
+        let tracked = TemporalHistory::new()
+            .expect("default parameters")
+            .deforming(vec![mesh]);
+        let (t, c) = first_frame_mse(scene.clone(), moved.clone(), large_box, tracked);
+        assert!(
+            t < 0.75 * c,
+            "MSE on the deformed box: with its deformation {t}, camera motion only {c}"
         );
     }
 

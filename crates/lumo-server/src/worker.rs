@@ -207,7 +207,14 @@ impl RenderWorker {
             active: Mutex::new(0),
             idle: Condvar::new(),
             on_finish,
-            temporal: Mutex::new(TemporalHistory::new()),
+            temporal: Mutex::new(TemporalHistory::new().map(|h| {
+                h.deforming(
+                    rig.iter()
+                        .flat_map(|r| &r.deformers)
+                        .map(|d| d.mesh)
+                        .collect(),
+                )
+            })),
             posed_at: AtomicU64::new(u64::MAX),
         });
         let (tx, rx) = mpsc::channel();

@@ -163,6 +163,13 @@ impl Sequence {
         self.rig.is_some()
     }
 
+    /// The meshes that skins or morph targets deform (indices into the scene's meshes).
+    pub fn deforming_meshes(&self) -> Vec<usize> {
+        self.rig.as_ref().map_or_else(Vec::new, |rig| {
+            rig.deformers.iter().map(|d| d.mesh).collect()
+        })
+    }
+
     /// The file of `frame` for output `base`.
     pub fn frame_path(&self, base: &Path, frame: u32) -> PathBuf {
         frame_file(base, frame, frame_digits(self.frames.last))
@@ -199,7 +206,11 @@ impl Sequence {
             }
             let reshade = (s.spp == 1).then_some(s.path);
             let split = super::temporal::splits_direct_light(&s.path);
-            Some(TemporalSequence::new(self.rig.is_some(), reshade, split).context("--temporal")?)
+            Some(
+                TemporalSequence::new(self.rig.is_some(), reshade, split)
+                    .context("--temporal")?
+                    .deforming(self.deforming_meshes()),
+            )
         } else {
             None
         };

@@ -7,18 +7,24 @@
 //! its instance's transform now and that transform then, when instances move — and projected
 //! with the previous camera. The instance under each pixel centre is found by one ray per
 //! pixel, only when the scene animates (a camera orbit needs none); the same ids also reject
-//! history that belonged to another object.
+//! history that belonged to another object. On a mesh that deforms (a skin, morph targets) the
+//! point is instead found again by its triangle and barycentric coordinates in the previous
+//! frame's vertex positions (`lumo_render::deformation_back`).
 
 use std::time::{Duration, Instant};
 
 use glam::Mat4;
 use lumo_filter::{
-    object_motion, object_motion_vectors, pinhole_view_projection, with_emitted, FilterError,
-    Resample, TemporalAntialias, TemporalFilter, TemporalFrame, TemporalParams,
+    object_motion, object_motion_vectors, pinhole_view_projection, surface_motion_vectors,
+    with_emitted, FilterError, Resample, TemporalAntialias, TemporalFilter, TemporalFrame,
+    TemporalParams,
 };
 use lumo_image::Image;
 use lumo_render::camera::PinholeCamera;
-use lumo_render::{direct_split_into, instance_ids, DirectSplit, Frame, PathSettings, RenderScene};
+use lumo_render::{
+    deformation_back, direct_split_into, instance_ids, pixel_hits, DirectSplit, Frame, MeshPoses,
+    PathSettings, PixelHit, RenderScene,
+};
 use lumo_scene::Camera;
 
 use super::reshade::{reshade, Pose, ShadedFrame};
@@ -32,6 +38,8 @@ struct View {
     transforms: Vec<Mat4>,
     /// The instance under each pixel centre, when instances move.
     ids: Option<Vec<u32>>,
+    /// The deforming meshes' vertex positions and the instance transforms, when meshes deform.
+    poses: Option<MeshPoses>,
     /// The traced frame, for re-shading (when on).
     shaded: Option<ShadedFrame>,
 }
@@ -67,6 +75,9 @@ pub struct TemporalSequence {
     jitter: bool,
     /// Instances move (an animated scene): trace ids and follow each instance's motion.
     object_motion: bool,
+    /// Meshes (indices into the scene's) that skins or morph targets deform: their points are
+    /// followed by triangle and barycentrics ([`TemporalSequence::deforming`]).
+    deforming: Vec<usize>,
     /// The path settings frames are traced with, when the history rejection re-shades
     /// samples of the previous frame (`super::reshade`); `None`: the windowed test.
     reshade: Option<PathSettings>,
@@ -115,6 +126,7 @@ impl TemporalSequence {
             prev: None,
             jitter: tuned("jit").is_some_and(|v| v != 0.0),
             object_motion,
+            deforming: Vec::new(),
             reshade: reshade.filter(|_| tuned("rs") != Some(0.0)),
             ratio: if split_direct {
                 Some(TemporalFilter::new(ratio_params())?)
@@ -123,6 +135,18 @@ impl TemporalSequence {
             },
             buffers: Buffers::default(),
         })
+    }
+
+    /// Follows the points of `meshes` (indices into the scene's meshes: those skins or morph
+    /// targets deform) through their deformation, not only their instance's transform. Only
+    /// with `object_motion` (an animated scene).
+    pub fn deforming(mut self, meshes: Vec<usize>) -> Self {
+        self.deforming = if self.object_motion {
+            meshes
+        } else {
+            Vec::new()
+        };
+        self
     }
 
     /// The camera to trace frame number `i` of the sequence (counting from 0) with, and its
@@ -158,26 +182,46 @@ impl TemporalSequence {
         let start = Instant::now();
         let c = &rs.scene.camera;
         let (hw, hh) = c.half_extent(w, h);
+        let deforms = !self.deforming.is_empty();
+        // Deforming meshes need each pixel's triangle and barycentrics; otherwise the
+        // instance is enough.
+        let hits: Option<Vec<PixelHit>> =
+            deforms.then(|| pixel_hits(rs, &PinholeCamera::new(c, w, h), w, h));
+        let ids = match &hits {
+            Some(hits) => Some(hits.iter().map(|h| h.instance).collect()),
+            None => self
+                .object_motion
+                .then(|| instance_ids(rs, &PinholeCamera::new(c, w, h), w, h)),
+        };
         let mut view = View {
             view_proj: pinhole_view_projection(c.origin, c.target, c.up, [hw, hh]),
             jitter,
             transforms: rs.scene.instances.iter().map(|i| i.transform).collect(),
-            ids: self
-                .object_motion
-                .then(|| instance_ids(rs, &PinholeCamera::new(c, w, h), w, h)),
+            ids,
+            poses: deforms.then(|| MeshPoses::capture(&rs.scene, &self.deforming)),
             shaded: None,
         };
         let ids = view.ids.as_deref();
         let motion = self.prev.as_ref().map(|prev| {
             let back = object_motion(&prev.transforms, &view.transforms);
             let ids = ids.unwrap_or_default();
-            object_motion_vectors(
-                &prev.view_proj,
-                &view.view_proj,
-                &frame.position,
-                ids,
-                &back,
-            )
+            match (&hits, &prev.poses) {
+                (Some(hits), Some(then)) => surface_motion_vectors(
+                    &prev.view_proj,
+                    &view.view_proj,
+                    &frame.position,
+                    ids,
+                    &back,
+                    &deformation_back(&rs.scene, hits, then),
+                ),
+                _ => object_motion_vectors(
+                    &prev.view_proj,
+                    &view.view_proj,
+                    &frame.position,
+                    ids,
+                    &back,
+                ),
+            }
         });
         let motion_time = start.elapsed();
         // The split and the re-shading are independent, and so are the two temporal filters

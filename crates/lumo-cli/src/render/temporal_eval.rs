@@ -92,7 +92,8 @@ pub fn run(
         (settings.spp == 1).then_some(settings.path),
         super::temporal::splits_direct_light(&settings.path),
     )
-    .context("temporal filter")?;
+    .context("temporal filter")?
+    .deforming(seq.deforming_meshes());
     let flip = FlipSettings::default();
     let mut rows = Vec::new();
     let mut prev: Option<Previous> = None;

@@ -21,7 +21,7 @@ use rayon::prelude::*;
 
 pub use motion::{
     motion_vectors, object_motion, object_motion_vectors, pinhole_view_projection,
-    project_to_pixel, NO_OBJECT,
+    project_to_pixel, surface_motion_vectors, NO_OBJECT,
 };
 pub use reshade::ShadingChange;
 pub use taa::{TemporalAntialias, DEFAULT_TAA_ALPHA, DEFAULT_TAA_GAMMA};

@@ -58,7 +58,7 @@ pub fn project_to_pixel(
 /// where the position is not finite (background) or behind either camera: such pixels keep
 /// no history.
 pub fn motion_vectors(prev_view_proj: &Mat4, view_proj: &Mat4, position: &Image) -> Image {
-    moving_points(prev_view_proj, view_proj, position, None)
+    moving_points(prev_view_proj, view_proj, position, None, None)
 }
 
 /// Id of a pixel that shows no object (its camera ray hit nothing), in the `ids` planes of
@@ -79,7 +79,25 @@ pub fn object_motion_vectors(
     back: &[Mat4],
 ) -> Image {
     let objects = (ids.len() == position.width * position.height).then_some((ids, back));
-    moving_points(prev_view_proj, view_proj, position, objects)
+    moving_points(prev_view_proj, view_proj, position, objects, None)
+}
+
+/// [`object_motion_vectors`] of a scene whose surfaces may also deform (skins, morph
+/// targets): where `steps[i]` is finite it is the world-space step from pixel i's point back
+/// to where that surface point was (lumo-render's `deformation_back`), taken instead of its
+/// object's transform. `steps` must have one entry per pixel; otherwise it is ignored.
+pub fn surface_motion_vectors(
+    prev_view_proj: &Mat4,
+    view_proj: &Mat4,
+    position: &Image,
+    ids: &[u32],
+    back: &[Mat4],
+    steps: &[Vec3],
+) -> Image {
+    let n = position.width * position.height;
+    let objects = (ids.len() == n).then_some((ids, back));
+    let steps = (steps.len() == n).then_some(steps);
+    moving_points(prev_view_proj, view_proj, position, objects, steps)
 }
 
 /// Per object, the transform that carries a point from where the object is now back to where
@@ -102,13 +120,15 @@ pub fn object_motion(prev: &[Mat4], now: &[Mat4]) -> Vec<Mat4> {
         .collect()
 }
 
-/// The motion vectors of `position`'s points, each first carried back by its object's
-/// transform when `objects` (ids per pixel, transform per id) are given.
+/// The motion vectors of `position`'s points, each first carried back by its finite step in
+/// `steps` or else by its object's transform when `objects` (ids per pixel, transform per
+/// id) are given.
 fn moving_points(
     prev_view_proj: &Mat4,
     view_proj: &Mat4,
     position: &Image,
     objects: Option<(&[u32], &[Mat4])>,
+    steps: Option<&[Vec3]>,
 ) -> Image {
     let (w, h) = (position.width, position.height);
     let pc = position.channels;
@@ -127,9 +147,14 @@ fn moving_points(
                 if !p.is_finite() {
                     continue;
                 }
-                let then = match objects.and_then(|(ids, back)| back.get(ids[i] as usize)) {
-                    Some(m) => m.transform_point3(p),
-                    None => p,
+                let step = steps.map(|s| s[i]).filter(|s| s.is_finite());
+                let then = match (
+                    step,
+                    objects.and_then(|(ids, back)| back.get(ids[i] as usize)),
+                ) {
+                    (Some(s), _) => p + s,
+                    (None, Some(m)) => m.transform_point3(p),
+                    (None, None) => p,
                 };
                 let (Some(a), Some(b)) = (
                     project_to_pixel(prev_view_proj, then, w, h),

@@ -161,22 +161,16 @@ pub(super) fn area_emission(
 mod tests {
     use super::*;
     use lumo_scene::shapes::rectangle;
-    use lumo_scene::{Camera, FovAxis, Light, Mat4, Material, Scene};
+    use lumo_scene::{Light, Mat4, Material, Scene};
 
     /// The particles' weights average to the lights' total power (∫∫ Le cos dA dω = π A Le for
     /// an area light, 4π I for a point light, I ∫ falloff dω for a spot, E π r² for a directional
     /// light over the scene's disk), and environment lights emit none.
     #[test]
     fn emission_weights_average_to_the_total_power() {
-        let mut scene = Scene::empty(Camera {
-            origin: Vec3::new(0.0, 0.0, 5.0),
-            target: Vec3::ZERO,
-            up: Vec3::Y,
-            fov: 40.0,
-            fov_axis: FovAxis::X,
-            lens: Default::default(),
-            filter: Default::default(),
-        });
+        let mut scene = Scene::empty(crate::test_camera::camera_facing_origin(Vec3::new(
+            0.0, 0.0, 5.0,
+        )));
         let m = scene
             .add_material(Material::diffuse("light", Vec3::ZERO).with_emission(Vec3::splat(3.0)));
         // A 2 × 1 rectangle (Mitsuba's rectangle spans [-1, 1]²).

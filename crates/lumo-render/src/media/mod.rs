@@ -28,19 +28,11 @@ pub fn refusal(scene: &lumo_scene::Scene, integrator: &str, renders_media: bool)
 
 #[cfg(test)]
 mod tests {
-    use lumo_scene::{Camera, FovAxis, Medium, PhaseFunction, Scene, Vec3};
+    use lumo_scene::{Medium, PhaseFunction, Scene, Vec3};
 
     #[test]
     fn photon_mapping_refuses_media() {
-        let mut scene = Scene::empty(Camera {
-            origin: Vec3::Z,
-            target: Vec3::ZERO,
-            up: Vec3::Y,
-            fov: 40.0,
-            fov_axis: FovAxis::X,
-            lens: Default::default(),
-            filter: Default::default(),
-        });
+        let mut scene = Scene::empty(crate::test_camera::camera_facing_origin(Vec3::Z));
         let refusal = |scene: &Scene, i: crate::Integrator| i.media_refusal(scene);
         assert_eq!(refusal(&scene, crate::Integrator::Ppm), None);
         scene.media.media.push(Medium {

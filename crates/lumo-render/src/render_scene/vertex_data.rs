@@ -86,7 +86,7 @@ impl RenderScene {
 mod tests {
     use glam::{Mat4, Vec3};
     use lumo_scene::shapes::rectangle;
-    use lumo_scene::{BsdfSpec, Camera, FovAxis, Instance, Material, Scene, Texture};
+    use lumo_scene::{BsdfSpec, Instance, Material, Scene, Texture};
 
     use crate::render_scene::RenderScene;
 
@@ -94,15 +94,9 @@ mod tests {
     /// factor 0.8 × vertex alpha rising linearly from 0 at x = −1 to 1 at x = 1, thresholded
     /// at the hit for MASK (`cutoff`).
     fn opacities(cutoff: Option<f32>) -> Vec<(f32, f32, f32)> {
-        let mut scene = Scene::empty(Camera {
-            origin: Vec3::new(0.0, 0.0, 5.0),
-            target: Vec3::ZERO,
-            up: Vec3::Y,
-            fov: 40.0,
-            fov_axis: FovAxis::X,
-            lens: Default::default(),
-            filter: Default::default(),
-        });
+        let mut scene = Scene::empty(crate::test_camera::camera_facing_origin(Vec3::new(
+            0.0, 0.0, 5.0,
+        )));
         let mut m = Material::diffuse("leaf", Vec3::splat(0.5));
         m.bsdf = BsdfSpec::Mask {
             opacity: Texture::Constant(Vec3::splat(0.8)),
@@ -161,7 +155,7 @@ mod tests {
 mod tangent_tests {
     use glam::{Mat4, Vec3, Vec4};
     use lumo_scene::shapes::rectangle;
-    use lumo_scene::{Camera, FovAxis, Instance, Material, Scene, Texture};
+    use lumo_scene::{Instance, Material, Scene, Texture};
 
     use crate::render_scene::RenderScene;
 
@@ -169,15 +163,9 @@ mod tangent_tests {
     /// the z = 0 quad (uvs along x and y, so ∂p/∂u = +x) whose vertices carry `tangents`,
     /// placed as is and mirrored in x.
     fn mapped(tangents: Vec<Vec4>, c: Vec3) -> [Vec3; 2] {
-        let mut scene = Scene::empty(Camera {
-            origin: Vec3::new(0.0, 0.0, 5.0),
-            target: Vec3::ZERO,
-            up: Vec3::Y,
-            fov: 40.0,
-            fov_axis: FovAxis::X,
-            lens: Default::default(),
-            filter: Default::default(),
-        });
+        let mut scene = Scene::empty(crate::test_camera::camera_facing_origin(Vec3::new(
+            0.0, 0.0, 5.0,
+        )));
         let m = scene.add_material(Material::diffuse("m", Vec3::splat(0.5)));
         let mut quad = rectangle(&Mat4::IDENTITY, m);
         quad.tangents = tangents;

@@ -457,6 +457,46 @@ fn object_motion_follows_the_object() {
         .all(|m| *m == glam::Mat4::IDENTITY));
 }
 
+/// A deformed point's own step back wins over its object's transform; a NaN step falls back
+/// to the transform, bit for bit as `object_motion_vectors`.
+#[test]
+fn a_deformed_point_follows_its_own_step() {
+    let (w, h) = (64, 64);
+    let vp = pinhole_view_projection(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y, [0.5, 0.5]);
+    let back = object_motion(
+        &[glam::Mat4::IDENTITY],
+        &[glam::Mat4::from_translation(Vec3::X)],
+    );
+    let mut position = Image::new(w, h, 3, f32::NAN);
+    let centre = 32 * w + 32;
+    for i in [centre, centre + 1] {
+        position.data[i * 3..i * 3 + 3].copy_from_slice(&[0.5, 0.0, 0.0]);
+    }
+    let ids = vec![0; w * h];
+    let mut steps = vec![Vec3::NAN; w * h];
+    steps[centre] = Vec3::new(0.0, 0.5, 0.0);
+    let m = surface_motion_vectors(&vp, &vp, &position, &ids, &back, &steps);
+    // Half a unit up at distance 5 is 6.4 pixels up (y down on the image).
+    assert!(
+        (m.data[centre * 2 + 1] + 6.4).abs() < 1e-3,
+        "{}",
+        m.data[centre * 2 + 1]
+    );
+    assert!(m.data[centre * 2].abs() < 1e-4);
+    let rigid = object_motion_vectors(&vp, &vp, &position, &ids, &back);
+    assert_eq!(
+        m.data[(centre + 1) * 2].to_bits(),
+        rigid.data[(centre + 1) * 2].to_bits()
+    );
+    assert!((m.data[(centre + 1) * 2] + 12.8).abs() < 1e-3);
+    // Steps of the wrong size are ignored.
+    let short = surface_motion_vectors(&vp, &vp, &position, &ids, &back, &steps[1..]);
+    assert_eq!(
+        short.data[centre * 2].to_bits(),
+        rigid.data[centre * 2].to_bits()
+    );
+}
+
 #[test]
 fn motion_vectors_of_a_sideways_camera_step() {
     let (w, h) = (64, 48);

@@ -1,0 +1,130 @@
+//! Where each pixel's surface point was one frame ago on meshes that deform (skins, morph
+//! targets): a rigid instance's point is carried back by its transform alone, but a deforming
+//! mesh's point must be found again by its triangle and barycentric coordinates in the
+//! previous frame's vertex positions.
+
+use crate::camera::PinholeCamera;
+use crate::parallel::map_pixels;
+use crate::RenderScene;
+use glam::{Mat4, Vec2, Vec3};
+use lumo_scene::Scene;
+
+/// The first surface each pixel centre's camera ray hits.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PixelHit {
+    /// Index into the scene's instances; [`PixelHit::NONE`]'s `u32::MAX` where the ray
+    /// hits nothing.
+    pub instance: u32,
+    /// Triangle index within the instance's mesh (meaningless on analytic shapes).
+    pub triangle: u32,
+    /// Barycentric weights of the triangle's second and third vertices.
+    pub uv: [f32; 2],
+}
+
+impl PixelHit {
+    /// A pixel whose ray hits nothing.
+    pub const NONE: PixelHit = PixelHit {
+        instance: u32::MAX,
+        triangle: 0,
+        uv: [0.0; 2],
+    };
+}
+
+/// The first hit of each pixel centre's camera ray, row-major: the same rays as
+/// [`crate::instance_ids`], with the triangle and barycentrics kept.
+pub fn pixel_hits(
+    rs: &RenderScene,
+    camera: &PinholeCamera,
+    width: usize,
+    height: usize,
+) -> Vec<PixelHit> {
+    map_pixels(width, height, &|_| {}, |x, y| {
+        let (origin, dir) = camera.ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5), Vec2::splat(0.5));
+        rs.accel
+            .intersect(origin, dir, 0.0, f32::INFINITY)
+            .map_or(PixelHit::NONE, |hit| PixelHit {
+                instance: hit.instance,
+                triangle: hit.triangle,
+                uv: [hit.u, hit.v],
+            })
+    })
+}
+
+/// The vertex positions of the meshes that deform, and every instance's transform, at one
+/// frame: what the next frame needs to find where its deforming surface points were.
+#[derive(Clone, Debug, Default)]
+pub struct MeshPoses {
+    /// (mesh index, its positions at this frame), for each deforming mesh.
+    meshes: Vec<(usize, Vec<Vec3>)>,
+    /// Instance transforms (object → world).
+    transforms: Vec<Mat4>,
+}
+
+impl MeshPoses {
+    /// The positions of `deforming` (mesh indices; those out of range are skipped) and the
+    /// instance transforms of `scene` as they are now.
+    pub fn capture(scene: &Scene, deforming: &[usize]) -> Self {
+        Self {
+            meshes: deforming
+                .iter()
+                .filter_map(|&m| Some((m, scene.meshes.get(m)?.positions.clone())))
+                .collect(),
+            transforms: scene.instances.iter().map(|i| i.transform).collect(),
+        }
+    }
+
+    /// Whether no mesh deforms (then [`deformation_back`] has nothing to do).
+    pub fn is_empty(&self) -> bool {
+        self.meshes.is_empty()
+    }
+
+    /// Whether a deforming mesh of `scene` has other vertex positions than these (it was
+    /// re-posed since they were captured).
+    pub fn deformed_since(&self, scene: &Scene) -> bool {
+        self.meshes.iter().any(|(m, p)| {
+            scene
+                .meshes
+                .get(*m)
+                .is_some_and(|mesh| mesh.positions != *p)
+        })
+    }
+
+    fn positions(&self, mesh: usize) -> Option<&[Vec3]> {
+        self.meshes
+            .iter()
+            .find(|(m, _)| *m == mesh)
+            .map(|(_, p)| p.as_slice())
+    }
+}
+
+/// Per pixel, the world-space step from where its surface point is now back to where it was
+/// at `then`, for pixels whose hit (`hits`, this frame's [`pixel_hits`]) lies on a mesh that
+/// deformed; NaN elsewhere (no hit, a rigid mesh, a mesh whose vertex or triangle count
+/// changed, an instance that did not exist then): those pixels keep the rigid motion.
+///
+/// The step is the hit's triangle point (same barycentrics) under then's positions and
+/// transform minus the same under now's, so it includes the instance's own motion.
+pub fn deformation_back(scene: &Scene, hits: &[PixelHit], then: &MeshPoses) -> Vec<Vec3> {
+    let point = |positions: &[Vec3], indices: [u32; 3], uv: [f32; 2], m: &Mat4| {
+        let [a, b, c] = indices.map(|i| positions.get(i as usize).copied());
+        let (a, b, c) = (a?, b?, c?);
+        Some(m.transform_point3(a * (1.0 - uv[0] - uv[1]) + b * uv[0] + c * uv[1]))
+    };
+    let back = |hit: &PixelHit| -> Option<Vec3> {
+        let i = hit.instance as usize;
+        let inst = scene.instances.get(i)?;
+        let before = then.positions(inst.mesh)?;
+        let mesh = scene.meshes.get(inst.mesh)?;
+        if before.len() != mesh.positions.len() || mesh.analytic.is_some() {
+            return None;
+        }
+        let tri = *mesh.indices.get(hit.triangle as usize)?;
+        let was = point(before, tri, hit.uv, then.transforms.get(i)?)?;
+        let is = point(&mesh.positions, tri, hit.uv, &inst.transform)?;
+        Some(was - is)
+    };
+    hits.iter().map(|h| back(h).unwrap_or(Vec3::NAN)).collect()
+}
+
+#[cfg(test)]
+mod tests;
