@@ -8,9 +8,47 @@ the relMSE, FLIP and OIDN columns of docs/results/heldout.md:
 
 For a change to the filter's defaults, when the references' ~80 CPU-minutes are not
 affordable: each frame is denoised by `lumo denoise --input-dir` (every default) and scored by
-`lumo compare`. Prints a line per frame and the ratios to OIDN the issue's targets name."""
+`lumo compare`. Prints a line per frame (with the worst 32×32 block: the block where auto's
+relMSE is the largest multiple of the unfiltered input's, computed as `lumo bench quality`'s
+`worst_block` does) and the ratios to OIDN the issue's targets name; `--json FILE` also
+writes the per-frame numbers."""
 import json, os, subprocess, sys, statistics, tempfile
-L=sys.argv[1] if len(sys.argv) > 1 else "target/release/lumo"
+import numpy as np
+
+BLOCK = 32
+
+def read_pfm(path):
+    """A PFM file as a (height, width, channels) float array, top row first."""
+    with open(path, "rb") as fh:
+        kind = fh.readline().strip()
+        w, h = map(int, fh.readline().split())
+        scale = float(fh.readline())
+        ch = 3 if kind == b"PF" else 1
+        data = np.frombuffer(fh.read(), dtype="<f4" if scale < 0 else ">f4", count=w * h * ch)
+    return data.reshape(h, w, ch)[::-1].astype(np.float64)
+
+def block_errors(ref, img):
+    """relMSE (epsilon 0.01) summed per BLOCK x BLOCK block, partial blocks kept."""
+    e = (img[..., :3] - ref[..., :3]) ** 2 / (ref[..., :3] ** 2 + 0.01)
+    e = np.where(np.isfinite(e), e, 0.0).sum(axis=2)
+    h, w = e.shape
+    bh, bw = -(-h // BLOCK), -(-w // BLOCK)
+    padded = np.zeros((bh * BLOCK, bw * BLOCK))
+    padded[:h, :w] = e
+    return padded.reshape(bh, BLOCK, bw, BLOCK).sum(axis=(1, 3))
+
+def worst_block(ref, noisy, img):
+    """(ratio, column, row) of the block where img's error is the largest multiple of noisy's."""
+    base, err = block_errors(ref, noisy), block_errors(ref, img)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(base > 0, err / base, np.where(err > 0, np.inf, -1.0))
+    k = int(np.argmax(ratio))
+    return float(ratio.flat[k]), k % ratio.shape[1], k // ratio.shape[1]
+args = sys.argv[1:]
+json_out = None
+if "--json" in args:
+    i = args.index("--json"); json_out = args[i + 1]; del args[i:i + 2]
+L=args[0] if args else "target/release/lumo"
 cases=[l.rstrip("\n").split("\t") for l in open("target/lumo-bench-cache/heldout-inputs/cases.txt")]
 # OIDN numbers from the published table
 md=open("docs/results/heldout.md").read().splitlines()
@@ -33,9 +71,14 @@ for name, spp, d, ref, who in cases:
     # columns: scene renderer spp none atrous guided bilateral auto oidn ...
     old_rm, oidn_rm, none_rm = float(c[7]), float(c[8]), float(c[3])
     old_fl, oidn_fl = float(f[7]), float(f[8])
-    out.append((name, spp, old_rm, rm, oidn_rm, none_rm, old_fl, fl, oidn_fl))
-    print(f"{name} {spp}: relMSE {old_rm:.3g} -> {rm:.3g} (oidn {oidn_rm:.3g}), FLIP {old_fl:.4f} -> {fl:.4f} (oidn {oidn_fl:.4f})", flush=True)
+    wb = worst_block(read_pfm(ref), read_pfm(os.path.join(d, "color.pfm")), read_pfm(out_pfm))
+    out.append((name, spp, old_rm, rm, oidn_rm, none_rm, old_fl, fl, oidn_fl, wb))
+    print(f"{name} {spp}: relMSE {old_rm:.3g} -> {rm:.3g} (oidn {oidn_rm:.3g}), FLIP {old_fl:.4f} -> {fl:.4f} (oidn {oidn_fl:.4f}), worst block {wb[0]:.2f} at ({wb[1]}, {wb[2]})", flush=True)
 fr=[o[7]/o[8] for o in out]; rr=[o[3]/o[4] for o in out]
 print("FLIP ratio median", statistics.median(fr), "worst", max(fr), "above 1.2:", sum(x>1.2 for x in fr))
 print("relMSE ratio median", statistics.median(rr), "worst", max(rr), "above 3:", sum(x>3 for x in rr))
 print("worse than input:", [(o[0],o[1]) for o in out if o[3]>o[5]])
+print("worst block above 1.2x the input's:", sum(o[9][0] > 1.2 for o in out), "of", len(out), "frames; worst", max(o[9][0] for o in out))
+if json_out:
+    keys = ["scene", "spp", "old_relmse", "relmse", "oidn_relmse", "input_relmse", "old_flip", "flip", "oidn_flip"]
+    json.dump([dict(zip(keys, o[:9]), worst_block=o[9][0], worst_block_at=o[9][1:]) for o in out], open(json_out, "w"), indent=1)

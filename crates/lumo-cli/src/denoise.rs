@@ -80,6 +80,11 @@ pub struct DenoiseArgs {
     /// it is non-zero are left unfiltered and give no weight to their neighbours.
     #[arg(long)]
     pub emission: Option<PathBuf>,
+    /// Light of point, spot and directional lights at each sample's first hit, exact (`lumo
+    /// render --aovs` writes it as `dirac` for scenes with such lights): left out of the
+    /// filter's input and added back unfiltered, so their sharp shadows are not blurred.
+    #[arg(long)]
+    pub dirac: Option<PathBuf>,
     /// What steers the À-Trous colour weight: a spatial noise estimate from the colour image
     /// itself (robust; works for any renderer), the --variance plane, or nothing (colour weight
     /// off unless --sigma-color is given).
@@ -214,6 +219,7 @@ struct Inputs {
     depth: Option<(PathBuf, Image)>,
     variance: Option<(PathBuf, Image)>,
     emission: Option<(PathBuf, Image)>,
+    dirac: Option<(PathBuf, Image)>,
     /// Colour pixels with a value beyond ±[`MAX_COLOR`], set to NaN (missing).
     huge: usize,
 }
@@ -280,7 +286,7 @@ fn read_inputs(a: &DenoiseArgs) -> anyhow::Result<Inputs> {
         n => bail!("{}: {n} channels; expected 1, 3 or 4", color_path.display()),
     };
     let huge = drop_huge_values(&mut color.1);
-    let inputs = Inputs {
+    let mut inputs = Inputs {
         color,
         albedo: opt(&a.albedo, "albedo")?,
         normal: opt(&a.normal, "normal")?,
@@ -288,6 +294,7 @@ fn read_inputs(a: &DenoiseArgs) -> anyhow::Result<Inputs> {
         depth: opt(&a.depth, "depth")?,
         variance: opt(&a.variance, "variance")?,
         emission: opt(&a.emission, "emission")?,
+        dirac: opt(&a.dirac, "dirac")?,
         huge,
     };
     let (cp, c) = &inputs.color;
@@ -298,6 +305,7 @@ fn read_inputs(a: &DenoiseArgs) -> anyhow::Result<Inputs> {
         ("depth", &inputs.depth, 1),
         ("variance", &inputs.variance, 1),
         ("emission", &inputs.emission, 1),
+        ("dirac", &inputs.dirac, 3),
     ] {
         if let Some((p, img)) = plane {
             c.check_same_size(&cp.display().to_string(), img, &p.display().to_string())?;
@@ -312,6 +320,11 @@ fn read_inputs(a: &DenoiseArgs) -> anyhow::Result<Inputs> {
                 lumo_filter::check_depth_plane(img).with_context(|| p.display().to_string())?;
             }
         }
+    }
+    // The Dirac lights' exact light skips the filter: out of the colour here, back in
+    // `filter_inputs`.
+    if let Some((_, d)) = &inputs.dirac {
+        shift_finite(&mut inputs.color.1, d, -1.0);
     }
     Ok(inputs)
 }
@@ -674,7 +687,11 @@ fn filter_inputs(
         times.push(t1.elapsed());
     }
     times.sort();
-    Ok((filtered.context("the filter did not run")?, times, detected))
+    let mut filtered = filtered.context("the filter did not run")?;
+    if let Some((_, d)) = &inputs.dirac {
+        shift_finite(&mut filtered.image, d, 1.0);
+    }
+    Ok((filtered, times, detected))
 }
 
 /// The light search's mask as an image: 1 for lights, 0.5 for their rims, 0 elsewhere.
@@ -733,6 +750,7 @@ fn check_outputs_spare_inputs(a: &DenoiseArgs, inputs: &Inputs) -> anyhow::Resul
         ("depth", inputs.depth.as_ref()),
         ("variance", inputs.variance.as_ref()),
         ("emission", inputs.emission.as_ref()),
+        ("dirac", inputs.dirac.as_ref()),
     ];
     let outputs = [
         ("-o", Some(&a.output)),
@@ -867,6 +885,23 @@ fn check_plane_values(a: &DenoiseArgs, inputs: &Inputs) -> anyhow::Result<()> {
 const DENOISE_BYTES_PER_PIXEL: u64 = 480;
 
 /// Runs `lumo denoise`.
+/// Adds `sign ·` the first three channels of `plane` to `img`'s RGB where `img` is finite (a
+/// missing pixel stays missing); a non-finite plane value adds nothing.
+fn shift_finite(img: &mut Image, plane: &Image, sign: f32) {
+    let (c, pc) = (img.channels, plane.channels);
+    for (p, q) in img
+        .data
+        .chunks_exact_mut(c)
+        .zip(plane.data.chunks_exact(pc))
+    {
+        for (v, d) in p.iter_mut().zip(&q[..3.min(pc)]) {
+            if v.is_finite() && d.is_finite() {
+                *v += sign * d;
+            }
+        }
+    }
+}
+
 pub fn run(args: DenoiseArgs) -> anyhow::Result<()> {
     // Named as the command line spells them: the filter's own error calls --subsample
     // "sparse".

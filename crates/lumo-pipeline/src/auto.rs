@@ -3,6 +3,11 @@
 //! their leave-one-out error; docs/filters.md). Lights seen directly pass through untouched,
 //! as in the À-Trous pipeline: the renderer knows exactly where they are, and on a light's rim
 //! how much of each pixel's colour the light is.
+//!
+//! The light of point, spot and directional lights at each sample's first hit has no noise
+//! but the pixel's own footprint, and it carries a sunlit frame's sharpest shadows, which no
+//! guide shows: it is computed exactly (`lumo_render::dirac_direct`), left out of the
+//! filter's input and added back unfiltered (docs/filters.md, "Dirac light skips the filter").
 
 use std::time::Instant;
 
@@ -10,7 +15,9 @@ use lumo_filter::{with_emitted, AutoDenoiser, Denoiser, Features, FilterInput};
 
 use super::compose::trace_full;
 use super::{PipelineError, PipelineOutput, Timings};
-use lumo_render::{PixelSums, RenderScene, RenderSettings};
+use lumo_image::Image;
+use lumo_render::camera::PinholeCamera;
+use lumo_render::{dirac_direct, PixelSums, RenderScene, RenderSettings};
 
 pub(super) fn run(
     rs: &RenderScene,
@@ -19,6 +26,10 @@ pub(super) fn run(
     given: Option<Vec<PixelSums>>,
 ) -> Result<PipelineOutput, PipelineError> {
     let (estimates, frame, stats, trace) = trace_full(rs, settings, progress, given);
+    let t = Instant::now();
+    let camera = PinholeCamera::new(&rs.scene.camera, settings.width, settings.height);
+    let dirac = dirac_direct(rs, &camera, settings);
+    let gbuffer = t.elapsed();
     let t = Instant::now();
     let emitter: Vec<bool> = estimates
         .iter()
@@ -32,18 +43,39 @@ pub(super) fn run(
     };
     let mut denoiser = AutoDenoiser::default();
     // The light's share of its rim pixels stays out too (`with_emitted`).
-    let filtered = with_emitted(&frame.color, &emitter, &frame.emitted, |c| {
+    let rest = match &dirac {
+        Some(d) => shifted(&frame.color, d, -1.0),
+        None => frame.color.clone(),
+    };
+    let filtered = with_emitted(&rest, &emitter, &frame.emitted, |c| {
         denoiser.denoise(&FilterInput::new(c, features))
     })?;
+    let image = match &dirac {
+        Some(d) => shifted(&filtered.image, d, 1.0),
+        None => filtered.image,
+    };
     Ok(PipelineOutput {
-        image: filtered.image,
+        image,
         frame,
-        planes: vec![],
+        planes: dirac.into_iter().map(|d| ("dirac", d)).collect(),
         timings: Timings {
             trace,
+            gbuffer,
             filter: t.elapsed(),
             ..Timings::default()
         },
         stats,
     })
+}
+
+/// `image + sign · plane` (both RGB and of one size); a non-finite pixel of `image` stays as
+/// it is, so the filter still sees it as missing.
+fn shifted(image: &Image, plane: &Image, sign: f32) -> Image {
+    let mut out = image.clone();
+    for (v, p) in out.data.iter_mut().zip(&plane.data) {
+        if v.is_finite() {
+            *v += sign * p;
+        }
+    }
+    out
 }

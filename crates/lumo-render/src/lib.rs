@@ -18,6 +18,7 @@ pub mod accel;
 pub mod bsdf;
 pub mod camera;
 mod camera_sample;
+mod dirac_direct;
 mod direct_split;
 mod film;
 pub mod geometry;
@@ -40,6 +41,7 @@ mod test_camera;
 #[cfg(test)]
 mod test_lights;
 
+pub use dirac_direct::dirac_direct;
 pub use direct_split::{direct_split, direct_split_into, DirectSplit, MAX_ANALYTIC_TRIANGLES};
 pub use film::{Frame, AOV_NAMES};
 pub use integrator::{

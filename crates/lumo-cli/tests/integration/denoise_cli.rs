@@ -726,3 +726,82 @@ fn a_colour_plane_with_nothing_to_filter_is_refused() {
     ]);
     assert!(o.status.success(), "{}", text(&o).1);
 }
+
+/// A `dirac` plane (the Dirac lights' exact light) skips every filter: with a colour that is
+/// that plane plus a flat noisy rest, one-pixel shadow lines in the plane come out exactly as
+/// they went in on top of the filtered rest, while without the plane the filter blurs them.
+/// A dirac plane of another size is refused naming both files.
+#[test]
+fn a_dirac_plane_skips_the_filter() {
+    let dir = temp_dir("dirac");
+    let (w, h) = (32, 24);
+    write_scene(&dir, w, h);
+    let noisy = read_image(&dir.join("color.exr")).unwrap();
+    let mut dirac = Image::new(w, h, 3, 0.0);
+    for y in 0..h {
+        for x in 0..w {
+            // Sunlight everywhere but in one-pixel shadow lines every fourth column.
+            let lit = if x % 4 == 0 { 0.0 } else { 2.0 };
+            dirac.pixel_mut(x, y).fill(lit);
+        }
+    }
+    let mut color = noisy.clone();
+    for (c, d) in color.data.iter_mut().zip(&dirac.data) {
+        *c += d;
+    }
+    write_image(&dir.join("color.exr"), &color).unwrap();
+    for filter in ["auto", "atrous", "guided"] {
+        let run = |with: bool| {
+            let out = dir.join(format!("out-{filter}-{with}.exr"));
+            let mut args = vec!["--input-dir", dir.to_str().unwrap(), "--filter", filter];
+            let plane = dir.join("sun.exr");
+            write_image(&plane, &dirac).unwrap();
+            if with {
+                args.extend(["--dirac", plane.to_str().unwrap()]);
+            }
+            args.extend(["-o", out.to_str().unwrap()]);
+            let o = lumo(&args);
+            assert!(o.status.success(), "{filter}: {}", text(&o).1);
+            read_image(&out).unwrap()
+        };
+        // The shadow lines' depth: mean of the lit columns minus mean of the shadow columns.
+        let contrast = |img: &Image| {
+            let (mut lit, mut dark, mut nl, mut nd) = (0.0f64, 0.0f64, 0, 0);
+            for y in 0..h {
+                for x in 0..w {
+                    let v = img.pixel(x, y)[1] as f64;
+                    if x % 4 == 0 {
+                        dark += v;
+                        nd += 1;
+                    } else {
+                        lit += v;
+                        nl += 1;
+                    }
+                }
+            }
+            lit / nl as f64 - dark / nd as f64
+        };
+        let (with, without) = (contrast(&run(true)), contrast(&run(false)));
+        assert!(
+            (with - 2.0).abs() < 0.1,
+            "{filter}: shadow contrast {with} with the plane (2 in the plane)"
+        );
+        assert!(without < 1.5, "{filter}: {without} without the plane");
+    }
+    let small = dir.join("small.exr");
+    write_image(&small, &Image::new(16, 24, 3, 0.0)).unwrap();
+    let o = lumo(&[
+        "--input-dir",
+        dir.to_str().unwrap(),
+        "--dirac",
+        small.to_str().unwrap(),
+        "-o",
+        dir.join("x.exr").to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    let err = text(&o).1;
+    assert!(
+        err.contains("small.exr") && err.contains("color.exr"),
+        "{err}"
+    );
+}

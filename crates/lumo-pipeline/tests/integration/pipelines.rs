@@ -363,3 +363,50 @@ fn textured_plastic_seen_at_a_grazing_angle_keeps_its_colours() {
         );
     }
 }
+
+/// `auto` leaves the Dirac lights' exact light out of its filter: on the Cornell box lit by a
+/// point light (ceiling light off) it returns that light as its `dirac` plane, the same for
+/// one thread or two, and the output is that plane plus the filtered rest (never below the
+/// plane by more than the rest's own filtered noise allows: the sharp part is not blurred).
+/// The box under its own area light (no Dirac light) gets no plane.
+#[test]
+fn auto_passes_the_dirac_light_through() {
+    let mut scene = small_room();
+    for m in &mut scene.materials {
+        m.emission = Vec3::ZERO;
+    }
+    scene.lights = vec![Light::Point {
+        position: Vec3::new(0.0, 0.8, 0.0),
+        intensity: Vec3::splat(1.0),
+    }];
+    let rs = RenderScene::new(scene).expect("scene");
+    let s = settings(24, 24, 4, 4);
+    let planes = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("pool");
+        pool.install(|| run(&rs, Pipeline::Auto, &s, &small_options()))
+    };
+    let (one, two) = (planes(1), planes(2));
+    let dirac = |o: &PipelineOutput| {
+        o.planes
+            .iter()
+            .find(|(n, _)| *n == "dirac")
+            .map(|(_, p)| p.data.clone())
+            .expect("a dirac plane")
+    };
+    assert_eq!(dirac(&one), dirac(&two));
+    assert_eq!(one.image.data, two.image.data);
+    let d = dirac(&one);
+    assert!(d.iter().filter(|&&v| v > 0.0).count() > d.len() / 2);
+    assert!(one
+        .image
+        .data
+        .iter()
+        .zip(&d)
+        .all(|(o, d)| *o >= d - 0.05 * d.abs() - 1e-4));
+    let lit_by_area = RenderScene::new(small_room()).expect("scene");
+    let out = run(&lit_by_area, Pipeline::Auto, &s, &small_options());
+    assert!(out.planes.iter().all(|(n, _)| *n != "dirac"));
+}

@@ -7,6 +7,13 @@ use glam::{Vec2, Vec3};
 use super::{LightKind, LightSample, Lights, NO_TEXTURE};
 
 impl Lights {
+    /// Whether any light is a Dirac light (point, spot, directional).
+    pub(crate) fn has_delta(&self) -> bool {
+        self.lights[self.first_punctual..]
+            .iter()
+            .any(|l| l.is_delta())
+    }
+
     /// Every point, spot and directional light as a sample from `p` (probability 1: `weight`
     /// is the intensity over the squared distance, or the irradiance), skipping spots whose
     /// cone does not reach `p`.
