@@ -19,6 +19,8 @@ use lumo_filter::FilterKind;
 use lumo_image::metrics::{compare, CompareSettings, Metrics};
 use lumo_image::{read_image, Image};
 use lumo_pipeline::{run_pipeline, Pipeline, PipelineOptions};
+use lumo_render::camera::PinholeCamera;
+use lumo_render::dirac_direct;
 
 use super::atomic::{check_dir_writable, write_bytes, write_image_atomic};
 use super::quality::QualityArgs;
@@ -174,6 +176,12 @@ pub fn run(args: &QualityArgs, set: &str) -> Result<()> {
                 if ["color", "albedo", "normal", "position", "depth"].contains(&plane) {
                     write_image_atomic(&dir.join(format!("{plane}.pfm")), img)?;
                 }
+            }
+            // And what only lumo's renderer hands over: the Dirac lights' exact light, which
+            // `lumo denoise --input-dir` keeps out of its filter (docs/filters.md).
+            let camera = PinholeCamera::new(&s.rs.scene.camera, rs.width, rs.height);
+            if let Some(d) = pool.install(|| dirac_direct(&s.rs, &camera, &rs)) {
+                write_image_atomic(&dir.join("dirac.pfm"), &d)?;
             }
             inputs.push((spp, dir));
         }
