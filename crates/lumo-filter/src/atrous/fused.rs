@@ -8,10 +8,8 @@
 //! bit-identical results.
 
 use super::inverse_sigma_row;
-use super::kernel::{
-    normalise, tap_consts, AuxBlock, Isa, Level, SrcBlock, CM_FIXED, CM_VARIANCE, K,
-};
-use super::layout::{Layout, CW, M, QW};
+use super::kernel::{normalise, tap_consts, AuxBlock, Isa, Level, SrcBlock, CM_FIXED, CM_VARIANCE};
+use super::layout::{CW, M, QW};
 use crate::common::fastmath::{exp2_cut, mul_add};
 
 /// Largest tap spacing of the fused path: five taps span ±2·MAX_STEP = ±M columns.
@@ -101,32 +99,12 @@ pub(super) fn block_fused<const NF: usize, const CM: u8, const VAR: bool>(
             _ => fused_base::<NF, CM, VAR>(p, pa, q, qa, &mut acc, &t),
         }
     }
+    dst.fill(0.0);
     if first {
         // No row of taps inside the image (never for a valid layout): nothing contributed.
-        dst.fill(0.0);
         return;
     }
     normalise::<VAR>(&acc, CW, 0, dst, M, len);
-    zero_outside(lay, c, len, VAR, dst);
-}
-
-/// Sets to 0 the columns of `dst` (a block of strip `c` with `len` columns of its own) that
-/// lie beyond the image and that a later level's taps read: the first strip's left margin
-/// and the last strip's columns right of the image. The other margins are copied from the
-/// neighbouring strips after the level (`Layout::fill_margins`), and columns beyond the span
-/// are never read, so clearing the whole block first (≈ 5 % of a 512² call, most of it
-/// the write-allocation of lines `normalise` then fills) is not needed. Without `var`, the
-/// variance plane is neither written nor read.
-fn zero_outside(lay: Layout, c: usize, len: usize, var: bool, dst: &mut [f32]) {
-    let planes = if var { K } else { K - 1 };
-    for p in dst.chunks_exact_mut(QW).take(planes) {
-        if c == 0 {
-            p[..M].fill(0.0);
-        }
-        if c + 1 == lay.nch {
-            p[M + len..lay.span()].fill(0.0);
-        }
-    }
 }
 
 /// What one row of taps needs besides the blocks.
