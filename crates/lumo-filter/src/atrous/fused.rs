@@ -7,6 +7,7 @@
 //! outside the image adds an exact zero instead of being skipped), so both paths give
 //! bit-identical results.
 
+use super::inverse_sigma_row;
 use super::kernel::{normalise, tap_consts, AuxBlock, Isa, Level, SrcBlock, CM_FIXED, CM_VARIANCE};
 use super::layout::{CW, M, QW};
 use crate::common::fastmath::{exp2_cut, mul_add};
@@ -19,13 +20,19 @@ const R: usize = 0;
 const V: usize = 3;
 const VAR_P: usize = 4;
 /// Planes of a block of the aux buffer.
-const C: usize = 0;
 const L: usize = 1;
 const F: usize = 2;
 /// Accumulators: r, g, b, weight, variance.
 const AN: usize = 5;
 
 /// Block `b` of a level with `step <= MAX_STEP` into `dst` (K planes).
+///
+/// The centre pixels' colour factor (for the variance-guided weight, the prefiltered inverse
+/// σ) is formed here for this block's row alone, and the normal coordinates are scaled by
+/// 1/step in the kernel (`sqrt(l.normal_factor)`), so no pass writes either into the
+/// full-image aux planes before the level (at 1080p each such plane is ≈ 11 MB of memory
+/// traffic per level). Both give the bits the aux planes gave: the colour factor is the same
+/// function of the same values, and scaling a difference by a power of 2 is exact.
 pub(super) fn block_fused<const NF: usize, const CM: u8, const VAR: bool>(
     l: &Level,
     b: usize,
@@ -37,7 +44,28 @@ pub(super) fn block_fused<const NF: usize, const CM: u8, const VAR: bool>(
     let src_block = |yy: usize| l.src_block(c, yy);
     let aux_block = |yy: usize| l.aux_block(c, yy);
     let (p, pa) = (src_block(y), aux_block(y));
+    let mut cp = [0.0f32; CW];
+    let valid = &p[V * QW + M..][..len];
+    match CM {
+        CM_VARIANCE => {
+            let out = &mut cp[..len];
+            inverse_sigma_row(l.src, lay, c, y, l.sigma, l.eps, out);
+            for (o, &v) in out.iter_mut().zip(valid) {
+                *o = l.color_scale * *o * v;
+            }
+        }
+        CM_FIXED => {
+            for (o, &v) in cp[..len].iter_mut().zip(valid) {
+                *o = l.color_scale * v;
+            }
+        }
+        _ => {}
+    }
+    // The normal weight's 1/stepwidth² as a scale on the normal differences (exact: a power
+    // of 2; see `Level::normal_factor`).
+    let ns = l.normal_factor.sqrt();
     let mut acc = [0.0f32; AN * CW];
+    let mut first = true;
     for ky in 0..5 {
         let yy = y as isize + (ky as isize - 2) * l.step as isize;
         if yy < 0 || yy >= lay.h as isize {
@@ -49,22 +77,48 @@ pub(super) fn block_fused<const NF: usize, const CM: u8, const VAR: bool>(
         for kx in 0..5 {
             (c0[kx], cut[kx]) = tap_consts(kx, ky);
         }
+        let t = Taps {
+            cp: &cp,
+            ns,
+            len,
+            step: l.step,
+            c0,
+            cut,
+            // The first row's sums start from 0 in registers: the same bits as from a
+            // cleared accumulator, without clearing it.
+            first,
+        };
+        first = false;
         match l.isa {
             #[cfg(target_arch = "x86_64")]
             // SAFETY: `Isa::Avx2` is only chosen after run-time detection of AVX2 and FMA.
-            Isa::Avx2 => unsafe {
-                fused_avx2::<NF, CM, VAR>(p, pa, q, qa, &mut acc, len, l.step, c0, cut)
-            },
+            Isa::Avx2 => unsafe { fused_avx2::<NF, CM, VAR>(p, pa, q, qa, &mut acc, &t) },
             #[cfg(target_arch = "x86_64")]
             // SAFETY: `Isa::Avx512` is only chosen after run-time detection of AVX-512F and FMA.
-            Isa::Avx512 => unsafe {
-                fused_avx512::<NF, CM, VAR>(p, pa, q, qa, &mut acc, len, l.step, c0, cut)
-            },
-            _ => fused_base::<NF, CM, VAR>(p, pa, q, qa, &mut acc, len, l.step, c0, cut),
+            Isa::Avx512 => unsafe { fused_avx512::<NF, CM, VAR>(p, pa, q, qa, &mut acc, &t) },
+            _ => fused_base::<NF, CM, VAR>(p, pa, q, qa, &mut acc, &t),
         }
     }
     dst.fill(0.0);
+    if first {
+        // No row of taps inside the image (never for a valid layout): nothing contributed.
+        return;
+    }
     normalise::<VAR>(&acc, CW, 0, dst, M, len);
+}
+
+/// What one row of taps needs besides the blocks.
+struct Taps<'a> {
+    /// The centre pixels' colour factor (0 where the centre is missing).
+    cp: &'a [f32; CW],
+    /// Scale of the normal differences.
+    ns: f32,
+    len: usize,
+    step: usize,
+    c0: [f32; 5],
+    cut: [f32; 5],
+    /// The first row of taps: the sums start at 0 instead of being read.
+    first: bool,
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -75,12 +129,9 @@ fn fused_base<const NF: usize, const CM: u8, const VAR: bool>(
     q: &SrcBlock,
     qa: &AuxBlock,
     acc: &mut [f32; AN * CW],
-    len: usize,
-    step: usize,
-    c0: [f32; 5],
-    cut: [f32; 5],
+    t: &Taps,
 ) {
-    fused_impl::<NF, CM, VAR, false>(p, pa, q, qa, acc, len, step, c0, cut)
+    fused_impl::<NF, CM, VAR, false>(p, pa, q, qa, acc, t)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -93,12 +144,9 @@ unsafe fn fused_avx2<const NF: usize, const CM: u8, const VAR: bool>(
     q: &SrcBlock,
     qa: &AuxBlock,
     acc: &mut [f32; AN * CW],
-    len: usize,
-    step: usize,
-    c0: [f32; 5],
-    cut: [f32; 5],
+    t: &Taps,
 ) {
-    fused_impl::<NF, CM, VAR, true>(p, pa, q, qa, acc, len, step, c0, cut)
+    fused_impl::<NF, CM, VAR, true>(p, pa, q, qa, acc, t)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -111,12 +159,9 @@ unsafe fn fused_avx512<const NF: usize, const CM: u8, const VAR: bool>(
     q: &SrcBlock,
     qa: &AuxBlock,
     acc: &mut [f32; AN * CW],
-    len: usize,
-    step: usize,
-    c0: [f32; 5],
-    cut: [f32; 5],
+    t: &Taps,
 ) {
-    fused_impl::<NF, CM, VAR, true>(p, pa, q, qa, acc, len, step, c0, cut)
+    fused_impl::<NF, CM, VAR, true>(p, pa, q, qa, acc, t)
 }
 
 /// Five taps `step` apart of one kernel row, accumulated for `len` centre pixels.
@@ -128,21 +173,34 @@ fn fused_impl<const NF: usize, const CM: u8, const VAR: bool, const FMA: bool>(
     q: &SrcBlock,
     qa: &AuxBlock,
     acc: &mut [f32; AN * CW],
-    len: usize,
-    step: usize,
-    c0: [f32; 5],
-    cut: [f32; 5],
+    t: &Taps,
 ) {
+    let Taps {
+        cp,
+        ns,
+        c0,
+        cut,
+        first,
+        ..
+    } = *t;
     // Clamps that tell the compiler every index below is in bounds.
-    let len = len.min(CW);
-    let step = step.min(MAX_STEP);
+    let len = t.len.min(CW);
+    let step = t.step.min(MAX_STEP);
+    // Normal coordinates come first (with positions or the background flag after them).
+    let normals = if NF >= 4 { 3 } else { 0 };
     let offs = [M - 2 * step, M - step, M, M + step, M + 2 * step];
     for i in 0..len {
-        let mut ar = acc[i];
-        let mut ag = acc[CW + i];
-        let mut ab = acc[2 * CW + i];
-        let mut aw = acc[3 * CW + i];
-        let mut av = if VAR { acc[4 * CW + i] } else { 0.0 };
+        let (mut ar, mut ag, mut ab, mut aw, mut av) = if first {
+            (0.0, 0.0, 0.0, 0.0, 0.0)
+        } else {
+            (
+                acc[i],
+                acc[CW + i],
+                acc[2 * CW + i],
+                acc[3 * CW + i],
+                if VAR { acc[4 * CW + i] } else { 0.0 },
+            )
+        };
         // A macro, not a closure: closures are not reliably inlined into the AVX2 copy, and an
         // out-of-line one would call `fmaf` from the library.
         macro_rules! tap {
@@ -158,13 +216,16 @@ fn fused_impl<const NF: usize, const CM: u8, const VAR: bool, const FMA: bool>(
                     let dg = p[(R + 1) * QW + M + i] - qg;
                     let db = p[(R + 2) * QW + M + i] - qb;
                     let d2 = mul_add::<FMA>(db, db, mul_add::<FMA>(dg, dg, dr * dr));
-                    e = d2 * pa[C * QW + M + i];
+                    e = d2 * cp[i];
                 }
                 if CM == CM_VARIANCE {
-                    e = (pa[L * QW + M + i] - qa[L * QW + j]).abs() * pa[C * QW + M + i];
+                    e = (pa[L * QW + M + i] - qa[L * QW + j]).abs() * cp[i];
                 }
                 for f in 0..NF {
-                    let d = pa[(F + f) * QW + M + i] - qa[(F + f) * QW + j];
+                    let mut d = pa[(F + f) * QW + M + i] - qa[(F + f) * QW + j];
+                    if f < normals {
+                        d *= ns;
+                    }
                     e = mul_add::<FMA>(d, d, e);
                 }
                 let wgt = exp2_cut::<FMA>(c0[k] - e, cut[k]) * q[V * QW + j];

@@ -65,12 +65,16 @@ pub(super) struct Level<'a> {
     pub aux: &'a [f32],
     /// Feature coordinates in use (1, 3, 4 or 6; with 4 or 6 the first three are normals).
     pub nf: usize,
-    /// Factor on the squared normal distance (the pair path's per-level normal scale; the
-    /// other paths need the planes scaled, i.e. 1).
+    /// Factor on the squared normal distance (the pair and fused paths' per-level normal
+    /// scale, a power of 4; the per-tap path needs the planes scaled, i.e. 1).
     pub normal_factor: f32,
     pub cm: u8,
     /// The colour factor of a valid pixel (what the aux colour plane holds inside the strip).
     pub color_scale: f32,
+    /// The variance-guided weight's σ and ε (units of the stored variance's square root):
+    /// the fused path forms the centre pixels' colour factor from them per block.
+    pub sigma: f32,
+    pub eps: f32,
     /// Carry the variance (only when a later level reads it).
     pub var: bool,
     pub isa: Isa,
@@ -106,9 +110,14 @@ pub(super) fn tap_consts(kx: usize, ky: usize) -> (f32, f32) {
     (c0, c0 + EXP_CUTOFF * std::f32::consts::LOG2_E)
 }
 
+/// Whether a level of `step` that does not take the pair path takes the fused one.
+pub(super) fn takes_fused(path: Path, step: usize) -> bool {
+    path != Path::Taps && step <= MAX_STEP
+}
+
 /// Block `b` of one level into `dst` (K planes, the block's margins are left 0).
 pub(super) fn block(l: &Level, b: usize, dst: &mut [f32]) {
-    let fused = l.path != Path::Taps && l.step <= MAX_STEP;
+    let fused = takes_fused(l.path, l.step);
     macro_rules! go {
         ($nf:literal, $cm:expr, $var:literal) => {
             if fused {

@@ -235,10 +235,12 @@ fn level_aux(
                 }
             }
             CM_VARIANCE => {
-                let out = &mut cp[M..M + len];
-                inverse_sigma_row(src, lay, c, y, lw.sigma, lw.eps, out);
-                for (o, &v) in out.iter_mut().zip(&valid[M..M + len]) {
-                    *o = lw.color_scale * *o * v;
+                if color_plane {
+                    let out = &mut cp[M..M + len];
+                    inverse_sigma_row(src, lay, c, y, lw.sigma, lw.eps, out);
+                    for (o, &v) in out.iter_mut().zip(&valid[M..M + len]) {
+                        *o = lw.color_scale * *o * v;
+                    }
                 }
                 for j in ja..jb {
                     lum[j] = 0.2126 * s[j] + 0.7152 * s[QW + j] + 0.0722 * s[2 * QW + j];
@@ -346,6 +348,8 @@ impl Plan<'_, '_> {
             normal_factor: 1.0,
             cm: CM_NONE,
             color_scale: 0.0,
+            sigma: 0.0,
+            eps: 0.0,
             var: false,
             isa: self.isa,
             path: self.path,
@@ -486,11 +490,12 @@ impl AtrousFilter {
             };
             let pairs = matches!(plan.path, Path::Auto | Path::Pairs | Path::Bands(..))
                 && pairs::supports(step, var_mode, cm, nf);
+            let fused = !pairs && kernel::takes_fused(plan.path, step);
             // The normal coordinates' scale relative to level 0 should be 1/step. The pair
-            // path applies the factor to the squared distance instead of rescaling the
-            // planes; before another path, the planes are rescaled (by powers of 2: exact).
+            // and fused paths apply the factor in the kernel instead of rescaling the planes;
+            // before the per-tap path, the planes are rescaled (by powers of 2: exact).
             let want = 1.0 / step as f32;
-            let rescale = if plan.has_n && !pairs && normal_held != want {
+            let rescale = if plan.has_n && !pairs && !fused && normal_held != want {
                 let r = want / normal_held;
                 normal_held = want;
                 Some(r)
@@ -498,7 +503,9 @@ impl AtrousFilter {
                 None
             };
             let normal_factor = (want / normal_held) * (want / normal_held);
-            level_aux(aux, src, lay, &lw, !pairs, rescale);
+            // Only the per-tap path reads the colour factor from the aux plane (the pair
+            // path derives it from the validity, the fused one forms it per block).
+            level_aux(aux, src, lay, &lw, !pairs && !fused, rescale);
             let level = Level {
                 lay,
                 step,
@@ -508,6 +515,8 @@ impl AtrousFilter {
                 normal_factor,
                 cm,
                 color_scale,
+                sigma: lw.sigma,
+                eps: lw.eps,
                 var: var_mode,
                 isa: plan.isa,
                 path: plan.path,

@@ -2,6 +2,7 @@
 //! structure-of-arrays planes that the filters' inner loops read.
 
 use lumo_image::{luminance, Image};
+use rayon::prelude::*;
 
 use crate::FilterError;
 
@@ -251,7 +252,7 @@ pub fn missing_pixels(color: &Image) -> usize {
     }
     color
         .data
-        .chunks_exact(color.channels)
+        .par_chunks_exact(color.channels)
         .filter(|p| p.iter().any(|v| !v.is_finite()))
         .count()
 }

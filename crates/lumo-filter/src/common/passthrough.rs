@@ -2,6 +2,7 @@
 //! far brighter than their surroundings) and, in demodulation, pixels without an albedo.
 
 use lumo_image::Image;
+use rayon::prelude::*;
 
 use crate::common::gbuffer::{missing_pixels, Filtered};
 
@@ -38,17 +39,28 @@ where
     F: FnOnce(&Image) -> Result<Filtered, E>,
 {
     let mut input = color.clone();
+    // The masks in parallel (serial, they and the restore below were ≈ 1 % of a 512²
+    // À-Trous call's CPU time, twice that of its wall time on two threads).
     for mask in [pass, hidden] {
-        for (i, _) in mask.iter().enumerate().filter(|(_, &p)| p) {
-            input.data[i * 3..i * 3 + 3].fill(f32::NAN);
-        }
+        input
+            .data
+            .par_chunks_mut(3)
+            .zip(mask.par_iter())
+            .filter(|(_, &p)| p)
+            .for_each(|(px, _)| px.fill(f32::NAN));
     }
     let mut out = filter(&input)?;
-    for (i, _) in pass.iter().enumerate().filter(|(_, &p)| p) {
-        for k in i * 3..i * 3 + 3 {
-            out.image.data[k] = passed(color.data[k]);
-        }
-    }
+    out.image
+        .data
+        .par_chunks_mut(3)
+        .zip(color.data.par_chunks(3))
+        .zip(pass.par_iter())
+        .filter(|(_, &p)| p)
+        .for_each(|((o, c), _)| {
+            for (o, &c) in o.iter_mut().zip(c) {
+                *o = passed(c);
+            }
+        });
     out.missing = missing_pixels(color);
     Ok(out)
 }
