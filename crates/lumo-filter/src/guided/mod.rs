@@ -17,7 +17,7 @@ use lumo_image::Image;
 use rayon::prelude::*;
 
 use crate::common::albedo::{surface_albedo, with_demodulation};
-use crate::common::boxsum::box_mean;
+use crate::common::boxsum::box_mean_rows;
 use crate::common::error::param;
 use crate::common::gbuffer::{
     background_mask, check_color, check_features, check_size, flush, plane0, Features, Filtered,
@@ -28,7 +28,7 @@ use crate::denoiser::{require, Denoiser, FilterInput, FilterKind};
 use crate::FilterError;
 use self_weight::{cross_weight_at, terms};
 pub(crate) use shared::SharedInput;
-use stream::{stream, Problem};
+use stream::{stream, Plane, Problem};
 
 pub use lookup::{most_similar, most_similar_in_grid, neighbour_cells};
 
@@ -361,29 +361,18 @@ fn exact<const SW: bool>(pb: &Problem, d: usize) -> (Image, Vec<f32>) {
     let (w, h, g) = (pb.w, pb.h, pb.guide);
     if !SW {
         let mut out = zeroed_image(w, h, 3);
-        stream_dims::<false>(d, pb, &mut out.data, 3 * w, &|y, ab, row| {
+        let plane = (&mut out.data[..], 3 * w);
+        stream_dims::<false>(d, pb, plane, (&mut [], 0), &|y, ab, row, _| {
             apply_row(&g[y * w * d..(y + 1) * w * d], d, 3 * d + 3, ab, row)
         });
         return (out, Vec::new());
     }
-    // Row y of `out`: the filtered row (3w values), then its weights (w).
-    let mut out = zeroed(w * h * 4);
-    stream_dims::<true>(d, pb, &mut out, 4 * w, &|y, ab, row| {
-        let gr = &g[y * w * d..(y + 1) * w * d];
-        let (rgb, weights) = row.split_at_mut(3 * w);
-        weighted_row(gr, d, ab, rgb, weights);
-    });
     let mut image = zeroed_image(w, h, 3);
     let mut weights = zeroed(w * h);
-    image
-        .data
-        .par_chunks_mut(3 * w)
-        .zip(weights.par_chunks_mut(w))
-        .zip(out.par_chunks(4 * w))
-        .for_each(|((rgb, wt), row)| {
-            rgb.copy_from_slice(&row[..3 * w]);
-            wt.copy_from_slice(&row[3 * w..]);
-        });
+    let planes = ((&mut image.data[..], 3 * w), (&mut weights[..], w));
+    stream_dims::<true>(d, pb, planes.0, planes.1, &|y, ab, rgb, wt| {
+        weighted_row(&g[y * w * d..(y + 1) * w * d], d, ab, rgb, wt);
+    });
     (image, weights)
 }
 
@@ -448,7 +437,7 @@ fn coarse_grid<'a, const SW: bool>(
         r: coarse_radius(radius, s),
     };
     let mut ab = vec![0.0f32; lw * lh * k2];
-    stream_dims::<SW>(d, &pb, &mut ab, lw * k2, &|_, m, row| {
+    stream_dims::<SW>(d, &pb, (&mut ab, lw * k2), (&mut [], 0), &|_, m, row, _| {
         row.copy_from_slice(m)
     });
     Coarse {
@@ -538,21 +527,33 @@ fn guided_input(color: &Image) -> (Vec<f32>, Vec<f32>, usize) {
     (p, valid, missing)
 }
 
-/// Replaces missing pixels by the mean of the valid pixels in their window (0 if none).
+/// Replaces missing pixels by the mean of the valid pixels in their window (0 if none): the
+/// bits of [`crate::common::boxsum::box_mean`] of (colour × validity, validity), computed only on the rows that hold
+/// a missing pixel ([`box_mean_rows`]).
 fn fill_missing(p: &mut [f32], valid: &[f32], w: usize, h: usize, r: usize) {
-    let mut mp = vec![0.0f32; w * h * 4];
-    for i in 0..w * h {
-        for c in 0..3 {
-            mp[i * 4 + c] = p[i * 3 + c] * valid[i];
-        }
-        mp[i * 4 + 3] = valid[i];
-    }
-    let m = box_mean(&mp, w, h, 4, r);
-    for i in 0..w * h {
-        if valid[i] == 0.0 {
-            let k = m[i * 4 + 3];
-            for c in 0..3 {
-                p[i * 3 + c] = if k > 0.0 { m[i * 4 + c] / k } else { 0.0 };
+    let wanted: Vec<bool> = valid.chunks_exact(w).map(|v| v.contains(&0.0)).collect();
+    let src: &[f32] = p;
+    let rows = box_mean_rows(
+        |y, buf| {
+            for x in 0..w {
+                let i = y * w + x;
+                for c in 0..3 {
+                    buf[x * 4 + c] = src[i * 3 + c] * valid[i];
+                }
+                buf[x * 4 + 3] = valid[i];
+            }
+        },
+        (w, h, 4, r),
+        &wanted,
+    );
+    for (y, m) in rows {
+        for x in 0..w {
+            let i = y * w + x;
+            if valid[i] == 0.0 {
+                let k = m[x * 4 + 3];
+                for c in 0..3 {
+                    p[i * 3 + c] = if k > 0.0 { m[x * 4 + c] / k } else { 0.0 };
+                }
             }
         }
     }
@@ -765,26 +766,26 @@ fn upsample_row_weighted_d<const D: usize>(r: &UpsampleRow, out: &mut [f32], wei
     }
 }
 
-/// Consumer of one row of averaged coefficients: (row, coefficients, output row).
-type EmitRow<'a> = dyn Fn(usize, &[f32], &mut [f32]) + Sync + 'a;
+/// Consumer of one row of averaged coefficients: (row, coefficients, output row, side row).
+type EmitRow<'a> = dyn Fn(usize, &[f32], &mut [f32], &mut [f32]) + Sync + 'a;
 
 /// [`stream`] monomorphised per guide dimension, so the d×d solve is unrolled.
 fn stream_dims<const SW: bool>(
     d: usize,
     pb: &Problem,
-    out: &mut [f32],
-    row_len: usize,
+    out: Plane,
+    side: Plane,
     emit: &EmitRow<'_>,
 ) {
     match d {
-        1 => stream::<1, SW, _>(pb, out, row_len, emit),
-        2 => stream::<2, SW, _>(pb, out, row_len, emit),
-        3 => stream::<3, SW, _>(pb, out, row_len, emit),
-        4 => stream::<4, SW, _>(pb, out, row_len, emit),
-        5 => stream::<5, SW, _>(pb, out, row_len, emit),
-        6 => stream::<6, SW, _>(pb, out, row_len, emit),
-        7 => stream::<7, SW, _>(pb, out, row_len, emit),
-        _ => stream::<8, SW, _>(pb, out, row_len, emit),
+        1 => stream::<1, SW, _>(pb, out, side, emit),
+        2 => stream::<2, SW, _>(pb, out, side, emit),
+        3 => stream::<3, SW, _>(pb, out, side, emit),
+        4 => stream::<4, SW, _>(pb, out, side, emit),
+        5 => stream::<5, SW, _>(pb, out, side, emit),
+        6 => stream::<6, SW, _>(pb, out, side, emit),
+        7 => stream::<7, SW, _>(pb, out, side, emit),
+        _ => stream::<8, SW, _>(pb, out, side, emit),
     }
 }
 
