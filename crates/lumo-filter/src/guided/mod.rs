@@ -26,7 +26,7 @@ use crate::common::nonnegative::clamp_negative;
 use crate::common::zeroed::{zeroed, zeroed_image};
 use crate::denoiser::{require, Denoiser, FilterInput, FilterKind};
 use crate::FilterError;
-use self_weight::{cross_weight_at, terms};
+use self_weight::{cross_weight_lanes, terms, LANES};
 pub(crate) use shared::SharedInput;
 use stream::{stream, Plane, Problem};
 
@@ -397,34 +397,51 @@ multiversion! {
 }
 
 /// [`weighted_row`] for a `D`-dimensional guide: [`apply_row`]'s sums and
-/// [`cross_weight_at`] in the same order, so the same bits.
+/// the self-weight's (in groups of [`LANES`] pixels, [`cross_weight_lanes`]) in the same
+/// order, so the same bits.
 #[inline(always)]
 fn weighted_row_d<const D: usize>(gr: &[f32], ab: &[f32], rgb: &mut [f32], weights: &mut [f32]) {
     let k0 = 3 * D + 3;
     let k2 = k0 + terms(D);
-    for (x, (o, wt)) in rgb.chunks_exact_mut(3).zip(weights.iter_mut()).enumerate() {
-        let gx: &[f32; D] = gr[x * D..][..D].try_into().expect("D values");
-        let c = &ab[x * k2..(x + 1) * k2];
-        for ch in 0..3 {
-            let mut q = c[3 * D + ch];
-            for i in 0..D {
-                q += c[ch * D + i] * gx[i];
+    let w = weights.len();
+    let mut g = [[0.0f64; LANES]; D];
+    let mut t = [[0.0f64; LANES]; terms(MAX_GUIDE_DIMS)];
+    let mut wt = [0.0f32; LANES];
+    for x0 in (0..w).step_by(LANES) {
+        let n = (w - x0).min(LANES);
+        for l in 0..n {
+            let x = x0 + l;
+            let gx: &[f32; D] = gr[x * D..][..D].try_into().expect("D values");
+            let c = &ab[x * k2..(x + 1) * k2];
+            let o = &mut rgb[3 * x..3 * x + 3];
+            for ch in 0..3 {
+                let mut q = c[3 * D + ch];
+                for i in 0..D {
+                    q += c[ch * D + i] * gx[i];
+                }
+                o[ch] = q;
             }
-            o[ch] = q;
+            for i in 0..D {
+                g[i][l] = gx[i] as f64;
+            }
+            for (j, v) in c[k0..].iter().enumerate() {
+                t[j][l] = *v as f64;
+            }
         }
-        *wt = cross_weight_at(gx, gx, &c[k0..]);
+        cross_weight_lanes::<D>(&g, &g, &t[..terms(D)], &mut wt);
+        weights[x0..x0 + n].copy_from_slice(&wt[..n]);
     }
 }
 
 /// The fast filter's coarse grid for the block means `gl` (guide) and `pl` (input) of an
 /// `s`-times coarser grid: the stream's averaged coefficients there at the coarse radius
-/// (followed by the self-weight terms when `SW`).
+/// (followed by the self-weight terms when `SW`), written into `ab` (resized; the stream
+/// writes every value, so a buffer from an earlier run serves without being cleared).
 fn coarse_grid<'a, const SW: bool>(
     (gl, pl): (&'a [f32], &[f32]),
     (lw, lh): (usize, usize),
-    eps: &[f32],
-    radius: usize,
-    s: usize,
+    (eps, radius, s): (&[f32], usize, usize),
+    ab: &'a mut Vec<f32>,
 ) -> Coarse<'a> {
     let d = eps.len();
     let k2 = 3 * d + 3 + if SW { terms(d) } else { 0 };
@@ -436,10 +453,14 @@ fn coarse_grid<'a, const SW: bool>(
         h: lh,
         r: coarse_radius(radius, s),
     };
-    let mut ab = vec![0.0f32; lw * lh * k2];
-    stream_dims::<SW>(d, &pb, (&mut ab, lw * k2), (&mut [], 0), &|_, m, row, _| {
-        row.copy_from_slice(m)
-    });
+    ab.resize(lw * lh * k2, 0.0);
+    stream_dims::<SW>(
+        d,
+        &pb,
+        (&mut ab[..], lw * k2),
+        (&mut [], 0),
+        &|_, m, row, _| row.copy_from_slice(m),
+    );
     Coarse {
         guide: gl,
         ab,
@@ -597,7 +618,7 @@ fn lerp_at(i: usize, s: usize, n: usize) -> (usize, usize, f32) {
 /// coarse grid's coefficients applied to the full-resolution guide, q_c = Σ_i a_ci I_i + b_c.
 fn apply_upsampled(guide: &[f32], w: usize, h: usize, d: usize, coarse: &Coarse) -> Image {
     let Coarse {
-        ref ab,
+        ab,
         w: lw,
         h: lh,
         s,
@@ -641,7 +662,7 @@ fn apply_upsampled(guide: &[f32], w: usize, h: usize, d: usize, coarse: &Coarse)
 /// coefficients (and self-weight terms), its size and the sub-sampling factor.
 struct Coarse<'a> {
     guide: &'a [f32],
-    ab: Vec<f32>,
+    ab: &'a [f32],
     w: usize,
     h: usize,
     s: usize,
@@ -651,7 +672,7 @@ struct Coarse<'a> {
 /// with `SW`), which are interpolated with them: returns the image and each pixel's
 /// self-weight. The pixel's value enters its block's mean with weight 1 / the block's pixel
 /// count (s², fewer in a partial block at the right or bottom edge), and the block's input
-/// moves the interpolated model by [`cross_weight_at`] of the pixel's guide and the block's
+/// moves the interpolated model by [`cross_weight_lanes`] of the pixel's guide and the block's
 /// (the windows around the interpolation's nodes taken as those around the block).
 fn apply_upsampled_weighted(
     guide: &[f32],
@@ -662,7 +683,7 @@ fn apply_upsampled_weighted(
 ) -> (Image, Vec<f32>) {
     let Coarse {
         guide: gl,
-        ref ab,
+        ab,
         w: lw,
         h: lh,
         s,
@@ -734,7 +755,8 @@ multiversion! {
     }
 }
 
-/// [`upsample_row_weighted`] for a `D`-dimensional guide (`r.d == D`).
+/// [`upsample_row_weighted`] for a `D`-dimensional guide (`r.d == D`): pixels in groups of
+/// [`LANES`], whose self-weights are formed side by side ([`cross_weight_lanes`]).
 #[inline(always)]
 fn upsample_row_weighted_d<const D: usize>(r: &UpsampleRow, out: &mut [f32], weights: &mut [f32]) {
     let (k0, k2) = (3 * D + 3, 3 * D + 3 + terms(D));
@@ -742,27 +764,42 @@ fn upsample_row_weighted_d<const D: usize>(r: &UpsampleRow, out: &mut [f32], wei
     let w = out.len() / 3;
     let mut c = [0.0f32; MAX_GUIDE_DIMS * 3 + 3 + terms(MAX_GUIDE_DIMS)];
     let c = &mut c[..k2];
-    for (x, (o, wt)) in out.chunks_exact_mut(3).zip(weights.iter_mut()).enumerate() {
-        let (x0, x1, tx) = lerp_at(x, r.s, lw);
-        let (a, b) = (&r.between[x0 * k2..][..k2], &r.between[x1 * k2..][..k2]);
-        for i in 0..k2 {
-            c[i] = a[i] + (b[i] - a[i]) * tx;
-        }
-        let gi: &[f32; D] = r.guide[x * D..][..D].try_into().expect("D values");
-        for ch in 0..3 {
-            let mut q = c[3 * D + ch];
-            for i in 0..D {
-                q += c[ch * D + i] * gi[i];
+    let (mut g, mut gb) = ([[0.0f64; LANES]; D], [[0.0f64; LANES]; D]);
+    let mut t = [[0.0f64; LANES]; terms(MAX_GUIDE_DIMS)];
+    let (mut block, mut wt) = ([1.0f32; LANES], [0.0f32; LANES]);
+    for x0 in (0..w).step_by(LANES) {
+        let n = (w - x0).min(LANES);
+        for l in 0..n {
+            let x = x0 + l;
+            let (xa, xb, tx) = lerp_at(x, r.s, lw);
+            let (a, b) = (&r.between[xa * k2..][..k2], &r.between[xb * k2..][..k2]);
+            for i in 0..k2 {
+                c[i] = a[i] + (b[i] - a[i]) * tx;
             }
-            o[ch] = q;
+            let gi: &[f32; D] = r.guide[x * D..][..D].try_into().expect("D values");
+            let o = &mut out[3 * x..3 * x + 3];
+            for ch in 0..3 {
+                let mut q = c[3 * D + ch];
+                for i in 0..D {
+                    q += c[ch * D + i] * gi[i];
+                }
+                o[ch] = q;
+            }
+            let gc = &r.coarse_guide[(x / r.s) * D..][..D];
+            for i in 0..D {
+                (g[i][l], gb[i][l]) = (gi[i] as f64, gc[i] as f64);
+            }
+            for (j, v) in c[k0..].iter().enumerate() {
+                t[j][l] = *v as f64;
+            }
+            // The pixel's share of its block's mean (a partial block at the right or bottom
+            // edge holds fewer pixels, `downsample`'s divisor).
+            block[l] = (r.block_rows * r.s.min(w - (x / r.s) * r.s)) as f32;
         }
-        let gb: &[f32; D] = r.coarse_guide[(x / r.s) * D..][..D]
-            .try_into()
-            .expect("D values");
-        // The pixel's share of its block's mean (a partial block at the right or bottom
-        // edge holds fewer pixels, `downsample`'s divisor).
-        let block = r.block_rows * r.s.min(w - (x / r.s) * r.s);
-        *wt = cross_weight_at(gi, gb, &c[k0..]) / block as f32;
+        cross_weight_lanes::<D>(&g, &gb, &t[..terms(D)], &mut wt);
+        for l in 0..n {
+            weights[x0 + l] = wt[l] / block[l];
+        }
     }
 }
 

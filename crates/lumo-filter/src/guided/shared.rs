@@ -34,6 +34,9 @@ pub(crate) struct SharedInput<'a> {
     /// from run to run: a fresh one costs its page faults again), and the fast filter's block
     /// means of it for that radius and a sub-sampling factor.
     filled: Filled,
+    /// The fast filter's coarse coefficients, a buffer reused by every run (six of `auto`'s
+    /// candidates: fresh, it was 7.5 values per pixel of page faults each).
+    coarse_ab: Vec<f32>,
 }
 
 /// [`SharedInput::filled`]: `p` is filled for `radius` (None: not yet), and `blocks` holds the
@@ -67,6 +70,7 @@ impl<'a> SharedInput<'a> {
             missing,
             blocks: Vec::new(),
             filled: Filled::default(),
+            coarse_ab: Vec::new(),
         })
     }
 
@@ -115,7 +119,8 @@ impl<'a> SharedInput<'a> {
                 None => &self.filled.blocks.as_ref().expect("made by fill_for").1,
             };
             let size = (w.div_ceil(s), h.div_ceil(s));
-            let coarse = coarse_grid::<SW>((&b.guide, pl), size, eps, radius, s);
+            let ab = &mut self.coarse_ab;
+            let coarse = coarse_grid::<SW>((&b.guide, pl), size, (eps, radius, s), ab);
             if SW {
                 apply_upsampled_weighted(&self.guide.data, w, h, d, &coarse)
             } else {
