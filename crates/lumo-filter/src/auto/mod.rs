@@ -357,11 +357,11 @@ fn loo_error(
     if differs {
         return loo_error_pairs(y, f, self_weight, r);
     }
-    let m = box_mean(&sq, w, h, 1, r);
-    m.iter()
-        .zip(&finite.mean)
-        .map(|(&e, &n)| if n > 0.0 { e / n } else { 1.0 })
-        .collect()
+    let mut m = box_mean(&sq, w, h, 1, r);
+    for (e, &n) in m.iter_mut().zip(&finite.mean) {
+        *e = if n > 0.0 { *e / n } else { 1.0 };
+    }
+    m
 }
 
 /// [`loo_error`] with the count summed beside each error: for a candidate whose errors are

@@ -17,7 +17,7 @@ use lumo_image::Image;
 use rayon::prelude::*;
 
 use crate::common::albedo::{surface_albedo, with_demodulation};
-use crate::common::boxsum::box_mean;
+use crate::common::boxsum::box_mean_rows;
 use crate::common::error::param;
 use crate::common::gbuffer::{
     background_mask, check_color, check_features, check_size, flush, plane0, Features, Filtered,
@@ -26,9 +26,9 @@ use crate::common::nonnegative::clamp_negative;
 use crate::common::zeroed::{zeroed, zeroed_image};
 use crate::denoiser::{require, Denoiser, FilterInput, FilterKind};
 use crate::FilterError;
-use self_weight::{cross_weight_at, terms};
+use self_weight::{cross_weight_lanes, terms, LANES};
 pub(crate) use shared::SharedInput;
-use stream::{stream, Problem};
+use stream::{stream, Plane, Problem};
 
 pub use lookup::{most_similar, most_similar_in_grid, neighbour_cells};
 
@@ -361,29 +361,18 @@ fn exact<const SW: bool>(pb: &Problem, d: usize) -> (Image, Vec<f32>) {
     let (w, h, g) = (pb.w, pb.h, pb.guide);
     if !SW {
         let mut out = zeroed_image(w, h, 3);
-        stream_dims::<false>(d, pb, &mut out.data, 3 * w, &|y, ab, row| {
+        let plane = (&mut out.data[..], 3 * w);
+        stream_dims::<false>(d, pb, plane, (&mut [], 0), &|y, ab, row, _| {
             apply_row(&g[y * w * d..(y + 1) * w * d], d, 3 * d + 3, ab, row)
         });
         return (out, Vec::new());
     }
-    // Row y of `out`: the filtered row (3w values), then its weights (w).
-    let mut out = zeroed(w * h * 4);
-    stream_dims::<true>(d, pb, &mut out, 4 * w, &|y, ab, row| {
-        let gr = &g[y * w * d..(y + 1) * w * d];
-        let (rgb, weights) = row.split_at_mut(3 * w);
-        weighted_row(gr, d, ab, rgb, weights);
-    });
     let mut image = zeroed_image(w, h, 3);
     let mut weights = zeroed(w * h);
-    image
-        .data
-        .par_chunks_mut(3 * w)
-        .zip(weights.par_chunks_mut(w))
-        .zip(out.par_chunks(4 * w))
-        .for_each(|((rgb, wt), row)| {
-            rgb.copy_from_slice(&row[..3 * w]);
-            wt.copy_from_slice(&row[3 * w..]);
-        });
+    let planes = ((&mut image.data[..], 3 * w), (&mut weights[..], w));
+    stream_dims::<true>(d, pb, planes.0, planes.1, &|y, ab, rgb, wt| {
+        weighted_row(&g[y * w * d..(y + 1) * w * d], d, ab, rgb, wt);
+    });
     (image, weights)
 }
 
@@ -408,34 +397,51 @@ multiversion! {
 }
 
 /// [`weighted_row`] for a `D`-dimensional guide: [`apply_row`]'s sums and
-/// [`cross_weight_at`] in the same order, so the same bits.
+/// the self-weight's (in groups of [`LANES`] pixels, [`cross_weight_lanes`]) in the same
+/// order, so the same bits.
 #[inline(always)]
 fn weighted_row_d<const D: usize>(gr: &[f32], ab: &[f32], rgb: &mut [f32], weights: &mut [f32]) {
     let k0 = 3 * D + 3;
     let k2 = k0 + terms(D);
-    for (x, (o, wt)) in rgb.chunks_exact_mut(3).zip(weights.iter_mut()).enumerate() {
-        let gx: &[f32; D] = gr[x * D..][..D].try_into().expect("D values");
-        let c = &ab[x * k2..(x + 1) * k2];
-        for ch in 0..3 {
-            let mut q = c[3 * D + ch];
-            for i in 0..D {
-                q += c[ch * D + i] * gx[i];
+    let w = weights.len();
+    let mut g = [[0.0f64; LANES]; D];
+    let mut t = [[0.0f64; LANES]; terms(MAX_GUIDE_DIMS)];
+    let mut wt = [0.0f32; LANES];
+    for x0 in (0..w).step_by(LANES) {
+        let n = (w - x0).min(LANES);
+        for l in 0..n {
+            let x = x0 + l;
+            let gx: &[f32; D] = gr[x * D..][..D].try_into().expect("D values");
+            let c = &ab[x * k2..(x + 1) * k2];
+            let o = &mut rgb[3 * x..3 * x + 3];
+            for ch in 0..3 {
+                let mut q = c[3 * D + ch];
+                for i in 0..D {
+                    q += c[ch * D + i] * gx[i];
+                }
+                o[ch] = q;
             }
-            o[ch] = q;
+            for i in 0..D {
+                g[i][l] = gx[i] as f64;
+            }
+            for (j, v) in c[k0..].iter().enumerate() {
+                t[j][l] = *v as f64;
+            }
         }
-        *wt = cross_weight_at(gx, gx, &c[k0..]);
+        cross_weight_lanes::<D>(&g, &g, &t[..terms(D)], &mut wt);
+        weights[x0..x0 + n].copy_from_slice(&wt[..n]);
     }
 }
 
 /// The fast filter's coarse grid for the block means `gl` (guide) and `pl` (input) of an
 /// `s`-times coarser grid: the stream's averaged coefficients there at the coarse radius
-/// (followed by the self-weight terms when `SW`).
+/// (followed by the self-weight terms when `SW`), written into `ab` (resized; the stream
+/// writes every value, so a buffer from an earlier run serves without being cleared).
 fn coarse_grid<'a, const SW: bool>(
     (gl, pl): (&'a [f32], &[f32]),
     (lw, lh): (usize, usize),
-    eps: &[f32],
-    radius: usize,
-    s: usize,
+    (eps, radius, s): (&[f32], usize, usize),
+    ab: &'a mut Vec<f32>,
 ) -> Coarse<'a> {
     let d = eps.len();
     let k2 = 3 * d + 3 + if SW { terms(d) } else { 0 };
@@ -447,10 +453,14 @@ fn coarse_grid<'a, const SW: bool>(
         h: lh,
         r: coarse_radius(radius, s),
     };
-    let mut ab = vec![0.0f32; lw * lh * k2];
-    stream_dims::<SW>(d, &pb, &mut ab, lw * k2, &|_, m, row| {
-        row.copy_from_slice(m)
-    });
+    ab.resize(lw * lh * k2, 0.0);
+    stream_dims::<SW>(
+        d,
+        &pb,
+        (&mut ab[..], lw * k2),
+        (&mut [], 0),
+        &|_, m, row, _| row.copy_from_slice(m),
+    );
     Coarse {
         guide: gl,
         ab,
@@ -538,21 +548,33 @@ fn guided_input(color: &Image) -> (Vec<f32>, Vec<f32>, usize) {
     (p, valid, missing)
 }
 
-/// Replaces missing pixels by the mean of the valid pixels in their window (0 if none).
+/// Replaces missing pixels by the mean of the valid pixels in their window (0 if none): the
+/// bits of [`crate::common::boxsum::box_mean`] of (colour × validity, validity), computed only on the rows that hold
+/// a missing pixel ([`box_mean_rows`]).
 fn fill_missing(p: &mut [f32], valid: &[f32], w: usize, h: usize, r: usize) {
-    let mut mp = vec![0.0f32; w * h * 4];
-    for i in 0..w * h {
-        for c in 0..3 {
-            mp[i * 4 + c] = p[i * 3 + c] * valid[i];
-        }
-        mp[i * 4 + 3] = valid[i];
-    }
-    let m = box_mean(&mp, w, h, 4, r);
-    for i in 0..w * h {
-        if valid[i] == 0.0 {
-            let k = m[i * 4 + 3];
-            for c in 0..3 {
-                p[i * 3 + c] = if k > 0.0 { m[i * 4 + c] / k } else { 0.0 };
+    let wanted: Vec<bool> = valid.chunks_exact(w).map(|v| v.contains(&0.0)).collect();
+    let src: &[f32] = p;
+    let rows = box_mean_rows(
+        |y, buf| {
+            for x in 0..w {
+                let i = y * w + x;
+                for c in 0..3 {
+                    buf[x * 4 + c] = src[i * 3 + c] * valid[i];
+                }
+                buf[x * 4 + 3] = valid[i];
+            }
+        },
+        (w, h, 4, r),
+        &wanted,
+    );
+    for (y, m) in rows {
+        for x in 0..w {
+            let i = y * w + x;
+            if valid[i] == 0.0 {
+                let k = m[x * 4 + 3];
+                for c in 0..3 {
+                    p[i * 3 + c] = if k > 0.0 { m[x * 4 + c] / k } else { 0.0 };
+                }
             }
         }
     }
@@ -596,7 +618,7 @@ fn lerp_at(i: usize, s: usize, n: usize) -> (usize, usize, f32) {
 /// coarse grid's coefficients applied to the full-resolution guide, q_c = Σ_i a_ci I_i + b_c.
 fn apply_upsampled(guide: &[f32], w: usize, h: usize, d: usize, coarse: &Coarse) -> Image {
     let Coarse {
-        ref ab,
+        ab,
         w: lw,
         h: lh,
         s,
@@ -640,7 +662,7 @@ fn apply_upsampled(guide: &[f32], w: usize, h: usize, d: usize, coarse: &Coarse)
 /// coefficients (and self-weight terms), its size and the sub-sampling factor.
 struct Coarse<'a> {
     guide: &'a [f32],
-    ab: Vec<f32>,
+    ab: &'a [f32],
     w: usize,
     h: usize,
     s: usize,
@@ -650,7 +672,7 @@ struct Coarse<'a> {
 /// with `SW`), which are interpolated with them: returns the image and each pixel's
 /// self-weight. The pixel's value enters its block's mean with weight 1 / the block's pixel
 /// count (s², fewer in a partial block at the right or bottom edge), and the block's input
-/// moves the interpolated model by [`cross_weight_at`] of the pixel's guide and the block's
+/// moves the interpolated model by [`cross_weight_lanes`] of the pixel's guide and the block's
 /// (the windows around the interpolation's nodes taken as those around the block).
 fn apply_upsampled_weighted(
     guide: &[f32],
@@ -661,7 +683,7 @@ fn apply_upsampled_weighted(
 ) -> (Image, Vec<f32>) {
     let Coarse {
         guide: gl,
-        ref ab,
+        ab,
         w: lw,
         h: lh,
         s,
@@ -733,7 +755,8 @@ multiversion! {
     }
 }
 
-/// [`upsample_row_weighted`] for a `D`-dimensional guide (`r.d == D`).
+/// [`upsample_row_weighted`] for a `D`-dimensional guide (`r.d == D`): pixels in groups of
+/// [`LANES`], whose self-weights are formed side by side ([`cross_weight_lanes`]).
 #[inline(always)]
 fn upsample_row_weighted_d<const D: usize>(r: &UpsampleRow, out: &mut [f32], weights: &mut [f32]) {
     let (k0, k2) = (3 * D + 3, 3 * D + 3 + terms(D));
@@ -741,50 +764,65 @@ fn upsample_row_weighted_d<const D: usize>(r: &UpsampleRow, out: &mut [f32], wei
     let w = out.len() / 3;
     let mut c = [0.0f32; MAX_GUIDE_DIMS * 3 + 3 + terms(MAX_GUIDE_DIMS)];
     let c = &mut c[..k2];
-    for (x, (o, wt)) in out.chunks_exact_mut(3).zip(weights.iter_mut()).enumerate() {
-        let (x0, x1, tx) = lerp_at(x, r.s, lw);
-        let (a, b) = (&r.between[x0 * k2..][..k2], &r.between[x1 * k2..][..k2]);
-        for i in 0..k2 {
-            c[i] = a[i] + (b[i] - a[i]) * tx;
-        }
-        let gi: &[f32; D] = r.guide[x * D..][..D].try_into().expect("D values");
-        for ch in 0..3 {
-            let mut q = c[3 * D + ch];
-            for i in 0..D {
-                q += c[ch * D + i] * gi[i];
+    let (mut g, mut gb) = ([[0.0f64; LANES]; D], [[0.0f64; LANES]; D]);
+    let mut t = [[0.0f64; LANES]; terms(MAX_GUIDE_DIMS)];
+    let (mut block, mut wt) = ([1.0f32; LANES], [0.0f32; LANES]);
+    for x0 in (0..w).step_by(LANES) {
+        let n = (w - x0).min(LANES);
+        for l in 0..n {
+            let x = x0 + l;
+            let (xa, xb, tx) = lerp_at(x, r.s, lw);
+            let (a, b) = (&r.between[xa * k2..][..k2], &r.between[xb * k2..][..k2]);
+            for i in 0..k2 {
+                c[i] = a[i] + (b[i] - a[i]) * tx;
             }
-            o[ch] = q;
+            let gi: &[f32; D] = r.guide[x * D..][..D].try_into().expect("D values");
+            let o = &mut out[3 * x..3 * x + 3];
+            for ch in 0..3 {
+                let mut q = c[3 * D + ch];
+                for i in 0..D {
+                    q += c[ch * D + i] * gi[i];
+                }
+                o[ch] = q;
+            }
+            let gc = &r.coarse_guide[(x / r.s) * D..][..D];
+            for i in 0..D {
+                (g[i][l], gb[i][l]) = (gi[i] as f64, gc[i] as f64);
+            }
+            for (j, v) in c[k0..].iter().enumerate() {
+                t[j][l] = *v as f64;
+            }
+            // The pixel's share of its block's mean (a partial block at the right or bottom
+            // edge holds fewer pixels, `downsample`'s divisor).
+            block[l] = (r.block_rows * r.s.min(w - (x / r.s) * r.s)) as f32;
         }
-        let gb: &[f32; D] = r.coarse_guide[(x / r.s) * D..][..D]
-            .try_into()
-            .expect("D values");
-        // The pixel's share of its block's mean (a partial block at the right or bottom
-        // edge holds fewer pixels, `downsample`'s divisor).
-        let block = r.block_rows * r.s.min(w - (x / r.s) * r.s);
-        *wt = cross_weight_at(gi, gb, &c[k0..]) / block as f32;
+        cross_weight_lanes::<D>(&g, &gb, &t[..terms(D)], &mut wt);
+        for l in 0..n {
+            weights[x0 + l] = wt[l] / block[l];
+        }
     }
 }
 
-/// Consumer of one row of averaged coefficients: (row, coefficients, output row).
-type EmitRow<'a> = dyn Fn(usize, &[f32], &mut [f32]) + Sync + 'a;
+/// Consumer of one row of averaged coefficients: (row, coefficients, output row, side row).
+type EmitRow<'a> = dyn Fn(usize, &[f32], &mut [f32], &mut [f32]) + Sync + 'a;
 
 /// [`stream`] monomorphised per guide dimension, so the d×d solve is unrolled.
 fn stream_dims<const SW: bool>(
     d: usize,
     pb: &Problem,
-    out: &mut [f32],
-    row_len: usize,
+    out: Plane,
+    side: Plane,
     emit: &EmitRow<'_>,
 ) {
     match d {
-        1 => stream::<1, SW, _>(pb, out, row_len, emit),
-        2 => stream::<2, SW, _>(pb, out, row_len, emit),
-        3 => stream::<3, SW, _>(pb, out, row_len, emit),
-        4 => stream::<4, SW, _>(pb, out, row_len, emit),
-        5 => stream::<5, SW, _>(pb, out, row_len, emit),
-        6 => stream::<6, SW, _>(pb, out, row_len, emit),
-        7 => stream::<7, SW, _>(pb, out, row_len, emit),
-        _ => stream::<8, SW, _>(pb, out, row_len, emit),
+        1 => stream::<1, SW, _>(pb, out, side, emit),
+        2 => stream::<2, SW, _>(pb, out, side, emit),
+        3 => stream::<3, SW, _>(pb, out, side, emit),
+        4 => stream::<4, SW, _>(pb, out, side, emit),
+        5 => stream::<5, SW, _>(pb, out, side, emit),
+        6 => stream::<6, SW, _>(pb, out, side, emit),
+        7 => stream::<7, SW, _>(pb, out, side, emit),
+        _ => stream::<8, SW, _>(pb, out, side, emit),
     }
 }
 

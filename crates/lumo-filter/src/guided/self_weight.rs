@@ -95,9 +95,10 @@ pub(super) fn window_terms<const D: usize>(
 /// of a pixel with guide `gb` in the same windows, from the window means `s` of their terms
 /// (already divided by the windows' sizes): `s_c − (g + gb)ᵀ s_v + gᵀ S_M gb`, clamped to
 /// [0, 1]. With `gb = g` it is the pixel's self-weight `s_c − 2 gᵀ s_v + gᵀ S_M g`; for the
-/// fast filter `gb` is the coarse pixel's guide.
-#[inline(always)]
-pub(super) fn cross_weight_at(g: &[f32], gb: &[f32], s: &[f32]) -> f32 {
+/// fast filter `gb` is the coarse pixel's guide. One pixel at a time: the reference the
+/// filters' [`cross_weight_lanes`] is tested against.
+#[cfg(test)]
+fn cross_weight_at(g: &[f32], gb: &[f32], s: &[f32]) -> f32 {
     let d = g.len();
     let np = d * (d + 1) / 2;
     let mut v = s[np + d] as f64;
@@ -113,6 +114,49 @@ pub(super) fn cross_weight_at(g: &[f32], gb: &[f32], s: &[f32]) -> f32 {
         }
     }
     v.clamp(0.0, 1.0) as f32
+}
+
+/// Pixels [`cross_weight_lanes`] takes at once.
+pub(super) const LANES: usize = 8;
+
+/// The derivative of the filtered value of a pixel with guide `g` with respect to the input
+/// of a pixel with guide `gb` in the same windows, from the window means `s` of their terms
+/// (already divided by the windows' sizes): `s_c − (g + gb)ᵀ s_v + gᵀ S_M gb`, clamped to
+/// [0, 1] (with `gb = g` the pixel's self-weight; for the fast filter `gb` is the coarse
+/// pixel's guide), for [`LANES`] pixels, lane-last (`g[a][l]`, `gb[a][l]`, terms `s[j][l]`,
+/// all as f64): per lane the operations and order of the one-pixel formula, so its bits.
+/// Why: one pixel's weight is a chain of dependent f64 additions, which kept the upsampling
+/// loop waiting on their latency; eight independent chains side by side vectorise.
+#[inline(always)]
+pub(super) fn cross_weight_lanes<const D: usize>(
+    g: &[[f64; LANES]; D],
+    gb: &[[f64; LANES]; D],
+    s: &[[f64; LANES]],
+    out: &mut [f32; LANES],
+) {
+    let np = D * (D + 1) / 2;
+    let mut v = s[np + D];
+    for a in 0..D {
+        let sa = &s[np + a];
+        for l in 0..LANES {
+            v[l] -= (g[a][l] + gb[a][l]) * sa[l];
+        }
+        for b in a..D {
+            let m = &s[packed(D, a, b)];
+            if a == b {
+                for l in 0..LANES {
+                    v[l] += g[a][l] * gb[a][l] * m[l];
+                }
+            } else {
+                for l in 0..LANES {
+                    v[l] += (g[a][l] * gb[b][l] + g[b][l] * gb[a][l]) * m[l];
+                }
+            }
+        }
+    }
+    for (o, v) in out.iter_mut().zip(v) {
+        *o = v.clamp(0.0, 1.0) as f32;
+    }
 }
 
 /// A 2-channel test guide: a step at column `split` in the first channel, a smooth wave in the
@@ -133,6 +177,42 @@ pub(crate) fn two_region_guide(w: usize, h: usize, split: usize) -> lumo_image::
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The lanes give [`cross_weight_at`]'s bits, for every guide dimension up to 4, with
+    /// weights inside, below and above [0, 1].
+    #[test]
+    fn lanes_give_the_bits_of_one_pixel() {
+        fn check<const D: usize>() {
+            let val = |i: usize| ((i * 7919 + 13) % 1009) as f32 / 500.0 - 1.0;
+            let nt = terms(D);
+            let (mut g, mut gb) = ([[0.0f64; LANES]; D], [[0.0f64; LANES]; D]);
+            let mut s = vec![[0.0f64; LANES]; nt];
+            let mut want = [0.0f32; LANES];
+            for l in 0..LANES {
+                let gl: Vec<f32> = (0..D).map(|a| val(l * 31 + a)).collect();
+                let gbl: Vec<f32> = (0..D).map(|a| val(l * 17 + a + 400)).collect();
+                let sl: Vec<f32> = (0..nt).map(|j| val(l * 53 + j + 900) * 0.7).collect();
+                for a in 0..D {
+                    (g[a][l], gb[a][l]) = (gl[a] as f64, gbl[a] as f64);
+                }
+                for j in 0..nt {
+                    s[j][l] = sl[j] as f64;
+                }
+                want[l] = cross_weight_at(&gl, &gbl, &sl);
+            }
+            let mut got = [0.0f32; LANES];
+            cross_weight_lanes::<D>(&g, &gb, &s, &mut got);
+            assert_eq!(got.map(f32::to_bits), want.map(f32::to_bits), "D {D}");
+            assert!(
+                want.iter().any(|&w| w > 0.0 && w < 1.0),
+                "D {D}: an inner weight"
+            );
+        }
+        check::<1>();
+        check::<2>();
+        check::<3>();
+        check::<4>();
+    }
     use crate::guided::guided_self_weighted;
     use crate::{guided, Guide, GuidedParams};
     use lumo_image::Image;

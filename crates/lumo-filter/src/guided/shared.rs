@@ -30,6 +30,22 @@ pub(crate) struct SharedInput<'a> {
     missing: usize,
     /// Block means for the fast filter, per sub-sampling factor, made on first use.
     blocks: Vec<Blocks>,
+    /// With missing pixels: the colour filled for the last run's radius (its buffer reused
+    /// from run to run: a fresh one costs its page faults again), and the fast filter's block
+    /// means of it for that radius and a sub-sampling factor.
+    filled: Filled,
+    /// The fast filter's coarse coefficients, a buffer reused by every run (six of `auto`'s
+    /// candidates: fresh, it was 7.5 values per pixel of page faults each).
+    coarse_ab: Vec<f32>,
+}
+
+/// [`SharedInput::filled`]: `p` is filled for `radius` (None: not yet), and `blocks` holds the
+/// block means of that `p` for sub-sampling factor `blocks.0`.
+#[derive(Default)]
+struct Filled {
+    radius: Option<usize>,
+    p: Vec<f32>,
+    blocks: Option<(usize, Vec<f32>)>,
 }
 
 /// The guide's block means for sub-sampling factor `s`, and the colour's when no pixel is
@@ -53,6 +69,8 @@ impl<'a> SharedInput<'a> {
             valid,
             missing,
             blocks: Vec::new(),
+            filled: Filled::default(),
+            coarse_ab: Vec::new(),
         })
     }
 
@@ -85,25 +103,24 @@ impl<'a> SharedInput<'a> {
         check_run(d, eps, params)?;
         let (radius, s) = (params.radius, params.fast_subsample);
         let blocks = (s > 1).then(|| self.blocks_for(s));
-        let filled = (self.missing > 0).then(|| {
-            let mut p = self.p.clone();
-            fill_missing(&mut p, &self.valid, w, h, radius);
-            p
-        });
-        let p = filled.as_deref().unwrap_or(&self.p);
+        if self.missing > 0 {
+            self.fill_for(radius, s);
+        }
+        let p = if self.missing > 0 {
+            &self.filled.p
+        } else {
+            &self.p
+        };
         let (image, weights) = if let Some(i) = blocks {
             let b = &self.blocks[i];
             // With missing pixels the input's block means depend on this run's filling.
-            let fresh;
             let pl = match &b.p {
                 Some(pl) => pl.as_slice(),
-                None => {
-                    fresh = downsample(p, w, h, 3, s);
-                    &fresh
-                }
+                None => &self.filled.blocks.as_ref().expect("made by fill_for").1,
             };
             let size = (w.div_ceil(s), h.div_ceil(s));
-            let coarse = coarse_grid::<SW>((&b.guide, pl), size, eps, radius, s);
+            let ab = &mut self.coarse_ab;
+            let coarse = coarse_grid::<SW>((&b.guide, pl), size, (eps, radius, s), ab);
             if SW {
                 apply_upsampled_weighted(&self.guide.data, w, h, d, &coarse)
             } else {
@@ -123,6 +140,24 @@ impl<'a> SharedInput<'a> {
         };
         let missing = self.missing;
         Ok((Filtered { image, missing }, weights))
+    }
+
+    /// Fills the missing pixels of the colour for `radius` into `filled.p` and, when `s` > 1,
+    /// makes its block means, unless the last run already did (the same bits as a fresh fill:
+    /// `auto`'s main and flat candidates of one radius follow each other).
+    fn fill_for(&mut self, radius: usize, s: usize) {
+        let (w, h) = (self.color.width, self.color.height);
+        let f = &mut self.filled;
+        if f.radius != Some(radius) {
+            f.p.clear();
+            f.p.extend_from_slice(&self.p);
+            fill_missing(&mut f.p, &self.valid, w, h, radius);
+            f.radius = Some(radius);
+            f.blocks = None;
+        }
+        if s > 1 && f.blocks.as_ref().is_none_or(|b| b.0 != s) {
+            f.blocks = Some((s, downsample(&f.p, w, h, 3, s)));
+        }
     }
 
     /// The index in `blocks` of sub-sampling factor `s`'s block means, made if new.

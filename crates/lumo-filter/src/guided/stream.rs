@@ -68,31 +68,36 @@ pub(super) struct Problem<'a> {
     pub r: usize,
 }
 
+/// An output plane of [`stream`]: its values and how many of them make one image row (0 for
+/// none: an empty plane).
+pub(super) type Plane<'a> = (&'a mut [f32], usize);
+
 /// Computes, for every row y, the window-averaged coefficients [a_0 (D), a_1 (D), a_2 (D),
 /// b (3)] of each pixel — followed by the averaged self-weight terms
 /// ([`super::self_weight::terms`]) when `SW` — and hands them to
-/// `emit(y, coefficients, out_row)`, where `out_row` is row y of `out` (`row_len` values per
-/// row).
+/// `emit(y, coefficients, out_row, side_row)`, where `out_row` and `side_row` are row y of
+/// the planes `out` and `side` (two planes, so that the self-weighted filter writes its image
+/// and its weights where they stay, without an interleaved buffer to copy them out of).
 pub(super) fn stream<const D: usize, const SW: bool, F>(
     pb: &Problem,
-    out: &mut [f32],
-    row_len: usize,
+    out: Plane,
+    side: Plane,
     emit: F,
 ) where
-    F: Fn(usize, &[f32], &mut [f32]) + Sync,
+    F: Fn(usize, &[f32], &mut [f32], &mut [f32]) + Sync,
 {
-    stream_with::<D, SW, F>(pb, out, row_len, emit, has_avx2())
+    stream_with::<D, SW, F>(pb, out, side, emit, has_avx2())
 }
 
 /// [`stream`], with the AVX2 copy of the band code on or off.
 fn stream_with<const D: usize, const SW: bool, F>(
     pb: &Problem,
-    out: &mut [f32],
-    row_len: usize,
+    (out, row_len): Plane,
+    (side, side_len): Plane,
     emit: F,
     avx2: bool,
 ) where
-    F: Fn(usize, &[f32], &mut [f32]) + Sync,
+    F: Fn(usize, &[f32], &mut [f32], &mut [f32]) + Sync,
 {
     let (w, h, r) = (pb.w, pb.h, pb.r);
     // Each band recomputes 2r rows of coefficients above and below it: tall bands keep that
@@ -100,9 +105,15 @@ fn stream_with<const D: usize, const SW: bool, F>(
     let band = (4 * r).max(h.div_ceil(4)).max(64);
     let cx = counts(w, r);
     let cy = counts(h, r);
+    let sides: Vec<&mut [f32]> = if side_len == 0 {
+        (0..h.div_ceil(band)).map(|_| Default::default()).collect()
+    } else {
+        side.chunks_mut(band * side_len).collect()
+    };
     out.par_chunks_mut(band * row_len)
+        .zip(sides)
         .enumerate()
-        .for_each(|(bi, rows)| {
+        .for_each(|(bi, (rows, side_rows))| {
             let y0 = bi * band;
             let y1 = (y0 + band).min(h);
             let mut b = Band::<D, SW>::new(pb, &cx, &cy);
@@ -110,10 +121,12 @@ fn stream_with<const D: usize, const SW: bool, F>(
             let mut mean = vec![0.0f32; w * k2];
             for y in y0..y1 {
                 b.next_row(y, &mut mean, avx2);
+                let dy = y - y0;
                 emit(
                     y,
                     &mean,
-                    &mut rows[(y - y0) * row_len..(y - y0 + 1) * row_len],
+                    &mut rows[dy * row_len..(dy + 1) * row_len],
+                    &mut side_rows[dy * side_len..(dy + 1) * side_len],
                 );
             }
         });
@@ -449,7 +462,8 @@ mod tests {
         let k2 = 3 * d + 3;
         let run = |avx2| {
             let mut out = vec![0.0f32; w * h * k2];
-            stream_with::<3, false, _>(&pb, &mut out, w * k2, |_, m, o| o.copy_from_slice(m), avx2);
+            let emit = |_: usize, m: &[f32], o: &mut [f32], _: &mut [f32]| o.copy_from_slice(m);
+            stream_with::<3, false, _>(&pb, (&mut out, w * k2), (&mut [], 0), emit, avx2);
             out
         };
         let (a, b) = (run(true), run(false));
