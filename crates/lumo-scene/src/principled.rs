@@ -49,6 +49,12 @@ impl PrincipledSpec {
         !zero(&self.spec_trans) && !one(&self.metallic)
     }
 
+    /// Whether some texel is anisotropic (the renderer then aligns the shading frame with the
+    /// surface's tangent, as for an anisotropic α).
+    pub fn is_anisotropic(&self) -> bool {
+        !matches!(self.anisotropic, Texture::Constant(c) if c == glam::Vec3::ZERO)
+    }
+
     /// Whether some texel has a diffuse lobe: not metallic everywhere, not transmitting
     /// everywhere.
     pub fn has_diffuse(&self) -> bool {

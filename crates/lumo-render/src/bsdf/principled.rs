@@ -441,21 +441,31 @@ impl Principled {
     #[inline]
     pub(super) fn at_hit(p: &PrincipledSpec, hit: &SpecHit) -> Self {
         let uv = hit.uv;
+        // The loader keeps constants in [0, 1]; a texel outside it (an HDR bitmap) or NaN is
+        // read at the nearest end (NaN as 0) rather than let it make light or NaN radiance.
+        let unit = |t: &lumo_scene::Texture| {
+            let x = t.eval_1(uv);
+            if x.is_nan() {
+                0.0
+            } else {
+                x.clamp(0.0, 1.0)
+            }
+        };
         let mut b = Principled::new(
             super::texture(&p.base_color, uv) * hit.color,
-            p.roughness.eval_1(uv),
-            p.anisotropic.eval_1(uv),
-            p.metallic.eval_1(uv),
-            p.spec_trans.eval_1(uv),
+            unit(&p.roughness),
+            unit(&p.anisotropic),
+            unit(&p.metallic),
+            unit(&p.spec_trans),
             p.eta,
-            p.clearcoat.eval_1(uv),
-            p.clearcoat_gloss.eval_1(uv),
+            unit(&p.clearcoat),
+            unit(&p.clearcoat_gloss),
         )
         .with_tints(
-            p.spec_tint.eval_1(uv),
-            p.sheen.eval_1(uv),
-            p.sheen_tint.eval_1(uv),
-            p.flatness.eval_1(uv),
+            unit(&p.spec_tint),
+            unit(&p.sheen),
+            unit(&p.sheen_tint),
+            unit(&p.flatness),
         );
         b.rates = p.sampling_rates;
         b
