@@ -332,7 +332,7 @@ impl Principled {
             return None;
         }
         let pdf = self.pdf(wo, wi);
-        if !(pdf > 0.0) {
+        if pdf.is_nan() || pdf <= 0.0 {
             return None;
         }
         Some(BsdfSample {

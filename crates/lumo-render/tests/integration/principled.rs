@@ -242,7 +242,7 @@ fn principled_sample_weights_are_eval_over_pdf() {
     let mut rng = Rng(5);
     for (name, bsdf) in corner_materials() {
         for _ in 0..2000 {
-            let wo = dir(rng.next() * 1.96 - 0.98, rng.next() * 6.28);
+            let wo = dir(rng.next() * 1.96 - 0.98, rng.next() * std::f32::consts::TAU);
             if let Some(s) = bsdf.sample(wo, rng.next(), rng.next_2d()) {
                 let (f, pdf) = (bsdf.eval(wo, s.wi), bsdf.pdf(wo, s.wi));
                 assert!(
@@ -266,8 +266,8 @@ fn principled_reflection_is_reciprocal() {
     let mut rng = Rng(17);
     for (name, bsdf) in corner_materials() {
         for _ in 0..3000 {
-            let a = dir(rng.next() * 0.98 + 0.02, rng.next() * 6.28);
-            let b = dir(rng.next() * 0.98 + 0.02, rng.next() * 6.28);
+            let a = dir(rng.next() * 0.98 + 0.02, rng.next() * std::f32::consts::TAU);
+            let b = dir(rng.next() * 0.98 + 0.02, rng.next() * std::f32::consts::TAU);
             // f(a, b) = f(b, a): eval includes the cosine of its second direction.
             let (fab, fba) = (bsdf.eval(a, b) / b.z, bsdf.eval(b, a) / a.z);
             assert!(
@@ -299,8 +299,8 @@ fn principled_clear_glass_is_the_rough_dielectric() {
             mf: Microfacet::ggx(roughness * roughness),
         });
         for _ in 0..3000 {
-            let wo = dir(rng.next() * 1.96 - 0.98, rng.next() * 6.28);
-            let wi = dir(rng.next() * 1.96 - 0.98, rng.next() * 6.28);
+            let wo = dir(rng.next() * 1.96 - 0.98, rng.next() * std::f32::consts::TAU);
+            let wi = dir(rng.next() * 1.96 - 0.98, rng.next() * std::f32::consts::TAU);
             let (a, b) = (glass.eval(wo, wi), walter.eval(wo, wi));
             assert!(
                 (a - b).abs().max_element() <= 1e-3 * b.max_element() + 1e-6,
