@@ -117,6 +117,8 @@ pub enum BsdfSpec {
         /// What the material's KHR_materials_* extensions add; `None`: none used.
         extensions: Option<Arc<crate::GltfExtensions>>,
     },
+    /// Mitsuba 3's `principled` BSDF (Burley's Disney BSDF), read per texel.
+    Principled(Arc<crate::PrincipledSpec>),
     /// An opacity cut-out (Mitsuba's `mask`, glTF's alphaMode): the nested BSDF with
     /// probability `opacity` × the mesh's vertex alpha, otherwise the ray passes straight
     /// through.
@@ -224,6 +226,7 @@ impl BsdfSpec {
             | BsdfSpec::Dielectric { .. }
             | BsdfSpec::ThinDielectric { .. }
             | BsdfSpec::GltfPbr { .. }
+            | BsdfSpec::Principled(_)
             | BsdfSpec::TwoSided { .. }
             | BsdfSpec::Blend { .. } => None,
         }
@@ -305,6 +308,14 @@ impl BsdfSpec {
                     transmission: ext.is_some_and(crate::GltfExtensions::transmits),
                 }
             }
+            // Its main lobes are GGX of α ≥ 0.001: never a Dirac lobe.
+            BsdfSpec::Principled(p) => BsdfFlags {
+                reflection: true,
+                transmission: p.transmits(),
+                diffuse: p.has_diffuse(),
+                glossy: true,
+                specular: false,
+            },
             BsdfSpec::NormalMap { nested, .. } | BsdfSpec::BumpMap { nested, .. } => nested.flags(),
             BsdfSpec::Mask { nested, .. } => nested.flags().union(BsdfFlags {
                 transmission: true,
@@ -341,6 +352,7 @@ impl BsdfSpec {
             BsdfSpec::Diffuse { reflectance } => (None, Some(BaseColor::Texture(reflectance))),
             BsdfSpec::Mirror { reflectance } => (None, Some(BaseColor::Rgb(*reflectance))),
             BsdfSpec::GltfPbr { base_color, .. } => (None, Some(BaseColor::Texture(base_color))),
+            BsdfSpec::Principled(p) => (None, Some(BaseColor::Texture(&p.base_color))),
             BsdfSpec::Plastic {
                 diffuse, roughness, ..
             } => (Some(roughness), Some(BaseColor::Texture(diffuse))),

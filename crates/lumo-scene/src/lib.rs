@@ -15,6 +15,7 @@ pub mod load;
 mod material;
 pub mod media;
 mod mesh;
+mod principled;
 mod scene;
 pub mod shapes;
 mod texture;
@@ -29,6 +30,7 @@ pub use light::{EnvMap, Light, SpotFalloff, MAX_EMISSION};
 pub use material::{Distribution, Material, Roughness, RoughnessMaps, Spectra};
 pub use media::{Boundary, Medium, MediumInterface, MediumSpectra, PhaseFunction, SceneMedia};
 pub use mesh::{Analytic, AnalyticKind, Instance, Mesh};
+pub use principled::PrincipledSpec;
 pub use scene::{
     box_reach, positions_box, reach_error, singular_instance, transformed_box, RenderDefaults,
     Scene, COORDINATE_LIMIT, DEPTH_LIMIT,

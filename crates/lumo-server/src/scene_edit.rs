@@ -199,6 +199,9 @@ pub fn apply(rs: &mut RenderScene, edits: &[Edit]) -> Result<SceneUpdate, SceneE
                         *base_color = Texture::Constant(e.value)
                     }
                     BsdfSpec::Mirror { reflectance } => *reflectance = e.value,
+                    BsdfSpec::Principled(p) => {
+                        std::sync::Arc::make_mut(p).base_color = Texture::Constant(e.value)
+                    }
                     // No single colour to set (η and k, glass, two branches); the adapters
                     // are not innermost.
                     BsdfSpec::Conductor { .. }

@@ -18,6 +18,7 @@ mod gltf_pbr;
 mod microfacet;
 mod mirror;
 mod plastic;
+mod principled;
 mod thin_dielectric;
 
 pub use coat::RoughCoat;
@@ -29,6 +30,7 @@ pub use gltf_pbr::GltfPbr;
 pub use microfacet::{Distribution, Microfacet};
 pub use mirror::Mirror;
 pub use plastic::Plastic;
+pub use principled::Principled;
 pub use thin_dielectric::{thin_dielectric_reflectance, ThinDielectric};
 
 use glam::{Vec2, Vec3};
@@ -58,6 +60,8 @@ pub enum Bsdf {
     ThinDielectric(ThinDielectric),
     /// glTF's metallic-roughness material.
     GltfPbr(GltfPbr),
+    /// Mitsuba 3's principled (Disney) BSDF.
+    Principled(Principled),
 }
 
 /// A sampled direction.
@@ -135,6 +139,7 @@ impl Prepared {
             // their own.
             BsdfSpec::Diffuse { .. }
             | BsdfSpec::GltfPbr { .. }
+            | BsdfSpec::Principled(_)
             | BsdfSpec::Mirror { .. }
             | BsdfSpec::Conductor { .. }
             | BsdfSpec::Dielectric { .. }
@@ -239,6 +244,7 @@ impl Bsdf {
                 extensions.as_deref(),
                 hit,
             )),
+            BsdfSpec::Principled(p) => Bsdf::Principled(Principled::at_hit(p, hit)),
             // Adapters are unwrapped by `RenderScene::bsdf`; one reached here (nested in a way
             // it does not unwrap) stands for the BSDF it wraps. Two-branch BSDFs are split into
             // materials of their own when the render scene is built, so none reaches here.
@@ -270,6 +276,7 @@ impl Bsdf {
             Bsdf::Dielectric(d) => Bsdf::Dielectric(d.at_wavelengths(c)),
             Bsdf::ThinDielectric(t) => Bsdf::ThinDielectric(t),
             Bsdf::GltfPbr(g) => Bsdf::GltfPbr(g.at_wavelengths(c)),
+            Bsdf::Principled(p) => Bsdf::Principled(p.at_wavelengths(c)),
         }
     }
 
@@ -286,17 +293,19 @@ impl Bsdf {
                     && g.transmission_weight() == 0.0
                     && g.mf.max_alpha() >= BROAD_COAT_ALPHA
             }
+            // GGX of α ≥ 0.001 with sharp lobes at low roughness, and a clear coat.
             Bsdf::Mirror(_)
             | Bsdf::Conductor(_)
             | Bsdf::Dielectric(_)
-            | Bsdf::ThinDielectric(_) => false,
+            | Bsdf::ThinDielectric(_)
+            | Bsdf::Principled(_) => false,
         }
     }
 
     /// True if every lobe is a Dirac delta (light sampling is useless there).
     pub fn is_delta(&self) -> bool {
         match self {
-            Bsdf::Diffuse(_) | Bsdf::Plastic(_) => false,
+            Bsdf::Diffuse(_) | Bsdf::Plastic(_) | Bsdf::Principled(_) => false,
             Bsdf::Mirror(_) | Bsdf::ThinDielectric(_) => true,
             Bsdf::Conductor(c) => c.is_delta(),
             Bsdf::Dielectric(d) => d.is_delta(),
@@ -311,6 +320,7 @@ impl Bsdf {
         match self {
             Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => true,
             Bsdf::GltfPbr(g) => g.transmission_weight() > 0.0,
+            Bsdf::Principled(p) => p.bsdf() > 0.0,
             Bsdf::Diffuse(_) | Bsdf::Mirror(_) | Bsdf::Conductor(_) | Bsdf::Plastic(_) => false,
         }
     }
@@ -324,6 +334,7 @@ impl Bsdf {
             Bsdf::Plastic(p) => p.diffuse,
             Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) => Vec3::ONE,
             Bsdf::GltfPbr(g) => g.albedo(Vec3::Z),
+            Bsdf::Principled(p) => p.albedo(),
         }
     }
 
@@ -337,7 +348,8 @@ impl Bsdf {
             | Bsdf::Mirror(_)
             | Bsdf::Conductor(_)
             | Bsdf::Dielectric(_)
-            | Bsdf::ThinDielectric(_) => self.albedo(),
+            | Bsdf::ThinDielectric(_)
+            | Bsdf::Principled(_) => self.albedo(),
         }
     }
 
@@ -361,6 +373,7 @@ impl Bsdf {
             Bsdf::Plastic(p) => p.eval(wo, wi),
             Bsdf::Dielectric(d) => d.eval(wo, wi),
             Bsdf::GltfPbr(g) => g.eval(wo, wi),
+            Bsdf::Principled(p) => p.eval(wo, wi),
         }
     }
 
@@ -374,6 +387,7 @@ impl Bsdf {
             Bsdf::Plastic(p) => p.pdf(wo, wi),
             Bsdf::Dielectric(d) => d.pdf(wo, wi),
             Bsdf::GltfPbr(g) => g.pdf(wo, wi),
+            Bsdf::Principled(p) => p.pdf(wo, wi),
         }
     }
 
@@ -401,6 +415,7 @@ impl Bsdf {
             Bsdf::Plastic(p) => p.sample(wo, u_lobe, u),
             Bsdf::Dielectric(d) => d.sample(wo, u_lobe, u),
             Bsdf::GltfPbr(g) => g.sample(wo, u_lobe, u),
+            Bsdf::Principled(p) => p.sample(wo, u_lobe, u),
         }
     }
 }

@@ -301,7 +301,10 @@ impl RenderScene {
         // Per material, what its BSDF sets up once (a plastic's coat).
         let prepared = all().map(|m| Prepared::of(&m.bsdf)).collect();
         let mut anisotropic: Vec<bool> = all()
-            .map(|m| m.bsdf.roughness().is_some_and(Roughness::is_anisotropic))
+            .map(|m| {
+                m.bsdf.roughness().is_some_and(Roughness::is_anisotropic)
+                    || matches!(m.bsdf.innermost(), BsdfSpec::Principled(p) if p.is_anisotropic())
+            })
             .collect();
         // A two-branch material's frame must serve either branch (children follow their
         // parents in the list, so a reverse pass sees them first).

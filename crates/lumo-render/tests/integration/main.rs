@@ -23,6 +23,7 @@ mod media_light;
 mod mitsuba_adapters;
 mod mitsuba_cornell;
 mod mitsuba_suite;
+mod principled;
 mod spectral;
 mod specular_albedo;
 mod transport_modes;

@@ -9,6 +9,7 @@ mod in_memory;
 mod media;
 mod meshes;
 mod mitsuba;
+mod mitsuba_principled;
 mod mutated;
 mod robustness;
 mod skins;

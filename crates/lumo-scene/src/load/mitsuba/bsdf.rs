@@ -326,66 +326,111 @@ impl<'a> Builder<'a, '_> {
         Ok(())
     }
 
-    /// `principled` mapped to the closest lumo BSDF, naming what is lost.
+    /// `principled` as Mitsuba 3 defines it: every parameter a value or a texture, `eta` or
+    /// `specular` (not both), the three sampling rates.
     fn principled(&mut self, props: &Props<'a>) -> Result<BsdfSpec, LoadError> {
-        let base = self.texture_param(props, "base_color", Vec3::splat(0.5))?;
-        let roughness = self.scalar_param(props, "roughness", 0.5)?;
-        let metallic = self.scalar_param(props, "metallic", 0.0)?;
-        let spec_trans = self.scalar_param(props, "spec_trans", 0.0)?;
-        let eta = props.float("eta", 1.5)?;
-        let alpha = roughness * roughness;
-        let mut lost: Vec<&str> = [
-            "anisotropic",
-            "sheen",
-            "sheen_tint",
-            "clearcoat",
-            "clearcoat_gloss",
-            "specular",
-            "spec_tint",
-            "flatness",
-        ]
-        .into_iter()
-        .filter(|p| props.has(p))
-        .collect();
-        props.accept(&lost);
-        let bsdf = if spec_trans >= 0.5 {
-            lost.push("base_color (glass is clear)");
-            BsdfSpec::Dielectric {
-                ior: eta,
-                roughness: Roughness::ggx(alpha),
+        let at = props.el.at();
+        self.spectra.reflectance = props.tabulated("base_color")?.map(Arc::new);
+        let base_color = self.texture_param(props, "base_color", Vec3::splat(0.5))?;
+        // (name, default, upper bound): Mitsuba asks for values in [0, 1].
+        let mut scalar = |name: &str, default: f32| -> Result<Texture, LoadError> {
+            let t = self.texture_param(props, name, Vec3::splat(default))?;
+            if let Texture::Constant(c) = &t {
+                if !(c.min_element() >= 0.0 && c.max_element() <= 1.0) {
+                    return Err(LoadError::invalid(
+                        at.clone(),
+                        format!("principled {name} = {c}: use a value in [0, 1]"),
+                    ));
+                }
             }
-        } else if metallic >= 0.5 {
-            let (eta, k) = crate::load::materials::metal_from_reflectance(base.average());
-            BsdfSpec::Conductor {
-                eta,
-                k,
-                roughness: Roughness::ggx(alpha),
+            Ok(t)
+        };
+        let roughness = scalar("roughness", 0.5)?;
+        let anisotropic = scalar("anisotropic", 0.0)?;
+        let metallic = scalar("metallic", 0.0)?;
+        let spec_trans = scalar("spec_trans", 0.0)?;
+        let spec_tint = scalar("spec_tint", 0.0)?;
+        let sheen = scalar("sheen", 0.0)?;
+        let sheen_tint = scalar("sheen_tint", 0.0)?;
+        let clearcoat = scalar("clearcoat", 0.0)?;
+        let clearcoat_gloss = scalar("clearcoat_gloss", 0.0)?;
+        let flatness = scalar("flatness", 0.0)?;
+        let transmits = !matches!(spec_trans, Texture::Constant(c) if c == Vec3::ZERO);
+        let eta = match (props.has("eta"), props.has("specular")) {
+            (true, true) => {
+                return Err(LoadError::invalid(
+                    at,
+                    "principled takes eta or specular, not both (specular 0.5 is eta 1.5); \
+                     remove one",
+                ))
             }
-        } else {
-            BsdfSpec::Plastic {
-                diffuse: base,
-                ior: eta,
-                roughness: Roughness::ggx(alpha),
-                nonlinear: false,
-                exact_rough_coat: false,
+            (true, false) => {
+                let eta = props.float("eta", 1.5)?;
+                if !(eta.is_finite() && eta > 0.0) {
+                    return Err(LoadError::invalid(
+                        at,
+                        format!("principled eta = {eta}: use a positive index ratio"),
+                    ));
+                }
+                // Mitsuba's: an index of 1 cannot refract.
+                if transmits && eta == 1.0 {
+                    1.001
+                } else {
+                    eta
+                }
+            }
+            (false, _) => {
+                let mut specular = props.float("specular", 0.5)?;
+                if !(0.0..=1.0).contains(&specular) {
+                    return Err(LoadError::invalid(
+                        at,
+                        format!("principled specular = {specular}: use a value in [0, 1]"),
+                    ));
+                }
+                if transmits && specular == 0.0 {
+                    specular = 1e-3;
+                }
+                // Mitsuba's map from specular (0.08·F0 at normal incidence) to the index.
+                2.0 / (1.0 - (0.08 * specular).sqrt()) - 1.0
             }
         };
-        let what = match bsdf {
-            BsdfSpec::Dielectric { .. } => "a dielectric (spec_trans >= 0.5)",
-            BsdfSpec::Conductor { .. } => {
-                "a conductor with the base colour as its reflectance (metallic >= 0.5)"
+        let mut rates = [1.0f32; 3];
+        let names = [
+            "diffuse_reflectance_sampling_rate",
+            "main_specular_sampling_rate",
+            "clearcoat_sampling_rate",
+        ];
+        for (rate, name) in rates.iter_mut().zip(names) {
+            *rate = props.float(name, 1.0)?;
+            if !(rate.is_finite() && *rate >= 0.0) {
+                return Err(LoadError::invalid(
+                    at,
+                    format!("principled {name} = {rate}: use a rate >= 0"),
+                ));
             }
-            _ => "a rough plastic with the base colour as its diffuse layer (metallic < 0.5)",
-        };
-        let mut msg = format!("principled is approximated by {what}, alpha = roughness²");
-        if metallic > 0.0 && metallic < 1.0 {
-            msg.push_str("; metallic between 0 and 1 is not blended");
         }
-        if !lost.is_empty() {
-            msg.push_str(&format!("; ignored: {}", lost.join(", ")));
+        if rates[0] + rates[1] == 0.0 {
+            return Err(LoadError::invalid(
+                at,
+                "principled: diffuse_reflectance_sampling_rate and \
+                 main_specular_sampling_rate are both 0; give one a positive rate",
+            ));
         }
-        self.diag.warn(props.el.at(), msg)?;
-        Ok(bsdf)
+        Ok(BsdfSpec::Principled(Arc::new(crate::PrincipledSpec {
+            base_color,
+            roughness,
+            anisotropic,
+            metallic,
+            spec_trans,
+            spec_tint,
+            sheen,
+            sheen_tint,
+            clearcoat,
+            clearcoat_gloss,
+            flatness,
+            eta,
+            sampling_rates: rates,
+        })))
     }
 
     /// GGX α from `alpha` (or `alpha_u`/`alpha_v`), warning about Beckmann and anisotropy.
@@ -504,17 +549,6 @@ impl<'a> Builder<'a, '_> {
             format!("a texture for {name} is not supported; using its average {avg}"),
         )?;
         Ok(avg)
-    }
-
-    /// A scalar parameter; a texture there is replaced by its mean luminance-free average.
-    fn scalar_param(
-        &mut self,
-        props: &Props<'a>,
-        name: &str,
-        default: f32,
-    ) -> Result<f32, LoadError> {
-        let c = self.color_param(props, name, Vec3::splat(default))?;
-        Ok((c.x + c.y + c.z) / 3.0)
     }
 
     /// A reflectance slot: a value (`<rgb>`, `<spectrum>`, `<float>`) or a nested/referenced
@@ -724,6 +758,7 @@ fn medium_index(props: &Props<'_>, name: &str, default: f32) -> Result<f32, Load
 fn transmits(b: &BsdfSpec) -> bool {
     match b {
         BsdfSpec::Dielectric { .. } | BsdfSpec::ThinDielectric { .. } => true,
+        BsdfSpec::Principled(p) => p.transmits(),
         BsdfSpec::Mask { nested, .. }
         | BsdfSpec::NormalMap { nested, .. }
         | BsdfSpec::BumpMap { nested, .. } => transmits(nested),
