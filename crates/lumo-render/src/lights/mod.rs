@@ -16,18 +16,16 @@ mod triangle;
 use std::f32::consts::PI;
 
 use glam::{Vec2, Vec3};
-use lumo_scene::{Light, Scene};
+use lumo_scene::Scene;
 
 use crate::accel::analytic::Shape;
 use crate::geometry::UNIFORM_SPHERE_PDF;
 use crate::lights::distribution::{AliasTable, Distribution1d};
-use directional::DirectionalLight;
 pub use emission::{EmissionPdf, EmissionSample};
 use environment::{EnvSampler, EnvironmentLight};
-use point::PointLight;
 pub use polygon::{triangle_cosine_integral, CosineTriangle};
 use shape::ShapeLight;
-use source::LightKind;
+use source::{LightKind, SceneLight};
 pub use spot::SpotCone;
 pub use triangle::EmissiveTriangle;
 pub(crate) use triangle::{TexturedEmission, NO_TEXTURE};
@@ -147,39 +145,10 @@ impl Lights {
         let mut env = None;
         let mut constant = Vec3::ZERO;
         for light in &scene.lights {
-            match light {
-                Light::Point {
-                    position,
-                    intensity,
-                } => lights.push(LightKind::Point(PointLight {
-                    position: *position,
-                    intensity: *intensity,
-                })),
-                Light::Spot {
-                    position,
-                    direction,
-                    intensity,
-                    beam_width,
-                    cutoff,
-                    falloff,
-                } => lights.push(LightKind::Spot(spot::SpotLight {
-                    position: *position,
-                    axis: direction.normalize(),
-                    intensity: *intensity,
-                    cone: SpotCone::new(*beam_width, *cutoff, *falloff),
-                })),
-                Light::Directional {
-                    direction,
-                    irradiance,
-                } => lights.push(LightKind::Directional(DirectionalLight {
-                    direction: direction.normalize(),
-                    irradiance: *irradiance,
-                })),
-                Light::Constant { radiance } => constant += *radiance,
-                // An empty image emits nothing (the loaders refuse one; a scene built in code
-                // must not panic).
-                Light::Environment(map) if map.image.width == 0 || map.image.height == 0 => {}
-                Light::Environment(map) => {
+            match LightKind::from_scene(light) {
+                SceneLight::Kind(kind) => lights.push(kind),
+                SceneLight::Constant(radiance) => constant += radiance,
+                SceneLight::Environment(map) => {
                     env = Some(reuse.take().unwrap_or_else(|| {
                         let sampler = EnvSampler::new(map);
                         let m = map.image.to_channels(3).channel_means();
@@ -187,6 +156,7 @@ impl Lights {
                         (sampler, mean)
                     }))
                 }
+                SceneLight::Nothing => {}
             }
         }
         let (env, env_mean) = match env {

@@ -1,13 +1,16 @@
 //! The one interface every light kind answers (one file per kind, as `bsdf/` has one per
-//! material), and [`LightKind`], the closed set of kinds that dispatches to it.
+//! material), and [`LightKind`], the closed set of kinds that dispatches to it: a kind is
+//! registered here alone, its variant, its line in `each_kind!` and, for a light the scene
+//! lists, its arm in [`LightKind::from_scene`].
 
 use glam::{Vec2, Vec3};
+use lumo_scene::{EnvMap, Light};
 
 use super::directional::DirectionalLight;
 use super::environment::EnvironmentLight;
 use super::point::PointLight;
 use super::shape::ShapeLight;
-use super::spot::SpotLight;
+use super::spot::{SpotCone, SpotLight};
 use super::{EmissionPdf, EmissionSample, EmissiveTriangle, LightSample, Lights};
 
 /// What [`Lights`] asks of each light: its power (which weighs the choice among lights),
@@ -86,7 +89,58 @@ macro_rules! each_kind {
     };
 }
 
+/// What a light of the scene's list becomes among the kinds.
+pub(super) enum SceneLight<'a> {
+    /// A kind of its own.
+    Kind(LightKind),
+    /// Constant radiance, summed into the one environment light.
+    Constant(Vec3),
+    /// The environment image, sampled by the one environment light.
+    Environment(&'a EnvMap),
+    /// Nothing to sample (an empty image: the loaders refuse one, a scene built in code must
+    /// not panic).
+    Nothing,
+}
+
 impl LightKind {
+    /// The kind a light of the scene's list is (area lights come from emissive materials).
+    pub(super) fn from_scene(light: &Light) -> SceneLight<'_> {
+        match light {
+            Light::Point {
+                position,
+                intensity,
+            } => SceneLight::Kind(LightKind::Point(PointLight {
+                position: *position,
+                intensity: *intensity,
+            })),
+            Light::Spot {
+                position,
+                direction,
+                intensity,
+                beam_width,
+                cutoff,
+                falloff,
+            } => SceneLight::Kind(LightKind::Spot(SpotLight {
+                position: *position,
+                axis: direction.normalize(),
+                intensity: *intensity,
+                cone: SpotCone::new(*beam_width, *cutoff, *falloff),
+            })),
+            Light::Directional {
+                direction,
+                irradiance,
+            } => SceneLight::Kind(LightKind::Directional(DirectionalLight {
+                direction: direction.normalize(),
+                irradiance: *irradiance,
+            })),
+            Light::Constant { radiance } => SceneLight::Constant(*radiance),
+            Light::Environment(map) if map.image.width == 0 || map.image.height == 0 => {
+                SceneLight::Nothing
+            }
+            Light::Environment(map) => SceneLight::Environment(map),
+        }
+    }
+
     /// See [`LightSource::power`].
     pub(super) fn power(&self, disk: f32) -> f32 {
         each_kind!(self, l => l.power(disk))
