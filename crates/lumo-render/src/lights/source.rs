@@ -1,17 +1,10 @@
 //! The one interface every light kind answers (one file per kind, as `bsdf/` has one per
-//! material), and [`LightKind`], the closed set of kinds that dispatches to it: a kind is
-//! registered here alone, its variant, its line in `each_kind!` and, for a light the scene
-//! lists, its arm in [`LightKind::from_scene`].
+//! material), and its dispatch over [`LightKind`], the closed set of kinds (registered in
+//! `lights/mod.rs` beside their modules).
 
 use glam::{Vec2, Vec3};
-use lumo_scene::{EnvMap, Light};
 
-use super::directional::DirectionalLight;
-use super::environment::EnvironmentLight;
-use super::point::PointLight;
-use super::shape::ShapeLight;
-use super::spot::{SpotCone, SpotLight};
-use super::{EmissionPdf, EmissionSample, EmissiveTriangle, LightSample, Lights};
+use super::{EmissionPdf, EmissionSample, LightKind, LightSample, Lights};
 
 /// What [`Lights`] asks of each light: its power (which weighs the choice among lights),
 /// whether it is a Dirac delta, a point on it seen from a shading point and that point's
@@ -59,88 +52,7 @@ pub(super) trait LightSource {
     fn emission_pdf(&self, lights: &Lights, pick: f32, n: Vec3, dir: Vec3) -> Option<EmissionPdf>;
 }
 
-/// A light of the scene: one of the kinds, each in its own file.
-pub(super) enum LightKind {
-    /// An emissive triangle of a mesh.
-    Triangle(EmissiveTriangle),
-    /// An emissive exact sphere, disk or cylinder.
-    Shape(ShapeLight),
-    /// A point light.
-    Point(PointLight),
-    /// A spot light.
-    Spot(SpotLight),
-    /// A directional (sun-like) light.
-    Directional(DirectionalLight),
-    /// The environment: the constant background and/or the image, as one light.
-    Environment(EnvironmentLight),
-}
-
-/// `$body` with `$l` bound to the light of any kind (static dispatch: every arm inlines).
-macro_rules! each_kind {
-    ($kind:expr, $l:ident => $body:expr) => {
-        match $kind {
-            LightKind::Triangle($l) => $body,
-            LightKind::Shape($l) => $body,
-            LightKind::Point($l) => $body,
-            LightKind::Spot($l) => $body,
-            LightKind::Directional($l) => $body,
-            LightKind::Environment($l) => $body,
-        }
-    };
-}
-
-/// What a light of the scene's list becomes among the kinds.
-pub(super) enum SceneLight<'a> {
-    /// A kind of its own.
-    Kind(LightKind),
-    /// Constant radiance, summed into the one environment light.
-    Constant(Vec3),
-    /// The environment image, sampled by the one environment light.
-    Environment(&'a EnvMap),
-    /// Nothing to sample (an empty image: the loaders refuse one, a scene built in code must
-    /// not panic).
-    Nothing,
-}
-
 impl LightKind {
-    /// The kind a light of the scene's list is (area lights come from emissive materials).
-    pub(super) fn from_scene(light: &Light) -> SceneLight<'_> {
-        match light {
-            Light::Point {
-                position,
-                intensity,
-            } => SceneLight::Kind(LightKind::Point(PointLight {
-                position: *position,
-                intensity: *intensity,
-            })),
-            Light::Spot {
-                position,
-                direction,
-                intensity,
-                beam_width,
-                cutoff,
-                falloff,
-            } => SceneLight::Kind(LightKind::Spot(SpotLight {
-                position: *position,
-                axis: direction.normalize(),
-                intensity: *intensity,
-                cone: SpotCone::new(*beam_width, *cutoff, *falloff),
-            })),
-            Light::Directional {
-                direction,
-                irradiance,
-            } => SceneLight::Kind(LightKind::Directional(DirectionalLight {
-                direction: direction.normalize(),
-                irradiance: *irradiance,
-            })),
-            Light::Constant { radiance } => SceneLight::Constant(*radiance),
-            Light::Environment(map) if map.image.width == 0 || map.image.height == 0 => {
-                SceneLight::Nothing
-            }
-            Light::Environment(map) => SceneLight::Environment(map),
-        }
-    }
-
     /// See [`LightSource::power`].
     pub(super) fn power(&self, disk: f32) -> f32 {
         each_kind!(self, l => l.power(disk))
