@@ -1,9 +1,11 @@
 //! The one table of integrators: each light-transport algorithm that renders whole images,
 //! with its name, what it can do, what it needs from the scene and what its samples count
 //! ([`Integrator::info`]), and the one entry point that renders an image with any of them
-//! ([`Integrator::render_image`]). `lumo render`, `lumo serve`, `lumo bench` and the wire
-//! protocol derive their lists, checks and messages from it, as the filters do from
-//! `lumo_filter::FILTERS`; adding an integrator is a variant, a row and a dispatch arm here.
+//! ([`Integrator::render_image`]), and its samples one by one for a progressive viewer's
+//! streams ([`Integrator::stream_camera_sample`], [`Integrator::stream_light_path`]).
+//! `lumo render`, `lumo serve`, `lumo bench` and the wire protocol derive their lists, checks
+//! and messages from it, as the filters do from `lumo_filter::FILTERS`; adding an integrator is
+//! a variant, a row and its dispatch arms here.
 
 use lumo_image::Image;
 
@@ -14,6 +16,7 @@ use crate::integrators::photon::{self, PpmSettings};
 use crate::render::{render, render_bdpt, render_light, render_ppm, PpmStats};
 use crate::render_scene::RenderScene;
 use crate::settings::{RenderSettings, RenderStats};
+use crate::stream::{SampleStream, StreamSample};
 
 /// A light-transport algorithm that renders whole images.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -59,9 +62,11 @@ pub struct Capabilities {
     pub splats: bool,
     /// What it needs from the lights.
     pub particles: Particles,
-    /// Feeds the server's camera sample stream.
+    /// Feeds the server's camera sample stream ([`Integrator::stream_camera_sample`]).
     pub camera_stream: bool,
-    /// Feeds the server's light sample stream.
+    /// Feeds the server's light sample stream: with its camera samples where it feeds both
+    /// streams (each camera sample then counts as one light path), else by light paths of
+    /// its own ([`Integrator::stream_light_path`]).
     pub light_stream: bool,
 }
 
@@ -311,6 +316,48 @@ impl Integrator {
                 }
             }
         }
+    }
+}
+
+impl Integrator {
+    /// Its camera sample of pixel (x, y) in pass `pass` for the progressive streams, and the
+    /// rays it traced; samples it also feeds the light stream with go to `light`. `None` for an
+    /// integrator without [`Capabilities::camera_stream`].
+    pub fn stream_camera_sample(
+        self,
+        stream: &SampleStream,
+        x: u32,
+        y: u32,
+        pass: u32,
+        light: &mut impl FnMut(StreamSample),
+    ) -> Option<(StreamSample, u32)> {
+        match self {
+            Integrator::Path => Some(stream.path_sample(x, y, pass)),
+            Integrator::Light => None,
+            Integrator::Bdpt => Some(stream.bdpt_sample(x, y, pass, light)),
+            Integrator::Ppm => stream.ppm_sample(x, y, pass),
+        }
+    }
+
+    /// Its light path `m` for the progressive light stream: the splats go to `out`; returns
+    /// the rays traced. `None` for an integrator without light paths of its own (see
+    /// [`Capabilities::light_stream`]).
+    pub fn stream_light_path(
+        self,
+        stream: &SampleStream,
+        m: u64,
+        out: &mut impl FnMut(StreamSample),
+    ) -> Option<u32> {
+        match self {
+            Integrator::Light => Some(stream.light_path(m, out)),
+            Integrator::Path | Integrator::Bdpt | Integrator::Ppm => None,
+        }
+    }
+
+    /// Whether it feeds the light stream by light paths of its own.
+    pub fn streams_light_paths(self) -> bool {
+        let caps = self.caps();
+        caps.light_stream && !caps.camera_stream
     }
 }
 

@@ -8,7 +8,8 @@
 //! photon mapping), and a film that keeps direct and indirect light and a G-buffer apart.
 //!
 //! [`Integrator`] is the one table of the integrators (names, capabilities, sample units) and
-//! the one entry point that renders an image with any of them; `render.rs` holds the parallel
+//! the one entry point that renders an image with any of them, or its samples one by one for a
+//! progressive viewer's streams ([`stream`]); `render.rs` holds the parallel
 //! loops it calls, `parallel.rs` the row loops they share, `settings.rs` the plain data a
 //! render is asked for and reports, and `render_scene/` the scene prepared for them.
 // Every unsafe block (the SIMD kernels) says why it is sound.
@@ -35,6 +36,7 @@ pub mod sampler;
 mod settings;
 pub mod shading;
 mod specular_albedo;
+pub mod stream;
 mod surface_motion;
 #[cfg(test)]
 mod test_camera;

@@ -6,17 +6,14 @@
 //! bit reversal of `n mod 4^L` (2^L ≥ the image's larger side). Every prefix of `4^k` samples of
 //! a pass is a regular lattice with spacing `2^(L-k)` pixels, so a few samples already cover
 //! the whole image evenly. Within a pixel, pass `p` uses sample `p` of that pixel's Owen-scrambled
-//! Sobol sequence, so a pixel's samples are stratified exactly as in `lumo render`.
+//! Sobol sequence, so a pixel's samples are stratified exactly as in `lumo render`. What a
+//! sample is comes from the integrator's own entry in lumo-render's table
+//! ([`Integrator::stream_camera_sample`], [`Integrator::stream_light_path`]); this file only
+//! orders, scales and converts.
 
 use glam::{Vec2, Vec3};
-use lumo_render::integrators::bdpt::{samplers, trace_bdpt_sample, BdptScratch, BdptSettings};
-use lumo_render::integrators::light::trace_light_path;
-use lumo_render::integrators::photon::{trace_ppm_path, PhotonMap};
-use lumo_render::RenderScene;
-use lumo_render::LIGHT_STREAM_X;
-use lumo_render::{
-    camera::PinholeCamera, sampler::PixelSampler, trace_path, trace_path_xyz, PathSettings,
-};
+use lumo_render::stream::{SampleStream, StreamSample, StreamValue};
+use lumo_render::Integrator;
 
 /// One sample of either stream.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -87,22 +84,14 @@ impl ScreenOrder {
 
 /// Everything a stream needs to turn sample indices into samples.
 pub struct StreamContext<'a> {
-    /// Scene.
-    pub rs: &'a RenderScene,
-    /// The camera: rays for the path tracer, projection for the light tracer.
-    pub camera: PinholeCamera,
+    /// The integrators' samples by pixel, pass and light path number.
+    pub stream: SampleStream<'a>,
     /// Pixel order.
     pub order: ScreenOrder,
     /// Image size.
     pub size: Vec2,
-    /// Integrator settings.
-    pub path: PathSettings,
-    /// Global seed.
-    pub seed: u32,
-    /// Factor on every value (½ when both streams estimate the same image).
+    /// Factor on every value (½ when two integrators estimate the same image).
     pub scale: f32,
-    /// Vertex storage reused by bidirectional samples.
-    pub scratch: std::cell::Cell<BdptScratch>,
 }
 
 impl StreamContext<'_> {
@@ -111,107 +100,42 @@ impl StreamContext<'_> {
         (n / self.order.period()).min(u32::MAX as u64) as u32
     }
 
-    /// Camera sample `n`'s sampler (past its jitter and lens point), film position (in its
-    /// pixel, where the viewer bins it) and ray (origin, direction, through the point the
-    /// camera's pixel filter places), or None when its index falls outside a non-square image.
-    fn camera_ray(&self, n: u64) -> Option<(PixelSampler, Vec2, Vec3, Vec3)> {
-        let (x, y) = self.order.pixel(n % self.order.period())?;
-        let mut sampler = PixelSampler::new(x, y, self.pass(n), self.seed);
-        let jitter = sampler.next_2d();
-        let corner = Vec2::new(x as f32, y as f32);
-        let film = corner + jitter;
-        let offset = self.camera.filter_offset((x as usize, y as usize), jitter);
-        let lens = if self.camera.needs_lens_sample() {
-            sampler.next_2d()
-        } else {
-            Vec2::splat(0.5)
+    /// A sample of the integrators as a stream sample (scaled, in CIE XYZ, at its place on
+    /// the screen).
+    fn sample(&self, s: StreamSample) -> Sample {
+        let [x, y, z] = match s.value {
+            StreamValue::Rgb(c) => rgb_to_xyz(c * self.scale),
+            // A spectral path's XYZ straight from its wavelengths, not through RGB.
+            StreamValue::Xyz(xyz) => (xyz * self.scale).to_array(),
         };
-        let (origin, dir) = self.camera.ray(corner + offset, lens);
-        Some((sampler, film, origin, dir))
-    }
-
-    /// A camera sample's value as a stream sample.
-    fn sample(&self, film: Vec2, c: Vec3) -> Sample {
-        self.at(film, rgb_to_xyz(c * self.scale))
-    }
-
-    /// A camera sample's CIE XYZ value as a stream sample.
-    fn sample_xyz(&self, film: Vec2, xyz: Vec3) -> Sample {
-        self.at(film, (xyz * self.scale).to_array())
-    }
-
-    /// The stream sample of XYZ value `xyz` (already scaled) at film position `film`.
-    fn at(&self, film: Vec2, [x, y, z]: [f32; 3]) -> Sample {
-        let uv = film / self.size;
+        let uv = s.film / self.size;
         Sample {
             uv: [uv.x, uv.y],
             xyzw: [x, y, z, 1.0],
         }
     }
 
-    /// Camera sample `n` by photon mapping: gathers from `map` (under its read lock, held for
-    /// this one sample so photon writers wait at most one gather) within `radius`, the radius
-    /// of the sample's pass. Returns the sample and the rays traced.
-    pub fn ppm_sample(&self, n: u64, map: &PhotonMap, radius: f32) -> Option<(Sample, u32)> {
-        let (mut sampler, film, origin, dir) = self.camera_ray(n)?;
-        let m = map.read();
-        let (r, st) = trace_ppm_path(self.rs, &m, radius, origin, dir, &mut sampler, &self.path);
-        drop(m);
-        Some((self.sample(film, r.direct + r.indirect), st.rays))
-    }
-
-    /// Camera sample `n`, or None when its index falls outside a non-square image.
-    pub fn camera_sample(&self, n: u64) -> Option<(Sample, u32)> {
-        let (mut sampler, film, origin, dir) = self.camera_ray(n)?;
-        if self.path.spectral {
-            // The path's XYZ straight from its wavelengths, not through RGB.
-            let (xyz, rays) = trace_path_xyz(self.rs, origin, dir, &mut sampler, &self.path);
-            return Some((self.sample_xyz(film, xyz), rays));
-        }
-        let r = trace_path(self.rs, origin, dir, &mut sampler, &self.path, None);
-        Some((self.sample(film, r.direct + r.indirect), r.rays))
-    }
-
-    /// Bidirectional sample `n` (in the camera stream's order): its pixel's strategies as a
-    /// camera sample, its light vertices seen by the camera pushed to `light` (the sample's
-    /// light subpath counts as one light path), or None when `n` falls outside a non-square
-    /// image.
-    pub fn bdpt_sample(&self, n: u64, light: &mut Vec<Sample>) -> Option<(Sample, u32)> {
+    /// `integrator`'s camera sample `n` and its rays, or None when its index falls outside a
+    /// non-square image (or the integrator has no camera samples). Samples it also feeds the
+    /// light stream with are pushed to `light`.
+    pub fn camera_sample(
+        &self,
+        integrator: Integrator,
+        n: u64,
+        light: &mut Vec<Sample>,
+    ) -> Option<(Sample, u32)> {
         let (x, y) = self.order.pixel(n % self.order.period())?;
-        let (mut cs, mut ls) = samplers(x, y, self.pass(n), self.seed);
-        let film = Vec2::new(x as f32, y as f32) + cs.next_2d();
-        let settings = BdptSettings {
-            path: self.path,
-            only: None,
-        };
-        let mut scratch = self.scratch.take();
-        let r = trace_bdpt_sample(
-            self.rs,
-            &self.camera,
-            film,
-            &mut cs,
-            &mut ls,
-            &settings,
-            &mut scratch,
-            &mut |s| light.push(self.sample(s.film, s.value)),
-        );
-        self.scratch.set(scratch);
-        Some((self.sample(film, r.direct + r.indirect), r.rays))
+        let (s, rays) =
+            integrator.stream_camera_sample(&self.stream, x, y, self.pass(n), &mut |s| {
+                light.push(self.sample(s))
+            })?;
+        Some((self.sample(s), rays))
     }
 
-    /// Light path `m`: pushes its splats (W = 1: each counts once in the splat density).
-    pub fn light_path(&self, m: u64, out: &mut Vec<Sample>) -> u32 {
-        let block = (m >> 16) as u32;
-        let mut sampler = PixelSampler::new(LIGHT_STREAM_X, block, (m & 0xffff) as u32, self.seed);
-        let stats = trace_light_path(self.rs, &self.camera, &mut sampler, &self.path, &mut |s| {
-            let [x, y, z] = rgb_to_xyz(s.value * self.scale);
-            let uv = s.film / self.size;
-            out.push(Sample {
-                uv: [uv.x, uv.y],
-                xyzw: [x, y, z, 1.0],
-            });
-        });
-        stats.rays
+    /// `integrator`'s light path `m`: pushes its splats (W = 1: each counts once in the splat
+    /// density) and returns its rays (None for an integrator without light paths).
+    pub fn light_path(&self, integrator: Integrator, m: u64, out: &mut Vec<Sample>) -> Option<u32> {
+        integrator.stream_light_path(&self.stream, m, &mut |s| out.push(self.sample(s)))
     }
 }
 
@@ -239,23 +163,26 @@ mod tests {
         assert_eq!(pts, lattice);
     }
 
+    use lumo_render::camera::PinholeCamera;
+    use lumo_render::stream::StreamRun;
+    use lumo_render::{PathSettings, RenderScene};
+
     /// The streams of a `w`×`h` image of `rs` at full weight.
-    fn test_context(
-        rs: &RenderScene,
-        w: usize,
-        h: usize,
+    fn test_context<'a>(
+        rs: &'a RenderScene,
+        run: &'a StreamRun,
+        (w, h): (usize, usize),
         path: PathSettings,
         seed: u32,
-    ) -> StreamContext<'_> {
+    ) -> StreamContext<'a> {
+        let order = ScreenOrder::new(w as u32, h as u32);
+        let camera = PinholeCamera::new(&rs.scene.camera, w, h);
+        let pixels = (w * h) as u64;
         StreamContext {
-            rs,
-            camera: PinholeCamera::new(&rs.scene.camera, w, h),
-            order: ScreenOrder::new(w as u32, h as u32),
+            stream: SampleStream::new(rs, camera, path, seed, run, pixels, order.period(), 256),
+            order,
             size: Vec2::new(w as f32, h as f32),
-            path,
-            seed,
             scale: 1.0,
-            scratch: Default::default(),
         }
     }
 
@@ -272,12 +199,13 @@ mod tests {
             max_depth: 5,
             ..Default::default()
         };
-        let ctx = test_context(&rs, w, h, path, 2);
+        let run = StreamRun::new(&[Integrator::Bdpt], &rs, Default::default());
+        let ctx = test_context(&rs, &run, (w, h), path, 2);
         let (mut camera, mut counts) = (vec![0.0f64; w * h], vec![0u32; w * h]);
         let mut light = Vec::new();
         let mut paths = 0u64;
         for n in 0..ctx.order.period() * 256 {
-            if let Some((s, _)) = ctx.bdpt_sample(n, &mut light) {
+            if let Some((s, _)) = ctx.camera_sample(Integrator::Bdpt, n, &mut light) {
                 let (x, y) = ((s.uv[0] * w as f32) as usize, (s.uv[1] * h as f32) as usize);
                 camera[y * w + x] += s.xyzw[1] as f64;
                 counts[y * w + x] += 1;
@@ -323,11 +251,12 @@ mod tests {
             spectral: true,
             ..Default::default()
         };
-        let ctx = test_context(&rs, w, h, path, 5);
+        let run = StreamRun::new(&[Integrator::Path], &rs, Default::default());
+        let ctx = test_context(&rs, &run, (w, h), path, 5);
         let mut sum = [0.0f64; 3];
         let mut n = 0u64;
         for i in 0..ctx.order.period() * 256 {
-            if let Some((s, _)) = ctx.camera_sample(i) {
+            if let Some((s, _)) = ctx.camera_sample(Integrator::Path, i, &mut Vec::new()) {
                 for (c, v) in sum.iter_mut().zip(s.xyzw) {
                     *c += v as f64;
                 }

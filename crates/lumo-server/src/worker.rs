@@ -14,7 +14,8 @@ use std::sync::{Arc, Condvar, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use lumo_render::integrators::photon::{LockStats, PhotonBatch, PhotonMap, RadiusSchedule};
+use lumo_render::integrators::photon::LockStats;
+use lumo_render::stream::{streamed, SampleStream, StreamRun};
 use lumo_render::{camera::PinholeCamera, PathSettings, PpmSettings, RenderScene};
 use lumo_scene::{AnimatedScene, Camera};
 
@@ -404,9 +405,12 @@ struct Run {
     samples: AtomicU64,
     light_paths: AtomicU64,
     start: Instant,
-    /// The run's photon map (integrator ppm): camera samples of every pool thread gather from
-    /// it while each batch adds its photons.
-    photons: Option<PhotonMap>,
+    /// The table's integrators that feed the streams (progressive mode; a splatting one
+    /// replaced by the path tracer where the camera takes no splats).
+    integrators: Vec<lumo_render::Integrator>,
+    /// What their samples share across pool threads (a photon map that camera samples of
+    /// every thread gather from while each batch adds its photons).
+    stream: StreamRun,
 }
 
 impl Run {
@@ -441,14 +445,20 @@ fn start(
     epoch: u64,
     job: Job,
 ) {
+    let integrators = if job.mode == Mode::Progressive {
+        let camera = PinholeCamera::new(&job.camera, job.width, job.height);
+        streamed(job.integrator.parts(), &camera)
+    } else {
+        Vec::new()
+    };
     let run = Arc::new(Run {
         epoch,
         next_batch: AtomicU64::new(0),
         samples: AtomicU64::new(0),
         light_paths: AtomicU64::new(0),
         start: Instant::now(),
-        photons: (job.integrator == Integrator::Ppm && job.mode == Mode::Progressive)
-            .then(|| job.ppm.new_map(&rs)),
+        stream: StreamRun::new(&integrators, &rs, job.ppm),
+        integrators,
         job,
     });
     let threads = pool.current_num_threads();
@@ -498,45 +508,39 @@ fn thread_done(shared: &Shared, run: &Run, finished_budget: bool) {
 /// Renders batches until aborted or out of budget; true when the budget ran out.
 fn sample_loop(shared: &Shared, run: &Run, rs: &RenderScene) -> bool {
     let job = &run.job;
+    let order = ScreenOrder::new(job.width as u32, job.height as u32);
     let camera = PinholeCamera::new(&job.camera, job.width, job.height);
-    // A thin lens, orthographic camera or non-box pixel filter cannot take light projected
-    // onto a pinhole's film: those modes fall back to the path tracer's camera samples (said
-    // once when `lumo serve` starts).
-    let splats = camera.unsupported_by_splats().is_none();
+    let pixels = (job.width * job.height) as u64;
+    let parts = &run.integrators;
     let ctx = StreamContext {
-        rs,
-        camera,
-        order: ScreenOrder::new(job.width as u32, job.height as u32),
+        stream: SampleStream::new(
+            rs,
+            camera,
+            job.path,
+            job.seed,
+            &run.stream,
+            pixels,
+            order.period(),
+            CAMERA_BATCH,
+        ),
+        order,
         size: glam::Vec2::new(job.width as f32, job.height as f32),
-        path: job.path,
-        seed: job.seed,
-        scale: if job.integrator == Integrator::Both && splats {
-            0.5
-        } else {
-            1.0
-        },
-        scratch: Default::default(),
+        // Integrators that estimate the same image side by side share it.
+        scale: 1.0 / parts.len().max(1) as f32,
     };
-    let bdpt = job.integrator == Integrator::Bdpt && splats;
-    let (do_camera, do_light) = match job.integrator {
-        Integrator::Path | Integrator::Bdpt | Integrator::Ppm => (true, false),
-        Integrator::Light | Integrator::Both if !splats => (true, false),
-        Integrator::Light => (false, !rs.lights.emits_no_particles()),
-        Integrator::Both => (true, !rs.lights.emits_no_particles()),
-    };
-    let per_batch = do_camera as u64 * CAMERA_BATCH + do_light as u64 * LIGHT_BATCH;
-    // Photon mapping: every batch first adds its photon paths, as many per camera sample as
-    // a pass of `lumo render --integrator ppm` traces per pixel, so the map grows linearly
-    // with the samples; then its camera samples gather at their pass's radius.
-    let photons = run
-        .photons
-        .as_ref()
-        .filter(|_| !rs.lights.emits_no_particles());
-    let per_pass = job.ppm.paths_per_pass((job.width * job.height) as u64);
-    let photon_batch = (CAMERA_BATCH * per_pass).div_ceil(ctx.order.period());
-    let schedule: RadiusSchedule = job.ppm.schedule(rs, per_pass);
-    // The radius of the last pass seen (its product costs O(pass) to recompute).
-    let mut radius = (u32::MAX, 0.0f32);
+    let camera_parts: Vec<_> = parts
+        .iter()
+        .copied()
+        .filter(|i| i.caps().camera_stream)
+        .collect();
+    // Lights that emit no particles leave nothing for light paths to start from.
+    let light_parts: Vec<_> = parts
+        .iter()
+        .copied()
+        .filter(|i| i.streams_light_paths() && !rs.lights.emits_no_particles())
+        .collect();
+    let per_batch =
+        camera_parts.len() as u64 * CAMERA_BATCH + light_parts.len() as u64 * LIGHT_BATCH;
     let mut camera = Vec::with_capacity(CAMERA_BATCH as usize);
     let mut light = Vec::new();
     loop {
@@ -552,55 +556,33 @@ fn sample_loop(shared: &Shared, run: &Run, rs: &RenderScene) -> bool {
         }
         camera.clear();
         light.clear();
-        let mut rays = 0u64;
         let mut paths = 0u64;
-        let mut photon_paths = 0u64;
-        if let Some(map) = photons {
-            let first = b * photon_batch;
-            // Traced outside the lock; only the insertion takes it.
-            let batch = PhotonBatch::trace(rs, &job.path, job.seed, first..first + photon_batch);
-            if run.aborted(shared) {
-                return false;
-            }
-            map.add(&batch);
-            rays += batch.rays;
-            photon_paths = batch.paths();
-        }
-        if do_camera {
+        // Photon mapping grows its map before the batch's camera samples gather from it.
+        let Some(photons) = ctx.stream.grow_photons(b, || run.aborted(shared)) else {
+            return false;
+        };
+        let mut rays = photons.rays;
+        for &integrator in &camera_parts {
+            // Each sample of an integrator that feeds both streams is one light path of the
+            // light stream's normalisation.
+            let light_path = integrator.caps().light_stream as u64;
             for n in b * CAMERA_BATCH..(b + 1) * CAMERA_BATCH {
                 if run.aborted(shared) {
                     return false;
                 }
-                let sample = if bdpt {
-                    let s = ctx.bdpt_sample(n, &mut light);
-                    // Each bidirectional sample's light subpath is one light path of the
-                    // light stream's normalisation.
-                    paths += s.is_some() as u64;
-                    s
-                } else {
-                    match &run.photons {
-                        Some(map) => {
-                            let pass = ctx.pass(n);
-                            if radius.0 != pass {
-                                radius = (pass, schedule.radius(pass));
-                            }
-                            ctx.ppm_sample(n, map, radius.1)
-                        }
-                        None => ctx.camera_sample(n),
-                    }
-                };
-                if let Some((s, r)) = sample {
+                if let Some((s, r)) = ctx.camera_sample(integrator, n, &mut light) {
                     camera.push(s);
                     rays += r as u64;
+                    paths += light_path;
                 }
             }
         }
-        if do_light {
+        for &integrator in &light_parts {
             for m in b * LIGHT_BATCH..(b + 1) * LIGHT_BATCH {
                 if run.aborted(shared) {
                     return false;
                 }
-                rays += ctx.light_path(m, &mut light) as u64;
+                rays += ctx.light_path(integrator, m, &mut light).unwrap_or(0) as u64;
                 paths += 1;
             }
         }
@@ -609,9 +591,9 @@ fn sample_loop(shared: &Shared, run: &Run, rs: &RenderScene) -> bool {
             return false;
         }
         p.stats.rays += rays;
-        p.stats.photon_paths += photon_paths;
-        if let Some(map) = &run.photons {
-            p.stats.lock = map.lock_stats();
+        p.stats.photon_paths += photons.paths;
+        if let Some(lock) = run.stream.lock_stats() {
+            p.stats.lock = lock;
         }
         if p.buffer.camera.len() + p.buffer.light.len() + camera.len() + light.len() > MAX_PENDING {
             p.stats.dropped_batches += 1;

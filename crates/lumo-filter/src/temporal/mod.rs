@@ -345,7 +345,23 @@ impl TemporalFilter {
         if let Some(c) = changes {
             reshade::validate(c, frame.color.width, frame.color.height)?;
         }
-        let (w, h) = (frame.color.width, frame.color.height);
+        self.size_buffers(frame.color.width, frame.color.height);
+        self.read_samples(frame);
+        self.accumulate(frame, changes);
+        self.estimate_variance(frame.color.width, frame.color.height);
+        let (filtered, first) = self.filter_spatially(frame)?;
+        let image = self.remodulate(filtered, frame);
+        self.update_history(frame, first);
+        Ok(Filtered {
+            image,
+            missing: missing_pixels(frame.color),
+        })
+    }
+
+    /// Sizes the working buffers for a `w`×`h` frame, dropping a history of another size.
+    /// They are kept between frames (allocating and page-faulting ~30 MB per 512² frame cost
+    /// as much as the reprojection itself); every element is overwritten.
+    fn size_buffers(&mut self, w: usize, h: usize) {
         if self
             .history
             .as_ref()
@@ -354,13 +370,9 @@ impl TemporalFilter {
             self.reset();
         }
         let n = w * h;
-        let p = &self.params;
-        // Working buffers are kept between frames (allocating and page-faulting ~30 MB per
-        // 512² frame cost as much as the reprojection itself); every element is overwritten.
-        let samples = &mut self.samples;
-        samples.resize(n, Sample::default());
-        let acc = &mut self.acc;
-        acc.resize(n, reproject::Accumulated::default());
+        self.samples.resize(n, Sample::default());
+        self.acc.resize(n, reproject::Accumulated::default());
+        self.prev.resize(n, None);
         for (img, c) in [
             (&mut self.variance, 1),
             (&mut self.integrated, 3),
@@ -370,23 +382,37 @@ impl TemporalFilter {
                 *img = Image::new(w, h, c, 0.0);
             }
         }
-        // 1. This frame's samples: demodulated colour, surface, luminance moments.
-        samples.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-            for (x, s) in row.iter_mut().enumerate() {
-                *s = Sample::read(frame, y * w + x);
-            }
-        });
-        let samples = &samples[..];
-        // 2. Reprojection, history rejection where the lighting changed, accumulation.
+    }
+
+    /// Step 1: this frame's samples: demodulated colour, surface, luminance moments.
+    fn read_samples(&mut self, frame: &TemporalFrame) {
+        let w = frame.color.width;
+        self.samples
+            .par_chunks_mut(w)
+            .enumerate()
+            .for_each(|(y, row)| {
+                for (x, s) in row.iter_mut().enumerate() {
+                    *s = Sample::read(frame, y * w + x);
+                }
+            });
+    }
+
+    /// Step 2: reprojection, history rejection where the lighting changed (by re-shaded
+    /// samples where there are `changes`, else by the windowed test), accumulation.
+    fn accumulate(&mut self, frame: &TemporalFrame, changes: Option<&[ShadingChange]>) {
+        let (w, h) = (frame.color.width, frame.color.height);
+        let p = &self.params;
+        let samples = &self.samples[..];
         let hist = self.history.as_ref();
-        let prev = &mut self.prev;
-        prev.resize(n, None);
-        prev.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-            for (x, pr) in row.iter_mut().enumerate() {
-                *pr = reproject::reproject_pixel(p, hist, frame, samples, x, y);
-            }
-        });
-        let prev = &prev[..];
+        self.prev
+            .par_chunks_mut(w)
+            .enumerate()
+            .for_each(|(y, row)| {
+                for (x, pr) in row.iter_mut().enumerate() {
+                    *pr = reproject::reproject_pixel(p, hist, frame, samples, x, y);
+                }
+            });
+        let prev = &self.prev[..];
         // Re-shaded samples replace the windowed test's λ; its window statistics are then
         // needed only for the neighbourhood clamp.
         if changes.is_none() || p.clamp_sigmas > 0.0 {
@@ -419,17 +445,19 @@ impl TemporalFilter {
         let lambda = &self.lambda[..];
         let scale = &self.reshade_scale[..];
         let bounds = &self.bounds[..];
-        acc.par_iter_mut().enumerate().for_each(|(i, a)| {
+        self.acc.par_iter_mut().enumerate().for_each(|(i, a)| {
             let pr = prev[i].map(|pr| {
                 let pr = reproject::rescale_history(pr, scale.get(i).copied());
                 reproject::clamp_history(pr, bounds.get(i).copied())
             });
             *a = reproject::blend(p, &samples[i], pr, lambda[i]);
         });
-        // 3. Variance: temporal from the moments, spatial while the history is short.
-        let acc = &acc[..];
-        let variance = &mut self.variance;
-        variance
+    }
+
+    /// Step 3: the variance, temporal from the moments, spatial while the history is short.
+    fn estimate_variance(&mut self, w: usize, h: usize) {
+        let (p, samples, acc) = (&self.params, &self.samples[..], &self.acc[..]);
+        self.variance
             .data
             .par_chunks_mut(w)
             .enumerate()
@@ -438,8 +466,18 @@ impl TemporalFilter {
                     *v = reproject::variance(p, samples, acc, w, h, x, y);
                 }
             });
-        // 4. The variance-guided À-Trous on the accumulated colour / albedo; pixels with
-        // nothing to show (passed through, or missing without history) are NaN: weight 0.
+    }
+
+    /// Step 4: the variance-guided À-Trous on the accumulated colour / albedo, blended towards
+    /// a shallower one where the history is short; pixels with nothing to show (passed
+    /// through, or missing without history) are NaN: weight 0. Returns the filtered colour
+    /// and the first level.
+    fn filter_spatially(
+        &mut self,
+        frame: &TemporalFrame,
+    ) -> Result<(Filtered, Image), FilterError> {
+        let w = frame.color.width;
+        let (p, acc) = (&self.params, &self.acc[..]);
         let integrated = &mut self.integrated;
         integrated
             .data
@@ -465,12 +503,11 @@ impl TemporalFilter {
             position: frame.position,
             depth: Some(frame.depth),
             albedo: None,
-            variance: Some(&*variance),
+            variance: Some(&self.variance),
         };
-        let (filtered, first) = self
+        let (mut filtered, first) = self
             .atrous
             .filter_keeping_first_level(integrated, &features, &ap)?;
-        let mut filtered = filtered;
         if p.short_history_levels > 0 && p.short_history_levels != ap.iterations {
             let sp = AtrousParams {
                 iterations: p.short_history_levels,
@@ -493,7 +530,13 @@ impl TemporalFilter {
                     }
                 });
         }
-        // 5. Remodulation; pass-through pixels get their own colour.
+        Ok((filtered, first))
+    }
+
+    /// Step 5: remodulation; pass-through pixels get their own colour.
+    fn remodulate(&self, filtered: Filtered, frame: &TemporalFrame) -> Image {
+        let w = frame.color.width;
+        let samples = &self.samples[..];
         let mut image = filtered.image;
         image
             .data
@@ -517,7 +560,14 @@ impl TemporalFilter {
                     }
                 }
             });
-        // 6. The new history, written over the old history's vectors (it has been read).
+        image
+    }
+
+    /// Step 6: the new history (the accumulated colour, or the first À-Trous level `first`
+    /// with [`TemporalParams::filtered_history`]), written over the old history's vectors (it
+    /// has been read).
+    fn update_history(&mut self, frame: &TemporalFrame, first: Image) {
+        let (w, h) = (frame.color.width, frame.color.height);
         let mut hist = self.history.take().unwrap_or(History {
             w,
             h,
@@ -527,22 +577,23 @@ impl TemporalFilter {
             surface: vec![],
             ids: None,
         });
-        if p.filtered_history {
+        if self.params.filtered_history {
             hist.color = first;
         } else {
             // The accumulated colour becomes the history by a swap, not a copy; the old
             // history's buffer (or an empty one) is the next frame's, which overwrites it whole.
-            std::mem::swap(&mut hist.color, integrated);
+            std::mem::swap(&mut hist.color, &mut self.integrated);
         }
         for v in &mut hist.color.data {
             *v = sanitize(*v);
         }
+        let acc = &self.acc;
         hist.moments.clear();
         hist.moments.extend(acc.iter().map(|a| a.moments));
         hist.len.clear();
         hist.len.extend(acc.iter().map(|a| a.len));
         hist.surface.clear();
-        hist.surface.extend(samples.iter().map(|s| s.surface));
+        hist.surface.extend(self.samples.iter().map(|s| s.surface));
         match frame.ids {
             Some(ids) => {
                 let v = hist.ids.get_or_insert_with(Vec::new);
@@ -552,10 +603,6 @@ impl TemporalFilter {
             None => hist.ids = None,
         }
         self.history = Some(hist);
-        Ok(Filtered {
-            image,
-            missing: missing_pixels(frame.color),
-        })
     }
 }
 

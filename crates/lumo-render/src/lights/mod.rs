@@ -8,7 +8,6 @@ mod environment;
 mod point;
 mod polygon;
 mod shape;
-mod source;
 mod split;
 mod spot;
 mod triangle;
@@ -16,7 +15,7 @@ mod triangle;
 use std::f32::consts::PI;
 
 use glam::{Vec2, Vec3};
-use lumo_scene::{Light, Scene};
+use lumo_scene::{EnvMap, Light, Scene};
 
 use crate::accel::analytic::Shape;
 use crate::geometry::UNIFORM_SPHERE_PDF;
@@ -27,10 +26,99 @@ use environment::{EnvSampler, EnvironmentLight};
 use point::PointLight;
 pub use polygon::{triangle_cosine_integral, CosineTriangle};
 use shape::ShapeLight;
-use source::LightKind;
 pub use spot::SpotCone;
+use spot::SpotLight;
 pub use triangle::EmissiveTriangle;
 pub(crate) use triangle::{TexturedEmission, NO_TEXTURE};
+
+// The kinds of light: a new kind is its file, its `mod` line above, a `LightKind` variant,
+// its line in `each_kind!` and, for a light the scene lists, its arm in `from_scene`; the
+// `LightSource` dispatch (`source.rs`) follows.
+
+/// A light of the scene: one of the kinds, each in its own file.
+enum LightKind {
+    /// An emissive triangle of a mesh.
+    Triangle(EmissiveTriangle),
+    /// An emissive exact sphere, disk or cylinder.
+    Shape(ShapeLight),
+    /// A point light.
+    Point(PointLight),
+    /// A spot light.
+    Spot(SpotLight),
+    /// A directional (sun-like) light.
+    Directional(DirectionalLight),
+    /// The environment: the constant background and/or the image, as one light.
+    Environment(EnvironmentLight),
+}
+
+/// `$body` with `$l` bound to the light of any kind (static dispatch: every arm inlines).
+macro_rules! each_kind {
+    ($kind:expr, $l:ident => $body:expr) => {
+        match $kind {
+            LightKind::Triangle($l) => $body,
+            LightKind::Shape($l) => $body,
+            LightKind::Point($l) => $body,
+            LightKind::Spot($l) => $body,
+            LightKind::Directional($l) => $body,
+            LightKind::Environment($l) => $body,
+        }
+    };
+}
+
+/// What a light of the scene's list becomes among the kinds.
+enum SceneLight<'a> {
+    /// A kind of its own.
+    Kind(LightKind),
+    /// Constant radiance, summed into the one environment light.
+    Constant(Vec3),
+    /// The environment image, sampled by the one environment light.
+    Environment(&'a EnvMap),
+    /// Nothing to sample (an empty image: the loaders refuse one, a scene built in code must
+    /// not panic).
+    Nothing,
+}
+
+impl LightKind {
+    /// The kind a light of the scene's list is (area lights come from emissive materials).
+    fn from_scene(light: &Light) -> SceneLight<'_> {
+        match light {
+            Light::Point {
+                position,
+                intensity,
+            } => SceneLight::Kind(LightKind::Point(PointLight {
+                position: *position,
+                intensity: *intensity,
+            })),
+            Light::Spot {
+                position,
+                direction,
+                intensity,
+                beam_width,
+                cutoff,
+                falloff,
+            } => SceneLight::Kind(LightKind::Spot(SpotLight {
+                position: *position,
+                axis: direction.normalize(),
+                intensity: *intensity,
+                cone: SpotCone::new(*beam_width, *cutoff, *falloff),
+            })),
+            Light::Directional {
+                direction,
+                irradiance,
+            } => SceneLight::Kind(LightKind::Directional(DirectionalLight {
+                direction: direction.normalize(),
+                irradiance: *irradiance,
+            })),
+            Light::Constant { radiance } => SceneLight::Constant(*radiance),
+            Light::Environment(map) if map.image.width == 0 || map.image.height == 0 => {
+                SceneLight::Nothing
+            }
+            Light::Environment(map) => SceneLight::Environment(map),
+        }
+    }
+}
+
+mod source;
 
 /// A light direction chosen for a shading point.
 #[derive(Clone, Copy, Debug)]
@@ -147,39 +235,10 @@ impl Lights {
         let mut env = None;
         let mut constant = Vec3::ZERO;
         for light in &scene.lights {
-            match light {
-                Light::Point {
-                    position,
-                    intensity,
-                } => lights.push(LightKind::Point(PointLight {
-                    position: *position,
-                    intensity: *intensity,
-                })),
-                Light::Spot {
-                    position,
-                    direction,
-                    intensity,
-                    beam_width,
-                    cutoff,
-                    falloff,
-                } => lights.push(LightKind::Spot(spot::SpotLight {
-                    position: *position,
-                    axis: direction.normalize(),
-                    intensity: *intensity,
-                    cone: SpotCone::new(*beam_width, *cutoff, *falloff),
-                })),
-                Light::Directional {
-                    direction,
-                    irradiance,
-                } => lights.push(LightKind::Directional(DirectionalLight {
-                    direction: direction.normalize(),
-                    irradiance: *irradiance,
-                })),
-                Light::Constant { radiance } => constant += *radiance,
-                // An empty image emits nothing (the loaders refuse one; a scene built in code
-                // must not panic).
-                Light::Environment(map) if map.image.width == 0 || map.image.height == 0 => {}
-                Light::Environment(map) => {
+            match LightKind::from_scene(light) {
+                SceneLight::Kind(kind) => lights.push(kind),
+                SceneLight::Constant(radiance) => constant += radiance,
+                SceneLight::Environment(map) => {
                     env = Some(reuse.take().unwrap_or_else(|| {
                         let sampler = EnvSampler::new(map);
                         let m = map.image.to_channels(3).channel_means();
@@ -187,6 +246,7 @@ impl Lights {
                         (sampler, mean)
                     }))
                 }
+                SceneLight::Nothing => {}
             }
         }
         let (env, env_mean) = match env {

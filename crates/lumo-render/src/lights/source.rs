@@ -1,14 +1,10 @@
 //! The one interface every light kind answers (one file per kind, as `bsdf/` has one per
-//! material), and [`LightKind`], the closed set of kinds that dispatches to it.
+//! material), and its dispatch over [`LightKind`], the closed set of kinds (registered in
+//! `lights/mod.rs` beside their modules).
 
 use glam::{Vec2, Vec3};
 
-use super::directional::DirectionalLight;
-use super::environment::EnvironmentLight;
-use super::point::PointLight;
-use super::shape::ShapeLight;
-use super::spot::SpotLight;
-use super::{EmissionPdf, EmissionSample, EmissiveTriangle, LightSample, Lights};
+use super::{EmissionPdf, EmissionSample, LightKind, LightSample, Lights};
 
 /// What [`Lights`] asks of each light: its power (which weighs the choice among lights),
 /// whether it is a Dirac delta, a point on it seen from a shading point and that point's
@@ -54,36 +50,6 @@ pub(super) trait LightSource {
     /// The densities with which [`LightSource::emit`] leaves a point with normal `n` in
     /// direction `dir`, before the check that they are usable.
     fn emission_pdf(&self, lights: &Lights, pick: f32, n: Vec3, dir: Vec3) -> Option<EmissionPdf>;
-}
-
-/// A light of the scene: one of the kinds, each in its own file.
-pub(super) enum LightKind {
-    /// An emissive triangle of a mesh.
-    Triangle(EmissiveTriangle),
-    /// An emissive exact sphere, disk or cylinder.
-    Shape(ShapeLight),
-    /// A point light.
-    Point(PointLight),
-    /// A spot light.
-    Spot(SpotLight),
-    /// A directional (sun-like) light.
-    Directional(DirectionalLight),
-    /// The environment: the constant background and/or the image, as one light.
-    Environment(EnvironmentLight),
-}
-
-/// `$body` with `$l` bound to the light of any kind (static dispatch: every arm inlines).
-macro_rules! each_kind {
-    ($kind:expr, $l:ident => $body:expr) => {
-        match $kind {
-            LightKind::Triangle($l) => $body,
-            LightKind::Shape($l) => $body,
-            LightKind::Point($l) => $body,
-            LightKind::Spot($l) => $body,
-            LightKind::Directional($l) => $body,
-            LightKind::Environment($l) => $body,
-        }
-    };
 }
 
 impl LightKind {

@@ -8,35 +8,63 @@ use super::{LoadError, Location};
 
 /// Fails on the first reference to an item that does not exist.
 pub(crate) fn check_references(path: &std::path::Path, root: &json::Root) -> Result<(), LoadError> {
-    let mut err: Option<String> = None;
-    let mut check = |what: &dyn Fn() -> String, index: u32, len: usize| {
-        if err.is_none() && index as usize >= len {
-            err = Some(format!("{} = {index}, but there are only {len}", what()));
+    let mut refs = Refs { err: None };
+    // In document order of dependence: data, then what reads it, then the node tree.
+    buffers(root, &mut refs);
+    materials(root, &mut refs);
+    meshes(root, &mut refs);
+    nodes(root, &mut refs);
+    skins_and_scenes(root, &mut refs);
+    animations(root, &mut refs);
+    match refs.err {
+        None => Ok(()),
+        Some(e) => Err(LoadError::invalid(
+            Location::item(path, "JSON"),
+            format!("invalid reference: {e}"),
+        )),
+    }
+}
+
+/// The first broken reference found, if any.
+struct Refs {
+    err: Option<String>,
+}
+
+impl Refs {
+    /// Records `what = index` as broken where it is not below `len` and nothing broke before.
+    fn check(&mut self, what: &dyn Fn() -> String, index: u32, len: usize) {
+        if self.err.is_none() && index as usize >= len {
+            self.err = Some(format!("{} = {index}, but there are only {len}", what()));
         }
-    };
+    }
+}
+
+/// Accessors, buffer views and images: what points at the binary data.
+fn buffers(root: &json::Root, refs: &mut Refs) {
+    let views = root.buffer_views.len();
     for (i, a) in root.accessors.iter().enumerate() {
         if let Some(v) = a.buffer_view {
-            check(
+            refs.check(
                 &|| format!("accessors[{i}].bufferView"),
                 v.value() as u32,
-                root.buffer_views.len(),
+                views,
             );
         }
         if let Some(s) = &a.sparse {
-            check(
+            refs.check(
                 &|| format!("accessors[{i}].sparse.indices.bufferView"),
                 s.indices.buffer_view.value() as u32,
-                root.buffer_views.len(),
+                views,
             );
-            check(
+            refs.check(
                 &|| format!("accessors[{i}].sparse.values.bufferView"),
                 s.values.buffer_view.value() as u32,
-                root.buffer_views.len(),
+                views,
             );
         }
     }
     for (i, v) in root.buffer_views.iter().enumerate() {
-        check(
+        refs.check(
             &|| format!("bufferViews[{i}].buffer"),
             v.buffer.value() as u32,
             root.buffers.len(),
@@ -44,21 +72,25 @@ pub(crate) fn check_references(path: &std::path::Path, root: &json::Root) -> Res
     }
     for (i, im) in root.images.iter().enumerate() {
         if let Some(v) = im.buffer_view {
-            check(
+            refs.check(
                 &|| format!("images[{i}].bufferView"),
                 v.value() as u32,
-                root.buffer_views.len(),
+                views,
             );
         }
     }
+}
+
+/// Textures (their image and sampler) and the textures materials name.
+fn materials(root: &json::Root, refs: &mut Refs) {
     for (i, t) in root.textures.iter().enumerate() {
-        check(
+        refs.check(
             &|| format!("textures[{i}].source"),
             t.source.value() as u32,
             root.images.len(),
         );
         if let Some(s) = t.sampler {
-            check(
+            refs.check(
                 &|| format!("textures[{i}].sampler"),
                 s.value() as u32,
                 root.samplers.len(),
@@ -77,31 +109,36 @@ pub(crate) fn check_references(path: &std::path::Path, root: &json::Root) -> Res
             m.emissive_texture.as_ref().map(|t| t.index.value()),
         ];
         for t in textures.into_iter().flatten() {
-            check(
+            refs.check(
                 &|| format!("materials[{i}] texture index"),
                 t as u32,
                 root.textures.len(),
             );
         }
     }
+}
+
+/// Each primitive's attributes, indices, material and morph targets.
+fn meshes(root: &json::Root, refs: &mut Refs) {
+    let accessors = root.accessors.len();
     for (i, mesh) in root.meshes.iter().enumerate() {
         for (j, p) in mesh.primitives.iter().enumerate() {
             for a in p.attributes.values() {
-                check(
+                refs.check(
                     &|| format!("meshes[{i}].primitives[{j}].attributes"),
                     a.value() as u32,
-                    root.accessors.len(),
+                    accessors,
                 );
             }
             if let Some(a) = p.indices {
-                check(
+                refs.check(
                     &|| format!("meshes[{i}].primitives[{j}].indices"),
                     a.value() as u32,
-                    root.accessors.len(),
+                    accessors,
                 );
             }
             if let Some(m) = p.material {
-                check(
+                refs.check(
                     &|| format!("meshes[{i}].primitives[{j}].material"),
                     m.value() as u32,
                     root.materials.len(),
@@ -109,22 +146,26 @@ pub(crate) fn check_references(path: &std::path::Path, root: &json::Root) -> Res
             }
             for t in p.targets.iter().flatten() {
                 for a in [t.positions, t.normals, t.tangents].into_iter().flatten() {
-                    check(
+                    refs.check(
                         &|| format!("meshes[{i}].primitives[{j}].targets"),
                         a.value() as u32,
-                        root.accessors.len(),
+                        accessors,
                     );
                 }
             }
         }
     }
+}
+
+/// What a node names (camera, mesh, skin, punctual light) and its children.
+fn nodes(root: &json::Root, refs: &mut Refs) {
     let lights = root
         .extensions
         .as_ref()
         .and_then(|e| e.khr_lights_punctual.as_ref())
         .map_or(0, |l| l.lights.len());
     for (i, node) in root.nodes.iter().enumerate() {
-        let refs: [(&str, Option<u32>, usize); 4] = [
+        let named: [(&str, Option<u32>, usize); 4] = [
             (
                 "camera",
                 node.camera.map(|c| c.value() as u32),
@@ -149,29 +190,33 @@ pub(crate) fn check_references(path: &std::path::Path, root: &json::Root) -> Res
                 lights,
             ),
         ];
-        for (field, index, len) in refs {
+        for (field, index, len) in named {
             if let Some(index) = index {
-                check(&|| format!("nodes[{i}].{field}"), index, len);
+                refs.check(&|| format!("nodes[{i}].{field}"), index, len);
             }
         }
         for c in node.children.iter().flatten() {
-            check(
+            refs.check(
                 &|| format!("nodes[{i}].children"),
                 c.value() as u32,
                 root.nodes.len(),
             );
         }
     }
+}
+
+/// Skins' joints and matrices, scenes' root nodes and the default scene.
+fn skins_and_scenes(root: &json::Root, refs: &mut Refs) {
     for (i, skin) in root.skins.iter().enumerate() {
         for j in skin.joints.iter().chain(skin.skeleton.iter()) {
-            check(
+            refs.check(
                 &|| format!("skins[{i}].joints"),
                 j.value() as u32,
                 root.nodes.len(),
             );
         }
         if let Some(a) = skin.inverse_bind_matrices {
-            check(
+            refs.check(
                 &|| format!("skins[{i}].inverseBindMatrices"),
                 a.value() as u32,
                 root.accessors.len(),
@@ -180,7 +225,7 @@ pub(crate) fn check_references(path: &std::path::Path, root: &json::Root) -> Res
     }
     for (i, s) in root.scenes.iter().enumerate() {
         for node in &s.nodes {
-            check(
+            refs.check(
                 &|| format!("scenes[{i}].nodes"),
                 node.value() as u32,
                 root.nodes.len(),
@@ -188,12 +233,17 @@ pub(crate) fn check_references(path: &std::path::Path, root: &json::Root) -> Res
         }
     }
     if let Some(s) = root.scene {
-        check(&|| "scene".to_string(), s.value() as u32, root.scenes.len());
+        refs.check(&|| "scene".to_string(), s.value() as u32, root.scenes.len());
     }
+}
+
+/// Animation samplers' accessors, channels' samplers and nodes, and the enumerations the
+/// `gltf` crate unwraps without its validation having checked them (after every index).
+fn animations(root: &json::Root, refs: &mut Refs) {
     for (i, a) in root.animations.iter().enumerate() {
         for s in &a.samplers {
             for acc in [s.input, s.output] {
-                check(
+                refs.check(
                     &|| format!("animations[{i}].samplers"),
                     acc.value() as u32,
                     root.accessors.len(),
@@ -201,19 +251,18 @@ pub(crate) fn check_references(path: &std::path::Path, root: &json::Root) -> Res
             }
         }
         for c in &a.channels {
-            check(
+            refs.check(
                 &|| format!("animations[{i}].channels.sampler"),
                 c.sampler.value() as u32,
                 a.samplers.len(),
             );
-            check(
+            refs.check(
                 &|| format!("animations[{i}].channels.target.node"),
                 c.target.node.value() as u32,
                 root.nodes.len(),
             );
         }
     }
-    // Enumerations the gltf crate unwraps without its validation having checked them.
     for (i, a) in root.animations.iter().enumerate() {
         use json::validation::Checked::Invalid;
         if a.samplers
@@ -221,16 +270,9 @@ pub(crate) fn check_references(path: &std::path::Path, root: &json::Root) -> Res
             .any(|s| matches!(s.interpolation, Invalid))
             || a.channels.iter().any(|c| matches!(c.target.path, Invalid))
         {
-            err.get_or_insert(format!(
+            refs.err.get_or_insert(format!(
                 "animations[{i}] has an unknown interpolation or target path"
             ));
         }
-    }
-    match err {
-        None => Ok(()),
-        Some(e) => Err(LoadError::invalid(
-            Location::item(path, "JSON"),
-            format!("invalid reference: {e}"),
-        )),
     }
 }

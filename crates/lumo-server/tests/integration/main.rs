@@ -6,4 +6,5 @@ mod protocol_golden;
 mod protocol_layout;
 mod remote;
 mod server;
+mod stream_bits;
 mod worker;
