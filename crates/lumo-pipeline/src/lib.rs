@@ -178,6 +178,8 @@ pub const PLANE_NAMES: &[&str] = &[
     "low_illumination",
     "low_indirect",
     "lookup_misses",
+    // The Dirac lights' exact light (`auto`, and `render --aovs` for every pipeline).
+    "dirac",
 ];
 
 /// What a pipeline produced.

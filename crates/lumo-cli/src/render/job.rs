@@ -91,7 +91,28 @@ impl<'a> Job<'a> {
                 )
             })
             .map_err(crate::pipeline_args::describe_pipeline_error)?;
-        Ok(self.rendered(out))
+        Ok(self.rendered(self.with_dirac(rs, out)))
+    }
+
+    /// `out` with the Dirac lights' exact light among its planes when AOVs are written and the
+    /// pipeline did not make it (`--pipeline none`, say): `lumo denoise --input-dir` keeps
+    /// that plane out of its filter, so the planes a user denoises later carry it too.
+    fn with_dirac(
+        &self,
+        rs: &RenderScene,
+        mut out: lumo_pipeline::PipelineOutput,
+    ) -> lumo_pipeline::PipelineOutput {
+        if self.args.aovs.is_some() && out.planes.iter().all(|(n, _)| *n != "dirac") {
+            let s = &self.settings;
+            let camera = PinholeCamera::new(&rs.scene.camera, s.width, s.height);
+            if let Some(d) = self
+                .pool
+                .install(|| lumo_render::dirac_direct(rs, &camera, s))
+            {
+                out.planes.push(("dirac", d));
+            }
+        }
+        out
     }
 
     /// What [`Job::render`] gives for the path tracer, from the exact sums of every pixel's
@@ -110,7 +131,7 @@ impl<'a> Job<'a> {
                 )
             })
             .map_err(crate::pipeline_args::describe_pipeline_error)?;
-        Ok(self.rendered(out))
+        Ok(self.rendered(self.with_dirac(rs, out)))
     }
 
     fn rendered(&self, out: lumo_pipeline::PipelineOutput) -> Rendered {

@@ -105,3 +105,46 @@ fn a_symlink_loop_is_named_as_one() {
     assert!(!String::from_utf8_lossy(&o.stderr).contains("does not exist"));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `--aovs` writes the Dirac lights' exact light (`dirac.exr`) for a scene lit by a sun
+/// whatever the pipeline, so that `lumo denoise --input-dir` can keep it out of its filter;
+/// the built-in Cornell box (an area light only) gets none.
+#[test]
+fn aovs_carry_the_dirac_plane_where_the_scene_has_dirac_lights() {
+    let dir = temp_dir("dirac");
+    let wires = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../scenes/tuning/tune-wires.xml")
+        .display()
+        .to_string();
+    for (scene, pipeline, expect) in [
+        (wires.as_str(), "none", true),
+        (wires.as_str(), "auto", true),
+        ("cornell", "none", false),
+    ] {
+        let aovs = format!("aovs-{pipeline}-{expect}");
+        let o = lumo_in(
+            &dir,
+            &[
+                "render",
+                scene,
+                "--size",
+                "16x16",
+                "--spp",
+                "1",
+                "--pipeline",
+                pipeline,
+                "-o",
+                "a.exr",
+                "--aovs",
+                &aovs,
+            ],
+        );
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        assert_eq!(
+            dir.join(&aovs).join("dirac.exr").is_file(),
+            expect,
+            "{scene} {pipeline}"
+        );
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}

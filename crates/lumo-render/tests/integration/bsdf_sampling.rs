@@ -3,27 +3,13 @@
 
 use crate::common;
 
-use common::chi2::{self, dir};
+use common::chi2::{self, dir, Rng};
 use glam::{Vec2, Vec3};
 use lumo_render::bsdf::{
     fresnel_diffuse_reflectance, Bsdf, Conductor, Dielectric, Diffuse, Distribution, GltfPbr,
     Microfacet, Mirror, Plastic, RoughCoat,
 };
 use std::f32::consts::PI;
-
-/// xorshift64*: independent uniform numbers for the tests (not the renderer's Sobol points).
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f32 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        ((self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 40) as f32) / (1u64 << 24) as f32
-    }
-    fn next_2d(&mut self) -> Vec2 {
-        Vec2::new(self.next(), self.next())
-    }
-}
 
 fn test_bsdfs() -> Vec<(&'static str, Bsdf)> {
     vec![
@@ -283,30 +269,6 @@ fn rough_plastic(distribution: Distribution, alpha: f32, nonlinear: bool) -> Bsd
     })
 }
 
-/// Runs the χ² test of `bsdf`'s sampling for outgoing direction `wo`; returns the p-value.
-fn chi2_test(bsdf: &Bsdf, wo: Vec3, seed: u64) -> f64 {
-    let (nt, np) = (20usize, 40usize);
-    let n = 400_000usize;
-    let mut observed = vec![0f64; nt * np];
-    let mut rng = Rng(seed);
-    for _ in 0..n {
-        let u_lobe = rng.next();
-        if let Some(s) = bsdf.sample(wo, u_lobe, rng.next_2d()) {
-            if !s.delta {
-                observed[chi2::cell(s.wi, nt, np)] += 1.0;
-            }
-        }
-    }
-    // 48×48 points per cell: a rough dielectric's refracted lobe has a hard edge (the most
-    // grazing refraction a visible microfacet allows) that can fall a few thousandths inside a
-    // cell, where a coarser rule sees none of the samples the sampler rightly puts there
-    // (BK7 at 420 nm, cos θo = 0.15: p = 0 with 12×12 points, 0.6 with 96×96).
-    let expected = chi2::expected_counts(nt, np, 48, n, |wi| bsdf.pdf(wo, wi));
-    let (p, terms) = chi2::p_value(&observed, &expected);
-    assert!(terms > 1, "χ² test saw no non-delta samples and no density");
-    p
-}
-
 #[test]
 fn chi2_sampling_matches_pdf() {
     let wos = [dir(0.9, 0.3), dir(0.4, 2.0), dir(0.15, 4.0)];
@@ -326,7 +288,7 @@ fn chi2_sampling_matches_pdf() {
                 },
             ] {
                 tests += 1;
-                let p = chi2_test(&bsdf, wo, 7 + k as u64);
+                let p = chi2::sampling_p_value(&bsdf, wo, 7 + k as u64);
                 println!("χ² {name:28} cos θo {:+.2}: p = {p:.3}", wo.z);
                 if p < 0.01 / count as f64 {
                     failures.push(format!("{name} wo={wo:?}: p = {p:.2e}"));

@@ -4,23 +4,10 @@
 
 use crate::common;
 
-use common::chi2::{self, dir};
+use common::chi2::{self, dir, Rng};
 use glam::{Vec2, Vec3};
 use lumo_render::bsdf::{Bsdf, Dielectric, Microfacet, Principled};
 
-/// xorshift64*: independent uniform numbers for the tests.
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f32 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        ((self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 40) as f32) / (1u64 << 24) as f32
-    }
-    fn next_2d(&mut self) -> Vec2 {
-        Vec2::new(self.next(), self.next())
-    }
-}
 
 /// Mitsuba's index for its `specular` parameter.
 fn eta_of_specular(s: f32) -> f32 {
@@ -193,21 +180,6 @@ fn corner_materials() -> Vec<(&'static str, Bsdf)> {
     ]
 }
 
-fn chi2_p(bsdf: &Bsdf, wo: Vec3, seed: u64) -> f64 {
-    let (nt, np, n) = (20usize, 40usize, 400_000usize);
-    let mut observed = vec![0f64; nt * np];
-    let mut rng = Rng(seed);
-    for _ in 0..n {
-        let u_lobe = rng.next();
-        if let Some(s) = bsdf.sample(wo, u_lobe, rng.next_2d()) {
-            observed[chi2::cell(s.wi, nt, np)] += 1.0;
-        }
-    }
-    let expected = chi2::expected_counts(nt, np, 48, n, |wi| bsdf.pdf(wo, wi));
-    let (p, terms) = chi2::p_value(&observed, &expected);
-    assert!(terms > 1, "χ² test saw no samples and no density");
-    p
-}
 
 #[test]
 fn principled_sampling_matches_its_pdf() {
@@ -226,7 +198,7 @@ fn principled_sampling_matches_its_pdf() {
                     *wo
                 },
             ] {
-                let p = chi2_p(bsdf, wo, 11 + k as u64);
+                let p = chi2::sampling_p_value(bsdf, wo, 11 + k as u64);
                 println!("χ² principled {name:20} cos θo {:+.2}: p = {p:.3}", wo.z);
                 if p < 0.01 / count as f64 {
                     failures.push(format!("{name} wo={wo:?}: p = {p:.2e}"));

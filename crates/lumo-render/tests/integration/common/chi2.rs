@@ -4,7 +4,50 @@
 
 use std::f32::consts::PI;
 
+use glam::Vec2;
+use lumo_render::bsdf::Bsdf;
 use lumo_scene::Vec3;
+
+/// xorshift64*: independent uniform numbers for the tests (not the renderer's Sobol points).
+pub struct Rng(pub u64);
+impl Rng {
+    /// The next uniform number in [0, 1).
+    pub fn next(&mut self) -> f32 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        ((self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 40) as f32) / (1u64 << 24) as f32
+    }
+    /// Two of them.
+    pub fn next_2d(&mut self) -> Vec2 {
+        Vec2::new(self.next(), self.next())
+    }
+}
+
+/// The p-value of the χ² test of `bsdf`'s sampling for outgoing direction `wo` against its
+/// own density: 400,000 samples from `seed` (delta samples skipped: they have no density) in
+/// 20 × 40 cells, the expected counts integrated with 48 × 48 points per cell (a rough
+/// dielectric's refracted lobe has a hard edge — the most grazing refraction a visible
+/// microfacet allows — that can fall a few thousandths inside a cell, where a coarser rule
+/// sees none of the samples the sampler rightly puts there: BK7 at 420 nm, cos θo = 0.15,
+/// p = 0 with 12 × 12 points, 0.6 with 96 × 96).
+pub fn sampling_p_value(bsdf: &Bsdf, wo: Vec3, seed: u64) -> f64 {
+    let (nt, np, n) = (20usize, 40usize, 400_000usize);
+    let mut observed = vec![0f64; nt * np];
+    let mut rng = Rng(seed);
+    for _ in 0..n {
+        let u_lobe = rng.next();
+        if let Some(s) = bsdf.sample(wo, u_lobe, rng.next_2d()) {
+            if !s.delta {
+                observed[cell(s.wi, nt, np)] += 1.0;
+            }
+        }
+    }
+    let expected = expected_counts(nt, np, 48, n, |wi| bsdf.pdf(wo, wi));
+    let (p, terms) = p_value(&observed, &expected);
+    assert!(terms > 1, "χ² test saw no non-delta samples and no density");
+    p
+}
 
 /// The unit direction with the given cos θ (from +z) and azimuth φ.
 pub fn dir(cos_theta: f32, phi: f32) -> Vec3 {
