@@ -4,7 +4,7 @@
 use crate::common;
 
 use common::chi2::{self, dir, Rng};
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use lumo_render::bsdf::{
     fresnel_diffuse_reflectance, Bsdf, Conductor, Dielectric, Diffuse, Distribution, GltfPbr,
     Microfacet, Mirror, Plastic, RoughCoat,

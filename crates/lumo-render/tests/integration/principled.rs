@@ -5,9 +5,8 @@
 use crate::common;
 
 use common::chi2::{self, dir, Rng};
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use lumo_render::bsdf::{Bsdf, Dielectric, Microfacet, Principled};
-
 
 /// Mitsuba's index for its `specular` parameter.
 fn eta_of_specular(s: f32) -> f32 {
@@ -179,7 +178,6 @@ fn corner_materials() -> Vec<(&'static str, Bsdf)> {
         ),
     ]
 }
-
 
 #[test]
 fn principled_sampling_matches_its_pdf() {
