@@ -35,11 +35,12 @@ fn settings(spp: u32, max_depth: u32) -> RenderSettings {
 /// With one point light and direct light only (max depth 2), every camera sample of the path
 /// tracer holds exactly the pass's value (it can pick no other light), so the pixel means
 /// agree to rounding; with two Dirac lights the path tracer picks one per sample and its
-/// mean over many samples converges to the pass.
+/// mean over many samples converges to the pass. Below [`MIN_SAMPLES`] the pass takes that
+/// many of the frame's samples: a 1-spp frame's pass is its 4-spp frame's.
 #[test]
 fn the_pass_is_the_path_tracers_dirac_light_at_the_first_hit() {
     let rs = RenderScene::new(lit_by(vec![point()])).expect("scene");
-    for spp in [1, 4] {
+    for spp in [MIN_SAMPLES, 2 * MIN_SAMPLES] {
         let s = settings(spp, 2);
         let camera = PinholeCamera::new(&rs.scene.camera, s.width, s.height);
         let pass = dirac_direct(&rs, &camera, &s).expect("a point light");
@@ -51,6 +52,11 @@ fn the_pass_is_the_path_tracers_dirac_light_at_the_first_hit() {
         }
         assert!(lit > pass.data.len() / 2, "{lit} lit values");
     }
+    let camera = PinholeCamera::new(&rs.scene.camera, 24, 24);
+    assert_eq!(
+        dirac_direct(&rs, &camera, &settings(1, 2)).map(|p| p.data),
+        dirac_direct(&rs, &camera, &settings(MIN_SAMPLES, 2)).map(|p| p.data)
+    );
     let sun = Light::Directional {
         direction: Vec3::new(0.2, -1.0, -0.3),
         irradiance: Vec3::splat(0.8),
