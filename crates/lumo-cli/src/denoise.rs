@@ -324,7 +324,7 @@ fn read_inputs(a: &DenoiseArgs) -> anyhow::Result<Inputs> {
     // The Dirac lights' exact light skips the filter: out of the colour here, back in
     // `filter_inputs`.
     if let Some((_, d)) = &inputs.dirac {
-        shift_finite(&mut inputs.color.1, d, -1.0);
+        inputs.color.1.add_scaled_finite(d, -1.0);
     }
     Ok(inputs)
 }
@@ -689,7 +689,7 @@ fn filter_inputs(
     times.sort();
     let mut filtered = filtered.context("the filter did not run")?;
     if let Some((_, d)) = &inputs.dirac {
-        shift_finite(&mut filtered.image, d, 1.0);
+        filtered.image.add_scaled_finite(d, 1.0);
     }
     Ok((filtered, times, detected))
 }
@@ -885,23 +885,6 @@ fn check_plane_values(a: &DenoiseArgs, inputs: &Inputs) -> anyhow::Result<()> {
 const DENOISE_BYTES_PER_PIXEL: u64 = 480;
 
 /// Runs `lumo denoise`.
-/// Adds `sign ·` the first three channels of `plane` to `img`'s RGB where `img` is finite (a
-/// missing pixel stays missing); a non-finite plane value adds nothing.
-fn shift_finite(img: &mut Image, plane: &Image, sign: f32) {
-    let (c, pc) = (img.channels, plane.channels);
-    for (p, q) in img
-        .data
-        .chunks_exact_mut(c)
-        .zip(plane.data.chunks_exact(pc))
-    {
-        for (v, d) in p.iter_mut().zip(&q[..3.min(pc)]) {
-            if v.is_finite() && d.is_finite() {
-                *v += sign * d;
-            }
-        }
-    }
-}
-
 pub fn run(args: DenoiseArgs) -> anyhow::Result<()> {
     // Named as the command line spells them: the filter's own error calls --subsample
     // "sparse".

@@ -94,6 +94,25 @@ impl Image {
         sums.iter().map(|s| s / n).collect()
     }
 
+    /// Adds `scale ·` the first channels of `plane` (same size; at least as many channels as
+    /// used) to this image where this image's value and the plane's are finite: a missing
+    /// (non-finite) pixel stays missing. Used to take an exactly known light out of a filter's
+    /// input and to put it back after.
+    pub fn add_scaled_finite(&mut self, plane: &Image, scale: f32) {
+        let (c, pc) = (self.channels, plane.channels);
+        for (p, q) in self
+            .data
+            .chunks_exact_mut(c)
+            .zip(plane.data.chunks_exact(pc))
+        {
+            for (v, d) in p.iter_mut().zip(q) {
+                if v.is_finite() && d.is_finite() {
+                    *v += scale * d;
+                }
+            }
+        }
+    }
+
     /// Count of values that are NaN or infinite.
     pub fn non_finite_count(&self) -> usize {
         self.data.iter().filter(|v| !v.is_finite()).count()

@@ -15,7 +15,6 @@ use lumo_filter::{with_emitted, AutoDenoiser, Denoiser, Features, FilterInput};
 
 use super::compose::trace_full;
 use super::{PipelineError, PipelineOutput, Timings};
-use lumo_image::Image;
 use lumo_render::camera::PinholeCamera;
 use lumo_render::{dirac_direct, PixelSums, RenderScene, RenderSettings};
 
@@ -43,17 +42,17 @@ pub(super) fn run(
     };
     let mut denoiser = AutoDenoiser::default();
     // The light's share of its rim pixels stays out too (`with_emitted`).
-    let rest = match &dirac {
-        Some(d) => shifted(&frame.color, d, -1.0),
-        None => frame.color.clone(),
-    };
+    let mut rest = frame.color.clone();
+    if let Some(d) = &dirac {
+        rest.add_scaled_finite(d, -1.0);
+    }
     let filtered = with_emitted(&rest, &emitter, &frame.emitted, |c| {
         denoiser.denoise(&FilterInput::new(c, features))
     })?;
-    let image = match &dirac {
-        Some(d) => shifted(&filtered.image, d, 1.0),
-        None => filtered.image,
-    };
+    let mut image = filtered.image;
+    if let Some(d) = &dirac {
+        image.add_scaled_finite(d, 1.0);
+    }
     Ok(PipelineOutput {
         image,
         frame,
@@ -66,16 +65,4 @@ pub(super) fn run(
         },
         stats,
     })
-}
-
-/// `image + sign · plane` (both RGB and of one size); a non-finite pixel of `image` stays as
-/// it is, so the filter still sees it as missing.
-fn shifted(image: &Image, plane: &Image, sign: f32) -> Image {
-    let mut out = image.clone();
-    for (v, p) in out.data.iter_mut().zip(&plane.data) {
-        if v.is_finite() {
-            *v += sign * p;
-        }
-    }
-    out
 }

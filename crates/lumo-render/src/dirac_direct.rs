@@ -24,7 +24,7 @@ use lumo_scene::PixelFilter;
 
 use crate::camera::PinholeCamera;
 use crate::camera_sample::camera_sample;
-use crate::geometry::shadow_segment;
+use crate::direct_split::shadow_ray;
 use crate::integrators::path::{mask_shadow, ShadowRay};
 use crate::parallel::map_pixels;
 use crate::{RenderScene, RenderSettings};
@@ -93,13 +93,7 @@ fn first_vertex(rs: &RenderScene, origin: Vec3, dir: Vec3, max_depth: u32, masks
         if f == Vec3::ZERO {
             continue;
         }
-        let o = rs.offset(&s, ls.wi);
-        let (d, tmax) = if ls.distance.is_finite() {
-            let (d, t) = shadow_segment(o.into(), ls.point.into(), ls.wi.into(), rs.ray_epsilon);
-            (Vec3::from(d), t)
-        } else {
-            (ls.wi, f32::INFINITY)
-        };
+        let (o, d, tmax) = shadow_ray(rs, &s, &ls);
         // A Dirac light has no density, so the path tracer gives its sample full weight.
         let value = f * ls.weight;
         if !rs.accel.occluded(o, d, 0.0, tmax) {

@@ -297,7 +297,7 @@ fn shade(
 
 /// The shadow ray from surface `s` towards light sample `ls` (origin, direction, length), as
 /// the path tracer builds its own.
-fn shadow_ray(rs: &RenderScene, s: &Surface, ls: &LightSample) -> (Vec3, Vec3, f32) {
+pub(crate) fn shadow_ray(rs: &RenderScene, s: &Surface, ls: &LightSample) -> (Vec3, Vec3, f32) {
     let o = rs.offset(s, ls.wi);
     if ls.distance.is_finite() {
         let (d, t) = shadow_segment(o.into(), ls.point.into(), ls.wi.into(), rs.ray_epsilon);

@@ -332,24 +332,11 @@ fn sample_weight_equals_eval_over_pdf() {
     }
 }
 
-/// Mean of the sample weights: the directional albedo (with 1/η² radiance scaling undone, so
-/// it measures energy).
-fn albedo(bsdf: &Bsdf, wo: Vec3, n: usize, seed: u64) -> Vec3 {
-    let mut rng = Rng(seed);
-    let mut sum = Vec3::ZERO;
-    for _ in 0..n {
-        if let Some(s) = bsdf.sample(wo, rng.next(), rng.next_2d()) {
-            sum += s.weight * (s.eta * s.eta);
-        }
-    }
-    sum / n as f32
-}
-
 #[test]
 fn no_bsdf_creates_energy() {
     for (name, bsdf) in test_bsdfs() {
         for c in [1.0f32, 0.7, 0.3, 0.05] {
-            let a = albedo(&bsdf, dir(c, 0.5), 200_000, 3);
+            let a = chi2::sampled_albedo(&bsdf, dir(c, 0.5), 200_000, 3);
             assert!(a.max_element() <= 1.01, "{name} at cos {c}: albedo {a:?}");
         }
     }
@@ -382,7 +369,7 @@ fn lossless_bsdfs_reflect_everything() {
             if c < 0.0 && !matches!(bsdf, Bsdf::Dielectric(_)) {
                 continue;
             }
-            let a = albedo(&bsdf, dir(c, 1.0), 50_000, 11);
+            let a = chi2::sampled_albedo(&bsdf, dir(c, 1.0), 50_000, 11);
             assert!(
                 (a - Vec3::ONE).abs().max_element() < 5e-3,
                 "{name} at cos {c}: {a:?}"
@@ -390,7 +377,7 @@ fn lossless_bsdfs_reflect_everything() {
         }
     }
     // Rough glass loses only what the microfacet shadowing term removes: a few percent.
-    let a = albedo(
+    let a = chi2::sampled_albedo(
         &Bsdf::Dielectric(Dielectric {
             eta: 1.5,
             mf: Microfacet::ggx(0.1),
@@ -552,7 +539,7 @@ fn lossless_rough_mirror_albedo_matches_its_integral() {
         });
         for c in [0.9f32, 0.5, 0.2] {
             let wo = dir(c, 0.7);
-            let sampled = albedo(&bsdf, wo, 400_000, 17).x;
+            let sampled = chi2::sampled_albedo(&bsdf, wo, 400_000, 17).x;
             let (nt, np) = (600, 600);
             let mut integral = 0.0f64;
             for i in 0..nt {
@@ -600,7 +587,7 @@ fn a_plastics_gbuffer_albedo_is_its_directional_albedo() {
     ] {
         for c in [1.0f32, 0.5, 0.2, 0.08] {
             let wo = dir(c, 0.5);
-            let measured = albedo(&bsdf, wo, 400_000, 11);
+            let measured = chi2::sampled_albedo(&bsdf, wo, 400_000, 11);
             let g = bsdf.albedo_towards(wo);
             for k in 0..3 {
                 assert!(

@@ -285,18 +285,6 @@ fn principled_clear_glass_is_the_rough_dielectric() {
     }
 }
 
-/// Mean sample weight with refraction's radiance scaling undone: the energy the BSDF sends on.
-fn albedo(bsdf: &Bsdf, wo: Vec3, n: usize, seed: u64) -> Vec3 {
-    let mut rng = Rng(seed);
-    let mut sum = Vec3::ZERO;
-    for _ in 0..n {
-        if let Some(s) = bsdf.sample(wo, rng.next(), rng.next_2d()) {
-            sum += s.weight * (s.eta * s.eta);
-        }
-    }
-    sum / n as f32
-}
-
 #[test]
 fn principled_furnace_where_mitsubas_model_conserves_energy() {
     // A white metal is a GGX mirror with F = 1 (Schlick of F0 = 1); clear glass is the rough
@@ -319,7 +307,7 @@ fn principled_furnace_where_mitsubas_model_conserves_energy() {
                     if c < 0.0 && spec_trans == 0.0 {
                         continue;
                     }
-                    let a = albedo(&bsdf, dir(c, 0.7), 100_000, 3).x;
+                    let a = chi2::sampled_albedo(&bsdf, dir(c, 0.7), 100_000, 3).x;
                     assert!(
                         a <= 1.01,
                         "r {roughness} aniso {anisotropic} metallic {metallic} spec_trans \
@@ -352,7 +340,7 @@ fn principled_energy_gain_is_mitsubas() {
     ));
     for (c, seed) in [(1.0f32, 1u64), (0.1, 2)] {
         let wo = dir(c, 0.3);
-        let sampled = albedo(&bsdf, wo, 200_000, seed).x;
+        let sampled = chi2::sampled_albedo(&bsdf, wo, 200_000, seed).x;
         // Midpoint rule in (cos θ, φ) over the upper hemisphere.
         let (nt, np) = (200, 200);
         let mut quad = 0.0f64;

@@ -24,6 +24,19 @@ impl Rng {
     }
 }
 
+/// Mean sample weight of `bsdf` from `wo` over `n` samples from `seed`, with refraction's
+/// 1/η² radiance scaling undone: the directional albedo, the energy the BSDF sends on.
+pub fn sampled_albedo(bsdf: &Bsdf, wo: Vec3, n: usize, seed: u64) -> Vec3 {
+    let mut rng = Rng(seed);
+    let mut sum = Vec3::ZERO;
+    for _ in 0..n {
+        if let Some(s) = bsdf.sample(wo, rng.next(), rng.next_2d()) {
+            sum += s.weight * (s.eta * s.eta);
+        }
+    }
+    sum / n as f32
+}
+
 /// The p-value of the χ² test of `bsdf`'s sampling for outgoing direction `wo` against its
 /// own density: 400,000 samples from `seed` (delta samples skipped: they have no density) in
 /// 20 × 40 cells, the expected counts integrated with 48 × 48 points per cell (a rough
