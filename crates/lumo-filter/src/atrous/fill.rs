@@ -99,7 +99,15 @@ multiversion! {
         background_row(inp.features, i0, bgs);
         let bgs = &*bgs;
         if inp.use_variance {
-            variance_run(inp, i0, s.inv_ml2, &mut blk[4 * QW + ja..4 * QW + jb]);
+            let (head, var) = blk.split_at_mut(4 * QW);
+            let var = &mut var[ja..jb];
+            variance_run(inp, i0, s.inv_ml2, var);
+            // No variance where there is no colour: the pair path adds w²·var without the
+            // validity factor (as it adds w·colour), and a missing pixel's variance (a
+            // non-finite sample's, a sparse hole's) must not reach its neighbours.
+            for (v, &valid) in var.iter_mut().zip(&head[3 * QW + ja..3 * QW + jb]) {
+                *v = if valid > 0.0 { *v } else { 0.0 };
+            }
         } else {
             blk[4 * QW + ja..4 * QW + jb].fill(0.0);
         }

@@ -7,7 +7,6 @@
 //! outside the image adds an exact zero instead of being skipped), so both paths give
 //! bit-identical results.
 
-use super::inverse_sigma_row;
 use super::kernel::{normalise, tap_consts, AuxBlock, Isa, Level, SrcBlock, CM_FIXED, CM_VARIANCE};
 use super::layout::{CW, M, QW};
 use crate::common::fastmath::{exp2_cut, mul_add};
@@ -19,7 +18,9 @@ pub(super) const MAX_STEP: usize = M / 2;
 const R: usize = 0;
 const V: usize = 3;
 const VAR_P: usize = 4;
-/// Planes of a block of the aux buffer.
+/// Planes of a block of the aux buffer: the variance-guided colour factor g, the luminance,
+/// the features.
+const G: usize = 0;
 const L: usize = 1;
 const F: usize = 2;
 /// Accumulators: r, g, b, weight, variance.
@@ -27,12 +28,11 @@ const AN: usize = 5;
 
 /// Block `b` of a level with `step <= MAX_STEP` into `dst` (K planes).
 ///
-/// The centre pixels' colour factor (for the variance-guided weight, the prefiltered inverse
-/// σ) is formed here for this block's row alone, and the normal coordinates are scaled by
-/// 1/step in the kernel (`sqrt(l.normal_factor)`), so no pass writes either into the
-/// full-image aux planes before the level (at 1080p each such plane is ≈ 11 MB of memory
-/// traffic per level). Both give the bits the aux planes gave: the colour factor is the same
-/// function of the same values, and scaling a difference by a power of 2 is exact.
+/// The fixed colour factor is formed here for this block's row alone (the variance-guided
+/// one, g, is read from the aux plane, where the pair path needs it for every pixel), and the normal
+/// coordinates are scaled by 1/step in the kernel (`sqrt(l.normal_factor)`), so no pass
+/// writes them into the full-image aux planes before the level (at 1080p each such plane is
+/// ≈ 11 MB of memory traffic per level). Scaling a difference by a power of 2 is exact.
 pub(super) fn block_fused<const NF: usize, const CM: u8, const VAR: bool>(
     l: &Level,
     b: usize,
@@ -47,13 +47,7 @@ pub(super) fn block_fused<const NF: usize, const CM: u8, const VAR: bool>(
     let mut cp = [0.0f32; CW];
     let valid = &p[V * QW + M..][..len];
     match CM {
-        CM_VARIANCE => {
-            let out = &mut cp[..len];
-            inverse_sigma_row(l.src, lay, c, y, l.sigma, l.eps, out);
-            for (o, &v) in out.iter_mut().zip(valid) {
-                *o = l.color_scale * *o * v;
-            }
-        }
+        CM_VARIANCE => cp[..len].copy_from_slice(&pa[G * QW + M..][..len]),
         CM_FIXED => {
             for (o, &v) in cp[..len].iter_mut().zip(valid) {
                 *o = l.color_scale * v;

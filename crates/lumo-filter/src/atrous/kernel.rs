@@ -71,10 +71,6 @@ pub(super) struct Level<'a> {
     pub cm: u8,
     /// The colour factor of a valid pixel (what the aux colour plane holds inside the strip).
     pub color_scale: f32,
-    /// The variance-guided weight's σ and ε (units of the stored variance's square root):
-    /// the fused path forms the centre pixels' colour factor from them per block.
-    pub sigma: f32,
-    pub eps: f32,
     /// Carry the variance (only when a later level reads it).
     pub var: bool,
     pub isa: Isa,

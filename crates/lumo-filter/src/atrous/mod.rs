@@ -204,10 +204,17 @@ struct LevelWeights {
     eps: f32,
 }
 
-/// Sets the per-level planes of every block's aux buffer: the colour factor (0 at missing
-/// centre pixels, which have no colour to compare; only when `color_plane`, the pair path
-/// derives it from the validity) and the luminance; multiplies the normal coordinates by
-/// `rescale` (their σ scales with the stepwidth).
+/// Sets the per-level planes of every block's aux buffer: the colour factor and the
+/// luminance; multiplies the normal coordinates by `rescale` (their σ scales with the
+/// stepwidth).
+///
+/// The colour factor: for the fixed colour σ, `color_scale` × validity (0 at missing centre
+/// pixels, which have no colour to compare), written only when `color_plane` (the per-tap
+/// path reads it; the pair path derives it from the validity, the fused one per block). For
+/// the variance-guided weight, g = color_scale / σ × validity for every pixel of every
+/// path, margins included: SVGF's σ belongs to the centre pixel, so a pair's weight differs
+/// seen from its two pixels, and the pair path, which computes each pair's feature distance
+/// once for both, needs both pixels' g.
 fn level_aux(
     aux: &mut [f32],
     src: &[f32],
@@ -235,13 +242,7 @@ fn level_aux(
                 }
             }
             CM_VARIANCE => {
-                if color_plane {
-                    let out = &mut cp[M..M + len];
-                    inverse_sigma_row(src, lay, c, y, lw.sigma, lw.eps, out);
-                    for (o, &v) in out.iter_mut().zip(&valid[M..M + len]) {
-                        *o = lw.color_scale * *o * v;
-                    }
-                }
+                symmetric_color_factor(src, lay, c, y, lw, valid, &mut cp[M..M + len]);
                 for j in ja..jb {
                     lum[j] = 0.2126 * s[j] + 0.7152 * s[QW + j] + 0.0722 * s[2 * QW + j];
                 }
@@ -256,6 +257,27 @@ fn level_aux(
             }
         }
     });
+    if lw.cm == CM_VARIANCE {
+        // The fused and pair paths read g of neighbours in the margins.
+        lay.fill_margins(aux, KA, 1);
+    }
+}
+
+/// The variance-guided colour factor g = color_scale / σ × validity of block (c, y)'s strip
+/// columns (see [`level_aux`]), with the operations the fused path used to form it per block.
+fn symmetric_color_factor(
+    src: &[f32],
+    lay: Layout,
+    c: usize,
+    y: usize,
+    lw: &LevelWeights,
+    valid: &[f32],
+    out: &mut [f32],
+) {
+    inverse_sigma_row(src, lay, c, y, lw.sigma, lw.eps, out);
+    for (o, &v) in out.iter_mut().zip(&valid[M..]) {
+        *o = lw.color_scale * *o * v;
+    }
 }
 
 /// What every level of one call reads: the input, its layout, the kernel choice and the
@@ -348,8 +370,6 @@ impl Plan<'_, '_> {
             normal_factor: 1.0,
             cm: CM_NONE,
             color_scale: 0.0,
-            sigma: 0.0,
-            eps: 0.0,
             var: false,
             isa: self.isa,
             path: self.path,
@@ -489,7 +509,7 @@ impl AtrousFilter {
                 eps: VARIANCE_EPS * ml,
             };
             let pairs = matches!(plan.path, Path::Auto | Path::Pairs | Path::Bands(..))
-                && pairs::supports(step, var_mode, cm, nf);
+                && pairs::supports(step, nf);
             let fused = !pairs && kernel::takes_fused(plan.path, step);
             // The normal coordinates' scale relative to level 0 should be 1/step. The pair
             // and fused paths apply the factor in the kernel instead of rescaling the planes;
@@ -503,8 +523,8 @@ impl AtrousFilter {
                 None
             };
             let normal_factor = (want / normal_held) * (want / normal_held);
-            // Only the per-tap path reads the colour factor from the aux plane (the pair
-            // path derives it from the validity, the fused one forms it per block).
+            // Only the per-tap path reads the fixed colour factor from the aux plane (the
+            // pair path derives it from the validity, the fused one forms it per block).
             level_aux(aux, src, lay, &lw, !pairs && !fused, rescale);
             let level = Level {
                 lay,
@@ -515,8 +535,6 @@ impl AtrousFilter {
                 normal_factor,
                 cm,
                 color_scale,
-                sigma: lw.sigma,
-                eps: lw.eps,
                 var: var_mode,
                 isa: plan.isa,
                 path: plan.path,

@@ -24,7 +24,7 @@ use std::cell::RefCell;
 
 use rayon::prelude::*;
 
-use super::kernel::{normalise, AuxBlock, Level, SrcBlock, K, KA};
+use super::kernel::{normalise, AuxBlock, Level, SrcBlock, CM_VARIANCE, K, KA};
 use super::layout::{exchange_margins, flat_rows, Aligned, Layout, M, QW};
 use super::pairs::{self, Acc, Accs, RowJob, Rows, AN, CHUNK, PAIRS, ZERO_AUX, ZERO_SRC};
 
@@ -47,14 +47,15 @@ pub(super) struct Stage {
     pub normal_factor: f32,
 }
 
-/// Whether `stages` can run as a pipeline on layout `lay`: every level a pair level, and
+/// Whether `stages` can run as a pipeline on layout `lay`: every level a pair level (without
+/// the variance-guided colour weight, whose per-level σ planes the pipeline does not make), and
 /// every strip's halo columns (rounded out to whole vectors) inside its block.
 pub(super) fn supports(stages: &[Stage], nf: usize, lay: Layout) -> bool {
     !stages.is_empty()
         && stages.len() <= MAX_LEVELS
         && stages
             .iter()
-            .all(|s| pairs::supports(s.step, false, s.cm, nf))
+            .all(|s| s.cm != CM_VARIANCE && pairs::supports(s.step, nf))
         && (0..lay.nch).all(|c| columns(lay, c, c..c + 1, stages).is_some())
 }
 

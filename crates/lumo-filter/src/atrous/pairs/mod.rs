@@ -1,6 +1,9 @@
-//! The À-Trous kernel's symmetric-pair path, for levels whose weights are symmetric (no colour
-//! weight, or the paper's fixed colour σ; not SVGF's variance-guided one, whose σ belongs to
-//! the centre pixel) and whose taps stay within [`MAX_PAIR_STEP`] pixels.
+//! The À-Trous kernel's symmetric-pair path, for levels whose taps stay within
+//! [`MAX_PAIR_STEP`] pixels. Without a colour weight or with the paper's fixed colour σ a
+//! pair's weight is symmetric. SVGF's variance-guided colour weight is not: its σ belongs to
+//! the centre pixel. For it the pair's feature distance is still computed once, and two
+//! exponentials give the weight seen from p (with g_p) and from q (with g_q; the aux
+//! plane holds g for every pixel, see `level_aux`): the same weights as the per-tap path.
 //!
 //! Why: the edge-stopping weight of a pixel pair, exp(−e(p, q)), is the same seen from p and
 //! from q, and so is the B3 weight. Of the 24 non-centre taps of a 5×5 kernel, the 12 "after"
@@ -21,7 +24,11 @@
 //! The row kernel exists three times: portable (baseline x86-64, other targets) in this file,
 //! and with explicit AVX2 and AVX-512 intrinsics in pairs/simd.rs.
 //!
-//! The colour coefficient of a pair is the centre's σ factor times the neighbour's validity:
+//! With the variance carried (SVGF), each pair also adds w²·var of the other pixel to the
+//! variance sums (the variance of a weighted mean is Σw²·var / (Σw)²; var is 0 where the
+//! validity is).
+//!
+//! The fixed colour coefficient of a pair is the centre's σ factor times the neighbour's validity:
 //! from a valid pixel's side it equals the per-tap path's (an invalid neighbour gets weight 0
 //! anyway), and from an invalid pixel's side it is 0, as there (no colour to compare).
 //! Results differ from the per-tap path by rounding only (the order of the sums differs).
@@ -46,14 +53,17 @@ pub(in crate::atrous) const MAX_PAIR_STEP: usize = M / 4;
 /// Column alignment of the swept range: the widest vector (16 floats).
 pub(in crate::atrous) const CHUNK: usize = 16;
 
-/// Accumulator planes per row: r, g, b, weight.
-pub(in crate::atrous) const AN: usize = 4;
-/// One accumulator row: r, g, b and weight sums, [`QW`] columns each.
+/// Accumulator planes per row: r, g, b, weight, variance.
+pub(in crate::atrous) const AN: usize = 5;
+/// One accumulator row: r, g, b, weight and variance sums, [`QW`] columns each.
 pub(in crate::atrous) type Acc = [f32; AN * QW];
 
-/// Source planes: colour from 0, validity.
+/// Source planes: colour from 0, validity, variance.
 const V: usize = 3;
-/// Aux planes: features from F (the colour factor and luminance planes are not read).
+const VAR_P: usize = 4;
+/// Aux planes: the variance-guided colour factor g, the luminance, features from F.
+const G: usize = 0;
+const LUM: usize = 1;
 const F: usize = 2;
 
 /// (dx, dy) in steps of the 12 taps after the centre in row-major order; dy picks the row.
@@ -75,10 +85,9 @@ pub(in crate::atrous) const PAIRS: [(isize, usize); 12] = [
 /// The centre tap's B3 weight (its edge weight is exactly 1).
 const CENTRE: f32 = B3[2] * B3[2];
 
-/// Whether a level (its step, variance carrying, colour mode and feature count) can take
-/// the pair path.
-pub(in crate::atrous) fn supports(step: usize, var: bool, cm: u8, nf: usize) -> bool {
-    step <= MAX_PAIR_STEP && !var && cm != CM_VARIANCE && matches!(nf, 1 | 3 | 4 | 6)
+/// Whether a level (its step and feature count) can take the pair path.
+pub(in crate::atrous) fn supports(step: usize, nf: usize) -> bool {
+    step <= MAX_PAIR_STEP && matches!(nf, 1 | 3 | 4 | 6)
 }
 
 thread_local! {
@@ -237,13 +246,17 @@ fn band(l: &Level, c: usize, a: usize, b: usize, out: &mut [f32], scratch: &mut 
         if own {
             let d = &mut out[(y - a) * K * QW..][..K * QW];
             // Margins (refilled from the neighbours, or 0 beyond the image) and the colour
-            // and validity planes' columns beyond the strip: 0. (The variance plane is left
-            // as it is: no pair level carries or reads it.)
-            for k in 0..4 {
+            // and validity planes' columns beyond the strip: 0; the variance plane's too
+            // where it is carried (otherwise nothing reads it).
+            for k in 0..if l.var { K } else { 4 } {
                 d[k * QW..k * QW + M].fill(0.0);
                 d[k * QW + M + len..k * QW + lay.span()].fill(0.0);
             }
-            normalise::<false>(&acc.a0[..], QW, M, d, M, len);
+            if l.var {
+                normalise::<true>(&acc.a0[..], QW, M, d, M, len);
+            } else {
+                normalise::<false>(&acc.a0[..], QW, M, d, M, len);
+            }
         }
         // An own row is finished; the sums of a row swept for its scatter alone are not
         // wanted. Either way the ring row is free again (its next row's first writer stores).
@@ -274,37 +287,45 @@ pub(in crate::atrous) struct Accs<'a> {
     pub w: &'a mut [f32],
 }
 
-/// Dispatch of one row on the level's feature count, colour mode and instruction set.
+/// Dispatch of one row on the level's feature count, colour mode, variance carrying and
+/// instruction set.
 pub(in crate::atrous) fn row(l: &Level, r: &Rows, acc: &mut Accs, job: RowJob) {
     macro_rules! go {
-        ($nf:literal, $cm:expr) => {
+        ($nf:literal, $cm:expr, $var:literal) => {
             match l.isa {
                 #[cfg(target_arch = "x86_64")]
                 // SAFETY: `Isa::Avx512` is only chosen after run-time detection of AVX-512F/VL
                 // and FMA.
-                Isa::Avx512 => unsafe { simd::row_avx512::<$nf, $cm>(r, acc, job) },
+                Isa::Avx512 => unsafe { simd::row_avx512::<$nf, $cm, $var>(r, acc, job) },
                 #[cfg(target_arch = "x86_64")]
                 // SAFETY: `Isa::Avx2` is only chosen after run-time detection of AVX2 and FMA.
-                Isa::Avx2 => unsafe { simd::row_avx2::<$nf, $cm>(r, acc, job) },
-                _ => row_base::<$nf, $cm>(r, acc, job),
+                Isa::Avx2 => unsafe { simd::row_avx2::<$nf, $cm, $var>(r, acc, job) },
+                _ => row_base::<$nf, $cm, $var>(r, acc, job),
             }
         };
     }
-    match (l.nf, l.cm) {
-        (1, CM_NONE) => go!(1, CM_NONE),
-        (1, _) => go!(1, CM_FIXED),
-        (3, CM_NONE) => go!(3, CM_NONE),
-        (3, _) => go!(3, CM_FIXED),
-        (4, CM_NONE) => go!(4, CM_NONE),
-        (4, _) => go!(4, CM_FIXED),
-        (_, CM_NONE) => go!(6, CM_NONE),
-        (_, _) => go!(6, CM_FIXED),
+    macro_rules! by_colour {
+        ($nf:literal) => {
+            match (l.cm, l.var) {
+                (CM_NONE, false) => go!($nf, CM_NONE, false),
+                (CM_NONE, true) => go!($nf, CM_NONE, true),
+                (CM_VARIANCE, _) => go!($nf, CM_VARIANCE, true),
+                (_, false) => go!($nf, CM_FIXED, false),
+                (_, true) => go!($nf, CM_FIXED, true),
+            }
+        };
+    }
+    match l.nf {
+        1 => by_colour!(1),
+        3 => by_colour!(3),
+        4 => by_colour!(4),
+        _ => by_colour!(6),
     }
 }
 
 #[inline(never)]
-fn row_base<const NF: usize, const CM: u8>(r: &Rows, acc: &mut Accs, job: RowJob) {
-    row_impl::<NF, CM, 4, false>(r, acc, job)
+fn row_base<const NF: usize, const CM: u8, const VAR: bool>(r: &Rows, acc: &mut Accs, job: RowJob) {
+    row_impl::<NF, CM, VAR, 4, false>(r, acc, job)
 }
 
 /// `L` floats of `s` from `at`.
@@ -330,13 +351,17 @@ struct Centre<const NF: usize, const L: usize> {
     pg: [f32; L],
     pb: [f32; L],
     pv: [f32; L],
-    /// The colour coefficient of p: σ factor × validity.
+    /// The colour coefficient of p: the fixed σ factor × validity, or g_p (variance-guided:
+    /// p's own σ factor × validity).
     pc: [f32; L],
+    /// The luminance of p (variance-guided colour weight).
+    pl: [f32; L],
     pf: [[f32; L]; NF],
     ar: [f32; L],
     ag: [f32; L],
     ab: [f32; L],
     aw: [f32; L],
+    av: [f32; L],
 }
 
 /// The source and aux rows at dy = 0, 1, 2 steps, as raw pointers (bounds checked once
@@ -359,7 +384,14 @@ struct RowPtrs {
 /// The row pointers must be valid for every column read (checked in [`row_impl`]), and the
 /// CPU must support what `FMA`/`X512`/`L` select (see [`row_impl`]).
 #[inline(always)]
-unsafe fn pair<const KP: usize, const NF: usize, const CM: u8, const L: usize, const FMA: bool>(
+unsafe fn pair<
+    const KP: usize,
+    const NF: usize,
+    const CM: u8,
+    const VAR: bool,
+    const L: usize,
+    const FMA: bool,
+>(
     c: &mut Centre<NF, L>,
     rp: &RowPtrs,
     j0: usize,
@@ -378,7 +410,29 @@ unsafe fn pair<const KP: usize, const NF: usize, const CM: u8, const L: usize, c
     };
     // SAFETY: in bounds by the caller's contract.
     let qf: [[f32; L]; NF] = std::array::from_fn(|f| unsafe { ldp(qa, (F + f) * QW + qj) });
+    // SAFETY: in bounds by the caller's contract.
+    let (ql, qgf, qvar): ([f32; L], [f32; L], [f32; L]) = unsafe {
+        (
+            if CM == CM_VARIANCE {
+                ldp(qa, LUM * QW + qj)
+            } else {
+                [0.0; L]
+            },
+            if CM == CM_VARIANCE {
+                ldp(qa, G * QW + qj)
+            } else {
+                [0.0; L]
+            },
+            if VAR {
+                ldp(q, VAR_P * QW + qj)
+            } else {
+                [0.0; L]
+            },
+        )
+    };
     let mut wgt = [0.0f32; L];
+    // The exponent seen from q (variance-guided colour weight only).
+    let mut wq = [0.0f32; L];
     for l in 0..L {
         let mut e = 0.0f32;
         if CM == CM_FIXED {
@@ -401,10 +455,22 @@ unsafe fn pair<const KP: usize, const NF: usize, const CM: u8, const L: usize, c
         if NF >= 4 {
             e = mul_add::<FMA>(en, rp.normal_factor, e);
         }
+        if CM == CM_VARIANCE {
+            let dl = (c.pl[l] - ql[l]).abs();
+            wq[l] = rp.c0[KP] - mul_add::<FMA>(dl, qgf[l], e);
+            e = mul_add::<FMA>(dl, c.pc[l], e);
+        }
         wgt[l] = rp.c0[KP] - e;
     }
     let cut = rp.cut[KP];
     wgt = wgt.map(|t| exp2_cut::<FMA>(t, cut));
+    // The weight the scatter gives q (p's colour with q's σ): the pair's own weight
+    // where it is symmetric.
+    let scatter_w = if CM == CM_VARIANCE {
+        wq.map(|t| exp2_cut::<FMA>(t, cut))
+    } else {
+        wgt
+    };
     // Colour is 0 where the validity is (see `fill`), so w·colour needs no validity
     // factor: the same sums as w·valid·colour, bit for bit, one multiply less.
     for l in 0..L {
@@ -413,12 +479,15 @@ unsafe fn pair<const KP: usize, const NF: usize, const CM: u8, const L: usize, c
         c.ag[l] = mul_add::<FMA>(w, qg[l], c.ag[l]);
         c.ab[l] = mul_add::<FMA>(w, qb[l], c.ab[l]);
         c.aw[l] = mul_add::<FMA>(w, qv[l], c.aw[l]);
+        if VAR {
+            c.av[l] = mul_add::<FMA>(w * w, qvar[l], c.av[l]);
+        }
     }
     // SAFETY: the weights buffer holds 12 rows of QW floats and j0 + L <= QW.
     unsafe {
         rp.w.add(KP * QW + j0)
             .cast::<[f32; L]>()
-            .write_unaligned(wgt)
+            .write_unaligned(scatter_w)
     };
 }
 
@@ -430,7 +499,7 @@ unsafe fn pair<const KP: usize, const NF: usize, const CM: u8, const L: usize, c
 /// those of rows it does not own) and rows below the image read a zero block (validity 0,
 /// so they add nothing).
 #[inline(always)]
-fn row_impl<const NF: usize, const CM: u8, const L: usize, const FMA: bool>(
+fn row_impl<const NF: usize, const CM: u8, const VAR: bool, const L: usize, const FMA: bool>(
     r: &Rows,
     acc: &mut Accs,
     job: RowJob,
@@ -467,15 +536,31 @@ fn row_impl<const NF: usize, const CM: u8, const L: usize, const FMA: bool>(
                 pg: ldp(p, QW + j0),
                 pb: ldp(p, 2 * QW + j0),
                 pv,
-                // The colour factor from the validity, not the aux plane: swept columns
-                // in a neighbouring strip have none there.
-                pc: pv.map(|v| job.color_scale * v),
+                // The fixed colour factor from the validity, not the aux plane: swept
+                // columns in a neighbouring strip have none there (g has, in the margins).
+                pc: if CM == CM_VARIANCE {
+                    ldp(pa, G * QW + j0)
+                } else {
+                    pv.map(|v| job.color_scale * v)
+                },
+                pl: if CM == CM_VARIANCE {
+                    ldp(pa, LUM * QW + j0)
+                } else {
+                    [0.0; L]
+                },
                 pf: std::array::from_fn(|f| ldp(pa, (F + f) * QW + j0)),
                 ar: [0.0; L],
                 ag: [0.0; L],
                 ab: [0.0; L],
                 aw: [0.0; L],
+                av: [0.0; L],
             }
+        };
+        let pvar: [f32; L] = if VAR {
+            // SAFETY: as above (the variance plane is inside the block).
+            unsafe { ldp(p, VAR_P * QW + j0) }
+        } else {
+            [0.0; L]
         };
         for l in 0..L {
             let w = CENTRE * c.pv[l];
@@ -483,27 +568,36 @@ fn row_impl<const NF: usize, const CM: u8, const L: usize, const FMA: bool>(
             c.ag[l] = w * c.pg[l];
             c.ab[l] = w * c.pb[l];
             c.aw[l] = w;
+            // The centre's own w² term (no pair's scatter adds it).
+            c.av[l] = w * w * pvar[l];
         }
         macro_rules! pairs {
             ($($k:literal)*) => {
                 // SAFETY: q columns j0 + dx·step are within [j_lo − 2·step, j_hi + 2·step)
                 // ⊂ [0, QW) (checked above); the CPU features match the caller's copy.
-                $(unsafe { pair::<$k, NF, CM, L, FMA>(&mut c, &rp, j0) };)*
+                $(unsafe { pair::<$k, NF, CM, VAR, L, FMA>(&mut c, &rp, j0) };)*
             };
         }
         pairs!(0 1 2 3 4 5 6 7 8 9 10 11);
         let (sr, rest) = acc.a0.split_at_mut(QW);
         let (sg, rest) = rest.split_at_mut(QW);
-        let (sb, sw) = rest.split_at_mut(QW);
+        let (sb, rest) = rest.split_at_mut(QW);
+        let (sw, sv) = rest.split_at_mut(QW);
         for l in 0..L {
             if job.top {
                 (sr[j0 + l], sg[j0 + l]) = (c.ar[l], c.ag[l]);
                 (sb[j0 + l], sw[j0 + l]) = (c.ab[l], c.aw[l]);
+                if VAR {
+                    sv[j0 + l] = c.av[l];
+                }
             } else {
                 sr[j0 + l] += c.ar[l];
                 sg[j0 + l] += c.ag[l];
                 sb[j0 + l] += c.ab[l];
                 sw[j0 + l] += c.aw[l];
+                if VAR {
+                    sv[j0 + l] += c.av[l];
+                }
             }
         }
         j0 += L;
@@ -516,7 +610,7 @@ fn row_impl<const NF: usize, const CM: u8, const L: usize, const FMA: bool>(
                 _ => &mut *acc.a2,
             };
             let first = job.first_writer(dy);
-            scatter::<L, FMA>(r.p, acc.w, a, dy, step, job.o_lo..job.o_hi, first);
+            scatter::<VAR, L, FMA>(r.p, acc.w, a, dy, step, job.o_lo..job.o_hi, first);
         }
     }
 }
@@ -535,7 +629,7 @@ fn row_impl<const NF: usize, const CM: u8, const L: usize, const FMA: bool>(
 /// adds exactly 0); the level pipeline's rounded-out halo columns may get such stale sums, but
 /// no kept pixel reads them.
 #[inline(always)]
-fn scatter<const L: usize, const FMA: bool>(
+fn scatter<const VAR: bool, const L: usize, const FMA: bool>(
     p: &SrcBlock,
     w: &[f32],
     a: &mut Acc,
@@ -555,6 +649,7 @@ fn scatter<const L: usize, const FMA: bool>(
         let mut sg = [0.0f32; L];
         let mut sb = [0.0f32; L];
         let mut sw = [0.0f32; L];
+        let mut sv = [0.0f32; L];
         for k in ks.clone() {
             let i = (jq as isize - PAIRS[k].0 * step as isize) as usize;
             let wk: [f32; L] = ld(w, k * QW + i);
@@ -562,24 +657,35 @@ fn scatter<const L: usize, const FMA: bool>(
             let pg: [f32; L] = ld(p, QW + i);
             let pb: [f32; L] = ld(p, 2 * QW + i);
             let pv: [f32; L] = ld(p, V * QW + i);
+            let pvar: [f32; L] = if VAR { ld(p, VAR_P * QW + i) } else { [0.0; L] };
             for l in 0..L {
                 sr[l] = mul_add::<FMA>(wk[l], pr[l], sr[l]);
                 sg[l] = mul_add::<FMA>(wk[l], pg[l], sg[l]);
                 sb[l] = mul_add::<FMA>(wk[l], pb[l], sb[l]);
                 sw[l] = mul_add::<FMA>(wk[l], pv[l], sw[l]);
+                if VAR {
+                    sv[l] = mul_add::<FMA>(wk[l] * wk[l], pvar[l], sv[l]);
+                }
             }
         }
         let (ar, rest) = a.split_at_mut(QW);
         let (ag, rest) = rest.split_at_mut(QW);
-        let (ab, aw) = rest.split_at_mut(QW);
+        let (ab, rest) = rest.split_at_mut(QW);
+        let (aw, av) = rest.split_at_mut(QW);
         for l in 0..L {
             if first {
                 (ar[jq + l], ag[jq + l], ab[jq + l], aw[jq + l]) = (sr[l], sg[l], sb[l], sw[l]);
+                if VAR {
+                    av[jq + l] = sv[l];
+                }
             } else {
                 ar[jq + l] += sr[l];
                 ag[jq + l] += sg[l];
                 ab[jq + l] += sb[l];
                 aw[jq + l] += sw[l];
+                if VAR {
+                    av[jq + l] += sv[l];
+                }
             }
         }
         jq += L;

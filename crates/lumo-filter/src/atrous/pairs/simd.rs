@@ -16,9 +16,9 @@
 use std::arch::x86_64::*;
 
 #[cfg(target_arch = "x86_64")]
-use super::{Accs, RowJob, Rows, CENTRE, F, MAX_PAIR_STEP, PAIRS, V};
+use super::{Accs, RowJob, Rows, CENTRE, F, G, LUM, MAX_PAIR_STEP, PAIRS, V, VAR_P};
 #[cfg(target_arch = "x86_64")]
-use crate::atrous::kernel::CM_FIXED;
+use crate::atrous::kernel::{CM_FIXED, CM_VARIANCE};
 #[cfg(target_arch = "x86_64")]
 use crate::atrous::layout::QW;
 #[cfg(target_arch = "x86_64")]
@@ -30,7 +30,7 @@ use crate::common::fastmath::{exp2_cut_avx2_xn, exp2_cut_avx512_xn, EXP_CUTOFF};
 /// instruction set.
 macro_rules! row_kernel {
     ($d:tt $name:ident, $feat:literal, $t:ty, $l:literal, $load:ident, $store:ident, $set1:ident,
-     $zero:ident, $add:ident, $sub:ident, $mul:ident, $fma:ident, $exp:ident,
+     $zero:ident, $add:ident, $sub:ident, $mul:ident, $fma:ident, $max:ident, $exp:ident,
      $([$($g:literal)+])+) => {
         /// One row's pairs (see the parent module's `row_impl`, which this mirrors).
         ///
@@ -39,7 +39,7 @@ macro_rules! row_kernel {
         #[cfg(target_arch = "x86_64")]
         #[target_feature(enable = $feat)]
         #[allow(clippy::too_many_lines)]
-        pub(super) unsafe fn $name<const NF: usize, const CM: u8>(
+        pub(super) unsafe fn $name<const NF: usize, const CM: u8, const VAR: bool>(
             r: &Rows,
             acc: &mut Accs,
             job: RowJob,
@@ -84,12 +84,29 @@ macro_rules! row_kernel {
                     let pg = $load(p.add(QW + j0));
                     let pb = $load(p.add(2 * QW + j0));
                     let pv = $load(p.add(V * QW + j0));
-                    let pc = $mul(cs, pv);
+                    // The colour coefficient: fixed σ factor × validity, or g_p.
+                    let pc = if CM == CM_VARIANCE {
+                        $load(pa.add(G * QW + j0))
+                    } else {
+                        $mul(cs, pv)
+                    };
+                    let pl = if CM == CM_VARIANCE {
+                        $load(pa.add(LUM * QW + j0))
+                    } else {
+                        $zero()
+                    };
                     let wc = $mul(centre, pv);
                     let mut ar = $mul(wc, pr);
                     let mut ag = $mul(wc, pg);
                     let mut ab = $mul(wc, pb);
                     let mut aw = wc;
+                    // The centre's own term, w² = CENTRE² on its variance, is added by
+                    // the scatter of no pair: add it here.
+                    let mut av = if VAR {
+                        $mul($mul(wc, wc), $load(p.add(VAR_P * QW + j0)))
+                    } else {
+                        $zero()
+                    };
                     // A group of pairs at a time (the instantiation's list, four each),
                     // stage by stage: each stage's operations are independent, so the
                     // ~80-cycle dependency chain of one pair (loads, distances, exp
@@ -119,6 +136,14 @@ macro_rules! row_kernel {
                                     cc[i] = $mul(pc, $load(qp[i].add(V * QW)));
                                 }
                             }
+                            if CM == CM_VARIANCE {
+                                for i in 0..ks.len() {
+                                    let dl = $sub(pl, $load(qap[i].add(LUM * QW)));
+                                    d2c[i] = $max(dl, $sub($zero(), dl));
+                                    // g_q: q's σ factor, for the weight seen from q.
+                                    cc[i] = $load(qap[i].add(G * QW));
+                                }
+                            }
                             let mut en = ks.map(|_| $zero());
                             let mut ex = ks.map(|_| $zero());
                             for f in 0..NF {
@@ -135,6 +160,7 @@ macro_rules! row_kernel {
                                 }
                             }
                             let mut t = ks.map(|_| $zero());
+                            let mut tq = ks.map(|_| $zero());
                             for i in 0..ks.len() {
                                 let mut e = ex[i];
                                 if normals > 0 {
@@ -147,10 +173,17 @@ macro_rules! row_kernel {
                                 if CM == CM_FIXED {
                                     e = $fma(d2c[i], cc[i], e);
                                 }
+                                if CM == CM_VARIANCE {
+                                    // SVGF's σ is the centre's: p's for p's sums, q's for
+                                    // the weight the scatter gives q.
+                                    tq[i] = $sub($set1(c0[ks[i]]), $fma(d2c[i], cc[i], e));
+                                    e = $fma(d2c[i], pc, e);
+                                }
                                 t[i] = $sub($set1(c0[ks[i]]), e);
                             }
                             let cuts = ks.map(|k| $set1(cut[k]));
                             let wgt = $exp(t, cuts);
+                            let wq = if CM == CM_VARIANCE { $exp(tq, cuts) } else { wgt };
                             for i in 0..ks.len() {
                                 // Colour is 0 where the validity is, so w·colour needs no
                                 // validity factor (as in the portable kernel).
@@ -158,12 +191,17 @@ macro_rules! row_kernel {
                                 ag = $fma(wgt[i], $load(qp[i].add(QW)), ag);
                                 ab = $fma(wgt[i], $load(qp[i].add(2 * QW)), ab);
                                 aw = $fma(wgt[i], $load(qp[i].add(V * QW)), aw);
-                                $store(w.add(ks[i] * QW + j0), wgt[i]);
+                                if VAR {
+                                    let w2 = $mul(wgt[i], wgt[i]);
+                                    av = $fma(w2, $load(qp[i].add(VAR_P * QW)), av);
+                                }
+                                $store(w.add(ks[i] * QW + j0), wq[i]);
                             }
                         }};
                     }
                     $(group!($($g)+);)+
-                    for (k, v) in [ar, ag, ab, aw].into_iter().enumerate() {
+                    let planes = if VAR { 5 } else { 4 };
+                    for (k, v) in [ar, ag, ab, aw, av].into_iter().take(planes).enumerate() {
                         let at = a0.add(k * QW + j0);
                         $store(at, if job.top { v } else { $add($load(at), v) });
                     }
@@ -187,15 +225,20 @@ macro_rules! row_kernel {
                     let first = job.first_writer(dy);
                     let mut jq = job.o_lo;
                     while jq < job.o_hi {
-                        let mut s = [$zero(); 4];
+                        let mut s = [$zero(); 5];
                         for k in ks.clone() {
                             let i = (jq as isize - qoff[k]) as usize;
                             let wk = $load(w.add(k * QW + i));
-                            for (c, sc) in s.iter_mut().enumerate() {
+                            for (c, sc) in s.iter_mut().take(4).enumerate() {
                                 *sc = $fma(wk, $load(p.add(c * QW + i)), *sc);
                             }
+                            if VAR {
+                                let w2 = $mul(wk, wk);
+                                s[4] = $fma(w2, $load(p.add(VAR_P * QW + i)), s[4]);
+                            }
                         }
-                        for (c, sc) in s.into_iter().enumerate() {
+                        let planes = if VAR { 5 } else { 4 };
+                        for (c, sc) in s.into_iter().take(planes).enumerate() {
                             let at = a.add(c * QW + jq);
                             $store(at, if first { sc } else { $add($load(at), sc) });
                         }
@@ -220,6 +263,7 @@ row_kernel!(
     _mm256_sub_ps,
     _mm256_mul_ps,
     _mm256_fmadd_ps,
+    _mm256_max_ps,
     exp2_cut_avx2_xn,
     [0 1 2 3] [4 5 6 7] [8 9 10 11]
 );
@@ -237,6 +281,7 @@ row_kernel!(
     _mm512_sub_ps,
     _mm512_mul_ps,
     _mm512_fmadd_ps,
+    _mm512_max_ps,
     exp2_cut_avx512_xn,
     [0 1 2 3] [4 5 6 7] [8 9 10 11]
 );

@@ -53,25 +53,28 @@ fn direct(prep: &Prepared, var: Option<&[f32]>, p: &AtrousParams) -> Image {
         let mut next_c = vec![[0.0f64; 3]; n];
         let mut next_v = vec![0.0f64; n];
         let mut next_valid = vec![0.0f64; n];
+        // SVGF: σ from the 3×3 Gaussian of the variance around each pixel.
+        let isig_at = |x: isize, y: isize| {
+            let g = [0.25, 0.5, 0.25];
+            let (mut s, mut k) = (0.0, 0.0);
+            for dy in 0..3 {
+                for dx in 0..3 {
+                    let (xx, yy) = (x + dx as isize - 1, y + dy as isize - 1);
+                    if xx >= 0 && yy >= 0 && xx < w as isize && yy < h as isize {
+                        s += g[dx] * g[dy] * v[(yy * w as isize + xx) as usize];
+                        k += g[dx] * g[dy];
+                    }
+                }
+            }
+            let sl = p.sigma_luminance.unwrap_or(1.0) as f64 * ml;
+            1.0 / (sl * (s / k).sqrt() + VARIANCE_EPS as f64 * ml)
+        };
+        let isig: Vec<f64> = (0..n)
+            .map(|i| isig_at((i % w) as isize, (i / w) as isize))
+            .collect();
         for y in 0..h as isize {
             for x in 0..w as isize {
                 let i = (y * w as isize + x) as usize;
-                // SVGF: σ from the 3×3 Gaussian of the variance around p.
-                let isig = {
-                    let g = [0.25, 0.5, 0.25];
-                    let (mut s, mut k) = (0.0, 0.0);
-                    for dy in 0..3 {
-                        for dx in 0..3 {
-                            let (xx, yy) = (x + dx as isize - 1, y + dy as isize - 1);
-                            if xx >= 0 && yy >= 0 && xx < w as isize && yy < h as isize {
-                                s += g[dx] * g[dy] * v[(yy * w as isize + xx) as usize];
-                                k += g[dx] * g[dy];
-                            }
-                        }
-                    }
-                    let sl = p.sigma_luminance.unwrap_or(1.0) as f64 * ml;
-                    1.0 / (sl * (s / k).sqrt() + VARIANCE_EPS as f64 * ml)
-                };
                 let (mut acc, mut ws, mut wv) = ([0.0f64; 3], 0.0f64, 0.0f64);
                 for (ky, hy) in B3.iter().enumerate() {
                     for (kx, hx) in B3.iter().enumerate() {
@@ -87,7 +90,7 @@ fn direct(prep: &Prepared, var: Option<&[f32]>, p: &AtrousParams) -> Image {
                         let mut e = 0.0f64;
                         if it >= skip {
                             if var_mode {
-                                e += (lum[i] - lum[j]).abs() * isig * valid[i];
+                                e += (lum[i] - lum[j]).abs() * isig[i] * valid[i];
                             } else if let Some(s) = p.sigma_color {
                                 let si = s as f64 * ml / (1u64 << it) as f64;
                                 let d2: f64 = (0..3).map(|c| (col[i][c] - col[j][c]).powi(2)).sum();
