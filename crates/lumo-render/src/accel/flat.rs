@@ -33,7 +33,7 @@ pub(super) fn applies(placements: &[Placement]) -> bool {
         .iter()
         .filter(|p| matches!(p.target, Target::Analytic { .. }))
         .count();
-    shapes >= 1 && shapes <= MAX_SHAPES && statics + shapes == placements.len()
+    (1..=MAX_SHAPES).contains(&shapes) && statics + shapes == placements.len()
 }
 
 impl Accel {

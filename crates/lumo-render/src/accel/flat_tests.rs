@@ -128,11 +128,11 @@ fn flat_queries_match_the_instance_tree() {
                 0,
                 "{n} spheres, packet {p}: bits past the rays"
             );
-            for lane in 0..count {
+            for (lane, &hit) in got.iter().enumerate().take(count) {
                 let r = p * LANES as u32 + lane as u32;
                 let (o, d, tmax) = ray(&scene, r);
                 assert_eq!(
-                    key(got[lane]),
+                    key(hit),
                     key(tree.intersect(o, d, 0.0, tmax)),
                     "{n} spheres, packet ray {r}"
                 );
