@@ -27,6 +27,7 @@ pub(crate) mod analytic;
 pub(crate) mod blas;
 mod bvh4;
 pub(crate) mod bvh8;
+mod flat;
 mod median;
 pub mod packet;
 mod ploc_stall;
@@ -137,6 +138,10 @@ pub struct Accel {
     /// Walk `tlas` with the AVX pair test ([`tlas::traverse_avx`]): the CPU has AVX and
     /// `LUMO_SIMD` allows it.
     tlas_avx: bool,
+    /// The static BVH and a few exact shapes: rays skip `tlas` ([`flat`]).
+    flat: bool,
+    /// Each placement's world box where `flat` (else empty): the shapes' box tests.
+    flat_boxes: Vec<Aabb>,
 }
 
 /// Gathers the triangles of identity instances into one mesh; returns it and each triangle's
@@ -223,8 +228,14 @@ impl Accel {
             tlas: Bvh2::default(),
             tlas_depth: 0,
             tlas_avx: lumo_simd::Isa::detect() >= lumo_simd::Isa::Avx2,
+            flat: false,
+            flat_boxes: vec![],
         };
         let boxes = accel.placement_boxes(scene);
+        accel.flat = flat::applies(&accel.placements);
+        if accel.flat {
+            accel.flat_boxes = boxes.clone();
+        }
         accel.tlas = robust::build_bvh2(
             &boxes,
             robust::BuildOptions {
@@ -353,6 +364,9 @@ impl Accel {
         }
         let boxes = self.placement_boxes(scene);
         robust::refit_leaves(&mut self.tlas, |p| boxes[p]);
+        if self.flat {
+            self.flat_boxes = boxes;
+        }
         AccelUpdate::Refitted
     }
 
@@ -440,6 +454,9 @@ impl Accel {
             let h = self.intersect_placement(&self.placements[0], origin, dir, tmin, tmax)?;
             return self.scene_hit(0, h);
         }
+        if self.flat {
+            return self.intersect_flat(origin, dir, tmin, tmax);
+        }
         let ray = Ray::new(origin.into(), dir.into(), tmin, tmax);
         let mut best: Option<(usize, TriHit)> = None;
         let mut hit = RayHit::none();
@@ -467,10 +484,15 @@ impl Accel {
     }
 
     /// The tree packets can traverse: the 8-wide BVH of a scene that is one placement with
-    /// the identity transform (the merged static scene). Otherwise packets go ray by ray.
+    /// the identity transform (the merged static scene), or that and a few exact shapes
+    /// ([`flat`]: each ray of the packet then tests the shapes). Otherwise packets go ray by
+    /// ray.
     fn packet_tree(&self) -> Option<&Bvh8> {
         match self.placements.as_slice() {
             [p] if p.identity => self.blas(p.target)?.wide.eight(),
+            [p, ..] if self.flat && matches!(p.target, Target::Static) => {
+                self.blas(p.target)?.wide.eight()
+            }
             _ => None,
         }
     }
@@ -510,6 +532,9 @@ impl Accel {
                         None => self.scene_hit(0, hit),
                     };
                 }
+                if self.flat {
+                    self.shapes_closest_packet(rays, out);
+                }
                 return;
             }
         }
@@ -523,7 +548,12 @@ impl Accel {
     pub fn occluded_packet(&self, rays: &RayPacket) -> u32 {
         if rays.count >= MIN_PACKET_RAYS {
             if let Some(tree) = self.packet_tree() {
-                return tree.occluded_packet(rays);
+                let blocked = tree.occluded_packet(rays);
+                return if self.flat {
+                    self.shapes_occlude_packet(rays, blocked)
+                } else {
+                    blocked
+                };
             }
         }
         let mut out = 0;
@@ -541,6 +571,9 @@ impl Accel {
         }
         if self.placements.len() == 1 {
             return self.occluded_placement(&self.placements[0], origin, dir, tmin, tmax);
+        }
+        if self.flat {
+            return self.occluded_flat(origin, dir, tmin, tmax);
         }
         let ray = Ray::new(origin.into(), dir.into(), tmin, tmax);
         let mut blocked = false;
