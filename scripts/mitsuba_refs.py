@@ -65,6 +65,15 @@ def write_textures(mi, np) -> None:
         i, j = np.meshgrid(np.arange(8), np.arange(8), indexing="ij")
         img = np.stack([(i * 37 + j * 11) % 256, (j * 53 + 40) % 256, ((i + j) % 2) * 200 + 30], -1)
         mi.Bitmap(img.astype(np.uint8)).write(str(grid))
+    rough = tex / "checker_rough.png"
+    if not rough.exists():
+        # 8x8 squares of roughness 64/255 and 230/255 (read raw), 64/255 where the square's
+        # column + row is even: the pattern a `checkerboard` of 0.25 / 0.9 with `to_uv` scale 4
+        # has where it is read as a colour. Its `eval_1` (roughness, alpha) swaps the two in
+        # Mitsuba 3.9.1 (scripts/mitsuba_checkerboard_eval1.py), so the suite uses a bitmap.
+        i, j = np.meshgrid(np.arange(8), np.arange(8), indexing="xy")
+        img = np.where((i + j) % 2 == 0, 64, 230).astype(np.uint8)[..., None]
+        mi.Bitmap(img).write(str(rough))
     smoke = tex / "smoke.vol"
     if not smoke.exists():
         write_smoke_vol(np, smoke)

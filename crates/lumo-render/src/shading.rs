@@ -194,7 +194,7 @@ impl ShadingBsdf {
                 let Some((f, po, pi, wi)) = self.perturbed(n, wo, wi) else {
                     return Vec3::ZERO;
                 };
-                self.bsdf.eval(po, pi) * shadow_terminator(f.n, wi)
+                self.bsdf.in_perturbed_frame(&f).eval(po, pi) * shadow_terminator(f.n, wi)
             }
         };
         value * self.opacity
@@ -218,10 +218,10 @@ impl ShadingBsdf {
         let pdf = match self.normal {
             None => self.bsdf.pdf(wo, wi),
             Some(n) => {
-                let Some((_, po, pi, _)) = self.perturbed(n, wo, wi) else {
+                let Some((f, po, pi, _)) = self.perturbed(n, wo, wi) else {
                     return 0.0;
                 };
-                self.bsdf.pdf(po, pi)
+                self.bsdf.in_perturbed_frame(&f).pdf(po, pi)
             }
         };
         pdf * self.opacity
@@ -292,7 +292,7 @@ impl ShadingBsdf {
                 if self.opaque() && po.z <= 0.0 {
                     return None;
                 }
-                let mut s = self.bsdf.sample(po, u_lobe, u)?;
+                let mut s = self.bsdf.in_perturbed_frame(&f).sample(po, u_lobe, u)?;
                 let wi = f.to_world(s.wi);
                 if wi.z * s.wi.z <= 0.0 {
                     return None;

@@ -40,6 +40,11 @@ pub struct GltfExtensions {
     /// clearcoatRoughnessFactor × clearcoatRoughnessTexture's green channel (grey), per
     /// texel; `None` without the texture.
     pub clearcoat_roughness_texture: Option<Texture>,
+    /// KHR_materials_clearcoat's clearcoatNormalTexture, its texels already scaled by the
+    /// texture's `scale` as a normalTexture's are (tangent-space RGB in [0, 1]): the coat's
+    /// own shading normal. `None`: the coat follows the mesh's normal, not the base's normal
+    /// map, as the extension defines.
+    pub clearcoat_normal: Option<Texture>,
     /// KHR_materials_sheen: sheenColorFactor × sheenColorTexture (sRGB decoded), the colour
     /// of a Charlie sheen layer under the coat ((0, 0, 0): no sheen).
     pub sheen_color: Texture,
@@ -74,6 +79,7 @@ impl Default for GltfExtensions {
             clearcoat_roughness: 0.0,
             clearcoat_texture: None,
             clearcoat_roughness_texture: None,
+            clearcoat_normal: None,
             sheen_color: Texture::Constant(Vec3::ZERO),
             sheen_roughness: Texture::Constant(Vec3::ZERO),
         }

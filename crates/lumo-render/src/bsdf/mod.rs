@@ -37,6 +37,7 @@ use glam::{Vec2, Vec3};
 use lumo_scene::{BsdfSpec, Texture};
 use lumo_spectrum::Wavelengths;
 
+use crate::geometry::Basis;
 use crate::shading::BROAD_COAT_ALPHA;
 
 /// Roughness below which a microfacet BSDF is treated as perfectly smooth (the scene's
@@ -165,6 +166,10 @@ pub(crate) struct SpecHit<'a> {
     pub prepared: &'a [Prepared],
     /// The hit's material.
     pub material: usize,
+    /// The shading normal a tangent-space normal map gives the hit, in its (unperturbed)
+    /// shading frame (`None`: a flat texel): for lobes with a normal map of their own (glTF's
+    /// clearcoatNormalTexture), asked only by materials that have one.
+    pub normal_map: &'a dyn Fn(&Texture) -> Option<Vec3>,
 }
 
 impl SpecHit<'_> {
@@ -261,6 +266,19 @@ impl Bsdf {
     #[inline(never)]
     fn nested_at_hit(spec: &BsdfSpec, hit: &SpecHit) -> Bsdf {
         Self::at_hit(spec, hit)
+    }
+
+    /// This BSDF seen in `f`, the frame of a normal map's perturbed normal (in the surface's
+    /// shading frame): lobes with a shading normal of their own (a glTF clear coat) keep it
+    /// where it was, so it is re-expressed in `f`; every other BSDF is unchanged.
+    #[inline]
+    pub(crate) fn in_perturbed_frame(self, f: &Basis) -> Bsdf {
+        match self {
+            Bsdf::GltfPbr(g) if g.clearcoat > 0.0 => {
+                Bsdf::GltfPbr(g.with_coat_normal(f.to_local(g.coat_normal)))
+            }
+            b => b,
+        }
     }
 
     /// This BSDF at a spectral path's wavelengths: every colour taken from `c`.

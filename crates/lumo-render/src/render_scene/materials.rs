@@ -206,11 +206,13 @@ impl RenderScene {
     /// builds itself: [`Bsdf::at_hit`]).
     #[inline(always)]
     pub(super) fn base_bsdf(&self, bsdf: &BsdfSpec, surface: &Surface) -> Bsdf {
+        let normal_map = |t: &Texture| self.normal_mapped(surface, t);
         let hit = SpecHit {
             uv: surface.uv,
             color: surface.color,
             prepared: &self.prepared,
             material: surface.material,
+            normal_map: &normal_map,
         };
         Bsdf::at_hit(bsdf, &hit)
     }

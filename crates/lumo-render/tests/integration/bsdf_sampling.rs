@@ -128,6 +128,24 @@ fn test_bsdfs() -> Vec<(&'static str, Bsdf)> {
             ),
         ),
         (
+            // The coat's own normal (clearcoatNormalTexture) tilted 25° from the base's.
+            "gltf-tilted-clearcoat-0.3-over-0.6",
+            Bsdf::GltfPbr(
+                GltfPbr::new(Vec3::new(0.7, 0.3, 0.2), 0.3, 0.6)
+                    .with_clearcoat(0.9, 0.3)
+                    .with_coat_normal(dir(0.906, 1.0)),
+            ),
+        ),
+        (
+            "gltf-tilted-smooth-clearcoat-over-transmission",
+            Bsdf::GltfPbr(
+                GltfPbr::new(Vec3::new(0.9, 0.8, 0.7), 0.0, 0.4)
+                    .with_transmission(0.6, true, 1.5)
+                    .with_clearcoat(1.0, 0.0)
+                    .with_coat_normal(dir(0.8, 4.0)),
+            ),
+        ),
+        (
             "gltf-sheen-0.3-over-0.6",
             Bsdf::GltfPbr(
                 GltfPbr::new(Vec3::new(0.3, 0.2, 0.6), 0.0, 0.6)

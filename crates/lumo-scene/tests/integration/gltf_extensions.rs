@@ -247,25 +247,66 @@ fn unlit_materials_emit_their_base_colour() {
     );
 }
 
-/// KHR_materials_clearcoat's factors reach the scene; its normal texture warns (not read);
-/// the file may require the extension.
+/// KHR_materials_clearcoat's factors reach the scene and the file may require the extension;
+/// its clearcoatNormalTexture is read as a normalTexture is: `scale` on x and y, with its
+/// KHR_texture_transform (mirrored in u here), and without a warning.
 #[test]
-fn clearcoat_factors_are_read_and_its_textures_warn() {
+fn clearcoat_factors_and_normal_texture_are_read() {
     let dir = temp_dir("gltf-coat");
-    write(&dir, "spec.png", png_rgba_2x1([255, 255]));
+    // Raw texels (255, 51, 0) and (102, 255, 0): normals (1, −0.6, −1) and (−0.2, 1, −1).
+    let mut png = vec![];
+    let mut enc = png::Encoder::new(&mut png, 2, 1);
+    enc.set_color(png::ColorType::Rgb);
+    enc.set_depth(png::BitDepth::Eight);
+    let mut w = enc.write_header().unwrap();
+    w.write_image_data(&[255, 51, 0, 102, 255, 0]).unwrap();
+    drop(w);
+    write(&dir, "spec.png", png);
     let used = "\"extensionsUsed\": [\"KHR_lights_punctual\", \"KHR_materials_clearcoat\"], \
                 \"extensionsRequired\": [\"KHR_materials_clearcoat\"]";
     let ext = "\"KHR_materials_clearcoat\": {\"clearcoatFactor\": 0.75, \
-               \"clearcoatRoughnessFactor\": 0.2, \"clearcoatNormalTexture\": {\"index\": 0}}";
+               \"clearcoatRoughnessFactor\": 0.2, \"clearcoatNormalTexture\": {\"index\": 0, \
+               \"scale\": 0.5, \"extensions\": {\"KHR_texture_transform\": \
+               {\"offset\": [1, 0], \"scale\": [-1, 1]}}}}";
     let loaded = load(&write(&dir, "c.gltf", gold_with_extensions(ext, used))).unwrap();
     let e = extensions_of(&loaded).expect("extensions");
     assert_eq!((e.clearcoat, e.clearcoat_roughness), (0.75, 0.2));
     let w = warnings(&loaded);
     assert!(
-        w.contains("c.gltf") && w.contains("material 1") && w.contains("clearcoatNormalTexture"),
+        !w.contains("clearcoat") && !w.contains("not supported"),
         "{w}"
     );
-    assert!(!w.contains("not supported"), "{w}");
+    let normals = e.clearcoat_normal.as_ref().expect("clearcoatNormalTexture");
+    // x and y halved, stored back as (n + 1) / 2; the left half reads the right texel.
+    let (left, right) = (
+        normals.eval(Vec2::new(0.25, 0.5)),
+        normals.eval(Vec2::new(0.75, 0.5)),
+    );
+    assert!(
+        (left - Vec3::new(0.45, 0.75, 0.0)).abs().max_element() < 2e-3,
+        "{left}"
+    );
+    assert!(
+        (right - Vec3::new(0.75, 0.35, 0.0)).abs().max_element() < 2e-3,
+        "{right}"
+    );
+    // A scale that is not a number is refused, naming the field.
+    let ext = "\"KHR_materials_clearcoat\": {\"clearcoatFactor\": 1, \
+               \"clearcoatNormalTexture\": {\"index\": 0, \"scale\": \"big\"}}";
+    let err = load(&write(&dir, "d.gltf", gold_with_extensions(ext, used)))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("d.gltf") && err.contains("clearcoatNormalTexture.scale"),
+        "{err}"
+    );
+    // Without a coat there is nothing to read it for.
+    let ext = "\"KHR_materials_clearcoat\": {\"clearcoatNormalTexture\": {\"index\": 0}}";
+    let loaded = load(&write(&dir, "e.gltf", gold_with_extensions(ext, used))).unwrap();
+    assert!(extensions_of(&loaded)
+        .expect("extensions")
+        .clearcoat_normal
+        .is_none());
 }
 
 /// KHR_materials_sheen's colour (factor × sRGB texture) and roughness (factor × the alpha of

@@ -63,6 +63,9 @@ pub struct GltfPbr {
     pub clearcoat_roughness: f32,
     /// GGX of α = clearcoat roughness².
     pub coat_mf: Microfacet,
+    /// The coat's shading normal (unit, above the surface) in the frame of the directions
+    /// the BSDF is given: `Vec3::Z` where it is the base's normal.
+    pub coat_normal: Vec3,
     /// KHR_materials_sheen's colour (linear, ≥ 0): the tint of a Charlie sheen layer under
     /// the coat; zero without it, which disables the layer.
     pub sheen_color: Vec3,
@@ -106,6 +109,7 @@ impl GltfPbr {
             clearcoat: 0.0,
             clearcoat_roughness: 0.0,
             coat_mf: Microfacet::ggx(0.0),
+            coat_normal: Vec3::Z,
             sheen_color: Vec3::ZERO,
             sheen_roughness: 1.0,
         }

@@ -46,6 +46,13 @@ impl GltfPbr {
                 .with_sheen(
                     texture(&e.sheen_color, hit.uv),
                     e.sheen_roughness.eval_1(hit.uv),
+                )
+                .with_coat_normal(
+                    e.clearcoat_normal
+                        .as_ref()
+                        .filter(|_| e.clearcoat > 0.0)
+                        .and_then(|t| (hit.normal_map)(t))
+                        .unwrap_or(Vec3::Z),
                 ),
         }
     }

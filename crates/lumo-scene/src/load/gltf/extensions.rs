@@ -118,8 +118,8 @@ impl GltfReader<'_, '_> {
 
     /// KHR_materials_clearcoat's intensity (clearcoatFactor × clearcoatTexture's red
     /// channel) and roughness (clearcoatRoughnessFactor × clearcoatRoughnessTexture's green
-    /// channel), both read linear, factors default 0 and clamped to [0, 1] with a warning.
-    /// clearcoatNormalTexture is not read: it warns and the coat follows the base's normal.
+    /// channel), both read linear, factors default 0 and clamped to [0, 1] with a warning, and
+    /// its clearcoatNormalTexture (the coat's own normal map).
     fn clearcoat(
         &mut self,
         label: &str,
@@ -150,14 +150,36 @@ impl GltfReader<'_, '_> {
             let texture = self.json_texture(label, what, info, true, Some(&green))?;
             ext.clearcoat_roughness_texture = Some(texture);
         }
-        if json.get("clearcoatNormalTexture").is_some() {
-            self.diag.warn(
-                self.at(label.to_string()),
-                "KHR_materials_clearcoat clearcoatNormalTexture is not read; the coat follows \
-                 the material's normal (its normalTexture, or the mesh's)",
-            )?;
+        if let Some(info) = json.get("clearcoatNormalTexture").filter(|_| c > 0.0) {
+            ext.clearcoat_normal = Some(self.clearcoat_normal(label, info)?);
         }
         Ok(())
+    }
+
+    /// clearcoatNormalTexture (textureInfo `json`: index, texCoord, KHR_texture_transform and
+    /// `scale`) as a normalTexture is read: raw texels, x and y scaled by `scale`.
+    fn clearcoat_normal(
+        &mut self,
+        label: &str,
+        json: &gltf::json::Value,
+    ) -> Result<Texture, LoadError> {
+        let what = "KHR_materials_clearcoat clearcoatNormalTexture";
+        let scale = match json.get("scale") {
+            None => 1.0,
+            Some(v) => v.as_f64().map_or(f32::NAN, |x| x as f32),
+        };
+        if !scale.is_finite() {
+            return Err(LoadError::invalid(
+                self.at(label.to_string()),
+                format!(
+                    "{what}.scale {} is not a finite number; write one (1 is the default)",
+                    json.get("scale").map_or(String::new(), ToString::to_string)
+                ),
+            ));
+        }
+        let pixel = materials::scaled_normal(scale);
+        let map: Option<&dyn Fn(Vec3) -> Vec3> = (scale != 1.0).then_some(&pixel);
+        self.json_texture(label, what, json, true, map)
     }
 
     /// KHR_materials_sheen's colour (sheenColorFactor × sheenColorTexture, sRGB decoded) and

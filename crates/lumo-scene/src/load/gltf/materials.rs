@@ -171,10 +171,7 @@ impl GltfReader<'_, '_> {
                 format!("normalTexture scale {scale} is not a finite number; write one (1 is the default)"),
             ));
         }
-        let pixel = move |c: Vec3| {
-            let n = (c * 2.0 - Vec3::ONE) * Vec3::new(scale, scale, 1.0);
-            (n + Vec3::ONE) * 0.5
-        };
+        let pixel = scaled_normal(scale);
         let map: Option<&dyn Fn(Vec3) -> Vec3> = (scale != 1.0).then_some(&pixel);
         // The `gltf` crate exposes KHR_texture_transform on textureInfo only; a normalTexture's
         // is read from its JSON like the extension textures' (offset, rotation, scale and the
@@ -341,5 +338,15 @@ pub(super) fn transformed_by(
     Texture::Transformed {
         texture: Arc::new(texture),
         uv: m,
+    }
+}
+
+/// A normal map's texel map for glTF's `scale`: the tangent-space vector (2c − 1) with x and y
+/// multiplied by `scale`, stored back as RGB in [0, 1]-space (normalTexture and
+/// clearcoatNormalTexture read it the same way).
+pub(super) fn scaled_normal(scale: f32) -> impl Fn(Vec3) -> Vec3 {
+    move |c: Vec3| {
+        let n = (c * 2.0 - Vec3::ONE) * Vec3::new(scale, scale, 1.0);
+        (n + Vec3::ONE) * 0.5
     }
 }
