@@ -12,12 +12,14 @@
 //! Everything else (non-smooth or emitting first hits, indirect light) is left to the caller's
 //! noisy image.
 
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use lumo_image::{luminance, Image};
 use rayon::prelude::*;
 
 use crate::accel::packet::{RayPacket, LANES};
+use crate::accel::Hit;
 use crate::camera::PinholeCamera;
+use crate::camera_hits::{camera_hits, pixel_centre_ray};
 use crate::geometry::shadow_segment;
 use crate::lights::{CosineTriangle, LightSample};
 use crate::render_scene::{RenderScene, Surface};
@@ -105,6 +107,24 @@ pub fn direct_split_into(
     h: usize,
     seed: u32,
 ) {
+    let hits = camera_hits(rs, camera, w, h);
+    direct_split_at(out, rs, camera, &hits, w, h, seed);
+}
+
+/// [`direct_split_into`] at the pixel-centre rays' first hits `hits` (row-major, `w`×`h`, as
+/// [`camera_hits`] gives them), so that a frame's passes share one set of camera rays
+/// (`lumo render --temporal` takes its instance ids from the same hits). With the hits of
+/// `camera`'s rays the result is [`direct_split`]'s, bit for bit.
+pub fn direct_split_at(
+    out: &mut DirectSplit,
+    rs: &RenderScene,
+    camera: &PinholeCamera,
+    hits: &[Option<Hit>],
+    w: usize,
+    h: usize,
+    seed: u32,
+) {
+    assert_eq!(hits.len(), w * h, "one hit per pixel");
     // The closed form covers every non-Dirac light, or none is used.
     let only_triangles = rs.lights.only_constant_triangles();
     let triangles: Vec<(CosineTriangle, Vec3)> = if only_triangles {
@@ -135,11 +155,12 @@ pub fn direct_split_into(
         .zip(out.exact.data.par_chunks_mut(3 * w))
         .zip(out.unshadowed.data.par_chunks_mut(3 * w))
         .zip(out.ratio.data.par_chunks_mut(2 * w))
+        .zip(hits.par_chunks(w))
         .enumerate()
         .for_each_init(
             || (Vec::new(), Vec::new()),
-            |(row, shadows), (y, (((split, exact), unshadowed), ratio))| {
-                split_row(rs, camera, w, y, seed, closed, row, shadows);
+            |(row, shadows), (y, ((((split, exact), unshadowed), ratio), hits))| {
+                split_row(rs, camera, hits, y, seed, closed, row, shadows);
                 for (x, p) in row.iter().enumerate() {
                     split[x] = p.split;
                     exact[3 * x..3 * x + 3].copy_from_slice(&p.exact.to_array());
@@ -162,39 +183,28 @@ enum Pending {
 /// A shadow ray waiting for its packet: pixel, what it decides, origin, direction, length.
 type Shadow = (usize, Pending, Vec3, Vec3, f32);
 
-/// Row `y` of the split into `out` (`w` pixels); `closed` holds the emissive triangles when
-/// their closed form is used; `shadows` is working memory.
+/// Row `y` of the split into `out`, at the row's camera-ray hits `hits`; `closed` holds the
+/// emissive triangles when their closed form is used; `shadows` is working memory.
 #[allow(clippy::too_many_arguments)]
 fn split_row(
     rs: &RenderScene,
     camera: &PinholeCamera,
-    w: usize,
+    hits: &[Option<Hit>],
     y: usize,
     seed: u32,
     closed: Option<&[(CosineTriangle, Vec3)]>,
     out: &mut Vec<PixelSplit>,
     shadows: &mut Vec<Shadow>,
 ) {
+    let w = hits.len();
     out.clear();
     out.resize(w, PixelSplit::default());
     shadows.clear();
     for x0 in (0..w).step_by(LANES) {
         let n = LANES.min(w - x0);
-        let mut rays = RayPacket::default();
-        for lane in 0..n {
-            let x = x0 + lane;
-            // Through the lens centre, as the G-buffer's rays.
-            let (origin, dir) =
-                camera.ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5), Vec2::splat(0.5));
-            rays.set(lane, origin, dir, 0.0, f32::INFINITY);
-        }
-        let mut hits = [None; LANES];
-        rs.accel.intersect_packet(&rays, &mut hits);
-        for (lane, hit) in hits.iter().enumerate().take(n) {
-            let x = x0 + lane;
+        for (x, hit) in hits.iter().enumerate().skip(x0).take(n) {
             let Some(hit) = hit else { continue };
-            let dir = Vec3::new(rays.d[0][lane], rays.d[1][lane], rays.d[2][lane]);
-            let origin = Vec3::new(rays.o[0][lane], rays.o[1][lane], rays.o[2][lane]);
+            let (origin, dir) = pixel_centre_ray(camera, x, y);
             let at = ((x as u32, y as u32), seed);
             out[x] = shade(rs, origin, dir, hit, closed, at, &mut |p, o, d, t| {
                 shadows.push((x, p, o, d, t))
@@ -311,6 +321,7 @@ pub(crate) fn shadow_ray(rs: &RenderScene, s: &Surface, ls: &LightSample) -> (Ve
 mod tests {
     use super::*;
     use crate::{trace_path, PathSettings};
+    use glam::Vec2;
     use lumo_scene::{builtin_scene, BsdfSpec, Light, Roughness, Scene};
 
     /// How far one pixel's 256-sample mean may stray from the path tracer's, as a share of

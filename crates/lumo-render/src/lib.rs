@@ -18,6 +18,7 @@
 pub mod accel;
 pub mod bsdf;
 pub mod camera;
+mod camera_hits;
 mod camera_sample;
 mod dirac_direct;
 mod direct_split;
@@ -43,8 +44,11 @@ mod test_camera;
 #[cfg(test)]
 mod test_lights;
 
+pub use camera_hits::{camera_hits, camera_hits_into, pixel_centre_ray};
 pub use dirac_direct::dirac_direct;
-pub use direct_split::{direct_split, direct_split_into, DirectSplit, MAX_ANALYTIC_TRIANGLES};
+pub use direct_split::{
+    direct_split, direct_split_at, direct_split_into, DirectSplit, MAX_ANALYTIC_TRIANGLES,
+};
 pub use film::{Frame, AOV_NAMES};
 pub use integrator::{
     sentence, Capabilities, Integrator, IntegratorInfo, IntegratorOptions, Particles, RenderedImage,

@@ -3,10 +3,10 @@
 //! mesh's point must be found again by its triangle and barycentric coordinates in the
 //! previous frame's vertex positions.
 
+use crate::accel::Hit;
 use crate::camera::PinholeCamera;
-use crate::parallel::map_pixels;
 use crate::RenderScene;
-use glam::{Mat4, Vec2, Vec3};
+use glam::{Mat4, Vec3};
 use lumo_scene::Scene;
 
 /// The first surface each pixel centre's camera ray hits.
@@ -31,23 +31,29 @@ impl PixelHit {
 }
 
 /// The first hit of each pixel centre's camera ray, row-major: the same rays as
-/// [`crate::instance_ids`], with the triangle and barycentrics kept.
+/// [`crate::instance_ids`], with the triangle and barycentrics kept (traced in packets by
+/// [`crate::camera_hits`]).
 pub fn pixel_hits(
     rs: &RenderScene,
     camera: &PinholeCamera,
     width: usize,
     height: usize,
 ) -> Vec<PixelHit> {
-    map_pixels(width, height, &|_| {}, |x, y| {
-        let (origin, dir) = camera.ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5), Vec2::splat(0.5));
-        rs.accel
-            .intersect(origin, dir, 0.0, f32::INFINITY)
-            .map_or(PixelHit::NONE, |hit| PixelHit {
-                instance: hit.instance,
-                triangle: hit.triangle,
-                uv: [hit.u, hit.v],
-            })
-    })
+    crate::camera_hits(rs, camera, width, height)
+        .iter()
+        .map(PixelHit::from)
+        .collect()
+}
+
+impl From<&Option<Hit>> for PixelHit {
+    /// The hit's instance, triangle and barycentrics; [`PixelHit::NONE`] for a miss.
+    fn from(hit: &Option<Hit>) -> Self {
+        hit.map_or(PixelHit::NONE, |hit| PixelHit {
+            instance: hit.instance,
+            triangle: hit.triangle,
+            uv: [hit.u, hit.v],
+        })
+    }
 }
 
 /// The vertex positions of the meshes that deform, and every instance's transform, at one

@@ -13,8 +13,10 @@ use glam::{Mat4, Vec2, Vec3};
 use lumo_filter::{project_to_pixel, ShadingChange};
 use lumo_image::{luminance, Image};
 use lumo_render::camera::PinholeCamera;
+use lumo_render::integrators::path::wavefront::trace_paths;
+use lumo_render::integrators::path::PathState;
 use lumo_render::sampler::PixelSampler;
-use lumo_render::{trace_path, FirstHit, Frame, PathSettings, RenderScene};
+use lumo_render::{Frame, PathSettings, RenderScene};
 use rayon::prelude::*;
 
 /// Side of the blocks of the previous frame that each give one re-shaded sample (A-SVGF: 3).
@@ -145,41 +147,55 @@ pub fn reshade(
         vec![None; now.transforms.len()]
     };
     let (bw, bh) = (w.div_ceil(BLOCK), h.div_ceil(BLOCK));
+    // A row of blocks at a time: first the points still in view, then their paths together
+    // through the wavefront renderer (sixteen rays per packet; each path the same bits as
+    // traced alone), then the test that each path reached its point again.
     let rows: Vec<Vec<ShadingChange>> = (0..bh)
         .into_par_iter()
         .map(|by| {
-            (0..bw)
-                .filter_map(|bx| {
-                    let (x, y) = block_pixel(bx, by, before.seed, w, h);
-                    let i = y * w + x;
-                    let d = before.depth.data[i * before.depth.channels];
-                    if !(d.is_finite() && d > 0.0) {
-                        return None;
-                    }
-                    let q = &before.position.data[i * 3..i * 3 + 3];
-                    let p = Vec3::new(q[0], q[1], q[2]);
-                    let moved = then
-                        .ids
-                        .and_then(|ids| forward.get(ids[i] as usize).copied().flatten());
-                    let p_now = moved.map_or(p, |m| m.transform_point3(p));
-                    let origin = camera.origin();
-                    // The previous frame's own ray where neither the camera nor the point
-                    // moved: the same path, bit for bit, when nothing else changed.
-                    let dir = if same_camera && moved.is_none() {
-                        camera.direction(Vec2::new(x as f32 + 0.5, y as f32 + 0.5))
-                    } else {
-                        (p_now - origin).normalize()
-                    };
-                    let pix = project_to_pixel(&now.view_proj, p_now, w, h)?;
-                    let (px, py) = (pix[0].floor(), pix[1].floor());
-                    if !(px >= 0.0 && py >= 0.0 && (px as usize) < w && (py as usize) < h) {
-                        return None;
-                    }
-                    // The sampler as the camera sample left it (after its jitter draw).
-                    let mut sampler = PixelSampler::new(x as u32, y as u32, 0, before.seed);
-                    sampler.next_2d();
-                    let mut hit = FirstHit::default();
-                    let r = trace_path(rs, origin, dir, &mut sampler, path, Some(&mut hit));
+            let mut pending = Vec::with_capacity(bw);
+            let mut paths = Vec::with_capacity(bw);
+            for bx in 0..bw {
+                let (x, y) = block_pixel(bx, by, before.seed, w, h);
+                let i = y * w + x;
+                let d = before.depth.data[i * before.depth.channels];
+                if !(d.is_finite() && d > 0.0) {
+                    continue;
+                }
+                let q = &before.position.data[i * 3..i * 3 + 3];
+                let p = Vec3::new(q[0], q[1], q[2]);
+                let moved = then
+                    .ids
+                    .and_then(|ids| forward.get(ids[i] as usize).copied().flatten());
+                let p_now = moved.map_or(p, |m| m.transform_point3(p));
+                let origin = camera.origin();
+                // The previous frame's own ray where neither the camera nor the point
+                // moved: the same path, bit for bit, when nothing else changed.
+                let dir = if same_camera && moved.is_none() {
+                    camera.direction(Vec2::new(x as f32 + 0.5, y as f32 + 0.5))
+                } else {
+                    (p_now - origin).normalize()
+                };
+                let Some(pix) = project_to_pixel(&now.view_proj, p_now, w, h) else {
+                    continue;
+                };
+                let (px, py) = (pix[0].floor(), pix[1].floor());
+                if !(px >= 0.0 && py >= 0.0 && (px as usize) < w && (py as usize) < h) {
+                    continue;
+                }
+                // The sampler as the camera sample left it (after its jitter draw).
+                let mut sampler = PixelSampler::new(x as u32, y as u32, 0, before.seed);
+                sampler.next_2d();
+                paths.push(PathState::new(origin, dir, sampler, true).spectral(path.spectral));
+                pending.push((i, p_now, py as usize * w + px as usize));
+            }
+            trace_paths(rs, path, &mut paths);
+            let origin = camera.origin();
+            pending
+                .iter()
+                .zip(&paths)
+                .filter_map(|(&(i, p_now, pixel), traced)| {
+                    let (r, hit) = (traced.result(), &traced.first_hit);
                     let dist = (p_now - origin).length();
                     if !(hit.depth.is_finite()
                         && (hit.position - p_now).length() <= SAME_POINT * dist)
@@ -187,7 +203,7 @@ pub fn reshade(
                         return None;
                     }
                     Some(ShadingChange {
-                        pixel: py as usize * w + px as usize,
+                        pixel,
                         now: if before.indirect_only[i] {
                             luminance(r.indirect.to_array())
                         } else {

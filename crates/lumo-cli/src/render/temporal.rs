@@ -20,12 +20,14 @@ use lumo_filter::{
     TemporalParams,
 };
 use lumo_image::Image;
+use lumo_render::accel::Hit;
 use lumo_render::camera::PinholeCamera;
 use lumo_render::{
-    deformation_back, direct_split_into, instance_ids, pixel_hits, DirectSplit, Frame, MeshPoses,
+    camera_hits_into, deformation_back, direct_split_at, DirectSplit, Frame, MeshPoses,
     PathSettings, PixelHit, RenderScene,
 };
 use lumo_scene::Camera;
+use rayon::prelude::*;
 
 use super::reshade::{reshade, Pose, ShadedFrame};
 
@@ -51,12 +53,14 @@ pub struct TemporalTimes {
     /// below when stages run side by side (see there), and it includes the small steps no stage
     /// counts (the emitter mask, the indirect-only colour, TAA).
     pub total: Duration,
-    /// Instance ids and motion vectors.
+    /// Motion vectors (and the instance ids, taken from the split's camera hits when the
+    /// split is on).
     pub motion: Duration,
     /// Re-shading one point per 3×3 block of the previous frame (history rejection).
     pub reshade: Duration,
-    /// The direct-light split: its rays (one camera ray, one shadow ray per Dirac light and one
-    /// light sample per pixel) and the temporal filter of its shadow ratio.
+    /// The direct-light split: its rays (the camera ray per pixel, which the instance ids
+    /// share, one shadow ray per Dirac light and one light sample per pixel) and the temporal
+    /// filter of its shadow ratio.
     pub split: Duration,
     /// The part of `split` spent on the shadow ratio's temporal filter and on adding the
     /// split light back (the rest is the split's rays and shading).
@@ -99,6 +103,8 @@ struct Buffers {
     ratio: Option<Image>,
     /// Pixels that see an emitter directly.
     emitter: Vec<bool>,
+    /// The first hit of every pixel centre's camera ray (when the split or the ids need it).
+    hits: Vec<Option<Hit>>,
 }
 
 impl TemporalSequence {
@@ -183,16 +189,30 @@ impl TemporalSequence {
         let c = &rs.scene.camera;
         let (hw, hh) = c.half_extent(w, h);
         let deforms = !self.deforming.is_empty();
+        let camera = PinholeCamera::new(c, w, h);
+        // One camera ray per pixel centre, in packets, shared by every pass that needs the
+        // first hit: the split, the instance ids and the deforming meshes' triangles (each
+        // traced its own before; the ids one ray at a time).
+        let split_on = self.ratio.is_some();
+        let hits = &mut self.buffers.hits;
+        let hits_time = if split_on || self.object_motion {
+            let t = Instant::now();
+            camera_hits_into(hits, rs, &camera, w, h);
+            t.elapsed()
+        } else {
+            hits.clear();
+            Duration::ZERO
+        };
+        let hits = &self.buffers.hits[..];
         // Deforming meshes need each pixel's triangle and barycentrics; otherwise the
         // instance is enough.
-        let hits: Option<Vec<PixelHit>> =
-            deforms.then(|| pixel_hits(rs, &PinholeCamera::new(c, w, h), w, h));
-        let ids = match &hits {
-            Some(hits) => Some(hits.iter().map(|h| h.instance).collect()),
-            None => self
-                .object_motion
-                .then(|| instance_ids(rs, &PinholeCamera::new(c, w, h), w, h)),
-        };
+        let pixel_hits: Option<Vec<PixelHit>> =
+            deforms.then(|| hits.iter().map(PixelHit::from).collect());
+        let ids = self.object_motion.then(|| {
+            hits.iter()
+                .map(|h| h.map_or(PixelHit::NONE.instance, |h| h.instance))
+                .collect()
+        });
         let mut view = View {
             view_proj: pinhole_view_projection(c.origin, c.target, c.up, [hw, hh]),
             jitter,
@@ -205,7 +225,7 @@ impl TemporalSequence {
         let motion = self.prev.as_ref().map(|prev| {
             let back = object_motion(&prev.transforms, &view.transforms);
             let ids = ids.unwrap_or_default();
-            match (&hits, &prev.poses) {
+            match (&pixel_hits, &prev.poses) {
                 (Some(hits), Some(then)) => surface_motion_vectors(
                     &prev.view_proj,
                     &view.view_proj,
@@ -223,7 +243,10 @@ impl TemporalSequence {
                 ),
             }
         });
-        let motion_time = start.elapsed();
+        // With the split on, the camera hits count as its stage (they replace its camera rays;
+        // the ids' own rays, which they replace too, counted as the motion vectors').
+        let hits_time = if split_on { hits_time } else { Duration::ZERO };
+        let motion_time = start.elapsed() - hits_time;
         // The split and the re-shading are independent, and so are the two temporal filters
         // after them: each pair runs side by side (rayon::join), so that one stage's last rows
         // and its barriers can overlap the other's work (on the 2-vCPU machine of
@@ -237,11 +260,11 @@ impl TemporalSequence {
         };
         let buffers = &mut self.buffers;
         let split_buffer = &mut buffers.split;
-        let split_on = self.ratio.is_some();
+        let hits = &buffers.hits[..];
         let mut changes = None;
         let mut split_stage = || {
             if split_on {
-                direct_split_into(split_buffer, rs, &PinholeCamera::new(c, w, h), w, h, seed);
+                direct_split_at(split_buffer, rs, &camera, hits, w, h, seed);
                 keep_rims_whole(split_buffer, frame);
             }
         };
@@ -269,16 +292,17 @@ impl TemporalSequence {
         } else {
             rayon::join(|| timed(&mut split_stage), || timed(&mut reshade_stage))
         };
+        split_time += hits_time;
         let split = split_on.then_some(&buffers.split);
         // Emitters seen directly pass through unfiltered, as in every pipeline.
         let emitter = &mut buffers.emitter;
         emitter.clear();
-        emitter.extend(
+        emitter.par_extend(
             frame
                 .emission
                 .data
-                .chunks_exact(3)
-                .zip(frame.albedo.data.chunks_exact(3))
+                .par_chunks_exact(3)
+                .zip(frame.albedo.data.par_chunks_exact(3))
                 .map(|(e, a)| e.iter().any(|&v| v != 0.0) && a.iter().any(|&v| v != 0.0)),
         );
         let emitter = &emitter[..];
@@ -431,12 +455,16 @@ pub fn splits_direct_light(path: &PathSettings) -> bool {
 /// pixel, a light's rim): their colour is passed through with the light's share
 /// (`with_emitted`), which the split's indirect-only colour would not hold.
 fn keep_rims_whole(d: &mut DirectSplit, frame: &Frame) {
-    for (i, e) in frame.emitted.data.chunks_exact(3).enumerate() {
-        if d.split[i] && e.iter().any(|&v| v != 0.0) {
-            d.split[i] = false;
-            d.ratio.data[i * 2..i * 2 + 2].fill(0.0);
-        }
-    }
+    d.split
+        .par_iter_mut()
+        .zip(d.ratio.data.par_chunks_exact_mut(2))
+        .zip(frame.emitted.data.par_chunks_exact(3))
+        .for_each(|((split, ratio), e)| {
+            if *split && e.iter().any(|&v| v != 0.0) {
+                *split = false;
+                ratio.fill(0.0);
+            }
+        });
 }
 
 /// The frame's colour with the direct light taken out where it is split: indirect light
@@ -454,11 +482,15 @@ fn split_noisy<'a>(frame: &Frame, d: &DirectSplit, buffer: &'a mut Option<Image>
         *buffer = Some(c.clone());
     }
     let out = buffer.get_or_insert_with(|| c.clone());
-    for (i, _) in d.split.iter().enumerate().filter(|(_, &s)| s) {
-        for k in i * 3..i * 3 + 3 {
-            out.data[k] = frame.indirect.data[k];
-        }
-    }
+    out.data
+        .par_chunks_exact_mut(3)
+        .zip(frame.indirect.data.par_chunks_exact(3))
+        .zip(d.split.par_iter())
+        .for_each(|((o, indirect), &split)| {
+            if split {
+                o.copy_from_slice(indirect);
+            }
+        });
     out
 }
 
@@ -475,35 +507,41 @@ fn ratio_image<'a>(d: &DirectSplit, buffer: &'a mut Option<Image>) -> &'a Image 
         *buffer = None;
     }
     let out = buffer.get_or_insert_with(|| Image::new(w, h, 3, 0.0));
-    for (o, r) in out
-        .data
-        .chunks_exact_mut(3)
-        .zip(d.ratio.data.chunks_exact(2))
-    {
-        o.copy_from_slice(&[r[0], r[0], r[1]]);
-    }
+    out.data
+        .par_chunks_exact_mut(3)
+        .zip(d.ratio.data.par_chunks_exact(2))
+        .for_each(|(o, r)| o.copy_from_slice(&[r[0], r[0], r[1]]));
     out
 }
 
 /// Adds the split direct light to the filtered image: the exact part, and the unshadowed
 /// part times the filtered shadowed-over-unshadowed ratio (in [0, 1]).
 fn add_split_direct(image: &mut Image, d: &DirectSplit, shadow: &Image) {
-    for (i, _) in d.split.iter().enumerate().filter(|(_, &s)| s) {
-        let r = &shadow.data[i * 3..i * 3 + 3];
-        let own = &d.ratio.data[i * 2..i * 2 + 2];
-        // Where the filter has nothing (no neighbour's sample reached a light), the pixel's own
-        // sample; without one, no direct light from these lights.
-        let ratio = if r[2] > 1e-6 {
-            (r[0] / r[2]).clamp(0.0, 1.0)
-        } else if own[1] > 0.0 {
-            own[0] / own[1]
-        } else {
-            0.0
-        };
-        for k in i * 3..i * 3 + 3 {
-            image.data[k] += d.exact.data[k] + d.unshadowed.data[k] * ratio;
-        }
-    }
+    image
+        .data
+        .par_chunks_exact_mut(3)
+        .zip(d.split.par_iter())
+        .zip(shadow.data.par_chunks_exact(3))
+        .zip(d.ratio.data.par_chunks_exact(2))
+        .zip(d.exact.data.par_chunks_exact(3))
+        .zip(d.unshadowed.data.par_chunks_exact(3))
+        .for_each(|(((((o, &split), r), own), exact), unshadowed)| {
+            if !split {
+                return;
+            }
+            // Where the filter has nothing (no neighbour's sample reached a light), the
+            // pixel's own sample; without one, no direct light from these lights.
+            let ratio = if r[2] > 1e-6 {
+                (r[0] / r[2]).clamp(0.0, 1.0)
+            } else if own[1] > 0.0 {
+                own[0] / own[1]
+            } else {
+                0.0
+            };
+            for k in 0..3 {
+                o[k] += exact[k] + unshadowed[k] * ratio;
+            }
+        });
 }
 
 /// The shadow ratio's filter: the sequence's parameters with α = 0.2 (SVGF's: shadows move with

@@ -19,7 +19,7 @@ use crate::camera::PinholeCamera;
 use crate::camera_sample::camera_sample_with;
 use crate::integrators::path::mask_shadow;
 use crate::integrators::path::vector_bounce::{self, diffuse_bounce, SimpleLane};
-use crate::integrators::path::{FirstHit, PathRadiance, PathState, ShadowRay};
+use crate::integrators::path::{FirstHit, PathRadiance, PathSettings, PathState, ShadowRay};
 use crate::pixel_sums::PixelSums;
 use crate::render_scene::RenderScene;
 use crate::sampler::{PixelSampler, RUN};
@@ -94,6 +94,22 @@ pub fn render_pixel_sums(
     out
 }
 
+/// Traces `paths` (each made by [`PathState::new`], and made spectral where `settings` asks)
+/// to their ends together, sixteen rays per packet, as the renderer traces a row's samples:
+/// each path ends as [`PathState::run`] alone would leave it, bit for bit (the same arithmetic
+/// per path, and packets find the same hits). For callers that start paths of their own, such
+/// as the temporal filter's re-shading of the previous frame's samples; a few hundred paths
+/// at a time keep their states in the caches.
+pub fn trace_paths(rs: &RenderScene, settings: &PathSettings, paths: &mut Vec<PathState>) {
+    let mut batch = Batch::with_capacity(0);
+    std::mem::swap(&mut batch.paths, paths);
+    batch.active.reserve(batch.paths.len());
+    batch.next.reserve(batch.paths.len());
+    batch.shadows.reserve(batch.paths.len());
+    batch.trace(rs, settings);
+    std::mem::swap(&mut batch.paths, paths);
+}
+
 /// Reusable buffers of one batch of paths.
 struct Batch {
     paths: Vec<PathState>,
@@ -152,11 +168,16 @@ impl Batch {
                 }
             }
         }
+        self.trace(rs, &settings.path);
+    }
+
+    /// Traces the batch's paths to their ends.
+    fn trace(&mut self, rs: &RenderScene, settings: &PathSettings) {
         if rs.scene.media.is_active() {
             // Media and null boundaries are the scalar volumetric path tracer's (one ray at a
             // time): the packets' bounce knows only surfaces.
             for path in &mut self.paths {
-                path.run(rs, &settings.path);
+                path.run(rs, settings);
             }
             return;
         }
@@ -169,12 +190,12 @@ impl Batch {
     }
 
     /// One bounce of every active path: closest hits, shading and sampling, shadow rays.
-    fn bounce(&mut self, rs: &RenderScene, settings: &RenderSettings) {
+    fn bounce(&mut self, rs: &RenderScene, settings: &PathSettings) {
         self.next.clear();
         self.shadows.clear();
         let mut hits: [Option<Hit>; LANES] = [None; LANES];
         // Paths at simple diffuse surfaces bounce sixteen at a time in vector registers.
-        let vector = vector_bounce::applies(&settings.path);
+        let vector = vector_bounce::applies(settings);
         let active = std::mem::take(&mut self.active);
         for group in active.chunks(LANES) {
             let mut rays = RayPacket::default();
@@ -202,7 +223,7 @@ impl Batch {
                         continue;
                     }
                 }
-                let (shadow, goes_on) = self.paths[p as usize].advance(rs, &settings.path, hit);
+                let (shadow, goes_on) = self.paths[p as usize].advance(rs, settings, hit);
                 if let Some(sh) = shadow {
                     self.shadows.push((p, sh));
                 }
@@ -213,7 +234,7 @@ impl Batch {
             if n_simple > 0 {
                 diffuse_bounce(
                     rs,
-                    &settings.path,
+                    settings,
                     &mut self.paths,
                     &simple[..n_simple],
                     &mut self.shadows,
@@ -234,7 +255,7 @@ impl Batch {
                 if blocked & (1 << lane) == 0 {
                     path.add_unoccluded(sh);
                 } else if masks {
-                    mask_shadow::credit_blocked(rs, path, sh, settings.path.max_depth);
+                    mask_shadow::credit_blocked(rs, path, sh, settings.max_depth);
                 }
             }
         }
