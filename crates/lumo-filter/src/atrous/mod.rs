@@ -242,7 +242,7 @@ fn level_aux(
                 }
             }
             CM_VARIANCE => {
-                symmetric_color_factor(src, lay, c, y, lw, valid, &mut cp[M..M + len]);
+                variance_color_factor(src, lay, c, y, lw, valid, &mut cp[M..M + len]);
                 for j in ja..jb {
                     lum[j] = 0.2126 * s[j] + 0.7152 * s[QW + j] + 0.0722 * s[2 * QW + j];
                 }
@@ -265,7 +265,7 @@ fn level_aux(
 
 /// The variance-guided colour factor g = color_scale / σ × validity of block (c, y)'s strip
 /// columns (see [`level_aux`]), with the operations the fused path used to form it per block.
-fn symmetric_color_factor(
+fn variance_color_factor(
     src: &[f32],
     lay: Layout,
     c: usize,

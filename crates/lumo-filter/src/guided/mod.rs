@@ -413,14 +413,7 @@ fn weighted_row_d<const D: usize>(gr: &[f32], ab: &[f32], rgb: &mut [f32], weigh
             let x = x0 + l;
             let gx: &[f32; D] = gr[x * D..][..D].try_into().expect("D values");
             let c = &ab[x * k2..(x + 1) * k2];
-            let o = &mut rgb[3 * x..3 * x + 3];
-            for ch in 0..3 {
-                let mut q = c[3 * D + ch];
-                for i in 0..D {
-                    q += c[ch * D + i] * gx[i];
-                }
-                o[ch] = q;
-            }
+            apply_model(c, gx, &mut rgb[3 * x..3 * x + 3]);
             for i in 0..D {
                 g[i][l] = gx[i] as f64;
             }
@@ -646,13 +639,7 @@ fn apply_upsampled(guide: &[f32], w: usize, h: usize, d: usize, coarse: &Coarse)
                     c[i] = top + (bot - top) * ty;
                 }
                 let gi = &guide[(y * w + x) * d..][..d];
-                for ch in 0..3 {
-                    let mut q = c[3 * d + ch];
-                    for i in 0..d {
-                        q += c[ch * d + i] * gi[i];
-                    }
-                    o[ch] = q;
-                }
+                apply_model(&c, gi, o);
             }
         });
     out
@@ -777,14 +764,7 @@ fn upsample_row_weighted_d<const D: usize>(r: &UpsampleRow, out: &mut [f32], wei
                 c[i] = a[i] + (b[i] - a[i]) * tx;
             }
             let gi: &[f32; D] = r.guide[x * D..][..D].try_into().expect("D values");
-            let o = &mut out[3 * x..3 * x + 3];
-            for ch in 0..3 {
-                let mut q = c[3 * D + ch];
-                for i in 0..D {
-                    q += c[ch * D + i] * gi[i];
-                }
-                o[ch] = q;
-            }
+            apply_model(c, gi, &mut out[3 * x..3 * x + 3]);
             let gc = &r.coarse_guide[(x / r.s) * D..][..D];
             for i in 0..D {
                 (g[i][l], gb[i][l]) = (gi[i] as f64, gc[i] as f64);
@@ -833,13 +813,22 @@ multiversion! {
         for (x, o) in row.chunks_exact_mut(3).enumerate() {
             let gi = &guide[x * d..(x + 1) * d];
             let c = &ab[x * k2..(x + 1) * k2];
-            for ch in 0..3 {
-                let mut q = c[3 * d + ch];
-                for i in 0..d {
-                    q += c[ch * d + i] * gi[i];
-                }
-                o[ch] = q;
-            }
+            apply_model(c, gi, o);
         }
+    }
+}
+
+/// One pixel's output of the local linear model: for each channel, its offset plus the
+/// coefficients times the guide `g` (`c` holds 3·d coefficients, then the 3 offsets; d =
+/// `g.len()`). Every caller's sum in the same order, so the bits do not depend on which.
+#[inline(always)]
+fn apply_model(c: &[f32], g: &[f32], o: &mut [f32]) {
+    let d = g.len();
+    for ch in 0..3 {
+        let mut q = c[3 * d + ch];
+        for i in 0..d {
+            q += c[ch * d + i] * g[i];
+        }
+        o[ch] = q;
     }
 }

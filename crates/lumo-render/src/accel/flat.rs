@@ -37,6 +37,13 @@ pub(super) fn applies(placements: &[Placement]) -> bool {
 }
 
 impl Accel {
+    /// Whether the scene is flat (the static BVH and a few exact shapes, see [`applies`]): it
+    /// then keeps each placement's box.
+    #[inline]
+    pub(super) fn flat(&self) -> bool {
+        !self.flat_boxes.is_empty()
+    }
+
     /// [`Accel::intersect`] of a flat scene.
     pub(super) fn intersect_flat(
         &self,

@@ -42,19 +42,6 @@ fn cornell_with_spheres(n: u32) -> Scene {
     scene
 }
 
-/// The same hit, bit for bit.
-fn key(h: Option<Hit>) -> Option<(u32, u32, u32, u32, u32)> {
-    h.map(|h| {
-        (
-            h.t.to_bits(),
-            h.instance,
-            h.triangle,
-            h.u.to_bits(),
-            h.v.to_bits(),
-        )
-    })
-}
-
 /// A ray numbered `r`: from inside the box or outside it, aimed at a sphere's centre for
 /// every third, with a finite `tmax` for every fifth.
 fn ray(scene: &Scene, r: u32) -> (Vec3, Vec3, f32) {
@@ -85,9 +72,9 @@ fn flat_queries_match_the_instance_tree() {
         let scene = cornell_with_spheres(n);
         scene.validate().expect("valid scene");
         let flat = Accel::build(&scene);
-        assert!(flat.flat, "{n} spheres: the flat query should apply");
+        assert!(flat.flat(), "{n} spheres: the flat query should apply");
         let mut tree = Accel::build(&scene);
-        tree.flat = false;
+        tree.flat_boxes.clear();
         let (mut sphere_hits, mut wall_hits, mut blocked) = (0, 0, 0);
         for p in 0..300u32 {
             let count = 1 + (p as usize % LANES);
@@ -98,8 +85,8 @@ fn flat_queries_match_the_instance_tree() {
                 rays.set(lane, o, d, 0.0, tmax);
                 let want = tree.intersect(o, d, 0.0, tmax);
                 assert_eq!(
-                    key(flat.intersect(o, d, 0.0, tmax)),
-                    key(want),
+                    Hit::bits(flat.intersect(o, d, 0.0, tmax)),
+                    Hit::bits(want),
                     "{n} spheres, ray {r}"
                 );
                 let occluded = tree.occluded(o, d, 0.0, tmax);
@@ -132,8 +119,8 @@ fn flat_queries_match_the_instance_tree() {
                 let r = p * LANES as u32 + lane as u32;
                 let (o, d, tmax) = ray(&scene, r);
                 assert_eq!(
-                    key(hit),
-                    key(tree.intersect(o, d, 0.0, tmax)),
+                    Hit::bits(hit),
+                    Hit::bits(tree.intersect(o, d, 0.0, tmax)),
                     "{n} spheres, packet ray {r}"
                 );
                 assert_eq!(
@@ -153,8 +140,8 @@ fn flat_queries_match_the_instance_tree() {
 #[test]
 fn many_shapes_or_moved_meshes_keep_the_instance_tree() {
     let scene = cornell_with_spheres(super::MAX_SHAPES as u32 + 1);
-    assert!(!Accel::build(&scene).flat);
+    assert!(!Accel::build(&scene).flat());
     let mut scene = cornell_with_spheres(2);
     scene.instances[0].transform = Mat4::from_translation(Vec3::X);
-    assert!(!Accel::build(&scene).flat);
+    assert!(!Accel::build(&scene).flat());
 }

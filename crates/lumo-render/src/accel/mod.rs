@@ -53,6 +53,22 @@ pub struct Hit {
     pub v: f32,
 }
 
+impl Hit {
+    /// The hit's fields as bits, for tests that compare two queries' hits bit for bit.
+    #[cfg(test)]
+    pub(crate) fn bits(h: Option<Hit>) -> Option<(u32, u32, u32, u32, u32)> {
+        h.map(|h| {
+            (
+                h.t.to_bits(),
+                h.instance,
+                h.triangle,
+                h.u.to_bits(),
+                h.v.to_bits(),
+            )
+        })
+    }
+}
+
 /// How [`Accel::refit_instances`] or [`Accel::refit_meshes`] brought the trees up to date.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum AccelUpdate {
@@ -138,9 +154,8 @@ pub struct Accel {
     /// Walk `tlas` with the AVX pair test ([`tlas::traverse_avx`]): the CPU has AVX and
     /// `LUMO_SIMD` allows it.
     tlas_avx: bool,
-    /// The static BVH and a few exact shapes: rays skip `tlas` ([`flat`]).
-    flat: bool,
-    /// Each placement's world box where `flat` (else empty): the shapes' box tests.
+    /// Each placement's world box where the scene is the static BVH and a few exact shapes,
+    /// whose rays skip `tlas` ([`flat`], [`Accel::flat`]); empty otherwise.
     flat_boxes: Vec<Aabb>,
 }
 
@@ -228,12 +243,10 @@ impl Accel {
             tlas: Bvh2::default(),
             tlas_depth: 0,
             tlas_avx: lumo_simd::Isa::detect() >= lumo_simd::Isa::Avx2,
-            flat: false,
             flat_boxes: vec![],
         };
         let boxes = accel.placement_boxes(scene);
-        accel.flat = flat::applies(&accel.placements);
-        if accel.flat {
+        if flat::applies(&accel.placements) {
             accel.flat_boxes = boxes.clone();
         }
         accel.tlas = robust::build_bvh2(
@@ -364,7 +377,7 @@ impl Accel {
         }
         let boxes = self.placement_boxes(scene);
         robust::refit_leaves(&mut self.tlas, |p| boxes[p]);
-        if self.flat {
+        if self.flat() {
             self.flat_boxes = boxes;
         }
         AccelUpdate::Refitted
@@ -454,7 +467,7 @@ impl Accel {
             let h = self.intersect_placement(&self.placements[0], origin, dir, tmin, tmax)?;
             return self.scene_hit(0, h);
         }
-        if self.flat {
+        if self.flat() {
             return self.intersect_flat(origin, dir, tmin, tmax);
         }
         let ray = Ray::new(origin.into(), dir.into(), tmin, tmax);
@@ -490,7 +503,7 @@ impl Accel {
     fn packet_tree(&self) -> Option<&Bvh8> {
         match self.placements.as_slice() {
             [p] if p.identity => self.blas(p.target)?.wide.eight(),
-            [p, ..] if self.flat && matches!(p.target, Target::Static) => {
+            [p, ..] if self.flat() && matches!(p.target, Target::Static) => {
                 self.blas(p.target)?.wide.eight()
             }
             _ => None,
@@ -532,7 +545,7 @@ impl Accel {
                         None => self.scene_hit(0, hit),
                     };
                 }
-                if self.flat {
+                if self.flat() {
                     self.shapes_closest_packet(rays, out);
                 }
                 return;
@@ -549,7 +562,7 @@ impl Accel {
         if rays.count >= MIN_PACKET_RAYS {
             if let Some(tree) = self.packet_tree() {
                 let blocked = tree.occluded_packet(rays);
-                return if self.flat {
+                return if self.flat() {
                     self.shapes_occlude_packet(rays, blocked)
                 } else {
                     blocked
@@ -572,7 +585,7 @@ impl Accel {
         if self.placements.len() == 1 {
             return self.occluded_placement(&self.placements[0], origin, dir, tmin, tmax);
         }
-        if self.flat {
+        if self.flat() {
             return self.occluded_flat(origin, dir, tmin, tmax);
         }
         let ray = Ray::new(origin.into(), dir.into(), tmin, tmax);
