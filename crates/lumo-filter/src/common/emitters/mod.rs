@@ -15,6 +15,7 @@
 
 mod level;
 mod noisy;
+mod rim;
 mod search;
 
 #[cfg(test)]
@@ -86,7 +87,8 @@ impl EmitterMask {
     /// After the filter, a light whose interior is not flat — a dim emitter that also
     /// reflects noisy bounce light — has its interior averaged over itself, demodulated by
     /// `albedo` when given (`noisy.rs`, docs/filters.md); a noise-free light passes through
-    /// bit for bit.
+    /// bit for bit. Then each rim pixel is clamped between half the filtered surface beside
+    /// it and the light's level (`rim.rs`).
     pub fn filter<F, E>(
         &self,
         color: &Image,
@@ -113,6 +115,9 @@ impl EmitterMask {
             flatness,
             &mut out.image,
         );
+        // The rim's noise is bounded by the light and the filtered surface beside it
+        // (`rim.rs`): no black pixels or speckles along a light's edge.
+        rim::clamp_rim(color, &self.light, &self.rim, &mut out.image);
         Ok(out)
     }
 
