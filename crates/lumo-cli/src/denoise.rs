@@ -145,9 +145,9 @@ pub struct DenoiseArgs {
     #[arg(long, value_delimiter = ',')]
     pub auto_radii: Option<Vec<usize>>,
     /// auto: radii of the candidates with a flatter model (ε = --auto-flat-eps on every guide
-    /// dimension), comma-separated; "" = none [default: 16,32].
-    #[arg(long, value_delimiter = ',', num_args = 0..)]
-    pub auto_flat_radii: Option<Vec<usize>>,
+    /// dimension), comma-separated; "" or the flag alone = none [default: 16,32].
+    #[arg(long, num_args = 0..=1, default_missing_value = "")]
+    pub auto_flat_radii: Option<RadiusList>,
     /// auto: ε of the flat candidates' guide [default: 0.01].
     #[arg(long)]
     pub auto_flat_eps: Option<f32>,
@@ -586,7 +586,7 @@ fn configure(a: &DenoiseArgs, inp: &Inputs) -> anyhow::Result<Box<dyn Denoiser>>
             Box::new(AutoDenoiser {
                 params: AutoParams {
                     radii: a.auto_radii.clone().unwrap_or(d.radii),
-                    flat_radii: a.auto_flat_radii.clone().unwrap_or(d.flat_radii),
+                    flat_radii: a.auto_flat_radii.clone().map_or(d.flat_radii, |r| r.0),
                     flat_eps: a.auto_flat_eps.unwrap_or(d.flat_eps),
                     eps_normal: a.eps_normal.unwrap_or(d.eps_normal),
                     eps_depth: a.eps_depth.unwrap_or(d.eps_depth),
@@ -988,5 +988,31 @@ mod tests {
             }
         }
         assert!(parser.parse_ref(&cmd, None, OsStr::new("none")).is_err());
+    }
+}
+
+/// A comma-separated list of window radii where the empty string is the empty list (clap's
+/// own list parsing reads `""` as one value that is no number).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct RadiusList(pub Vec<usize>);
+
+impl std::str::FromStr for RadiusList {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        if s.trim().is_empty() {
+            return Ok(RadiusList(Vec::new()));
+        }
+        s.split(',')
+            .map(|r| {
+                r.trim().parse::<usize>().map_err(|_| {
+                    format!(
+                        "'{r}' is not a radius: give whole numbers separated by commas \
+                         (e.g. 16,32), or \"\" for none"
+                    )
+                })
+            })
+            .collect::<Result<_, _>>()
+            .map(RadiusList)
     }
 }

@@ -545,6 +545,20 @@ fn auto_flags_set_its_parameters_and_are_checked() {
         a.data,
         "--auto-flat-radii did nothing"
     );
+    // "" means none too, as --help says; a word is refused with the fix.
+    let (o, empty) = run("no-flat-empty", &["--auto-flat-radii", ""]);
+    assert!(o.status.success(), "{}", text(&o).1);
+    assert_eq!(
+        read_image(&empty).unwrap().data,
+        read_image(&few).unwrap().data
+    );
+    let (o, _) = run("flat-word", &["--auto-flat-radii", "16,big"]);
+    assert!(!o.status.success());
+    assert!(
+        text(&o).1.contains("'big' is not a radius"),
+        "{}",
+        text(&o).1
+    );
     let (o, _) = run("flat-eps", &["--auto-flat-eps=0"]);
     assert!(!o.status.success());
     assert!(text(&o).1.contains("flat ε"), "{}", text(&o).1);
