@@ -659,6 +659,22 @@ fn a_light_range_is_read_and_checked() {
         "{:?}",
         loaded.scene.lights[1]
     );
+    // A directional light's range means nothing (the extension defines it for point and spot
+    // lights): warned about and dropped, not refused.
+    let sun =
+        with_ranges("4", "2.5").replacen("\"type\": \"point\"", "\"type\": \"directional\"", 1);
+    let loaded = load(&write(&dir, "sun-range.gltf", sun)).unwrap();
+    let w = loaded
+        .warnings
+        .iter()
+        .map(|w| w.to_string())
+        .collect::<Vec<_>>()
+        .join("\n");
+    assert!(
+        w.contains("sun-range.gltf") && w.contains("light 0") && w.contains("range 4 ignored"),
+        "{w}"
+    );
+    assert!(matches!(loaded.scene.lights[0], Light::Directional { .. }));
     for (bad, shown) in [("0", "range 0"), ("-3", "range -3"), ("1e39", "range inf")] {
         let name = format!("bad-range{bad}.gltf");
         let e = load(&write(&dir, &name, with_ranges("4", bad)))
