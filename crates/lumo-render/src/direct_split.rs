@@ -336,6 +336,7 @@ mod tests {
         scene.lights.push(Light::Point {
             position: Vec3::new(c.x + 0.2 * (hi.x - lo.x), c.y, c.z),
             intensity: Vec3::splat(2.0),
+            range: None,
         });
         scene
     }

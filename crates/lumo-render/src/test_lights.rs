@@ -10,6 +10,7 @@ pub(crate) fn every_other_light_kind() -> [Light; 4] {
         Light::Point {
             position: Vec3::new(0.3, 0.5, 0.2),
             intensity: Vec3::splat(2.0),
+            range: None,
         },
         Light::Spot {
             position: Vec3::new(-0.4, 0.8, 0.0),
@@ -18,6 +19,7 @@ pub(crate) fn every_other_light_kind() -> [Light; 4] {
             beam_width: 20.0,
             cutoff: 35.0,
             falloff: Default::default(),
+            range: None,
         },
         Light::Directional {
             direction: Vec3::new(0.3, -1.0, -0.2),

@@ -26,7 +26,7 @@ pub use builtin::{builtin_scene, BuiltinScene, BUILTIN_SCENES};
 pub use camera::{Camera, FovAxis, Lens, PixelFilter};
 pub use error::SceneError;
 pub use gltf_extensions::GltfExtensions;
-pub use light::{EnvMap, Light, SpotFalloff, MAX_EMISSION};
+pub use light::{range_window, EnvMap, Light, SpotFalloff, MAX_EMISSION};
 pub use material::{Distribution, Material, Roughness, RoughnessMaps, Spectra};
 pub use media::{Boundary, Medium, MediumInterface, MediumSpectra, PhaseFunction, SceneMedia};
 pub use mesh::{Analytic, AnalyticKind, Instance, Mesh};

@@ -23,6 +23,10 @@ pub enum Light {
         position: Vec3,
         /// Radiant intensity (W/sr per channel).
         intensity: Vec3,
+        /// Distance at which the light stops (glTF KHR_lights_punctual's `range`): inside it
+        /// the inverse-square falloff is multiplied by [`range_window`]; `None` reaches any
+        /// distance.
+        range: Option<f32>,
     },
     /// Spot light with a smooth falloff between two cone angles.
     Spot {
@@ -38,6 +42,8 @@ pub enum Light {
         cutoff: f32,
         /// How the intensity falls from the beam to the cutoff.
         falloff: SpotFalloff,
+        /// Distance at which the light stops, as [`Light::Point`]'s `range`.
+        range: Option<f32>,
     },
     /// Distant light from one direction.
     Directional {
@@ -60,6 +66,17 @@ pub enum Light {
 /// 3.4e38 with room for the sums. Past it (or past f32's range, as an emissive factor ×
 /// strength of 1e20 × 1e20 was) the render came out black with exit 0.
 pub const MAX_EMISSION: f32 = 1e15;
+
+/// The factor glTF's KHR_lights_punctual recommends for a light of range `range` at distance
+/// `distance`: clamp(1 − (distance / range)⁴, 0, 1), a smooth window that is 1 at the light,
+/// falls to exactly 0 at the range and stays 0 beyond it. It multiplies the inverse-square law
+/// (intensity · window / distance²), not replaces it.
+#[inline]
+pub fn range_window(distance: f32, range: f32) -> f32 {
+    let x = distance / range;
+    let x2 = x * x;
+    (1.0 - x2 * x2).clamp(0.0, 1.0)
+}
 
 impl Light {
     /// The position of a light that has one (point, spot), for the viewer's edits and picks.

@@ -101,6 +101,7 @@ fn hard_shadow_scene() -> lumo_scene::Scene {
     scene.lights.push(Light::Point {
         position: Vec3::new(3.5, 1.6, 0.0),
         intensity: Vec3::splat(5.0),
+        range: None,
     });
     scene
 }
@@ -378,6 +379,7 @@ fn auto_passes_the_dirac_light_through() {
     scene.lights = vec![Light::Point {
         position: Vec3::new(0.0, 0.8, 0.0),
         intensity: Vec3::splat(1.0),
+        range: None,
     }];
     let rs = RenderScene::new(scene).expect("scene");
     let s = settings(24, 24, 4, 4);

@@ -16,6 +16,7 @@ fn point() -> Light {
     Light::Point {
         position: Vec3::new(0.1, 0.6, 0.2),
         intensity: Vec3::new(1.5, 1.2, 0.9),
+        range: None,
     }
 }
 

@@ -178,6 +178,21 @@ struct Particle {
     crossings: u32,
     /// Depth of the path camera ← x_k ← … ← light when connecting at the k-th scene vertex.
     depth: u32,
+    /// Until the first vertex, for a light with a range: the light's position and range,
+    /// whose window of the first segment's length weighs the particle from that vertex on.
+    range: Option<(Vec3, f32)>,
+}
+
+impl Particle {
+    /// The particle reaches a vertex at `p` (surface or medium): the first one applies the
+    /// light's range window to the throughput (null boundaries crossed on the way are not
+    /// vertices, so the distance is the light's to `p`).
+    #[inline(always)]
+    fn arrive(&mut self, p: Vec3) {
+        if let Some((light, range)) = self.range.take() {
+            self.throughput *= lumo_scene::range_window(light.distance(p), range);
+        }
+    }
 }
 
 /// Where a light path goes after a step.
@@ -357,6 +372,7 @@ fn leave_light<F: FnMut(LightSplat)>(
         start: e.weight.max_element(),
         crossings: 0,
         depth: 2,
+        range: rs.lights.range(e.light).map(|r| (e.p, r)),
     }
 }
 
@@ -394,6 +410,7 @@ fn medium_vertex<F: FnMut(LightSplat)>(
         };
     };
     let p = origin + dir * at;
+    pt.arrive(p);
     let sight = Some((pt.medium, lambdas.as_ref(), &mut *sampler));
     let throughput = pt.throughput;
     let f = |wc: Vec3| throughput * phase::eval(med.phase, dir, wc);
@@ -436,6 +453,11 @@ fn surface_vertex<F: FnMut(LightSplat)>(
 ) -> Next {
     let (rs, settings) = (t.rs, t.settings);
     let s = rs.surface(hit, pt.origin, pt.dir);
+    pt.arrive(s.p);
+    if pt.throughput == Vec3::ZERO {
+        // Beyond its light's range.
+        return Next::Stop;
+    }
     let mut bsdf = rs.bsdf(&s);
     if let Some(w) = lambdas {
         bsdf = rs.spectral_bsdf(bsdf, &s, w);

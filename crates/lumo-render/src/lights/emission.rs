@@ -178,6 +178,7 @@ mod tests {
         scene.lights.push(Light::Point {
             position: Vec3::new(0.0, 1.0, 0.0),
             intensity: Vec3::splat(5.0),
+            range: None,
         });
         scene.lights.push(Light::Spot {
             position: Vec3::new(1.0, 1.0, 0.0),
@@ -186,6 +187,7 @@ mod tests {
             beam_width: 20.0,
             cutoff: 35.0,
             falloff: Default::default(),
+            range: None,
         });
         scene.lights.push(Light::Constant {
             radiance: Vec3::splat(1.0),
@@ -256,6 +258,7 @@ mod tests {
         sky.lights.push(Light::Point {
             position: Vec3::ZERO,
             intensity: Vec3::ZERO,
+            range: None,
         });
         assert!(Lights::new(&sky).emits_no_particles());
     }

@@ -85,9 +85,11 @@ impl LightKind {
             Light::Point {
                 position,
                 intensity,
+                range,
             } => SceneLight::Kind(LightKind::Point(PointLight {
                 position: *position,
                 intensity: *intensity,
+                range: *range,
             })),
             Light::Spot {
                 position,
@@ -96,11 +98,13 @@ impl LightKind {
                 beam_width,
                 cutoff,
                 falloff,
+                range,
             } => SceneLight::Kind(LightKind::Spot(SpotLight {
                 position: *position,
                 axis: direction.normalize(),
                 intensity: *intensity,
                 cone: SpotCone::new(*beam_width, *cutoff, *falloff),
+                range: *range,
             })),
             Light::Directional {
                 direction,
@@ -418,6 +422,20 @@ impl Lights {
     ) -> Option<LightSample> {
         let sample = light.sample_from(self, index as u32, pick, p, u)?;
         sample.weight.is_finite().then_some(sample)
+    }
+
+    /// The range of light `light` (a point or spot light with one, glTF's `range`): its
+    /// particles' first segment is weighed by [`lumo_scene::range_window`] of that segment's
+    /// length, which the integrators that trace particles apply where the segment ends
+    /// (next-event estimation gets the window in the light sample's weight). `None` for every
+    /// other light, whose particles are unchanged.
+    #[inline]
+    pub fn range(&self, light: u32) -> Option<f32> {
+        match self.lights.get(light as usize)? {
+            LightKind::Point(l) => l.range,
+            LightKind::Spot(l) => l.range,
+            _ => None,
+        }
     }
 
     /// Radius of the scene's bounding sphere (for ray epsilons and distant-light power).

@@ -7,6 +7,7 @@ use glam::{Vec2, Vec3};
 use lumo_image::luminance;
 use lumo_scene::SpotFalloff;
 
+use super::point::windowed;
 use super::source::LightSource;
 use super::{EmissionPdf, EmissionSample, LightSample, Lights};
 use crate::geometry::Basis;
@@ -101,10 +102,13 @@ pub(crate) struct SpotLight {
     pub(super) intensity: Vec3,
     /// The cone.
     pub(super) cone: SpotCone,
+    /// Distance at which it stops (glTF's `range`), `None` for none.
+    pub(super) range: Option<f32>,
 }
 
 impl LightSource for SpotLight {
     fn power(&self, _disk: f32) -> f32 {
+        // Without the range's window, as the point light's (`point.rs`).
         self.cone.solid_angle() * luminance(self.intensity.into())
     }
 
@@ -133,13 +137,14 @@ impl LightSource for SpotLight {
         if falloff <= 0.0 {
             return None;
         }
+        let intensity = windowed(self.intensity, self.range, distance)?;
         Some(LightSample {
             light,
             normal: Vec3::ZERO,
             wi,
             distance,
             point: self.position,
-            weight: self.intensity * falloff / (dist2 * pick),
+            weight: intensity * falloff / (dist2 * pick),
             pdf: 0.0,
         })
     }

@@ -14,6 +14,7 @@ mod gltf_specular;
 mod gltf_transmission;
 mod gltf_volume;
 mod integrator;
+mod light_range;
 mod light_render;
 mod light_sampling;
 mod mask_shadows;

@@ -50,7 +50,9 @@ fn hierarchy_camera_lights_and_materials() {
         Light::Point {
             position,
             intensity,
+            range,
         } => {
+            assert_eq!(range, None, "no range in the file");
             assert_eq!(position, Vec3::new(0.0, 3.0, 2.0));
             assert!(
                 (intensity - Vec3::new(20.0, 18.0, 16.0))
@@ -628,16 +630,40 @@ fn samplers_choose_the_filter_and_wrap_mode() {
     assert!(w.contains("wrapT Repeat differ"), "{w}");
 }
 
-/// KHR_lights_punctual's range is not modelled (lumo's lights fall off physically): a
-/// warning naming the light and the fix, not silence.
+/// KHR_lights_punctual's `range` is read onto point and spot lights (in world units, the
+/// node's scale left out as the extension says) without a warning; a range that is not a
+/// finite distance above 0 is refused with a message naming the file, the light and the fix.
 #[test]
-fn a_light_range_is_warned_about() {
+fn a_light_range_is_read_and_checked() {
     let dir = temp_dir("gltf-range");
-    let text = edited(
-        "     \"intensity\": 20\n",
-        "     \"intensity\": 20,\n     \"range\": 4\n",
+    let with_ranges = |point: &str, spot: &str| {
+        edited(
+            "     \"intensity\": 20\n",
+            &format!("     \"intensity\": 20,\n     \"range\": {point}\n"),
+        )
+        .replacen(
+            "     \"intensity\": 30,\n",
+            &format!("     \"intensity\": 30,\n     \"range\": {spot},\n"),
+            1,
+        )
+    };
+    let loaded = load(&write(&dir, "range.gltf", with_ranges("4", "2.5"))).unwrap();
+    assert!(loaded.warnings.is_empty(), "{:?}", loaded.warnings);
+    assert!(
+        matches!(loaded.scene.lights[0], Light::Point { range: Some(r), .. } if r == 4.0),
+        "{:?}",
+        loaded.scene.lights[0]
     );
-    let loaded = load(&write(&dir, "range.gltf", text)).unwrap();
+    assert!(
+        matches!(loaded.scene.lights[1], Light::Spot { range: Some(r), .. } if r == 2.5),
+        "{:?}",
+        loaded.scene.lights[1]
+    );
+    // A directional light's range means nothing (the extension defines it for point and spot
+    // lights): warned about and dropped, not refused.
+    let sun =
+        with_ranges("4", "2.5").replacen("\"type\": \"point\"", "\"type\": \"directional\"", 1);
+    let loaded = load(&write(&dir, "sun-range.gltf", sun)).unwrap();
     let w = loaded
         .warnings
         .iter()
@@ -645,9 +671,24 @@ fn a_light_range_is_warned_about() {
         .collect::<Vec<_>>()
         .join("\n");
     assert!(
-        w.contains("range.gltf") && w.contains("light 0") && w.contains("range 4 ignored"),
+        w.contains("sun-range.gltf") && w.contains("light 0") && w.contains("range 4 ignored"),
         "{w}"
     );
+    assert!(matches!(loaded.scene.lights[0], Light::Directional { .. }));
+    for (bad, shown) in [("0", "range 0"), ("-3", "range -3"), ("1e39", "range inf")] {
+        let name = format!("bad-range{bad}.gltf");
+        let e = load(&write(&dir, &name, with_ranges("4", bad)))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains(&name)
+                && e.contains("light 1")
+                && e.contains(shown)
+                && e.contains("finite distance above 0")
+                && e.contains("remove range"),
+            "{e}"
+        );
+    }
 }
 
 /// A normalTexture's KHR_texture_transform (which the `gltf` crate leaves in its JSON) moves

@@ -329,8 +329,10 @@ fn emitters() {
     );
     let s = load(&p).unwrap().scene;
     assert_eq!(s.lights.len(), 4);
-    assert!(matches!(s.lights[0], Light::Point { position, intensity }
-        if position == Vec3::new(1.0, 2.0, 3.0) && intensity == Vec3::splat(5.0)));
+    assert!(
+        matches!(s.lights[0], Light::Point { position, intensity, range: None }
+        if position == Vec3::new(1.0, 2.0, 3.0) && intensity == Vec3::splat(5.0))
+    );
     match &s.lights[1] {
         Light::Spot {
             position,

@@ -283,6 +283,7 @@ fn validate_refuses_lights_beyond_the_limit() {
     scene.lights.push(lumo_scene::Light::Point {
         position: lumo_scene::Vec3::ZERO,
         intensity: lumo_scene::Vec3::splat(f32::MAX),
+        range: None,
     });
     let e = scene.validate().unwrap_err().to_string();
     assert!(

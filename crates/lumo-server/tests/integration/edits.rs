@@ -291,6 +291,7 @@ fn a_point_light_is_picked_near_its_projection_and_edited() {
         lumo_scene::Light::Point {
             position,
             intensity,
+            range: None,
         } => assert_eq!((*position, *intensity), (moved, Vec3::new(1.0, 2.0, 3.0))),
         l => panic!("{l:?}"),
     }

@@ -216,7 +216,10 @@ pub(super) fn random_walks(
         let mut is_simple = [false; LANES];
         let mut m = 0;
         for (lane, (&k, &hit)) in lanes[..n].iter().zip(&hits[..n]).enumerate() {
-            if let Some(h) = hit.filter(|h| ctx.rs.is_simple_diffuse(h.instance)) {
+            // A first step from a light with a range takes the scalar step, which applies the
+            // range's window (the lanes do not).
+            let ranged = paths[k].len() == 1 && ranged_light(ctx, &paths[k][0]);
+            if let Some(h) = hit.filter(|h| !ranged && ctx.rs.is_simple_diffuse(h.instance)) {
                 simple[m] = (k, h);
                 is_simple[lane] = true;
                 m += 1;
@@ -300,6 +303,7 @@ pub(super) fn step(
             (d / d2.sqrt(), d2)
         }
     };
+    first_segment_window(ctx, &path[prev], d2, &mut beta);
     let lambert = bsdf.lambert();
     let kind = Kind::Surface {
         s,
@@ -397,4 +401,22 @@ pub(super) fn step(
     walk.beta = beta;
     walk.eta_scale = eta_scale;
     true
+}
+
+/// Whether `v` is the vertex of a light with a range (glTF's `range`).
+#[inline]
+fn ranged_light(ctx: &Context, v: &Vertex) -> bool {
+    matches!(v.kind, Kind::Light { light, .. } if ctx.rs.lights.range(light).is_some())
+}
+
+/// Where a segment of squared length `d2` leaves `prev`, a light with a range (the first
+/// segment of a light subpath), multiplies the throughput `beta` by the range's window of its
+/// length; every other segment leaves `beta` alone.
+#[inline(always)]
+pub(super) fn first_segment_window(ctx: &Context, prev: &Vertex, d2: f32, beta: &mut Vec3) {
+    if let Kind::Light { light, .. } = prev.kind {
+        if let Some(r) = ctx.rs.lights.range(light) {
+            *beta *= lumo_scene::range_window(d2.sqrt(), r);
+        }
+    }
 }

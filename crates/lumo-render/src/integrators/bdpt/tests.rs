@@ -280,6 +280,7 @@ fn mixed_lights_scene() -> Scene {
     scene.lights.push(Light::Point {
         position: Vec3::new(-1.0, 2.0, 1.0),
         intensity: Vec3::splat(4.0),
+        range: None,
     });
     scene.lights.push(Light::Spot {
         position: Vec3::new(1.5, 2.5, 1.0),
@@ -288,6 +289,7 @@ fn mixed_lights_scene() -> Scene {
         beam_width: 20.0,
         cutoff: 30.0,
         falloff: Default::default(),
+        range: None,
     });
     scene.lights.push(Light::Directional {
         direction: Vec3::new(0.3, -1.0, -0.4),

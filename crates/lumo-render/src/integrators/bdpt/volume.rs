@@ -20,7 +20,7 @@
 use glam::{Vec2, Vec3};
 
 use super::connect::{finish, Contribution};
-use super::subpath::{camera_start, light_start, step, Walk};
+use super::subpath::{camera_start, first_segment_window, light_start, step, Walk};
 use super::vertex::{area_density_along, Context, Kind, Vertex};
 use super::{add, prepare_all, BdptScratch, BdptSettings};
 use crate::bsdf::TransportMode;
@@ -262,6 +262,7 @@ fn medium_step(
     let d = p - path[prev].p;
     let d2 = d.length_squared();
     let w_in = if d2 == 0.0 { Vec3::ZERO } else { d / d2.sqrt() };
+    first_segment_window(ctx, &path[prev], d2, &mut walk.beta);
     let mut v = Vertex::new(Kind::Medium { phase: phase_fn }, p, Vec3::ZERO, walk.beta);
     v.medium = Some(at.medium);
     v.w_prev = -w_in;

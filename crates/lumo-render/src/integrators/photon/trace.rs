@@ -80,6 +80,8 @@ pub fn trace_photon_path(
         None => e.p,
     };
     let (mut dir, mut throughput) = (e.dir, e.weight);
+    // A light with a range weighs the photon by its window of the first segment's length.
+    let mut range = rs.lights.range(e.light);
     let mut rays = 0;
     // Segments from the light to the vertex about to be hit. A photon of depth j needs at
     // least one camera segment to be seen, so light paths end at max_depth − 1 segments.
@@ -94,6 +96,12 @@ pub fn trace_photon_path(
             break;
         };
         let s = rs.surface(&hit, origin, dir);
+        if let Some(r) = range.take() {
+            throughput *= lumo_scene::range_window(e.p.distance(s.p), r);
+            if throughput == Vec3::ZERO {
+                break;
+            }
+        }
         let bsdf = rs.bsdf(&s);
         let wl = -dir;
         let (ns, ng) = (s.frame.n, s.ng);

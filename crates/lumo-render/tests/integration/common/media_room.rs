@@ -20,6 +20,12 @@ const SEED0: u32 = 1000;
 /// box pixel filter (the light tracer's splats are box-filtered; another filter would differ
 /// at the image's edges), with `sensor_medium` inside the sensor element and `shapes` added.
 pub fn room(sensor_medium: &str, shapes: &str) -> RenderScene {
+    RenderScene::new(room_scene(sensor_medium, shapes)).unwrap()
+}
+
+/// The scene of [`room`], before the render scene is built (for tests that add lights the
+/// Mitsuba format has no words for).
+pub fn room_scene(sensor_medium: &str, shapes: &str) -> lumo_scene::Scene {
     let xml = format!(
         r#"<scene version="3.0.0">
   <sensor type="perspective"><float name="fov" value="50"/>
@@ -37,14 +43,13 @@ pub fn room(sensor_medium: &str, shapes: &str) -> RenderScene {
   {shapes}
 </scene>"#
     );
-    let scene = load_mitsuba_str(
+    load_mitsuba_str(
         &xml,
         Path::new("media-room-test.xml"),
         &LoadOptions::default(),
     )
     .unwrap_or_else(|e| panic!("{e}"))
-    .scene;
-    RenderScene::new(scene).unwrap()
+    .scene
 }
 
 /// Settings of batch `seed` at `spp` samples (or light paths) per pixel.

@@ -650,10 +650,13 @@ impl GltfReader<'_, '_> {
         use gltf::khr_lights_punctual::Kind;
         // glTF's photometric intensities are taken as lumo's radiometric units one to one.
         let power = Vec3::from(light.color()) * light.intensity();
+        let at = self.at(format!("light {}", light.index()));
+        let range = self.light_range(light, &at)?;
         let l = match light.kind() {
             Kind::Point => Light::Point {
                 position: Vec3::ZERO,
                 intensity: power,
+                range,
             },
             Kind::Directional => Light::Directional {
                 direction: -Vec3::Z,
@@ -684,25 +687,14 @@ impl GltfReader<'_, '_> {
                 beam_width: inner_cone_angle.to_degrees(),
                 cutoff: outer_cone_angle.to_degrees(),
                 falloff: crate::SpotFalloff::SquaredCosine,
+                range,
             },
         };
-        let at = self.at(format!("light {}", light.index()));
         if power.min_element() < 0.0 {
             return Err(LoadError::invalid(
                 at,
                 format!("intensity × color = {power} is negative; a light cannot emit less than nothing"),
             ));
-        }
-        if let Some(range) = light.range() {
-            // glTF calls range a hint for real-time renderers; lumo's lights keep the physical
-            // inverse-square falloff to any distance.
-            self.diag.warn(
-                at.clone(),
-                format!(
-                    "range {range} ignored: lumo's lights fall off with the inverse square of \
-                     distance everywhere (remove range to silence this)"
-                ),
-            )?;
         }
         let l = check_light(&at, Some("intensity × color"), l)?;
         self.scene.lights.push(l);
@@ -710,6 +702,39 @@ impl GltfReader<'_, '_> {
             .items
             .push((node, NodeItem::Light(self.scene.lights.len() - 1)));
         Ok(())
+    }
+
+    /// A point or spot light's `range` (world units: the spec leaves it unscaled by the
+    /// node), checked: a finite distance above zero. A directional light's range means
+    /// nothing (the spec defines it for point and spot lights) and is ignored with a warning.
+    fn light_range(
+        &mut self,
+        light: &gltf::khr_lights_punctual::Light,
+        at: &Location,
+    ) -> Result<Option<f32>, LoadError> {
+        let Some(range) = light.range() else {
+            return Ok(None);
+        };
+        if matches!(light.kind(), gltf::khr_lights_punctual::Kind::Directional) {
+            self.diag.warn(
+                at.clone(),
+                format!(
+                    "range {range} ignored: a directional light has no distance to fall off \
+                     over (remove range to silence this)"
+                ),
+            )?;
+            return Ok(None);
+        }
+        if !(range.is_finite() && range > 0.0) {
+            return Err(LoadError::invalid(
+                at.clone(),
+                format!(
+                    "range {range}: KHR_lights_punctual needs a finite distance above 0; remove \
+                     range for a light that reaches any distance"
+                ),
+            ));
+        }
+        Ok(Some(range))
     }
 
     fn camera(

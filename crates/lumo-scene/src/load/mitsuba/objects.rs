@@ -684,6 +684,8 @@ impl<'a> Builder<'a, '_> {
                 Light::Point {
                     position,
                     intensity: self.color_param(&props, "intensity", Vec3::ONE)?,
+                    // Mitsuba's lights have no range: the inverse-square law to any distance.
+                    range: None,
                 }
             }
             "spot" => {
@@ -721,6 +723,7 @@ impl<'a> Builder<'a, '_> {
                     beam_width,
                     cutoff,
                     falloff: crate::SpotFalloff::LinearAngle,
+                    range: None,
                 }
             }
             "directional" => {
