@@ -26,6 +26,7 @@ use environment::{EnvSampler, EnvironmentLight};
 use point::PointLight;
 pub use polygon::{triangle_cosine_integral, CosineTriangle};
 use shape::ShapeLight;
+pub(crate) use shape::{towards, SphereLane};
 pub use spot::SpotCone;
 use spot::SpotLight;
 pub use triangle::EmissiveTriangle;
@@ -139,6 +140,19 @@ pub struct LightSample {
     pub light: u32,
     /// The area light's unit normal at `point` (zero for other lights).
     pub normal: Vec3,
+}
+
+/// A light as [`Lights::choose_lane`] hands it to the vector bounce, with the probability it
+/// was picked with.
+pub(crate) enum LaneLight<'a> {
+    /// An emissive triangle of constant radiance, and its index.
+    Triangle(f32, &'a EmissiveTriangle, u32),
+    /// A sphere light seen from outside.
+    Sphere(f32, SphereLane),
+    /// The constant environment (no image), with its radiance.
+    Environment(f32, Vec3),
+    /// Any other light, or none: the scalar path samples it.
+    Other,
 }
 
 /// All lights of a scene with a power-proportional choice among them.
@@ -368,6 +382,27 @@ impl Lights {
                 Some((pick, tri, index as u32))
             }
             _ => None,
+        }
+    }
+
+    /// The light [`Lights::sample`] picks for `u_choice`, as the vector bounce samples it from
+    /// the shading point `from` under RGB transport: an emissive triangle of constant radiance,
+    /// a sphere light seen from outside, or the constant environment (no image); anything else
+    /// (and nothing to pick) is [`LaneLight::Other`], sampled on the scalar path.
+    #[inline(always)]
+    pub(crate) fn choose_lane(&self, u_choice: f32, from: Vec3) -> LaneLight<'_> {
+        match self.choose(u_choice) {
+            Some((index, pick, LightKind::Triangle(tri))) if tri.texture == NO_TEXTURE => {
+                LaneLight::Triangle(pick, tri, index as u32)
+            }
+            Some((_, pick, LightKind::Shape(shape))) => match shape.sphere_lane(from) {
+                Some(sphere) => LaneLight::Sphere(pick, sphere),
+                None => LaneLight::Other,
+            },
+            Some((_, pick, LightKind::Environment(_))) if self.env.is_none() => {
+                LaneLight::Environment(pick, self.constant)
+            }
+            _ => LaneLight::Other,
         }
     }
 

@@ -74,6 +74,12 @@ pub struct RenderScene {
     /// Per material, whether its back side is black (an opaque BSDF that is not two-sided:
     /// Mitsuba's plain BSDFs).
     one_sided: Vec<bool>,
+    /// Per scene material, whether nothing of it reads the texture coordinates (a constant
+    /// diffuse reflectance, no emission texture, no adapter): an exact shape's hit then skips
+    /// its uv, an `atan2` and an `acos` no one reads. Set once, as `finite_textures`: the
+    /// viewer's edits only make colours constant, and a material that still computes its uv
+    /// renders the same.
+    ignores_uv: Vec<bool>,
     /// Per material, whether the BSDF under its adapters is black from behind (as
     /// `one_sided`, but also under a mask, whose straight-through lobe still lets light pass).
     back_black: Vec<bool>,
@@ -336,6 +342,19 @@ impl RenderScene {
                 _ => false,
             })
             .collect();
+        let ignores_uv = scene
+            .materials
+            .iter()
+            .map(|m| {
+                m.emission_map.is_none()
+                    && matches!(
+                        m.bsdf,
+                        BsdfSpec::Diffuse {
+                            reflectance: Texture::Constant(_)
+                        }
+                    )
+            })
+            .collect();
         let (placements, shapes, simple_diffuse) = instance_tables(&scene, &finite_textures);
         let unit_normals = scene.meshes.iter().map(unit_normals).collect();
         let mesh_boxes = scene
@@ -359,6 +378,7 @@ impl RenderScene {
             prepared,
             anisotropic,
             one_sided,
+            ignores_uv,
             back_black,
             has_branches: branches.iter().any(Option::is_some),
             has_masks,
@@ -691,17 +711,25 @@ impl RenderScene {
         let Some(shape) = &self.shapes[hit.instance as usize] else {
             unreachable!("analytic placement without a shape");
         };
-        let sp = shape.surface_at(origin + dir * hit.t);
+        let at = origin + dir * hit.t;
+        // The same point and normal either way (`surface_at` projects as `point_at` does).
+        let (p, n, uv) = if self.ignores_uv[material] {
+            let sp = shape.point_at(at);
+            (sp.p, sp.n, Vec2::ZERO)
+        } else {
+            let sp = shape.surface_at(at);
+            (sp.p, sp.n, sp.uv)
+        };
         let surface = Surface {
-            p: sp.p,
-            ng: sp.n,
-            frame: Basis::new(sp.n),
-            uv: sp.uv,
+            p,
+            ng: n,
+            frame: Basis::new(n),
+            uv,
             color: Vec3::ONE,
             material,
             instance: hit.instance,
             triangle: 0,
-            back: dir.dot(sp.n) > 0.0,
+            back: dir.dot(n) > 0.0,
         };
         if self.anisotropic[material] {
             return self.with_tangent_frame(surface);
