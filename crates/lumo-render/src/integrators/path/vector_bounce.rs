@@ -379,12 +379,19 @@ lumo_simd::multiversion! {
             u_dir[0][i] = u.direction.x;
             u_dir[1][i] = u.direction.y;
             u_rr[i] = u.roulette;
-            let (pk, tri, light) = match rs.lights.choose_lane(u.light, Vec3::from(at(&pos, i))) {
-                LaneLight::Triangle(pk, tri, light) => (pk, tri, light),
-                // A sphere seen from outside and the constant environment: sampled in the
-                // lanes below under RGB transport (a spectral path's light weight goes
-                // through the light's spectrum, on the scalar path).
-                LaneLight::Sphere(pk, sphere) if path.wl.is_none() => {
+            let Some((pk, tri, light)) = rs.lights.choose_triangle(u.light) else {
+                let chosen = rs.lights.choose_lane(u.light);
+                // A sphere seen from outside and the constant environment are sampled in the
+                // lanes below under RGB transport (a spectral path's light weight goes through
+                // the light's spectrum, on the scalar path).
+                let rgb = path.wl.is_none();
+                let sphere = match chosen {
+                    LaneLight::Shape(pk, shape) if rgb => {
+                        shape.sphere_lane(Vec3::from(at(&pos, i))).map(|s| (pk, s))
+                    }
+                    _ => None,
+                };
+                if let Some((pk, sphere)) = sphere {
                     is_sphere[i] = true;
                     pick[i] = pk;
                     sflip[i] = sphere.flip;
@@ -395,34 +402,32 @@ lumo_simd::multiversion! {
                     }
                     continue;
                 }
-                LaneLight::Environment(pk, radiance) if path.wl.is_none() => {
+                if let (LaneLight::Environment(pk), true) = (chosen, rgb) {
                     is_env[i] = true;
                     pick[i] = pk;
+                    let radiance = rs.lights.constant_radiance();
                     for a in 0..3 {
                         lrad[a][i] = radiance[a];
                     }
                     continue;
                 }
-                _ => {
-                    // Another light (a sun, an environment image, a point, spot or other exact
-                    // shape, a textured emitter): the scalar path's own light sample and
-                    // connection. Its shadow ray goes first in the list; a path has one per
-                    // bounce, so the order of the list changes nothing.
-                    let lane = Lane {
-                        p: at(&pos, i),
-                        ng: at(&ng, i),
-                        ns: at(&ns, i),
-                        wo: at(&wo, i),
-                        albedo: at(&albedo, i),
-                    };
-                    let light_numbers = (u.light, u.light_point);
-                    if let Some(shadow) =
-                        other_light(rs, settings, path, lanes[i].1, &lane, light_numbers)
-                    {
-                        shadows.push((p, shadow));
-                    }
-                    continue;
+                // Another light (a sun, an environment image, a point, spot or other exact
+                // shape, a textured emitter): the scalar path's own light sample and
+                // connection. Its shadow ray goes first in the list; a path has one per
+                // bounce, so the order of the list changes nothing.
+                let lane = Lane {
+                    p: at(&pos, i),
+                    ng: at(&ng, i),
+                    ns: at(&ns, i),
+                    wo: at(&wo, i),
+                    albedo: at(&albedo, i),
+                };
+                let light_numbers = (u.light, u.light_point);
+                if let Some(shadow) = other_light(rs, settings, path, lanes[i].1, &lane, light_numbers)
+                {
+                    shadows.push((p, shadow));
                 }
+                continue;
             };
             has_light[i] = true;
             pick[i] = pk;
@@ -815,11 +820,8 @@ mod tests {
         // Both kinds are picked often enough to be walked.
         let (mut cones, mut uniform) = (0, 0);
         for k in 0..1000 {
-            match rs
-                .lights
-                .choose_lane((k as f32 + 0.5) / 1000.0, Vec3::new(0.0, -0.9, 0.0))
-            {
-                LaneLight::Sphere(..) => cones += 1,
+            match rs.lights.choose_lane((k as f32 + 0.5) / 1000.0) {
+                LaneLight::Shape(..) => cones += 1,
                 LaneLight::Environment(..) => uniform += 1,
                 _ => {}
             }
