@@ -175,6 +175,43 @@ pub fn square_to_uniform_sphere(u: Vec2) -> Vec3 {
     Vec3::new(r * phi.cos(), r * phi.sin(), z)
 }
 
+/// (cos 2πu, sin 2πu) for u in [0, 1], in plain floats and selects so that lane loops
+/// vectorise it: the turn is split into quarters around 0, ¼, ½, ¾ and the remainder
+/// (|φ| ≤ π/4) goes through a Taylor series one term longer than [`cos_sin_quarter`]'s
+/// (first omitted terms below 2·10⁻⁹ there). libm's `sincosf` is a call per lane; this is
+/// what the light samples that the vector bounce computes in its lanes use, and the scalar
+/// samplers of the same lights too, so both give the same bits.
+#[inline(always)]
+pub(crate) fn cos_sin_turn(u: f32) -> (f32, f32) {
+    // The nearest quarter: k in 0..=4 (4 is a full turn, as 0).
+    let k = (u * 4.0 + 0.5).floor();
+    let phi = (u - k * 0.25) * TAU;
+    let x2 = phi * phi;
+    let c = 1.0 + x2 * (-0.5 + x2 * (1.0 / 24.0 + x2 * (-1.0 / 720.0 + x2 * (1.0 / 40320.0))));
+    let s = phi
+        * (1.0
+            + x2 * (-1.0 / 6.0
+                + x2 * (1.0 / 120.0 + x2 * (-1.0 / 5040.0 + x2 * (1.0 / 362_880.0)))));
+    // Rotate by k quarter turns: (c, s) → (−s, c) → (−c, −s) → (s, −c).
+    let (odd, neg_c, neg_s) = (
+        k == 1.0 || k == 3.0,
+        k == 1.0 || k == 2.0,
+        k == 2.0 || k == 3.0,
+    );
+    let (x, y) = if odd { (s, c) } else { (c, s) };
+    (if neg_c { -x } else { x }, if neg_s { -y } else { y })
+}
+
+/// [`square_to_uniform_sphere`] on plain floats with [`cos_sin_turn`]: the same map (z from
+/// `u1`, azimuth from `u0`) in the form lane loops vectorise; pdf = 1/(4π).
+#[inline(always)]
+pub(crate) fn uniform_sphere_map(u0: f32, u1: f32) -> [f32; 3] {
+    let z = 1.0 - 2.0 * u1;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let (c, s) = cos_sin_turn(u0);
+    [r * c, r * s, z]
+}
+
 /// Density of [`square_to_uniform_sphere`].
 pub const UNIFORM_SPHERE_PDF: f32 = 1.0 / (4.0 * PI);
 
@@ -303,6 +340,27 @@ pub(crate) fn shadow_segment(o: [f32; 3], q: [f32; 3], wi: [f32; 3], eps: f32) -
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `cos_sin_turn` against f64's sine and cosine over the whole turn, quarter boundaries
+    /// and both ends included.
+    #[test]
+    fn cos_sin_turn_matches_libm() {
+        let mut worst = 0.0f64;
+        for i in 0..=100_000u32 {
+            let u = i as f32 / 100_000.0;
+            for u in [u, f32::from_bits(u.to_bits().saturating_sub(1))] {
+                let (c, s) = cos_sin_turn(u);
+                let phi = u as f64 * std::f64::consts::TAU;
+                worst = worst
+                    .max((c as f64 - phi.cos()).abs())
+                    .max((s as f64 - phi.sin()).abs());
+            }
+        }
+        assert!(worst < 4e-7, "largest error {worst}");
+        let d = uniform_sphere_map(0.3, 0.8);
+        let v = square_to_uniform_sphere(Vec2::new(0.3, 0.8));
+        assert!((Vec3::from(d) - v).length() < 1e-6, "{d:?} vs {v}");
+    }
 
     #[test]
     fn frame_is_orthonormal() {

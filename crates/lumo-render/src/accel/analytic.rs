@@ -13,7 +13,7 @@ use std::f32::consts::{PI, TAU};
 use glam::{DVec3, Mat3, Mat4, Vec2, Vec3};
 use lumo_scene::{Analytic, AnalyticKind};
 
-use crate::geometry::{square_to_disk, square_to_uniform_sphere, Basis};
+use crate::geometry::{cos_sin_turn, square_to_disk, square_to_uniform_sphere};
 
 /// An exact shape placed in the world.
 #[derive(Clone, Copy, Debug)]
@@ -189,7 +189,13 @@ impl Shape {
     /// The normal at the world point `p` on the shape (re-projected as in
     /// [`Shape::surface_at`]).
     pub fn normal_at(&self, p: Vec3) -> Vec3 {
-        self.sample_at_local(self.project_local(p)).n
+        self.point_at(p).n
+    }
+
+    /// [`Shape::surface_at`]'s position and normal (the same bits) without the uv and
+    /// tangents, for surfaces whose material reads none.
+    pub fn point_at(&self, p: Vec3) -> SurfaceSample {
+        self.sample_at_local(self.project_local(p))
     }
 
     /// The world point `p` in unit-shape space, projected onto the unit shape.
@@ -227,7 +233,7 @@ impl Shape {
 
     /// Whether `from` sees the sphere from outside: then its visible cone is sampled.
     #[inline]
-    fn sees_cone(&self, from: Vec3) -> bool {
+    pub(crate) fn sees_cone(&self, from: Vec3) -> bool {
         self.kind == AnalyticKind::Sphere
             && (self.center - from).length_squared() > self.radius * self.radius
     }
@@ -235,45 +241,23 @@ impl Shape {
     /// sin²θ_max, cos θ_max and 1 − cos θ_max of the cone the sphere fills seen from `from`.
     #[inline]
     fn cone(&self, from: Vec3) -> (f32, f32, f32) {
-        let dc2 = (self.center - from).length_squared();
-        let sin2 = (self.radius * self.radius / dc2).min(1.0);
-        let cos = (1.0 - sin2).max(0.0).sqrt();
-        // 1 − cos without cancellation for small cones.
-        (sin2, cos, sin2 / (1.0 + cos))
+        let (sin2, cos, one_minus_cos) =
+            cone_angles(self.radius, (self.center - from).length_squared());
+        (sin2, cos, one_minus_cos)
     }
 
     /// A point on the shape for a light sample seen from `from`, with its solid-angle density
     /// at `from`: the sphere's visible cone uniformly by solid angle from outside (Mitsuba's
-    /// `sample_direction`), otherwise uniform by area converted to solid angle. `None` where
-    /// the density is zero.
+    /// `sample_direction`, [`cone_point`]), otherwise uniform by area converted to solid
+    /// angle. `None` where the density is zero.
     pub fn sample_direction(&self, from: Vec3, u: Vec2) -> Option<(SurfaceSample, f32)> {
         if self.sees_cone(from) {
-            let (sin2_max, cos_max, one_minus_cos) = self.cone(from);
-            let dc = self.center - from;
-            let inv_dc = 1.0 / dc.length();
-            let sin_max = self.radius * inv_dc;
-            // θ from the cone axis at `from`, uniform in solid angle (Taylor form for tiny cones).
-            let sin2 = if sin2_max > 0.000_685_23 {
-                let c = (cos_max - 1.0) * u.x + 1.0;
-                1.0 - c * c
-            } else {
-                sin2_max * u.x
+            let (p, d, pdf) = cone_point(self.center.into(), self.radius, from.into(), [u.x, u.y]);
+            let d = Vec3::from(d);
+            let point = SurfaceSample {
+                p: Vec3::from(p),
+                n: if self.flip { -d } else { d },
             };
-            let cos_theta = (1.0 - sin2).max(0.0).sqrt();
-            // The angle α at the centre between −axis and the point (Akalin's construction).
-            let cos_alpha = sin2 / sin_max + cos_theta * (1.0 - sin2 / sin2_max).max(0.0).sqrt();
-            let sin_alpha = (1.0 - cos_alpha * cos_alpha).max(0.0).sqrt();
-            let phi = TAU * u.y;
-            let d = Basis::new(-dc * inv_dc)
-                .to_world(Vec3::new(
-                    phi.cos() * sin_alpha,
-                    phi.sin() * sin_alpha,
-                    cos_alpha,
-                ))
-                .normalize();
-            let local = self.to_local.transform_vector3(d).normalize_or(Vec3::Z);
-            let point = self.sample_at_local(local);
-            let pdf = 1.0 / (TAU * one_minus_cos);
             return (pdf.is_finite() && pdf > 0.0).then_some((point, pdf));
         }
         let point = self.sample_area(u);
@@ -306,6 +290,77 @@ impl Shape {
             dist2 / (self.area * cos)
         }
     }
+}
+
+/// sin²θ_max, cos θ_max and 1 − cos θ_max of the cone a sphere of radius `radius` fills seen
+/// from a point at squared distance `dc2` from its centre (outside it).
+#[inline(always)]
+fn cone_angles(radius: f32, dc2: f32) -> (f32, f32, f32) {
+    let sin2 = (radius * radius / dc2).min(1.0);
+    let cos = (1.0 - sin2).max(0.0).sqrt();
+    // 1 − cos without cancellation for small cones.
+    (sin2, cos, sin2 / (1.0 + cos))
+}
+
+/// A point of the sphere (`center`, `radius`) seen from `from` outside it, uniform in the
+/// solid angle of its visible cone (Mitsuba's `Sphere::sample_direction`): the point, the
+/// unit direction from the centre to it (the outward normal) and the solid-angle density at
+/// `from`, 1 / (2π (1 − cos θ_max)) (infinite for a cone too narrow for f32).
+///
+/// Plain floats, no branches but selects and no calls: [`Shape::sample_direction`] and the
+/// vector bounce's lanes run this one formula, so both give the same bits, and in the lanes
+/// the compiler turns its chain of square roots and divisions into vector instructions.
+/// The sphere's placement is not consulted: a sphere is uniformly scaled (Mitsuba requires
+/// it), so its surface is `center + radius · d` for unit `d`.
+#[inline(always)]
+pub(crate) fn cone_point(
+    center: [f32; 3],
+    radius: f32,
+    from: [f32; 3],
+    u: [f32; 2],
+) -> ([f32; 3], [f32; 3], f32) {
+    let dc = [
+        center[0] - from[0],
+        center[1] - from[1],
+        center[2] - from[2],
+    ];
+    let dc2 = (dc[0] * dc[0]) + (dc[1] * dc[1]) + (dc[2] * dc[2]);
+    let (sin2_max, cos_max, one_minus_cos) = cone_angles(radius, dc2);
+    let inv_dc = 1.0 / dc2.sqrt();
+    let sin_max = radius * inv_dc;
+    // θ from the cone axis at `from`, uniform in solid angle (Taylor form for tiny cones).
+    let c = (cos_max - 1.0) * u[0] + 1.0;
+    let sin2 = if sin2_max > 0.000_685_23 {
+        1.0 - c * c
+    } else {
+        sin2_max * u[0]
+    };
+    let cos_theta = (1.0 - sin2).max(0.0).sqrt();
+    // The angle α at the centre between −axis and the point (Akalin's construction).
+    let cos_alpha = sin2 / sin_max + cos_theta * (1.0 - sin2 / sin2_max).max(0.0).sqrt();
+    let sin_alpha = (1.0 - cos_alpha * cos_alpha).max(0.0).sqrt();
+    let (cos_phi, sin_phi) = cos_sin_turn(u[1]);
+    let local = [cos_phi * sin_alpha, sin_phi * sin_alpha, cos_alpha];
+    // Basis::new(−axis).to_world(local), normalised.
+    let n = [-dc[0] * inv_dc, -dc[1] * inv_dc, -dc[2] * inv_dc];
+    let sign = 1.0f32.copysign(n[2]);
+    let a = -1.0 / (sign + n[2]);
+    let b = n[0] * n[1] * a;
+    let s = [1.0 + sign * n[0] * n[0] * a, sign * b, -sign * n[0]];
+    let t = [b, sign + n[1] * n[1] * a, -n[1]];
+    let w = [
+        s[0] * local[0] + t[0] * local[1] + n[0] * local[2],
+        s[1] * local[0] + t[1] * local[1] + n[1] * local[2],
+        s[2] * local[0] + t[2] * local[1] + n[2] * local[2],
+    ];
+    let rcp = 1.0 / ((w[0] * w[0]) + (w[1] * w[1]) + (w[2] * w[2])).sqrt();
+    let d = [w[0] * rcp, w[1] * rcp, w[2] * rcp];
+    let p = [
+        center[0] + d[0] * radius,
+        center[1] + d[1] * radius,
+        center[2] + d[2] * radius,
+    ];
+    (p, d, 1.0 / (TAU * one_minus_cos))
 }
 
 /// The nearest ray parameter in [tmin, tmax] where the object-space ray `o + t·d` meets the

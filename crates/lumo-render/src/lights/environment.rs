@@ -10,7 +10,7 @@ use lumo_scene::EnvMap;
 use super::distribution::Distribution1d;
 use super::source::LightSource;
 use super::{EmissionPdf, EmissionSample, LightSample, Lights};
-use crate::geometry::square_to_uniform_sphere;
+use crate::geometry::uniform_sphere_map;
 
 /// An importance-sampled latitude-longitude environment.
 pub(super) struct EnvSampler {
@@ -169,14 +169,14 @@ impl LightSource for EnvironmentLight {
                 if u.x < 0.5 {
                     e.sample(Vec2::new(u.x * 2.0, u.y))
                 } else {
-                    (
-                        square_to_uniform_sphere(Vec2::new(u.x * 2.0 - 1.0, u.y)),
-                        0.0,
-                    )
+                    let d = uniform_sphere_map(u.x * 2.0 - 1.0, u.y);
+                    (Vec3::from(d), 0.0)
                 }
             }
             (Some(e), false) => e.sample(u),
-            (None, _) => (square_to_uniform_sphere(u), 0.0),
+            // The constant background alone: the uniform direction the vector bounce's lanes
+            // draw too (`uniform_sphere_map`, the same bits).
+            (None, _) => (Vec3::from(uniform_sphere_map(u.x, u.y)), 0.0),
         };
         let pdf = pick * lights.env_direction_pdf(wi);
         if pdf <= 0.0 {

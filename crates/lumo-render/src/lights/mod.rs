@@ -25,6 +25,7 @@ pub use emission::{EmissionPdf, EmissionSample};
 use environment::{EnvSampler, EnvironmentLight};
 use point::PointLight;
 pub use polygon::{triangle_cosine_integral, CosineTriangle};
+pub(crate) use shape::towards;
 use shape::ShapeLight;
 pub use spot::SpotCone;
 use spot::SpotLight;
@@ -143,6 +144,18 @@ pub struct LightSample {
     pub light: u32,
     /// The area light's unit normal at `point` (zero for other lights).
     pub normal: Vec3,
+}
+
+/// A light as [`Lights::choose_lane`] hands it to the vector bounce, with the probability it
+/// was picked with.
+#[derive(Clone, Copy)]
+pub(crate) enum LaneLight<'a> {
+    /// An emissive sphere, disk or cylinder.
+    Shape(f32, &'a ShapeLight),
+    /// The constant environment (no image).
+    Environment(f32),
+    /// Any other light, or none: the scalar path samples it.
+    Other,
 }
 
 /// All lights of a scene with a power-proportional choice among them.
@@ -373,6 +386,30 @@ impl Lights {
             }
             _ => None,
         }
+    }
+
+    /// The light [`Lights::sample`] picks for `u_choice` where [`Lights::choose_triangle`]
+    /// gave no triangle, as the vector bounce sorts it: an exact shape (whose sphere cone the
+    /// lanes sample, [`ShapeLight::sphere_lane`]), the constant environment (no image), or
+    /// anything else, including nothing to pick ([`LaneLight::Other`], sampled on the scalar
+    /// path). Asked only after `choose_triangle`, which stays the triangle lanes' whole
+    /// choice: one match for every kind cost the Cornell box's light loop ~1 % of the render's
+    /// instructions.
+    #[inline(always)]
+    pub(crate) fn choose_lane(&self, u_choice: f32) -> LaneLight<'_> {
+        match self.choose(u_choice) {
+            Some((_, pick, LightKind::Shape(shape))) => LaneLight::Shape(pick, shape),
+            Some((_, pick, LightKind::Environment(_))) if self.env.is_none() => {
+                LaneLight::Environment(pick)
+            }
+            _ => LaneLight::Other,
+        }
+    }
+
+    /// The constant environment's radiance (zero without one): what
+    /// [`Lights::environment`] gives in every direction where there is no image.
+    pub(crate) fn constant_radiance(&self) -> Vec3 {
+        self.constant
     }
 
     /// Light `light` if it is an emissive triangle of constant radiance (the lights that the

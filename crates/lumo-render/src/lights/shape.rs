@@ -18,6 +18,83 @@ pub(crate) struct ShapeLight {
     pub(super) radiance: Vec3,
 }
 
+/// A shape light's sample seen from a shading point, in plain floats (see [`towards`]).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct TowardsLight {
+    /// Unit direction from the shading point to the light point.
+    pub wi: [f32; 3],
+    /// Distance to the light point.
+    pub distance: f32,
+    /// Radiance over the full density (light choice included).
+    pub weight: [f32; 3],
+    /// Solid-angle density, light choice included.
+    pub pdf: f32,
+    /// Whether the sample counts: the light point faces `from` and is not at it.
+    pub ok: bool,
+}
+
+/// The light sample of point `q` with unit normal `n` on a shape light of radiance
+/// `radiance`, picked with probability `pick` and then with solid-angle density `pdf` from
+/// the shading point `from`. Plain floats, no branches: the scalar sampler and the vector
+/// bounce's lanes share it, so both give the same bits.
+#[inline(always)]
+pub(crate) fn towards(
+    q: [f32; 3],
+    n: [f32; 3],
+    pdf: f32,
+    pick: f32,
+    radiance: [f32; 3],
+    from: [f32; 3],
+) -> TowardsLight {
+    let d = [q[0] - from[0], q[1] - from[1], q[2] - from[2]];
+    let distance = ((d[0] * d[0]) + (d[1] * d[1]) + (d[2] * d[2])).sqrt();
+    let inv = 1.0 / distance;
+    let wi = [d[0] * inv, d[1] * inv, d[2] * inv];
+    let facing = (n[0] * -wi[0]) + (n[1] * -wi[1]) + (n[2] * -wi[2]);
+    let pdf = pick * pdf;
+    let inv_pdf = 1.0 / pdf;
+    TowardsLight {
+        wi,
+        distance,
+        weight: [
+            radiance[0] * inv_pdf,
+            radiance[1] * inv_pdf,
+            radiance[2] * inv_pdf,
+        ],
+        pdf,
+        ok: !(facing <= 0.0 || distance <= 0.0),
+    }
+}
+
+/// What the vector bounce reads of a sphere light seen from outside (whose cone it samples).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct SphereLane {
+    /// World centre.
+    pub center: Vec3,
+    /// World radius.
+    pub radius: f32,
+    /// Normals point inwards (the sphere emits inwards).
+    pub flip: bool,
+    /// Emitted radiance.
+    pub radiance: Vec3,
+}
+
+impl ShapeLight {
+    /// This light as the vector bounce samples it from `from`, if it is a sphere that `from`
+    /// sees from outside (the cone sample of [`crate::accel::analytic::cone_point`]); other
+    /// shapes, and a sphere's inside, are sampled by area on the scalar path.
+    #[inline(always)]
+    pub(crate) fn sphere_lane(&self, from: Vec3) -> Option<SphereLane> {
+        let shape = &self.shape;
+        shape.sees_cone(from).then_some(SphereLane {
+            center: shape.center,
+            radius: shape.radius,
+            flip: shape.flip,
+            radiance: self.radiance,
+        })
+    }
+}
+
 impl LightSource for ShapeLight {
     fn power(&self, _disk: f32) -> f32 {
         let shape = &self.shape;
@@ -46,21 +123,22 @@ impl LightSource for ShapeLight {
         u: Vec2,
     ) -> Option<LightSample> {
         let (sp, pdf) = self.shape.sample_direction(p, u)?;
-        let d = sp.p - p;
-        let distance = d.length();
-        let wi = d / distance;
-        if sp.n.dot(-wi) <= 0.0 || distance <= 0.0 {
-            return None;
-        }
-        let pdf = pick * pdf;
-        Some(LightSample {
+        let s = towards(
+            sp.p.into(),
+            sp.n.into(),
+            pdf,
+            pick,
+            self.radiance.into(),
+            p.into(),
+        );
+        s.ok.then(|| LightSample {
             light,
             normal: sp.n,
-            wi,
-            distance,
+            wi: Vec3::from(s.wi),
+            distance: s.distance,
             point: sp.p,
-            weight: self.radiance / pdf,
-            pdf,
+            weight: Vec3::from(s.weight),
+            pdf: s.pdf,
         })
     }
 

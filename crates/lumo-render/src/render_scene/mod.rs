@@ -74,6 +74,12 @@ pub struct RenderScene {
     /// Per material, whether its back side is black (an opaque BSDF that is not two-sided:
     /// Mitsuba's plain BSDFs).
     one_sided: Vec<bool>,
+    /// Per scene material, whether nothing of it reads the texture coordinates (a constant
+    /// diffuse reflectance, no emission texture, no adapter): an exact shape's hit then skips
+    /// its uv in [`RenderScene::shading_surface`], an `atan2` and an `acos` no one reads. Set once, as `finite_textures`: the
+    /// viewer's edits only make colours constant, and a material that still computes its uv
+    /// renders the same.
+    ignores_uv: Vec<bool>,
     /// Per material, whether the BSDF under its adapters is black from behind (as
     /// `one_sided`, but also under a mask, whose straight-through lobe still lets light pass).
     back_black: Vec<bool>,
@@ -336,6 +342,19 @@ impl RenderScene {
                 _ => false,
             })
             .collect();
+        let ignores_uv = scene
+            .materials
+            .iter()
+            .map(|m| {
+                m.emission_map.is_none()
+                    && matches!(
+                        m.bsdf,
+                        BsdfSpec::Diffuse {
+                            reflectance: Texture::Constant(_)
+                        }
+                    )
+            })
+            .collect();
         let (placements, shapes, simple_diffuse) = instance_tables(&scene, &finite_textures);
         let unit_normals = scene.meshes.iter().map(unit_normals).collect();
         let mesh_boxes = scene
@@ -359,6 +378,7 @@ impl RenderScene {
             prepared,
             anisotropic,
             one_sided,
+            ignores_uv,
             back_black,
             has_branches: branches.iter().any(Option::is_some),
             has_masks,
@@ -611,10 +631,26 @@ impl RenderScene {
     /// Reconstructs the surface at `hit` of the ray with direction `dir`.
     #[inline(always)]
     pub fn surface(&self, hit: &Hit, origin: Vec3, dir: Vec3) -> Surface {
+        self.surface_with(hit, origin, dir, true)
+    }
+
+    /// [`RenderScene::surface`] for shading only: on an exact shape whose material reads no
+    /// texture coordinates (`ignores_uv`) the uv is left zero, skipping an `atan2` and an
+    /// `acos`. Everything else is the same bits. (The path tracer's hits; `surface` keeps the
+    /// uv for every other caller.)
+    #[inline(always)]
+    pub(crate) fn shading_surface(&self, hit: &Hit, origin: Vec3, dir: Vec3) -> Surface {
+        self.surface_with(hit, origin, dir, false)
+    }
+
+    /// [`RenderScene::surface`], with the uv of exact shapes only where `uv` asks for it or
+    /// the material reads it.
+    #[inline(always)]
+    fn surface_with(&self, hit: &Hit, origin: Vec3, dir: Vec3, uv: bool) -> Surface {
         let inst = &self.scene.instances[hit.instance as usize];
         let place = &self.placements[hit.instance as usize];
         if place.analytic {
-            return self.analytic_surface(hit, origin, dir);
+            return self.analytic_surface(hit, origin, dir, uv);
         }
         let mesh = &self.scene.meshes[inst.mesh];
         let [i0, i1, i2] = mesh.indices[hit.triangle as usize].map(|i| i as usize);
@@ -683,25 +719,34 @@ impl RenderScene {
     }
 
     /// The surface of an exact shape at `hit`: the hit point re-projected onto it, the
-    /// shape's normal as both geometric and shading normal, Mitsuba's uv.
+    /// shape's normal as both geometric and shading normal, Mitsuba's uv (zero where `uv` is
+    /// false and the material reads none).
     #[cold]
-    fn analytic_surface(&self, hit: &Hit, origin: Vec3, dir: Vec3) -> Surface {
+    fn analytic_surface(&self, hit: &Hit, origin: Vec3, dir: Vec3, uv: bool) -> Surface {
         let inst = &self.scene.instances[hit.instance as usize];
         let material = self.scene.meshes[inst.mesh].material;
         let Some(shape) = &self.shapes[hit.instance as usize] else {
             unreachable!("analytic placement without a shape");
         };
-        let sp = shape.surface_at(origin + dir * hit.t);
+        let at = origin + dir * hit.t;
+        // The same point and normal either way (`surface_at` projects as `point_at` does).
+        let (p, n, uv) = if !uv && self.ignores_uv[material] {
+            let sp = shape.point_at(at);
+            (sp.p, sp.n, Vec2::ZERO)
+        } else {
+            let sp = shape.surface_at(at);
+            (sp.p, sp.n, sp.uv)
+        };
         let surface = Surface {
-            p: sp.p,
-            ng: sp.n,
-            frame: Basis::new(sp.n),
-            uv: sp.uv,
+            p,
+            ng: n,
+            frame: Basis::new(n),
+            uv,
             color: Vec3::ONE,
             material,
             instance: hit.instance,
             triangle: 0,
-            back: dir.dot(sp.n) > 0.0,
+            back: dir.dot(n) > 0.0,
         };
         if self.anisotropic[material] {
             return self.with_tangent_frame(surface);

@@ -310,7 +310,7 @@ impl PathState {
             }
             return None;
         };
-        let s = rs.surface(&hit, self.origin, dir);
+        let s = rs.shading_surface(&hit, self.origin, dir);
         let bsdf = rs.bsdf(&s);
         let le = rs.emission(&s, dir);
         self.take_hit(rs, settings, &s, hit.t, &bsdf.bsdf, le);

@@ -2,9 +2,12 @@
 //! diffuse surface (constant or textured reflectance) in world space, flat or with vertex
 //! normals. Used by the wavefront renderer for the lanes that qualify
 //! ([`RenderScene::simple_diffuse`]); all others take [`PathState::advance`]. Light samples on
-//! emissive triangles of constant radiance are computed in the lanes; a lane that picked any
-//! other light (sun, environment, point, spot, exact shape, textured emitter) gets its shadow
-//! ray from the scalar path's own light sample and connection.
+//! emissive triangles of constant radiance, on sphere lights seen from outside (their visible
+//! cone) and of the constant environment are computed in the lanes under RGB transport, with
+//! the scalar samplers' own plain-float formulas (`cone_point`, `towards`,
+//! `uniform_sphere_map`); a lane that picked any other light (sun, environment image, point,
+//! spot, disk or cylinder, textured emitter) or a spectral path's sphere or environment gets
+//! its shadow ray from the scalar path's own light sample and connection.
 //!
 //! Why: after packet traversal, shading and sampling one path at a time was ≈ 60 % of a
 //! Cornell-box render, a few hundred scalar instructions per bounce with square roots and
@@ -24,14 +27,17 @@
 
 use glam::{Vec2, Vec3};
 
+use crate::accel::analytic::cone_point;
 use crate::accel::packet::LANES;
 use crate::accel::Hit;
 use crate::bsdf::{Bsdf, Diffuse};
 use crate::geometry::{
     cosine_pdf, disk_map, hemisphere_z, offset_point, power_heuristic, shading_frame_lane,
-    shadow_segment, survival_probability, triangle_map, vmax, Basis,
+    shadow_segment, survival_probability, triangle_map, uniform_sphere_map, vmax, Basis,
+    UNIFORM_SPHERE_PDF,
 };
 use crate::integrators::path::{Arrival, BounceNumbers, PathSettings, PathState, ShadowRay};
+use crate::lights::{towards, LaneLight};
 use crate::render_scene::{RenderScene, Surface};
 
 const N: usize = LANES;
@@ -123,6 +129,75 @@ fn other_light(
     };
     let light = path.sample_light(rs, settings, &at, &u);
     path.connect(rs, settings, &at, light)
+}
+
+/// A lane's shading point as the connection to a light reads it.
+struct Shading {
+    p: [f32; 3],
+    ng: [f32; 3],
+    ns: [f32; 3],
+    /// z of the outgoing direction in the shading frame.
+    woz: f32,
+    albedo: [f32; 3],
+    throughput: [f32; 3],
+}
+
+/// A lane's shadow ray towards a light sample and what it carries.
+struct LaneShadow {
+    origin: [f32; 3],
+    dir: [f32; 3],
+    tmax: f32,
+    contribution: [f32; 3],
+    /// The BSDF is zero towards the light: no shadow ray (`connect` returns none).
+    f_zero: bool,
+}
+
+/// `PathState::connect` for the two-sided diffuse BSDF of a lane: the BSDF towards `wi`, the
+/// shadow ray from the offset point to the light point `q` (`finite`) or along `wi` to
+/// infinity (a distant light), and the light sample's `weight` times the BSDF and the
+/// power-heuristic weight against BSDF sampling (light density `pdf`). The same operations
+/// in the same order as the scalar path, for any kind of light sample the lanes draw.
+#[inline(always)]
+fn connect_lane(
+    s: &Shading,
+    (q, wi, finite): ([f32; 3], [f32; 3], bool),
+    weight: [f32; 3],
+    pdf: f32,
+    eps: f32,
+) -> LaneShadow {
+    // Bsdf::eval for a diffuse BSDF, two-sided.
+    let wiz = dot(wi, s.ns);
+    let flip = s.woz < 0.0;
+    let woz = sel(flip, -s.woz, s.woz);
+    let wiz = sel(flip, -wiz, wiz);
+    let front = !(woz <= 0.0 || wiz <= 0.0);
+    let cos_pdf = cosine_pdf(wiz);
+    let f = [
+        sel(front, s.albedo[0] * cos_pdf, 0.0),
+        sel(front, s.albedo[1] * cos_pdf, 0.0),
+        sel(front, s.albedo[2] * cos_pdf, 0.0),
+    ];
+    let origin = offset_point(s.p, s.ng, wi, eps);
+    let (sdir, tmax) = shadow_segment(origin, q, wi, eps);
+    // Bsdf::pdf: 0 when the viewer is below the (oriented) surface.
+    let bsdf_pdf = sel(woz <= 0.0, 0.0, cos_pdf);
+    let w = sel(pdf > 0.0, power_heuristic(pdf, bsdf_pdf), 1.0);
+    let t = s.throughput;
+    LaneShadow {
+        origin,
+        dir: [
+            sel(finite, sdir[0], wi[0]),
+            sel(finite, sdir[1], wi[1]),
+            sel(finite, sdir[2], wi[2]),
+        ],
+        tmax: sel(finite, tmax, f32::INFINITY),
+        contribution: [
+            t[0] * f[0] * weight[0] * w,
+            t[1] * f[1] * weight[1] * w,
+            t[2] * f[2] * weight[2] * w,
+        ],
+        f_zero: f[0] == 0.0 && f[1] == 0.0 && f[2] == 0.0,
+    }
 }
 
 lumo_simd::multiversion! {
@@ -289,6 +364,10 @@ lumo_simd::multiversion! {
         );
         let (mut pick, mut area) = ([1.0f32; N], [0.0f32; N]);
         let mut has_light = [false; N];
+        // Lanes sampling a sphere light's cone (centre, radius, inward normals) or the
+        // constant environment; their radiance goes in `lrad`, their choice in `pick`.
+        let (mut is_sphere, mut is_env) = ([false; N], [false; N]);
+        let (mut sc, mut srad, mut sflip) = ([[0.0f32; N]; 3], [0.0f32; N], [false; N]);
         for (i, &(p, _)) in lanes.iter().enumerate().take(n) {
             if !alive[i] {
                 continue;
@@ -301,10 +380,41 @@ lumo_simd::multiversion! {
             u_dir[1][i] = u.direction.y;
             u_rr[i] = u.roulette;
             let Some((pk, tri, light)) = rs.lights.choose_triangle(u.light) else {
-                // Another light (a sun, an environment, a point, spot or exact-shape light, a
-                // textured emitter): the scalar path's own light sample and connection. Its
-                // shadow ray goes first in the list; a path has one per bounce, so the order of
-                // the list changes nothing.
+                let chosen = rs.lights.choose_lane(u.light);
+                // A sphere seen from outside and the constant environment are sampled in the
+                // lanes below under RGB transport (a spectral path's light weight goes through
+                // the light's spectrum, on the scalar path).
+                let rgb = path.wl.is_none();
+                let sphere = match chosen {
+                    LaneLight::Shape(pk, shape) if rgb => {
+                        shape.sphere_lane(Vec3::from(at(&pos, i))).map(|s| (pk, s))
+                    }
+                    _ => None,
+                };
+                if let Some((pk, sphere)) = sphere {
+                    is_sphere[i] = true;
+                    pick[i] = pk;
+                    sflip[i] = sphere.flip;
+                    srad[i] = sphere.radius;
+                    for a in 0..3 {
+                        sc[a][i] = sphere.center[a];
+                        lrad[a][i] = sphere.radiance[a];
+                    }
+                    continue;
+                }
+                if let (LaneLight::Environment(pk), true) = (chosen, rgb) {
+                    is_env[i] = true;
+                    pick[i] = pk;
+                    let radiance = rs.lights.constant_radiance();
+                    for a in 0..3 {
+                        lrad[a][i] = radiance[a];
+                    }
+                    continue;
+                }
+                // Another light (a sun, an environment image, a point, spot or other exact
+                // shape, a textured emitter): the scalar path's own light sample and
+                // connection. Its shadow ray goes first in the list; a path has one per
+                // bounce, so the order of the list changes nothing.
                 let lane = Lane {
                     p: at(&pos, i),
                     ng: at(&ng, i),
@@ -342,6 +452,15 @@ lumo_simd::multiversion! {
         let mut sh_ok = [false; N];
         let (mut sh_o, mut sh_d, mut sh_c) = ([[0.0f32; N]; 3], [[0.0f32; N]; 3], [[0.0f32; N]; 3]);
         let mut sh_tmax = [0.0f32; N];
+        let shading = |i: usize| Shading {
+            p: at(&pos, i),
+            ng: at(&ng, i),
+            ns: at(&ns, i),
+            woz: wo[2][i],
+            albedo: at(&albedo, i),
+            throughput: at(&thr, i),
+        };
+        if has_light.contains(&true) {
         for i in 0..N {
             let (bx, by) = triangle_map(u_light2[0][i], u_light2[1][i]);
             let p = at(&pos, i);
@@ -366,35 +485,71 @@ lumo_simd::multiversion! {
                 && weight[0].is_finite()
                 && weight[1].is_finite()
                 && weight[2].is_finite();
-            // Bsdf::eval for a diffuse BSDF, two-sided.
-            let wil = [
-                dot(wi, at(&fs, i)),
-                dot(wi, at(&ft, i)),
-                dot(wi, at(&ns, i)),
-            ];
-            let flip = wo[2][i] < 0.0;
-            let woz = sel(flip, -wo[2][i], wo[2][i]);
-            let wiz = sel(flip, -wil[2], wil[2]);
-            let front = !(woz <= 0.0 || wiz <= 0.0);
-            let cos_pdf = cosine_pdf(wiz);
-            let f = [
-                sel(front, albedo[0][i] * cos_pdf, 0.0),
-                sel(front, albedo[1][i] * cos_pdf, 0.0),
-                sel(front, albedo[2][i] * cos_pdf, 0.0),
-            ];
-            ok &= !(f[0] == 0.0 && f[1] == 0.0 && f[2] == 0.0);
-            let so = offset_point(p, at(&ng, i), wi, eps);
-            let (sdir, tmax) = shadow_segment(so, q, wi, eps);
-            // Bsdf::pdf: 0 when the viewer is below the (oriented) surface.
-            let bsdf_pdf = sel(woz <= 0.0, 0.0, cos_pdf);
-            let w = sel(pdf > 0.0, power_heuristic(pdf, bsdf_pdf), 1.0);
+            let sh = connect_lane(&shading(i), (q, wi, true), weight, pdf, eps);
+            ok &= !sh.f_zero;
             for a in 0..3 {
-                sh_o[a][i] = so[a];
-                sh_d[a][i] = sdir[a];
-                sh_c[a][i] = thr[a][i] * f[a] * weight[a] * w;
+                sh_o[a][i] = sh.origin[a];
+                sh_d[a][i] = sh.dir[a];
+                sh_c[a][i] = sh.contribution[a];
             }
-            sh_tmax[i] = tmax;
+            sh_tmax[i] = sh.tmax;
             sh_ok[i] = ok;
+        }
+        }
+
+        // The same for sphere lights (a point of the visible cone, `ShapeLight::sample_from`)
+        // and the constant environment (a uniform direction, `EnvironmentLight::sample_from`):
+        // each kind's sample where a lane drew one, then one connection for both.
+        let (any_sphere, any_env) = (is_sphere.contains(&true), is_env.contains(&true));
+        if any_sphere || any_env {
+            let (mut gq, mut gwi, mut gw) = ([[0.0f32; N]; 3], [[0.0f32; N]; 3], [[0.0f32; N]; 3]);
+            let (mut gpdf, mut gok) = ([0.0f32; N], [false; N]);
+            if any_sphere {
+                for i in 0..N {
+                    let from = at(&pos, i);
+                    let u = [u_light2[0][i], u_light2[1][i]];
+                    let (q, d, cone_pdf) = cone_point(at(&sc, i), srad[i], from, u);
+                    let n = [sel(sflip[i], -d[0], d[0]), sel(sflip[i], -d[1], d[1]), sel(sflip[i], -d[2], d[2])];
+                    let ls = towards(q, n, cone_pdf, pick[i], at(&lrad, i), from);
+                    for a in 0..3 {
+                        gq[a][i] = q[a];
+                        gwi[a][i] = ls.wi[a];
+                        gw[a][i] = ls.weight[a];
+                    }
+                    gpdf[i] = ls.pdf;
+                    gok[i] = is_sphere[i] && cone_pdf.is_finite() && cone_pdf > 0.0 && ls.ok;
+                }
+            }
+            if any_env {
+                for i in 0..N {
+                    let wi = uniform_sphere_map(u_light2[0][i], u_light2[1][i]);
+                    let pdf = pick[i] * UNIFORM_SPHERE_PDF;
+                    let e = is_env[i];
+                    for a in 0..3 {
+                        gwi[a][i] = sel(e, wi[a], gwi[a][i]);
+                        gw[a][i] = sel(e, lrad[a][i] / pdf, gw[a][i]);
+                    }
+                    gpdf[i] = sel(e, pdf, gpdf[i]);
+                    gok[i] = if e { pdf > 0.0 } else { gok[i] };
+                }
+            }
+            for i in 0..N {
+                let (wi, weight) = (at(&gwi, i), at(&gw, i));
+                let mut ok = alive[i]
+                    && gok[i]
+                    && weight[0].is_finite()
+                    && weight[1].is_finite()
+                    && weight[2].is_finite();
+                let sh = connect_lane(&shading(i), (at(&gq, i), wi, is_sphere[i]), weight, gpdf[i], eps);
+                ok &= !sh.f_zero;
+                for a in 0..3 {
+                    sh_o[a][i] = sel(ok, sh.origin[a], sh_o[a][i]);
+                    sh_d[a][i] = sel(ok, sh.dir[a], sh_d[a][i]);
+                    sh_c[a][i] = sel(ok, sh.contribution[a], sh_c[a][i]);
+                }
+                sh_tmax[i] = sel(ok, sh.tmax, sh_tmax[i]);
+                sh_ok[i] |= ok;
+            }
         }
 
         // BSDF sampling (cosine hemisphere by the concentric disk), the continuation ray and
@@ -594,6 +749,87 @@ mod tests {
             .lights
             .extend(crate::test_lights::every_other_light_kind());
         let rs = RenderScene::new(scene).expect("valid scene");
+        let settings = PathSettings {
+            max_depth: 6,
+            rr_depth: 3,
+            ..Default::default()
+        };
+        for level in Isa::detect().up_to() {
+            check_level(&rs, &settings, level, 20);
+        }
+    }
+
+    /// The same where lanes pick sphere lights (their cones sampled, connected and weighed in
+    /// the lanes: one lamp-sized, one large, one with inward normals, one placed by an instance
+    /// transform) beside the Cornell box's area light and a constant environment (its uniform
+    /// sample in the lanes too): every lane's shadow ray (direction, distance, contribution)
+    /// and continuation must be `advance`'s, bit for bit.
+    #[test]
+    fn vector_bounce_equals_advance_with_sphere_lights() {
+        use glam::Mat4;
+        use lumo_scene::{Analytic, AnalyticKind, Light, Material};
+        let mut scene = lumo_scene::builtin_scene("cornell").expect("built-in");
+        let spheres = [
+            (
+                Vec3::new(-0.5, 0.6, 0.2),
+                0.03,
+                Vec3::new(40.0, 30.0, 20.0),
+                false,
+            ),
+            (
+                Vec3::new(0.4, -0.3, -0.4),
+                0.25,
+                Vec3::new(1.0, 2.0, 3.0),
+                false,
+            ),
+            (
+                Vec3::new(0.0, 0.2, 0.0),
+                0.1,
+                Vec3::new(5.0, 5.0, 5.0),
+                true,
+            ),
+            (
+                Vec3::new(0.3, 0.7, -0.1),
+                0.05,
+                Vec3::new(9.0, 4.0, 2.0),
+                false,
+            ),
+        ];
+        for (k, (c, r, emission, flip)) in spheres.into_iter().enumerate() {
+            let mut lamp = Material::diffuse("lamp", Vec3::splat(0.5));
+            lamp.emission = emission;
+            let material = scene.add_material(lamp);
+            let placed = Mat4::from_translation(c) * Mat4::from_scale(Vec3::splat(r));
+            let mut ball = lumo_scene::shapes::sphere(&placed, material, 6, 12);
+            ball.analytic = Some(Analytic {
+                kind: AnalyticKind::Sphere,
+                to_mesh: placed,
+                flip_normals: flip,
+            });
+            let mesh = scene.add_mesh(ball);
+            if k == 3 {
+                if let Some(inst) = scene.instances.iter_mut().find(|i| i.mesh == mesh) {
+                    inst.transform = Mat4::from_translation(Vec3::new(-0.1, -0.05, 0.02));
+                }
+            }
+        }
+        scene.lights.push(Light::Constant {
+            radiance: Vec3::new(0.3, 0.2, 0.1),
+        });
+        let rs = RenderScene::new(scene).expect("valid scene");
+        // Both kinds are picked often enough to be walked.
+        let (mut cones, mut uniform) = (0, 0);
+        for k in 0..1000 {
+            match rs.lights.choose_lane((k as f32 + 0.5) / 1000.0) {
+                LaneLight::Shape(..) => cones += 1,
+                LaneLight::Environment(..) => uniform += 1,
+                _ => {}
+            }
+        }
+        assert!(
+            cones > 100 && uniform > 20,
+            "{cones} sphere, {uniform} environment picks"
+        );
         let settings = PathSettings {
             max_depth: 6,
             rr_depth: 3,
