@@ -43,6 +43,8 @@ mod surface_motion;
 mod test_camera;
 #[cfg(test)]
 mod test_lights;
+#[cfg(test)]
+mod test_shapes;
 
 pub use camera_hits::{camera_hits, camera_hits_into, pixel_centre_ray};
 pub use dirac_direct::dirac_direct;

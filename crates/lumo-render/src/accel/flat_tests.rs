@@ -2,11 +2,12 @@
 //! (distance, instance, triangle, barycentrics) and occlusion, ray by ray and in packets.
 
 use glam::{Mat4, Vec3};
-use lumo_scene::{builtin_scene, Analytic, AnalyticKind, Scene};
+use lumo_scene::{builtin_scene, Scene};
 
 use crate::accel::packet::{RayPacket, LANES};
 use crate::accel::{Accel, Hit};
 use crate::sampler::hash_u32;
+use crate::test_shapes::{add_exact_sphere, translate_instances};
 
 /// A deterministic number in [0, 1) from `i`.
 fn rnd(i: u32) -> f32 {
@@ -25,18 +26,9 @@ fn cornell_with_spheres(n: u32) -> Scene {
         } else {
             0.1 + 0.4 * rnd(5 * k + 3)
         };
-        let placed = Mat4::from_translation(c) * Mat4::from_scale(Vec3::splat(r));
-        let mut ball = lumo_scene::shapes::sphere(&placed, material, 6, 12);
-        ball.analytic = Some(Analytic {
-            kind: AnalyticKind::Sphere,
-            to_mesh: placed,
-            flip_normals: false,
-        });
-        let mesh = scene.add_mesh(ball);
+        let mesh = add_exact_sphere(&mut scene, c, r, material, false);
         if k == 1 {
-            if let Some(inst) = scene.instances.iter_mut().find(|i| i.mesh == mesh) {
-                inst.transform = Mat4::from_translation(Vec3::new(0.1, -0.05, 0.02));
-            }
+            translate_instances(&mut scene, mesh, Vec3::new(0.1, -0.05, 0.02));
         }
     }
     scene

@@ -2,7 +2,7 @@
 
 use crate::common;
 
-use common::{load, scenes, temp_dir, write};
+use common::{load, png8, scenes, temp_dir, write};
 use lumo_scene::load::{load_scene, LoadOptions};
 use lumo_scene::{BsdfSpec, FovAxis, Light, Vec3};
 
@@ -356,14 +356,7 @@ fn orthographic_camera_is_kept() {
 
 /// A 1×1 8-bit RGB PNG of `rgb`.
 fn png_1x1(rgb: [u8; 3]) -> Vec<u8> {
-    let mut out = vec![];
-    let mut enc = png::Encoder::new(&mut out, 1, 1);
-    enc.set_color(png::ColorType::Rgb);
-    enc.set_depth(png::BitDepth::Eight);
-    let mut w = enc.write_header().unwrap();
-    w.write_image_data(&rgb).unwrap();
-    drop(w);
-    out
+    png8(1, 1, png::ColorType::Rgb, &rgb)
 }
 
 /// hierarchy.gltf with the gold material's roughness factor `roughness` and, if given, a
@@ -502,15 +495,12 @@ fn normal_and_emissive_textures_are_kept_per_texel() {
 
 /// A 2×1 8-bit RGBA PNG of white texels with alphas `a`.
 fn png_rgba_2x1(a: [u8; 2]) -> Vec<u8> {
-    let mut out = vec![];
-    let mut enc = png::Encoder::new(&mut out, 2, 1);
-    enc.set_color(png::ColorType::Rgba);
-    enc.set_depth(png::BitDepth::Eight);
-    let mut w = enc.write_header().unwrap();
-    w.write_image_data(&[255, 255, 255, a[0], 255, 255, 255, a[1]])
-        .unwrap();
-    drop(w);
-    out
+    png8(
+        2,
+        1,
+        png::ColorType::Rgba,
+        &[255, 255, 255, a[0], 255, 255, 255, a[1]],
+    )
 }
 
 /// hierarchy.gltf with `pbr` JSON members added to the gold material's pbrMetallicRoughness,
@@ -697,13 +687,7 @@ fn a_light_range_is_read_and_checked() {
 #[test]
 fn a_normal_texture_transform_moves_the_lookup() {
     let dir = temp_dir("gltf-normal-transform");
-    let mut png = vec![];
-    let mut enc = png::Encoder::new(&mut png, 2, 1);
-    enc.set_color(png::ColorType::Rgb);
-    enc.set_depth(png::BitDepth::Eight);
-    let mut w = enc.write_header().unwrap();
-    w.write_image_data(&[128, 128, 255, 255, 128, 128]).unwrap();
-    drop(w);
+    let png = png8(2, 1, png::ColorType::Rgb, &[128, 128, 255, 255, 128, 128]);
     write(&dir, "mr.png", png);
     let normal = |transform: &str| {
         let extra = format!("\"normalTexture\": {{\"index\": 0{transform}}}");

@@ -4,20 +4,17 @@
 
 use crate::common;
 
-use common::{load, scenes, temp_dir, write};
+use common::{load, png8, scenes, temp_dir, write};
 use lumo_scene::{BsdfSpec, GltfExtensions, Vec2, Vec3};
 
 /// A 2×1 8-bit RGBA PNG: a white and a (255, 128, 0) texel with alphas `a`.
 fn png_rgba_2x1(a: [u8; 2]) -> Vec<u8> {
-    let mut out = vec![];
-    let mut enc = png::Encoder::new(&mut out, 2, 1);
-    enc.set_color(png::ColorType::Rgba);
-    enc.set_depth(png::BitDepth::Eight);
-    let mut w = enc.write_header().unwrap();
-    w.write_image_data(&[255, 255, 255, a[0], 255, 128, 0, a[1]])
-        .unwrap();
-    drop(w);
-    out
+    png8(
+        2,
+        1,
+        png::ColorType::Rgba,
+        &[255, 255, 255, a[0], 255, 128, 0, a[1]],
+    )
 }
 
 /// hierarchy.gltf with the gold material's `extensions` set to `ext`, `spec.png` as image 0
@@ -254,13 +251,7 @@ fn unlit_materials_emit_their_base_colour() {
 fn clearcoat_factors_and_normal_texture_are_read() {
     let dir = temp_dir("gltf-coat");
     // Raw texels (255, 51, 0) and (102, 255, 0): normals (1, −0.6, −1) and (−0.2, 1, −1).
-    let mut png = vec![];
-    let mut enc = png::Encoder::new(&mut png, 2, 1);
-    enc.set_color(png::ColorType::Rgb);
-    enc.set_depth(png::BitDepth::Eight);
-    let mut w = enc.write_header().unwrap();
-    w.write_image_data(&[255, 51, 0, 102, 255, 0]).unwrap();
-    drop(w);
+    let png = png8(2, 1, png::ColorType::Rgb, &[255, 51, 0, 102, 255, 0]);
     write(&dir, "spec.png", png);
     let used = "\"extensionsUsed\": [\"KHR_lights_punctual\", \"KHR_materials_clearcoat\"], \
                 \"extensionsRequired\": [\"KHR_materials_clearcoat\"]";
@@ -387,13 +378,7 @@ fn bad_sheen_input_warns_or_is_refused() {
 #[test]
 fn clearcoat_textures_are_read_per_texel() {
     let dir = temp_dir("gltf-coat-textures");
-    let mut png = vec![];
-    let mut enc = png::Encoder::new(&mut png, 2, 1);
-    enc.set_color(png::ColorType::Rgb);
-    enc.set_depth(png::BitDepth::Eight);
-    let mut w = enc.write_header().unwrap();
-    w.write_image_data(&[255, 51, 0, 102, 255, 0]).unwrap();
-    drop(w);
+    let png = png8(2, 1, png::ColorType::Rgb, &[255, 51, 0, 102, 255, 0]);
     write(&dir, "spec.png", png);
     let used = "\"extensionsUsed\": [\"KHR_lights_punctual\", \"KHR_materials_clearcoat\"]";
     let ext = "\"KHR_materials_clearcoat\": {\"clearcoatFactor\": 0.8, \

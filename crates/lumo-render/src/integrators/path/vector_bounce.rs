@@ -673,16 +673,8 @@ mod tests {
     fn vector_bounce_equals_advance_lane_for_lane() {
         let rs = RenderScene::new(lumo_scene::builtin_scene("cornell").expect("built-in"))
             .expect("valid scene");
-        let settings = PathSettings {
-            max_depth: 6,
-            rr_depth: 3,
-            ..Default::default()
-        };
-        assert!(applies(&settings));
-        // Every compiled form this CPU runs: AVX-512, AVX2, baseline.
-        for level in Isa::detect().up_to() {
-            check_level(&rs, &settings, level, 20);
-        }
+        assert!(applies(&lane_settings()));
+        check_every_level(&rs, 20);
     }
 
     /// The same on textured floors: `cornell-spheres`' checkerboard (no uvs, so the
@@ -717,11 +709,6 @@ mod tests {
                 wrap: WrapMode::Repeat,
             },
         };
-        let settings = PathSettings {
-            max_depth: 6,
-            rr_depth: 3,
-            ..Default::default()
-        };
         for scene in [spheres, bitmap] {
             let rs = RenderScene::new(scene).expect("valid scene");
             let textured = (0..rs.scene.instances.len() as u32)
@@ -733,9 +720,7 @@ mod tests {
                 rs.scene.name
             );
             // Darker floors: fewer paths survive the roulette to the limit.
-            for level in Isa::detect().up_to() {
-                check_level(&rs, &settings, level, 2);
-            }
+            check_every_level(&rs, 2);
         }
     }
 
@@ -749,14 +734,7 @@ mod tests {
             .lights
             .extend(crate::test_lights::every_other_light_kind());
         let rs = RenderScene::new(scene).expect("valid scene");
-        let settings = PathSettings {
-            max_depth: 6,
-            rr_depth: 3,
-            ..Default::default()
-        };
-        for level in Isa::detect().up_to() {
-            check_level(&rs, &settings, level, 20);
-        }
+        check_every_level(&rs, 20);
     }
 
     /// The same where lanes pick sphere lights (their cones sampled, connected and weighed in
@@ -766,8 +744,8 @@ mod tests {
     /// and continuation must be `advance`'s, bit for bit.
     #[test]
     fn vector_bounce_equals_advance_with_sphere_lights() {
-        use glam::Mat4;
-        use lumo_scene::{Analytic, AnalyticKind, Light, Material};
+        use crate::test_shapes::{add_exact_sphere, translate_instances};
+        use lumo_scene::{Light, Material};
         let mut scene = lumo_scene::builtin_scene("cornell").expect("built-in");
         let spheres = [
             (
@@ -799,18 +777,9 @@ mod tests {
             let mut lamp = Material::diffuse("lamp", Vec3::splat(0.5));
             lamp.emission = emission;
             let material = scene.add_material(lamp);
-            let placed = Mat4::from_translation(c) * Mat4::from_scale(Vec3::splat(r));
-            let mut ball = lumo_scene::shapes::sphere(&placed, material, 6, 12);
-            ball.analytic = Some(Analytic {
-                kind: AnalyticKind::Sphere,
-                to_mesh: placed,
-                flip_normals: flip,
-            });
-            let mesh = scene.add_mesh(ball);
+            let mesh = add_exact_sphere(&mut scene, c, r, material, flip);
             if k == 3 {
-                if let Some(inst) = scene.instances.iter_mut().find(|i| i.mesh == mesh) {
-                    inst.transform = Mat4::from_translation(Vec3::new(-0.1, -0.05, 0.02));
-                }
+                translate_instances(&mut scene, mesh, Vec3::new(-0.1, -0.05, 0.02));
             }
         }
         scene.lights.push(Light::Constant {
@@ -830,13 +799,24 @@ mod tests {
             cones > 100 && uniform > 20,
             "{cones} sphere, {uniform} environment picks"
         );
-        let settings = PathSettings {
+        check_every_level(&rs, 20);
+    }
+
+    /// What every comparison here walks: depths 1–6 with roulette from depth 3, so the
+    /// roulette and the depth limit are both reached.
+    fn lane_settings() -> PathSettings {
+        PathSettings {
             max_depth: 6,
             rr_depth: 3,
             ..Default::default()
-        };
+        }
+    }
+
+    /// [`check_level`] with [`lane_settings`] at every compiled form this CPU runs (AVX-512,
+    /// AVX2, baseline).
+    fn check_every_level(rs: &RenderScene, deepest: usize) {
         for level in Isa::detect().up_to() {
-            check_level(&rs, &settings, level, 20);
+            check_level(rs, &lane_settings(), level, deepest);
         }
     }
 

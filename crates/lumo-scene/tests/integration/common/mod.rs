@@ -27,6 +27,18 @@ pub fn write(dir: &Path, name: &str, contents: impl AsRef<[u8]>) -> PathBuf {
     p
 }
 
+/// An 8-bit PNG of `width` × `height` texels (`data` row by row) in colour type `color`.
+pub fn png8(width: u32, height: u32, color: png::ColorType, data: &[u8]) -> Vec<u8> {
+    let mut out = vec![];
+    let mut enc = png::Encoder::new(&mut out, width, height);
+    enc.set_color(color);
+    enc.set_depth(png::BitDepth::Eight);
+    let mut w = enc.write_header().unwrap();
+    w.write_image_data(data).unwrap();
+    drop(w);
+    out
+}
+
 /// Loads with default options.
 pub fn load(path: &Path) -> Result<LoadedScene, LoadError> {
     load_scene(path, &LoadOptions::default())
