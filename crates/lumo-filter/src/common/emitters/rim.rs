@@ -33,62 +33,35 @@ const SURFACE_SHARE: f32 = 0.5;
 pub(super) fn clamp_rim(color: &Image, light: &[bool], rim: &[bool], out: &mut Image) {
     let (w, h) = (out.width, out.height);
     debug_assert_eq!(out.channels, 3);
-    let px = |img: &Image, i: usize| -> [f32; 3] {
-        let p = &img.data[i * 3..i * 3 + 3];
-        [p[0], p[1], p[2]]
-    };
     for (i, _) in rim.iter().enumerate().filter(|(_, &r)| r) {
         let (x, y) = (i % w, i / w);
-        let mut surface = [0.0f64; 3];
-        let mut count = 0usize;
-        let mut own_rim = [0.0f64; 3];
-        let mut rim_count = 0usize;
+        let (mut surface, mut own_rim) = (Mean::default(), Mean::default());
         let mut brightest: Option<([f32; 3], f32)> = None;
         for qy in y.saturating_sub(RADIUS)..(y + RADIUS + 1).min(h) {
             for qx in x.saturating_sub(RADIUS)..(x + RADIUS + 1).min(w) {
                 let j = qy * w + qx;
                 if rim[j] {
-                    let v = px(color, j);
-                    if v.iter().all(|c| c.is_finite()) {
-                        for (s, c) in own_rim.iter_mut().zip(v) {
-                            *s += f64::from(c);
-                        }
-                        rim_count += 1;
-                    }
-                    continue;
-                }
-                let v = px(out, j);
-                if !v.iter().all(|c| c.is_finite()) {
-                    continue;
-                }
-                if light[j] {
+                    own_rim.add(pixel(color, j));
+                } else if !light[j] {
+                    surface.add(pixel(out, j));
+                } else if let Some(v) = finite(pixel(out, j)) {
                     let l = luminance(v);
                     if brightest.is_none_or(|(_, b)| l > b) {
                         brightest = Some((v, l));
                     }
-                } else {
-                    for (s, c) in surface.iter_mut().zip(v) {
-                        *s += f64::from(c);
-                    }
-                    count += 1;
                 }
             }
         }
-        let own = px(out, i);
+        let own = pixel(out, i);
         let mut v = own;
         // (A non-finite own value stays as it is: `clamp` keeps NaN.)
         for c in 0..3 {
             let hi = brightest.map_or(f32::INFINITY, |(b, _)| b[c]);
-            let lo = if count > 0 {
-                let surface = SURFACE_SHARE as f64 * surface[c] / count as f64;
-                let rim_mean = if rim_count > 0 {
-                    own_rim[c] / rim_count as f64
-                } else {
-                    f64::INFINITY
-                };
-                surface.min(rim_mean) as f32
-            } else {
-                f32::NEG_INFINITY
+            let lo = match (surface.of(c), own_rim.of(c)) {
+                (Some(s), rim_mean) => {
+                    (SURFACE_SHARE as f64 * s).min(rim_mean.unwrap_or(f64::INFINITY)) as f32
+                }
+                (None, _) => f32::NEG_INFINITY,
             };
             // Where the surface is brighter than the light (a dim light on a lit wall) the
             // range is the light's level alone.
@@ -96,6 +69,40 @@ pub(super) fn clamp_rim(color: &Image, light: &[bool], rim: &[bool], out: &mut I
             v[c] = own[c].clamp(lo, hi.max(lo));
         }
         out.data[i * 3..i * 3 + 3].copy_from_slice(&v);
+    }
+}
+
+/// Pixel `i` of a 3-channel image.
+fn pixel(img: &Image, i: usize) -> [f32; 3] {
+    let p = &img.data[i * 3..i * 3 + 3];
+    [p[0], p[1], p[2]]
+}
+
+/// `v` if every channel is finite.
+fn finite(v: [f32; 3]) -> Option<[f32; 3]> {
+    v.iter().all(|c| c.is_finite()).then_some(v)
+}
+
+/// A per-channel mean of the finite pixels added to it.
+#[derive(Default)]
+struct Mean {
+    sum: [f64; 3],
+    count: usize,
+}
+
+impl Mean {
+    fn add(&mut self, v: [f32; 3]) {
+        if let Some(v) = finite(v) {
+            for (s, c) in self.sum.iter_mut().zip(v) {
+                *s += f64::from(c);
+            }
+            self.count += 1;
+        }
+    }
+
+    /// Channel `c`'s mean, `None` without pixels.
+    fn of(&self, c: usize) -> Option<f64> {
+        (self.count > 0).then(|| self.sum[c] / self.count as f64)
     }
 }
 
