@@ -7,11 +7,15 @@ What is read: `<default>` and `$name` substitution (overridable), `perspective` 
 width and height, the integrator's `max_depth`; shapes `rectangle`, `cube`, `sphere` (center
 and radius, or a unit sphere under `to_world`; tessellated), `obj` and `ply` files (triangles
 and positions only, through a minimal reader: OBJ `v`/`f`, binary or ASCII PLY with float
-vertices); `to_world` transforms built from `translate`, `scale`, `rotate`, `matrix`,
-`lookat`, applied in order; BSDFs `diffuse` (rgb or a float reflectance), `twosided` around one
-of them, `ref` by id; `area` emitters with rgb radiance; a `constant` environment. Anything
-else raises `Unsupported` naming the element, so a comparison never runs on a scene that was
-silently read as something else.
+vertices, and the PLY's `u`/`v` where it has them); `to_world` transforms built from
+`translate`, `scale`, `rotate`, `matrix`, `lookat`, applied in order; BSDFs `diffuse` (rgb or
+a float reflectance, or a `bitmap` texture: sRGB file, default filtering), `conductor` and
+`roughconductor` (rgb `eta` and `k`, `ggx` with one `alpha`), `dielectric` and
+`roughdielectric` (numeric `int_ior` / `ext_ior`, `ggx` with one `alpha`), `twosided` around
+one of them, `ref` by id; `area` emitters with rgb radiance; a `constant` environment; one
+`directional` emitter (`direction`, rgb `irradiance`). Anything else raises `Unsupported`
+naming the element, so a comparison never runs on a scene that was silently read as
+something else.
 """
 
 import math
@@ -30,25 +34,39 @@ class Unsupported(Exception):
 
 @dataclass
 class Material:
-    """What a peer needs to build the surface: a Lambertian reflectance, whether it reflects
-    on both sides (Mitsuba's `twosided`; else its back is black), and the radiance it emits
-    from its front side (None: not an emitter)."""
+    """What a peer needs to build the surface. `kind` is "diffuse" (Lambertian
+    `reflectance`, or the sRGB image file `texture` when not None), "conductor" (complex index
+    `eta` + i·`k` per RGB channel) or "dielectric" (relative index `ior`); `alpha` is the GGX
+    roughness of the last two (0: smooth). `two_sided`: Mitsuba's `twosided` (else an opaque
+    surface's back is black); `radiance`: what it emits from its front side (None: not an
+    emitter)."""
 
     reflectance: tuple
     radiance: tuple = None
     two_sided: bool = False
+    kind: str = "diffuse"
+    texture: object = None
+    eta: tuple = None
+    k: tuple = None
+    alpha: float = 0.0
+    ior: float = None
+
+    def with_sides(self, two_sided):
+        """The same material, one- or two-sided."""
+        return Material(**{**self.__dict__, "two_sided": two_sided})
 
 
 @dataclass
 class Mesh:
     """World-space triangles: positions (N, 3), faces (M, 3) indices, per-vertex normals
-    (N, 3) or None for flat shading."""
+    (N, 3) or None for flat shading, per-vertex texture coordinates (N, 2) or None."""
 
     name: str
     positions: np.ndarray
     faces: np.ndarray
     normals: object
     material: Material
+    uvs: object = None
 
 
 @dataclass
@@ -67,12 +85,14 @@ class Camera:
 @dataclass
 class Scene:
     """Everything a peer renders: camera, meshes, a constant environment (or None) and the
-    path length limit as Mitsuba counts it (max_depth, −1 = unlimited)."""
+    path length limit as Mitsuba counts it (max_depth, −1 = unlimited), and a directional light
+    (or None)."""
 
     camera: Camera
     meshes: list = field(default_factory=list)
     environment: object = None
     max_depth: int = -1
+    sun: object = None  # (direction the light travels, rgb irradiance) or None
 
 
 def _floats(text):
@@ -179,7 +199,7 @@ class _Reader:
         return out
 
     def bsdf(self, el):
-        """(reflectance, two-sided) of a BSDF element or reference."""
+        """The Material of a BSDF element or reference (one-sided unless `twosided`)."""
         if el.tag == "ref":
             return self.ids[el.get("id")]
         kind = el.get("type")
@@ -187,20 +207,43 @@ class _Reader:
             inner = [c for c in el if c.tag in ("bsdf", "ref")]
             if len(inner) != 1:
                 self.fail(el, "twosided with two BSDFs is not read")
-            return self.bsdf(inner[0])[0], True
-        if kind != "diffuse":
-            self.fail(el, "only diffuse BSDFs are read")
-        r = self.props(el).get("reflectance", (0.5, 0.5, 0.5))
-        return (r if isinstance(r, tuple) else (r, r, r)), False
+            return self.bsdf(inner[0]).with_sides(True)
+        if kind == "diffuse":
+            tex = el.find("texture[@name='reflectance']")
+            if tex is not None:
+                if tex.get("type") != "bitmap" or len(tex) != 1:
+                    self.fail(tex, "only a bitmap with its filename alone is read")
+                file = self.path.parent / self.attr(tex.find("string[@name='filename']"), "value")
+                return Material((0.5, 0.5, 0.5), texture=str(file))
+            r = self.props(el).get("reflectance", (0.5, 0.5, 0.5))
+            return Material(r if isinstance(r, tuple) else (r, r, r))
+        p = self.props(el)
+        if kind in ("roughconductor", "roughdielectric"):
+            if p.get("distribution") != "ggx" or "alpha" not in p:
+                self.fail(el, "only ggx with one alpha is read")
+        alpha = p.get("alpha", 0.0) if kind.startswith("rough") else 0.0
+        if kind in ("conductor", "roughconductor"):
+            if not (isinstance(p.get("eta"), tuple) and isinstance(p.get("k"), tuple)):
+                self.fail(el, "a conductor needs rgb eta and k (no material presets)")
+            return Material((1.0, 1.0, 1.0), kind="conductor", eta=p["eta"], k=p["k"],
+                            alpha=alpha)
+        if kind in ("dielectric", "roughdielectric"):
+            ior = p.get("int_ior", 1.5049)
+            ext = p.get("ext_ior", 1.000277)
+            if isinstance(ior, str) or isinstance(ext, str):
+                self.fail(el, "only numeric int_ior / ext_ior are read")
+            return Material((1.0, 1.0, 1.0), kind="dielectric", ior=ior / ext, alpha=alpha,
+                            two_sided=True)
+        self.fail(el, "BSDF type not read")
 
     def shape(self, el, index):
         kind = el.get("type")
         p = self.props(el, nested=("bsdf", "ref", "emitter"))
         m = p.get("to_world", np.eye(4))
-        (reflectance, two_sided), radiance = ((0.5, 0.5, 0.5), False), None
+        material, radiance, uvs = Material((0.5, 0.5, 0.5)), None, None
         for c in el:
             if c.tag in ("bsdf", "ref"):
-                reflectance, two_sided = self.bsdf(c)
+                material = self.bsdf(c)
             elif c.tag == "emitter":
                 if c.get("type") != "area":
                     self.fail(c, "only area emitters are read on shapes")
@@ -221,7 +264,10 @@ class _Reader:
             m = m @ s
         elif kind in ("obj", "ply"):
             file = self.path.parent / self.attr(el.find("string[@name='filename']"), "value")
-            pos, faces = _read_obj(file) if kind == "obj" else _read_ply(file)
+            if kind == "obj":
+                pos, faces = _read_obj(file)
+            else:
+                pos, faces, uvs = _read_ply(file)
             normals = None
         else:
             self.fail(el, "shape type not read")
@@ -230,14 +276,18 @@ class _Reader:
             n = normals @ np.linalg.inv(m[:3, :3])
             normals = n / np.linalg.norm(n, axis=1, keepdims=True)
         name = el.get("id") or f"shape{index}"
-        return Mesh(name, world, faces, normals, Material(tuple(reflectance), radiance, two_sided))
+        if radiance is not None:
+            material = Material(**{**material.__dict__, "radiance": radiance})
+        if material.texture is not None and uvs is None:
+            self.fail(el, "a textured shape without texture coordinates is not read")
+        return Mesh(name, world, faces, normals, material, uvs)
 
     def read(self):
         root = ET.parse(self.path).getroot()
         for d in root.iter("default"):
             if d.get("name") not in self.overrides:
                 self.defaults[d.get("name")] = d.get("value")
-        camera, meshes, env, depth = None, [], None, -1
+        camera, meshes, env, depth, sun = None, [], None, -1, None
         for i, el in enumerate(root):
             if el.tag == "bsdf":
                 self.ids[el.get("id")] = self.bsdf(el)
@@ -249,9 +299,15 @@ class _Reader:
                 camera = self.sensor(el)
             elif el.tag == "shape":
                 meshes.append(self.shape(el, i))
+            elif el.tag == "emitter" and el.get("type") == "directional" and sun is None:
+                p = self.props(el)
+                if "direction" not in p:
+                    self.fail(el, "only a directional light given by `direction` is read")
+                e = p.get("irradiance", (1.0, 1.0, 1.0))
+                sun = (p["direction"], e if isinstance(e, tuple) else (e, e, e))
             elif el.tag == "emitter":
                 if el.get("type") != "constant":
-                    self.fail(el, "only constant environments are read")
+                    self.fail(el, "only constant environments and one directional light are read")
                 env = self.props(el).get("radiance", (1.0, 1.0, 1.0))
             elif el.tag in ("default",):
                 continue
@@ -259,7 +315,7 @@ class _Reader:
                 self.fail(el, "element not read")
         if camera is None:
             raise Unsupported(f"{self.path}: no <sensor>")
-        return Scene(camera, meshes, env, depth)
+        return Scene(camera, meshes, env, depth, sun)
 
     def sensor(self, el):
         if el.get("type") != "perspective":
@@ -334,7 +390,21 @@ def _read_obj(path):
     return np.array(pos, float), np.array(faces)
 
 
+_PLY_TYPES = {"float": "f4", "float32": "f4", "double": "f8", "uchar": "u1", "uint8": "u1",
+              "char": "i1", "int8": "i1", "int": "i4", "int32": "i4", "uint": "u4",
+              "uint32": "u4", "short": "i2", "int16": "i2", "ushort": "u2", "uint16": "u2"}
+
+
+def _ply_uvs(names, column):
+    """The texture coordinates of a PLY's vertex properties `names` (None without them)."""
+    for u, v in (("u", "v"), ("s", "t"), ("texture_u", "texture_v"), ("texture_s", "texture_t")):
+        if u in names and v in names:
+            return np.stack([column(u), column(v)], axis=1).astype(float)
+    return None
+
+
 def _read_ply(path):
+    """Positions (N, 3), triangles (M, 3) and texture coordinates (N, 2) or None."""
     data = open(path, "rb").read()
     end = data.index(b"end_header") + len(b"end_header")
     end += 2 if data[end:end + 2] == b"\r\n" else 1
@@ -348,47 +418,62 @@ def _read_ply(path):
             elements.append(cur)
         elif t[:1] == ["property"]:
             cur[2].append(t[1:])
-    sizes = {"float": "f", "float32": "f", "double": "d", "uchar": "B", "uint8": "B",
-             "int": "i", "int32": "i", "uint": "I", "uint32": "I", "short": "h", "ushort": "H"}
     if fmt == "ascii":
-        tokens = data[end:].split()
-        k = 0
-        pos, faces = [], []
-        for name, count, props in elements:
-            for _ in range(count):
-                if name == "vertex":
-                    row = [float(tokens[k + i]) for i in range(len(props))]
-                    k += len(props)
-                    names = [p[-1] for p in props]
-                    pos.append([row[names.index(c)] for c in "xyz"])
-                elif name == "face":
-                    n = int(tokens[k])
-                    idx = [int(tokens[k + 1 + i]) for i in range(n)]
-                    k += 1 + n
-                    faces += [[idx[0], idx[i], idx[i + 1]] for i in range(1, n - 1)]
-        return np.array(pos, float), np.array(faces)
+        return _read_ply_ascii(data[end:], elements)
     order = "<" if fmt == "binary_little_endian" else ">"
-    off, pos, faces = end, [], []
+    off, pos, faces, uvs = end, None, None, None
+    for name, count, props in elements:
+        if all(p[0] != "list" for p in props):
+            dt = np.dtype([(p[-1], order + _PLY_TYPES[p[0]]) for p in props])
+            rows = np.frombuffer(data, dt, count, off)
+            off += dt.itemsize * count
+            if name == "vertex":
+                pos = np.stack([rows[c] for c in "xyz"], axis=1).astype(float)
+                uvs = _ply_uvs(rows.dtype.names, lambda c: rows[c])
+            continue
+        if name != "face" or len(props) != 1:
+            raise Unsupported(f"{path}: PLY element {name!r} with lists is not read")
+        _, count_type, index_type, _ = props[0]
+        # Read as triangles in one go; if any face is not one, fall back to face by face.
+        dt = np.dtype([("n", order + _PLY_TYPES[count_type]),
+                       ("i", order + _PLY_TYPES[index_type], 3)])
+        rows = np.frombuffer(data, dt, count, off) if off + dt.itemsize * count <= len(data) \
+            else None
+        if rows is not None and np.all(rows["n"] == 3):
+            faces = rows["i"].astype(np.int64)
+            off += dt.itemsize * count
+            continue
+        ct, it = np.dtype(order + _PLY_TYPES[count_type]), np.dtype(order + _PLY_TYPES[index_type])
+        tris = []
+        for _ in range(count):
+            n = int(np.frombuffer(data, ct, 1, off)[0])
+            off += ct.itemsize
+            idx = np.frombuffer(data, it, n, off)
+            off += it.itemsize * n
+            tris += [[idx[0], idx[i], idx[i + 1]] for i in range(1, n - 1)]
+        faces = np.array(tris, np.int64)
+    return pos, faces, uvs
+
+
+def _read_ply_ascii(body, elements):
+    tokens = body.split()
+    k = 0
+    pos, faces, cols = [], [], {}
     for name, count, props in elements:
         for _ in range(count):
-            row = {}
-            for p in props:
-                if p[0] == "list":
-                    n = struct.unpack_from(order + sizes[p[1]], data, off)[0]
-                    off += struct.calcsize(sizes[p[1]])
-                    f = order + sizes[p[2]] * n
-                    row[p[-1]] = struct.unpack_from(f, data, off)
-                    off += struct.calcsize(f)
-                else:
-                    f = order + sizes[p[0]]
-                    row[p[-1]] = struct.unpack_from(f, data, off)[0]
-                    off += struct.calcsize(f)
             if name == "vertex":
-                pos.append([row["x"], row["y"], row["z"]])
+                row = [float(tokens[k + i]) for i in range(len(props))]
+                k += len(props)
+                names = [p[-1] for p in props]
+                pos.append([row[names.index(c)] for c in "xyz"])
+                for n, v in zip(names, row):
+                    cols.setdefault(n, []).append(v)
             elif name == "face":
-                idx = row.get("vertex_indices") or row.get("vertex_index")
-                faces += [[idx[0], idx[i], idx[i + 1]] for i in range(1, len(idx) - 1)]
-    return np.array(pos, float), np.array(faces)
+                n = int(tokens[k])
+                idx = [int(tokens[k + 1 + i]) for i in range(n)]
+                k += 1 + n
+                faces += [[idx[0], idx[i], idx[i + 1]] for i in range(1, n - 1)]
+    return np.array(pos, float), np.array(faces), _ply_uvs(cols, lambda c: np.array(cols[c]))
 
 
 def read_scene(path, **overrides):
