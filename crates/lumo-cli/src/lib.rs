@@ -9,6 +9,7 @@ pub mod chunked;
 pub mod cli_common;
 pub mod compare_cmd;
 pub mod denoise;
+pub mod export_cmd;
 pub mod integrator_arg;
 pub mod output;
 pub mod pipeline_args;

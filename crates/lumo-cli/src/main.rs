@@ -1,7 +1,7 @@
 //! The `lumo` command.
 #![forbid(unsafe_code)]
 
-use lumo_cli::{bench, compare_cmd, denoise, render, serve_cmd, worker_cmd};
+use lumo_cli::{bench, compare_cmd, denoise, export_cmd, render, serve_cmd, worker_cmd};
 
 use clap::{Parser, Subcommand};
 
@@ -23,6 +23,8 @@ enum Command {
     Bench(bench::BenchArgs),
     /// Error metrics (MSE, relMSE, SMAPE, PSNR, SSIM, FLIP) of images against a reference.
     Compare(compare_cmd::CompareArgs),
+    /// Write a scene (built-in or any file lumo reads) as Mitsuba 3 XML + PLY meshes.
+    Export(export_cmd::ExportArgs),
     /// Start a progressive render server and its web viewer (prints the URL to open).
     Serve(serve_cmd::ServeArgs),
     /// Render for a `lumo serve --remote-workers` hub: load its scene, stream samples of its
@@ -38,6 +40,7 @@ fn main() {
         Command::Denoise(args) => denoise::run(args),
         Command::Bench(args) => bench::run(args),
         Command::Compare(args) => compare_cmd::run(args),
+        Command::Export(args) => export_cmd::run(args),
         Command::Serve(args) => serve_cmd::run(args),
         Command::Worker(args) => worker_cmd::run(args),
     };

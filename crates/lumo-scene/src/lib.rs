@@ -9,6 +9,7 @@ mod builtin;
 mod camera;
 pub mod deform;
 mod error;
+pub mod export;
 mod gltf_extensions;
 mod light;
 pub mod load;
