@@ -5,6 +5,7 @@ mod chunked;
 mod closed_pipes;
 mod compare_cli;
 mod denoise_cli;
+mod export_cli;
 mod hostile_options;
 mod interrupted_writes;
 mod memory_limits;

@@ -36,18 +36,29 @@ pub fn write_mitsuba(scene: &Scene, xml: &Path) -> Result<Vec<PathBuf>, ExportEr
         let path = path.to_path_buf();
         move |source| ExportError::Io { path, source }
     };
-    std::fs::create_dir_all(&mesh_dir).map_err(io(&mesh_dir))?;
     if scene.media.is_active() {
         return Err(ExportError::unsupported(
             "the scene's participating media",
             "media are not exported yet",
         ));
     }
+    // Everything that can be refused is checked before the first mesh file is written.
     let mut out = String::new();
     header(scene, &mut out)?;
     for (i, m) in scene.materials.iter().enumerate() {
         bsdf_element(m, &format!("mat{i}"), &mut out)?;
+        if m.is_emissive() && m.emission_map.is_some() {
+            return Err(ExportError::unsupported(
+                format!("material {:?}", m.name),
+                "an emission texture is not exported yet",
+            ));
+        }
     }
+    let mut lights = String::new();
+    for light in &scene.lights {
+        light_element(light, &mut lights)?;
+    }
+    std::fs::create_dir_all(&mesh_dir).map_err(io(&mesh_dir))?;
     let mut written = vec![];
     let mut mesh_files = vec![None; scene.meshes.len()];
     for inst in &scene.instances {
@@ -93,12 +104,6 @@ pub fn write_mitsuba(scene: &Scene, xml: &Path) -> Result<Vec<PathBuf>, ExportEr
         }
         let _ = writeln!(out, "        <ref id=\"mat{}\"/>", mesh.material);
         if material.is_emissive() {
-            if material.emission_map.is_some() {
-                return Err(ExportError::unsupported(
-                    format!("material {:?}", material.name),
-                    "an emission texture is not exported yet",
-                ));
-            }
             let _ = writeln!(
                 out,
                 "        <emitter type=\"area\">{}</emitter>",
@@ -107,9 +112,7 @@ pub fn write_mitsuba(scene: &Scene, xml: &Path) -> Result<Vec<PathBuf>, ExportEr
         }
         out.push_str("    </shape>\n");
     }
-    for light in &scene.lights {
-        light_element(light, &mut out)?;
-    }
+    out.push_str(&lights);
     out.push_str("</scene>\n");
     std::fs::write(xml, out).map_err(io(xml))?;
     written.insert(0, xml.to_path_buf());
