@@ -42,6 +42,9 @@ struct View {
     ids: Option<Vec<u32>>,
     /// The deforming meshes' vertex positions and the instance transforms, when meshes deform.
     poses: Option<MeshPoses>,
+    /// The triangle and barycentrics under each pixel centre, when meshes deform (re-shading
+    /// carries the previous frame's points on them forward by these).
+    hits: Option<Vec<PixelHit>>,
     /// The traced frame, for re-shading (when on).
     shaded: Option<ShadedFrame>,
 }
@@ -219,6 +222,7 @@ impl TemporalSequence {
             transforms: rs.scene.instances.iter().map(|i| i.transform).collect(),
             ids,
             poses: deforms.then(|| MeshPoses::capture(&rs.scene, &self.deforming)),
+            hits: None,
             shaded: None,
         };
         let ids = view.ids.as_deref();
@@ -276,11 +280,13 @@ impl TemporalSequence {
                         view_proj: prev.view_proj,
                         transforms: &prev.transforms,
                         ids: prev.ids.as_deref(),
+                        surface: prev.hits.as_deref().zip(prev.poses.as_ref()),
                     };
                     let now = Pose {
                         view_proj: view.view_proj,
                         transforms: &view.transforms,
                         ids,
+                        surface: None,
                     };
                     reshade(rs, &camera, path, before, &then, &now)
                 }),
@@ -400,6 +406,7 @@ impl TemporalSequence {
                 split.map(|d| &d.split[..]),
             ));
         }
+        view.hits = pixel_hits;
         self.prev = Some(view);
         Ok((image, times))
     }
