@@ -16,14 +16,20 @@ where the remaining models differ. For each scene it reports the per-channel ima
 (lumo / Cycles), the relMSE between the two images and each one's own noise (from a second
 seed), and the 32-px blocks' mean ratios; the contact sheet shows lumo, Cycles and their
 relative difference per scene.
+
+Cycles ignores KHR_lights_punctual's `range` (its lights fall off with the inverse square
+everywhere), so a scene whose point or spot lights have one is compared without it: both
+renderers read a copy with every `range` removed, and the script says so.
 """
 import argparse
 import json
 import os
+import struct
 import subprocess
 import sys
 import tempfile
 import time
+import urllib.parse
 
 import numpy as np
 
@@ -36,6 +42,73 @@ from run_peers import read_pfm  # noqa: E402
 #: Per scene: the time lumo renders at (seconds; None for a still) and the Blender frame.
 POSES = {"character": (2.0, 60)}
 BLOCK = 32
+
+
+GLB_MAGIC, GLB_JSON, GLB_BIN = 0x46546C67, 0x4E4F534A, 0x004E4942
+
+
+def read_gltf(path):
+    """The file's JSON (a dict) and, for a .glb, its binary chunk (None for a .gltf)."""
+    with open(path, "rb") as f:
+        data = f.read()
+    if len(data) < 12 or struct.unpack_from("<I", data, 0)[0] != GLB_MAGIC:
+        return json.loads(data.decode("utf-8")), None
+    at, doc, binary = 12, None, None
+    while at + 8 <= len(data):
+        length, kind = struct.unpack_from("<II", data, at)
+        chunk = data[at + 8:at + 8 + length]
+        if kind == GLB_JSON:
+            doc = json.loads(chunk.decode("utf-8"))
+        elif kind == GLB_BIN and binary is None:
+            binary = chunk
+        at += 8 + length
+    if doc is None:
+        sys.exit(f"{path}: a .glb without a JSON chunk")
+    return doc, binary if binary is not None else b""
+
+
+def write_glb(path, doc, binary):
+    """A .glb of `doc` and `binary`, each chunk padded to 4 bytes as the spec requires (the
+    JSON with spaces, the binary with zeros)."""
+    text = json.dumps(doc, separators=(",", ":")).encode("utf-8")
+    text += b" " * (-len(text) % 4)
+    chunks = struct.pack("<II", len(text), GLB_JSON) + text
+    if binary:
+        binary += b"\0" * (-len(binary) % 4)
+        chunks += struct.pack("<II", len(binary), GLB_BIN) + binary
+    with open(path, "wb") as f:
+        f.write(struct.pack("<III", GLB_MAGIC, 2, 12 + len(chunks)) + chunks)
+
+
+def without_light_range(scene, tmp):
+    """`scene`, or where a KHR_lights_punctual light has a `range`, a copy in `tmp` (same file
+    name) with every `range` removed: Cycles ignores it, so lumo must too for a like-for-like
+    comparison. The copy's relative buffer and image URIs point back at the original's files.
+    Returns the path to render and the names of the lights whose range was removed."""
+    doc, binary = read_gltf(scene)
+    lights = doc.get("extensions", {}).get("KHR_lights_punctual", {}).get("lights", [])
+    ranged = []
+    for i, light in enumerate(lights):
+        if "range" in light:
+            del light["range"]
+            ranged.append(light.get("name", f"light {i}"))
+    if not ranged:
+        return scene, ranged
+    base = os.path.dirname(os.path.abspath(scene))
+    for item in doc.get("buffers", []) + doc.get("images", []):
+        uri = item.get("uri")
+        if uri is not None and not uri.startswith("data:") and "://" not in uri:
+            # Both loaders percent-decode a URI and join it to the file's folder; an
+            # absolute path survives the join.
+            absolute = os.path.join(base, urllib.parse.unquote(uri))
+            item["uri"] = urllib.parse.quote(absolute)
+    out = os.path.join(tmp, os.path.basename(scene))
+    if binary is None:
+        with open(out, "w") as f:
+            json.dump(doc, f)
+    else:
+        write_glb(out, doc, binary)
+    return out, ranged
 
 
 def render_lumo(a, scene, seed, out):
@@ -173,6 +246,11 @@ def main():
     with tempfile.TemporaryDirectory() as tmp:
         for scene in scenes:
             name = os.path.splitext(os.path.basename(scene))[0]
+            scene, ranged = without_light_range(scene, tmp)
+            if ranged:
+                print(f"note: {name}: removed KHR_lights_punctual `range` from "
+                      f"{', '.join(ranged)} for both renderers (Cycles ignores it)",
+                      file=sys.stderr, flush=True)
             tl, l0, log = render_lumo(a, scene, 0, os.path.join(tmp, f"{name}-l0.pfm"))
             _, l1, _ = render_lumo(a, scene, 1, os.path.join(tmp, f"{name}-l1.pfm"))
             tc, c0 = render_cycles(a, scene, 0, os.path.join(tmp, f"{name}-c0.exr"))
@@ -196,6 +274,7 @@ def main():
                 "block_p95": float(np.percentile(ratios, 95)) if len(ratios) else float("nan"),
                 "seconds_lumo": tl, "seconds_cycles": tc,
                 "lumo_warnings": warnings,
+                "range_removed": ranged,
             }
             rows.append(row)
             print(json.dumps(row), file=sys.stderr, flush=True)
@@ -243,6 +322,10 @@ def report(a, rows, blender):
             f"| {r['scene']} | {m} | {r['block_median']:.3f} [{r['block_p05']:.3f}, "
             f"{r['block_p95']:.3f}] | {r['rel_mse']:.2e} | {r['noise_lumo']:.1e} / "
             f"{r['noise_cycles']:.1e} | {r['seconds_lumo']:.1f} / {r['seconds_cycles']:.1f} s |")
+    unranged = [f"{r['scene']} ({', '.join(r['range_removed'])})" for r in rows if r["range_removed"]]
+    if unranged:
+        lines += ["", "Compared without KHR_lights_punctual `range` (Cycles ignores it; the script "
+                  "removed it for both renderers): " + "; ".join(unranged) + "."]
     warned = [(r["scene"], w) for r in rows for w in r["lumo_warnings"]]
     if warned:
         lines += ["", "lumo's warnings:", ""] + [f"- {s}: `{w}`" for s, w in warned]

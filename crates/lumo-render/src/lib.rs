@@ -65,4 +65,6 @@ pub use render::{
 };
 pub use render_scene::{RenderScene, SceneUpdate, Surface};
 pub use settings::{PixelEstimate, RenderSettings, RenderStats};
-pub use surface_motion::{deformation_back, pixel_hits, MeshPoses, PixelHit};
+pub use surface_motion::{
+    deformation_back, deformed_point, pixel_hits, DeformedPoint, MeshPoses, PixelHit,
+};

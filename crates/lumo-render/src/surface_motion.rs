@@ -103,33 +103,53 @@ impl MeshPoses {
     }
 }
 
+/// Where a point on a deforming mesh was at an earlier pose and where it is now (world space).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DeformedPoint {
+    /// The point at the earlier pose ([`MeshPoses`]' positions and transform).
+    pub then: Vec3,
+    /// The same triangle and barycentrics under the scene's positions and transform now.
+    pub now: Vec3,
+}
+
+/// `hit`'s triangle point (its triangle and barycentrics) under `then`'s vertex positions and
+/// transform and under `scene`'s as they are now, if `hit` lies on a mesh that `then` holds
+/// and that still has as many vertices; `None` otherwise (no hit, a rigid or analytic mesh, a
+/// changed mesh, an instance that did not exist then). The one evaluation both directions use:
+/// [`deformation_back`] (a pixel of this frame, carried back) and the temporal filter's
+/// re-shading (a pixel of the previous frame, carried forward).
+pub fn deformed_point(scene: &Scene, hit: &PixelHit, then: &MeshPoses) -> Option<DeformedPoint> {
+    let point = |positions: &[Vec3], indices: [u32; 3], uv: [f32; 2], m: &Mat4| {
+        let [a, b, c] = indices.map(|i| positions.get(i as usize).copied());
+        let (a, b, c) = (a?, b?, c?);
+        Some(m.transform_point3(a * (1.0 - uv[0] - uv[1]) + b * uv[0] + c * uv[1]))
+    };
+    let i = hit.instance as usize;
+    let inst = scene.instances.get(i)?;
+    let before = then.positions(inst.mesh)?;
+    let mesh = scene.meshes.get(inst.mesh)?;
+    if before.len() != mesh.positions.len() || mesh.analytic.is_some() {
+        return None;
+    }
+    let tri = *mesh.indices.get(hit.triangle as usize)?;
+    Some(DeformedPoint {
+        then: point(before, tri, hit.uv, then.transforms.get(i)?)?,
+        now: point(&mesh.positions, tri, hit.uv, &inst.transform)?,
+    })
+}
+
 /// Per pixel, the world-space step from where its surface point is now back to where it was
 /// at `then`, for pixels whose hit (`hits`, this frame's [`pixel_hits`]) lies on a mesh that
 /// deformed; NaN elsewhere (no hit, a rigid mesh, a mesh whose vertex or triangle count
 /// changed, an instance that did not exist then): those pixels keep the rigid motion.
 ///
 /// The step is the hit's triangle point (same barycentrics) under then's positions and
-/// transform minus the same under now's, so it includes the instance's own motion.
+/// transform minus the same under now's ([`deformed_point`]), so it includes the instance's
+/// own motion.
 pub fn deformation_back(scene: &Scene, hits: &[PixelHit], then: &MeshPoses) -> Vec<Vec3> {
-    let point = |positions: &[Vec3], indices: [u32; 3], uv: [f32; 2], m: &Mat4| {
-        let [a, b, c] = indices.map(|i| positions.get(i as usize).copied());
-        let (a, b, c) = (a?, b?, c?);
-        Some(m.transform_point3(a * (1.0 - uv[0] - uv[1]) + b * uv[0] + c * uv[1]))
-    };
-    let back = |hit: &PixelHit| -> Option<Vec3> {
-        let i = hit.instance as usize;
-        let inst = scene.instances.get(i)?;
-        let before = then.positions(inst.mesh)?;
-        let mesh = scene.meshes.get(inst.mesh)?;
-        if before.len() != mesh.positions.len() || mesh.analytic.is_some() {
-            return None;
-        }
-        let tri = *mesh.indices.get(hit.triangle as usize)?;
-        let was = point(before, tri, hit.uv, then.transforms.get(i)?)?;
-        let is = point(&mesh.positions, tri, hit.uv, &inst.transform)?;
-        Some(was - is)
-    };
-    hits.iter().map(|h| back(h).unwrap_or(Vec3::NAN)).collect()
+    hits.iter()
+        .map(|h| deformed_point(scene, h, then).map_or(Vec3::NAN, |d| d.then - d.now))
+        .collect()
 }
 
 #[cfg(test)]

@@ -5,7 +5,10 @@
 //! material changed they differ by that change, not by noise (lumo-filter's `reshade.rs`).
 //!
 //! The point is carried with its instance's motion and re-traced from this frame's camera; it
-//! counts only if that ray still reaches it (otherwise it was disoccluded or covered). With
+//! counts only if that ray still reaches it (otherwise it was disoccluded or covered). On a
+//! mesh that deforms (a skin, morph targets) no transform carries it: it is carried as its
+//! triangle and barycentric coordinates and evaluated on this frame's deformed triangle
+//! (`lumo_render::deformed_point`, which the motion vectors use in the other direction). With
 //! the camera and the point's instance unchanged the ray is the previous frame's own pixel-centre
 //! ray, bit for bit, so an unchanged scene gives exactly zero differences.
 
@@ -16,7 +19,7 @@ use lumo_render::camera::PinholeCamera;
 use lumo_render::integrators::path::wavefront::trace_paths;
 use lumo_render::integrators::path::PathState;
 use lumo_render::sampler::PixelSampler;
-use lumo_render::{Frame, PathSettings, RenderScene};
+use lumo_render::{deformed_point, Frame, MeshPoses, PathSettings, PixelHit, RenderScene};
 use rayon::prelude::*;
 
 /// Side of the blocks of the previous frame that each give one re-shaded sample (A-SVGF: 3).
@@ -103,6 +106,9 @@ pub struct Pose<'a> {
     pub transforms: &'a [Mat4],
     /// The instance under each pixel centre (`u32::MAX` = none), when instances move.
     pub ids: Option<&'a [u32]>,
+    /// When meshes deform: the triangle and barycentrics under each pixel centre and the
+    /// deforming meshes' vertex positions at this pose (only the earlier pose's are read).
+    pub surface: Option<(&'a [PixelHit], &'a MeshPoses)>,
 }
 
 /// The pixel of block (`bx`, `by`) that is re-shaded: a hash of the block and the seed, so
@@ -164,14 +170,24 @@ pub fn reshade(
                 }
                 let q = &before.position.data[i * 3..i * 3 + 3];
                 let p = Vec3::new(q[0], q[1], q[2]);
-                let moved = then
-                    .ids
-                    .and_then(|ids| forward.get(ids[i] as usize).copied().flatten());
-                let p_now = moved.map_or(p, |m| m.transform_point3(p));
+                // A point on a deforming mesh moves by its triangle point's step (which
+                // includes its instance's motion); any other by its instance's transform.
+                let deformed = then
+                    .surface
+                    .and_then(|(hits, poses)| deformed_point(&rs.scene, hits.get(i)?, poses));
+                let (p_now, moved) = match deformed {
+                    Some(d) => (p + (d.now - d.then), d.now != d.then),
+                    None => {
+                        let m = then
+                            .ids
+                            .and_then(|ids| forward.get(ids[i] as usize).copied().flatten());
+                        (m.map_or(p, |m| m.transform_point3(p)), m.is_some())
+                    }
+                };
                 let origin = camera.origin();
                 // The previous frame's own ray where neither the camera nor the point
                 // moved: the same path, bit for bit, when nothing else changed.
-                let dir = if same_camera && moved.is_none() {
+                let dir = if same_camera && !moved {
                     camera.direction(Vec2::new(x as f32 + 0.5, y as f32 + 0.5))
                 } else {
                     (p_now - origin).normalize()
@@ -292,6 +308,7 @@ mod tests {
             view_proj: vp,
             transforms: &transforms,
             ids: None,
+            surface: None,
         };
         let camera = PinholeCamera::new(&rs.scene.camera, w, h);
         let same = reshade(&rs, &camera, &settings.path, &before, &at, &at);
@@ -315,5 +332,80 @@ mod tests {
                 "{c:?}"
             );
         }
+    }
+
+    /// The large box's vertices moved (stretched upwards and shifted towards the camera; its instance's
+    /// transform unchanged, as under a skin): carried by triangle and barycentrics, its points
+    /// are found again about as often as in the unchanged scene, at the pixels they moved to;
+    /// carried by the instance's transform alone (no triangles given, as before), most are lost.
+    #[test]
+    fn points_on_a_deformed_mesh_are_found_again() {
+        let (w, h) = (64, 64);
+        let mut rs = RenderScene::new(builtin_scene("cornell").expect("scene")).expect("scene");
+        let mesh = rs.scene.meshes.len() - 1;
+        let inst = rs
+            .scene
+            .instances
+            .iter()
+            .position(|i| i.mesh == mesh)
+            .expect("the box's instance") as u32;
+        let settings = RenderSettings {
+            width: w,
+            height: h,
+            spp: 1,
+            seed: 5,
+            path: PathSettings::default(),
+        };
+        let (frame, _) = render(&rs, &settings, &|_| {});
+        let before = ShadedFrame::new(&frame, settings.seed, None);
+        let camera = PinholeCamera::new(&rs.scene.camera, w, h);
+        let hits = lumo_render::pixel_hits(&rs, &camera, w, h);
+        let poses = MeshPoses::capture(&rs.scene, &[mesh]);
+        let (vp, transforms) = pose(&rs, w, h);
+        let then = Pose {
+            view_proj: vp,
+            transforms: &transforms,
+            ids: None,
+            surface: Some((&hits, &poses)),
+        };
+        let rigid_then = Pose {
+            surface: None,
+            ..then
+        };
+        let now = Pose {
+            surface: None,
+            ..then
+        };
+        let on_box = |rs: &RenderScene, changes: &[ShadingChange]| {
+            let now_hits = lumo_render::pixel_hits(rs, &camera, w, h);
+            changes
+                .iter()
+                .filter(|c| now_hits[c.pixel].instance == inst)
+                .count()
+        };
+        let unchanged = reshade(&rs, &camera, &settings.path, &before, &then, &now);
+        let still = on_box(&rs, &unchanged);
+        assert!(still > 10, "{still} samples on the box");
+
+        let floor = rs.scene.bounds().0.y;
+        // Towards the camera by 5 % of its distance, past the 1 % at which a ray to the old
+        // place finds another point, and a little taller; mostly along the view, so that few
+        // points cross the box's outline (where the pixel they land in shows something else).
+        for p in &mut rs.scene.meshes[mesh].positions {
+            p.y = floor + (p.y - floor) * 1.05;
+            p.z += 0.2;
+        }
+        rs.update(&[mesh]).expect("refit");
+        let followed = reshade(&rs, &camera, &settings.path, &before, &then, &now);
+        let lost = reshade(&rs, &camera, &settings.path, &before, &rigid_then, &now);
+        let (followed, lost) = (on_box(&rs, &followed), on_box(&rs, &lost));
+        assert!(
+            followed * 10 >= still * 9,
+            "{followed} of {still} points found again"
+        );
+        assert!(
+            lost * 2 < still,
+            "{lost} of {still} found without the triangles"
+        );
     }
 }

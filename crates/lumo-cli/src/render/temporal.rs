@@ -42,6 +42,9 @@ struct View {
     ids: Option<Vec<u32>>,
     /// The deforming meshes' vertex positions and the instance transforms, when meshes deform.
     poses: Option<MeshPoses>,
+    /// The triangle and barycentrics under each pixel centre, when meshes deform (re-shading
+    /// carries the previous frame's points on them forward by these).
+    hits: Option<Vec<PixelHit>>,
     /// The traced frame, for re-shading (when on).
     shaded: Option<ShadedFrame>,
 }
@@ -85,6 +88,9 @@ pub struct TemporalSequence {
     /// The path settings frames are traced with, when the history rejection re-shades
     /// samples of the previous frame (`super::reshade`); `None`: the windowed test.
     reshade: Option<PathSettings>,
+    /// Re-shading carries points on deforming meshes by triangle and barycentrics (else by
+    /// their instance's transform, as before; `rd=0` in the tuning hook, for comparison).
+    reshade_deforming: bool,
     /// The temporal filter of the direct-light split's shadow ratio, when the split is on
     /// (see [`TemporalSequence::filter`]).
     ratio: Option<TemporalFilter>,
@@ -134,6 +140,7 @@ impl TemporalSequence {
             object_motion,
             deforming: Vec::new(),
             reshade: reshade.filter(|_| tuned("rs") != Some(0.0)),
+            reshade_deforming: tuned("rd") != Some(0.0),
             ratio: if split_direct {
                 Some(TemporalFilter::new(ratio_params())?)
             } else {
@@ -219,6 +226,7 @@ impl TemporalSequence {
             transforms: rs.scene.instances.iter().map(|i| i.transform).collect(),
             ids,
             poses: deforms.then(|| MeshPoses::capture(&rs.scene, &self.deforming)),
+            hits: None,
             shaded: None,
         };
         let ids = view.ids.as_deref();
@@ -262,6 +270,7 @@ impl TemporalSequence {
         let split_buffer = &mut buffers.split;
         let hits = &buffers.hits[..];
         let mut changes = None;
+        let follow_deforming = self.reshade_deforming;
         let mut split_stage = || {
             if split_on {
                 direct_split_at(split_buffer, rs, &camera, hits, w, h, seed);
@@ -276,11 +285,17 @@ impl TemporalSequence {
                         view_proj: prev.view_proj,
                         transforms: &prev.transforms,
                         ids: prev.ids.as_deref(),
+                        surface: prev
+                            .hits
+                            .as_deref()
+                            .zip(prev.poses.as_ref())
+                            .filter(|_| follow_deforming),
                     };
                     let now = Pose {
                         view_proj: view.view_proj,
                         transforms: &view.transforms,
                         ids,
+                        surface: None,
                     };
                     reshade(rs, &camera, path, before, &then, &now)
                 }),
@@ -400,6 +415,7 @@ impl TemporalSequence {
                 split.map(|d| &d.split[..]),
             ));
         }
+        view.hits = pixel_hits;
         self.prev = Some(view);
         Ok((image, times))
     }
@@ -603,7 +619,7 @@ pub fn tuned(key: &str) -> Option<f32> {
 
 /// Tuning aid (undocumented in `--help`): `LUMO_TEMPORAL_TUNE="alpha=0.1,levels=2,…"`
 /// overrides the parameters for parameter sweeps without a rebuild. Keys: alpha (colour and
-/// moments), levels, sigma_l, gr / gk / gg (gradient radius, sigmas, gain), rg (re-shaded rejection gain), rr (1: rescale the history by the re-shaded change), rr_radius (its window radius), rs (0: no re-shading), fh (1: filtered
+/// moments), levels, sigma_l, gr / gk / gg (gradient radius, sigmas, gain), rg (re-shaded rejection gain), rr (1: rescale the history by the re-shaded change), rr_radius (its window radius), rs (0: no re-shading), rd (0: re-shading carries points on deforming meshes by their instance's transform only), fh (1: filtered
 /// history), cr (1: Catmull-Rom history reads), clamp (neighbourhood clamp, σ), sl / sn
 /// (short-history À-Trous levels and frames), mh (max history), vs (1: variance of
 /// the accumulated colour), taa / taag (TAA blend weight, 0 = off, and clip

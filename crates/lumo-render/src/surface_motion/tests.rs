@@ -101,3 +101,38 @@ fn hits_match_instance_ids_and_a_changed_mesh_gives_no_step() {
         .zip(&back)
         .all(|(h, s)| (h.instance == 1) != s.is_nan()));
 }
+
+/// Forward, as re-shading uses it: a point hit on the quad before it was sheared and moved
+/// is carried to the same barycentric place on the deformed quad, exactly where the shear
+/// and the motion take it, and its `then` is the point the ray hit.
+#[test]
+fn a_point_hit_before_a_deformation_is_carried_to_its_place_after() {
+    let scene = two_quads();
+    let then = MeshPoses::capture(&scene, &[0]);
+    let mut rs = RenderScene::new(scene).expect("valid scene");
+    let (w, h) = (48, 32);
+    let camera = PinholeCamera::new(&rs.scene.camera, w, h);
+    let hits = pixel_hits(&rs, &camera, w, h);
+    let first = crate::camera_hits(&rs, &camera, w, h);
+    for p in &mut rs.scene.meshes[0].positions {
+        p.x += 0.3 * (p.y + 1.0);
+    }
+    rs.scene.instances[0].transform = Mat4::from_translation(Vec3::new(0.0, 0.1, 0.0));
+    rs.update(&[0]).expect("refit");
+    let mut carried = 0;
+    for (i, (hit, ray_hit)) in hits.iter().zip(&first).enumerate() {
+        let d = deformed_point(&rs.scene, hit, &then);
+        if hit.instance != 0 {
+            assert!(d.is_none(), "only the deforming mesh's points are carried");
+            continue;
+        }
+        let d = d.expect("a point on the deforming mesh");
+        let (o, dir) = crate::pixel_centre_ray(&camera, i % w, i / w);
+        let was = o + dir * ray_hit.expect("a hit").t;
+        assert!((d.then - was).length() < 1e-5, "{} vs {was}", d.then);
+        let want = Vec3::new(was.x + 0.3 * (was.y + 1.0), was.y + 0.1, was.z);
+        assert!((d.now - want).length() < 1e-5, "{} vs {want}", d.now);
+        carried += 1;
+    }
+    assert!(carried > 100, "{carried} points");
+}
