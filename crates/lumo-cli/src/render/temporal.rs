@@ -11,7 +11,7 @@
 //! point is instead found again by its triangle and barycentric coordinates in the previous
 //! frame's vertex positions (`lumo_render::deformation_back`).
 
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use glam::Mat4;
 use lumo_filter::{
@@ -30,6 +30,7 @@ use lumo_scene::Camera;
 use rayon::prelude::*;
 
 use super::reshade::{reshade, Pose, ShadedFrame};
+use super::stage_clock::Mark;
 
 /// What the previous frame looked like, for its motion vectors.
 struct View {
@@ -46,12 +47,13 @@ struct View {
     shaded: Option<ShadedFrame>,
 }
 
-/// Time spent on one frame's temporal filtering.
+/// Time spent on one frame's temporal filtering, on the stage clock (wall time, or CPU time
+/// with `LUMO_STAGE_CLOCK=cpu`: `super::stage_clock`).
 #[derive(Clone, Copy, Debug, Default)]
 pub struct TemporalTimes {
-    /// The whole of [`TemporalSequence::filter`], wall clock: less than the sum of the stages
+    /// The whole of [`TemporalSequence::filter`] (wall clock: less than the sum of the stages
     /// below when stages run side by side (see there), and it includes the small steps no stage
-    /// counts (the emitter mask, the indirect-only colour, TAA).
+    /// counts (the emitter mask, the indirect-only colour, TAA)).
     pub total: Duration,
     /// Motion vectors (and the instance ids, taken from the split's camera hits when the
     /// split is on).
@@ -185,7 +187,7 @@ impl TemporalSequence {
         seed: u32,
     ) -> Result<(Image, TemporalTimes), FilterError> {
         let (w, h) = (frame.width(), frame.height());
-        let start = Instant::now();
+        let start = Mark::now();
         let c = &rs.scene.camera;
         let (hw, hh) = c.half_extent(w, h);
         let deforms = !self.deforming.is_empty();
@@ -196,7 +198,7 @@ impl TemporalSequence {
         let split_on = self.ratio.is_some();
         let hits = &mut self.buffers.hits;
         let hits_time = if split_on || self.object_motion {
-            let t = Instant::now();
+            let t = Mark::now();
             camera_hits_into(hits, rs, &camera, w, h);
             t.elapsed()
         } else {
@@ -254,7 +256,7 @@ impl TemporalSequence {
         // busy); `serial=1` in the tuning hook runs them in turn, for a breakdown by stage.
         let serial = tuned("serial").is_some_and(|v| v != 0.0);
         let timed = |f: &mut dyn FnMut()| {
-            let t = Instant::now();
+            let t = Mark::now();
             f();
             t.elapsed()
         };
@@ -355,7 +357,7 @@ impl TemporalSequence {
         } else {
             rayon::join(|| timed(&mut main_filter), || timed(&mut ratio_filter))
         };
-        let t = Instant::now();
+        let t = Mark::now();
         let mut filtered = filtered.expect("the main filter ran")?;
         if let (Some(d), Some(shadow)) = (split, shadow) {
             add_split_direct(&mut filtered.image, d, &shadow?.image);
