@@ -4,7 +4,9 @@
 //! the wall clock counts the time a stage waited for a core, which differs from stage to
 //! stage and run to run; the CPU time does not. With `--threads 1` a stage's CPU time is its
 //! cost on one core; on more threads it is the sum over them (idle rayon workers spin a
-//! little, which it counts too).
+//! little, which it counts too). Its resolution is the scheduler's: a running thread's time
+//! is brought up to date at context switches and timer ticks (a few ms), so a stage shorter
+//! than that reads 0 or a tick; take medians over frames.
 
 use std::sync::OnceLock;
 use std::time::{Duration, Instant};

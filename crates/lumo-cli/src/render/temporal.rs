@@ -248,7 +248,8 @@ impl TemporalSequence {
         // With the split on, the camera hits count as its stage (they replace its camera rays;
         // the ids' own rays, which they replace too, counted as the motion vectors').
         let hits_time = if split_on { hits_time } else { Duration::ZERO };
-        let motion_time = start.elapsed() - hits_time;
+        // Saturating: the CPU clock sums live threads, so a thread that ended would step it back.
+        let motion_time = start.elapsed().saturating_sub(hits_time);
         // The split and the re-shading are independent, and so are the two temporal filters
         // after them: each pair runs side by side (rayon::join), so that one stage's last rows
         // and its barriers can overlap the other's work (on the 2-vCPU machine of
