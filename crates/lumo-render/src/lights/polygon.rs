@@ -73,54 +73,13 @@ impl CosineTriangle {
             if s > 0.0 {
                 // The edge's angle and the normal's share of its plane's normal.
                 // (The angle in f32: its inputs are f64-exact, and libm's f64 atan2 was 4 % of
-                // a temporal frame; libm's f32 atan2 then still half of this integral.)
-                sum += f64::from(edge_angle(s as f32, a.dot(b) as f32)) * n.dot(c) / s;
+                // a temporal frame.)
+                sum += f64::from((s as f32).atan2(a.dot(b) as f32)) * n.dot(c) / s;
             }
         }
         // Counter-clockwise seen from p makes the sum negative; its magnitude is 2·∫cos dω.
         (0.5 * sum.abs()) as f32
     }
-}
-
-/// atan(a) / a as a polynomial in a², for a in [0, 1]: a least-squares fit on Chebyshev
-/// nodes whose f32 Horner evaluation stays within 1.1e-7 rad of atan (one f32 ulp at π/4).
-const ATAN_OVER_A: [f32; 9] = [
-    0.999_999_99,
-    -0.333_331_38,
-    0.199_936_94,
-    -0.142_111_03,
-    0.106_674_70,
-    -0.075_568_57,
-    0.043_277_64,
-    -0.016_412_77,
-    0.002_932_647,
-];
-
-/// The angle in [0, π] between two unit vectors whose cross product has length `s` (≥ 0) and
-/// whose dot product is `c`: `s.atan2(c)`, folded onto atan over [0, 1] and evaluated as a
-/// polynomial. Branch-light and inlined where libm's `atan2f` is a call with its own range
-/// reduction (which `perf` put at half of [`CosineTriangle::integral`]); within 2.5e-7 rad
-/// of it, and of the same relative accuracy for small angles, where the polynomial's
-/// constant term is 1 (tested).
-#[inline]
-fn edge_angle(s: f32, c: f32) -> f32 {
-    use std::f32::consts::{FRAC_PI_2, PI};
-    let ac = c.abs();
-    let (num, den) = if s <= ac { (s, ac) } else { (ac, s) };
-    if den == 0.0 {
-        return 0.0;
-    }
-    let a = num / den;
-    let z = a * a;
-    let p = ATAN_OVER_A.iter().rev().fold(0.0f32, |acc, &k| acc * z + k);
-    let mut r = a * p;
-    if s > ac {
-        r = FRAC_PI_2 - r;
-    }
-    if c < 0.0 {
-        r = PI - r;
-    }
-    r
 }
 
 #[cfg(test)]
@@ -215,40 +174,6 @@ mod tests {
         let limit = 0.5 * h * h * n.dot(w) * (-Vec3::Y).dot(-w).abs() / r2;
         let v = triangle_cosine_integral(p, n, &tri);
         assert!((v / limit - 1.0).abs() < 1e-3, "{v} vs {limit}");
-    }
-
-    /// The polynomial edge angle against libm's `atan2f` over every octant, from angles of
-    /// 1e-30 rad to π: within 2.5e-7 rad, and within 1e-6 of it relatively below 0.1 rad
-    /// (small or distant triangles sum small angles).
-    #[test]
-    fn the_edge_angle_matches_atan2() {
-        let mut worst = (0.0f32, 0.0f32);
-        for i in 0..=20_000 {
-            let t = i as f32 / 20_000.0 * std::f32::consts::PI;
-            for scale in [1.0f32, 1e-3, 1e3] {
-                let (s, c) = (t.sin().abs() * scale, t.cos() * scale);
-                let (got, want) = (edge_angle(s, c), s.atan2(c));
-                worst.0 = worst.0.max((got - want).abs());
-                if want < 0.1 && want > 0.0 {
-                    worst.1 = worst.1.max((got / want - 1.0).abs());
-                }
-            }
-        }
-        for e in -30..0 {
-            let s = 10f32.powi(e);
-            for c in [1.0f32, -1.0] {
-                let (got, want) = (edge_angle(s, c), s.atan2(c));
-                worst.0 = worst.0.max((got - want).abs());
-                if c > 0.0 {
-                    worst.1 = worst.1.max((got / want - 1.0).abs());
-                }
-            }
-        }
-        assert!(worst.0 < 2.5e-7, "absolute error {}", worst.0);
-        assert!(worst.1 < 1e-6, "relative error {}", worst.1);
-        assert_eq!(edge_angle(0.0, 0.0), 0.0);
-        assert_eq!(edge_angle(0.0, 2.0), 0.0);
-        assert_eq!(edge_angle(2.0, 0.0), std::f32::consts::FRAC_PI_2);
     }
 
     /// A huge square (two triangles) right above covers the hemisphere: ∫cos dω → π.
