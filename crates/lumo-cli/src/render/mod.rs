@@ -18,6 +18,7 @@ pub mod outputs;
 pub mod plan;
 pub mod reshade;
 pub mod sequence;
+pub mod stage_clock;
 pub mod temporal;
 pub mod temporal_eval;
 pub mod validate;

@@ -11,7 +11,7 @@
 //! point is instead found again by its triangle and barycentric coordinates in the previous
 //! frame's vertex positions (`lumo_render::deformation_back`).
 
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use glam::Mat4;
 use lumo_filter::{
@@ -30,6 +30,7 @@ use lumo_scene::Camera;
 use rayon::prelude::*;
 
 use super::reshade::{reshade, Pose, ShadedFrame};
+use super::stage_clock::Mark;
 
 /// What the previous frame looked like, for its motion vectors.
 struct View {
@@ -49,12 +50,13 @@ struct View {
     shaded: Option<ShadedFrame>,
 }
 
-/// Time spent on one frame's temporal filtering.
+/// Time spent on one frame's temporal filtering, on the stage clock (wall time, or CPU time
+/// with `LUMO_STAGE_CLOCK=cpu`: `super::stage_clock`).
 #[derive(Clone, Copy, Debug, Default)]
 pub struct TemporalTimes {
-    /// The whole of [`TemporalSequence::filter`], wall clock: less than the sum of the stages
+    /// The whole of [`TemporalSequence::filter`] (wall clock: less than the sum of the stages
     /// below when stages run side by side (see there), and it includes the small steps no stage
-    /// counts (the emitter mask, the indirect-only colour, TAA).
+    /// counts (the emitter mask, the indirect-only colour, TAA)).
     pub total: Duration,
     /// Motion vectors (and the instance ids, taken from the split's camera hits when the
     /// split is on).
@@ -192,7 +194,7 @@ impl TemporalSequence {
         seed: u32,
     ) -> Result<(Image, TemporalTimes), FilterError> {
         let (w, h) = (frame.width(), frame.height());
-        let start = Instant::now();
+        let start = Mark::now();
         let c = &rs.scene.camera;
         let (hw, hh) = c.half_extent(w, h);
         let deforms = !self.deforming.is_empty();
@@ -203,7 +205,7 @@ impl TemporalSequence {
         let split_on = self.ratio.is_some();
         let hits = &mut self.buffers.hits;
         let hits_time = if split_on || self.object_motion {
-            let t = Instant::now();
+            let t = Mark::now();
             camera_hits_into(hits, rs, &camera, w, h);
             t.elapsed()
         } else {
@@ -254,7 +256,8 @@ impl TemporalSequence {
         // With the split on, the camera hits count as its stage (they replace its camera rays;
         // the ids' own rays, which they replace too, counted as the motion vectors').
         let hits_time = if split_on { hits_time } else { Duration::ZERO };
-        let motion_time = start.elapsed() - hits_time;
+        // Saturating: the CPU clock sums live threads, so a thread that ended would step it back.
+        let motion_time = start.elapsed().saturating_sub(hits_time);
         // The split and the re-shading are independent, and so are the two temporal filters
         // after them: each pair runs side by side (rayon::join), so that one stage's last rows
         // and its barriers can overlap the other's work (on the 2-vCPU machine of
@@ -262,7 +265,7 @@ impl TemporalSequence {
         // busy); `serial=1` in the tuning hook runs them in turn, for a breakdown by stage.
         let serial = tuned("serial").is_some_and(|v| v != 0.0);
         let timed = |f: &mut dyn FnMut()| {
-            let t = Instant::now();
+            let t = Mark::now();
             f();
             t.elapsed()
         };
@@ -370,7 +373,7 @@ impl TemporalSequence {
         } else {
             rayon::join(|| timed(&mut main_filter), || timed(&mut ratio_filter))
         };
-        let t = Instant::now();
+        let t = Mark::now();
         let mut filtered = filtered.expect("the main filter ran")?;
         if let (Some(d), Some(shadow)) = (split, shadow) {
             add_split_direct(&mut filtered.image, d, &shadow?.image);

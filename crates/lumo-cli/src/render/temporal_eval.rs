@@ -27,6 +27,7 @@ use lumo_render::{RenderScene, RenderSettings};
 use super::frames::frame_seed;
 use super::job::Job;
 use super::sequence::Sequence;
+use super::stage_clock::{cpu_clock, Mark};
 use super::temporal::TemporalSequence;
 
 /// Frames whose FLIP the summary leaves out: the temporal history is still short (SVGF's
@@ -119,12 +120,27 @@ pub fn run(
             seed: frame_seed(settings.seed, frame),
             ..settings
         };
+        // On the CPU clock (`LUMO_STAGE_CLOCK=cpu`, timing runs: `--reference-spp 0`, which
+        // scores nothing) the trace runs alone, so that its CPU time is the trace's: the
+        // pipeline's own timings are wall clock, and the per-frame À-Trous would share its CPU
+        // time. The temporal filter gets the same traced frame either way.
+        let trace_alone = reference_spp == 0 && cpu_clock();
+        let mark = Mark::now();
+        let pipeline = if trace_alone {
+            Pipeline::None
+        } else {
+            Pipeline::Atrous
+        };
         let out = job
             .pool
-            .install(|| run_pipeline(&rs, Pipeline::Atrous, &traced, &options, &none))
+            .install(|| run_pipeline(&rs, pipeline, &traced, &options, &none))
             .map_err(crate::pipeline_args::describe_pipeline_error)?;
-        row.trace = out.timings.trace;
-        row.spatial = out.timings.filter + out.timings.compose;
+        if trace_alone {
+            row.trace = mark.elapsed();
+        } else {
+            row.trace = out.timings.trace;
+            row.spatial = out.timings.filter + out.timings.compose;
+        }
         // The temporal filter's own trace: the same randomisation through the jittered camera
         // (no jitter: the frame above).
         let nominal = rs.scene.camera.clone();

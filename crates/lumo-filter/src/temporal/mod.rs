@@ -110,6 +110,8 @@ pub struct TemporalParams {
     /// The spatial filter. `demodulate` is ignored (the temporal filter demodulates itself);
     /// `use_variance` should stay on (the temporal variance steers the colour weight);
     /// `sigma_position` is dropped when a frame has no position plane; `sparse` must be 1.
+    /// `iterations` 0 leaves the spatial stage out: the output is the accumulated colour
+    /// (and no variance is estimated), for a signal whose history alone is smooth enough.
     pub atrous: AtrousParams,
 }
 
@@ -348,8 +350,12 @@ impl TemporalFilter {
         self.size_buffers(frame.color.width, frame.color.height);
         self.read_samples(frame);
         self.accumulate(frame, changes);
-        self.estimate_variance(frame.color.width, frame.color.height);
-        let (filtered, first) = self.filter_spatially(frame)?;
+        let (filtered, first) = if self.params.atrous.iterations == 0 {
+            self.accumulated_only()
+        } else {
+            self.estimate_variance(frame.color.width, frame.color.height);
+            self.filter_spatially(frame)?
+        };
         let image = self.remodulate(filtered, frame);
         self.update_history(frame, first);
         Ok(Filtered {
@@ -531,6 +537,32 @@ impl TemporalFilter {
                 });
         }
         Ok((filtered, first))
+    }
+
+    /// Step 4 without a spatial stage (`atrous.iterations` 0): the accumulated colour, NaN
+    /// where there is nothing to show (as the À-Trous output's missing pixels; remodulation
+    /// sanitises them), and it again as the "first level" for a filtered history. The
+    /// reprojected history is kept for [`Self::reprojected_history`] as with levels.
+    fn accumulated_only(&mut self) -> (Filtered, Image) {
+        let acc = &self.acc[..];
+        self.integrated
+            .data
+            .par_chunks_mut(3)
+            .zip(self.reprojected.data.par_chunks_mut(3))
+            .zip(acc.par_iter())
+            .for_each(|((o, r), a)| {
+                let c = if a.len > 0 { a.color } else { [f32::NAN; 3] };
+                o.copy_from_slice(&c);
+                r.copy_from_slice(&a.history.unwrap_or([f32::NAN; 3]));
+            });
+        // `integrated` stays for the history (taken by a swap); the output is a copy.
+        let image = self.integrated.clone();
+        let first = if self.params.filtered_history {
+            image.clone()
+        } else {
+            Image::new(0, 0, 3, 0.0)
+        };
+        (Filtered { image, missing: 0 }, first)
     }
 
     /// Step 5: remodulation; pass-through pixels get their own colour.

@@ -652,3 +652,35 @@ fn pass_through_and_background_pixels() {
         assert!(f.history_length().iter().all(|&n| n == 0));
     }
 }
+
+/// With no À-Trous level the output is the accumulated colour itself: the first frame as it
+/// is, then the running mean while the history is shorter than 1/α (still camera, no
+/// rejection), and no pixel borrows from its neighbours.
+#[test]
+fn without_levels_the_output_is_the_running_mean() {
+    let (w, h) = (9, 7);
+    let g = flat(w, h);
+    let mut p = TemporalParams {
+        alpha: 0.2,
+        alpha_moments: 0.2,
+        gradient_gain: 0.0,
+        ..TemporalParams::default()
+    };
+    p.atrous.iterations = 0;
+    let mut filter = TemporalFilter::new(p).expect("params");
+    let frames: Vec<Image> = (0..3).map(|k| random_image(w, h, 7 + k)).collect();
+    let mut mean = vec![0.0f32; w * h * 3];
+    for (k, c) in frames.iter().enumerate() {
+        let out = filter.filter(&frame(c, &g)).expect("filtered").image;
+        let a = 1.0 / (k + 1) as f32;
+        for (m, v) in mean.iter_mut().zip(&c.data) {
+            *m += a * (v - *m);
+        }
+        for (i, (o, m)) in out.data.iter().zip(&mean).enumerate() {
+            assert!(
+                (o - m).abs() < 1e-6,
+                "frame {k}, value {i}: {o} against {m}"
+            );
+        }
+    }
+}
