@@ -7,18 +7,10 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("lumo-bench-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    super::common::temp_dir("bench", name)
 }
 
-fn lumo(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lumo"))
-        .args(args)
-        .output()
-        .expect("run lumo")
-}
+use super::common::lumo;
 
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()

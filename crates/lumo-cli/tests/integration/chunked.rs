@@ -7,10 +7,7 @@ use std::process::Command;
 use lumo_cli::chunked::{Chunk, ChunkedRender, Role};
 
 fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("lumo-chunked-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    super::common::temp_dir("chunked", name)
 }
 
 fn words(args: &[&str]) -> Vec<String> {

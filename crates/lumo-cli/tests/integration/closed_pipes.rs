@@ -7,10 +7,7 @@ use std::process::{Command, Output, Stdio};
 use lumo_image::{write_image, Image};
 
 fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("lumo-pipes-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    super::common::temp_dir("pipes", name)
 }
 
 /// A pipe whose reading end is already closed: every write to the other end fails with

@@ -7,10 +7,7 @@ use lumo_image::metrics::{flip, tone_map, FlipSettings};
 use lumo_image::{read_image, write_image, Image};
 
 fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("lumo-compare-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    super::common::temp_dir("compare", name)
 }
 
 fn lumo(args: &[&Path]) -> Output {

@@ -6,10 +6,7 @@ use std::process::{Command, Output};
 use lumo_image::{read_image, write_image, Image};
 
 fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("lumo-denoise-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    super::common::temp_dir("denoise", name)
 }
 
 fn lumo(args: &[&str]) -> Output {

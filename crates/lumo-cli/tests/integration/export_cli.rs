@@ -1,26 +1,17 @@
 //! End-to-end tests of `lumo export`: the written Mitsuba file renders like the scene it came
 //! from, and what Mitsuba cannot hold is refused with the item's name.
 
-use std::path::PathBuf;
-use std::process::{Command, Output};
+use std::path::{Path, PathBuf};
 
 use lumo_image::read_image;
 
 fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("lumo-export-cli-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    super::common::temp_dir("export-cli", name)
 }
 
-fn lumo(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lumo"))
-        .args(args)
-        .output()
-        .expect("run lumo")
-}
+use super::common::lumo;
 
-fn mean(path: &PathBuf) -> [f64; 3] {
+fn mean(path: &Path) -> [f64; 3] {
     let img = read_image(path).expect("image");
     let mut m = [0.0f64; 3];
     for p in img.data.chunks(img.channels) {

@@ -7,10 +7,7 @@ use std::process::{Command, Output};
 use std::time::{Duration, Instant};
 
 fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("lumo-hostile-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    super::common::temp_dir("hostile", name)
 }
 
 /// Runs `lumo args…` in `dir`, with the memory budget `LUMO_MEMORY_LIMIT=memory` if given.

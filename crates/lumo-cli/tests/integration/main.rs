@@ -3,6 +3,7 @@
 mod bench_cli;
 mod chunked;
 mod closed_pipes;
+mod common;
 mod compare_cli;
 mod denoise_cli;
 mod export_cli;

@@ -8,10 +8,7 @@ use std::process::{Command, Output};
 use lumo_image::{write_image, Image};
 
 fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("lumo-memory-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    super::common::temp_dir("memory", name)
 }
 
 fn lumo(dir: &Path, args: &[&str], memory: &str) -> Output {
