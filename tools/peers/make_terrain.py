@@ -165,7 +165,7 @@ def look_quat(origin, target):
     return [x, y, z, w]
 
 
-def write_gltf(path, verts, tris, res):
+def write_gltf(path, verts, tris):
     pos = np.ascontiguousarray(verts[:, :3])
     # glTF's v runs from the image's top; the texture is symmetric about v = ½ (see above).
     uv = np.ascontiguousarray(verts[:, 3:5])
@@ -229,7 +229,7 @@ def main():
     write_png(a.out / "terrain.png", texture())
     write_ply(a.out / "terrain.ply", verts, tris)
     write_xml(a.out / "terrain.xml")
-    write_gltf(a.out / "terrain.gltf", verts, tris, 256)
+    write_gltf(a.out / "terrain.gltf", verts, tris)
     print(f"{a.out}: {len(tris):,} triangles, {len(verts):,} vertices")
 
 

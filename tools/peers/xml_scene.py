@@ -22,7 +22,7 @@ import math
 import re
 import struct
 import xml.etree.ElementTree as ET
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -50,10 +50,6 @@ class Material:
     k: tuple = None
     alpha: float = 0.0
     ior: float = None
-
-    def with_sides(self, two_sided):
-        """The same material, one- or two-sided."""
-        return Material(**{**self.__dict__, "two_sided": two_sided})
 
 
 @dataclass
@@ -207,7 +203,7 @@ class _Reader:
             inner = [c for c in el if c.tag in ("bsdf", "ref")]
             if len(inner) != 1:
                 self.fail(el, "twosided with two BSDFs is not read")
-            return self.bsdf(inner[0]).with_sides(True)
+            return replace(self.bsdf(inner[0]), two_sided=True)
         if kind == "diffuse":
             tex = el.find("texture[@name='reflectance']")
             if tex is not None:
@@ -277,7 +273,7 @@ class _Reader:
             normals = n / np.linalg.norm(n, axis=1, keepdims=True)
         name = el.get("id") or f"shape{index}"
         if radiance is not None:
-            material = Material(**{**material.__dict__, "radiance": radiance})
+            material = replace(material, radiance=radiance)
         if material.texture is not None and uvs is None:
             self.fail(el, "a textured shape without texture coordinates is not read")
         return Mesh(name, world, faces, normals, material, uvs)

@@ -286,6 +286,19 @@ mod tests {
         )
     }
 
+    /// A 1-spp frame of `rs` at w×h with `seed`, as the temporal loop keeps it for re-shading.
+    fn shaded_frame(rs: &RenderScene, w: usize, h: usize, seed: u32) -> ShadedFrame {
+        let settings = RenderSettings {
+            width: w,
+            height: h,
+            spp: 1,
+            seed,
+            path: PathSettings::default(),
+        };
+        let (frame, _) = render(rs, &settings, &|_| {});
+        ShadedFrame::new(&frame, seed, None)
+    }
+
     /// Re-shading an unchanged scene repeats the previous frame's paths bit for bit; with every
     /// emitter twice as bright the same paths carry twice the light. Both fail if the re-traced
     /// path does not draw the random numbers the frame's sample drew.
@@ -294,15 +307,7 @@ mod tests {
         let (w, h) = (24, 24);
         let scene = builtin_scene("cornell").expect("built-in scene");
         let rs = RenderScene::new(scene.clone()).expect("scene");
-        let settings = RenderSettings {
-            width: w,
-            height: h,
-            spp: 1,
-            seed: 11,
-            path: PathSettings::default(),
-        };
-        let (frame, _) = render(&rs, &settings, &|_| {});
-        let before = ShadedFrame::new(&frame, settings.seed, None);
+        let before = shaded_frame(&rs, w, h, 11);
         let (vp, transforms) = pose(&rs, w, h);
         let at = Pose {
             view_proj: vp,
@@ -311,7 +316,7 @@ mod tests {
             surface: None,
         };
         let camera = PinholeCamera::new(&rs.scene.camera, w, h);
-        let same = reshade(&rs, &camera, &settings.path, &before, &at, &at);
+        let same = reshade(&rs, &camera, &PathSettings::default(), &before, &at, &at);
         assert!(same.len() > w * h / 9 / 2, "{} samples", same.len());
         assert!(
             same.iter().all(|c| c.now == c.before),
@@ -324,7 +329,7 @@ mod tests {
             m.emission *= 2.0;
         }
         let rs2 = RenderScene::new(brighter).expect("scene");
-        let doubled = reshade(&rs2, &camera, &settings.path, &before, &at, &at);
+        let doubled = reshade(&rs2, &camera, &PathSettings::default(), &before, &at, &at);
         assert_eq!(doubled.len(), same.len());
         for c in &doubled {
             assert!(
@@ -349,15 +354,7 @@ mod tests {
             .iter()
             .position(|i| i.mesh == mesh)
             .expect("the box's instance") as u32;
-        let settings = RenderSettings {
-            width: w,
-            height: h,
-            spp: 1,
-            seed: 5,
-            path: PathSettings::default(),
-        };
-        let (frame, _) = render(&rs, &settings, &|_| {});
-        let before = ShadedFrame::new(&frame, settings.seed, None);
+        let before = shaded_frame(&rs, w, h, 5);
         let camera = PinholeCamera::new(&rs.scene.camera, w, h);
         let hits = lumo_render::pixel_hits(&rs, &camera, w, h);
         let poses = MeshPoses::capture(&rs.scene, &[mesh]);
@@ -383,7 +380,7 @@ mod tests {
                 .filter(|c| now_hits[c.pixel].instance == inst)
                 .count()
         };
-        let unchanged = reshade(&rs, &camera, &settings.path, &before, &then, &now);
+        let unchanged = reshade(&rs, &camera, &PathSettings::default(), &before, &then, &now);
         let still = on_box(&rs, &unchanged);
         assert!(still > 10, "{still} samples on the box");
 
@@ -396,8 +393,15 @@ mod tests {
             p.z += 0.2;
         }
         rs.update(&[mesh]).expect("refit");
-        let followed = reshade(&rs, &camera, &settings.path, &before, &then, &now);
-        let lost = reshade(&rs, &camera, &settings.path, &before, &rigid_then, &now);
+        let followed = reshade(&rs, &camera, &PathSettings::default(), &before, &then, &now);
+        let lost = reshade(
+            &rs,
+            &camera,
+            &PathSettings::default(),
+            &before,
+            &rigid_then,
+            &now,
+        );
         let (followed, lost) = (on_box(&rs, &followed), on_box(&rs, &lost));
         assert!(
             followed * 10 >= still * 9,

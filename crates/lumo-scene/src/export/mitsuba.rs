@@ -297,14 +297,24 @@ fn bsdf(spec: &BsdfSpec, what: &dyn Fn() -> String) -> Result<String, ExportErro
     })
 }
 
-/// The variant's name, for messages.
-fn bsdf_kind(spec: &BsdfSpec) -> String {
-    let debug = format!("{spec:?}");
-    debug
-        .split(|c: char| !c.is_alphanumeric())
-        .next()
-        .unwrap_or("?")
-        .to_string()
+/// The variant's name, for messages. (Not through `Debug`: that would print a bitmap
+/// texture's every texel to read one word.)
+fn bsdf_kind(spec: &BsdfSpec) -> &'static str {
+    match spec {
+        BsdfSpec::Diffuse { .. } => "Diffuse",
+        BsdfSpec::Mirror { .. } => "Mirror",
+        BsdfSpec::Conductor { .. } => "Conductor",
+        BsdfSpec::Plastic { .. } => "Plastic",
+        BsdfSpec::Dielectric { .. } => "Dielectric",
+        BsdfSpec::ThinDielectric { .. } => "ThinDielectric",
+        BsdfSpec::NormalMap { .. } => "NormalMap",
+        BsdfSpec::BumpMap { .. } => "BumpMap",
+        BsdfSpec::TwoSided { .. } => "TwoSided",
+        BsdfSpec::Blend { .. } => "Blend",
+        BsdfSpec::GltfPbr { .. } => "GltfPbr",
+        BsdfSpec::Principled(_) => "Principled",
+        BsdfSpec::Mask { .. } => "Mask",
+    }
 }
 
 /// "rough" for a microfacet surface, "" for a smooth one.

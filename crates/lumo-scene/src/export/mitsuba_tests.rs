@@ -90,7 +90,7 @@ fn materials_textures_and_lights_of_the_atrium_read_back() {
         let mut v: Vec<String> = s
             .materials
             .iter()
-            .map(|m| bsdf_kind(&m.bsdf) + if m.two_sided { "/2" } else { "/1" })
+            .map(|m| format!("{}/{}", bsdf_kind(&m.bsdf), if m.two_sided { 2 } else { 1 }))
             .collect();
         v.sort();
         v.dedup();

@@ -126,15 +126,22 @@ mod tests {
         (light, rim, img)
     }
 
+    /// [`frame`]'s input and its output through [`clamp_rim`] (the filter's output taken as
+    /// the input itself).
+    fn clamped(rim_row: [f32; W]) -> (Image, Image) {
+        let (light, rim, color) = frame(rim_row);
+        let mut out = color.clone();
+        clamp_rim(&color, &light, &rim, &mut out);
+        (color, out)
+    }
+
     fn rim_of(img: &Image) -> Vec<f32> {
         (0..W).map(|x| img.data[(W + x) * 3]).collect()
     }
 
     #[test]
     fn a_black_rim_pixel_among_brighter_ones_is_raised_to_half_the_surface() {
-        let (light, rim, color) = frame([3.0, 0.0, 3.0, 3.0, 3.0]);
-        let mut out = color.clone();
-        clamp_rim(&color, &light, &rim, &mut out);
+        let (color, out) = clamped([3.0, 0.0, 3.0, 3.0, 3.0]);
         // Pixel 1: surface mean 2 → 1; its rim's mean (3 + 0 + 3 + 3) / 4 is larger.
         assert_eq!(rim_of(&out), [3.0, 1.0, 3.0, 3.0, 3.0]);
         assert_eq!(
@@ -147,31 +154,23 @@ mod tests {
 
     #[test]
     fn a_rim_dark_all_along_is_believed() {
-        let (light, rim, color) = frame([0.0; W]);
-        let mut out = color.clone();
-        clamp_rim(&color, &light, &rim, &mut out);
+        let (color, out) = clamped([0.0; W]);
         assert_eq!(out, color);
         // With a little noise it moves at most to its own mean, not to the surface's 1.
-        let (light, rim, color) = frame([0.0, 0.1, 0.0, 0.0, 0.0]);
-        let mut out = color.clone();
-        clamp_rim(&color, &light, &rim, &mut out);
+        let (_, out) = clamped([0.0, 0.1, 0.0, 0.0, 0.0]);
         assert!(rim_of(&out).iter().all(|&v| v <= 0.1), "{:?}", rim_of(&out));
     }
 
     #[test]
     fn a_rim_speckle_above_the_light_is_lowered_to_it() {
-        let (light, rim, color) = frame([3.0, 80.0, 3.0, 3.0, 3.0]);
-        let mut out = color.clone();
-        clamp_rim(&color, &light, &rim, &mut out);
+        let (_, out) = clamped([3.0, 80.0, 3.0, 3.0, 3.0]);
         assert_eq!(rim_of(&out), [3.0, 10.0, 3.0, 3.0, 3.0]);
     }
 
     #[test]
     fn rim_pixels_between_surface_and_light_keep_their_values() {
         let row = [1.0, 1.5, 6.0, 10.0, 2.0];
-        let (light, rim, color) = frame(row);
-        let mut out = color.clone();
-        clamp_rim(&color, &light, &rim, &mut out);
+        let (_, out) = clamped(row);
         assert_eq!(rim_of(&out), row);
     }
 
