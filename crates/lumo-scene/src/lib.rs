@@ -16,6 +16,7 @@ pub mod load;
 mod material;
 pub mod media;
 mod mesh;
+mod mipmap;
 mod principled;
 mod scene;
 pub mod shapes;
@@ -31,6 +32,7 @@ pub use light::{range_window, EnvMap, Light, SpotFalloff, MAX_EMISSION};
 pub use material::{Distribution, Material, Roughness, RoughnessMaps, Spectra};
 pub use media::{Boundary, Medium, MediumInterface, MediumSpectra, PhaseFunction, SceneMedia};
 pub use mesh::{Analytic, AnalyticKind, Instance, Mesh};
+pub use mipmap::{MipFilter, MipMap};
 pub use principled::PrincipledSpec;
 pub use scene::{
     box_reach, positions_box, reach_error, singular_instance, transformed_box, RenderDefaults,

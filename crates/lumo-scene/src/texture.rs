@@ -3,6 +3,8 @@ use std::sync::Arc;
 use glam::{Affine2, Vec2, Vec3};
 use lumo_image::Image;
 
+use crate::mipmap::{MipFilter, MipMap};
+
 /// How a bitmap lookup between texel centres is reconstructed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum TextureFilter {
@@ -118,6 +120,22 @@ pub enum Texture {
         /// What lies outside [0, 1]².
         wrap: WrapMode,
     },
+    /// A bitmap with its mip-map (glTF's `*_MIPMAP_*` minification filters): looked up in
+    /// the level whose texels match the lookup's footprint ([`Texture::eval_at`]); a lookup
+    /// without a footprint reads level 0 as a [`Texture::Bitmap`] would.
+    Mipmapped {
+        /// The levels.
+        mips: Arc<MipMap>,
+        /// The lookup within level 0 where the footprint is under a texel (glTF's
+        /// `magFilter`).
+        magnify: TextureFilter,
+        /// The lookup within a reduced level (the first half of glTF's `minFilter` name).
+        minify: TextureFilter,
+        /// How two levels are combined.
+        between: MipFilter,
+        /// What lies outside [0, 1]².
+        wrap: WrapMode,
+    },
     /// Another texture looked up at transformed coordinates (Mitsuba's `to_uv`, glTF's
     /// `KHR_texture_transform`).
     Transformed {
@@ -129,8 +147,15 @@ pub enum Texture {
 }
 
 impl Texture {
-    /// The value at `uv`.
+    /// The value at `uv` (a point lookup: a mip-map reads its finest level).
+    #[inline]
     pub fn eval(&self, uv: Vec2) -> Vec3 {
+        self.eval_at(uv, 0.0)
+    }
+
+    /// The value at `uv` averaged over a footprint about `footprint` wide in uv units (only
+    /// a [`Texture::Mipmapped`] reads the footprint; zero is a point lookup).
+    pub fn eval_at(&self, uv: Vec2, footprint: f32) -> Vec3 {
         match self {
             Texture::Constant(c) => *c,
             Texture::Checkerboard {
@@ -150,26 +175,41 @@ impl Texture {
                 uv_scale,
                 filter,
                 wrap,
+            } => lookup(image, *filter, *wrap, uv * *uv_scale),
+            Texture::Mipmapped {
+                mips,
+                magnify,
+                minify,
+                between,
+                wrap,
             } => {
-                // The loaders refuse empty images; one built in code must not panic here.
-                let Some(grid) = TexelGrid::new(image, *wrap, uv * *uv_scale) else {
-                    return Vec3::ZERO;
-                };
-                let texel = |x: usize, y: usize| Vec3::from(image.rgb(x, y));
-                match filter {
-                    TextureFilter::Nearest => {
-                        let (x, y) = grid.nearest();
-                        texel(x, y)
-                    }
-                    TextureFilter::Bilinear => {
-                        let ([x0, x1], [y0, y1], tx, ty) = grid.bilinear();
-                        let top = texel(x0, y0) * (1.0 - tx) + texel(x1, y0) * tx;
-                        let bottom = texel(x0, y1) * (1.0 - tx) + texel(x1, y1) * tx;
-                        top * (1.0 - ty) + bottom * ty
-                    }
+                let levels = mips.levels();
+                let level = mips.level_for(footprint);
+                if level <= 0.0 {
+                    return lookup(&levels[0], *magnify, *wrap, uv);
+                }
+                let at = |i: usize| lookup(&levels[i], *minify, *wrap, uv);
+                let (lo, t) = (level.floor(), level.fract());
+                match between {
+                    MipFilter::Nearest => at(level.round() as usize),
+                    MipFilter::Linear if t == 0.0 => at(lo as usize),
+                    MipFilter::Linear => at(lo as usize) * (1.0 - t) + at(lo as usize + 1) * t,
                 }
             }
-            Texture::Transformed { texture, uv: m } => texture.eval(m.transform_point2(uv)),
+            Texture::Transformed { texture, uv: m } => {
+                // The footprint scales as lengths do under the map (its area's square root).
+                let scale = m.matrix2.determinant().abs().sqrt();
+                texture.eval_at(m.transform_point2(uv), footprint * scale)
+            }
+        }
+    }
+
+    /// Whether a lookup reads its footprint (a mip-map somewhere inside).
+    pub fn uses_footprint(&self) -> bool {
+        match self {
+            Texture::Mipmapped { .. } => true,
+            Texture::Transformed { texture, .. } => texture.uses_footprint(),
+            _ => false,
         }
     }
 
@@ -179,9 +219,14 @@ impl Texture {
         lumo_image::luminance(self.eval(uv).to_array())
     }
 
+    /// [`Texture::eval_1`] over a footprint ([`Texture::eval_at`]).
+    pub fn eval_1_at(&self, uv: Vec2, footprint: f32) -> f32 {
+        lumo_image::luminance(self.eval_at(uv, footprint).to_array())
+    }
+
     /// Gradient (∂/∂u, ∂/∂v) of [`Texture::eval_1`] at `uv`, as Mitsuba's `eval_1_grad`: exact
     /// for bilinear bitmaps, zero where the texture is piecewise constant (constant,
-    /// checkerboard, nearest-filtered bitmaps).
+    /// checkerboard, nearest-filtered bitmaps). A mip-map's is its finest level's.
     pub fn eval_1_grad(&self, uv: Vec2) -> Vec2 {
         match self {
             Texture::Constant(_) | Texture::Checkerboard { .. } => Vec2::ZERO,
@@ -190,23 +235,13 @@ impl Texture {
                 uv_scale,
                 filter,
                 wrap,
-            } => {
-                if *filter == TextureFilter::Nearest {
-                    return Vec2::ZERO;
-                }
-                let Some(grid) = TexelGrid::new(image, *wrap, uv * *uv_scale) else {
-                    return Vec2::ZERO;
-                };
-                let ([x0, x1], [y0, y1], tx, ty) = grid.bilinear();
-                let texel = |x: usize, y: usize| lumo_image::luminance(image.rgb(x, y));
-                let (f00, f10) = (texel(x0, y0), texel(x1, y0));
-                let (f01, f11) = (texel(x0, y1), texel(x1, y1));
-                let d_px = (1.0 - ty) * (f10 - f00) + ty * (f11 - f01);
-                let d_py = (1.0 - tx) * (f01 - f00) + tx * (f11 - f10);
-                // px grows with u; py falls as v grows (row 0 at v = 1).
-                let (w, h) = (image.width as f32, image.height as f32);
-                Vec2::new(d_px * w * uv_scale.x, -d_py * h * uv_scale.y)
-            }
+            } => lookup_grad(image, *filter, *wrap, uv * *uv_scale) * *uv_scale,
+            Texture::Mipmapped {
+                mips,
+                magnify,
+                wrap,
+                ..
+            } => lookup_grad(&mips.levels()[0], *magnify, *wrap, uv),
             Texture::Transformed { texture, uv: m } => {
                 // Chain rule: the gradient pulled back through the affine map (its transpose).
                 let g = texture.eval_1_grad(m.transform_point2(uv));
@@ -224,10 +259,57 @@ impl Texture {
                 let m = image.to_channels(3).channel_means();
                 Vec3::new(m[0] as f32, m[1] as f32, m[2] as f32)
             }
+            // The coarsest level is the mean, to its rounding.
+            Texture::Mipmapped { mips, .. } => {
+                let m = mips.levels()[0].to_channels(3).channel_means();
+                Vec3::new(m[0] as f32, m[1] as f32, m[2] as f32)
+            }
             // Exact for affine maps that tile whole periods; close otherwise.
             Texture::Transformed { texture, .. } => texture.average(),
         }
     }
+}
+
+/// A bitmap read at `uv` (the image spanning [0, 1]²) with `filter` and `wrap`.
+#[inline]
+fn lookup(image: &Image, filter: TextureFilter, wrap: WrapMode, uv: Vec2) -> Vec3 {
+    // The loaders refuse empty images; one built in code must not panic here.
+    let Some(grid) = TexelGrid::new(image, wrap, uv) else {
+        return Vec3::ZERO;
+    };
+    let texel = |x: usize, y: usize| Vec3::from(image.rgb(x, y));
+    match filter {
+        TextureFilter::Nearest => {
+            let (x, y) = grid.nearest();
+            texel(x, y)
+        }
+        TextureFilter::Bilinear => {
+            let ([x0, x1], [y0, y1], tx, ty) = grid.bilinear();
+            let top = texel(x0, y0) * (1.0 - tx) + texel(x1, y0) * tx;
+            let bottom = texel(x0, y1) * (1.0 - tx) + texel(x1, y1) * tx;
+            top * (1.0 - ty) + bottom * ty
+        }
+    }
+}
+
+/// The gradient of [`lookup`]'s luminance with respect to the uv it was given: exact for
+/// bilinear lookups, zero for nearest ones (piecewise constant).
+fn lookup_grad(image: &Image, filter: TextureFilter, wrap: WrapMode, uv: Vec2) -> Vec2 {
+    if filter == TextureFilter::Nearest {
+        return Vec2::ZERO;
+    }
+    let Some(grid) = TexelGrid::new(image, wrap, uv) else {
+        return Vec2::ZERO;
+    };
+    let ([x0, x1], [y0, y1], tx, ty) = grid.bilinear();
+    let texel = |x: usize, y: usize| lumo_image::luminance(image.rgb(x, y));
+    let (f00, f10) = (texel(x0, y0), texel(x1, y0));
+    let (f01, f11) = (texel(x0, y1), texel(x1, y1));
+    let d_px = (1.0 - ty) * (f10 - f00) + ty * (f11 - f01);
+    let d_py = (1.0 - tx) * (f01 - f00) + tx * (f11 - f10);
+    // px grows with u; py falls as v grows (row 0 at v = 1).
+    let (w, h) = (image.width as f32, image.height as f32);
+    Vec2::new(d_px * w, -d_py * h)
 }
 
 #[cfg(test)]
@@ -327,5 +409,83 @@ mod tests {
         assert_eq!(t.eval(Vec2::new(0.30, 0.5)).x, 1.0);
         assert_eq!(t.eval(Vec2::new(1.30, 0.5)).x, 1.0);
         assert_eq!(t.eval(Vec2::new(-0.05, 0.5)).x, 3.0);
+    }
+
+    /// An 8×8 bitmap of one-texel black and white squares, mip-mapped.
+    fn mip_checker(between: MipFilter) -> Texture {
+        let data = (0..64)
+            .flat_map(|i| [((i % 8 + i / 8) % 2) as f32; 3])
+            .collect();
+        Texture::Mipmapped {
+            mips: Arc::new(MipMap::new(Arc::new(Image::from_vec(8, 8, 3, data)))),
+            magnify: TextureFilter::Nearest,
+            minify: TextureFilter::Bilinear,
+            between,
+            wrap: WrapMode::Repeat,
+        }
+    }
+
+    #[test]
+    fn a_point_lookup_of_a_mip_map_reads_its_finest_level() {
+        let t = mip_checker(MipFilter::Linear);
+        let Texture::Mipmapped { mips, .. } = &t else {
+            unreachable!()
+        };
+        let plain = Texture::Bitmap {
+            image: mips.levels()[0].clone(),
+            uv_scale: Vec2::ONE,
+            filter: TextureFilter::Nearest,
+            wrap: WrapMode::Repeat,
+        };
+        for uv in [
+            Vec2::new(0.01, 0.3),
+            Vec2::new(0.55, 0.93),
+            Vec2::new(-0.2, 1.7),
+        ] {
+            assert_eq!(t.eval(uv), plain.eval(uv));
+            // A footprint under one texel is still a point lookup.
+            assert_eq!(t.eval_at(uv, 0.1 / 8.0), plain.eval(uv));
+        }
+    }
+
+    #[test]
+    fn a_wide_footprint_reads_the_mean_and_levels_blend_linearly() {
+        let t = mip_checker(MipFilter::Linear);
+        // Two texels wide: level 1, where every 2×2 block of the checker is grey.
+        let uv = Vec2::new(0.3, 0.6);
+        assert!((t.eval_at(uv, 2.0 / 8.0).x - 0.5).abs() < 1e-6);
+        // Wider than the image: the single texel of the last level, the mean.
+        assert!((t.eval_at(uv, 4.0).x - 0.5).abs() < 1e-6);
+        // Between level 0 and level 1 the two lookups are weighted by the fractional level.
+        let Texture::Mipmapped { mips, .. } = &t else {
+            unreachable!()
+        };
+        let l0 = lookup(
+            &mips.levels()[0],
+            TextureFilter::Bilinear,
+            WrapMode::Repeat,
+            uv,
+        )
+        .x;
+        let footprint = 2f32.powf(0.25) / 8.0;
+        let v = t.eval_at(uv, footprint).x;
+        assert!((v - (0.75 * l0 + 0.25 * 0.5)).abs() < 1e-5, "{v} {l0}");
+        // Nearest between levels takes level 0 here (0.25 rounds down).
+        let n = mip_checker(MipFilter::Nearest).eval_at(uv, footprint).x;
+        assert!((n - l0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn a_transform_scales_the_footprint_with_the_uv() {
+        // uv scaled by 4: the texture repeats 4× as often, so a footprint of a quarter
+        // texel before the map covers a whole one after it, and one of half a texel two.
+        let t = Texture::Transformed {
+            texture: Arc::new(mip_checker(MipFilter::Linear)),
+            uv: Affine2::from_scale(Vec2::splat(4.0)),
+        };
+        let uv = Vec2::new(0.07, 0.11);
+        assert_eq!(t.eval_at(uv, 0.25 / 8.0), t.eval(uv));
+        assert!((t.eval_at(uv, 0.5 / 8.0).x - 0.5).abs() < 1e-6);
+        assert!(t.uses_footprint() && !ramp().uses_footprint());
     }
 }

@@ -77,6 +77,10 @@ pub struct RenderArgs {
     /// [default: the scene's, 0].
     #[arg(long, value_parser = crate::cli_common::parse_seed)]
     pub seed: Option<u32>,
+    /// Read mip-mapped textures (glTF samplers with a `*_MIPMAP_*` or unset minFilter) at
+    /// full resolution, as Cycles and Mitsuba do, instead of over each sample's footprint.
+    #[arg(long)]
+    pub no_mipmaps: bool,
     /// Spectral transport: paths carry three hero-rotated wavelengths (RGB inputs upsampled
     /// to smooth spectra, emitters × D65, measured conductors, dispersive glasses) and the
     /// image is accumulated in CIE XYZ, written as linear sRGB. --integrator path or light.

@@ -161,7 +161,11 @@ impl Plan {
             let build_start = Instant::now();
             (RenderScene::new(scene), build_start.elapsed())
         });
-        let rs = rs?;
+        let mut rs = rs?;
+        // Mip-mapped textures are read over one sample's footprint at this size and count.
+        if !args.no_mipmaps {
+            rs.set_texture_footprint(width, height, settings.spp);
+        }
         // Media need an integrator that transports light through them; photon mapping
         // refuses rather than render them wrong.
         let integrator = args.integrator;

@@ -4,7 +4,7 @@ use glam::{Vec2, Vec3};
 
 use lumo_scene::Texture;
 
-use super::{texture, BsdfSample, SpecHit, SpectralColours};
+use super::{BsdfSample, SpecHit, SpectralColours};
 use crate::geometry::{cosine_hemisphere_pdf, square_to_cosine_hemisphere};
 
 /// Lambertian reflection (Mitsuba's `diffuse`).
@@ -50,7 +50,7 @@ impl Diffuse {
     #[inline(always)]
     pub(super) fn at_hit(reflectance: &Texture, hit: &SpecHit) -> Self {
         Diffuse {
-            albedo: texture(reflectance, hit.uv) * hit.color,
+            albedo: hit.texture(reflectance) * hit.color,
         }
     }
 

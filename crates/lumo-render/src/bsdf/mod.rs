@@ -159,6 +159,9 @@ impl Prepared {
 pub(crate) struct SpecHit<'a> {
     /// Texture coordinates.
     pub uv: Vec2,
+    /// How wide the lookup's footprint is in uv units, which mip-mapped textures read
+    /// ([`Texture::eval_at`]; zero: a point lookup).
+    pub footprint: f32,
     /// The surface's vertex colour, which tints base colours.
     pub color: Vec3,
     /// Every material's [`Prepared`], indexed by `material` (read only by materials that
@@ -173,6 +176,21 @@ pub(crate) struct SpecHit<'a> {
 }
 
 impl SpecHit<'_> {
+    /// `t` at the hit, over its footprint.
+    #[inline(always)]
+    pub fn texture(&self, t: &Texture) -> Vec3 {
+        match t {
+            Texture::Constant(c) => *c,
+            _ => t.eval_at(self.uv, self.footprint),
+        }
+    }
+
+    /// `t`'s scalar value (its luminance) at the hit, over its footprint.
+    #[inline(always)]
+    pub fn scalar(&self, t: &Texture) -> f32 {
+        t.eval_1_at(self.uv, self.footprint)
+    }
+
     /// What was prepared for the hit's material.
     #[inline(always)]
     pub fn prepared(&self) -> Prepared {

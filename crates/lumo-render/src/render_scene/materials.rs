@@ -61,7 +61,8 @@ impl RenderScene {
                 }
                 BsdfSpec::NormalMap { normals, nested } => {
                     if normal.is_none() {
-                        normal = Some(self.normal_mapped(surface, normals));
+                        let footprint = self.texture_footprint(surface);
+                        normal = Some(self.normal_mapped(surface, normals, footprint));
                     }
                     nested
                 }
@@ -157,9 +158,15 @@ impl RenderScene {
     /// perpendicular to the normal), the bitangent n × tangent and the normal, as Mitsuba 3
     /// reads it. Where the mesh has tangents (glTF `TANGENT`) they replace ∂p/∂u, and their
     /// w (±1) turns the bitangent, as glTF defines. `None` for an exactly flat texel (no
-    /// perturbation).
-    pub(super) fn normal_mapped(&self, s: &Surface, normals: &Texture) -> Option<Vec3> {
-        let c = normals.eval(s.uv) * 2.0 - Vec3::ONE;
+    /// perturbation). A mip-mapped map is read over `footprint`: its averaged vectors,
+    /// renormalised, as renderers with mip-maps read them.
+    pub(super) fn normal_mapped(
+        &self,
+        s: &Surface,
+        normals: &Texture,
+        footprint: f32,
+    ) -> Option<Vec3> {
+        let c = normals.eval_at(s.uv, footprint) * 2.0 - Vec3::ONE;
         if c.x == 0.0 && c.y == 0.0 {
             return None;
         }
@@ -206,9 +213,11 @@ impl RenderScene {
     /// builds itself: [`Bsdf::at_hit`]).
     #[inline(always)]
     pub(super) fn base_bsdf(&self, bsdf: &BsdfSpec, surface: &Surface) -> Bsdf {
-        let normal_map = |t: &Texture| self.normal_mapped(surface, t);
+        let footprint = self.texture_footprint(surface);
+        let normal_map = |t: &Texture| self.normal_mapped(surface, t, footprint);
         let hit = SpecHit {
             uv: surface.uv,
+            footprint,
             color: surface.color,
             prepared: &self.prepared,
             material: surface.material,

@@ -2,6 +2,7 @@
 //! constants, plus the surface-interaction reconstruction every integrator needs.
 
 mod branches;
+mod footprint;
 mod materials;
 mod spectral;
 mod vertex_data;
@@ -122,6 +123,11 @@ pub struct RenderScene {
     /// the materials' textures; an edit only sets constant colours, which are checked where
     /// used).
     finite_textures: Vec<bool>,
+    /// Per material (the scene's, then the branch materials), whether it reads a mip-mapped
+    /// texture, so that only those hits pay for a footprint ([`footprint`]).
+    reads_footprint: Vec<bool>,
+    /// How wide one camera sample is, for mip-mapped lookups ([`RenderScene::set_texture_footprint`]).
+    sample_spread: footprint::SampleSpread,
     /// Spectral constants of the materials, fitted on the first spectral lookup.
     spectral: std::sync::OnceLock<spectral::SpectralCache>,
     /// What the scene looked like when built, to tell an update apart from a new scene.
@@ -187,9 +193,12 @@ fn instance_tables(scene: &Scene, finite_textures: &[bool]) -> InstanceTables {
                 Texture::Constant(c) => c.is_finite(),
                 _ => finite_textures.get(mesh.material).copied().unwrap_or(false),
             };
+            // A mip-mapped reflectance is read over a footprint, which the vector bounce
+            // does not compute.
             (inst.transform == Mat4::IDENTITY
                 && mesh.analytic.is_none()
                 && finite
+                && !reflectance.uses_footprint()
                 && mesh.colors.is_empty()
                 && material.emission_map.is_none())
             .then_some(SimpleDiffuse {
@@ -235,6 +244,7 @@ fn texture_is_finite(t: &Texture) -> bool {
         Texture::Bitmap {
             image, uv_scale, ..
         } => uv_scale.is_finite() && image.non_finite_count() == 0,
+        Texture::Mipmapped { mips, .. } => mips.levels()[0].non_finite_count() == 0,
         Texture::Transformed { texture, uv } => uv.is_finite() && texture_is_finite(texture),
     }
 }
@@ -362,7 +372,10 @@ impl RenderScene {
             .iter()
             .map(|m| lumo_scene::positions_box(&m.positions))
             .collect();
+        let reads_footprint = all().map(|m| footprint::reads_footprint(&m.bsdf)).collect();
         Ok(Self {
+            reads_footprint,
+            sample_spread: footprint::SampleSpread::Off,
             prefetch_surfaces: surface_bytes(&scene) > PREFETCH_ABOVE_BYTES,
             structure: Structure::of(&scene),
             textured_simple: any_textured(&simple_diffuse),
@@ -405,7 +418,9 @@ impl RenderScene {
     pub fn update(&mut self, moved_meshes: &[usize]) -> Result<SceneUpdate, SceneError> {
         if Structure::of(&self.scene) != self.structure {
             // A clone, so that on an error `self` still holds the changed scene.
+            let spread = self.sample_spread;
             *self = Self::new(self.scene.clone())?;
+            self.sample_spread = spread;
             return Ok(SceneUpdate::Rebuilt);
         }
         self.check_update(moved_meshes)?;

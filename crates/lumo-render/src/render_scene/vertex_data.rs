@@ -184,7 +184,7 @@ mod tangent_tests {
                 .expect("a hit");
             let s = rs.surface(&hit, origin, -Vec3::Z);
             let local = rs
-                .normal_mapped(&s, &Texture::Constant(c))
+                .normal_mapped(&s, &Texture::Constant(c), 0.0)
                 .expect("a tilted normal");
             s.frame.to_world(local)
         })

@@ -21,6 +21,7 @@ mod mask_shadows;
 mod media;
 mod media_bdpt;
 mod media_light;
+mod mipmaps;
 mod mitsuba_adapters;
 mod mitsuba_cornell;
 mod mitsuba_suite;

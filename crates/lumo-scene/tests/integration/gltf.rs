@@ -561,20 +561,35 @@ fn alpha_modes_become_opacity_masks() {
     );
 }
 
-/// The bitmap under a texture (through any transform).
-fn bitmap_of(t: &lumo_scene::Texture) -> (lumo_scene::TextureFilter, lumo_scene::WrapMode) {
+/// The filters and wrap mode of the bitmap under a texture (through any transform): the
+/// lookup where a texel is larger than the footprint, and the mip-map's filters if any.
+type Lookup = (
+    lumo_scene::TextureFilter,
+    lumo_scene::WrapMode,
+    Option<(lumo_scene::TextureFilter, lumo_scene::MipFilter)>,
+);
+
+fn bitmap_of(t: &lumo_scene::Texture) -> Lookup {
     match t {
-        lumo_scene::Texture::Bitmap { filter, wrap, .. } => (*filter, *wrap),
+        lumo_scene::Texture::Bitmap { filter, wrap, .. } => (*filter, *wrap, None),
+        lumo_scene::Texture::Mipmapped {
+            magnify,
+            minify,
+            between,
+            wrap,
+            ..
+        } => (*magnify, *wrap, Some((*minify, *between))),
         lumo_scene::Texture::Transformed { texture, .. } => bitmap_of(texture),
         other => panic!("{other:?}"),
     }
 }
 
-/// Samplers: magFilter NEAREST or LINEAR (the default when unset), wrapS as the wrap mode,
-/// a warning where wrapT differs.
+/// Samplers: magFilter NEAREST or LINEAR (the default when unset); minFilter NEAREST or
+/// LINEAR without a mip-map, each `*_MIPMAP_*` with one, and unset as LINEAR_MIPMAP_LINEAR
+/// (glTF's "auto"); wrapS as the wrap mode, a warning where wrapT differs.
 #[test]
 fn samplers_choose_the_filter_and_wrap_mode() {
-    use lumo_scene::{TextureFilter, WrapMode};
+    use lumo_scene::{MipFilter, TextureFilter, WrapMode};
     let dir = temp_dir("gltf-sampler");
     write(&dir, "mr.png", png_1x1([0, 128, 64]));
     let base = |samplers: &str, name: &str| {
@@ -607,17 +622,39 @@ fn samplers_choose_the_filter_and_wrap_mode() {
             .join("\n");
         (bitmap_of(base_color), w)
     };
+    let (near, linear) = (TextureFilter::Nearest, TextureFilter::Bilinear);
+    let trilinear = Some((linear, MipFilter::Linear));
     let (fw, w) = base("", "default.gltf");
-    assert_eq!(fw, (TextureFilter::Bilinear, WrapMode::Repeat), "{w}");
+    assert_eq!(fw, (linear, WrapMode::Repeat, trilinear), "{w}");
     let (fw, w) = base(
         "{\"magFilter\": 9728, \"wrapS\": 33071, \"wrapT\": 33071}",
         "nearest.gltf",
     );
-    assert_eq!(fw, (TextureFilter::Nearest, WrapMode::Clamp));
+    assert_eq!(fw, (near, WrapMode::Clamp, trilinear));
     assert!(!w.contains("wrapT"), "{w}");
     let (fw, w) = base("{\"wrapS\": 33648, \"wrapT\": 10497}", "mixed.gltf");
-    assert_eq!(fw, (TextureFilter::Bilinear, WrapMode::Mirror));
+    assert_eq!(fw, (linear, WrapMode::Mirror, trilinear));
     assert!(w.contains("wrapT Repeat differ"), "{w}");
+    // minFilter: 9728 NEAREST, 9729 LINEAR, 9984 NEAREST_MIPMAP_NEAREST,
+    // 9985 LINEAR_MIPMAP_NEAREST, 9986 NEAREST_MIPMAP_LINEAR, 9987 LINEAR_MIPMAP_LINEAR.
+    for (code, mips) in [
+        (9728, None),
+        (9729, None),
+        (9984, Some((near, MipFilter::Nearest))),
+        (9985, Some((linear, MipFilter::Nearest))),
+        (9986, Some((near, MipFilter::Linear))),
+        (9987, trilinear),
+    ] {
+        let (fw, w) = base(
+            &format!("{{\"minFilter\": {code}}}"),
+            &format!("min{code}.gltf"),
+        );
+        assert_eq!(
+            fw,
+            (linear, WrapMode::Repeat, mips),
+            "minFilter {code}: {w}"
+        );
+    }
 }
 
 /// KHR_lights_punctual's `range` is read onto point and spot lights (in world units, the

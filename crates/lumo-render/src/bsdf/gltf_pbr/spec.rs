@@ -6,7 +6,7 @@ use lumo_scene::{GltfExtensions, Texture};
 use lumo_spectrum::upsample::reflectance;
 
 use super::GltfPbr;
-use crate::bsdf::{texture, SpecHit, SpectralColours};
+use crate::bsdf::{SpecHit, SpectralColours};
 
 impl GltfPbr {
     /// The scene's metallic-roughness material at `hit`, with what its extensions add.
@@ -20,9 +20,9 @@ impl GltfPbr {
         hit: &SpecHit,
     ) -> Self {
         // glTF reads roughness from the green channel and metalness from the blue one.
-        let mr = metallic_roughness.map_or(Vec3::ONE, |t| t.eval(hit.uv));
+        let mr = metallic_roughness.map_or(Vec3::ONE, |t| hit.texture(t));
         let g = GltfPbr::new(
-            texture(base_color, hit.uv) * hit.color,
+            hit.texture(base_color) * hit.color,
             metallic * mr.z,
             roughness * mr.y,
         );
@@ -31,22 +31,19 @@ impl GltfPbr {
             Some(e) => g
                 .with_specular(
                     e.ior,
-                    e.specular.eval_1(hit.uv),
-                    texture(&e.specular_color, hit.uv),
+                    hit.scalar(&e.specular),
+                    hit.texture(&e.specular_color),
                 )
-                .with_transmission(e.transmission.eval_1(hit.uv), e.thickness <= 0.0, e.ior)
+                .with_transmission(hit.scalar(&e.transmission), e.thickness <= 0.0, e.ior)
                 .with_clearcoat(
                     e.clearcoat_texture
                         .as_ref()
-                        .map_or(e.clearcoat, |t| t.eval_1(hit.uv)),
+                        .map_or(e.clearcoat, |t| hit.scalar(t)),
                     e.clearcoat_roughness_texture
                         .as_ref()
-                        .map_or(e.clearcoat_roughness, |t| t.eval_1(hit.uv)),
+                        .map_or(e.clearcoat_roughness, |t| hit.scalar(t)),
                 )
-                .with_sheen(
-                    texture(&e.sheen_color, hit.uv),
-                    e.sheen_roughness.eval_1(hit.uv),
-                )
+                .with_sheen(hit.texture(&e.sheen_color), hit.scalar(&e.sheen_roughness))
                 .with_coat_normal(
                     e.clearcoat_normal
                         .as_ref()

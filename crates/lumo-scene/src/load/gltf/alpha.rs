@@ -128,11 +128,13 @@ impl GltfReader<'_, '_> {
             3,
             data,
         ));
-        let (filter, wrap) = self.sampler(texture, &at)?;
+        // Alpha is read at full resolution whatever the minification filter: a mask's cutoff
+        // on averaged alpha would erode thin cut-outs (foliage) with distance.
+        let (sampler, wrap) = self.sampler(texture, &at)?;
         Ok(Some(Texture::Bitmap {
             image: Arc::new(img),
             uv_scale: Vec2::ONE,
-            filter,
+            filter: sampler.magnify,
             wrap,
         }))
     }

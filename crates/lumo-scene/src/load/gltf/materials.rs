@@ -2,6 +2,8 @@
 //! lumo's.
 
 use super::*;
+use crate::{MipFilter, MipMap};
+use lumo_image::Image;
 
 impl GltfReader<'_, '_> {
     /// `v` with negative components read as 0, with a warning at `label`: a colour (base
@@ -223,22 +225,34 @@ impl GltfReader<'_, '_> {
                 img
             }
         };
-        let image = match pixel {
-            None => decoded,
-            Some(f) => {
-                let mut img = (*decoded).to_channels(3);
-                for px in img.data.chunks_exact_mut(3) {
-                    let c = f(Vec3::new(px[0], px[1], px[2]));
-                    px.copy_from_slice(&c.to_array());
-                }
-                Arc::new(img)
-            }
+        let (sampler, wrap) = self.sampler(&texture, &at)?;
+        let Some((minify, between)) = sampler.mipmaps else {
+            let image = match pixel {
+                None => decoded,
+                Some(f) => Arc::new(mapped(&decoded, f)),
+            };
+            return Ok(Texture::Bitmap {
+                image,
+                uv_scale: Vec2::ONE,
+                filter: sampler.magnify,
+                wrap,
+            });
         };
-        let (filter, wrap) = self.sampler(&texture, &at)?;
-        Ok(Texture::Bitmap {
-            image,
-            uv_scale: Vec2::ONE,
-            filter,
+        let mips = match pixel {
+            None => self
+                .mips
+                .entry((image.index(), raw))
+                .or_insert_with(|| Arc::new(MipMap::new(decoded)))
+                .clone(),
+            // A mapped image (one channel of a packed texture, a scaled normal map) reduces
+            // after the mapping, as the lookup reads the mapped values.
+            Some(f) => Arc::new(MipMap::new(Arc::new(mapped(&decoded, f)))),
+        };
+        Ok(Texture::Mipmapped {
+            mips,
+            magnify: sampler.magnify,
+            minify,
+            between,
             wrap,
         })
     }
@@ -260,18 +274,28 @@ impl GltfReader<'_, '_> {
     }
 
     /// A texture's sampler as lumo's lookup: magFilter NEAREST is nearest, LINEAR or unset
-    /// bilinear (minification is not filtered: pixel samples average it); the wrap mode of
-    /// `wrapS`, with a warning where `wrapT` differs (lumo wraps both axes alike).
+    /// bilinear; a `*_MIPMAP_*` minFilter, or none (glTF leaves "auto" filtering to the
+    /// renderer), reads a mip-map, while NEAREST and LINEAR minify without one (pixel samples
+    /// average the texture); the wrap mode of `wrapS`, with a warning where `wrapT` differs
+    /// (lumo wraps both axes alike).
     pub(super) fn sampler(
         &mut self,
         texture: &gltf::Texture,
         at: &Location,
-    ) -> Result<(TextureFilter, WrapMode), LoadError> {
-        use gltf::texture::{MagFilter, WrappingMode};
+    ) -> Result<(Sampler, WrapMode), LoadError> {
+        use gltf::texture::{MagFilter, MinFilter, WrappingMode};
         let sampler = texture.sampler();
-        let filter = match sampler.mag_filter() {
+        let magnify = match sampler.mag_filter() {
             Some(MagFilter::Nearest) => TextureFilter::Nearest,
             Some(MagFilter::Linear) | None => TextureFilter::Bilinear,
+        };
+        let (near, linear) = (TextureFilter::Nearest, TextureFilter::Bilinear);
+        let mipmaps = match sampler.min_filter() {
+            Some(MinFilter::Nearest | MinFilter::Linear) => None,
+            Some(MinFilter::NearestMipmapNearest) => Some((near, MipFilter::Nearest)),
+            Some(MinFilter::LinearMipmapNearest) => Some((linear, MipFilter::Nearest)),
+            Some(MinFilter::NearestMipmapLinear) => Some((near, MipFilter::Linear)),
+            Some(MinFilter::LinearMipmapLinear) | None => Some((linear, MipFilter::Linear)),
         };
         let wrap = |m: WrappingMode| match m {
             WrappingMode::ClampToEdge => WrapMode::Clamp,
@@ -287,8 +311,27 @@ impl GltfReader<'_, '_> {
                 ),
             )?;
         }
-        Ok((filter, s))
+        Ok((Sampler { magnify, mipmaps }, s))
     }
+}
+
+/// A glTF sampler's filters as lumo's lookups.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Sampler {
+    /// The lookup where a texel covers more than the footprint (`magFilter`).
+    pub magnify: TextureFilter,
+    /// With a mip-mapped `minFilter`: the lookup within a level and between levels.
+    pub mipmaps: Option<(TextureFilter, MipFilter)>,
+}
+
+/// `image`'s colour passed through `f`, texel by texel.
+fn mapped(image: &Image, f: &dyn Fn(Vec3) -> Vec3) -> Image {
+    let mut img = image.to_channels(3);
+    for px in img.data.chunks_exact_mut(3) {
+        let c = f(Vec3::new(px[0], px[1], px[2]));
+        px.copy_from_slice(&c.to_array());
+    }
+    img
 }
 
 impl GltfReader<'_, '_> {

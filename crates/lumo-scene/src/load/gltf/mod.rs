@@ -143,6 +143,7 @@ fn load_unguarded(
         diag,
         buffers,
         images: HashMap::new(),
+        mips: HashMap::new(),
         scene: defaults::empty_scene(path),
         mesh_map: HashMap::new(),
         material_map: HashMap::new(),
@@ -223,6 +224,8 @@ struct GltfReader<'p, 'd> {
     buffers: Vec<Vec<u8>>,
     /// Decoded images by (image index, raw).
     images: HashMap<(usize, bool), Arc<lumo_image::Image>>,
+    /// Mip-maps of the decoded images, built once per image and colour space.
+    mips: HashMap<(usize, bool), Arc<crate::MipMap>>,
     scene: Scene,
     /// lumo meshes of each glTF mesh.
     mesh_map: HashMap<usize, Vec<usize>>,
