@@ -60,8 +60,9 @@ pub use integrators::photon::PpmSettings;
 pub use parallel::{map_pixels, map_rows};
 pub use pixel_sums::PixelSums;
 pub use render::{
-    frame_from_estimates, instance_ids, render, render_bdpt, render_light, render_pixel,
-    render_pixel_one_ray, render_ppm, render_sums, trace_sample, PpmStats, LIGHT_STREAM_X,
+    frame_from_estimates, instance_ids, render, render_bdpt, render_estimates, render_light,
+    render_pixel, render_pixel_one_ray, render_ppm, render_sums, trace_sample, PpmStats,
+    LIGHT_STREAM_X,
 };
 pub use render_scene::{RenderScene, SceneUpdate, Surface};
 pub use settings::{PixelEstimate, RenderSettings, RenderStats};

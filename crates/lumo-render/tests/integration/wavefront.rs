@@ -188,3 +188,46 @@ fn trace_paths_equals_trace_path() {
         assert!(lit > w * h / 5, "{name}: {lit} paths carry indirect light");
     }
 }
+
+/// The whole-frame loop that writes estimates in place ([`lumo_render::render_estimates`],
+/// the temporal sequence's trace) gives every pixel the bits the exact sums give
+/// ([`lumo_render::render_sums`], then [`lumo_render::PixelSums::estimate`]), at one sample
+/// per pixel and at several, on a frame whose width is not a multiple of a batch.
+#[test]
+fn render_estimates_equals_the_sums_estimates() {
+    let scene = lumo_scene::builtin_scene("cornell").expect("built-in");
+    let rs = RenderScene::new(scene).expect("scene");
+    for spp in [1u32, 3] {
+        let settings = RenderSettings {
+            width: 37,
+            height: 11,
+            spp,
+            seed: 5,
+            path: PathSettings::default(),
+        };
+        let got = lumo_render::render_estimates(&rs, &settings, &|_| {});
+        let want: Vec<_> = lumo_render::render_sums(&rs, &settings, 0, spp, &|_| {})
+            .iter()
+            .map(lumo_render::PixelSums::estimate)
+            .collect();
+        assert_eq!(got.len(), want.len());
+        let bits = |e: &lumo_render::PixelEstimate| {
+            let f = &e.first_hit;
+            let mut v: Vec<u32> = [e.direct, e.indirect, e.emitted, f.normal, f.position]
+                .iter()
+                .chain([f.albedo, f.emitted].iter())
+                .flat_map(|c| c.to_array())
+                .map(f32::to_bits)
+                .collect();
+            v.extend([e.luminance_variance.to_bits(), f.depth.to_bits()]);
+            v.push(e.rays as u32);
+            v
+        };
+        let mut lit = 0;
+        for (i, (g, w)) in got.iter().zip(&want).enumerate() {
+            assert_eq!(bits(g), bits(w), "spp {spp} pixel {i}");
+            lit += (g.direct + g.indirect != glam::Vec3::ZERO) as usize;
+        }
+        assert!(lit > 50, "only {lit} lit pixels");
+    }
+}

@@ -73,9 +73,44 @@ pub fn render_pixel_sums(
     y: usize,
     xs: Range<usize>,
 ) -> Vec<PixelSums> {
+    let mut out = Vec::with_capacity(xs.len());
+    for_each_pixel_sums(rs, camera, settings, first, y, xs, |sums| out.push(sums));
+    out
+}
+
+/// [`render_pixels`] written into `out` (one estimate per pixel of `xs`, which must be as
+/// long) instead of a new vector: the image loop that fills a whole frame's buffer in place
+/// (`crate::render_estimates`) allocates no row of its own.
+pub fn render_pixels_into(
+    rs: &RenderScene,
+    camera: &PinholeCamera,
+    settings: &RenderSettings,
+    y: usize,
+    xs: Range<usize>,
+    out: &mut [PixelEstimate],
+) {
+    debug_assert_eq!(out.len(), xs.len());
+    let mut slots = out.iter_mut();
+    for_each_pixel_sums(rs, camera, settings, 0, y, xs, |sums| {
+        if let Some(slot) = slots.next() {
+            *slot = sums.estimate();
+        }
+    });
+}
+
+/// Calls `emit` with the sums of samples `first..first + spp` of each pixel of `xs` of row
+/// `y`, left to right: the loop behind [`render_pixel_sums`] and [`render_pixels_into`].
+fn for_each_pixel_sums(
+    rs: &RenderScene,
+    camera: &PinholeCamera,
+    settings: &RenderSettings,
+    first: u32,
+    y: usize,
+    xs: Range<usize>,
+    mut emit: impl FnMut(PixelSums),
+) {
     let spp = settings.spp as usize;
     let per_batch = (BATCH_PATHS / spp.max(1)).max(1);
-    let mut out = Vec::with_capacity(xs.len());
     let mut batch = Batch::with_capacity(per_batch * spp.max(1));
     let mut x0 = xs.start;
     while x0 < xs.end {
@@ -87,11 +122,10 @@ pub fn render_pixel_sums(
             for p in paths {
                 sums.add_sample(&p.result());
             }
-            out.push(sums);
+            emit(sums);
         }
         x0 = x1;
     }
-    out
 }
 
 /// Traces `paths` (each made by [`PathState::new`], and made spectral where `settings` asks)
