@@ -10,6 +10,7 @@ mod media;
 mod meshes;
 mod mitsuba;
 mod mitsuba_principled;
+mod mitsuba_silent;
 mod mutated;
 mod robustness;
 mod skins;

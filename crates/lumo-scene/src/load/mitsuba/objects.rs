@@ -135,8 +135,25 @@ impl<'a> Builder<'a, '_> {
                 format!("field of view {fov}° is not between 0 and 180"),
             ));
         }
-        // Clip planes do not change a path tracer's image of a scene in front of the camera.
-        props.accept(&["near_clip", "far_clip", "shutter_open", "shutter_close"]);
+        // Clip planes at Mitsuba's defaults (0.01 and 10⁴) cut nothing a scene shows; others
+        // may cut geometry away (a near plane through a wall), which lumo does not.
+        for (name, default, side) in [
+            ("near_clip", 1e-2f32, "nearer"),
+            ("far_clip", 1e4, "farther"),
+        ] {
+            let v = props.float(name, default)?;
+            if v != default {
+                self.diag.warn(
+                    at.clone(),
+                    format!(
+                        "{name} {v}: lumo does not clip camera rays, so geometry {side} than {v} is \
+                         rendered; remove that geometry from the scene to see what Mitsuba \
+                         shows, or move the camera"
+                    ),
+                )?;
+            }
+        }
+        props.accept(&["shutter_open", "shutter_close"]);
         let origin = to_world.transform_point3(Vec3::ZERO);
         let forward = to_world.transform_vector3(Vec3::Z);
         let up = to_world.transform_vector3(Vec3::Y);
@@ -196,7 +213,26 @@ impl<'a> Builder<'a, '_> {
                     }
                     self.settings.spp = Some(spp as u32);
                     self.settings.seed = Some(seed as u32);
-                    // Every Mitsuba sampler type maps to lumo's own (Sobol-Burley).
+                    // Every Mitsuba sampler type maps to lumo's own (Sobol-Burley): the same
+                    // expected image; only the noise differs.
+                    const SAMPLERS: [&str; 5] = [
+                        "independent",
+                        "stratified",
+                        "multijitter",
+                        "orthogonal",
+                        "ldsampler",
+                    ];
+                    if !SAMPLERS.contains(&s.kind()) {
+                        self.diag.warn(
+                            c.at(),
+                            format!(
+                                "sampler {:?} is not one of Mitsuba 3's ({}); lumo samples with \
+                                 its own Sobol sequence, as for all of them",
+                                s.kind(),
+                                SAMPLERS.join(", ")
+                            ),
+                        )?;
+                    }
                     s.accept(&["jitter", "scramble_seed"]);
                     s.finish(self.diag)?;
                 }
@@ -302,7 +338,23 @@ impl<'a> Builder<'a, '_> {
                 // Direct illumination is a path of at most two segments.
                 self.settings.max_depth = Some(2);
                 self.scene.defaults.max_depth = 2;
-                props.accept(&["emitter_samples", "bsdf_samples", "shading_samples"]);
+                // lumo's path takes one light and one BSDF sample per vertex: the same
+                // expected image as any counts, with other noise.
+                for name in ["emitter_samples", "bsdf_samples", "shading_samples"] {
+                    if props.has(name) {
+                        let n = props.int(name, 1)?;
+                        if n != 1 {
+                            self.diag.warn(
+                                at.clone(),
+                                format!(
+                                    "direct {name} {n}: lumo takes one light and one BSDF \
+                                     sample per pixel sample (the same expected image, with \
+                                     other noise); raise the samples per pixel instead"
+                                ),
+                            )?;
+                        }
+                    }
+                }
                 return props.finish(self.diag);
             }
             "aov" | "moment" => {
