@@ -8,7 +8,7 @@ use std::time::Instant;
 use anyhow::{bail, Result};
 use lumo_pipeline::Pipeline;
 use lumo_render::camera::PinholeCamera;
-use lumo_render::{Integrator, PathSettings, PpmSettings, RenderScene, RenderSettings};
+use lumo_render::{Integrator, LightPilot, PathSettings, PpmSettings, RenderScene, RenderSettings};
 use lumo_scene::load::LoadOptions;
 use lumo_scene::Scene;
 
@@ -161,7 +161,11 @@ impl Plan {
             let build_start = Instant::now();
             (RenderScene::new(scene), build_start.elapsed())
         });
-        let rs = rs?;
+        let mut rs = rs?;
+        // The light pilot sees the render's own view (its aspect) before any frame is traced.
+        let pilot = (args.light_selection == super::args::LightSelection::Pilot).then(|| {
+            pool.install(|| rs.select_lights_by_pilot(width, height, &LightPilot::default()))
+        });
         // Media need an integrator that transports light through them; photon mapping
         // refuses rather than render them wrong.
         let integrator = args.integrator;
@@ -197,6 +201,19 @@ impl Plan {
             settings.spp,
             settings.path.max_depth
         );
+            if let Some(p) = pilot.as_ref().filter(|p| p.applied) {
+                // The groups' probabilities where they fit on a line.
+                let pmf: Vec<String> = p.group_pmf.iter().map(|q| format!("{q:.3}")).collect();
+                let groups = if pmf.len() <= 8 {
+                    format!("[{}]", pmf.join(", "))
+                } else {
+                    format!("({} groups)", pmf.len())
+                };
+                errln!(
+                    "light pilot: {:.1} ms, light groups chosen with {groups}",
+                    p.time.as_secs_f64() * 1e3
+                );
+            }
         }
         let camera = PinholeCamera::new(&rs.scene.camera, width, height);
         if let Some(warning) = integrator.scene_warning(&rs, &camera, &settings.path) {

@@ -1,0 +1,197 @@
+//! The light pilot: a short deterministic pass of camera paths that measures how much light
+//! each light group delivers through next-event estimation, shadows included, so that the
+//! light choice can follow what the camera sees rather than power alone
+//! ([`crate::lights::Lights::select_by_groups`]).
+//!
+//! Power over-rates a light that lights little of what the camera sees: the atrium's sun
+//! (irradiance × the scene's whole disk, ≈ 9× the emissive strips' power) reaches only the
+//! patch under the roof slot, so ~90 % of its light samples found a shadow
+//! (docs/results/peers.md). The pilot traces a small grid of camera paths; at each
+//! non-specular vertex it samples every group once (shadow ray included) and adds the
+//! luminance of the path's throughput × BSDF × light sample weight to that group. Without MIS
+//! and without media: the shares only steer the choice, and the mixture with power keeps
+//! every light with power at a non-zero probability, so no approximation here can bias an
+//! image.
+//!
+//! Deterministic and independent of the thread count: every random number is a function of
+//! (pilot pixel, seed), rows run in parallel, and their sums are added up in row order.
+
+use std::time::{Duration, Instant};
+
+use glam::{Vec2, Vec3};
+use lumo_image::luminance;
+use rayon::prelude::*;
+
+use crate::camera::PinholeCamera;
+use crate::direct_split::shadow_ray;
+use crate::lights::{distribution::Distribution1d, SelectionRefusal};
+use crate::render_scene::RenderScene;
+use crate::sampler::PixelSampler;
+
+/// Groups sampled one by one at each vertex up to this many; past it, this many are drawn
+/// uniformly (each estimate stays unbiased, a scene of many small lights stays cheap).
+pub const MAX_GROUPS_PER_VERTEX: usize = 16;
+
+/// How the pilot runs and how its shares are mixed with power.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LightPilot {
+    /// Paths along the image's longer side (the shorter side in proportion).
+    pub grid: usize,
+    /// Path vertices at which lights are sampled (1: the camera rays' first hits only).
+    pub vertices: u32,
+    /// Weight of power in the mixture, in (0, 1]: every light keeps at least this share of
+    /// its power-proportional probability.
+    pub mix: f32,
+    /// Seed of the pilot's random numbers.
+    pub seed: u32,
+}
+
+impl Default for LightPilot {
+    /// 64 paths on the longer side, 3 vertices, 20 % power (chosen on the peer scenes:
+    /// docs/results/peers.md, "Light selection").
+    fn default() -> Self {
+        Self {
+            grid: 64,
+            vertices: 3,
+            mix: 0.2,
+            seed: 0x9e37_79b9,
+        }
+    }
+}
+
+/// What a pilot measured and did.
+#[derive(Clone, Debug)]
+pub struct PilotReport {
+    /// Per light group, the luminance it delivered to the pilot's paths (summed over paths).
+    pub shares: Vec<f64>,
+    /// Per light group, the probability the light choice now gives it.
+    pub group_pmf: Vec<f32>,
+    /// Whether the choice now mixes the shares in (`false`: it stayed by power, as when the
+    /// pilot saw no light or there is at most one group).
+    pub applied: bool,
+    /// Wall time of the pilot's paths and the new tables.
+    pub time: Duration,
+}
+
+impl RenderScene {
+    /// Runs the light pilot for a `width`×`height` view of the scene's camera and mixes its
+    /// measured shares into the light choice. With one group or none, or where the pilot
+    /// sees no light at all, the choice stays by power. The choice is kept by
+    /// [`RenderScene::update`] (re-applied to the moved lights' powers) and reset by a
+    /// rebuild; call again for a new measurement.
+    pub fn select_lights_by_pilot(
+        &mut self,
+        width: usize,
+        height: usize,
+        pilot: &LightPilot,
+    ) -> PilotReport {
+        let start = Instant::now();
+        let groups = self.lights.group_count();
+        let (shares, applied) = if groups > 1 {
+            let shares = measure(self, width, height, pilot);
+            let applied = match self.lights.select_by_groups(&shares, pilot.mix) {
+                Ok(()) => true,
+                // Nothing seen (or nothing with power): the choice by power is all there is.
+                Err(SelectionRefusal::NoShares | SelectionRefusal::NoPower) => false,
+                // The shares are one per group and the mix is the caller's: a bad mix stays
+                // by power too (documented on `LightPilot::mix`).
+                Err(SelectionRefusal::WrongLength | SelectionRefusal::BadMix) => false,
+            };
+            (shares, applied)
+        } else {
+            (vec![0.0; groups], false)
+        };
+        PilotReport {
+            shares,
+            group_pmf: self.lights.group_pmf(),
+            applied,
+            time: start.elapsed(),
+        }
+    }
+}
+
+/// Per light group, the luminance its next-event samples delivered to the pilot's paths.
+pub fn measure(rs: &RenderScene, width: usize, height: usize, pilot: &LightPilot) -> Vec<f64> {
+    let groups = rs.lights.group_count();
+    let long = width.max(height).max(1) as f64;
+    let gw = ((pilot.grid as f64 * width as f64 / long).round() as usize).max(1);
+    let gh = ((pilot.grid as f64 * height as f64 / long).round() as usize).max(1);
+    let camera = PinholeCamera::new(&rs.scene.camera, gw, gh);
+    let choices = rs.lights.group_choices();
+    let rows: Vec<Vec<f64>> = (0..gh)
+        .into_par_iter()
+        .map(|y| {
+            let mut sums = vec![0.0f64; groups];
+            for x in 0..gw {
+                trace(rs, &camera, &choices, (x, y), pilot, &mut sums);
+            }
+            sums
+        })
+        .collect();
+    // In row order, so the sums do not depend on how rayon split the rows.
+    let mut total = vec![0.0f64; groups];
+    for row in &rows {
+        for (t, v) in total.iter_mut().zip(row) {
+            *t += v;
+        }
+    }
+    total
+}
+
+/// One pilot path through pixel `(x, y)`, its light samples' luminance added to `sums`.
+fn trace(
+    rs: &RenderScene,
+    camera: &PinholeCamera,
+    choices: &[Distribution1d],
+    (x, y): (usize, usize),
+    pilot: &LightPilot,
+    sums: &mut [f64],
+) {
+    let groups = sums.len();
+    let mut sampler = PixelSampler::new(x as u32, y as u32, 0, pilot.seed);
+    let film = Vec2::new(x as f32, y as f32) + sampler.next_2d();
+    let (mut origin, mut dir) = camera.ray(film, sampler.next_2d());
+    let mut throughput = Vec3::ONE;
+    // Sampled one by one when few, else `MAX_GROUPS_PER_VERTEX` drawn uniformly.
+    let draws = groups.min(MAX_GROUPS_PER_VERTEX);
+    let scale = groups as f64 / draws as f64;
+    for _ in 0..pilot.vertices {
+        let Some(hit) = rs.accel.intersect(origin, dir, 0.0, f32::INFINITY) else {
+            return;
+        };
+        let s = rs.surface(&hit, origin, dir);
+        let bsdf = rs.bsdf(&s);
+        let wo = s.frame.to_local(-dir);
+        if !bsdf.is_delta() {
+            for k in 0..draws {
+                let g = if draws == groups {
+                    k
+                } else {
+                    ((sampler.next_1d() * groups as f32) as usize).min(groups - 1)
+                };
+                let (uc, u) = (sampler.next_1d(), sampler.next_2d());
+                let Some(ls) = rs.lights.sample_in_group(choices, g, s.p, uc, u) else {
+                    continue;
+                };
+                let f = bsdf.eval(wo, s.frame.to_local(ls.wi));
+                let c = luminance((throughput * f * ls.weight).to_array());
+                if !(c.is_finite() && c > 0.0) {
+                    continue;
+                }
+                let (o, d, t) = shadow_ray(rs, &s, &ls);
+                if !rs.accel.occluded(o, d, 0.0, t) {
+                    sums[g] += c as f64 * scale;
+                }
+            }
+        }
+        let Some(bs) = bsdf.sample(wo, sampler.next_1d(), sampler.next_2d()) else {
+            return;
+        };
+        throughput *= bs.weight;
+        if !throughput.is_finite() || throughput == Vec3::ZERO {
+            return;
+        }
+        dir = s.frame.to_world(bs.wi).normalize();
+        origin = rs.offset(&s, dir);
+    }
+}
