@@ -195,3 +195,6 @@ fn trace(
         origin = rs.offset(&s, dir);
     }
 }
+
+#[cfg(test)]
+mod tests;
