@@ -33,14 +33,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         max_depth: max_depth.unwrap_or(PathSettings::default().max_depth),
         ..Default::default()
     };
-    let mut choices: Vec<(String, Option<LightPilot>)> = vec![("power".into(), None)];
-    for (mix, grid, vertices) in [
-        (0.1, 64, 3),
-        (0.2, 64, 3),
-        (0.3, 64, 3),
-        (0.2, 32, 3),
-        (0.2, 64, 1),
-        (0.2, 64, 5),
+    // (label, pilot, shares: 0 = √ of the second moment (the default), 1 = mean, 2 = mean
+    // weighted by MIS)
+    let mut choices: Vec<(String, Option<LightPilot>, u8)> = vec![("power".into(), None, 0)];
+    for (mix, grid, vertices, by) in [
+        (0.2, 64, 3, 0),
+        (0.2, 64, 3, 1),
+        (0.1, 64, 3, 2),
+        (0.2, 64, 3, 2),
+        (0.3, 64, 3, 2),
+        (0.2, 32, 3, 2),
     ] {
         let pilot = LightPilot {
             mix,
@@ -48,15 +50,21 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             vertices,
             ..Default::default()
         };
-        choices.push((
-            format!("pilot mix {mix} grid {grid} vertices {vertices}"),
-            Some(pilot),
-        ));
+        let name = ["sqrt M", "mean", "MIS mean"][by as usize];
+        let label = format!("pilot ({name}) mix {mix} grid {grid} vertices {vertices}");
+        choices.push((label, Some(pilot), by));
     }
     let mut images = Vec::new();
-    for (label, pilot) in &choices {
+    for (label, pilot, by) in &choices {
         match pilot {
             None => rs.lights.select_by_power(),
+            Some(p) if *by > 0 => {
+                rs.lights.select_by_power();
+                let sums = lumo_render::light_pilot::measure(&rs, res, res, p);
+                let shares = if *by == 1 { sums.first } else { sums.weighted };
+                rs.lights.select_by_groups(&shares, p.mix)?;
+                println!("{label}: groups {:?}", rs.lights.group_pmf());
+            }
             Some(p) => {
                 let report = rs.select_lights_by_pilot(res, res, p);
                 println!(
@@ -84,12 +92,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .collect();
         images.push(pair);
     }
+    rs.lights.select_by_power();
+    println!("power: groups {:?}", rs.lights.group_pmf());
     let n = images.len() as f32 * 2.0;
     let len = images[0][0].len();
     let reference: Vec<f32> = (0..len)
         .map(|i| images.iter().map(|p| p[0][i] + p[1][i]).sum::<f32>() / n)
         .collect();
-    for ((label, _), pair) in choices.iter().zip(&images) {
+    for ((label, ..), pair) in choices.iter().zip(&images) {
         let (a, b) = (&pair[0], &pair[1]);
         let rel: f64 = (0..len)
             .map(|i| {

@@ -7,11 +7,16 @@
 //! (irradiance × the scene's whole disk, ≈ 9× the emissive strips' power) reaches only the
 //! patch under the roof slot, so ~90 % of its light samples found a shadow
 //! (docs/results/peers.md). The pilot traces a small grid of camera paths; at each
-//! non-specular vertex it samples every group once (shadow ray included) and adds the
-//! luminance of the path's throughput × BSDF × light sample weight to that group. Without MIS
-//! and without media: the shares only steer the choice, and the mixture with power keeps
-//! every light with power at a non-zero probability, so no approximation here can bias an
-//! image.
+//! non-specular vertex it samples every group once (shadow ray included) and takes the
+//! luminance c of the path's throughput × BSDF × light sample weight, weighted by the power
+//! heuristic against the BSDF's density as the path tracer weighs it (with the light's
+//! density under the choice by power). A group's share is the sum of those: the light that
+//! next-event estimation, not BSDF sampling, carries from it. Without the MIS weight a sky
+//! that BSDF sampling already finds well took samples from a low sun (+37 % relMSE on
+//! sun-low); by √ of the second moment (the optimum for a choice without MIS) too
+//! (docs/results/peers.md, "Light selection", has the sweep). Without media and masks: the
+//! shares only steer the choice, and the mixture with power keeps every light with power at a
+//! non-zero probability, so no approximation here can bias an image.
 //!
 //! Deterministic and independent of the thread count: every random number is a function of
 //! (pilot pixel, seed), rows run in parallel, and their sums are added up in row order.
@@ -47,8 +52,8 @@ pub struct LightPilot {
 }
 
 impl Default for LightPilot {
-    /// 64 paths on the longer side, 3 vertices, 20 % power (chosen on the peer scenes:
-    /// docs/results/peers.md, "Light selection").
+    /// 64 paths on the longer side, 3 vertices, 20 % power (chosen on the peer and held-out
+    /// scenes: docs/results/peers.md, "Light selection").
     fn default() -> Self {
         Self {
             grid: 64,
@@ -59,10 +64,41 @@ impl Default for LightPilot {
     }
 }
 
+/// Per light group, what its next-event samples delivered to the pilot's paths: the sums of
+/// their luminance and of its square.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PilotSums {
+    /// Per group, the summed luminance (its mean light, times the number of paths).
+    pub first: Vec<f64>,
+    /// Per group, the summed squared luminance (its second moment, times the number of paths).
+    pub second: Vec<f64>,
+    /// Per group, the summed luminance weighted by the power heuristic against the BSDF's
+    /// density, with the light's density under the choice the pilot ran with: the part of
+    /// its light that next-event estimation, not BSDF sampling, carries.
+    pub weighted: Vec<f64>,
+}
+
+impl PilotSums {
+    /// All sums zero for `groups` groups.
+    fn zeros(groups: usize) -> Self {
+        Self {
+            first: vec![0.0; groups],
+            second: vec![0.0; groups],
+            weighted: vec![0.0; groups],
+        }
+    }
+
+    /// The shares the light choice mixes in: each group's MIS-weighted light
+    /// ([`PilotSums::weighted`]).
+    pub fn shares(&self) -> Vec<f64> {
+        self.weighted.clone()
+    }
+}
+
 /// What a pilot measured and did.
 #[derive(Clone, Debug)]
 pub struct PilotReport {
-    /// Per light group, the luminance it delivered to the pilot's paths (summed over paths).
+    /// Per light group, its share ([`PilotSums::shares`]; zeros where the pilot did not run).
     pub shares: Vec<f64>,
     /// Per light group, the probability the light choice now gives it.
     pub group_pmf: Vec<f32>,
@@ -87,8 +123,10 @@ impl RenderScene {
     ) -> PilotReport {
         let start = Instant::now();
         let groups = self.lights.group_count();
+        // Measured under the choice by power, whatever a previous pilot chose.
+        self.lights.select_by_power();
         let (shares, applied) = if groups > 1 {
-            let shares = measure(self, width, height, pilot);
+            let shares = measure(self, width, height, pilot).shares();
             let applied = match self.lights.select_by_groups(&shares, pilot.mix) {
                 Ok(()) => true,
                 // Nothing seen (or nothing with power): the choice by power is all there is.
@@ -110,44 +148,59 @@ impl RenderScene {
     }
 }
 
-/// Per light group, the luminance its next-event samples delivered to the pilot's paths.
-pub fn measure(rs: &RenderScene, width: usize, height: usize, pilot: &LightPilot) -> Vec<f64> {
+/// Per light group, what its next-event samples delivered to the pilot's paths.
+pub fn measure(rs: &RenderScene, width: usize, height: usize, pilot: &LightPilot) -> PilotSums {
     let groups = rs.lights.group_count();
     let long = width.max(height).max(1) as f64;
     let gw = ((pilot.grid as f64 * width as f64 / long).round() as usize).max(1);
     let gh = ((pilot.grid as f64 * height as f64 / long).round() as usize).max(1);
     let camera = PinholeCamera::new(&rs.scene.camera, gw, gh);
     let choices = rs.lights.group_choices();
-    let rows: Vec<Vec<f64>> = (0..gh)
+    let group_pmf = rs.lights.group_pmf();
+    let rows: Vec<PilotSums> = (0..gh)
         .into_par_iter()
         .map(|y| {
-            let mut sums = vec![0.0f64; groups];
+            let mut sums = PilotSums::zeros(groups);
             for x in 0..gw {
-                trace(rs, &camera, &choices, (x, y), pilot, &mut sums);
+                trace(
+                    rs,
+                    &camera,
+                    (&choices, &group_pmf),
+                    (x, y),
+                    pilot,
+                    &mut sums,
+                );
             }
             sums
         })
         .collect();
     // In row order, so the sums do not depend on how rayon split the rows.
-    let mut total = vec![0.0f64; groups];
+    let mut total = PilotSums::zeros(groups);
     for row in &rows {
-        for (t, v) in total.iter_mut().zip(row) {
+        for (t, v) in total.weighted.iter_mut().zip(&row.weighted) {
+            *t += v;
+        }
+        for (t, v) in total.first.iter_mut().zip(&row.first) {
+            *t += v;
+        }
+        for (t, v) in total.second.iter_mut().zip(&row.second) {
             *t += v;
         }
     }
     total
 }
 
-/// One pilot path through pixel `(x, y)`, its light samples' luminance added to `sums`.
+/// One pilot path through pixel `(x, y)`, its light samples' luminance (and its square) added
+/// to `sums`.
 fn trace(
     rs: &RenderScene,
     camera: &PinholeCamera,
-    choices: &[Distribution1d],
+    (choices, group_pmf): (&[Distribution1d], &[f32]),
     (x, y): (usize, usize),
     pilot: &LightPilot,
-    sums: &mut [f64],
+    sums: &mut PilotSums,
 ) {
-    let groups = sums.len();
+    let groups = sums.first.len();
     let mut sampler = PixelSampler::new(x as u32, y as u32, 0, pilot.seed);
     let film = Vec2::new(x as f32, y as f32) + sampler.next_2d();
     let (mut origin, mut dir) = camera.ray(film, sampler.next_2d());
@@ -173,14 +226,29 @@ fn trace(
                 let Some(ls) = rs.lights.sample_in_group(choices, g, s.p, uc, u) else {
                     continue;
                 };
-                let f = bsdf.eval(wo, s.frame.to_local(ls.wi));
+                let wi = s.frame.to_local(ls.wi);
+                let f = bsdf.eval(wo, wi);
                 let c = luminance((throughput * f * ls.weight).to_array());
                 if !(c.is_finite() && c > 0.0) {
                     continue;
                 }
                 let (o, d, t) = shadow_ray(rs, &s, &ls);
                 if !rs.accel.occluded(o, d, 0.0, t) {
-                    sums[g] += c as f64 * scale;
+                    // Drawn with probability draws / groups: each sum stays an estimate of
+                    // the group's own.
+                    let c = c as f64;
+                    sums.first[g] += c * scale;
+                    sums.second[g] += c * c * scale;
+                    // The power heuristic as the path tracer weighs this sample (0 for Dirac
+                    // lights' density: weight 1).
+                    let light_pdf = (ls.pdf * group_pmf[g]) as f64;
+                    let mis = if light_pdf > 0.0 {
+                        let b = bsdf.pdf(wo, wi) as f64;
+                        light_pdf * light_pdf / (light_pdf * light_pdf + b * b)
+                    } else {
+                        1.0
+                    };
+                    sums.weighted[g] += c * mis * scale;
                 }
             }
         }
