@@ -29,7 +29,7 @@ use rayon::prelude::*;
 
 use crate::camera::PinholeCamera;
 use crate::direct_split::shadow_ray;
-use crate::lights::{distribution::Distribution1d, SelectionRefusal};
+use crate::lights::distribution::Distribution1d;
 use crate::render_scene::RenderScene;
 use crate::sampler::PixelSampler;
 
@@ -45,7 +45,7 @@ pub struct LightPilot {
     /// Path vertices at which lights are sampled (1: the camera rays' first hits only).
     pub vertices: u32,
     /// Weight of power in the mixture, in (0, 1]: every light keeps at least this share of
-    /// its power-proportional probability.
+    /// its power-proportional probability (outside that range the choice stays by power).
     pub mix: f32,
     /// Seed of the pilot's random numbers.
     pub seed: u32,
@@ -127,14 +127,9 @@ impl RenderScene {
         self.lights.select_by_power();
         let (shares, applied) = if groups > 1 {
             let shares = measure(self, width, height, pilot).shares();
-            let applied = match self.lights.select_by_groups(&shares, pilot.mix) {
-                Ok(()) => true,
-                // Nothing seen (or nothing with power): the choice by power is all there is.
-                Err(SelectionRefusal::NoShares | SelectionRefusal::NoPower) => false,
-                // The shares are one per group and the mix is the caller's: a bad mix stays
-                // by power too (documented on `LightPilot::mix`).
-                Err(SelectionRefusal::WrongLength | SelectionRefusal::BadMix) => false,
-            };
+            // A refusal keeps the choice by power: nothing seen or nothing with power, or a
+            // mix outside (0, 1] (see `LightPilot::mix`).
+            let applied = self.lights.select_by_groups(&shares, pilot.mix).is_ok();
             (shares, applied)
         } else {
             (vec![0.0; groups], false)

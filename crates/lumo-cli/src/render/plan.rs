@@ -75,7 +75,7 @@ impl Plan {
         };
         let (mut scene, file, rig) = load_scene_animated(&args.scene, &options)?;
         // With --frames, what moves (checked before anything is written or rendered).
-        let sequence = match args.frames {
+        let mut sequence = match args.frames {
             Some(frames) => Some(Sequence::plan(args, frames, &mut scene, rig)?),
             None => None,
         };
@@ -113,6 +113,12 @@ impl Plan {
                 ..Default::default()
             },
         };
+        // Each frame of a sequence runs the light pilot on its own pose and camera, as a
+        // still of that frame does (so that the two are the same image).
+        if let Some(seq) = &mut sequence {
+            seq.light_pilot = (args.light_selection == super::args::LightSelection::Pilot)
+                .then_some((settings.width, settings.height));
+        }
         if settings.spp > MAX_SPP {
             bail!(
                 "the scene asks for {} samples per pixel; at most {MAX_SPP} (use --spp)",

@@ -2,6 +2,7 @@ use glam::{Vec2, Vec3};
 use lumo_scene::{builtin_scene, Light, Scene};
 
 use super::*;
+use crate::lights::SelectionRefusal;
 use crate::{Integrator, IntegratorOptions, PathSettings, RenderSettings};
 
 /// The Cornell box with a sun shining in through its open front (partly shadowed by the walls
