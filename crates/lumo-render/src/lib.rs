@@ -26,6 +26,7 @@ mod film;
 pub mod geometry;
 mod integrator;
 pub mod integrators;
+pub mod light_pilot;
 pub mod lights;
 pub mod media;
 mod parallel;
@@ -57,6 +58,7 @@ pub use integrator::{
 };
 pub use integrators::path::{trace_path, trace_path_xyz, FirstHit, PathRadiance, PathSettings};
 pub use integrators::photon::PpmSettings;
+pub use light_pilot::{LightPilot, PilotReport, PilotSums};
 pub use parallel::{map_pixels, map_rows};
 pub use pixel_sums::PixelSums;
 pub use render::{

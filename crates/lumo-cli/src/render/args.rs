@@ -114,7 +114,23 @@ pub struct RenderArgs {
     /// passes shrink it (α = 2/3) [default: 0.0025].
     #[arg(long, value_name = "FRACTION")]
     pub photon_radius: Option<f32>,
+    /// How next-event estimation chooses among the lights: `pilot` traces a short
+    /// deterministic pass of camera paths first (a 64-path grid, 3 vertices) and mixes the
+    /// light each group delivered, shadows included, with power (20 % power, so no light
+    /// with power is left out); `power` chooses by power alone (docs/renderer.md, "Light
+    /// selection").
+    #[arg(long, value_enum, default_value_t = LightSelection::Pilot)]
+    pub light_selection: LightSelection,
     /// The filtered-GI pipeline and its options.
     #[command(flatten)]
     pub pipeline: crate::pipeline_args::PipelineArgs,
+}
+
+/// `--light-selection`: the light choice of next-event estimation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum LightSelection {
+    /// By power alone.
+    Power,
+    /// By a light pilot's measured shares mixed with power.
+    Pilot,
 }

@@ -8,7 +8,7 @@ use std::time::Instant;
 use anyhow::{bail, Result};
 use lumo_pipeline::Pipeline;
 use lumo_render::camera::PinholeCamera;
-use lumo_render::{Integrator, PathSettings, PpmSettings, RenderScene, RenderSettings};
+use lumo_render::{Integrator, LightPilot, PathSettings, PpmSettings, RenderScene, RenderSettings};
 use lumo_scene::load::LoadOptions;
 use lumo_scene::Scene;
 
@@ -75,7 +75,7 @@ impl Plan {
         };
         let (mut scene, file, rig) = load_scene_animated(&args.scene, &options)?;
         // With --frames, what moves (checked before anything is written or rendered).
-        let sequence = match args.frames {
+        let mut sequence = match args.frames {
             Some(frames) => Some(Sequence::plan(args, frames, &mut scene, rig)?),
             None => None,
         };
@@ -113,6 +113,12 @@ impl Plan {
                 ..Default::default()
             },
         };
+        // Each frame of a sequence runs the light pilot on its own pose and camera, as a
+        // still of that frame does (so that the two are the same image).
+        if let Some(seq) = &mut sequence {
+            seq.light_pilot = (args.light_selection == super::args::LightSelection::Pilot)
+                .then_some((settings.width, settings.height));
+        }
         if settings.spp > MAX_SPP {
             bail!(
                 "the scene asks for {} samples per pixel; at most {MAX_SPP} (use --spp)",
@@ -166,6 +172,10 @@ impl Plan {
         if !args.no_mipmaps {
             rs.set_texture_footprint(width, height, settings.spp);
         }
+        // The light pilot sees the render's own view (its aspect) before any frame is traced.
+        let pilot = (args.light_selection == super::args::LightSelection::Pilot).then(|| {
+            pool.install(|| rs.select_lights_by_pilot(width, height, &LightPilot::default()))
+        });
         // Media need an integrator that transports light through them; photon mapping
         // refuses rather than render them wrong.
         let integrator = args.integrator;
@@ -201,6 +211,19 @@ impl Plan {
             settings.spp,
             settings.path.max_depth
         );
+            if let Some(p) = pilot.as_ref().filter(|p| p.applied) {
+                // The groups' probabilities where they fit on a line.
+                let pmf: Vec<String> = p.group_pmf.iter().map(|q| format!("{q:.3}")).collect();
+                let groups = if pmf.len() <= 8 {
+                    format!("[{}]", pmf.join(", "))
+                } else {
+                    format!("({} groups)", pmf.len())
+                };
+                errln!(
+                    "light pilot: {:.1} ms, light groups chosen with {groups}",
+                    p.time.as_secs_f64() * 1e3
+                );
+            }
         }
         let camera = PinholeCamera::new(&rs.scene.camera, width, height);
         if let Some(warning) = integrator.scene_warning(&rs, &camera, &settings.path) {

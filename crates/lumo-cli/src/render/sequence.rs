@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 use anyhow::{bail, Context, Result};
 use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
-use lumo_render::{RenderScene, SceneUpdate};
+use lumo_render::{LightPilot, RenderScene, SceneUpdate};
 use lumo_scene::animation::NodeItem;
 use lumo_scene::{AnimatedScene, Camera, Scene};
 
@@ -32,6 +32,9 @@ pub struct Sequence {
     orbit: Option<(f32, Vec3)>,
     /// The camera before any orbit (at the first frame's pose).
     camera: Camera,
+    /// `--light-selection pilot`: the image size the light pilot runs for after each pose
+    /// (`None`: the choice by power).
+    pub light_pilot: Option<(usize, usize)>,
 }
 
 impl Sequence {
@@ -111,6 +114,7 @@ impl Sequence {
             rig,
             orbit,
             camera: scene.camera.clone(),
+            light_pilot: None,
         })
     }
 
@@ -153,6 +157,12 @@ impl Sequence {
         if let Some((deg, pivot)) = self.orbit {
             let count = self.frames.count();
             rs.scene.camera = self.camera.orbited(pivot, deg * i as f32 / count as f32);
+        }
+        // A new pose or camera: the light pilot measures it afresh (deterministic, so a frame
+        // equals a still of its pose whichever frames came before).
+        if let (Some((w, h)), true) = (self.light_pilot, updated.is_some() || self.orbit.is_some())
+        {
+            pool.install(|| rs.select_lights_by_pilot(w, h, &LightPilot::default()));
         }
         Ok(updated)
     }

@@ -7,6 +7,7 @@ mod emission;
 mod environment;
 mod point;
 mod polygon;
+mod selection;
 mod shape;
 mod split;
 mod spot;
@@ -25,6 +26,7 @@ pub use emission::{EmissionPdf, EmissionSample};
 use environment::{EnvSampler, EnvironmentLight};
 use point::PointLight;
 pub use polygon::{triangle_cosine_integral, CosineTriangle};
+pub use selection::SelectionRefusal;
 pub(crate) use shape::towards;
 use shape::ShapeLight;
 pub use spot::SpotCone;
@@ -158,7 +160,8 @@ pub(crate) enum LaneLight<'a> {
     Other,
 }
 
-/// All lights of a scene with a power-proportional choice among them.
+/// All lights of a scene with a choice among them: by power, or by power mixed with measured
+/// shares ([`Lights::select_by_groups`]).
 pub struct Lights {
     lights: Vec<LightKind>,
     choice: Distribution1d,
@@ -187,6 +190,13 @@ pub struct Lights {
     constant: Vec3,
     scene_radius: f32,
     scene_center: Vec3,
+    /// Each light's power estimate (the choice by power, and the power term of a measured
+    /// selection).
+    power: Vec<f32>,
+    /// The index in `lights` of each light group's first light ([`Lights::group_count`]).
+    group_starts: Vec<u32>,
+    /// The measured shares the choice mixes with power, if any (`selection.rs`).
+    selection: Option<selection::Selection>,
 }
 
 impl Lights {
@@ -198,10 +208,14 @@ impl Lights {
     /// Re-collects the lights after instances, vertices or punctual lights moved (a new pose of
     /// an animation). The environment's sampler and mean are kept rather than rebuilt from its
     /// image, so the scene's environment light must be the one this was built with; the result
-    /// equals [`Lights::new`] of the changed scene.
+    /// equals [`Lights::new`] of the changed scene, except that a measured selection
+    /// ([`Lights::select_by_groups`]) is kept: its group shares are re-applied to the new
+    /// powers (a light that moved keeps its share rather than a new pilot's).
     pub fn update(&mut self, scene: &Scene) {
         let env = self.env.take().map(|e| (e, self.env_mean));
+        let selection = self.selection.take();
         *self = Self::build(scene, env);
+        self.reapply(selection);
     }
 
     /// [`Lights::new`], reusing `reuse` (a sampler and its mean) for the environment image.
@@ -213,6 +227,8 @@ impl Lights {
         let mut instance_offset = vec![None; scene.instances.len()];
         let mut textured = Vec::new();
         let mut area_materials = Vec::new();
+        // Each emissive instance is one group; each punctual light and the environment too.
+        let mut group_starts = Vec::new();
         for (ii, inst) in scene.instances.iter().enumerate() {
             let mesh = &scene.meshes[inst.mesh];
             let material = &scene.materials[mesh.material];
@@ -220,6 +236,7 @@ impl Lights {
                 continue;
             }
             instance_offset[ii] = Some(lights.len() as u32);
+            group_starts.push(lights.len() as u32);
             if let Some(a) = &mesh.analytic {
                 lights.push(LightKind::Shape(ShapeLight {
                     shape: Shape::new(a, inst.transform),
@@ -253,7 +270,10 @@ impl Lights {
         let mut constant = Vec3::ZERO;
         for light in &scene.lights {
             match LightKind::from_scene(light) {
-                SceneLight::Kind(kind) => lights.push(kind),
+                SceneLight::Kind(kind) => {
+                    group_starts.push(lights.len() as u32);
+                    lights.push(kind)
+                }
                 SceneLight::Constant(radiance) => constant += radiance,
                 SceneLight::Environment(map) => {
                     env = Some(reuse.take().unwrap_or_else(|| {
@@ -272,6 +292,7 @@ impl Lights {
         };
         // One entry samples the whole environment (constant and/or image).
         if env.is_some() || constant.max_element() > 0.0 {
+            group_starts.push(lights.len() as u32);
             lights.push(LightKind::Environment(EnvironmentLight {
                 mean: env_mean + constant,
             }));
@@ -313,6 +334,9 @@ impl Lights {
             constant,
             scene_radius,
             scene_center,
+            power,
+            group_starts,
+            selection: None,
         }
     }
 
