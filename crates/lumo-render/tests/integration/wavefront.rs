@@ -75,19 +75,11 @@ fn wavefront_equals_one_ray_at_a_time_on_every_builtin_scene() {
                 assert_eq!(row.len(), settings.width);
                 for (x, got) in row.iter().enumerate() {
                     let want = render_pixel_one_ray(&rs, &camera, &settings, x, y);
-                    let key = |e: &lumo_render::PixelEstimate| {
-                        let f = &e.first_hit;
-                        let mut v: Vec<u32> = [e.direct, e.indirect, f.normal, f.position]
-                            .iter()
-                            .chain([f.albedo, f.emitted].iter())
-                            .flat_map(|c| c.to_array())
-                            .map(f32::to_bits)
-                            .collect();
-                        v.extend([e.luminance_variance.to_bits(), f.depth.to_bits()]);
-                        v.push(e.rays as u32);
-                        v
-                    };
-                    assert_eq!(key(got), key(&want), "{name} spp {spp} pixel ({x}, {y})");
+                    assert_eq!(
+                        estimate_bits(got),
+                        estimate_bits(&want),
+                        "{name} spp {spp} pixel ({x}, {y})"
+                    );
                     nonzero += (got.direct + got.indirect != glam::Vec3::ZERO) as usize;
                 }
             }
@@ -211,23 +203,25 @@ fn render_estimates_equals_the_sums_estimates() {
             .map(lumo_render::PixelSums::estimate)
             .collect();
         assert_eq!(got.len(), want.len());
-        let bits = |e: &lumo_render::PixelEstimate| {
-            let f = &e.first_hit;
-            let mut v: Vec<u32> = [e.direct, e.indirect, e.emitted, f.normal, f.position]
-                .iter()
-                .chain([f.albedo, f.emitted].iter())
-                .flat_map(|c| c.to_array())
-                .map(f32::to_bits)
-                .collect();
-            v.extend([e.luminance_variance.to_bits(), f.depth.to_bits()]);
-            v.push(e.rays as u32);
-            v
-        };
         let mut lit = 0;
         for (i, (g, w)) in got.iter().zip(&want).enumerate() {
-            assert_eq!(bits(g), bits(w), "spp {spp} pixel {i}");
+            assert_eq!(estimate_bits(g), estimate_bits(w), "spp {spp} pixel {i}");
             lit += (g.direct + g.indirect != glam::Vec3::ZERO) as usize;
         }
         assert!(lit > 50, "only {lit} lit pixels");
     }
+}
+
+/// Every field of a pixel estimate as bits, for bit-for-bit comparisons.
+fn estimate_bits(e: &lumo_render::PixelEstimate) -> Vec<u32> {
+    let f = &e.first_hit;
+    let mut v: Vec<u32> = [e.direct, e.indirect, e.emitted, f.normal, f.position]
+        .iter()
+        .chain([f.albedo, f.emitted].iter())
+        .flat_map(|c| c.to_array())
+        .map(f32::to_bits)
+        .collect();
+    v.extend([e.luminance_variance.to_bits(), f.depth.to_bits()]);
+    v.push(e.rays as u32);
+    v
 }
