@@ -29,6 +29,7 @@ use rayon::prelude::*;
 
 use crate::camera::PinholeCamera;
 use crate::direct_split::shadow_ray;
+use crate::geometry::power_heuristic;
 use crate::lights::distribution::Distribution1d;
 use crate::render_scene::RenderScene;
 use crate::sampler::PixelSampler;
@@ -85,6 +86,19 @@ impl PilotSums {
             first: vec![0.0; groups],
             second: vec![0.0; groups],
             weighted: vec![0.0; groups],
+        }
+    }
+
+    /// Adds `other`'s sums to these, group by group.
+    fn add(&mut self, other: &PilotSums) {
+        for (mine, theirs) in [
+            (&mut self.first, &other.first),
+            (&mut self.second, &other.second),
+            (&mut self.weighted, &other.weighted),
+        ] {
+            for (t, v) in mine.iter_mut().zip(theirs) {
+                *t += v;
+            }
         }
     }
 
@@ -172,15 +186,7 @@ pub fn measure(rs: &RenderScene, width: usize, height: usize, pilot: &LightPilot
     // In row order, so the sums do not depend on how rayon split the rows.
     let mut total = PilotSums::zeros(groups);
     for row in &rows {
-        for (t, v) in total.weighted.iter_mut().zip(&row.weighted) {
-            *t += v;
-        }
-        for (t, v) in total.first.iter_mut().zip(&row.first) {
-            *t += v;
-        }
-        for (t, v) in total.second.iter_mut().zip(&row.second) {
-            *t += v;
-        }
+        total.add(row);
     }
     total
 }
@@ -236,10 +242,9 @@ fn trace(
                     sums.second[g] += c * c * scale;
                     // The power heuristic as the path tracer weighs this sample (0 for Dirac
                     // lights' density: weight 1).
-                    let light_pdf = (ls.pdf * group_pmf[g]) as f64;
+                    let light_pdf = ls.pdf * group_pmf[g];
                     let mis = if light_pdf > 0.0 {
-                        let b = bsdf.pdf(wo, wi) as f64;
-                        light_pdf * light_pdf / (light_pdf * light_pdf + b * b)
+                        power_heuristic(light_pdf, bsdf.pdf(wo, wi)) as f64
                     } else {
                         1.0
                     };

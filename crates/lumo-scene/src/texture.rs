@@ -255,19 +255,18 @@ impl Texture {
         match self {
             Texture::Constant(c) => *c,
             Texture::Checkerboard { color0, color1, .. } => (*color0 + *color1) * 0.5,
-            Texture::Bitmap { image, .. } => {
-                let m = image.to_channels(3).channel_means();
-                Vec3::new(m[0] as f32, m[1] as f32, m[2] as f32)
-            }
-            // The coarsest level is the mean, to its rounding.
-            Texture::Mipmapped { mips, .. } => {
-                let m = mips.levels()[0].to_channels(3).channel_means();
-                Vec3::new(m[0] as f32, m[1] as f32, m[2] as f32)
-            }
+            Texture::Bitmap { image, .. } => colour_mean(image),
+            Texture::Mipmapped { mips, .. } => colour_mean(&mips.levels()[0]),
             // Exact for affine maps that tile whole periods; close otherwise.
             Texture::Transformed { texture, .. } => texture.average(),
         }
     }
+}
+
+/// The mean colour of `image`'s pixels.
+fn colour_mean(image: &Image) -> Vec3 {
+    let m = image.to_channels(3).channel_means();
+    Vec3::new(m[0] as f32, m[1] as f32, m[2] as f32)
 }
 
 /// A bitmap read at `uv` (the image spanning [0, 1]²) with `filter` and `wrap`.

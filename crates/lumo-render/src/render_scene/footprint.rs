@@ -63,9 +63,18 @@ pub(super) fn reads_footprint(b: &BsdfSpec) -> bool {
             ..
         } => {
             base_color.uses_footprint()
-                || metallic_roughness.as_ref().is_some_and(|t| t.uses_footprint())
-                // The extensions' textures come from the same loader: assume they might.
-                || extensions.is_some()
+                || metallic_roughness
+                    .as_ref()
+                    .is_some_and(|t| t.uses_footprint())
+                || extensions.as_deref().is_some_and(|e| {
+                    [&e.specular, &e.specular_color, &e.transmission]
+                        .into_iter()
+                        .chain([&e.sheen_color, &e.sheen_roughness])
+                        .chain(e.clearcoat_texture.as_ref())
+                        .chain(e.clearcoat_roughness_texture.as_ref())
+                        .chain(e.clearcoat_normal.as_ref())
+                        .any(|t| t.uses_footprint())
+                })
         }
         BsdfSpec::NormalMap { normals, nested } => {
             normals.uses_footprint() || reads_footprint(nested)

@@ -39,8 +39,10 @@ impl RenderScene {
         }
         let material = self.material(surface.material);
         let mut b = &material.bsdf;
+        // Once for the normal map and the BSDF under it.
+        let footprint = self.texture_footprint(surface);
         if !is_adapter(b) {
-            return self.base_bsdf(b, surface).into();
+            return self.base_bsdf(b, surface, footprint).into();
         }
         let (mut normal, mut opacity) = (None, 1.0f32);
         // Adapters nest; masks multiply, and the outermost normal or bump map shapes the frame
@@ -61,7 +63,6 @@ impl RenderScene {
                 }
                 BsdfSpec::NormalMap { normals, nested } => {
                     if normal.is_none() {
-                        let footprint = self.texture_footprint(surface);
                         normal = Some(self.normal_mapped(surface, normals, footprint));
                     }
                     nested
@@ -80,7 +81,7 @@ impl RenderScene {
             };
         }
         ShadingBsdf::new(
-            self.base_bsdf(b, surface),
+            self.base_bsdf(b, surface, footprint),
             normal.flatten(),
             opacity,
             self.back_black[surface.material],
@@ -209,11 +210,11 @@ impl RenderScene {
         s.frame.to_local(bumped).try_normalize()
     }
 
-    /// A scene BSDF without its adapters, with textures evaluated at `surface` (each material
-    /// builds itself: [`Bsdf::at_hit`]).
+    /// A scene BSDF without its adapters, with textures evaluated at `surface` over
+    /// `footprint` ([`Self::texture_footprint`]; each material builds itself:
+    /// [`Bsdf::at_hit`]).
     #[inline(always)]
-    pub(super) fn base_bsdf(&self, bsdf: &BsdfSpec, surface: &Surface) -> Bsdf {
-        let footprint = self.texture_footprint(surface);
+    pub(super) fn base_bsdf(&self, bsdf: &BsdfSpec, surface: &Surface, footprint: f32) -> Bsdf {
         let normal_map = |t: &Texture| self.normal_mapped(surface, t, footprint);
         let hit = SpecHit {
             uv: surface.uv,
